@@ -1,0 +1,33 @@
+"""Exception hierarchy.
+
+Every error a user can provoke is a :class:`FemupdateError` whose message names the culprit
+(file, field, dof or parameter).  The command line maps :class:`InputError` to exit code 2 and
+:class:`NumericalError` to exit code 1, printing the message without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class FemupdateError(Exception):
+    """Base class of femupdate's own errors."""
+
+    exit_code = 1
+
+
+class InputError(FemupdateError, ValueError):
+    """Bad input: malformed or inconsistent files, unknown dofs, NaN, non-physical values."""
+
+    exit_code = 2
+
+
+class NumericalError(FemupdateError, ArithmeticError):
+    """A numerical failure (singular system, no convergence).
+
+    ``partial`` carries whatever partial result was available when the failure occurred.
+    """
+
+    exit_code = 1
+
+    def __init__(self, message: str, partial=None):
+        super().__init__(message)
+        self.partial = partial

@@ -1,0 +1,229 @@
+r"""Real modes of the undamped structure, :math:`K \phi = \lambda M \phi`.
+
+Dense (LAPACK ``eigh``) for small models, sparse shift-invert Lanczos (ARPACK through
+:func:`scipy.sparse.linalg.eigsh`) for large ones, chosen by size.  Rigid-body modes of
+free-free structures are found with a negative shift.  Shapes are normalised to unit modal
+mass (default), unit length, unit largest entry, or unit value at a reference dof.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ._errors import InputError, NumericalError
+from .dofs import canonical, describe, index_of
+
+log = logging.getLogger(__name__)
+
+DENSE_LIMIT = 1500  # models up to this many dofs are solved densely
+NORMALISATIONS = ("mass", "unit", "max")
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Modes with labelled dofs.
+
+    Attributes
+    ----------
+    eigenvalues : ndarray (m,)
+        :math:`\\lambda = \\omega^2` in rad^2/s^2, ascending.
+    shapes : ndarray (n, m)
+        Column r is mode r on ``dofs``.
+    dofs : tuple of str
+    normalisation : str
+        ``"mass"``, ``"unit"``, ``"max"`` or ``"ref:<dof>"``.
+    n_rigid : int
+        Number of rigid-body (zero-frequency) modes among them.
+    """
+
+    eigenvalues: np.ndarray
+    shapes: np.ndarray
+    dofs: tuple[str, ...]
+    normalisation: str = "mass"
+    n_rigid: int = 0
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2 * np.pi)
+
+    @property
+    def n_modes(self) -> int:
+        return self.eigenvalues.size
+
+    def at(self, dofs: Sequence[str]) -> np.ndarray:
+        """Shape components at the given dof labels, ``(len(dofs), m)``."""
+        return self.shapes[index_of(self.dofs, dofs, "mode shapes"), :]
+
+    def normalised(self, how: str, M=None) -> Modes:
+        """Copy renormalised (``M`` is needed for ``"mass"``)."""
+        return replace(self, shapes=normalise(self.shapes, how, M=M, dofs=self.dofs), normalisation=how)
+
+
+def _sign_fix(Phi: np.ndarray) -> np.ndarray:
+    """Make the largest-magnitude entry of each column positive (deterministic signs)."""
+    k = np.argmax(np.abs(Phi), axis=0)
+    s = np.sign(Phi[k, np.arange(Phi.shape[1])])
+    s[s == 0] = 1.0
+    return Phi * s
+
+
+def normalise(Phi: np.ndarray, how: str = "mass", M=None, dofs: Sequence[str] | None = None) -> np.ndarray:
+    """Scale each column of ``Phi``.
+
+    ``"mass"``: :math:`\\phi^T M \\phi = 1`; ``"unit"``: :math:`\\|\\phi\\| = 1`; ``"max"``:
+    largest-magnitude entry = +1; ``"ref:<dof>"``: entry at that dof = 1 (the paper's eq. 33
+    scaling, "the amplitude of the first freedom being one").  Signs are made deterministic.
+    """
+    Phi = np.array(Phi, dtype=float, copy=True)
+    if how == "mass":
+        if M is None:
+            raise InputError("mass normalisation needs the mass matrix")
+        mm = np.einsum("ij,ij->j", Phi, M @ Phi)
+        if np.any(mm <= 0):
+            raise NumericalError("mass normalisation: a mode has non-positive modal mass (M not positive definite?)")
+        return _sign_fix(Phi / np.sqrt(mm))
+    if how == "unit":
+        return _sign_fix(Phi / np.linalg.norm(Phi, axis=0))
+    if how == "max":
+        Phi = _sign_fix(Phi)
+        return Phi / np.max(np.abs(Phi), axis=0)
+    if how.startswith("ref:"):
+        if dofs is None:
+            raise InputError("reference-dof normalisation needs dof labels")
+        ref = canonical(how[4:])
+        (i,) = index_of(dofs, [ref], "normalisation reference")
+        v = Phi[i]
+        small = np.abs(v) <= 1e-12 * np.max(np.abs(Phi), axis=0)
+        if np.any(small):
+            bad = np.flatnonzero(small) + 1
+            raise NumericalError(f"cannot scale to 1 at {ref}: mode(s) {bad.tolist()} have a node (zero) there")
+        return Phi / v
+    raise InputError(f"unknown normalisation {how!r}: use mass, unit, max or ref:<dof>")
+
+
+def _check_mass(M, dofs) -> None:
+    d = M.diagonal()
+    bad = np.flatnonzero(~(d > 0))
+    if bad.size:
+        raise InputError(
+            "the mass matrix is not positive definite: no mass at dof(s) "
+            f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()} "
+            "(add mass there, or remove/condense those dofs)"
+        )
+
+
+def solve_modes(
+    K,
+    M,
+    n_modes: int | None = None,
+    dofs: Sequence[str] | None = None,
+    normalisation: str = "mass",
+    method: str = "auto",
+    sigma: float | None = None,
+    tol: float = 0.0,
+) -> Modes:
+    """Lowest ``n_modes`` modes of the pencil (K, M).
+
+    Parameters
+    ----------
+    K, M : (n, n) dense or sparse, symmetric; M positive definite.
+    n_modes : int, optional
+        Number of modes (default: all for dense, 10 for sparse).
+    dofs : sequence of str, optional
+        Labels of the matrix rows (required for ``ref:<dof>`` normalisation).
+    normalisation : ``"mass"`` | ``"unit"`` | ``"max"`` | ``"ref:<dof>"``
+    method : ``"auto"`` | ``"dense"`` | ``"sparse"``
+        ``auto`` is dense up to :data:`DENSE_LIMIT` dofs.
+    sigma : float, optional
+        Shift for shift-invert (sparse).  Default 0, or a small negative shift when K is
+        singular (rigid-body modes).
+
+    Returns
+    -------
+    Modes
+    """
+    n = K.shape[0]
+    if K.shape != (n, n) or M.shape != (n, n):
+        raise InputError(f"K {K.shape} and M {M.shape} must be square and of the same size")
+    dofs = tuple(dofs) if dofs is not None else tuple(f"{i + 1}:x" for i in range(n))
+    _check_mass(M, dofs if dofs else None)
+    if n_modes is None:
+        n_modes = n if (method == "dense" or (method == "auto" and n <= DENSE_LIMIT)) else min(10, n - 1)
+    n_modes = int(n_modes)
+    if not 1 <= n_modes <= n:
+        raise InputError(f"n_modes must be between 1 and the number of dofs ({n}), got {n_modes}")
+    if method == "auto":
+        method = "dense" if n <= DENSE_LIMIT or n_modes >= n - 1 else "sparse"
+    if method == "dense":
+        lam, Phi = _dense(K, M, n_modes, dofs)
+    elif method == "sparse":
+        if n_modes >= n - 1:
+            raise InputError(f"sparse solver: n_modes must be below n - 1 = {n - 1}; use method='dense'")
+        lam, Phi = _sparse(K, M, n_modes, sigma, tol)
+    else:
+        raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
+    order = np.argsort(lam)
+    lam, Phi = lam[order], Phi[:, order]
+    scale = max(float(np.max(np.abs(lam))), 1e-300)
+    rigid = np.abs(lam) <= 1e-9 * scale
+    if np.any(lam < -1e-9 * scale):
+        raise InputError(
+            "K is not positive semi-definite: negative eigenvalue "
+            f"{lam.min():.4g} (check for negative stiffness parameters)"
+        )
+    lam = np.where(rigid, 0.0, lam)
+    Phi = normalise(Phi, normalisation, M=M, dofs=dofs)
+    return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()))
+
+
+def _dense(K, M, n_modes, dofs):
+    Kd = K.toarray() if sp.issparse(K) else np.asarray(K, float)
+    Md = M.toarray() if sp.issparse(M) else np.asarray(M, float)
+    try:
+        if n_modes < Kd.shape[0]:
+            lam, Phi = sla.eigh(Kd, Md, subset_by_index=[0, n_modes - 1], driver="gvx")
+        else:
+            lam, Phi = sla.eigh(Kd, Md, driver="gvd")
+    except np.linalg.LinAlgError:
+        raise InputError("the mass matrix is not positive definite (its Cholesky factorisation failed)") from None
+    return lam, Phi
+
+
+def _sparse(K, M, n_modes, sigma, tol):
+    K = sp.csc_array(K)
+    M = sp.csc_array(M)
+    if sigma is None:
+        sigma = 0.0
+        try:
+            lu = spla.splu(K)
+            piv = np.abs(lu.U.diagonal())
+            if piv.min() <= 1e-11 * piv.max():
+                raise RuntimeError("nearly singular")
+        except RuntimeError:
+            # rigid-body modes: shift just below zero, relative to the pencil's scale
+            s = float(np.median(K.diagonal()[K.diagonal() > 0] / M.diagonal()[K.diagonal() > 0])) if K.nnz else 1.0
+            sigma = -1e-6 * s
+            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
+    try:
+        lam, Phi = spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol)
+    except spla.ArpackNoConvergence as exc:
+        raise NumericalError(
+            f"the sparse eigensolver did not converge for {n_modes} modes "
+            f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
+        ) from None
+    except RuntimeError as exc:
+        raise NumericalError(f"the sparse eigensolver failed at shift {sigma:g}: {exc}") from None
+    return lam, Phi
+
+
+def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:
+    """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal)."""
+    return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
+                       normalisation=normalisation, **kw)

@@ -1,0 +1,292 @@
+r"""The parametrised model: an affine pencil of sparse matrices with dof labels.
+
+.. math::  K(p) = K_0 + \sum_j p_j K_j, \qquad M(p) = M_0 + \sum_j p_j M_j
+
+so that :math:`\partial K / \partial p_j = K_j` exactly.  A :class:`Model` is a frozen value
+object, validated once; transforms (:meth:`Model.with_values`, :meth:`Model.with_fixed`) return
+copies.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from ._errors import InputError
+from .dofs import canonical_all, describe, index_of
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A physical parameter: nominal (or starting) value, bounds, and whether it is known.
+
+    Parameters
+    ----------
+    name : str
+        Identifier used by elements and in results.
+    value : float
+        Nominal / starting value.
+    bounds : (float, float)
+        Lower and upper bound (``-inf``/``inf`` for none); ``value`` must lie within them.
+    fixed : bool
+        A known parameter, never updated.
+    """
+
+    name: str
+    value: float
+    bounds: tuple[float, float] = (-math.inf, math.inf)
+    fixed: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise InputError(f"parameter name {self.name!r} is not a valid identifier")
+        try:
+            value = float(self.value)
+            lo, hi = (float(b) for b in self.bounds)
+        except (TypeError, ValueError):
+            raise InputError(f"parameter {self.name!r}: value and bounds must be numbers") from None
+        if not math.isfinite(value):
+            raise InputError(f"parameter {self.name!r}: value {self.value!r} is not finite")
+        if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+            raise InputError(f"parameter {self.name!r}: bounds {list(self.bounds)} must satisfy lower < upper")
+        if not lo <= value <= hi:
+            raise InputError(f"parameter {self.name!r}: value {value:g} lies outside its bounds [{lo:g}, {hi:g}]")
+        object.__setattr__(self, "value", value)
+        object.__setattr__(self, "bounds", (lo, hi))
+        object.__setattr__(self, "fixed", bool(self.fixed))
+
+
+def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
+    if A is None:
+        return None
+    A = sp.csr_array(A, dtype=float) if sp.issparse(A) else sp.csr_array(np.asarray(A, dtype=float))
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise InputError(f"{what} must be square, got shape {A.shape}")
+    if n is not None and A.shape[0] != n:
+        raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
+    if not np.all(np.isfinite(A.data)):
+        raise InputError(f"{what} contains NaN or infinite entries")
+    A.sum_duplicates()
+    A.eliminate_zeros()
+    asym = A - A.T
+    scale = np.max(np.abs(A.data)) if A.nnz else 0.0
+    if asym.nnz and np.max(np.abs(asym.data)) > 1e-10 * max(scale, 1e-300):
+        rows, cols = asym.nonzero()
+        k = int(np.argmax(np.abs(asym.data)))
+        raise InputError(
+            f"{what} is not symmetric (largest mismatch {np.max(np.abs(asym.data)):.3g} at "
+            f"row {rows[k]}, column {cols[k]}, against entries of size {scale:.3g})"
+        )
+    return A
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """Affine parametrised model with labelled dofs.
+
+    Attributes
+    ----------
+    dofs : tuple of str
+        Labels of the model's (free) dofs, in matrix order.
+    K0, M0 : scipy.sparse.csr_array
+        Parameter-independent parts, shape ``(n, n)``.
+    parameters : tuple of Parameter
+    dK, dM : tuple of csr_array or None
+        ``dK[j] = dK/dp_j`` (``None`` where parameter j does not enter K); likewise ``dM``.
+    name : str
+    nodes : mapping node id -> (x, y, z), optional (for geometry-aware output such as UFF).
+    """
+
+    dofs: tuple[str, ...]
+    K0: sp.csr_array
+    M0: sp.csr_array
+    parameters: tuple[Parameter, ...] = ()
+    dK: tuple = ()
+    dM: tuple = ()
+    name: str = "model"
+    nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
+
+    def __post_init__(self):
+        dofs = canonical_all(self.dofs, "model dofs")
+        n = len(dofs)
+        if n == 0:
+            raise InputError(f"model {self.name!r} has no free dofs")
+        object.__setattr__(self, "dofs", dofs)
+        object.__setattr__(self, "K0", _as_csr(self.K0, "K0", n))
+        object.__setattr__(self, "M0", _as_csr(self.M0, "M0", n))
+        params = tuple(self.parameters)
+        names = [p.name for p in params]
+        dup = sorted({x for x in names if names.count(x) > 1})
+        if dup:
+            raise InputError(f"parameter(s) declared twice: {', '.join(dup)}")
+        dK = tuple(self.dK) if self.dK else (None,) * len(params)
+        dM = tuple(self.dM) if self.dM else (None,) * len(params)
+        if len(dK) != len(params) or len(dM) != len(params):
+            raise InputError(f"{len(params)} parameters but {len(dK)} dK and {len(dM)} dM matrices")
+        dK = tuple(_as_csr(A, f"dK/d{p.name}", n) for A, p in zip(dK, params))
+        dM = tuple(_as_csr(A, f"dM/d{p.name}", n) for A, p in zip(dM, params))
+        unused = [p.name for p, a, b in zip(params, dK, dM) if (a is None or a.nnz == 0) and (b is None or b.nnz == 0)]
+        if unused:
+            raise InputError(f"parameter(s) declared but used by no element or matrix: {', '.join(unused)}")
+        object.__setattr__(self, "parameters", params)
+        object.__setattr__(self, "dK", dK)
+        object.__setattr__(self, "dM", dM)
+        object.__setattr__(self, "nodes", dict(self.nodes))
+
+    # ------------------------------------------------------------------ basic properties
+    @property
+    def n_dofs(self) -> int:
+        return len(self.dofs)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def values(self) -> np.ndarray:
+        """Nominal parameter values, in declaration order."""
+        return np.array([p.value for p in self.parameters], dtype=float)
+
+    @property
+    def free(self) -> np.ndarray:
+        """Indices of the parameters that are to be updated (not ``fixed``)."""
+        return np.array([j for j, p in enumerate(self.parameters) if not p.fixed], dtype=np.intp)
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.array([p.bounds[0] for p in self.parameters])
+        hi = np.array([p.bounds[1] for p in self.parameters])
+        return lo, hi
+
+    def parameter_index(self, name: str) -> int:
+        try:
+            return self.parameter_names.index(name)
+        except ValueError:
+            raise InputError(
+                f"parameter {name!r} is not in model {self.name!r} "
+                f"(its parameters: {', '.join(self.parameter_names) or 'none'})"
+            ) from None
+
+    def dof_index(self, labels: Sequence[str], what: str = "data") -> np.ndarray:
+        """Matrix positions of dof labels; one error naming every unknown label."""
+        return index_of(self.dofs, labels, what)
+
+    # ------------------------------------------------------------------ evaluation
+    def resolve(self, values=None) -> np.ndarray:
+        """Full parameter vector from ``None`` (nominal), a mapping {name: value} or an array."""
+        p = self.values
+        if values is None:
+            return p
+        if isinstance(values, Mapping):
+            for name, v in values.items():
+                p[self.parameter_index(name)] = float(v)
+        else:
+            v = np.asarray(values, dtype=float)
+            if v.shape != p.shape:
+                raise InputError(f"expected {p.size} parameter values ({', '.join(self.parameter_names)}), got shape {v.shape}")
+            p = v.copy()
+        bad = [self.parameter_names[j] for j in np.flatnonzero(~np.isfinite(p))]
+        if bad:
+            raise InputError(f"parameter value(s) not finite: {', '.join(bad)}")
+        return p
+
+    @cached_property
+    def _pattern(self):
+        """Union sparsity pattern and the map from [1, p] to the matrix data (for fast K(p))."""
+        out = {}
+        for key, base, derivs in (("K", self.K0, self.dK), ("M", self.M0, self.dM)):
+            mats = [base] + [d for d in derivs if d is not None]
+            cols = [0] + [j + 1 for j, d in enumerate(derivs) if d is not None]
+            n = base.shape[0]
+            keys = np.unique(np.concatenate([m.tocoo().row.astype(np.int64) * n + m.tocoo().col for m in mats]))
+            union_rows, union_cols = np.divmod(keys, n)
+            indptr = np.searchsorted(union_rows, np.arange(n + 1)).astype(np.int64)
+            union = sp.csr_array((np.ones(keys.size), union_cols, indptr), shape=(n, n))
+            rows, cols_, vals = [], [], []
+            for m, c in zip(mats, cols):
+                mc = m.tocoo()
+                rows.append(np.searchsorted(keys, mc.row.astype(np.int64) * n + mc.col))
+                cols_.append(np.full(mc.nnz, c))
+                vals.append(mc.data)
+            B = sp.csr_array(
+                (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols_))),
+                shape=(keys.size, len(derivs) + 1),
+            )
+            out[key] = (union, B)
+        return out
+
+    def _assemble(self, key: str, p: np.ndarray) -> sp.csr_array:
+        union, B = self._pattern[key]
+        data = B @ np.concatenate(([1.0], p))
+        return sp.csr_array((data, union.indices.copy(), union.indptr.copy()), shape=union.shape)
+
+    def K(self, values=None) -> sp.csr_array:
+        """Stiffness matrix K(p) (sparse, ``(n, n)``)."""
+        return self._assemble("K", self.resolve(values))
+
+    def M(self, values=None) -> sp.csr_array:
+        """Mass matrix M(p) (sparse, ``(n, n)``)."""
+        return self._assemble("M", self.resolve(values))
+
+    def dK_dp(self, j: int) -> sp.csr_array:
+        """Exact dK/dp_j (a zero matrix if parameter j does not enter K)."""
+        d = self.dK[j]
+        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+
+    def dM_dp(self, j: int) -> sp.csr_array:
+        """Exact dM/dp_j (a zero matrix if parameter j does not enter M)."""
+        d = self.dM[j]
+        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+
+    # ------------------------------------------------------------------ transforms
+    def with_values(self, values) -> Model:
+        """Copy whose nominal parameter values are ``values`` (mapping or array)."""
+        p = self.resolve(values)
+        params = tuple(
+            replace(par, value=v, bounds=(min(par.bounds[0], v), max(par.bounds[1], v)))
+            for par, v in zip(self.parameters, p)
+        )
+        return replace(self, parameters=params)
+
+    def with_fixed(self, names: Sequence[str], fixed: bool = True) -> Model:
+        """Copy with the named parameters marked known (or unknown with ``fixed=False``)."""
+        idx = {self.parameter_index(n) for n in names}
+        params = tuple(replace(p, fixed=fixed) if j in idx else p for j, p in enumerate(self.parameters))
+        return replace(self, parameters=params)
+
+    def __repr__(self) -> str:
+        return (
+            f"Model(name={self.name!r}, n_dofs={self.n_dofs}, "
+            f"parameters=[{', '.join(self.parameter_names)}])"
+        )
+
+    def describe_dofs(self, limit: int = 8) -> str:
+        return describe(self.dofs, limit)
+
+
+def from_matrices(
+    dofs: Sequence[str],
+    K0,
+    M0,
+    parameters: Sequence[Parameter] = (),
+    dK: Sequence | None = None,
+    dM: Sequence | None = None,
+    name: str = "matrices",
+) -> Model:
+    """Model from plain matrices: ``K = K0 + sum_j p_j dK[j]``, ``M = M0 + sum_j p_j dM[j]``.
+
+    This is how models exported from a commercial FE code come in: ``K0``, ``M0`` and one
+    (sparse) matrix per parameter, all on the same dof set.
+    """
+    return Model(
+        dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters),
+        dK=tuple(dK) if dK is not None else (), dM=tuple(dM) if dM is not None else (), name=name,
+    )

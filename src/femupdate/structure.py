@@ -1,0 +1,519 @@
+"""Physical-parameter structures: nodes, elements, supports, parameters -> :class:`Model`.
+
+A :class:`Structure` is the editable description (the TOML model file maps onto it one to one);
+:meth:`Structure.build` assembles the affine sparse model.  Every element property is a number,
+the name of a declared parameter, or a sequence of those (one per element) for vectorised
+groups.  A parameter may appear in any number of elements (grouping).
+
+Example
+-------
+>>> s = Structure("two-dof chain")
+>>> s.parameter("k1", 8.0, bounds=(0, 100)); s.parameter("k2", 6.0)
+>>> s.spring(["1:x"], k="k1"); s.spring(["1:x", "2:x"], k="k2")
+>>> s.mass(["1:x"], m=2.0); s.mass(["2:x"], m=4.0)
+>>> model = s.build()
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import elements as el
+from ._errors import InputError
+from .dofs import canonical, canonical_all, describe, dof, sort_key
+from .model import Model, Parameter
+
+MASS_KINDS = ("consistent", "lumped")
+
+# element type -> (required properties, optional properties with defaults, stiffness-only?)
+_PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
+    "spring": (("k",), {}),
+    "mass": (("m",), {}),
+    "rod": (("E", "A", "rho"), {}),
+    "beam2d": (("E", "A", "I", "rho"), {}),
+    "beam2d_terms": (("EA_l", "k12", "k6", "k2", "rho", "A"), {}),
+    "frame3d": (("E", "G", "A", "Iy", "Iz", "J", "rho"), {}),
+    "frame3d_terms": (("EA_l", "GJ_l", "rho", "A", "Ip"), {}),
+}
+_BENDING = ("k12", "k6", "k2")
+_NODE_DIRS = {
+    "beam2d": ("x", "y", "rz"),
+    "beam2d_terms": ("x", "y", "rz"),
+    "frame3d": ("x", "y", "z", "rx", "ry", "rz"),
+    "frame3d_terms": ("x", "y", "z", "rx", "ry", "rz"),
+}
+ELEMENT_TYPES = tuple(_PROPS)
+
+
+@dataclass
+class _Group:
+    type: str
+    props: dict[str, list]  # property -> per-element list of float | str
+    labels: list[list[str]]  # per-element dof labels
+    nodes: np.ndarray | None = None  # (n_el, 2) node ids
+    mass: str = "consistent"
+    dim: int = 3
+    orientation: np.ndarray | None = None  # (n_el, 3)
+    where: list[str] = field(default_factory=list)  # per-element description for messages
+
+    @property
+    def key(self):
+        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)))
+
+
+def _per_element(value, n: int, what: str) -> list:
+    if isinstance(value, (str, int, float, np.number)) and not isinstance(value, bool):
+        return [value] * n
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return [value.item()] * n
+    try:
+        seq = list(value)
+    except TypeError:
+        raise InputError(f"{what}: expected a number, a parameter name or one per element, got {value!r}") from None
+    if len(seq) != n:
+        raise InputError(f"{what}: {len(seq)} values given for {n} elements")
+    return seq
+
+
+class Structure:
+    """Editable description of a physical-parameter structure; :meth:`build` makes the Model."""
+
+    def __init__(self, name: str = "model"):
+        self.name = name
+        self.parameters: dict[str, Parameter] = {}
+        self.nodes: dict[int, tuple[float, float, float]] = {}
+        self.groups: list[_Group] = []
+        self.supports: list[str] = []
+        self.support_nodes: list[int] = []
+
+    # ------------------------------------------------------------------ declarations
+    def parameter(self, name: str, value: float, bounds=None, fixed: bool = False) -> None:
+        """Declare a parameter (see :class:`femupdate.Parameter`)."""
+        if name in self.parameters:
+            raise InputError(f"parameter {name!r} declared twice")
+        b = (-math.inf, math.inf) if bounds is None else tuple(bounds)
+        if len(b) != 2:
+            raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {list(b)}")
+        self.parameters[name] = Parameter(name, value, b, fixed)
+
+    def node(self, node_id: int, xyz: Sequence[float]) -> None:
+        """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0)."""
+        self.add_nodes([node_id], [xyz])
+
+    def add_nodes(self, ids: Sequence[int], xyz) -> None:
+        """Add many nodes at once: ``ids`` (n,), ``xyz`` (n, 2 | 3)."""
+        xyz = np.asarray(xyz, dtype=float)
+        if xyz.ndim != 2 or xyz.shape[1] not in (2, 3) or xyz.shape[0] != len(ids):
+            raise InputError(f"nodes: coordinates must have shape ({len(ids)}, 2 or 3), got {xyz.shape}")
+        if not np.all(np.isfinite(xyz)):
+            raise InputError("nodes: coordinates contain NaN or infinite values")
+        if xyz.shape[1] == 2:
+            xyz = np.column_stack([xyz, np.zeros(len(xyz))])
+        for i, x in zip(ids, xyz):
+            i = int(i)
+            if i in self.nodes:
+                raise InputError(f"node {i} defined twice")
+            self.nodes[i] = (float(x[0]), float(x[1]), float(x[2]))
+
+    def support(self, dofs: Sequence[str]) -> None:
+        """Fix dofs (they are removed from the model)."""
+        self.supports.extend(canonical(d) for d in ([dofs] if isinstance(dofs, str) else dofs))
+
+    def support_node(self, nodes: Sequence[int]) -> None:
+        """Fix every dof that exists at the given nodes."""
+        self.support_nodes.extend(int(n) for n in nodes)
+
+    # ------------------------------------------------------------------ elements
+    def _add(self, type_, labels, props, where, **kw) -> None:
+        n = len(labels)
+        if n == 0:
+            return
+        required, optional = _PROPS[type_]
+        full = dict(optional)
+        full.update({k: v for k, v in props.items() if v is not None})
+        missing = [k for k in required if k not in full]
+        if missing:
+            raise InputError(f"{where}: {type_} needs {', '.join(missing)}")
+        per = {k: _per_element(v, n, f"{where}: {k}") for k, v in full.items()}
+        self.groups.append(_Group(type_, per, labels, where=[where if n == 1 else f"{where} [{i}]" for i in range(n)], **kw))
+
+    def spring(self, dofs: Sequence[str], k, where: str = "spring") -> None:
+        """Spring of stiffness ``k`` to ground (one dof) or between two dofs."""
+        dofs = canonical_all([dofs] if isinstance(dofs, str) else dofs, where)
+        if len(dofs) not in (1, 2):
+            raise InputError(f"{where}: a spring takes one dof (to ground) or two, got {len(dofs)}")
+        self._add("spring", [list(dofs)], {"k": k}, where)
+
+    def springs(self, dofs, k, where: str = "springs") -> None:
+        """Vectorised springs: ``dofs`` is (n_el, 2) or (n_el, 1) labels."""
+        labels = [list(canonical_all(row, where)) for row in dofs]
+        self._add("spring", labels, {"k": k}, where)
+
+    def mass(self, dofs: Sequence[str], m, where: str = "mass") -> None:
+        """Lumped mass ``m`` on each of the given dofs."""
+        dofs = canonical_all([dofs] if isinstance(dofs, str) else dofs, where)
+        self._add("mass", [list(dofs)], {"m": m}, where)
+
+    def _node_pairs(self, nodes, where):
+        arr = np.asarray(nodes)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise InputError(f"{where}: nodes must be a pair [a, b] (or an array of pairs), got {nodes!r}")
+        try:
+            arr = arr.astype(np.int64)
+        except (TypeError, ValueError):
+            raise InputError(f"{where}: node ids must be integers, got {nodes!r}") from None
+        same = np.flatnonzero(arr[:, 0] == arr[:, 1])
+        if same.size:
+            raise InputError(f"{where}: element joins node {arr[same[0], 0]} to itself")
+        return arr
+
+    def _line(self, type_, nodes, props, where, dirs, **kw):
+        pairs = self._node_pairs(nodes, where)
+        labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
+        self._add(type_, labels, props, where, nodes=pairs, **kw)
+
+    def rod(self, nodes, E, A, rho, dim: int = 3, mass: str = "consistent", where: str = "rod") -> None:
+        """Truss member(s) between node pairs; ``dim`` 2 (x, y) or 3 (x, y, z)."""
+        if dim not in (2, 3):
+            raise InputError(f"{where}: dim must be 2 or 3, got {dim!r}")
+        dirs = ("x", "y") if dim == 2 else ("x", "y", "z")
+        self._line("rod", nodes, {"E": E, "A": A, "rho": rho}, where, dirs, mass=_mass_kind(mass, where), dim=dim)
+
+    def beam2d(self, nodes, E, A, I, rho, mass: str = "consistent", where: str = "beam2d") -> None:
+        """Euler-Bernoulli beam(s) in the x-y plane (dofs x, y, rz)."""
+        self._line("beam2d", nodes, {"E": E, "A": A, "I": I, "rho": rho}, where, _NODE_DIRS["beam2d"], mass=_mass_kind(mass, where))
+
+    def beam2d_terms(self, nodes, EA_l, k12, k6, k2, rho, A, mass: str = "consistent", where: str = "beam2d_terms") -> None:
+        """Beam2d with the Appendix's independent stiffness terms EA/l, 12EI/l^3, 6EI/l^2, 2EI/l."""
+        props = {"EA_l": EA_l, "k12": k12, "k6": k6, "k2": k2, "rho": rho, "A": A}
+        self._line("beam2d_terms", nodes, props, where, _NODE_DIRS["beam2d"], mass=_mass_kind(mass, where))
+
+    def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d") -> None:
+        """12-dof space frame member(s); ``orientation`` lies in the local x-y plane."""
+        props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
+        self._frame("frame3d", nodes, props, orientation, mass, where)
+
+    def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, k12=None, k6=None, k2=None,
+                      k12_y=None, k6_y=None, k2_y=None, k12_z=None, k6_z=None, k2_z=None,
+                      mass: str = "consistent", where: str = "frame3d_terms") -> None:
+        """Space frame with the Appendix's independent stiffness terms as properties.
+
+        Give ``k12, k6, k2`` (shared by both bending planes: Iy = Iz, the Appendix's five
+        unknowns EA/l, 12EI/l^3, 6EI/l^2, GJ/l, 2EI/l) or the per-plane ``*_y`` and ``*_z``.
+        """
+        props = {"EA_l": EA_l, "GJ_l": GJ_l, "rho": rho, "A": A, "Ip": Ip}
+        given = {"k12": k12, "k6": k6, "k2": k2, "k12_y": k12_y, "k6_y": k6_y, "k2_y": k2_y,
+                 "k12_z": k12_z, "k6_z": k6_z, "k2_z": k2_z}
+        for b in _BENDING:
+            both, y, z = given[b], given[b + "_y"], given[b + "_z"]
+            if both is not None and (y is not None or z is not None):
+                raise InputError(f"{where}: give either {b} (both planes) or {b}_y and {b}_z, not both")
+            if both is None and (y is None or z is None):
+                raise InputError(f"{where}: frame3d_terms needs {b} (both planes) or both {b}_y and {b}_z")
+            props[b + "_y"] = both if both is not None else y
+            props[b + "_z"] = both if both is not None else z
+        self._frame("frame3d_terms", nodes, props, orientation, mass, where)
+
+    def _frame(self, type_, nodes, props, orientation, mass, where):
+        if orientation is None:
+            raise InputError(f"{where}: {type_} needs an orientation vector [vx, vy, vz] in its local x-y plane")
+        pairs = self._node_pairs(nodes, where)
+        o = np.asarray(orientation, dtype=float)
+        if o.shape == (3,):
+            o = np.broadcast_to(o, (len(pairs), 3))
+        if o.shape != (len(pairs), 3) or not np.all(np.isfinite(o)):
+            raise InputError(f"{where}: orientation must be three finite numbers (or one triple per element)")
+        dirs = _NODE_DIRS[type_]
+        labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
+        self._add(type_, labels, props, where, nodes=pairs, mass=_mass_kind(mass, where), orientation=np.array(o))
+
+    # ------------------------------------------------------------------ dict / TOML form
+    @classmethod
+    def from_dict(cls, data: Mapping, source: str = "model") -> Structure:
+        """Structure from the parsed TOML model file (schema in docs/interfaces.md)."""
+        if not isinstance(data, Mapping):
+            raise InputError(f"{source}: expected a table at the top level")
+        known = {"model", "parameters", "node", "element", "support"}
+        extra = sorted(set(data) - known)
+        if extra:
+            raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
+        meta = data.get("model", {})
+        s = cls(str(meta.get("name", "model")) if isinstance(meta, Mapping) else "model")
+        params = data.get("parameters", {})
+        if not isinstance(params, Mapping):
+            raise InputError(f"{source}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
+        for name, spec in params.items():
+            where = f"{source}: [parameters.{name}]"
+            if not isinstance(spec, Mapping):
+                raise InputError(f"{where} must be a table with at least 'value'")
+            unknown = sorted(set(spec) - {"value", "bounds", "fixed"})
+            if unknown:
+                raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed)")
+            if "value" not in spec:
+                raise InputError(f"{where} has no 'value'")
+            try:
+                s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False))
+            except InputError as exc:
+                raise InputError(f"{source}: {exc}") from None
+        for i, nd in enumerate(_list_of_tables(data, "node", source), start=1):
+            where = f"{source}: node #{i}"
+            if "id" not in nd or "xyz" not in nd:
+                raise InputError(f"{where} needs 'id' and 'xyz'")
+            try:
+                s.node(int(nd["id"]), nd["xyz"])
+            except (TypeError, ValueError):
+                raise InputError(f"{where}: id must be an integer and xyz 2 or 3 numbers") from None
+            except InputError as exc:
+                raise InputError(f"{where}: {exc}") from None
+        for i, e in enumerate(_list_of_tables(data, "element", source), start=1):
+            _element_from_dict(s, e, f"{source}: element #{i}")
+        for i, sup in enumerate(_list_of_tables(data, "support", source), start=1):
+            where = f"{source}: support #{i}"
+            unknown = sorted(set(sup) - {"dofs", "nodes"})
+            if unknown or not sup:
+                raise InputError(f"{where}: expected 'dofs' (labels) and/or 'nodes' (ids)")
+            try:
+                if "dofs" in sup:
+                    s.support(list(sup["dofs"]))
+                if "nodes" in sup:
+                    s.support_node(list(sup["nodes"]))
+            except (TypeError, ValueError) as exc:
+                raise InputError(f"{where}: {exc}") from None
+        return s
+
+    # ------------------------------------------------------------------ assembly
+    def build(self) -> Model:
+        """Assemble the affine sparse model (no dense global matrix is formed)."""
+        if not self.groups:
+            raise InputError(f"structure {self.name!r} has no elements")
+        groups = _merge(self.groups)
+        all_labels = sorted({lab for g in groups for row in g.labels for lab in row}, key=sort_key)
+        present = set(all_labels)
+        unknown_sup = [d for d in self.supports if d not in present]
+        if unknown_sup:
+            raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
+        missing_nodes = [n for n in self.support_nodes if not any(lab.split(':')[0] == str(n) for lab in present)]
+        if missing_nodes:
+            raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
+        fixed = set(self.supports) | {lab for lab in all_labels if int(lab.split(':')[0]) in set(self.support_nodes)}
+        dofs = [lab for lab in all_labels if lab not in fixed]
+        if not dofs:
+            raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
+        index = {lab: i for i, lab in enumerate(dofs)}
+        pnames = list(self.parameters)
+        pindex = {n: j for j, n in enumerate(pnames)}
+        L, n = len(pnames), len(dofs)
+        trip = {("K", t): [] for t in range(-1, L)} | {("M", t): [] for t in range(-1, L)}
+        for g in groups:
+            terms = self._terms(g)
+            idx = np.array([[index.get(lab, -1) for lab in row] for row in g.labels], dtype=np.int64)
+            resolved = {k: self._resolve(g, k, pindex) for k in g.props}
+            for target, tlist in (("K", terms.K), ("M", terms.M)):
+                for factors, unit in tlist:
+                    coef, pid = self._combine(g, factors, resolved, target)
+                    _triplets(trip, target, unit, idx, coef, pid)
+        mats = {}
+        for (target, t), parts in trip.items():
+            if not parts:
+                mats[(target, t)] = None
+                continue
+            r = np.concatenate([p[0] for p in parts])
+            c = np.concatenate([p[1] for p in parts])
+            v = np.concatenate([p[2] for p in parts])
+            A = sp.coo_array((v, (r, c)), shape=(n, n)).tocsr()
+            A.sum_duplicates()
+            mats[(target, t)] = A
+        zero = sp.csr_array((n, n))
+        K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
+        M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
+        used_nodes = {int(lab.split(":")[0]) for lab in all_labels}
+        return Model(
+            dofs=tuple(dofs), K0=K0, M0=M0,
+            parameters=tuple(self.parameters[p] for p in pnames),
+            dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
+            name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
+        )
+
+    def _coords(self, g: _Group) -> tuple[np.ndarray, np.ndarray]:
+        ids = np.unique(g.nodes)
+        missing = [int(i) for i in ids if int(i) not in self.nodes]
+        if missing:
+            k = next(i for i, row in enumerate(g.nodes) if int(row[0]) in missing or int(row[1]) in missing)
+            raise InputError(f"{g.where[k]}: node(s) {missing[:8]} are not defined in the node table")
+        xyz = np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(len(g.nodes), 2, 3)
+        return xyz[:, 0], xyz[:, 1]
+
+    def _terms(self, g: _Group) -> el.ElementTerms:
+        n_el = len(g.labels)
+        if g.type == "spring":
+            return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
+        if g.type == "mass":
+            return el.mass_terms(n_el, len(g.labels[0]))
+        xa, xb = self._coords(g)
+        try:
+            if g.type == "rod":
+                return el.rod_terms(xa, xb, dim=g.dim, mass=g.mass)
+            if g.type == "beam2d":
+                return el.beam2d_terms(xa, xb, mass=g.mass)
+            if g.type == "beam2d_terms":
+                return el.beam2d_physical_terms(xa, xb, mass=g.mass)
+            if g.type == "frame3d":
+                return el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+            if g.type == "frame3d_terms":
+                return el.frame3d_physical_terms(xa, xb, g.orientation, mass=g.mass)
+        except InputError as exc:
+            raise InputError(f"{g.where[0]} ({g.type}, group of {n_el}): {exc}") from None
+        raise InputError(f"{g.where[0]}: unknown element type {g.type!r}")
+
+    def _resolve(self, g: _Group, prop: str, pindex: dict) -> tuple[np.ndarray, np.ndarray]:
+        """Per-element (numeric factor, parameter index or -1) of one property."""
+        vals = g.props[prop]
+        num = np.ones(len(vals))
+        pid = np.full(len(vals), -1, dtype=np.int64)
+        for i, v in enumerate(vals):
+            if isinstance(v, str):
+                if v not in pindex:
+                    declared = ", ".join(pindex) or "none"
+                    raise InputError(f"{g.where[i]}: property {prop} names parameter {v!r}, which is not declared in [parameters] (declared: {declared})")
+                pid[i] = pindex[v]
+                value = self.parameters[v].value
+            else:
+                try:
+                    value = float(v)
+                except (TypeError, ValueError):
+                    raise InputError(f"{g.where[i]}: property {prop} must be a number or a parameter name, got {v!r}") from None
+                num[i] = value
+            if not math.isfinite(value):
+                raise InputError(f"{g.where[i]}: property {prop} is not finite ({value!r})")
+            if not value > 0:
+                kind = "mass" if prop in ("m", "rho") else "property"
+                raise InputError(f"{g.where[i]}: non-positive {kind} {prop} = {value:g}" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
+        return num, pid
+
+    def _combine(self, g: _Group, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:
+        coef = np.ones(len(g.labels))
+        pid = np.full(len(g.labels), -1, dtype=np.int64)
+        for f in factors:
+            num, p = resolved[f]
+            clash = np.flatnonzero((pid >= 0) & (p >= 0))
+            if clash.size:
+                i = clash[0]
+                names = list(self.parameters)
+                raise InputError(
+                    f"{g.where[i]}: the {target} term {'*'.join(factors)} multiplies parameters "
+                    f"{names[pid[i]]!r} and {names[p[i]]!r}; the model must stay affine in its parameters "
+                    f"(K = K0 + sum p_j K_j), so make only one of them a parameter"
+                    + (" or use the physical-term element type beam2d_terms / frame3d_terms" if g.type in ("beam2d", "frame3d") else "")
+                )
+            coef = coef * num
+            pid = np.where(p >= 0, p, pid)
+        return coef, pid
+
+
+def _mass_kind(mass, where):
+    if mass not in MASS_KINDS:
+        raise InputError(f"{where}: mass must be one of {', '.join(MASS_KINDS)}, got {mass!r}")
+    return mass
+
+
+def _list_of_tables(data, key, source):
+    items = data.get(key, [])
+    if isinstance(items, Mapping):
+        items = [items]
+    if not isinstance(items, list) or not all(isinstance(x, Mapping) for x in items):
+        raise InputError(f"{source}: '{key}' must be an array of tables ([[{key}]])")
+    return items
+
+
+_ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation"}
+
+
+def _element_from_dict(s: Structure, e: Mapping, where: str) -> None:
+    t = e.get("type")
+    if t not in _PROPS:
+        raise InputError(f"{where}: unknown element type {t!r} (known: {', '.join(ELEMENT_TYPES)})")
+    where = f"{where} ({t})"
+    if t in ("spring", "mass"):
+        allowed = {"type", "dofs", _PROPS[t][0][0]}
+    else:
+        allowed = set(_ELEMENT_KEYS) | set(_PROPS[t][0]) | set(_PROPS[t][1])
+        if t == "frame3d_terms":
+            allowed |= {b + s_ for b in _BENDING for s_ in ("", "_y", "_z")}
+    unknown = sorted(set(e) - allowed)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(allowed))})")
+    props = {k: v for k, v in e.items() if k not in _ELEMENT_KEYS}
+    for k, v in props.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+            raise InputError(f"{where}: {k} must be a number or a parameter name, got {v!r}")
+    try:
+        if t == "spring":
+            if "dofs" not in e or "k" not in e:
+                raise InputError("spring needs 'dofs' and 'k'")
+            s.spring(list(e["dofs"]), k=e["k"], where=where)
+        elif t == "mass":
+            if "dofs" not in e or "m" not in e:
+                raise InputError("mass needs 'dofs' and 'm'")
+            s.mass(list(e["dofs"]), m=e["m"], where=where)
+        else:
+            if "nodes" not in e:
+                raise InputError(f"{t} needs 'nodes' = [a, b]")
+            kw = dict(mass=e.get("mass", "consistent"), where=where)
+            if t == "rod":
+                s.rod(e["nodes"], dim=e.get("dim", 3), **props, **kw)
+            elif t == "beam2d":
+                s.beam2d(e["nodes"], **props, **kw)
+            elif t == "beam2d_terms":
+                s.beam2d_terms(e["nodes"], **props, **kw)
+            elif t == "frame3d":
+                s.frame3d(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+            else:
+                s.frame3d_terms(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+    except TypeError as exc:  # missing required keyword arguments
+        raise InputError(f"{where}: {exc}".replace("() missing", " is missing")) from None
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+
+
+def _merge(groups: list[_Group]) -> list[_Group]:
+    """Concatenate groups of the same type and options so that element matrices are vectorised."""
+    by_key: dict = {}
+    for g in groups:
+        by_key.setdefault(g.key, []).append(g)
+    out = []
+    for gs in by_key.values():
+        if len(gs) == 1:
+            out.append(gs[0])
+            continue
+        g0 = gs[0]
+        props = {k: [v for g in gs for v in g.props[k]] for k in g0.props}
+        out.append(_Group(
+            type=g0.type, props=props, labels=[row for g in gs for row in g.labels],
+            nodes=None if g0.nodes is None else np.concatenate([g.nodes for g in gs]),
+            mass=g0.mass, dim=g0.dim,
+            orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
+            where=[w for g in gs for w in g.where],
+        ))
+    return out
+
+
+def _triplets(trip, target, unit, idx, coef, pid) -> None:
+    """COO triplets of ``coef * unit`` scattered to ``idx``, split by parameter id."""
+    ne = idx.shape[1]
+    rows = np.broadcast_to(idx[:, :, None], (len(idx), ne, ne))
+    cols = np.broadcast_to(idx[:, None, :], (len(idx), ne, ne))
+    vals = coef[:, None, None] * unit
+    keep = (rows >= 0) & (cols >= 0) & (vals != 0)
+    owner = np.broadcast_to(pid[:, None, None], keep.shape)[keep]
+    r, c, v = rows[keep], cols[keep], vals[keep]
+    for t in np.unique(owner):
+        sel = owner == t
+        trip[(target, int(t))].append((r[sel], c[sel], v[sel]))

@@ -1,0 +1,181 @@
+"""Measured test data: modes, frequency response functions and static deflections.
+
+Every array with a dof axis travels with its labels.  These are plain value objects; the
+readers in :mod:`femupdate.io` build them from JSON and universal files.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._errors import InputError
+from .dofs import canonical_all, describe
+
+
+def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> None:
+    bad = ~np.isfinite(arr)
+    if np.any(bad):
+        if dofs is not None and arr.ndim >= 1 and arr.shape[-1] == len(dofs):
+            cols = np.flatnonzero(bad.reshape(-1, len(dofs)).any(axis=0))
+            raise InputError(f"{what}: NaN or infinite value(s) at dof(s) {describe([dofs[c] for c in cols])}")
+        raise InputError(f"{what}: NaN or infinite value(s)")
+
+
+@dataclass(frozen=True)
+class MeasuredMode:
+    """One measured mode: eigenvalue (rad^2/s^2) and an optional partial shape.
+
+    ``shape`` values are in any scaling; real or complex (complex modes from a damped
+    structure are accepted and compared through their real-normalised form where needed).
+    """
+
+    eigenvalue: float
+    dofs: tuple[str, ...] = ()
+    shape: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    label: str = ""
+
+    def __post_init__(self):
+        lam = float(self.eigenvalue)
+        if not math.isfinite(lam) or lam < 0:
+            raise InputError(f"mode {self.label or ''}: eigenvalue {self.eigenvalue!r} must be finite and >= 0".replace("  ", " "))
+        dofs = canonical_all(self.dofs, f"mode {self.label} shape")
+        shape = np.asarray(self.shape)
+        shape = shape.astype(complex if np.iscomplexobj(shape) else float)
+        if shape.shape != (len(dofs),):
+            raise InputError(f"mode {self.label}: {len(dofs)} dofs but shape has {shape.shape} entries")
+        _finite(shape, f"mode {self.label} shape", dofs)
+        if len(dofs) and not np.any(shape != 0):
+            raise InputError(f"mode {self.label}: the shape is zero at every measured dof")
+        object.__setattr__(self, "eigenvalue", lam)
+        object.__setattr__(self, "dofs", dofs)
+        object.__setattr__(self, "shape", shape)
+
+    @property
+    def frequency_hz(self) -> float:
+        return math.sqrt(self.eigenvalue) / (2 * math.pi)
+
+    @classmethod
+    def from_frequency(cls, frequency_hz: float, dofs=(), shape=(), label: str = "") -> MeasuredMode:
+        f = float(frequency_hz)
+        if not math.isfinite(f) or f < 0:
+            raise InputError(f"mode {label}: frequency_hz {frequency_hz!r} must be finite and >= 0")
+        return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label)
+
+    @property
+    def has_shape(self) -> bool:
+        return len(self.dofs) > 0
+
+
+@dataclass(frozen=True)
+class FRFData:
+    """Receptance measurements: response ``x(omega)`` at ``dofs`` for force amplitudes ``force``.
+
+    ``response`` has shape ``(n_freq, n_dofs)`` (complex or real); ``omega`` in rad/s.
+    """
+
+    omega: np.ndarray
+    force: Mapping[str, float]
+    dofs: tuple[str, ...]
+    response: np.ndarray
+
+    def __post_init__(self):
+        omega = np.asarray(self.omega, dtype=float).ravel()
+        _finite(omega, "frf omega_rad_s")
+        if omega.size == 0:
+            raise InputError("frf: omega_rad_s is empty")
+        if np.any(omega < 0):
+            raise InputError("frf: omega_rad_s must be >= 0")
+        dofs = canonical_all(self.dofs, "frf response")
+        resp = np.asarray(self.response)
+        resp = resp.astype(complex if np.iscomplexobj(resp) else float)
+        if resp.shape != (omega.size, len(dofs)):
+            raise InputError(f"frf: response has shape {resp.shape}, expected ({omega.size} frequencies, {len(dofs)} dofs)")
+        _finite(resp, "frf response", dofs)
+        force = {}
+        for k, v in dict(self.force).items():
+            (lab,) = canonical_all([k], "frf force")
+            fv = complex(v) if isinstance(v, complex) else float(v)
+            if not np.isfinite(fv):
+                raise InputError(f"frf force at {lab} is not finite")
+            force[lab] = fv
+        if not force or not any(v != 0 for v in force.values()):
+            raise InputError("frf: the force vector is empty or zero")
+        object.__setattr__(self, "omega", omega)
+        object.__setattr__(self, "dofs", dofs)
+        object.__setattr__(self, "response", resp)
+        object.__setattr__(self, "force", force)
+
+
+@dataclass(frozen=True)
+class StaticData:
+    """A static load case: applied forces and the measured displacements."""
+
+    force: Mapping[str, float]
+    dofs: tuple[str, ...]
+    displacement: np.ndarray
+
+    def __post_init__(self):
+        dofs = canonical_all(self.dofs, "static displacement")
+        u = np.asarray(self.displacement, dtype=float).ravel()
+        if u.shape != (len(dofs),):
+            raise InputError(f"static: {len(dofs)} dofs but {u.size} displacement values")
+        _finite(u, "static displacement", dofs)
+        force = {}
+        for k, v in dict(self.force).items():
+            (lab,) = canonical_all([k], "static force")
+            if not np.isfinite(float(v)):
+                raise InputError(f"static force at {lab} is not finite")
+            force[lab] = float(v)
+        if not any(v != 0 for v in force.values()):
+            raise InputError("static: the force vector is empty or zero")
+        object.__setattr__(self, "dofs", dofs)
+        object.__setattr__(self, "displacement", u)
+        object.__setattr__(self, "force", force)
+
+
+@dataclass(frozen=True)
+class TestData:
+    """All test data of one configuration: measured modes, FRFs and static load cases."""
+
+    __test__ = False  # not a pytest test class
+
+    modes: tuple[MeasuredMode, ...] = ()
+    frf: FRFData | None = None
+    static: tuple[StaticData, ...] = ()
+    units: Mapping[str, object] = field(default_factory=dict)
+    nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
+
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        return np.array([m.eigenvalue for m in self.modes])
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return np.sqrt(self.eigenvalues) / (2 * np.pi)
+
+    def shape_matrix(self, dofs: Sequence[str] | None = None) -> tuple[tuple[str, ...], np.ndarray]:
+        """Measured shapes on a common dof set: ``(dofs, Phi)`` with ``Phi`` (n_dofs, n_modes).
+
+        ``dofs`` defaults to the union of every mode's measured dofs; a mode not measured at a
+        dof has NaN there.
+        """
+        if dofs is None:
+            seen: dict[str, None] = {}
+            for m in self.modes:
+                for d in m.dofs:
+                    seen.setdefault(d, None)
+            dofs = tuple(seen)
+        else:
+            dofs = canonical_all(dofs)
+        cplx = any(np.iscomplexobj(m.shape) for m in self.modes)
+        Phi = np.full((len(dofs), len(self.modes)), np.nan, dtype=complex if cplx else float)
+        pos = {d: i for i, d in enumerate(dofs)}
+        for j, m in enumerate(self.modes):
+            for d, v in zip(m.dofs, m.shape):
+                if d in pos:
+                    Phi[pos[d], j] = v
+        return tuple(dofs), Phi
