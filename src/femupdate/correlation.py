@@ -1,0 +1,139 @@
+r"""Correlation of test and model modes: MAC, pairing, frequency errors, COMAC.
+
+All functions that take labelled shapes compare them on the dofs they have in common, by
+label, never by index.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ._errors import InputError
+from .dofs import canonical_all
+
+
+def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r"""Modal assurance criterion between the columns of ``A`` (n, ma) and ``B`` (n, mb).
+
+    .. math:: \mathrm{MAC}_{rs} = |a_r^H b_s|^2 / ((a_r^H a_r)(b_s^H b_s))
+
+    Real or complex; independent of each column's scaling.  Returns (ma, mb).
+    """
+    A = np.asarray(A)
+    B = np.asarray(B)
+    if A.ndim == 1:
+        A = A[:, None]
+    if B.ndim == 1:
+        B = B[:, None]
+    if A.shape[0] != B.shape[0]:
+        raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs")
+    num = np.abs(A.conj().T @ B) ** 2
+    den = np.outer(np.sum(np.abs(A) ** 2, axis=0), np.sum(np.abs(B) ** 2, axis=0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    return np.clip(out.real, 0.0, 1.0)
+
+
+def common_dofs(dofs_a: Sequence[str], dofs_b: Sequence[str]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Positions in ``a`` and ``b`` of their common labels (in ``a``'s order)."""
+    a = canonical_all(dofs_a)
+    pos_b = {d: i for i, d in enumerate(canonical_all(dofs_b))}
+    ia = [i for i, d in enumerate(a) if d in pos_b]
+    if not ia:
+        raise InputError("the test and model shapes have no dof in common (check the dof labels)")
+    common = tuple(a[i] for i in ia)
+    return np.array(ia), np.array([pos_b[d] for d in common]), common
+
+
+def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, int, float]]:
+    """Pair test modes (rows) with model modes (columns) by MAC.
+
+    An optimal assignment (Hungarian algorithm, :func:`scipy.optimize.linear_sum_assignment`)
+    maximises the total MAC, so one model mode is never paired twice; pairs whose MAC is below
+    ``min_mac`` are dropped.  Returns ``[(test, model, mac)]`` sorted by test mode.
+    """
+    mm = np.asarray(mac_matrix, dtype=float)
+    rows, cols = linear_sum_assignment(mm, maximize=True)
+    pairs = [(int(r), int(c), float(mm[r, c])) for r, c in zip(rows, cols) if mm[r, c] >= min_mac]
+    return sorted(pairs)
+
+
+def modal_scale_factor(test: np.ndarray, model: np.ndarray) -> np.ndarray:
+    """Per-column factor ``s`` minimising ``||test - s * model||`` (the modal scale factor)."""
+    num = np.sum(np.conj(model) * test, axis=0)
+    den = np.sum(np.abs(model) ** 2, axis=0)
+    return num / den
+
+
+def comac(test: np.ndarray, model: np.ndarray) -> np.ndarray:
+    r"""Coordinate MAC per dof over paired modes (columns of ``test`` and ``model`` paired).
+
+    Each model shape is first scaled to its test shape by the modal scale factor and each pair
+    is scaled to unit test norm, so the result does not depend on the shapes' scaling:
+
+    .. math:: \mathrm{COMAC}_i = (\sum_r |t_{ir} a_{ir}|)^2 / (\sum_r t_{ir}^2 \sum_r a_{ir}^2)
+    """
+    test = np.asarray(test)
+    model = np.asarray(model) * modal_scale_factor(test, np.asarray(model))
+    nrm = np.linalg.norm(test, axis=0)
+    test, model = test / nrm, model / nrm
+    num = np.sum(np.abs(test * np.conj(model)), axis=1) ** 2
+    den = np.sum(np.abs(test) ** 2, axis=1) * np.sum(np.abs(model) ** 2, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0).real
+
+
+@dataclass(frozen=True, eq=False)
+class Correlation:
+    """Result of :func:`correlate`.
+
+    ``mac`` (n_test, n_model) on the common ``dofs``; ``pairs`` [(test, model, mac)];
+    ``frequency_error`` relative (model - test) / test per pair; ``comac`` per common dof.
+    """
+
+    dofs: tuple[str, ...]
+    mac: np.ndarray
+    pairs: list[tuple[int, int, float]]
+    test_frequencies_hz: np.ndarray
+    model_frequencies_hz: np.ndarray
+    frequency_error: np.ndarray
+    comac: np.ndarray
+    unpaired_test: list[int]
+
+
+def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
+    """Correlate :class:`~femupdate.TestData` modes with :class:`~femupdate.Modes`.
+
+    Test modes without a shape are paired in frequency order with the remaining model modes
+    only if *no* test mode has a shape; otherwise they are left unpaired.
+    """
+    tdofs, Phi_t = test.shape_matrix()
+    f_t = test.frequencies_hz
+    f_a = model_modes.frequencies_hz
+    if not tdofs:
+        n = min(len(f_t), len(f_a))
+        pairs = [(i, i, float("nan")) for i in range(n)]
+        return Correlation((), np.zeros((len(f_t), len(f_a))), pairs, f_t, f_a,
+                           np.array([(f_a[j] - f_t[i]) / f_t[i] for i, j, _ in pairs]), np.zeros(0),
+                           list(range(n, len(f_t))))
+    it, ia, common = common_dofs(tdofs, model_modes.dofs)
+    Pt = Phi_t[it]
+    Pa = model_modes.shapes[ia]
+    has = ~np.isnan(Pt).any(axis=0) if not np.iscomplexobj(Pt) else ~np.isnan(Pt.real).any(axis=0)
+    Pt_filled = np.where(np.isnan(Pt), 0.0, Pt)
+    M = mac(Pt_filled, Pa)
+    M[~has] = 0.0
+    pairs = pair_modes(M, min_mac)
+    err = np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs])
+    if pairs:
+        ti = [p[0] for p in pairs]
+        mi = [p[1] for p in pairs]
+        cm = comac(Pt_filled[:, ti], Pa[:, mi])
+    else:
+        cm = np.full(len(common), np.nan)
+    unpaired = sorted(set(range(len(f_t))) - {p[0] for p in pairs})
+    return Correlation(common, M, pairs, f_t, f_a, err, cm, unpaired)

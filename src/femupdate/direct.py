@@ -1,0 +1,318 @@
+r"""Direct (linear) updating when every model dof is measured.
+
+Because the model is affine in its parameters, every complete measurement gives equations that
+are *linear* in the unknown parameters (the reference paper's eqs. 1-10 and 23-29):
+
+* a measured mode (λ_i, φ_i):  :math:`\sum_j p_j (K_j - \lambda_i M_j)\phi_i = (\lambda_i M_f - K_f)\phi_i`
+  (eq. 4: :math:`\Phi_i k = \lambda_i M \phi_i` when only springs are unknown);
+* an FRF line (ω, x, f):       :math:`\sum_j p_j (K_j - \omega^2 M_j) x = f - (K_f - \omega^2 M_f) x`
+  (eqs. 24-28: :math:`X k = f + M\omega^2 x`);
+* a static load case (u, f):    :math:`\sum_j p_j K_j u = f - K_f u` (Lallement et al. 1992);
+
+where :math:`K_f, M_f` collect the known part of the model (``K0`` plus fixed parameters).
+The stacked system :math:`A p = b` is solved in the least-squares sense, :math:`p = A^+ b`
+(eq. 10, eq. 29), or with bounds by :func:`scipy.optimize.lsq_linear`.  Mass parameters may be
+unknown too, as long as something fixes the scale (known masses, a measured force).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import lsq_linear
+
+from ._errors import InputError, NumericalError
+from .dofs import canonical_all, describe
+from .testdata import FRFData, MeasuredMode, StaticData, TestData
+
+log = logging.getLogger(__name__)
+
+
+
+@dataclass(frozen=True, eq=False)
+class LinearSystem:
+    """Stacked direct-updating equations ``A p_free = b`` with a label per row block."""
+
+    A: np.ndarray | sp.csr_array
+    b: np.ndarray
+    unknowns: tuple[str, ...]
+    blocks: list[tuple[str, int]]  # (description, number of rows)
+
+    @property
+    def n_equations(self) -> int:
+        return self.b.size
+
+
+@dataclass(frozen=True, eq=False)
+class DirectResult:
+    """Solution of a direct update.
+
+    Attributes
+    ----------
+    parameters : dict
+        Every parameter's value: identified for the unknowns, given for the fixed ones.
+    unknowns : tuple of str
+    x : ndarray
+        Identified values of the unknowns.
+    condition_number : float
+        2-norm condition number of ``A`` as stacked (the paper's cond(X), Figure 4).
+    condition_number_scaled : float
+        Condition number after scaling each column of ``A`` to unit length (unit-independent).
+    residual_norm, relative_residual : float
+        ``||A x - b||`` and ``||A x - b|| / ||b||``.
+    rank : int
+    unique : bool
+        ``rank == number of unknowns``.
+    null_space : ndarray (n_unknowns, n_unknowns - rank)
+        Parameter combinations the data cannot determine (empty when unique).
+    system : LinearSystem
+    standard_error : ndarray
+        Standard error of each unknown from the least-squares residual,
+        ``sqrt(diag(s^2 (A^T A)^-1))`` with ``s^2 = ||r||^2 / (rows - unknowns)``; NaN when the
+        system is square or rank deficient.  It assumes errors in ``b`` only: noise in the
+        measured shapes also biases the estimate (errors in variables), so treat it as a
+        lower bound on the uncertainty.
+    notes : list of str
+    """
+
+    parameters: dict[str, float]
+    unknowns: tuple[str, ...]
+    x: np.ndarray
+    condition_number: float
+    condition_number_scaled: float
+    residual_norm: float
+    relative_residual: float
+    rank: int
+    unique: bool
+    null_space: np.ndarray
+    singular_values: np.ndarray
+    system: LinearSystem
+    standard_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    bounded: bool = False
+    notes: list[str] = field(default_factory=list)
+
+
+def _complete(model, dofs: Sequence[str], values: np.ndarray, what: str) -> np.ndarray:
+    """Reorder measured values onto the model's dofs; every model dof must be measured."""
+    pos = {d: i for i, d in enumerate(canonical_all(dofs, what))}
+    extra = [d for d in pos if d not in set(model.dofs)]
+    if extra:
+        raise InputError(f"{what}: dof(s) not in the model: {describe(extra)}")
+    missing = [d for d in model.dofs if d not in pos]
+    if missing:
+        raise InputError(
+            f"{what}: a direct solution needs data at every model dof; missing {len(missing)} of "
+            f"{model.n_dofs}: {describe(missing)} (use iterative updating, or reduce the model / expand the data)"
+        )
+    return values[[pos[d] for d in model.dofs]]
+
+
+def _force(model, force: dict, what: str) -> np.ndarray:
+    f = np.zeros(model.n_dofs, dtype=complex if any(isinstance(v, complex) for v in force.values()) else float)
+    idx = {d: i for i, d in enumerate(model.dofs)}
+    unknown = [d for d in force if d not in idx]
+    if unknown:
+        raise InputError(f"{what}: force applied at dof(s) not in the model: {describe(unknown)}")
+    for d, v in force.items():
+        f[idx[d]] = v
+    return f
+
+
+class _Builder:
+    """Accumulates column blocks ``[(K_j - s M_j) x]_j`` and right-hand sides."""
+
+    def __init__(self, model, values=None, unknowns: Sequence[str] | None = None):
+        self.model = model
+        self.p = model.resolve(values)
+        if unknowns is None:
+            self.free = [int(j) for j in model.free]
+        else:
+            self.free = [model.parameter_index(n) for n in unknowns]
+        if not self.free:
+            raise InputError("no unknown parameters: every parameter is fixed")
+        pk = self.p.copy()
+        pk[self.free] = 0.0
+        self.Kf = model.K(pk)
+        self.Mf = model.M(pk)
+        self.cols, self.rhs, self.blocks = [], [], []
+
+    def add(self, x: np.ndarray, s: float, f: np.ndarray | None, desc: str) -> None:
+        """Equations (K(p) - s M(p)) x = f, linear in the unknown p."""
+        m = self.model
+        cols = []
+        for j in self.free:
+            c = m.dK_dp(j) @ x
+            if s != 0:
+                c = c - s * (m.dM_dp(j) @ x)
+            cols.append(c)
+        r = -(self.Kf @ x) + s * (self.Mf @ x)
+        if f is not None:
+            r = r + f
+        C = np.column_stack(cols)
+        if np.iscomplexobj(C) or np.iscomplexobj(r):
+            C = np.vstack([C.real, C.imag])
+            r = np.concatenate([np.real(r), np.imag(r)])
+        self.cols.append(C)
+        self.rhs.append(np.asarray(r, float))
+        self.blocks.append((desc, C.shape[0]))
+
+    def system(self) -> LinearSystem:
+        if not self.cols:
+            raise InputError("no complete data to build direct equations from (need mode shapes, FRFs or static deflections at every model dof)")
+        A = np.vstack(self.cols)
+        b = np.concatenate(self.rhs)
+        return LinearSystem(A, b, tuple(self.model.parameter_names[j] for j in self.free), self.blocks)
+
+
+def modal_equations(builder: _Builder, modes: Sequence[MeasuredMode], notes: list[str]) -> None:
+    """Eqs. (4)-(9): one block of n rows per complete mode (shape normalised to unit length)."""
+    for k, mode in enumerate(modes, start=1):
+        name = mode.label or f"mode {k}"
+        if not mode.has_shape:
+            notes.append(f"{name}: eigenvalue only, not usable in a direct solution (no shape)")
+            continue
+        phi = _complete(builder.model, mode.dofs, mode.shape, f"{name} shape")
+        if np.iscomplexobj(phi):
+            # real normal mode from a (lightly damped) complex one: rotate to the real axis
+            phi = np.real(phi * np.exp(-1j * np.angle(phi[np.argmax(np.abs(phi))])))
+        phi = phi / np.linalg.norm(phi)
+        builder.add(phi, mode.eigenvalue, None, name)
+
+
+def frf_equations(builder: _Builder, frf: FRFData) -> None:
+    """Eqs. (24)-(28): one block per spectral line; complex data give real and imaginary rows."""
+    x = _complete(builder.model, frf.dofs, frf.response.T, "frf response")  # (n, n_freq)
+    f = _force(builder.model, dict(frf.force), "frf")
+    for i, w in enumerate(frf.omega):
+        builder.add(x[:, i], float(w) ** 2, f, f"frf line {i + 1} ({w:g} rad/s)")
+
+
+def static_equations(builder: _Builder, cases: Sequence[StaticData]) -> None:
+    """Static equilibrium K(p) u = f for each load case (Lallement et al. 1992)."""
+    for k, case in enumerate(cases, start=1):
+        u = _complete(builder.model, case.dofs, case.displacement, f"static case {k} displacement")
+        f = _force(builder.model, dict(case.force), f"static case {k}")
+        builder.add(u, 0.0, f, f"static case {k}")
+
+
+def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "static"),
+                 values=None, unknowns=None, notes: list[str] | None = None) -> LinearSystem:
+    """Stack the direct equations of the chosen kinds of data."""
+    notes = [] if notes is None else notes
+    b = _Builder(model, values, unknowns)
+    unknown_kinds = set(use) - {"modes", "frf", "static"}
+    if unknown_kinds:
+        raise InputError(f"unknown data kind(s) {sorted(unknown_kinds)}: use modes, frf, static")
+    if "modes" in use and data.modes:
+        modal_equations(b, data.modes, notes)
+    if "frf" in use and data.frf is not None:
+        frf_equations(b, data.frf)
+    if "static" in use and data.static:
+        static_equations(b, data.static)
+    return b.system()
+
+
+def solve_system(model, system: LinearSystem, values=None, bounded: bool = False,
+                 notes: list[str] | None = None) -> DirectResult:
+    """Least-squares solution of ``A p = b`` (eq. 10 / eq. 29) with diagnostics."""
+    notes = [] if notes is None else notes
+    A, b = system.A, system.b
+    L = A.shape[1]
+    if system.n_equations < L:
+        per = max(n for _, n in system.blocks) if system.blocks else 1
+        raise InputError(
+            f"direct solve: {L} unknown parameters but only {system.n_equations} equations; "
+            f"at least {L} are needed (each complete mode or spectral line gives {per} here, so at least "
+            f"{math.ceil(L / per)} are needed; fix some parameters or add data)"
+        )
+    if not np.any(b):
+        raise InputError(
+            "direct solve: the equations are homogeneous (every stiffness and mass term is unknown), so the "
+            "scale of the parameters is undetermined: fix at least one mass or stiffness parameter, or use FRF/static data with a known force"
+        )
+    colnorm = np.linalg.norm(A, axis=0)
+    zero = [system.unknowns[j] for j in np.flatnonzero(colnorm == 0)]
+    if zero:
+        raise InputError(f"direct solve: the data carry no information on parameter(s) {', '.join(zero)} (their equations are all zero)")
+    As = A / colnorm
+    U, s, Vt = np.linalg.svd(As, full_matrices=False)
+    tol = max(As.shape) * np.finfo(float).eps * s[0]
+    rank = int(np.sum(s > tol))
+    s_raw = np.linalg.svd(A, compute_uv=False)
+    cond = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else math.inf
+    cond_s = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+    null = (Vt[rank:].T / colnorm[:, None]) if rank < L else np.zeros((L, 0))
+    if rank < L:
+        null = null / np.linalg.norm(null, axis=0)
+    lo, hi = model.bounds
+    free_idx = [model.parameter_index(n) for n in system.unknowns]
+    if bounded:
+        res = lsq_linear(As, b, bounds=(lo[free_idx] * colnorm, hi[free_idx] * colnorm), lsmr_tol="auto", method="bvls")
+        if not res.success:
+            raise NumericalError(f"bounded direct solve failed: {res.message}")
+        x = res.x / colnorm
+    else:
+        # minimum-norm least squares in scaled coordinates (eq. 10: p = A^+ b)
+        keep = s > tol
+        x = (Vt[keep].T @ ((U[:, keep].T @ b) / s[keep])) / colnorm
+    r = A @ x - b
+    rn = float(np.linalg.norm(r))
+    p = model.resolve(values)
+    p[free_idx] = x
+    dof_resid = system.n_equations - L
+    if rank == L and dof_resid > 0:
+        cov_scaled = (Vt.T / s**2) @ Vt * (rn**2 / dof_resid)
+        stderr = np.sqrt(np.diag(cov_scaled)) / colnorm
+    else:
+        stderr = np.full(L, np.nan)
+    if rank < L:
+        combos = []
+        for k in range(null.shape[1]):
+            v = null[:, k]
+            big = np.argsort(-np.abs(v))[:3]
+            combos.append(" + ".join(f"{v[i]:.3g}*{system.unknowns[i]}" for i in big if abs(v[i]) > 1e-3))
+        notes.append(
+            f"not unique: rank {rank} < {L} unknowns; undetermined combination(s): " + "; ".join(combos)
+        )
+    return DirectResult(
+        parameters=dict(zip(model.parameter_names, map(float, p))),
+        unknowns=system.unknowns, x=x, condition_number=cond, condition_number_scaled=cond_s,
+        residual_norm=rn, relative_residual=rn / float(np.linalg.norm(b)), rank=rank, unique=rank == L,
+        null_space=null, singular_values=s_raw, system=system, standard_error=stderr,
+        bounded=bounded, notes=notes,
+    )
+
+
+def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "static"),
+                  values=None, unknowns: Sequence[str] | None = None, bounded: bool = False) -> DirectResult:
+    """Identify the unknown parameters directly from complete test data.
+
+    Parameters
+    ----------
+    model : Model
+    data : TestData
+        Modes with shapes, FRFs and/or static deflections at *every* model dof.
+    use : which kinds of data to stack (default all present).
+    values : parameter values for the known (fixed) parameters (default nominal).
+    unknowns : names of the parameters to identify (default: every parameter not ``fixed``).
+    bounded : honour the parameters' bounds (e.g. non-negative stiffness) with a bounded
+        least-squares solve instead of the pseudo-inverse.
+
+    Returns
+    -------
+    DirectResult
+
+    Raises
+    ------
+    InputError
+        Data missing at model dofs (the message names them), fewer equations than unknowns
+        (it says how many are needed), NaN, unknown dofs.
+    """
+    notes: list[str] = []
+    system = build_system(model, data, use, values, unknowns, notes)
+    return solve_system(model, system, values, bounded, notes)

@@ -1,0 +1,136 @@
+"""Small models of the reference paper, built with the public Structure API.
+
+The paper gives the 2-dof system's values (m1 = 2, m2 = 4, k1 = 8, k2 = 6, eq. 11 onwards) but
+no values for the 3-dof systems of Figures 1 and 2; the defaults chosen here are documented in
+each function and in the README.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .model import Model
+from .structure import Structure
+
+
+def two_dof(k1: float = 8.0, k2: float = 6.0, m1: float = 2.0, m2: float = 4.0,
+            bounds: tuple[float, float] = (0.0, 100.0)) -> Model:
+    """Figure 3: ground -k1- m1 -k2- m2.  K = [[k1+k2, -k2], [-k2, k2]], M = diag(m1, m2)."""
+    s = Structure("two-dof chain (paper Figure 3)")
+    s.parameter("k1", k1, bounds)
+    s.parameter("k2", k2, bounds)
+    s.spring(["1:x"], k="k1")
+    s.spring(["1:x", "2:x"], k="k2")
+    s.mass(["1:x"], m=m1)
+    s.mass(["2:x"], m=m2)
+    return s.build()
+
+
+# Figures 1 and 2 carry no numbers; these values make a well-separated, realistic example.
+FIGURE1_STIFFNESS = (1000.0, 2000.0, 1500.0)  # N/m
+FIGURE1_MASS = (1.0, 1.5, 2.0)  # kg
+FIGURE2_K4 = 500.0  # N/m
+
+
+def three_dof(k: Sequence[float] = FIGURE1_STIFFNESS, m: Sequence[float] = FIGURE1_MASS,
+              k4: float | None = None, bounds: tuple[float, float] = (0.0, 1.0e5)) -> Model:
+    """Figures 1 and 2: ground -k1- m1 -k2- m2 -k3- m3, plus k4 between dofs 1 and 3 if given.
+
+    K (Figure 1) = [[k1+k2, -k2, 0], [-k2, k2+k3, -k3], [0, -k3, k3]]; Figure 2 adds k4 to
+    K11, K33 and -k4 to K13, K31.
+    """
+    s = Structure("three-dof chain (paper Figure 2)" if k4 is not None else "three-dof chain (paper Figure 1)")
+    for i, v in enumerate(k, start=1):
+        s.parameter(f"k{i}", v, bounds)
+    s.spring(["1:x"], k="k1")
+    s.spring(["1:x", "2:x"], k="k2")
+    s.spring(["2:x", "3:x"], k="k3")
+    if k4 is not None:
+        s.parameter("k4", k4, bounds)
+        s.spring(["1:x", "3:x"], k="k4")
+    for i, v in enumerate(m, start=1):
+        s.mass([f"{i}:x"], m=v)
+    return s.build()
+
+
+def chain(stiffness: Sequence[float], mass: Sequence[float], name: str = "spring-mass chain",
+          bounds: tuple[float, float] = (0.0, float("inf"))) -> Model:
+    """Grounded chain of N masses and N springs (k_i between dof i-1 and i, dof 0 = ground)."""
+    if len(stiffness) != len(mass):
+        raise ValueError("chain: one stiffness per mass")
+    s = Structure(name)
+    for i, (k, m) in enumerate(zip(stiffness, mass), start=1):
+        s.parameter(f"k{i}", k, bounds)
+        s.spring([f"{i}:x"] if i == 1 else [f"{i - 1}:x", f"{i}:x"], k=f"k{i}")
+        s.mass([f"{i}:x"], m=m)
+    return s.build()
+
+
+def portal_frame(E_columns: float = 2.1e11, E_beam: float = 2.1e11, n_per_member: int = 4) -> Model:
+    """A fixed-base planar portal frame (beam2d): two 3 m columns and a 4 m beam.
+
+    Parameters ``E_col`` (both columns, grouped) and ``E_beam``; steel box section
+    A = 4e-3 m^2, I = 1.2e-5 m^4, rho = 7850 kg/m^3; consistent mass.
+    """
+    import numpy as np
+
+    s = Structure("portal frame")
+    s.parameter("E_col", E_columns, (1e10, 5e11))
+    s.parameter("E_beam", E_beam, (1e10, 5e11))
+    n = n_per_member
+    h, w = 3.0, 4.0
+    left = [(0.0, h * i / n) for i in range(n + 1)]
+    top = [(w * i / n, h) for i in range(1, n + 1)]
+    right = [(w, h - h * i / n) for i in range(1, n + 1)]
+    pts = left + top + right
+    s.add_nodes(range(1, len(pts) + 1), pts)
+    ids = np.arange(1, len(pts) + 1)
+    col_l = np.c_[ids[:n], ids[1 : n + 1]]
+    beam = np.c_[ids[n : 2 * n], ids[n + 1 : 2 * n + 1]]
+    col_r = np.c_[ids[2 * n : 3 * n], ids[2 * n + 1 : 3 * n + 1]]
+    sec = dict(A=4e-3, I=1.2e-5, rho=7850.0)
+    s.beam2d(np.r_[col_l, col_r], E="E_col", where="columns", **sec)
+    s.beam2d(beam, E="E_beam", where="beam", **sec)
+    s.support_node([1, len(pts)])
+    return s.build()
+
+
+# true values of the built-in demonstration (package data figure2.toml / figure2_test.json)
+FIGURE2_TRUE = {"k1": 1000.0, "k2": 2000.0, "k3": 1500.0, "k4": 500.0}
+FIGURE2_START = {"k1": 700.0, "k2": 2600.0, "k3": 1200.0, "k4": 800.0}
+
+
+def figure2_test_data(noise: float = 0.01, seed: int = 1993) -> dict:
+    """Simulated test of the Figure 2 system at the true values ``FIGURE2_TRUE``.
+
+    All three modes at every dof; shapes scaled to 1 at their largest entry and perturbed by
+    Gaussian noise of standard deviation ``noise`` (relative to that entry); frequencies
+    perturbed by ``noise / 10`` (relative).  Returns the JSON object of docs/interfaces.md.
+    """
+    import numpy as np
+
+    from .modal import model_modes
+
+    rng = np.random.default_rng(seed)
+    truth = three_dof(k=[FIGURE2_TRUE[f"k{i}"] for i in (1, 2, 3)], k4=FIGURE2_TRUE["k4"])
+    modes = model_modes(truth, normalisation="max")
+    out = []
+    for r in range(modes.n_modes):
+        f = modes.frequencies_hz[r] * (1 + noise / 10 * rng.standard_normal())
+        shape = modes.shapes[:, r] + noise * rng.standard_normal(truth.n_dofs)
+        out.append({"frequency_hz": round(float(f), 6),
+                    "shape": {d: round(float(v), 6) for d, v in zip(truth.dofs, shape)}})
+    return {"modes": out}
+
+
+def figure2_model_toml() -> str:
+    """TOML text of the Figure 2 model at the (wrong) starting values ``FIGURE2_START``."""
+    lines = ['[model]', 'name = "three-dof chain with k4 (paper Figure 2)"', ""]
+    for name, v in FIGURE2_START.items():
+        lines += [f"[parameters.{name}]", f"value = {v}", "bounds = [0.0, 1.0e5]", ""]
+    springs = [(["1:x"], "k1"), (["1:x", "2:x"], "k2"), (["2:x", "3:x"], "k3"), (["1:x", "3:x"], "k4")]
+    for dofs, k in springs:
+        lines += ["[[element]]", 'type = "spring"', f"dofs = {dofs}".replace("'", '"'), f'k = "{k}"', ""]
+    for i, m in enumerate(FIGURE1_MASS, start=1):
+        lines += ["[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', f"m = {m}", ""]
+    return "\n".join(lines)

@@ -1,0 +1,156 @@
+"""Model files: the TOML schema of docs/interfaces.md, and models from plain matrices.
+
+A TOML file either describes a physical-parameter structure (``[[node]]``, ``[[element]]``,
+``[[support]]``) or, with a ``[matrices]`` table, points at matrices exported from another FE
+code::
+
+    [model]
+    name = "exported plate"
+
+    [matrices]
+    dofs = "dofs.txt"        # one label per line, or an inline list ["1:x", "1:y", ...]
+    K0 = "K0.mtx"            # Matrix Market, .npz (scipy.sparse.save_npz or numpy), .npy,
+    M0 = "M0.mtx"            # or .mat ("file.mat:VARIABLE")
+
+    [parameters.E_skin]
+    value = 7.0e10
+    K = "K_skin.mtx"         # dK/dp: K = K0 + sum_j p_j K_j
+    # M = "M_skin.mtx"       # dM/dp, optional
+
+Paths are relative to the TOML file.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+import scipy.sparse as sp
+
+from .._errors import InputError
+from ..model import Model, Parameter
+from ..structure import Structure
+
+
+def read_toml(path) -> dict:
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, not a model file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: malformed TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text (UTF-8) TOML file") from None
+
+
+def load_model(path) -> Model:
+    """Read a model file (TOML structure or TOML ``[matrices]`` model) into a :class:`Model`."""
+    path = Path(path)
+    if path.suffix.lower() != ".toml":
+        raise InputError(f"{path}: model files are TOML (.toml); for plain matrices write a small TOML with a [matrices] table")
+    data = read_toml(path)
+    if "matrices" in data:
+        return _matrix_model(data, path)
+    try:
+        return Structure.from_dict(data, source=str(path)).build()
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if str(path) in msg else f"{path}: {msg}") from None
+
+
+def load_matrix(spec: str, base: Path, what: str):
+    """Load one matrix: ``.mtx`` (Matrix Market), ``.npz``, ``.npy`` or ``file.mat:VAR``."""
+    name, _, var = str(spec).partition(":") if ".mat:" in str(spec) else (str(spec), "", "")
+    p = (base / name) if not Path(name).is_absolute() else Path(name)
+    if not p.exists():
+        raise InputError(f"{what}: matrix file {p} not found")
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".mtx":
+            A = scipy.io.mmread(p)
+        elif suffix == ".npz":
+            try:
+                A = sp.load_npz(p)
+            except (ValueError, KeyError):
+                with np.load(p, allow_pickle=False) as z:
+                    if len(z.files) != 1:
+                        raise InputError(f"{what}: {p} holds {len(z.files)} arrays ({', '.join(z.files)}); expected one matrix") from None
+                    A = z[z.files[0]]
+        elif suffix == ".npy":
+            A = np.load(p, allow_pickle=False)
+        elif suffix == ".mat":
+            m = scipy.io.loadmat(p)
+            names = [k for k in m if not k.startswith("__")]
+            if not var:
+                if len(names) != 1:
+                    raise InputError(f"{what}: {p} holds variables {', '.join(names)}; name one as '{name}:VARIABLE'")
+                var = names[0]
+            if var not in m:
+                raise InputError(f"{what}: variable {var!r} not in {p} (it holds {', '.join(names)})")
+            A = m[var]
+        else:
+            raise InputError(f"{what}: unsupported matrix format {suffix!r} ({p}); use .mtx, .npz, .npy or .mat")
+    except InputError:
+        raise
+    except Exception as exc:  # malformed binary files raise many different types
+        raise InputError(f"{what}: cannot read {p}: {exc}") from None
+    if not sp.issparse(A):
+        A = np.asarray(A)
+        if A.dtype == object or not np.issubdtype(A.dtype, np.number):
+            raise InputError(f"{what}: {p} does not hold a numeric matrix")
+        if np.iscomplexobj(A):
+            raise InputError(f"{what}: {p} holds a complex matrix; K and M must be real")
+    return A
+
+
+def _matrix_model(data: Mapping, path: Path) -> Model:
+    base = path.parent
+    mt = data["matrices"]
+    src = f"{path}: [matrices]"
+    if not isinstance(mt, Mapping):
+        raise InputError(f"{src} must be a table")
+    unknown = sorted(set(mt) - {"dofs", "K0", "M0"})
+    if unknown:
+        raise InputError(f"{src}: unknown key(s) {', '.join(unknown)} (allowed: dofs, K0, M0)")
+    for k in ("dofs", "K0", "M0"):
+        if k not in mt:
+            raise InputError(f"{src}: missing '{k}'")
+    other = sorted(set(data) - {"model", "matrices", "parameters"})
+    if other:
+        raise InputError(f"{path}: a [matrices] model cannot also have {', '.join(other)}")
+    dofs = mt["dofs"]
+    if isinstance(dofs, str):
+        p = base / dofs
+        if not p.exists():
+            raise InputError(f"{src}: dofs file {p} not found")
+        dofs = [ln.strip() for ln in p.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    K0 = load_matrix(mt["K0"], base, f"{src} K0")
+    M0 = load_matrix(mt["M0"], base, f"{src} M0")
+    params, dK, dM = [], [], []
+    for name, spec in data.get("parameters", {}).items():
+        where = f"{path}: [parameters.{name}]"
+        if not isinstance(spec, Mapping) or "value" not in spec:
+            raise InputError(f"{where} must be a table with at least 'value'")
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "K", "M"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, K, M)")
+        if "K" not in spec and "M" not in spec:
+            raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices)")
+        try:
+            params.append(Parameter(name, spec["value"], tuple(spec.get("bounds", (-np.inf, np.inf))), spec.get("fixed", False)))
+        except InputError as exc:
+            raise InputError(f"{path}: {exc}") from None
+        dK.append(load_matrix(spec["K"], base, f"{where} K") if "K" in spec else None)
+        dM.append(load_matrix(spec["M"], base, f"{where} M") if "M" in spec else None)
+    name = data.get("model", {}).get("name", path.stem)
+    try:
+        return Model(tuple(dofs), K0, M0, tuple(params), tuple(dK), tuple(dM), name=name)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None

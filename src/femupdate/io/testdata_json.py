@@ -1,0 +1,156 @@
+"""Test data in the JSON format of docs/interfaces.md (and dispatch to UFF by suffix)."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import InputError
+from ..testdata import FRFData, MeasuredMode, StaticData, TestData
+
+UFF_SUFFIXES = (".uff", ".unv")
+
+
+def load_testdata(path, model=None) -> TestData:
+    """Read test data from JSON or a universal file (``.uff``/``.unv``).
+
+    With ``model``, every dof in the data must be a model dof (the message names the others).
+    """
+    path = Path(path)
+    if path.suffix.lower() in UFF_SUFFIXES:
+        from .uff import read_uff
+
+        data = read_uff(path)
+    else:
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            raise InputError(f"{path}: no such file") from None
+        except (IsADirectoryError, UnicodeDecodeError):
+            raise InputError(f"{path}: not a readable JSON text file") from None
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{path}: malformed JSON: {exc}") from None
+        try:
+            data = testdata_from_dict(raw)
+        except InputError as exc:
+            raise InputError(f"{path}: {exc}") from None
+    if model is not None:
+        check_dofs(data, model, str(path))
+    return data
+
+
+def check_dofs(data: TestData, model, source: str) -> None:
+    known = set(model.dofs)
+    bad: dict[str, None] = {}
+    for m in data.modes:
+        for d in m.dofs:
+            if d not in known:
+                bad.setdefault(d)
+    if data.frf is not None:
+        for d in list(data.frf.dofs) + list(data.frf.force):
+            if d not in known:
+                bad.setdefault(d)
+    for s in data.static:
+        for d in list(s.dofs) + list(s.force):
+            if d not in known:
+                bad.setdefault(d)
+    if bad:
+        from ..dofs import describe
+
+        raise InputError(f"{source}: dof(s) not in the model {model.name!r}: {describe(list(bad))}")
+
+
+def _number(v, what):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"{what}: expected a number, got {v!r}")
+    if not math.isfinite(v):
+        raise InputError(f"{what}: NaN or infinite value")
+    return float(v)
+
+
+def _complex(v, what):
+    if isinstance(v, list):
+        if len(v) != 2:
+            raise InputError(f"{what}: a complex value is a pair [re, im], got {v!r}")
+        return complex(_number(v[0], what), _number(v[1], what))
+    return _number(v, what)
+
+
+def testdata_from_dict(raw) -> TestData:
+    """Build :class:`TestData` from the parsed JSON object."""
+    if not isinstance(raw, Mapping):
+        raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
+    unknown = sorted(set(raw) - {"modes", "frf", "static", "units"})
+    if unknown:
+        raise InputError(f"unknown key(s) {', '.join(unknown)} (expected modes, frf, static)")
+    modes = []
+    for i, m in enumerate(raw.get("modes", []) or [], start=1):
+        where = f"modes[{i}]"
+        if not isinstance(m, Mapping):
+            raise InputError(f"{where}: expected an object")
+        unknown = sorted(set(m) - {"frequency_hz", "eigenvalue", "shape", "label"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}")
+        if ("frequency_hz" in m) == ("eigenvalue" in m):
+            raise InputError(f"{where}: give exactly one of frequency_hz or eigenvalue")
+        shape = m.get("shape", {}) or {}
+        if not isinstance(shape, Mapping):
+            raise InputError(f"{where}: shape must be an object {{dof: value}}")
+        vals = [_complex(v, f"{where} shape {d}") for d, v in shape.items()]
+        arr = np.array(vals, dtype=complex if any(isinstance(v, complex) for v in vals) else float)
+        label = str(m.get("label", f"mode {i}"))
+        try:
+            if "frequency_hz" in m:
+                modes.append(MeasuredMode.from_frequency(_number(m["frequency_hz"], f"{where} frequency_hz"), list(shape), arr, label))
+            else:
+                modes.append(MeasuredMode(_number(m["eigenvalue"], f"{where} eigenvalue"), tuple(shape), arr, label))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    frf = None
+    if raw.get("frf") is not None:
+        frf = _frf(raw["frf"])
+    static_raw = raw.get("static") or []
+    if isinstance(static_raw, Mapping):
+        static_raw = [static_raw]
+    static = []
+    for i, s in enumerate(static_raw, start=1):
+        where = f"static[{i}]"
+        if not isinstance(s, Mapping) or "force" not in s or "displacement" not in s:
+            raise InputError(f"{where}: needs 'force' and 'displacement' objects")
+        force = {d: _number(v, f"{where} force {d}") for d, v in s["force"].items()}
+        disp = s["displacement"]
+        static.append(StaticData(force, tuple(disp), np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])))
+    if not modes and frf is None and not static:
+        raise InputError("no test data: expected at least one of modes, frf, static")
+    return TestData(tuple(modes), frf, tuple(static), dict(raw.get("units", {}) or {}))
+
+
+def _frf(f) -> FRFData:
+    if not isinstance(f, Mapping):
+        raise InputError("frf must be an object")
+    for k in ("omega_rad_s", "force", "response"):
+        if k not in f:
+            raise InputError(f"frf: missing '{k}'")
+    unknown = sorted(set(f) - {"omega_rad_s", "force", "response"})
+    if unknown:
+        raise InputError(f"frf: unknown key(s) {', '.join(unknown)}")
+    omega = [_number(w, "frf omega_rad_s") for w in f["omega_rad_s"]]
+    force = {d: _complex(v, f"frf force {d}") for d, v in f["force"].items()}
+    dofs, cols = [], []
+    for d, series in f["response"].items():
+        if not isinstance(series, list) or len(series) != len(omega):
+            raise InputError(f"frf response {d}: expected {len(omega)} values (one per frequency), got {len(series) if isinstance(series, list) else series!r}")
+        dofs.append(d)
+        cols.append([_complex(v, f"frf response {d}") for v in series])
+    if not dofs:
+        raise InputError("frf: response is empty")
+    arr = np.array(cols).T
+    if np.iscomplexobj(arr) and not np.any(arr.imag):
+        arr = arr.real
+    return FRFData(np.array(omega), force, tuple(dofs), arr)

@@ -1,0 +1,48 @@
+"""Reproduction of the reference paper's numbered results (``femupdate paper``).
+
+Each section is a function ``(out_dir, figures) -> dict`` registered in :data:`SECTIONS`; the
+dict holds the computed values, the paper's printed values where there are any, a one-line
+``summary`` and ``agrees_with_paper`` (True / False / None when the paper prints no number).
+Later capabilities add their sections to the same registry.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..io.results import to_jsonable, write_json
+from . import direct_sections
+
+SECTIONS = {
+    "eq5_direct_three_dof": direct_sections.eq5_direct_three_dof,
+    "figure2_direct": direct_sections.figure2_direct,
+    "eq29_frf_direct_two_dof": direct_sections.eq29_frf_direct_two_dof,
+    "two_dof_characteristic": direct_sections.two_dof_characteristic,
+}
+
+
+def run_sections(out_dir, names=None, figures: bool = True) -> dict:
+    """Run the named sections (default all) and write ``out_dir/paper.json``.
+
+    Sections already in an existing ``paper.json`` and not re-run are kept.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(SECTIONS) if not names else list(names)
+    path = out_dir / "paper.json"
+    previous = {}
+    if path.exists():
+        try:
+            previous = json.loads(path.read_text()).get("sections", {})
+        except (json.JSONDecodeError, AttributeError):
+            previous = {}
+    sections = dict(previous)
+    for name in names:
+        sections[name] = to_jsonable(SECTIONS[name](out_dir, figures))
+    result = {
+        "paper": "Issues concerning the updating of finite-element models from experimental data",
+        "sections": {k: sections[k] for k in SECTIONS if k in sections} | {k: v for k, v in sections.items() if k not in SECTIONS},
+    }
+    write_json(path, result)
+    return result
