@@ -70,12 +70,17 @@ def modal_scale_factor(test: np.ndarray, model: np.ndarray) -> np.ndarray:
 
 
 def comac(test: np.ndarray, model: np.ndarray) -> np.ndarray:
-    r"""Coordinate MAC per dof over paired modes (columns of ``test`` and ``model`` paired).
+    r"""Coordinate MAC per dof over paired modes (Lieven & Ewins 1988).
 
-    Each model shape is first scaled to its test shape by the modal scale factor and each pair
-    is scaled to unit test norm, so the result does not depend on the shapes' scaling:
+    Columns of ``test`` and ``model`` are paired modes.  Each model shape is first scaled to its
+    test shape by the modal scale factor and each pair to unit test norm, so that the result
+    does not depend on the shapes' scaling and every mode weighs alike:
 
-    .. math:: \mathrm{COMAC}_i = (\sum_r |t_{ir} a_{ir}|)^2 / (\sum_r t_{ir}^2 \sum_r a_{ir}^2)
+    .. math:: \mathrm{COMAC}_i = (\sum_r |t_{ir} a_{ir}|)^2 / (\sum_r |t_{ir}|^2 \sum_r |a_{ir}|^2)
+
+    A low value marks a dof whose measured motion does not follow the model across the modes
+    (a bad sensor, a wrong label, local modelling error).  A factor common to all modes at a
+    dof (a calibration error, even a reversed sensor) is invisible to it.
     """
     test = np.asarray(test)
     model = np.asarray(model) * modal_scale_factor(test, np.asarray(model))

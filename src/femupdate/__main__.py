@@ -1,0 +1,5 @@
+"""``python -m femupdate`` = the ``femupdate`` command."""
+
+from .cli import main
+
+main()

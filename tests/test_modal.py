@@ -1,0 +1,105 @@
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from femupdate import InputError, NumericalError, model_modes, normalise, solve_modes
+from femupdate.examples import chain, two_dof
+
+from conftest import cantilever_beam2d
+
+
+def test_two_dof_closed_form():
+    # det(K - lam M) = 8 lam^2 - 68 lam + 48 (paper eq. 11 with m1=2, m2=4, k1=8, k2=6)
+    modes = model_modes(two_dof())
+    expected = np.sort(np.roots([8.0, -68.0, 48.0]))
+    np.testing.assert_allclose(modes.eigenvalues, expected, rtol=1e-13)
+    np.testing.assert_allclose(modes.frequencies_hz, np.sqrt(expected) / (2 * np.pi), rtol=1e-13)
+
+
+@pytest.mark.parametrize("method", ["dense", "sparse"])
+def test_invariants(method):
+    model = cantilever_beam2d(n_el=30).build()
+    K, M = model.K(), model.M()
+    res = model_modes(model, n_modes=6, method=method)
+    Phi, lam = res.shapes, res.eigenvalues
+    resid = K @ Phi - (M @ Phi) * lam
+    eps = np.finfo(float).eps
+    normK = sp.linalg.norm(K, 1)
+    assert np.max(np.linalg.norm(resid, axis=0) / (normK * np.linalg.norm(Phi, axis=0))) < 1e4 * eps
+    np.testing.assert_allclose(Phi.T @ (M @ Phi), np.eye(6), atol=1e-10)
+
+
+def test_dense_and_sparse_agree():
+    model = chain(np.linspace(1e3, 3e3, 2000), np.linspace(1.0, 2.0, 2000))
+    dense = model_modes(model, n_modes=5, method="dense")
+    sparse = model_modes(model, n_modes=5, method="sparse")
+    np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues, rtol=1e-9)
+    # same shapes up to the (fixed) sign convention
+    np.testing.assert_allclose(np.abs(np.sum(sparse.shapes * (model.M() @ dense.shapes), axis=0)), 1.0, atol=1e-8)
+
+
+def test_auto_method_switches_by_size():
+    model = chain(np.full(3000, 1e3), np.ones(3000))
+    res = model_modes(model, n_modes=3)  # auto -> sparse shift-invert
+    # closed form for a uniform grounded chain with free end: lam_r = 4k/m sin^2((2r-1) pi / (2(2N+1)))
+    n = 3000
+    r = np.arange(1, 4)
+    expected = 4e3 * np.sin((2 * r - 1) * np.pi / (2 * (2 * n + 1))) ** 2
+    np.testing.assert_allclose(res.eigenvalues, expected, rtol=1e-8)
+
+
+@pytest.mark.parametrize("method", ["dense", "sparse"])
+def test_free_free_rigid_modes(method):
+    s = cantilever_beam2d(n_el=40)
+    s.support_nodes.clear()
+    res = model_modes(s.build(), n_modes=6, method=method)
+    assert res.n_rigid == 3
+    np.testing.assert_array_equal(res.eigenvalues[:3], 0.0)
+    EI, mA = 2.1e11 * 8.33e-8, 7850 * 1e-3
+    beta = (np.sqrt(res.eigenvalues[3:5]) / np.sqrt(EI / mA)) ** 0.5
+    np.testing.assert_allclose(beta, [4.730041, 7.853205], rtol=2e-5)
+
+
+def test_normalisations():
+    model = two_dof()
+    M = model.M().toarray()
+    unit = model_modes(model, normalisation="unit").shapes
+    np.testing.assert_allclose(np.linalg.norm(unit, axis=0), 1.0)
+    mx = model_modes(model, normalisation="max").shapes
+    np.testing.assert_allclose(np.max(np.abs(mx), axis=0), 1.0)
+    assert np.all(mx.max(axis=0) == 1.0)  # largest entry is +1
+    ref = model_modes(model, normalisation="ref:1:x").shapes
+    np.testing.assert_allclose(ref[0], 1.0)
+    mass = model_modes(model).shapes
+    # all four are the same vectors up to scale
+    for other in (unit, mx, ref):
+        assert np.allclose(np.abs(np.sum(other * mass, 0)) / (np.linalg.norm(other, axis=0) * np.linalg.norm(mass, axis=0)), 1)
+    np.testing.assert_allclose(mass.T @ M @ mass, np.eye(2), atol=1e-12)
+
+
+def test_reference_at_a_node_is_refused():
+    # mode 2 of a symmetric 3-dof chain with free ends has a node at the middle dof
+    K = np.array([[1.0, -1, 0], [-1, 2, -1], [0, -1, 1]])
+    with pytest.raises(NumericalError, match="node"):
+        normalise(solve_modes(K, np.eye(3), normalisation="unit").shapes, "ref:2:x", dofs=("1:x", "2:x", "3:x"))
+
+
+def test_bad_input():
+    K = np.array([[2.0, -1], [-1, 1]])
+    with pytest.raises(InputError, match="no mass at dof"):
+        solve_modes(K, np.diag([1.0, 0.0]), dofs=("1:x", "2:x"))
+    with pytest.raises(InputError, match="not positive semi-definite"):
+        solve_modes(-K, np.eye(2))
+    with pytest.raises(InputError, match="n_modes"):
+        solve_modes(K, np.eye(2), n_modes=3)
+    with pytest.raises(InputError, match="unknown normalisation"):
+        solve_modes(K, np.eye(2), normalisation="foo")
+    with pytest.raises(InputError, match="not in the model"):
+        solve_modes(K, np.eye(2), dofs=("1:x", "2:x"), normalisation="ref:3:x")
+
+
+def test_modes_at_labels():
+    res = model_modes(two_dof())
+    np.testing.assert_array_equal(res.at(["2:x", "1:x"]), res.shapes[::-1])
+    with pytest.raises(InputError, match="9:x"):
+        res.at(["9:x"])
