@@ -45,7 +45,7 @@ def test_comac_flags_a_bad_dof(rng):
     assert np.argmin(c) == 7 and c[7] < 0.7
     # the bad row also shifts each mode's scale factor a little, so the others stay just below 1
     assert np.all(np.delete(c, 7) > 0.9)
-    np.testing.assert_allclose(comac(A, A * [3.0, -1.0, 2.0]), 1.0)
+    np.testing.assert_allclose(comac(A, A * [3.0, -1.0, 2.0, 0.5]), 1.0)
 
 
 def test_low_mac_leaves_test_mode_unpaired():
