@@ -123,6 +123,13 @@ def _force(model, force: dict, what: str) -> np.ndarray:
     return f
 
 
+INFO_TOL = 1e-10  # |(K_j - s M_j) x| below this fraction of |K_j| |x| is round-off, not data
+
+
+def _fro(A) -> float:
+    return 0.0 if A is None else float(np.sqrt(np.sum(A.data**2)))
+
+
 class _Builder:
     """Accumulates column blocks ``[(K_j - s M_j) x]_j`` and right-hand sides."""
 
@@ -140,6 +147,10 @@ class _Builder:
         self.Kf = model.K(pk)
         self.Mf = model.M(pk)
         self.cols, self.rhs, self.blocks = [], [], []
+        # Frobenius norms of dK/dp_j and dM/dp_j, to tell information from round-off
+        self.kn = np.array([_fro(model.dK[j]) for j in self.free])
+        self.mn = np.array([_fro(model.dM[j]) for j in self.free])
+        self.info = np.zeros(len(self.free))
 
     def add(self, x: np.ndarray, s: float, f: np.ndarray | None, desc: str) -> None:
         """Equations (K(p) - s M(p)) x = f, linear in the unknown p."""
@@ -154,6 +165,9 @@ class _Builder:
         if f is not None:
             r = r + f
         C = np.column_stack(cols)
+        scale = (self.kn + abs(s) * self.mn) * np.linalg.norm(x)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.info = np.maximum(self.info, np.where(scale > 0, np.linalg.norm(C, axis=0) / scale, 0.0))
         if np.iscomplexobj(C) or np.iscomplexobj(r):
             C = np.vstack([C.real, C.imag])
             r = np.concatenate([np.real(r), np.imag(r)])
@@ -166,7 +180,15 @@ class _Builder:
             raise InputError("no complete data to build direct equations from (need mode shapes, FRFs or static deflections at every model dof)")
         A = np.vstack(self.cols)
         b = np.concatenate(self.rhs)
-        return LinearSystem(A, b, tuple(self.model.parameter_names[j] for j in self.free), self.blocks)
+        names = tuple(self.model.parameter_names[j] for j in self.free)
+        blind = [names[i] for i in np.flatnonzero(self.info < INFO_TOL)]
+        if blind:
+            raise InputError(
+                f"direct solve: the data carry no information on parameter(s) {', '.join(blind)} "
+                "(the measured motion does not strain their elements, e.g. no axial motion in bending modes); "
+                "fix them or add data that excite them"
+            )
+        return LinearSystem(A, b, names, self.blocks)
 
 
 def modal_equations(builder: _Builder, modes: Sequence[MeasuredMode], notes: list[str]) -> None:
@@ -236,9 +258,6 @@ def solve_system(model, system: LinearSystem, values=None, bounded: bool = False
             "scale of the parameters is undetermined: fix at least one mass or stiffness parameter, or use FRF/static data with a known force"
         )
     colnorm = np.linalg.norm(A, axis=0)
-    zero = [system.unknowns[j] for j in np.flatnonzero(colnorm == 0)]
-    if zero:
-        raise InputError(f"direct solve: the data carry no information on parameter(s) {', '.join(zero)} (their equations are all zero)")
     As = A / colnorm
     U, s, Vt = np.linalg.svd(As, full_matrices=False)
     tol = max(As.shape) * np.finfo(float).eps * s[0]

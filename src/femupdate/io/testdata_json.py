@@ -37,7 +37,7 @@ def load_testdata(path, model=None) -> TestData:
         except json.JSONDecodeError as exc:
             raise InputError(f"{path}: malformed JSON: {exc}") from None
         try:
-            data = testdata_from_dict(raw)
+            data = parse_testdata(raw)
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
     if model is not None:
@@ -82,7 +82,7 @@ def _complex(v, what):
     return _number(v, what)
 
 
-def testdata_from_dict(raw) -> TestData:
+def parse_testdata(raw) -> TestData:
     """Build :class:`TestData` from the parsed JSON object."""
     if not isinstance(raw, Mapping):
         raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
@@ -90,7 +90,10 @@ def testdata_from_dict(raw) -> TestData:
     if unknown:
         raise InputError(f"unknown key(s) {', '.join(unknown)} (expected modes, frf, static)")
     modes = []
-    for i, m in enumerate(raw.get("modes", []) or [], start=1):
+    modes_raw = raw.get("modes", []) or []
+    if not isinstance(modes_raw, list):
+        raise InputError("'modes' must be a list of mode objects")
+    for i, m in enumerate(modes_raw, start=1):
         where = f"modes[{i}]"
         if not isinstance(m, Mapping):
             raise InputError(f"{where}: expected an object")
@@ -118,17 +121,22 @@ def testdata_from_dict(raw) -> TestData:
     static_raw = raw.get("static") or []
     if isinstance(static_raw, Mapping):
         static_raw = [static_raw]
+    if not isinstance(static_raw, list):
+        raise InputError("'static' must be an object or a list of objects")
     static = []
     for i, s in enumerate(static_raw, start=1):
         where = f"static[{i}]"
-        if not isinstance(s, Mapping) or "force" not in s or "displacement" not in s:
-            raise InputError(f"{where}: needs 'force' and 'displacement' objects")
+        if not isinstance(s, Mapping) or not isinstance(s.get("force"), Mapping) or not isinstance(s.get("displacement"), Mapping):
+            raise InputError(f"{where}: needs 'force' and 'displacement' objects {{dof: value}}")
         force = {d: _number(v, f"{where} force {d}") for d, v in s["force"].items()}
         disp = s["displacement"]
         static.append(StaticData(force, tuple(disp), np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])))
     if not modes and frf is None and not static:
         raise InputError("no test data: expected at least one of modes, frf, static")
-    return TestData(tuple(modes), frf, tuple(static), dict(raw.get("units", {}) or {}))
+    units = raw.get("units", {}) or {}
+    if not isinstance(units, Mapping):
+        raise InputError("'units' must be an object")
+    return TestData(tuple(modes), frf, tuple(static), dict(units))
 
 
 def _frf(f) -> FRFData:
@@ -140,6 +148,10 @@ def _frf(f) -> FRFData:
     unknown = sorted(set(f) - {"omega_rad_s", "force", "response"})
     if unknown:
         raise InputError(f"frf: unknown key(s) {', '.join(unknown)}")
+    if not isinstance(f["omega_rad_s"], list):
+        raise InputError("frf: omega_rad_s must be a list of numbers")
+    if not isinstance(f["force"], Mapping) or not isinstance(f["response"], Mapping):
+        raise InputError("frf: force and response must be objects {dof: ...}")
     omega = [_number(w, "frf omega_rad_s") for w in f["omega_rad_s"]]
     force = {d: _complex(v, f"frf force {d}") for d, v in f["force"].items()}
     dofs, cols = [], []
