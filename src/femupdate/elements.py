@@ -37,6 +37,8 @@ from ._errors import InputError
 
 Terms = list[tuple[tuple[str, ...], np.ndarray]]
 
+MASS_KINDS = ("consistent", "lumped")
+
 
 @dataclass(frozen=True)
 class ElementTerms:
@@ -49,12 +51,30 @@ class ElementTerms:
 # --------------------------------------------------------------------------------------
 # geometry helpers
 # --------------------------------------------------------------------------------------
+def _group_error(message: str, bad: np.ndarray) -> InputError:
+    """InputError whose ``positions`` attribute lists the offending elements of the group.
+
+    Callers that know the elements by name (e.g. :class:`femupdate.Structure`) use
+    ``positions`` to name the culprit instead of the position in the stack.
+    """
+    exc = InputError(message)
+    exc.positions = [int(i) for i in bad]
+    return exc
+
+
+def _check_mass_kind(mass: str) -> None:
+    if mass not in MASS_KINDS:
+        raise InputError(f"mass must be one of {', '.join(MASS_KINDS)}, got {mass!r}")
+
+
 def _lengths(xa: np.ndarray, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.asarray(xb, float) - np.asarray(xa, float)
     length = np.linalg.norm(d, axis=1)
     bad = np.flatnonzero(~(length > 0))
     if bad.size:
-        raise InputError(f"element(s) of zero length at position(s) {bad[:8].tolist()} of the group")
+        raise _group_error(
+            f"element(s) of zero (or undefined) length at position(s) {bad[:8].tolist()} of the group: "
+            "both end nodes at the same point (or a coordinate that is not finite)", bad)
     return d, length
 
 
@@ -68,9 +88,10 @@ def _frame_rotation(xa, xb, orientation) -> tuple[np.ndarray, np.ndarray]:
     vnorm = np.linalg.norm(v, axis=1)
     bad = np.flatnonzero(~(nz > 1e-8 * np.maximum(vnorm, 1e-300)))
     if bad.size:
-        raise InputError(
+        raise _group_error(
             "frame3d orientation vector is parallel to the element axis (or zero) for element(s) "
-            f"at position(s) {bad[:8].tolist()} of the group: give an orientation not along the axis"
+            f"at position(s) {bad[:8].tolist()} of the group: give an orientation not along the axis",
+            bad,
         )
     ez /= nz[:, None]
     ey = np.cross(ez, ex)
@@ -140,12 +161,13 @@ def rod_terms(xa, xb, dim: int = 3, mass: str = "consistent") -> ElementTerms:
     Mass: consistent ``rho A l / 6 [2I, I; I, 2I]`` or lumped ``rho A l / 2 I`` (all
     translations, as is usual for trusses).  ``dim=2`` uses the x-y components only.
     """
+    _check_mass_kind(mass)
     xa, xb = np.asarray(xa, float), np.asarray(xb, float)
     if dim == 2:
         dz = np.abs(xb[:, 2] - xa[:, 2])
         bad = np.flatnonzero(dz > 0)
         if bad.size:
-            raise InputError(f"2-D rod element(s) at position(s) {bad[:8].tolist()} leave the x-y plane (z differs)")
+            raise _group_error(f"2-D rod element(s) at position(s) {bad[:8].tolist()} leave the x-y plane (z differs)", bad)
     elif dim != 3:
         raise InputError(f"rod: dim must be 2 or 3, not {dim!r}")
     d, length = _lengths(xa[:, :dim], xb[:, :dim])
@@ -163,7 +185,7 @@ def _beam2d_T(xa, xb) -> tuple[np.ndarray, np.ndarray]:
     dz = np.abs(xb[:, 2] - xa[:, 2])
     bad = np.flatnonzero(dz > 0)
     if bad.size:
-        raise InputError(f"beam2d element(s) at position(s) {bad[:8].tolist()} leave the x-y plane (z differs)")
+        raise _group_error(f"beam2d element(s) at position(s) {bad[:8].tolist()} leave the x-y plane (z differs)", bad)
     d, length = _lengths(xa[:, :2], xb[:, :2])
     c, s = d[:, 0] / length, d[:, 1] / length
     R = np.zeros((len(length), 3, 3))
@@ -175,6 +197,7 @@ def _beam2d_T(xa, xb) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _beam2d_mass(T, length, mass: str) -> list[tuple[tuple[str, ...], np.ndarray]]:
+    _check_mass_kind(mass)
     n = len(length)
     if mass == "consistent":
         local = _place(n, 6, [([0, 3], _AXM)])
@@ -231,6 +254,7 @@ _PLANE_XY, _PLANE_XZ = [1, 5, 7, 11], [2, 4, 8, 10]
 
 
 def _frame_mass(T, length, mass: str, torsion_factors: list[tuple[str, ...]]):
+    _check_mass_kind(mass)
     n = len(length)
     L = length[:, None, None]
     if mass == "consistent":

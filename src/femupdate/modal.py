@@ -171,9 +171,14 @@ def solve_modes(
         raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
     order = np.argsort(lam)
     lam, Phi = lam[order], Phi[:, order]
-    scale = max(float(np.max(np.abs(lam))), 1e-300)
-    rigid = np.abs(lam) <= 1e-9 * scale
-    if np.any(lam < -1e-9 * scale):
+    # Scale of the pencil, whichever modes were asked for: the largest Rayleigh quotient of a
+    # single dof (<= lambda_max).  Round-off leaves rigid-body eigenvalues at ~1e-16 of it, while
+    # a genuine first mode of a fine beam/frame mesh can lie at 1e-10 of it.
+    kd = np.abs(K.diagonal() if sp.issparse(K) else np.diag(np.asarray(K, float)))
+    md = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, float))
+    scale = max(float(np.max(np.abs(lam))), float(np.max(kd / md)), 1e-300)
+    rigid = np.abs(lam) <= 1e-12 * scale
+    if np.any(lam < -1e-12 * scale):
         raise InputError(
             "K is not positive semi-definite: negative eigenvalue "
             f"{lam.min():.4g} (check for negative stiffness parameters)"

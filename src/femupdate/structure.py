@@ -28,7 +28,7 @@ from ._errors import InputError
 from .dofs import canonical, canonical_all, describe, dof, sort_key
 from .model import Model, Parameter
 
-MASS_KINDS = ("consistent", "lumped")
+MASS_KINDS = el.MASS_KINDS
 
 # element type -> (required properties, optional properties with defaults, stiffness-only?)
 _PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
@@ -96,7 +96,12 @@ class Structure:
         """Declare a parameter (see :class:`femupdate.Parameter`)."""
         if name in self.parameters:
             raise InputError(f"parameter {name!r} declared twice")
-        b = (-math.inf, math.inf) if bounds is None else tuple(bounds)
+        if not isinstance(fixed, (bool, np.bool_)):
+            raise InputError(f"parameter {name!r}: fixed must be true or false, got {fixed!r}")
+        try:
+            b = (-math.inf, math.inf) if bounds is None else tuple(bounds)
+        except TypeError:
+            raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {bounds!r}") from None
         if len(b) != 2:
             raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {list(b)}")
         self.parameters[name] = Parameter(name, value, b, fixed)
@@ -160,15 +165,17 @@ class Structure:
         self._add("mass", [list(dofs)], {"m": m}, where)
 
     def _node_pairs(self, nodes, where):
-        arr = np.asarray(nodes)
+        try:
+            arr = np.asarray(nodes)
+        except (TypeError, ValueError):  # ragged nesting
+            arr = np.empty(0)
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise InputError(f"{where}: nodes must be a pair [a, b] (or an array of pairs), got {nodes!r}")
-        try:
-            arr = arr.astype(np.int64)
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: node ids must be integers, got {nodes!r}") from None
+        if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr) & (arr == np.round(arr)))):
+            raise InputError(f"{where}: node ids must be integers, got {nodes!r}")
+        arr = arr.astype(np.int64)
         same = np.flatnonzero(arr[:, 0] == arr[:, 1])
         if same.size:
             raise InputError(f"{where}: element joins node {arr[same[0], 0]} to itself")
@@ -266,12 +273,18 @@ class Structure:
             where = f"{source}: node #{i}"
             if "id" not in nd or "xyz" not in nd:
                 raise InputError(f"{where} needs 'id' and 'xyz'")
+            unknown = sorted(set(nd) - {"id", "xyz"})
+            if unknown:
+                raise InputError(f"{where}: unknown key(s) {', '.join(map(str, unknown))} (allowed: id, xyz)")
+            node_id = nd["id"]
+            if isinstance(node_id, bool) or not isinstance(node_id, (int, float)) or not float(node_id).is_integer():
+                raise InputError(f"{where}: id must be an integer, got {node_id!r}")
             try:
-                s.node(int(nd["id"]), nd["xyz"])
-            except (TypeError, ValueError):
-                raise InputError(f"{where}: id must be an integer and xyz 2 or 3 numbers") from None
-            except InputError as exc:
+                s.node(int(node_id), nd["xyz"])
+            except InputError as exc:  # before ValueError: InputError is a ValueError
                 raise InputError(f"{where}: {exc}") from None
+            except (TypeError, ValueError):
+                raise InputError(f"{where}: xyz must be 2 or 3 numbers, got {nd['xyz']!r}") from None
         for i, e in enumerate(_list_of_tables(data, "element", source), start=1):
             _element_from_dict(s, e, f"{source}: element #{i}")
         for i, sup in enumerate(_list_of_tables(data, "support", source), start=1):
@@ -284,7 +297,7 @@ class Structure:
                     s.support(list(sup["dofs"]))
                 if "nodes" in sup:
                     s.support_node(list(sup["nodes"]))
-            except (TypeError, ValueError) as exc:
+            except (TypeError, ValueError, OverflowError) as exc:
                 raise InputError(f"{where}: {exc}") from None
         return s
 
@@ -369,7 +382,9 @@ class Structure:
             if g.type == "frame3d_terms":
                 return el.frame3d_physical_terms(xa, xb, g.orientation, mass=g.mass)
         except InputError as exc:
-            raise InputError(f"{g.where[0]} ({g.type}, group of {n_el}): {exc}") from None
+            pos = getattr(exc, "positions", None) or [0]
+            who = ", ".join(g.where[i] for i in pos[:8]) + (f" and {len(pos) - 8} more" if len(pos) > 8 else "")
+            raise InputError(f"{who}: {exc}") from None
         raise InputError(f"{g.where[0]}: unknown element type {g.type!r}")
 
     def _resolve(self, g: _Group, prop: str, pindex: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -433,17 +448,24 @@ def _list_of_tables(data, key, source):
 
 
 _ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation"}
+_TYPE_KEYS = {  # non-property keys that apply to each line-element type
+    "rod": {"nodes", "mass", "dim"},
+    "beam2d": {"nodes", "mass"},
+    "beam2d_terms": {"nodes", "mass"},
+    "frame3d": {"nodes", "mass", "orientation"},
+    "frame3d_terms": {"nodes", "mass", "orientation"},
+}
 
 
 def _element_from_dict(s: Structure, e: Mapping, where: str) -> None:
     t = e.get("type")
-    if t not in _PROPS:
+    if not isinstance(t, str) or t not in _PROPS:
         raise InputError(f"{where}: unknown element type {t!r} (known: {', '.join(ELEMENT_TYPES)})")
     where = f"{where} ({t})"
     if t in ("spring", "mass"):
         allowed = {"type", "dofs", _PROPS[t][0][0]}
     else:
-        allowed = set(_ELEMENT_KEYS) | set(_PROPS[t][0]) | set(_PROPS[t][1])
+        allowed = {"type"} | _TYPE_KEYS[t] | set(_PROPS[t][0]) | set(_PROPS[t][1])
         if t == "frame3d_terms":
             allowed |= {b + s_ for b in _BENDING for s_ in ("", "_y", "_z")}
     unknown = sorted(set(e) - allowed)
