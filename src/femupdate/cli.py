@@ -352,6 +352,10 @@ def main(argv=None) -> None:
     except KeyboardInterrupt:
         click.echo("femupdate: interrupted", err=True)
         sys.exit(130)
+    except OSError as exc:  # e.g. an output folder that cannot be created or written
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)
+        sys.exit(2)
     except MemoryError:
         click.echo("femupdate: error: out of memory (try fewer modes or a smaller model)", err=True)
         sys.exit(1)
