@@ -100,7 +100,7 @@ def _frame_rotation(xa, xb, orientation) -> tuple[np.ndarray, np.ndarray]:
 
 def _to_global(stack_local: np.ndarray, T: np.ndarray) -> np.ndarray:
     """T^T K T for stacks."""
-    return np.einsum("eji,ejk,ekl->eil", T, stack_local, T, optimize=True)
+    return np.matmul(np.matmul(T.transpose(0, 2, 1), stack_local), T)
 
 
 def _place(n_el: int, ne: int, blocks: list[tuple[list[int], np.ndarray]]) -> np.ndarray:

@@ -120,7 +120,7 @@ def frame_lattice(
         * ``"storey_mass"``: ``E_s`` and a density ``rho_s`` per storey, ``L = 2 (nz - 1)``,
           in the order ``E_1, rho_1, E_2, rho_2, ...``.
         * ``"direction"``: ``E_x``, ``E_y`` (beams along x, along y) and ``E_z`` (columns),
-          ``L = 3``.
+          ``L = 3`` (``E_x`` or ``E_y`` is left out when ``nx`` or ``ny`` is 1).
         * ``"none"``: all properties numeric, ``L = 0``.
     support : ``"base"`` | ``"none"``
         Fix every dof of the nodes at z = 0, or leave the lattice free–free.
@@ -166,8 +166,9 @@ def frame_lattice(
             if parameters == "storey_mass":
                 s.parameter(f"rho_{st}", rho, bounds=(lo * rho, hi * rho))
     elif parameters == "direction":
-        for d in "xyz":
-            s.parameter(f"E_{d}", E, bounds=(lo * E, hi * E))
+        for d, present in (("x", nx > 1), ("y", ny > 1), ("z", True)):
+            if present:
+                s.parameter(f"E_{d}", E, bounds=(lo * E, hi * E))
 
     # member families: (nodes (n, 2), storey of each member, direction letter, orientation)
     families = []

@@ -312,10 +312,13 @@ class Structure:
         unknown_sup = [d for d in self.supports if d not in present]
         if unknown_sup:
             raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
-        missing_nodes = [n for n in self.support_nodes if not any(lab.split(':')[0] == str(n) for lab in present)]
+        node_of = {lab: int(lab.split(":", 1)[0]) for lab in all_labels}
+        used_nodes = set(node_of.values())
+        missing_nodes = [n for n in self.support_nodes if n not in used_nodes]
         if missing_nodes:
             raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
-        fixed = set(self.supports) | {lab for lab in all_labels if int(lab.split(':')[0]) in set(self.support_nodes)}
+        sup_nodes = set(self.support_nodes)
+        fixed = set(self.supports) | {lab for lab, nd in node_of.items() if nd in sup_nodes}
         dofs = [lab for lab in all_labels if lab not in fixed]
         if not dofs:
             raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
@@ -346,7 +349,6 @@ class Structure:
         zero = sp.csr_array((n, n))
         K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
         M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
-        used_nodes = {int(lab.split(":")[0]) for lab in all_labels}
         return Model(
             dofs=tuple(dofs), K0=K0, M0=M0,
             parameters=tuple(self.parameters[p] for p in pnames),
