@@ -140,3 +140,16 @@ def test_console_script_end_to_end(tmp_path):
     assert ok.returncode == 0 and "identified" in ok.stdout
     bad = subprocess.run([sys.executable, "-m", "femupdate", "modes", str(tmp_path / "x.toml")], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "no such file" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_uff_round_trip_through_the_cli(tmp_path, capsys):
+    """Model modes written as UFF 55 (3-component nodes, zero-padded) are test data for direct."""
+    (tmp_path / "m.toml").write_text(figure2_model_toml())
+    truth = "k1=1000,k2=2000,k3=1500,k4=500"
+    code, _, err = run(["modes", str(tmp_path / "m.toml"), "--set", truth, "--uff", str(tmp_path / "t.uff")], capsys)
+    assert code == 0, err
+    code, out, err = run(["direct", str(tmp_path / "m.toml"), str(tmp_path / "t.uff"), "--json", "-"], capsys)
+    assert code == 0, err
+    res = json.loads(out)
+    # universal files keep about six significant digits
+    np.testing.assert_allclose([res["parameters"][k] for k in ("k1", "k2", "k3", "k4")], [1000, 2000, 1500, 500], rtol=1e-4)

@@ -24,7 +24,7 @@ def load_testdata(path, model=None) -> TestData:
     if path.suffix.lower() in UFF_SUFFIXES:
         from .uff import read_uff
 
-        data = read_uff(path)
+        data = read_uff(path, model=model)  # drops the zero padding at dofs the model lacks
     else:
         try:
             text = path.read_text()
