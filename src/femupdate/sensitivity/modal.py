@@ -1,0 +1,95 @@
+"""Modal-superposition eigenvector derivatives: complete (Fox & Kapoor 1968) and truncated with
+Wang's (1991) static correction."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._errors import InputError
+from ..modal import _factor, _nearly_singular
+from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
+
+
+def _modal_part(modes, i, F, mjj):
+    """Σ_{r≠i} φ_r φ_rᵀ f / (λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i over the available modes."""
+    lam = modes.eigenvalues
+    Phi = modes.shapes
+    coef = Phi.T @ F  # (m, L)
+    denom = lam - lam[i]
+    denom[i] = 1.0
+    coef = coef / denom[:, None]
+    coef[i] = -0.5 * mjj
+    return Phi @ coef
+
+
+def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarray, np.ndarray]:
+    r"""Eigenvector derivatives by modal superposition over the modes in ``modes``.
+
+    φ_i' = Σ_{r≠i} φ_r (φ_rᵀ f_i)/(λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i.  Exact only when ``modes``
+    holds *every* mode of the model (the paper's "modal method"); with fewer it is the
+    truncated approximation that Fox & Kapoor postulated — use
+    :func:`modal_static_correction` for that case.
+
+    Returns ``(dlam (len(which), L), dphi (n, len(which), L))``.
+    """
+    which = resolve_which(modes, which)
+    params = resolve_params(model, params)
+    check_distinct(modes, which)
+    M = model.M(values)
+    dlam = np.zeros((which.size, params.size))
+    dphi = np.zeros((model.n_dofs, which.size, params.size))
+    for r, i in enumerate(which):
+        phi = modes.shapes[:, i]
+        dl, F, mjj = mode_rhs(model, params, modes.eigenvalues[i], phi, M @ phi)
+        dlam[r] = dl
+        dphi[:, r, :] = _modal_part(modes, i, F, mjj)
+    return dlam, dphi
+
+
+def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None):
+    r"""Truncated modal method with Wang's (1991) static correction.
+
+    The omitted modes' contribution Σ_{r>m} φ_rφ_rᵀ f/(λ_r − λ_i) is approximated by their
+    (shifted) static response Σ_{r>m} φ_rφ_rᵀ f/(λ_r − σ) = [(K − σM)^{-1} − Σ_{r≤m} φ_rφ_rᵀ/(λ_r − σ)] f,
+    with σ = 0 (Wang's static mode) unless K is singular (free-free structures), where a small
+    negative shift is used.  One factorisation serves every mode and parameter.
+
+    Returns ``(dlam (len(which), L), dphi (n, len(which), L))``.
+    """
+    which = resolve_which(modes, which)
+    params = resolve_params(model, params)
+    check_distinct(modes, which)
+    K, M = model.K(values), model.M(values)
+    lu, sigma = shifted_factor(K, M, sigma)
+    lam, Phi = modes.eigenvalues, modes.shapes
+    dlam = np.zeros((which.size, params.size))
+    dphi = np.zeros((model.n_dofs, which.size, params.size))
+    for r, i in enumerate(which):
+        phi = Phi[:, i]
+        dl, F, mjj = mode_rhs(model, params, lam[i], phi, M @ phi)
+        static = lu.solve(F) - Phi @ ((Phi.T @ F) / (lam - sigma)[:, None])
+        dlam[r] = dl
+        dphi[:, r, :] = _modal_part(modes, i, F, mjj) + static
+    return dlam, dphi
+
+
+def shifted_factor(K, M, sigma=None):
+    """LU of K − σM (σ = 0 unless K is singular; then a small negative shift)."""
+    if sigma is None:
+        try:
+            lu = _factor(K)
+            if not _nearly_singular(lu):
+                return lu, 0.0
+        except RuntimeError:
+            pass
+        d = K.diagonal()
+        if not np.any(d > 0):
+            raise InputError("the stiffness matrix has no positive diagonal entry")
+        sigma = -1e-6 * float(np.median(d[d > 0] / M.diagonal()[d > 0]))
+    try:
+        return _factor(K - sigma * M), float(sigma)
+    except RuntimeError as exc:
+        raise InputError(f"K - sigma M is singular at sigma = {sigma:g}: {exc}") from None
+
+
+__all__ = ["modal", "modal_static_correction", "shifted_factor"]
