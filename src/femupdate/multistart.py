@@ -1,0 +1,149 @@
+"""Multi-start updating: random starts within the bounds, distinct solutions clustered and counted.
+
+Starts are drawn from one seeded generator, so a study is reproducible; they run locally, or on
+an existing Dask cluster when a scheduler address is given (``dask.distributed``), with results
+identical for the same seed.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._errors import FemupdateError, InputError
+from .updating import UpdateResult, update
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    parameters: dict[str, float]
+    cost: float
+    count: int
+    starts: list[int]
+
+
+@dataclass(frozen=True, eq=False)
+class MultiStartResult:
+    """``best`` (lowest-cost converged run), ``solutions`` (clusters, most frequent first),
+    ``runs`` (every start's result or error message), ``starts`` (the drawn starting values)."""
+
+    best: UpdateResult | None
+    solutions: list[Solution]
+    runs: list
+    starts: np.ndarray
+    names: tuple[str, ...]
+    total: int
+    converged: int
+    seed: int | None
+
+
+def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_uniform: bool = False) -> np.ndarray:
+    """``n`` starting vectors uniform (or log-uniform) within the parameters' bounds."""
+    idx = [model.parameter_index(nm) for nm in names]
+    lo, hi = model.bounds
+    lo, hi = lo[idx], hi[idx]
+    bad = [nm for nm, a, b in zip(names, lo, hi) if not (np.isfinite(a) and np.isfinite(b))]
+    if bad:
+        raise InputError(f"random starts need finite bounds; give bounds for: {', '.join(bad)}")
+    rng = np.random.default_rng(seed)
+    if log_uniform:
+        if np.any(lo <= 0):
+            raise InputError("log-uniform starts need positive lower bounds")
+        return np.exp(rng.uniform(np.log(lo), np.log(hi), size=(n, len(idx))))
+    return rng.uniform(lo, hi, size=(n, len(idx)))
+
+
+def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> list[list[int]]:
+    """Group solutions whose parameters agree within ``rel_tol`` (relative, per parameter).
+
+    Greedy in order of increasing cost: each cluster is represented by its lowest-cost member.
+    """
+    order = np.argsort(costs)
+    reps: list[int] = []
+    groups: list[list[int]] = []
+    for i in order:
+        for g, r in enumerate(reps):
+            scale = np.maximum(np.abs(points[r]), 1e-300)
+            if np.all(np.abs(points[i] - points[r]) <= rel_tol * scale):
+                groups[g].append(int(i))
+                break
+        else:
+            reps.append(int(i))
+            groups.append([int(i)])
+    return groups
+
+
+def _run_one(model, data, names, start, kwargs):
+    try:
+        return update(model, data, params=names, x0=dict(zip(names, start)), **kwargs)
+    except FemupdateError as exc:  # a start that fails numerically is a result, not a crash
+        return f"{type(exc).__name__}: {exc}"
+
+
+def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
+               scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
+               log_uniform: bool = False, progress: Callable[[int, int], None] | None = None, **kwargs) -> MultiStartResult:
+    """Run :func:`femupdate.updating.update` from ``starts`` random starting points.
+
+    Parameters
+    ----------
+    starts : number of random starts (drawn within the bounds; uniform, or log-uniform).
+    seed : seed of the generator (reproducible studies).
+    scheduler : address of an existing Dask scheduler (``tcp://host:port``); local otherwise.
+    rel_tol : relative distance under which two solutions are the same.
+    cost_tol : a run counts as converged when the solver reports success and its cost is below
+        this (default: no cost limit, i.e. local minima count as converged solutions too).
+    **kwargs : passed to :func:`update`.
+    """
+    if starts < 1:
+        raise InputError("the number of starts must be at least 1")
+    names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    X0 = draw_starts(model, names, starts, seed, log_uniform)
+    if scheduler:
+        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress)
+    else:
+        runs = []
+        for k, x in enumerate(X0):
+            runs.append(_run_one(model, data, names, x, kwargs))
+            if progress:
+                progress(k + 1, starts)
+    ok = [k for k, r in enumerate(runs) if isinstance(r, UpdateResult) and r.success
+          and (cost_tol is None or r.cost <= cost_tol)]
+    solutions = []
+    if ok:
+        pts = np.array([runs[k].x for k in ok])
+        costs = np.array([runs[k].cost for k in ok])
+        for g in cluster(pts, costs, rel_tol):
+            rep = runs[ok[g[0]]]
+            solutions.append(Solution(dict(zip(names, map(float, rep.x))), rep.cost, len(g), [ok[i] for i in g]))
+        solutions.sort(key=lambda s: (-s.count, s.cost))
+    best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
+    return MultiStartResult(best, solutions, runs, X0, names, starts, len(ok), seed)
+
+
+def _run_dask(address, model, data, names, X0, kwargs, progress):
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError:
+        raise InputError("--scheduler needs dask.distributed: pip install 'femupdate[dask]'") from None
+    try:
+        client = Client(address, timeout=10)
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    try:
+        m_f, d_f = client.scatter([model, data], broadcast=True)
+        futures = [client.submit(_run_one, m_f, d_f, names, x, kwargs, pure=False) for x in X0]
+        index = {f.key: k for k, f in enumerate(futures)}
+        runs = [None] * len(futures)
+        for done, f in enumerate(as_completed(futures), start=1):
+            runs[index[f.key]] = f.result()
+            if progress:
+                progress(done, len(futures))
+        return runs
+    finally:
+        client.close()
