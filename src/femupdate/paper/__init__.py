@@ -12,13 +12,15 @@ import json
 from pathlib import Path
 
 from ..io.results import to_jsonable, write_json
-from . import direct_sections
+from . import direct_sections, sensitivity_sections
 
 SECTIONS = {
     "eq5_direct_three_dof": direct_sections.eq5_direct_three_dof,
     "figure2_direct": direct_sections.figure2_direct,
     "eq29_frf_direct_two_dof": direct_sections.eq29_frf_direct_two_dof,
     "two_dof_characteristic": direct_sections.two_dof_characteristic,
+    "eq22_sensitivity": sensitivity_sections.eq22_sensitivity,
+    "two_dof_multistart": sensitivity_sections.two_dof_multistart,
 }
 
 

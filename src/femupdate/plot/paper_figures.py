@@ -44,3 +44,32 @@ def characteristic_curves(path, a1, a0, m1, m2, solutions) -> str:
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     characteristic_axes(a1, a0, m1, m2, solutions, ax=ax)
     return _save(fig, path)
+
+
+def multistart_axes(ms, ax=None):
+    """Random starts (grey) joined to where they converged (coloured by solution)."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4.5))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    where = {}
+    for c, sol in enumerate(ms.solutions):
+        for k in sol.starts:
+            where[k] = c
+    for k, x0 in enumerate(ms.starts):
+        run = ms.runs[k]
+        if k in where:
+            ax.plot([x0[0], run.x[0]], [x0[1], run.x[1]], "-", color=colours[where[k] % len(colours)], alpha=0.25, lw=0.8)
+        ax.plot(*x0[:2], ".", color="0.5", ms=3)
+    for c, sol in enumerate(ms.solutions):
+        v = list(sol.parameters.values())
+        ax.plot(v[0], v[1], "o", color=colours[c % len(colours)], ms=9, mec="k",
+                label=f"({v[0]:.4g}, {v[1]:.4g}): {sol.count} starts")
+    ax.set(xlabel=ms.names[0], ylabel=ms.names[1], title="multi-start updating, one sensor, two modes")
+    ax.legend(loc="upper right")
+    return ax
+
+
+def multistart_scatter(path, ms) -> str:
+    fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    multistart_axes(ms, ax)
+    return _save(fig, path)
