@@ -343,7 +343,8 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         xl, xh = prob.from_p(lo) if parametrisation != "log" else np.log(np.maximum(lo, 0)), prob.from_p(hi) if parametrisation != "log" else np.log(hi)
     if parametrisation == "relative" and np.any(p_start < 0):
         xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
-    n_data = sum(1 + (0 if r is None else len(r[1]) - (1 if r[2] is not None else 0)) for r in prob.shape_rows)
+    # each mode: its eigenvalue, plus n_s - 1 independent shape entries (the scaling removes one)
+    n_data = sum(1 + (0 if r is None else len(r[1]) - 1) for r in prob.shape_rows)
     if n_data < len(names) and regularization is None:
         raise InputError(
             f"{len(names)} parameters but only {n_data} independent data (eigenvalues and scaled shape entries): "

@@ -1,0 +1,173 @@
+import json
+
+import numpy as np
+import pytest
+
+from femupdate import InputError, MeasuredMode, NumericalError, Structure, TestData, model_modes
+from femupdate.examples import chain, two_dof
+from femupdate.multistart import cluster, draw_starts, multistart
+from femupdate.updating import update
+
+K6 = np.array([1000.0, 1800.0, 1500.0, 1200.0, 900.0, 1600.0])
+M6 = np.array([1.0, 1.2, 0.8, 1.1, 0.9, 1.0])
+
+
+def measured(model, dofs, n_modes, values=None, noise=0.0, rng=None, scale=1.0):
+    mm = model_modes(model, values)
+    pos = model.dof_index(dofs)
+    out = []
+    for r in range(n_modes):
+        shape = mm.shapes[pos, r] * scale
+        if noise:
+            shape = shape + noise * np.abs(shape).max() * rng.standard_normal(len(dofs))
+        out.append(MeasuredMode(mm.eigenvalues[r], dofs, shape))
+    return TestData(modes=tuple(out))
+
+
+def six_dof(bounds=(100.0, 5000.0)):
+    return chain(K6, M6, bounds=bounds)
+
+
+@pytest.mark.parametrize("scaling", ["unit", "ref", "max"])
+@pytest.mark.parametrize("parametrisation", ["relative", "log", "absolute"])
+def test_closed_loop_incomplete_shapes(scaling, parametrisation):
+    model = six_dof()
+    data = measured(model, ["2:x", "4:x", "6:x"], 3)
+    res = update(model, data, x0=dict(zip(model.parameter_names, K6 * [0.7, 1.3, 0.8, 1.2, 1.1, 0.9])),
+                 shape_scaling=scaling, parametrisation=parametrisation)
+    assert res.success
+    np.testing.assert_allclose(res.x, K6, rtol=1e-6)
+    assert res.cost < 1e-16
+    assert [p[:2] for p in res.pairs] == [(0, 0), (1, 1), (2, 2)]
+    assert res.history[0]["cost"] > res.history[-1]["cost"]
+
+
+@pytest.mark.parametrize("method", ["trf", "dogbox", "lm"])
+def test_methods_agree(method):
+    model = six_dof()
+    data = measured(model, ["1:x", "3:x", "5:x", "6:x"], 3)
+    res = update(model, data, x0=dict(zip(model.parameter_names, K6 * 0.8)), method=method)
+    np.testing.assert_allclose(res.x, K6, rtol=1e-6)
+
+
+def test_analytic_jacobian_matches_finite_differences():
+    from scipy.optimize._numdiff import approx_derivative
+
+    from femupdate.updating import _Problem
+
+    model = six_dof()
+    data = measured(model, ["2:x", "3:x", "6:x"], 3)
+    for scaling, ref in (("unit", None), ("ref", "3:x"), ("max", None)):
+        prob = _Problem(model, data, model.parameter_names, scaling, ref, {}, 0.5, None, "relative", model.values * 1.1, True, "auto")
+        x = np.ones(6)
+        J = prob.jacobian(x)
+        Jfd = approx_derivative(prob.residuals, x, method="3-point", rel_step=1e-6)
+        np.testing.assert_allclose(J, Jfd, atol=1e-6 * np.abs(Jfd).max())
+
+
+def test_bounds_honoured_and_start_outside_refused():
+    model = chain(np.full(6, 1000.0), M6, bounds=(100.0, 1400.0))  # excludes the true k2, k3, k6
+    data = measured(chain(K6, M6), ["1:x", "2:x", "3:x", "4:x", "5:x", "6:x"], 4)
+    res = update(model, data, x0=dict(zip(model.parameter_names, np.full(6, 1000.0))))
+    assert np.all(res.x <= 1400.0 + 1e-9) and np.all(res.x >= 100.0 - 1e-9)
+    assert np.isclose(res.x, 1400.0).any()
+    with pytest.raises(InputError, match="outside the bounds for: k1"):
+        update(model, data, x0={"k1": 50.0})
+
+
+def test_noise_covariance_is_consistent(rng):
+    """Predicted standard deviations (from the stated measurement noise) match the scatter."""
+    model = six_dof()
+    mm = model_modes(chain(K6, M6))
+    dofs = ["1:x", "2:x", "4:x", "6:x"]
+    pos = model.dof_index(dofs)
+    s_lam, s_shape = 2e-3, 4e-3
+    errs, stds = [], []
+    for _ in range(40):
+        modes = []
+        for r in range(4):
+            psi = mm.shapes[pos, r] / np.linalg.norm(mm.shapes[pos, r])
+            modes.append(MeasuredMode(mm.eigenvalues[r] * (1 + s_lam * rng.standard_normal()), dofs,
+                                      psi + s_shape * rng.standard_normal(len(dofs))))
+        res = update(model, TestData(modes=tuple(modes)), x0=dict(zip(model.parameter_names, K6)),
+                     measurement_std={"eigenvalue": s_lam, "shape": s_shape})
+        errs.append(res.x - K6)
+        stds.append(res.diagnostics.std)
+    ratio = np.std(errs, axis=0) / np.mean(stds, axis=0)
+    assert np.all((ratio > 0.6) & (ratio < 1.6)), ratio
+
+
+def test_mode_swap_is_followed_by_mac():
+    """Two modes cross during updating: pairing by MAC keeps each test mode with its shape."""
+    s = Structure("crossing")
+    s.parameter("ka", 1.0, (0.1, 10)); s.parameter("kb", 3.0, (0.1, 10))
+    s.spring(["1:x"], k="ka"); s.spring(["2:x"], k="kb"); s.spring(["1:x", "2:x"], k=0.01)
+    s.mass(["1:x"], m=1.0); s.mass(["2:x"], m=1.0)
+    model = s.build()
+    # truth: ka = 3, kb = 1 — the order of the two modes is reversed w.r.t. the start
+    data = measured(model, ["1:x", "2:x"], 2, values={"ka": 3.0, "kb": 1.0})
+    res = update(model, data)
+    np.testing.assert_allclose(res.x, [3.0, 1.0], rtol=1e-6)
+    assert res.swaps, "the crossing should be reported"
+
+
+def test_frequencies_only_two_dof_has_two_solutions():
+    model = two_dof()
+    data = measured(model, ["1:x"], 2)
+    ms = multistart(model, data, starts=30, seed=7)
+    sols = sorted((round(s.parameters["k1"], 6), round(s.parameters["k2"], 6)) for s in ms.solutions)
+    assert sols == [(8.0, 6.0), (9.0, round(16 / 3, 6))]
+    assert sum(s.count for s in ms.solutions) == ms.converged == 30
+    again = multistart(model, data, starts=30, seed=7)
+    assert [s.count for s in again.solutions] == [s.count for s in ms.solutions]  # reproducible
+
+
+def test_underdetermined_refused_unless_regularised():
+    model = six_dof()
+    data = measured(model, ["1:x"], 3)  # 3 eigenvalues, 6 unknowns
+    with pytest.raises(InputError, match="6 parameters but only 3 independent data"):
+        update(model, data)
+
+
+def test_unpairable_test_mode_is_a_clear_error():
+    model = six_dof()
+    bogus = TestData(modes=(MeasuredMode(4e3, ["1:x", "2:x", "3:x"], [1.0, -1.0, 1.0]),))
+    with pytest.raises(NumericalError, match="pair with no model mode"):
+        update(model, bogus, params=["k1", "k2"], min_mac=0.99)
+
+
+def test_draw_starts_and_cluster():
+    model = six_dof()
+    X = draw_starts(model, model.parameter_names, 50, seed=3)
+    assert X.shape == (50, 6) and np.all((X >= 100) & (X <= 5000))
+    np.testing.assert_array_equal(X, draw_starts(model, model.parameter_names, 50, seed=3))
+    with pytest.raises(InputError, match="finite bounds"):
+        draw_starts(chain(K6, M6), ["k1"], 2, 0)
+    pts = np.array([[1.0, 2.0], [1.0 + 1e-6, 2.0], [3.0, 1.0]])
+    assert cluster(pts, np.array([0.0, 1e-3, 0.0])) == [[0, 1], [2]]
+
+
+def test_update_cli(tmp_path, capsys):
+    from femupdate.cli import main
+
+    toml = ['[model]', 'name = "six"']
+    for i, k in enumerate(K6, start=1):
+        toml += [f"[parameters.k{i}]", f"value = {k * 1.2}", "bounds = [100.0, 5000.0]"]
+    for i, m in enumerate(M6, start=1):
+        dofs = f'["{i}:x"]' if i == 1 else f'["{i - 1}:x", "{i}:x"]'
+        toml += ["[[element]]", 'type = "spring"', f"dofs = {dofs}", f'k = "k{i}"',
+                 "[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', f"m = {m}"]
+    (tmp_path / "m.toml").write_text("\n".join(toml))
+    data = measured(chain(K6, M6), ["2:x", "4:x", "6:x"], 3)
+    js = {"modes": [{"eigenvalue": m.eigenvalue, "shape": dict(zip(m.dofs, m.shape.tolist()))} for m in data.modes]}
+    (tmp_path / "d.json").write_text(json.dumps(js))
+    with pytest.raises(SystemExit) as info:
+        main(["update", str(tmp_path / "m.toml"), str(tmp_path / "d.json"), "--starts", "4", "--seed", "2", "--json", "-"])
+    out, err = capsys.readouterr()
+    assert info.value.code == 0, err
+    res = json.loads(out)
+    for key in ("parameters", "success", "cost", "iterations", "pairs", "frequencies_hz", "starts"):
+        assert key in res
+    assert set(res["starts"]) >= {"total", "converged", "solutions"} and res["starts"]["total"] == 4
+    np.testing.assert_allclose([res["parameters"][f"k{i}"] for i in range(1, 7)], K6, rtol=1e-5)
+    assert res["starts"]["solutions"][0]["count"] >= 1
