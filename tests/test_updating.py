@@ -171,3 +171,23 @@ def test_update_cli(tmp_path, capsys):
     assert set(res["starts"]) >= {"total", "converged", "solutions"} and res["starts"]["total"] == 4
     np.testing.assert_allclose([res["parameters"][f"k{i}"] for i in range(1, 7)], K6, rtol=1e-5)
     assert res["starts"]["solutions"][0]["count"] >= 1
+
+
+def test_multistart_on_a_dask_cluster_matches_local():
+    distributed = pytest.importorskip("distributed")
+    model = two_dof()
+    data = measured(model, ["1:x"], 2)
+    local = multistart(model, data, starts=12, seed=11)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        remote = multistart(model, data, starts=12, seed=11, scheduler=cluster.scheduler_address)
+    assert [(s.count, round(s.parameters["k1"], 8)) for s in remote.solutions] == \
+        [(s.count, round(s.parameters["k1"], 8)) for s in local.solutions]
+    np.testing.assert_array_equal(remote.starts, local.starts)
+
+
+def test_unreachable_scheduler_is_input_error():
+    pytest.importorskip("distributed")
+    model = two_dof()
+    with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
+        multistart(model, measured(model, ["1:x"], 2), starts=2, scheduler="tcp://127.0.0.1:9", connect_timeout=1.0)

@@ -87,7 +87,8 @@ def _run_one(model, data, names, start, kwargs):
 
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
                scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
-               log_uniform: bool = False, progress: Callable[[int, int], None] | None = None, **kwargs) -> MultiStartResult:
+               log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
+               connect_timeout: float = 10.0, **kwargs) -> MultiStartResult:
     """Run :func:`femupdate.updating.update` from ``starts`` random starting points.
 
     Parameters
@@ -95,6 +96,7 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     starts : number of random starts (drawn within the bounds; uniform, or log-uniform).
     seed : seed of the generator (reproducible studies).
     scheduler : address of an existing Dask scheduler (``tcp://host:port``); local otherwise.
+    connect_timeout : seconds to wait for the scheduler before giving up (an InputError).
     rel_tol : relative distance under which two solutions are the same.
     cost_tol : a run counts as converged when the solver reports success and its cost is below
         this (default: no cost limit, i.e. local minima count as converged solutions too).
@@ -105,7 +107,7 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, starts, seed, log_uniform)
     if scheduler:
-        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress)
+        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout)
     else:
         runs = []
         for k, x in enumerate(X0):
@@ -126,13 +128,13 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     return MultiStartResult(best, solutions, runs, X0, names, starts, len(ok), seed)
 
 
-def _run_dask(address, model, data, names, X0, kwargs, progress):
+def _run_dask(address, model, data, names, X0, kwargs, progress, timeout):
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
         raise InputError("--scheduler needs dask.distributed: pip install 'femupdate[dask]'") from None
     try:
-        client = Client(address, timeout=10)
+        client = Client(address, timeout=timeout)
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
     try:
