@@ -5,18 +5,26 @@
 :func:`nelson`                          Nelson (1976): exact, one sparse factorisation per mode
 :func:`modal`                           modal superposition over all modes (Fox & Kapoor)
 :func:`modal_static_correction`         truncated modes + Wang's (1991) static correction
+:func:`subspace`                        computed modes + deflated Neumann series, ONE
+                                        factorisation (Rudisill & Chu 1975; Ting 1992)
+:func:`adjoint`                         the same series for the measured dofs only: cost
+                                        ∝ sensors × modes, independent of the parameters
 :func:`finite_difference`               central differences with MAC tracking (test oracle)
 :func:`scaled_shape`                    derivative of a shape scaled as the test data are
+:func:`jacobian`                        the updating Jacobian (any route above, "auto")
 =====================================  ===================================================
 """
 
+from .adjoint import adjoint
 from .eigenvalue import eigenvalue_derivatives
 from .finite_difference import finite_difference
+from .jacobian import JacobianResult, jacobian
 from .modal import modal, modal_static_correction
 from .nelson import nelson
 from .scaling import scaled_shape
+from .subspace import buffered_modes, subspace
 
 __all__ = [
-    "eigenvalue_derivatives", "nelson", "modal", "modal_static_correction",
-    "finite_difference", "scaled_shape",
+    "eigenvalue_derivatives", "nelson", "modal", "modal_static_correction", "subspace", "adjoint",
+    "finite_difference", "scaled_shape", "jacobian", "JacobianResult", "buffered_modes",
 ]
