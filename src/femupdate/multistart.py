@@ -78,6 +78,23 @@ def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> lis
     return groups
 
 
+def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_tol: float | None,
+                        rel_tol: float) -> tuple[list[int], list[Solution]]:
+    """Indices of the runs of type ``kind`` that converged (and, with ``cost_tol``, fit), and their
+    distinct solutions from :func:`cluster`, most frequent first (ties: lowest cost first)."""
+    ok = [k for k, r in enumerate(runs) if isinstance(r, kind) and r.success
+          and (cost_tol is None or r.cost <= cost_tol)]
+    solutions = []
+    if ok:
+        pts = np.array([runs[k].x for k in ok])
+        costs = np.array([runs[k].cost for k in ok])
+        for g in cluster(pts, costs, rel_tol):
+            rep = runs[ok[g[0]]]
+            solutions.append(Solution(dict(zip(names, map(float, rep.x))), rep.cost, len(g), [ok[i] for i in g]))
+        solutions.sort(key=lambda s: (-s.count, s.cost))
+    return ok, solutions
+
+
 def _run_one(model, data, names, start, kwargs):
     try:
         return update(model, data, params=names, x0=dict(zip(names, start)), **kwargs)
@@ -88,7 +105,7 @@ def _run_one(model, data, names, start, kwargs):
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
                scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
                log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
-               connect_timeout: float = 10.0, **kwargs) -> MultiStartResult:
+               connect_timeout: float = 10.0, batched: bool | None = None, **kwargs) -> MultiStartResult:
     """Run :func:`femupdate.updating.update` from ``starts`` random starting points.
 
     Parameters
@@ -100,12 +117,32 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     rel_tol : relative distance under which two solutions are the same.
     cost_tol : a run counts as converged when the solver reports success and its cost is below
         this (default: no cost limit, i.e. local minima count as converged solutions too).
+    batched : advance all starts at once (:mod:`femupdate.batch`, same algorithm, same answers);
+        ``None`` (default): batched when no scheduler is given, the model has at most
+        :data:`femupdate.batch.AUTO_MAX_DOFS` dofs and the options are supported; ``False``: one
+        :func:`update` per start.
     **kwargs : passed to :func:`update`.
     """
     if starts < 1:
         raise InputError("the number of starts must be at least 1")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, starts, seed, log_uniform)
+    # ---- batched path (femupdate.batch): all starts at once for small dense models -------------
+    if batched is None:
+        from .batch import supports
+
+        batched = scheduler is None and supports(model, kwargs)
+    if batched:
+        from .batch import multistart_batched, unsupported
+
+        if scheduler:
+            raise InputError("batched=True runs the starts locally; give no scheduler, or batched=False")
+        reason = unsupported(model, kwargs, explicit=True)
+        if reason:
+            raise InputError(f"batched=True: {reason}; use batched=False")
+        return multistart_batched(model, data, names, X0, seed=seed, rel_tol=rel_tol, cost_tol=cost_tol,
+                                  progress=progress, **kwargs)
+    # ---- end of the batched path ----------------------------------------------------------------
     if scheduler:
         runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout)
     else:
@@ -114,16 +151,7 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
             runs.append(_run_one(model, data, names, x, kwargs))
             if progress:
                 progress(k + 1, starts)
-    ok = [k for k, r in enumerate(runs) if isinstance(r, UpdateResult) and r.success
-          and (cost_tol is None or r.cost <= cost_tol)]
-    solutions = []
-    if ok:
-        pts = np.array([runs[k].x for k in ok])
-        costs = np.array([runs[k].cost for k in ok])
-        for g in cluster(pts, costs, rel_tol):
-            rep = runs[ok[g[0]]]
-            solutions.append(Solution(dict(zip(names, map(float, rep.x))), rep.cost, len(g), [ok[i] for i in g]))
-        solutions.sort(key=lambda s: (-s.count, s.cost))
+    ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol)
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
     return MultiStartResult(best, solutions, runs, X0, names, starts, len(ok), seed)
 
