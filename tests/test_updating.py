@@ -65,6 +65,42 @@ def test_analytic_jacobian_matches_finite_differences():
         np.testing.assert_allclose(J, Jfd, atol=1e-6 * np.abs(Jfd).max())
 
 
+def long_chain(n=1600, k=(2.0e6, 1.5e6, 1.8e6, 1.2e6)):
+    """A grounded chain of n unit masses above the dense limit; the springs in len(k) grouped segments."""
+    s = Structure("long chain")
+    for j, kj in enumerate(k):
+        s.parameter(f"k{j + 1}", kj, (1e5, 1e8))
+    for i in range(1, n + 1):
+        s.spring([f"{i}:x"] if i == 1 else [f"{i - 1}:x", f"{i}:x"], k=f"k{(i - 1) * len(k) // n + 1}")
+        s.mass([f"{i}:x"], m=1.0)
+    return s.build()
+
+
+def test_large_model_takes_the_series_jacobian_and_it_matches_nelson():
+    from femupdate.updating import _Problem
+
+    model = long_chain()
+    assert model.n_dofs > 1500  # "auto" leaves Nelson's dense route
+    data = measured(model, ["400:x", "1000:x", "1600:x"], 3)  # 3 sensors < 4 parameters: adjoint
+    x = np.array([1.1, 0.9, 1.05, 0.95])
+    J = {}
+    for how in ("auto", "nelson", "subspace"):
+        prob = _Problem(model, data, model.parameter_names, "ref", None, {}, 0.5, None, "relative", model.values, True, how)
+        J[how] = prob.jacobian(x)
+        assert prob.sensitivity_used == ("adjoint" if how == "auto" else how)
+    np.testing.assert_allclose(J["auto"], J["nelson"], rtol=0, atol=1e-7 * np.abs(J["nelson"]).max())
+    np.testing.assert_allclose(J["subspace"], J["nelson"], rtol=0, atol=1e-7 * np.abs(J["nelson"]).max())
+    res = update(model, data, x0=dict(zip(model.parameter_names, model.values * [0.8, 1.2, 0.9, 1.1])), shape_scaling="ref")
+    assert res.success and res.sensitivity == "adjoint"
+    np.testing.assert_allclose(res.x, model.values, rtol=1e-6)
+
+
+def test_unknown_sensitivity_route_is_input_error():
+    model = six_dof()
+    with pytest.raises(InputError, match="sensitivity"):
+        update(model, measured(model, ["1:x", "6:x"], 3), sensitivity="magic")
+
+
 def test_bounds_honoured_and_start_outside_refused():
     model = chain(np.full(6, 1000.0), M6, bounds=(100.0, 1400.0))  # excludes the true k2, k3, k6
     data = measured(chain(K6, M6), ["1:x", "2:x", "3:x", "4:x", "5:x", "6:x"], 4)

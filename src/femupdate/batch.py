@@ -1290,6 +1290,7 @@ def _result_at(prob: BatchProblem, r: int, run: BatchRun) -> UpdateResult:
         iterations=run.iterations, history=run.history, pairs=list(run.pairs),
         test_frequencies_hz=data.frequencies_hz, model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
         swaps=[], diagnostics=_diagnostics(pr, x, f, J, prob.sigma), regularization={}, start=dict(run.start),
+        sensitivity=pr.sensitivity_used,
     )
 
 

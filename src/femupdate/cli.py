@@ -252,6 +252,7 @@ def _update_payload(model, data, res, ms=None):
         "swaps": res.swaps,
         "history": res.history,
         "regularization": res.regularization,
+        "sensitivity": res.sensitivity,
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
@@ -286,6 +287,9 @@ def _update_payload(model, data, res, ms=None):
 @click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
+@click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
+              default="auto", show_default=True,
+              help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
 @click.option("--std-eigenvalue", type=float, default=None, help="Relative std of measured eigenvalues (for the covariance).")
 @click.option("--std-shape", type=float, default=None, help="Std of scaled shape entries (for the covariance).")
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
@@ -293,7 +297,8 @@ def _update_payload(model, data, res, ms=None):
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, max_nfev, eigenvalues_only, std_eigenvalue, std_shape, plot_dir, set_text, json_path):
+           method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, std_eigenvalue, std_shape, plot_dir,
+           set_text, json_path):
     """Update MODEL's parameters iteratively from measured modes in DATA (any measured dofs)."""
     from .io.model_file import load_model
     from .io.testdata_json import load_testdata
@@ -308,7 +313,7 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
     std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape)) if v is not None} or None
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
               regularization=_parse_regularization(reg_text), min_mac=min_mac, max_nfev=max_nfev,
-              use_shapes=not eigenvalues_only, measurement_std=std, values=values)
+              use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity)
     ms = None
     if starts == 1 and not scheduler:
         res = _update(model, data, params=params, **kw)

@@ -26,13 +26,17 @@ from scipy.optimize import least_squares
 from ._errors import InputError, NumericalError
 from .correlation import mac, pair_modes
 from .modal import model_modes
-from .sensitivity import eigenvalue_derivatives, nelson, scaled_shape
+from .sensitivity import eigenvalue_derivatives, scaled_shape
+from .sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
+from .sensitivity.jacobian import jacobian as sensitivity_jacobian
+from .sensitivity.subspace import buffered_modes
 from .testdata import TestData
 
 log = logging.getLogger(__name__)
 
 PARAMETRISATIONS = ("relative", "log", "absolute")
 SHAPE_SCALINGS = ("unit", "ref", "max")
+SENSITIVITY_CHOICES = SENSITIVITY_METHODS  # "auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,6 +85,7 @@ class UpdateResult:
     diagnostics: Diagnostics | None
     regularization: dict = field(default_factory=dict)
     start: dict[str, float] = field(default_factory=dict)
+    sensitivity: str = ""  # the derivative route used at the solution (``"auto"`` resolved)
 
 
 class _Problem:
@@ -97,6 +102,7 @@ class _Problem:
         self.p_base = p_base  # full parameter vector: fixed ones stay at these values
         self.scale = np.where(p_base[self.idx] != 0, np.abs(p_base[self.idx]), 1.0)
         self.sensitivity = sensitivity
+        self.sensitivity_used = sensitivity
         if shape_scaling not in SHAPE_SCALINGS:
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         self.scaling = shape_scaling
@@ -127,8 +133,11 @@ class _Problem:
             self.shape_rows.append((pos, psi_e, ref))
         has_shape = [r is not None for r in self.shape_rows]
         self.any_shape = any(has_shape)
+        # the union of the measured dofs: where the shape derivatives are needed
+        self.sensors = np.unique(np.concatenate([r[0] for r in self.shape_rows if r is not None] or [np.zeros(0, np.intp)]))
         n_test = len(data.modes)
-        self.n_modes = min(model.n_dofs, n_modes or max(2 * n_test, n_test + 4))
+        # a buffer of modes above the paired ones: room to re-pair, and what the series routes need
+        self.n_modes = min(model.n_dofs, n_modes or buffered_modes(n_test))
         self.cache_key = None
         self.pairs_seen: dict[int, int] = {}
         self.swaps: list[dict] = []
@@ -228,17 +237,24 @@ class _Problem:
         p, modes, pairs = self._evaluate(x)
         which = [j for _, j, _ in pairs]
         L = self.idx.size
-        if self.any_shape and self.sensitivity != "eigenvalues-only":
-            dlam, dphi = nelson(self.model, modes, which, self.idx, p)
+        if self.any_shape:
+            # mass-normalised derivatives at the measured dofs only, by the route asked for
+            # ("auto": Nelson for small models, the adjoint/subspace series for large ones)
+            sens = sensitivity_jacobian(self.model, modes, which, self.sensors, params=self.idx, values=p,
+                                        method=self.sensitivity, shape_scaling="mass", relative_eigenvalues=False)
+            dlam, dphi_s = sens.dlam, sens.dpsi
+            self.sensitivity_used = sens.method
         else:
-            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx), None
+            dlam, dphi_s = eigenvalue_derivatives(self.model, modes, which, self.idx), None
+            self.sensitivity_used = "fox-kapoor"
         rows = []
         for c, (k, j, _) in enumerate(pairs):
             rows.append(self.w_lam[k] * dlam[c][None, :] / self.lam_e[k])
             row = self.shape_rows[k]
             if row is not None:
                 pos, psi_e, ref = row
-                psi_a, dpsi = scaled_shape(modes.shapes[pos, j], dphi[pos, c, :], self.scaling, ref)
+                at = np.searchsorted(self.sensors, pos)
+                psi_a, dpsi = scaled_shape(modes.shapes[pos, j], dphi_s[at, c, :], self.scaling, ref)
                 if self.scaling == "unit" and psi_a @ psi_e < 0:
                     dpsi = -dpsi
                 d = self.w_shape * dpsi
@@ -298,6 +314,10 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     min_mac : pairing threshold.
     parametrisation : ``"relative"`` (x = p / p_start, default), ``"log"`` (x = log p) or ``"absolute"``.
     method : ``"trf"`` | ``"dogbox"`` | ``"lm"`` (Levenberg–Marquardt; no bounds).
+    sensitivity : derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`):
+        ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint series when there are fewer
+        measured dofs than parameters, else the subspace series), ``"nelson"``, ``"modal"``,
+        ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
     regularization : None, a Tikhonov factor α, or ``"gcv"`` / ``"lcurve"`` to choose it at the
         start; the residual is augmented with α (x − x_start), pulling the scaled parameters
         toward the starting model.
@@ -313,6 +333,8 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
+    if sensitivity not in SENSITIVITY_CHOICES:
+        raise InputError(f"unknown sensitivity method {sensitivity!r}: use {', '.join(SENSITIVITY_CHOICES)}")
     names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
     if not names:
         raise InputError("no parameters to update: every parameter is fixed")
@@ -408,5 +430,5 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         pairs=[(k, j, float(m) if np.isfinite(m) else float(mac(prob.shape_rows[k][1], modes.shapes[prob.shape_rows[k][0], j])[0, 0]) if prob.shape_rows[k] is not None else math.nan) for k, j, m in pairs],
         test_frequencies_hz=data.frequencies_hz, model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
         swaps=list(prob.swaps), diagnostics=diag, regularization=reg,
-        start=dict(zip(names, map(float, p_start))),
+        start=dict(zip(names, map(float, p_start))), sensitivity=prob.sensitivity_used,
     )
