@@ -483,6 +483,20 @@ def demo(write_dir, json_path):
     })
 
 
+def _load_command_modules() -> None:
+    """Import every module of :mod:`femupdate.commands`: each adds its commands to :func:`cli`."""
+    import importlib
+    import pkgutil
+
+    from . import commands
+
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{commands.__name__}.{info.name}")
+
+
+_load_command_modules()
+
+
 def main(argv=None) -> None:
     """Entry point: run the CLI, turning femupdate errors into one message and an exit code."""
     try:

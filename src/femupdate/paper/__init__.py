@@ -12,16 +12,29 @@ import json
 from pathlib import Path
 
 from ..io.results import to_jsonable, write_json
-from . import direct_sections, sensitivity_sections
 
-SECTIONS = {
-    "eq5_direct_three_dof": direct_sections.eq5_direct_three_dof,
-    "figure2_direct": direct_sections.figure2_direct,
-    "eq29_frf_direct_two_dof": direct_sections.eq29_frf_direct_two_dof,
-    "two_dof_characteristic": direct_sections.two_dof_characteristic,
-    "eq22_sensitivity": sensitivity_sections.eq22_sensitivity,
-    "two_dof_multistart": sensitivity_sections.two_dof_multistart,
-}
+
+def _discover() -> dict:
+    """Sections of every ``*_sections`` module of this package, ordered by the modules' ``ORDER``.
+
+    A section module defines ``ORDER`` (an int: its place in ``paper.json``) and ``SECTIONS``
+    ({name: function(out_dir, figures) -> dict}).
+    """
+    import importlib
+    import pkgutil
+
+    mods = [importlib.import_module(f"{__name__}.{m.name}") for m in pkgutil.iter_modules(__path__)
+            if m.name.endswith("_sections")]
+    out: dict = {}
+    for mod in sorted(mods, key=lambda m: (getattr(m, "ORDER", 1000), m.__name__)):
+        for name, fn in mod.SECTIONS.items():
+            if name in out:
+                raise RuntimeError(f"paper section {name!r} is defined twice")
+            out[name] = fn
+    return out
+
+
+SECTIONS = _discover()
 
 
 def run_sections(out_dir, names=None, figures: bool = True) -> dict:

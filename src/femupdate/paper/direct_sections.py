@@ -193,3 +193,7 @@ def two_dof_characteristic(out_dir, figures=True) -> dict:
 
         out["figure"] = characteristic_curves(out_dir / "two_dof_characteristic.png", a1, a0, m1, m2, sols)
     return out
+
+
+ORDER = 10
+SECTIONS = {"eq5_direct_three_dof": eq5_direct_three_dof, "figure2_direct": figure2_direct, "eq29_frf_direct_two_dof": eq29_frf_direct_two_dof, "two_dof_characteristic": two_dof_characteristic}

@@ -72,3 +72,7 @@ def two_dof_multistart(out_dir, figures=True, starts: int = 100, seed: int = 199
 
         out["figure"] = multistart_scatter(out_dir / "two_dof_multistart.png", ms)
     return out
+
+
+ORDER = 20
+SECTIONS = {"eq22_sensitivity": eq22_sensitivity, "two_dof_multistart": two_dof_multistart}
