@@ -450,3 +450,29 @@ def test_benchmark_quick(tmp_path):
     res = json.loads(out.read_text())
     assert res["checks"]["adjoint_vs_subspace"]["ok"] and res["checks"]["adjoint_vs_fd"]["ok"]
     assert res["model"]["n_parameters"] > res["model"]["n_sensors"]
+
+
+# ------------------------------------------------------------------------------- the eigensolver's factor
+@pytest.mark.parametrize("name", ["cantilever", "free_free"])
+def test_series_routes_reuse_the_eigensolvers_factor(name, monkeypatch):
+    sub = importlib.import_module("femupdate.sensitivity.subspace")  # (the package exports a function of that name)
+
+    c = case(name)
+    model = c["model"]
+    sparse_modes = model_modes(model, n_modes=c["trunc"].n_modes, method="sparse")
+    assert sparse_modes.factor is not None and c["full"].factor is None  # dense path: no factor
+    lu, sigma = sparse_modes.factor
+    assert sigma < np.min(sparse_modes.eigenvalues) and (sigma < 0) == (sparse_modes.n_rigid > 0)
+    kw = dict(shape_scaling="mass")  # (scaled shapes do not depend on a uniform density: round-off only)
+    own = jacobian(model, sparse_modes, c["which"], c["sensors"], method="adjoint", **kw)
+
+    def no_factorising(*a, **k):
+        raise AssertionError("factorised again although the modes carry their factor")
+
+    monkeypatch.setattr(sub, "shifted_factor", no_factorising)
+    for method in ("adjoint", "subspace"):
+        reused = jacobian(model, sparse_modes, c["which"], c["sensors"], method=method, **kw)
+        # against Nelson on every mode (dense), not merely against itself
+        ref = jacobian(model, c["full"], c["which"], c["sensors"], method="nelson", **kw)
+        assert rel_err(reused.dlam, ref.dlam) < ROUTE_TOL and rel_err(reused.dpsi, ref.dpsi) < ROUTE_TOL
+    assert rel_err(own.dpsi, ref.dpsi) < ROUTE_TOL

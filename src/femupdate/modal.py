@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -41,6 +41,10 @@ class Modes:
         ``"mass"``, ``"unit"``, ``"max"`` or ``"ref:<dof>"``.
     n_rigid : int
         Number of rigid-body (zero-frequency) modes among them.
+    factor : tuple (lu, sigma) or None
+        The sparse path's factorisation of K − σM (SuperLU) and its shift: the series
+        sensitivity routes reuse it instead of factorising again.  None on the dense path.
+        It keeps the factor's memory alive as long as these modes are referenced.
     """
 
     eigenvalues: np.ndarray
@@ -48,6 +52,7 @@ class Modes:
     dofs: tuple[str, ...]
     normalisation: str = "mass"
     n_rigid: int = 0
+    factor: object = field(default=None, repr=False, compare=False)
 
     @property
     def frequencies_hz(self) -> np.ndarray:
@@ -161,12 +166,13 @@ def solve_modes(
         raise InputError(f"n_modes must be between 1 and the number of dofs ({n}), got {n_modes}")
     if method == "auto":
         method = "dense" if n <= DENSE_LIMIT or n_modes >= n - 1 else "sparse"
+    factor = None
     if method == "dense":
         lam, Phi = _dense(K, M, n_modes, dofs)
     elif method == "sparse":
         if n_modes >= n - 1:
             raise InputError(f"sparse solver: n_modes must be below n - 1 = {n - 1}; use method='dense'")
-        lam, Phi = _sparse(K, M, n_modes, sigma, tol)
+        lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
     else:
         raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
     order = np.argsort(lam)
@@ -185,7 +191,7 @@ def solve_modes(
         )
     lam = np.where(rigid, 0.0, lam)
     Phi = normalise(Phi, normalisation, M=M, dofs=dofs)
-    return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()))
+    return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()), factor)
 
 
 def _dense(K, M, n_modes, dofs):
@@ -248,7 +254,7 @@ def _sparse(K, M, n_modes, sigma, tol):
         ) from None
     except RuntimeError as exc:
         raise NumericalError(f"the sparse eigensolver failed at shift {sigma:g}: {exc}") from None
-    return lam, Phi
+    return lam, Phi, (lu, float(sigma))
 
 
 def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:

@@ -165,9 +165,12 @@ def prepare_factor(K, M, modes, sigma=None, lu=None):
 
     σ defaults to 0 when the lowest computed eigenvalue is positive, else (rigid-body modes) a
     small negative shift (:func:`~femupdate.sensitivity.modal.shifted_factor`).  A supplied
-    ``lu`` must factorise K − σM for the given ``sigma`` (default 0).
+    ``lu`` must factorise K − σM for the given ``sigma`` (default 0).  Without ``lu`` and
+    ``sigma``, the factorisation the sparse eigensolver left in ``modes.factor`` is reused.
     """
     lam_min = float(np.min(modes.eigenvalues))
+    if lu is None and sigma is None and getattr(modes, "factor", None) is not None:
+        lu, sigma = modes.factor  # the eigensolver's own factorisation of K − σM
     if sigma is None and (lu is not None or lam_min > 0):
         sigma = 0.0
     if sigma is not None:
