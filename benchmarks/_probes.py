@@ -55,3 +55,40 @@ class Phase:
         self.rss_peak = hwm / 1024.0 if hwm is not None else _maxrss_mb()
         self.rss_delta = self.rss_peak - self.rss0
         return False
+
+
+BLAS_VARIABLES = ("OPENBLAS_CORETYPE", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def environment(**extra) -> dict:
+    """Versions, machine, BLAS variables, load and date of a benchmark run (plus ``extra``)."""
+    import os
+    import platform
+
+    import numpy as np
+    import scipy
+
+    import femupdate
+
+    env = {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
+           "femupdate": femupdate.__version__, "machine": platform.machine(), "cpus": os.cpu_count(),
+           "environment": {k: os.environ.get(k) for k in BLAS_VARIABLES}, "rss_hwm_reset": Phase.hwm_reset,
+           "load_average": os.getloadavg(), "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    env.update(extra)
+    return env
+
+
+def write_results(res: dict, name: str, quick: bool, output, table, argv) -> None:
+    """Attach the environment and argv to ``res``, print ``table(res)`` and write the JSON to ``output``
+    (default ``benchmarks/results/<name>[_quick].json``)."""
+    import json
+    from pathlib import Path
+
+    res["environment"] = environment()
+    res["argv"] = sys.argv[1:] if argv is None else list(argv)
+    print(table(res))
+    here = Path(__file__).resolve().parent
+    out = Path(output) if output else here / "results" / (f"{name}_quick.json" if quick else f"{name}.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(res, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)) + "\n")
+    print(f"\nresults written to {out}")

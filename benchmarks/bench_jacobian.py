@@ -40,16 +40,10 @@ each phase on Linux).  Results go to ``benchmarks/results/bench_jacobian.json``
 from __future__ import annotations
 
 import argparse
-import gc
-import json
-import os
-import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-import scipy
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -57,8 +51,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))  # the shared probes (_probes.py), also when imported by a test
 if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out source tree
     sys.path.insert(0, str(HERE.parent / "src"))
-import femupdate  # noqa: E402
-from _probes import Phase  # noqa: E402
+from _probes import Phase, write_results  # noqa: E402
 from femupdate import Structure, model_modes  # noqa: E402
 from femupdate.correlation import mac, pair_modes  # noqa: E402
 from femupdate.generators import chs_section  # noqa: E402
@@ -256,15 +249,6 @@ def _scaled_from_forward(res, dl, dphi_s, params, lam, phi_s):
     return dlam, dpsi
 
 
-def environment() -> dict:
-    env = {k: os.environ.get(k) for k in ("OPENBLAS_CORETYPE", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-    return {
-        "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
-        "femupdate": femupdate.__version__, "machine": platform.machine(), "cpus": os.cpu_count(),
-        "environment": env, "rss_hwm_reset": Phase.hwm_reset, "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-    }
-
-
 def table(res: dict) -> str:
     m, ph = res["model"], res["phases"]
     out = [f"model: {m['generator']}: {m['n_dofs']} dofs, {m['n_parameters']} parameters (E and rho), "
@@ -314,13 +298,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     size = tuple(args.size) if args.size else (QUICK_SIZE if args.quick else FULL_SIZE)
     res = run(size)
-    res["environment"] = environment()
-    res["argv"] = sys.argv[1:] if argv is None else list(argv)
-    print(table(res))
-    out = args.output or HERE / "results" / ("bench_jacobian_quick.json" if args.quick else "bench_jacobian.json")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
-    print(f"\nresults written to {out}")
+    write_results(res, "bench_jacobian", args.quick, args.output, table, argv)
     c = res["checks"]
     return 0 if all(c[k]["ok"] for k in c) else 1
 

@@ -42,16 +42,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import gc
-import json
-import os
-import platform
 import sys
-import time
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
-import scipy
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -59,8 +54,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))  # the shared probes (_probes.py), also when imported by a test
 if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out source tree
     sys.path.insert(0, str(HERE.parent / "src"))
-import femupdate  # noqa: E402
-from _probes import MB, Phase  # noqa: E402
+from _probes import MB, Phase, write_results  # noqa: E402
 from femupdate import model_modes  # noqa: E402
 from femupdate.generators import frame_lattice
 from femupdate.modal import DENSE_LIMIT
@@ -69,7 +63,6 @@ FULL_SIZE = (10, 10, 172)
 QUICK_SIZE = (8, 8, 6)
 N_MODES = 10
 EIG_RTOL = 1e-8
-MB = 1024.0**2
 
 
 def traced_peak(fn) -> float:
@@ -152,16 +145,6 @@ def run(size, trace: bool = True) -> dict:
     return results
 
 
-def environment() -> dict:
-    env = {k: os.environ.get(k) for k in ("OPENBLAS_CORETYPE", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-    return {
-        "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
-        "femupdate": femupdate.__version__, "machine": platform.machine(), "processor": platform.processor(),
-        "cpus": os.cpu_count(), "environment": env, "rss_hwm_reset": Phase.hwm_reset,
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-    }
-
-
 def table(res: dict) -> str:
     rows = [
         ("generate", "frame_lattice(...) -> Structure"),
@@ -202,13 +185,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     size = tuple(args.size) if args.size else (QUICK_SIZE if args.quick else FULL_SIZE)
     res = run(size, trace=not args.no_tracemalloc)
-    res["environment"] = environment()
-    res["argv"] = sys.argv[1:] if argv is None else list(argv)
-    print(table(res))
-    out = args.output or HERE / "results" / ("bench_modes_quick.json" if args.quick else "bench_modes.json")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
-    print(f"\nresults written to {out}")
+    write_results(res, "bench_modes", args.quick, args.output, table, argv)
     return 0 if res["eigen_check"]["ok"] else 1
 
 

@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 
 from femupdate import MeasuredMode, TestData, model_modes
 from femupdate.correlation import comac, correlate, mac, pair_modes

@@ -303,10 +303,7 @@ def _solve_lsq_trust_region(m, uf, s, V, Delta, alpha0, rtol=0.01, max_iter=10):
     """Moré's trust-region subproblem on one SVD per row (scipy ``solve_lsq_trust_region``)."""
     B, n = uf.shape
     suf = s * uf
-    if m >= n:
-        full_rank = s[:, -1] > EPS * m * s[:, 0]
-    else:
-        full_rank = np.zeros(B, bool)
+    full_rank = (np.asarray(m) >= n) & (s[:, -1] > EPS * np.asarray(m) * s[:, 0])  # m: scalar or per row
     with np.errstate(divide="ignore", invalid="ignore"):
         p_gn = -np.matmul(V, np.where(full_rank[:, None], uf / np.where(s > 0, s, 1.0), 0.0)[:, :, None])[:, :, 0]
     gn = full_rank & (_norm(p_gn) <= Delta)
@@ -402,7 +399,8 @@ def _select_step(x, Bh, g_h, p, p_h, d, Delta, lb, ub, theta):
 
 # ====================================================================== the batched solver
 def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-8,
-                        max_nfev: int | None = None, progress: Callable[[int, int], None] | None = None) -> BatchLSQResult:
+                        max_nfev: int | None = None, progress: Callable[[int, int], None] | None = None,
+                        n_residuals=None) -> BatchLSQResult:
     r"""Trust-region-reflective least squares for R independent problems at once.
 
     A row-wise transcription of :func:`scipy.optimize.least_squares` with ``method="trf"``,
@@ -424,6 +422,9 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
     ftol, xtol, gtol, max_nfev : as :func:`scipy.optimize.least_squares` (default
         ``max_nfev = 100 n``).
     progress : called as ``progress(finished, R)`` when starts finish.
+    n_residuals : (R,) per start, the number of residuals that are its own when the rows of F
+        are zero-padded to a common width (several problems solved together); SciPy's rank
+        test ``σ_min > eps·m·σ_max`` then uses each start's own ``m``.  Default: F's width.
 
     Returns
     -------
@@ -464,6 +465,7 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
     F0, err, token = fun(x[rows], rows)
     nfev[rows] += 1
     m = F0.shape[1]
+    m_row = np.full(R, m) if n_residuals is None else np.broadcast_to(np.asarray(n_residuals, dtype=int), (R,))
     f = np.zeros((R, m))
     J = np.zeros((R, m, n))
     f[rows] = F0
@@ -534,7 +536,7 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
                 # singular values first (cheap); the Gauss–Newton step by back-substitution; the
                 # singular vectors only when the trust region cuts the step (see below)
                 s_svd[t] = np.linalg.svd(Bh[t], compute_uv=False)
-                full_rank[t] = (s_svd[t, -1] > EPS * m * s_svd[t, 0]) if m >= n else False
+                full_rank[t] = (m_row[t] >= n) & (s_svd[t, -1] > EPS * m_row[t] * s_svd[t, 0])
                 fr = t[full_rank[t]]
                 if fr.size:
                     p_gn[fr] = -np.linalg.solve(Bh[fr], r12[fr][:, :, None])[:, :, 0]
@@ -563,7 +565,7 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
                 V_svd[need] = np.swapaxes(Vt, 1, 2)
                 uf[need] = np.matmul(r12[need][:, None, :], U)[:, 0, :]
                 have_svd[need] = True
-            p_h[~gn], alpha[more] = _solve_lsq_trust_region(m, uf[more], s_svd[more], V_svd[more], Delta[more],
+            p_h[~gn], alpha[more] = _solve_lsq_trust_region(m_row[more], uf[more], s_svd[more], V_svd[more], Delta[more],
                                                             alpha[more])
         p = d[act] * p_h
         step, step_h, predicted, bad = _select_step(x[act], Bh[act], g_h[act], p, p_h, d[act], Delta[act],
@@ -623,6 +625,47 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
 
 
 # ====================================================================== the batched problem
+def _reject_nonfinite(F, ok, errors) -> None:
+    """Rows of residuals F that are not finite fail (``ok`` and ``errors`` updated in place)."""
+    bad = ok & ~np.all(np.isfinite(F), axis=1)
+    for r in np.flatnonzero(bad):
+        errors[r] = "NumericalError: non-finite residuals (the model became singular at these parameter values)"
+    ok &= ~bad
+
+
+def _distinct_errors(lam, pairs, computed=None, real=None):
+    """``check_distinct`` per row: the first paired mode (among the ``real`` test modes) that is a
+    rigid-body mode or repeats another ``computed`` mode gives that row's error; None where none does.
+
+    lam (S, n) eigenvalues; pairs (S, t) paired mode of each test mode; computed (S, n) and real (S, t)
+    masks (default all True) for batches whose rows compute or measure different numbers of modes."""
+    S, n = lam.shape
+    if computed is None:
+        computed = np.ones((S, n), bool)
+    scale = np.maximum(np.max(np.where(computed, np.abs(lam), 0.0), axis=1), 1e-300)
+    li = np.take_along_axis(lam, pairs, axis=1)  # (S, t)
+    tol = REPEATED_TOL * np.maximum(np.abs(li), 1e-12 * scale[:, None])
+    gap = (np.abs(lam[:, None, :] - li[:, :, None]) <= tol[:, :, None]) & computed[:, None, :]  # (S, t, n)
+    np.put_along_axis(gap, pairs[:, :, None], False, axis=2)
+    bad = (li == 0.0) | gap.any(axis=2)
+    if real is not None:
+        bad &= real
+    out: list[str | None] = [None] * S
+    for r in np.flatnonzero(bad.any(axis=1)):
+        t = int(np.flatnonzero(bad[r])[0])  # the first offending test mode, as check_distinct
+        i = int(pairs[r, t])
+        if li[r, t] == 0.0:
+            out[r] = (f"NumericalError: mode {i + 1} is a rigid-body mode (zero frequency): its derivatives are "
+                      "not defined; differentiate the flexible modes only")
+        else:
+            j = int(np.flatnonzero(gap[r, t])[0])
+            out[r] = (f"NumericalError: modes {i + 1} and {j + 1} are repeated (eigenvalues {li[r, t]:.10g} and "
+                      f"{lam[r, j]:.10g}): eigenvector derivatives of repeated modes are not unique; femupdate "
+                      "refuses rather than return a wrong derivative (pair modes by subspace, or perturb the model "
+                      "to split them)")
+    return out
+
+
 @dataclass(eq=False)
 class _Evaluation:
     """Eigen-solutions, pairs and residuals of a batch of parameter vectors (rows of one call)."""
@@ -919,6 +962,26 @@ class BatchProblem:
         lam[:, :self.nm] = np.where(np.abs(head) <= 1e-12 * scale[:, None], 0.0, head)
         return lam, Phi, errors, ok, scale
 
+    def _modes_of_rows(self, Pu, errors, ok):
+        """:meth:`_modes` of the parameter rows ``Pu`` (S, L), in chunks: eigenvalues (S, n) and
+        modes (S, n, n); a failed row's message goes to ``errors`` and ``ok`` (both updated in place)."""
+        S, n = Pu.shape[0], self.n
+        lam = np.zeros((S, n))
+        Phi = np.zeros((S, n, n))
+        for c in self._chunks(S, 4 * n * n):
+            lam_c, Phi_c, err_c, ok_c, _ = self._modes(Pu[c])
+            if lam_c is None:
+                for i, e in zip(range(c.start, c.stop), err_c):
+                    errors[i] = errors[i] or e
+                ok[c] = False
+                continue
+            lam[c], Phi[c] = lam_c, Phi_c
+            for i, e in zip(range(c.start, c.stop), err_c):
+                if e is not None and errors[i] is None:
+                    errors[i] = e
+            ok[c] &= ok_c
+        return lam, Phi
+
     def _pair(self, lam, Phi, ok, errors):
         """Pairs (S, n_test) and pairing MACs, by the rules of ``_Problem._pair``.
 
@@ -1014,30 +1077,21 @@ class BatchProblem:
         S = Phi.shape[0]
         return Phi[np.arange(S)[:, None, None], pos[None, :, None], pairs[:, ks][:, None, :]]
 
-    def evaluate(self, X, rows=None) -> _Evaluation:
-        """Eigen-solutions, pairs and residuals (S, m) at solver variables X (S, L)."""
+    def _begin_evaluation(self, X, rows):
+        """Solver variables as (S, L), their rows, each row's inherited error and the ok mask."""
         X = np.array(X, dtype=float, ndmin=2)
         rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows, dtype=np.intp)
-        S, n = X.shape[0], self.n
         self.n_eval[rows] += 1
-        lam = np.zeros((S, n))
-        Phi = np.zeros((S, n, n))
         errors: list[str | None] = [self.start_errors[r] for r in rows]
         ok = np.array([e is None for e in errors], bool)
-        Pu = self.to_p(X, rows)
+        return X, rows, errors, ok
+
+    def evaluate(self, X, rows=None) -> _Evaluation:
+        """Eigen-solutions, pairs and residuals (S, m) at solver variables X (S, L)."""
+        X, rows, errors, ok = self._begin_evaluation(X, rows)
+        S = X.shape[0]
         with np.errstate(all="ignore"):
-            for c in self._chunks(S, 4 * n * n):
-                lam_c, Phi_c, err_c, ok_c, _ = self._modes(Pu[c])
-                if lam_c is None:
-                    for i, e in zip(range(c.start, c.stop), err_c):
-                        errors[i] = errors[i] or e
-                    ok[c] = False
-                    continue
-                lam[c], Phi[c] = lam_c, Phi_c
-                for i, e in zip(range(c.start, c.stop), err_c):
-                    if e is not None and errors[i] is None:
-                        errors[i] = e
-                ok[c] &= ok_c
+            lam, Phi = self._modes_of_rows(self.to_p(X, rows), errors, ok)
             pairs, macs = self._pair(lam, Phi, ok, errors)
             F = np.zeros((S, self.n_residuals))
             lam_p = np.take_along_axis(lam, pairs, axis=1)
@@ -1053,10 +1107,7 @@ class BatchProblem:
                     psi = psi * np.where(np.einsum("sig,ig->sg", psi, psi_e) < 0, -1.0, 1.0)[:, None, :]
                 dd = self.w_shape * (psi - psi_e)
                 F[:, cols] = np.delete(dd, ref, axis=1) if ref is not None else dd
-        bad = ok & ~np.all(np.isfinite(F), axis=1)
-        for r in np.flatnonzero(bad):
-            errors[r] = "NumericalError: non-finite residuals (the model became singular at these parameter values)"
-        ok &= ~bad
+        _reject_nonfinite(F, ok, errors)
         for r in np.flatnonzero(~ok):
             if errors[r] is None:  # pragma: no cover - every failure above leaves a message
                 errors[r] = "NumericalError: evaluation failed"
@@ -1065,28 +1116,7 @@ class BatchProblem:
 
     def _check_distinct(self, lam, pairs):
         """``check_distinct`` on the paired modes among the computed ones: error or None per row."""
-        S = lam.shape[0]
-        head = lam[:, :self.nm]
-        scale = np.maximum(np.max(np.abs(head), axis=1), 1e-300)
-        li = np.take_along_axis(head, pairs, axis=1)  # (S, nt)
-        tol = REPEATED_TOL * np.maximum(np.abs(li), 1e-12 * scale[:, None])
-        gap = np.abs(head[:, None, :] - li[:, :, None]) <= tol[:, :, None]  # (S, nt, nm)
-        np.put_along_axis(gap, pairs[:, :, None], False, axis=2)
-        bad = (li == 0.0) | gap.any(axis=2)
-        out: list[str | None] = [None] * S
-        for r in np.flatnonzero(bad.any(axis=1)):
-            t = int(np.flatnonzero(bad[r])[0])  # the first offending test mode, as check_distinct
-            i = int(pairs[r, t])
-            if li[r, t] == 0.0:
-                out[r] = (f"NumericalError: mode {i + 1} is a rigid-body mode (zero frequency): its derivatives are "
-                          "not defined; differentiate the flexible modes only")
-            else:
-                j = int(np.flatnonzero(gap[r, t])[0])
-                out[r] = (f"NumericalError: modes {i + 1} and {j + 1} are repeated (eigenvalues {li[r, t]:.10g} and "
-                          f"{head[r, j]:.10g}): eigenvector derivatives of repeated modes are not unique; femupdate "
-                          "refuses rather than return a wrong derivative (pair modes by subspace, or perturb the model "
-                          "to split them)")
-        return out
+        return _distinct_errors(lam[:, :self.nm], pairs)
 
     def jacobian(self, ev: _Evaluation, sel=None):
         """Exact Jacobians ∂r/∂x (len(sel), m, L) at the points of ``ev`` (its rows ``sel``).

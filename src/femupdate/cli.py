@@ -271,6 +271,19 @@ def _update_payload(model, data, res, ms=None):
     return out
 
 
+def _parameter_table(res, title: str) -> Table:
+    """Start, updated value, standard deviation and change of each updated parameter."""
+    t = Table(title=title)
+    for col in ("parameter", "start", "updated", "std", "change"):
+        t.add_column(col, justify="left" if col == "parameter" else "right")
+    std_p = dict(zip(res.names, res.diagnostics.std))
+    for n in res.names:
+        p0, p1 = res.start[n], res.parameters[n]
+        t.add_row(n, _fmt(p0), _fmt(p1), "-" if not np.isfinite(std_p[n]) else _fmt(std_p[n]),
+                  f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+    return t
+
+
 @cli.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
@@ -330,15 +343,7 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
             raise NumericalError(f"none of the {starts} starts converged")
         res = ms.best
     c = ctx.console
-    t = Table(title=f"{model.name}: iterative update ({res.iterations} iterations, {res.nfev} evaluations)")
-    for col in ("parameter", "start", "updated", "std", "change"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
-    std_p = dict(zip(res.names, res.diagnostics.std))
-    for n in res.names:
-        p0, p1 = res.start[n], res.parameters[n]
-        t.add_row(n, _fmt(p0), _fmt(p1), "-" if not np.isfinite(std_p[n]) else _fmt(std_p[n]),
-                  f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
-    c.print(t)
+    c.print(_parameter_table(res, f"{model.name}: iterative update ({res.iterations} iterations, {res.nfev} evaluations)"))
     t2 = Table(title="paired modes")
     for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
         t2.add_column(col, justify="right")

@@ -95,11 +95,16 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
     return ok, solutions
 
 
-def _run_one(model, data, names, start, kwargs):
+def run_with(fn, model, data, names, start, kwargs):
+    """``fn(model, data, params=names, x0=start, **kwargs)``; a start that fails is a message, not a crash."""
     try:
-        return update(model, data, params=names, x0=dict(zip(names, start)), **kwargs)
+        return fn(model, data, params=names, x0=dict(zip(names, start)), **kwargs)
     except FemupdateError as exc:  # a start that fails numerically is a result, not a crash
         return f"{type(exc).__name__}: {exc}"
+
+
+def _run_one(model, data, names, start, kwargs):
+    return run_with(update, model, data, names, start, kwargs)
 
 
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
@@ -143,20 +148,30 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
         return multistart_batched(model, data, names, X0, seed=seed, rel_tol=rel_tol, cost_tol=cost_tol,
                                   progress=progress, **kwargs)
     # ---- end of the batched path ----------------------------------------------------------------
+    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
+                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout)
+
+
+def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=1e-4, cost_tol=None, progress=None,
+               connect_timeout=10.0, runner=None) -> MultiStartResult:
+    """``runner(model, data, names, X0[k], kwargs)`` (default: :func:`update` from start k) for every
+    start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions."""
+    runner = runner or _run_one
     if scheduler:
-        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout)
+        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
     else:
         runs = []
         for k, x in enumerate(X0):
-            runs.append(_run_one(model, data, names, x, kwargs))
+            runs.append(runner(model, data, names, x, kwargs))
             if progress:
-                progress(k + 1, starts)
+                progress(k + 1, len(X0))
     ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol)
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
-    return MultiStartResult(best, solutions, runs, X0, names, starts, len(ok), seed)
+    return MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed)
 
 
-def _run_dask(address, model, data, names, X0, kwargs, progress, timeout):
+def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner=_run_one):
+    """``runner(model, data, names, X0[k], kwargs)`` for every k on the cluster at ``address``."""
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
@@ -167,7 +182,7 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout):
         raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = [client.submit(_run_one, m_f, d_f, names, x, kwargs, pure=False) for x in X0]
+        futures = [client.submit(runner, m_f, d_f, names, x, kwargs, pure=False) for x in X0]
         index = {f.key: k for k, f in enumerate(futures)}
         runs = [None] * len(futures)
         for done, f in enumerate(as_completed(futures), start=1):

@@ -88,19 +88,57 @@ class UpdateResult:
     sensitivity: str = ""  # the derivative route used at the solution (``"auto"`` resolved)
 
 
-class _Problem:
+class _Parametrised:
+    """The optimiser's variables x and the full parameter vector p (shared by every updating problem).
+
+    ``parametrisation``: ``"relative"`` (x = p / |p_start|), ``"log"`` (x = log p) or ``"absolute"``;
+    parameters not in ``names`` stay at ``p_base``.
+    """
+
+    def __init__(self, model, names, parametrisation, p_base):
+        self.idx = np.array([model.parameter_index(n) for n in names], dtype=np.intp)
+        self.names = tuple(names)
+        self.param = parametrisation
+        self.p_base = p_base  # full parameter vector: fixed ones stay at these values
+        self.scale = np.where(p_base[self.idx] != 0, np.abs(p_base[self.idx]), 1.0)
+
+    def to_p(self, x):
+        p = self.p_base.copy()
+        if self.param == "relative":
+            p[self.idx] = x * self.scale
+        elif self.param == "log":
+            p[self.idx] = np.exp(x)
+        else:
+            p[self.idx] = x
+        return p
+
+    def dp_dx(self, x):
+        if self.param == "relative":
+            return self.scale
+        if self.param == "log":
+            return np.exp(x)
+        return np.ones_like(x)
+
+    def from_p(self, p_sel):
+        p_sel = np.asarray(p_sel, float)
+        if self.param == "relative":
+            return p_sel / self.scale
+        if self.param == "log":
+            if np.any(p_sel <= 0):
+                raise InputError("log parametrisation needs positive parameter values and bounds")
+            return np.log(p_sel)
+        return p_sel
+
+
+class _Problem(_Parametrised):
     """Residuals and Jacobian of one updating problem (cached per parameter vector)."""
 
     def __init__(self, model, data: TestData, names, shape_scaling, ref_dof, weights, min_mac,
                  n_modes, parametrisation, p_base, use_shapes, sensitivity):
+        super().__init__(model, names, parametrisation, p_base)
         self.model = model
         self.data = data
-        self.idx = np.array([model.parameter_index(n) for n in names], dtype=np.intp)
-        self.names = tuple(names)
         self.min_mac = min_mac
-        self.param = parametrisation
-        self.p_base = p_base  # full parameter vector: fixed ones stay at these values
-        self.scale = np.where(p_base[self.idx] != 0, np.abs(p_base[self.idx]), 1.0)
         self.sensitivity = sensitivity
         self.sensitivity_used = sensitivity
         if shape_scaling not in SHAPE_SCALINGS:
@@ -143,34 +181,6 @@ class _Problem:
         self.swaps: list[dict] = []
         self.nfev = 0
         self.last_pairs = []
-
-    # --------------------------------------------------------------- parameters
-    def to_p(self, x):
-        p = self.p_base.copy()
-        if self.param == "relative":
-            p[self.idx] = x * self.scale
-        elif self.param == "log":
-            p[self.idx] = np.exp(x)
-        else:
-            p[self.idx] = x
-        return p
-
-    def dp_dx(self, x):
-        if self.param == "relative":
-            return self.scale
-        if self.param == "log":
-            return np.exp(x)
-        return np.ones_like(x)
-
-    def from_p(self, p_sel):
-        p_sel = np.asarray(p_sel, float)
-        if self.param == "relative":
-            return p_sel / self.scale
-        if self.param == "log":
-            if np.any(p_sel <= 0):
-                raise InputError("log parametrisation needs positive parameter values and bounds")
-            return np.log(p_sel)
-        return p_sel
 
     # --------------------------------------------------------------- evaluation
     def _evaluate(self, x):
@@ -290,6 +300,94 @@ def _diagnostics(prob: _Problem, x, r, J, sigma: float | None) -> Diagnostics:
     return Diagnostics(s, cond, rank, sorted(poor), cov, std, m, L)
 
 
+def _solve(prob: _Parametrised, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,
+           max_nfev: int):
+    """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base``.
+
+    Shared by every iterative updating problem (modal, FRF): the parameters' ``bounds`` (the
+    model's full ``(lo, hi)``) mapped to the optimiser's variables, Tikhonov augmentation
+    α (x − x_start) with α fixed or chosen by ``"gcv"`` / ``"lcurve"`` at the start, and the
+    iteration history.  ``prob`` provides ``residuals(x)``, ``jacobian(x)`` and the
+    :class:`_Parametrised` maps.  Returns ``(sol, history, regularization)``.
+    """
+    names = prob.names
+    parametrisation = prob.param
+    lo, hi = bounds
+    lo, hi = lo[prob.idx], hi[prob.idx]
+    p_start = prob.p_base[prob.idx]
+    outside = [n for n, v, a, b in zip(names, p_start, lo, hi) if not a <= v <= b]
+    if outside:
+        raise InputError(f"starting value(s) outside the bounds for: {', '.join(outside)}")
+    if parametrisation == "log" and (np.any(p_start <= 0) or np.any(lo < 0)):
+        raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
+    x_start = prob.from_p(p_start)
+    with np.errstate(divide="ignore"):
+        xl, xh = prob.from_p(lo) if parametrisation != "log" else np.log(np.maximum(lo, 0)), prob.from_p(hi) if parametrisation != "log" else np.log(hi)
+    if parametrisation == "relative" and np.any(p_start < 0):
+        xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
+    history: list[dict] = []
+
+    # regularisation
+    reg: dict = {}
+    alpha = 0.0
+    if regularization is not None:
+        if isinstance(regularization, str):
+            from .regularization import choose_alpha
+
+            J0 = prob.jacobian(x_start)
+            r0 = prob.residuals(x_start)
+            choice = choose_alpha(J0, r0, rule=regularization)
+            alpha = float(choice.alpha)
+            reg = {"rule": regularization, "alpha": alpha}
+        else:
+            alpha = float(regularization)
+            if not alpha >= 0:
+                raise InputError("the regularization factor must be >= 0")
+            reg = {"rule": "fixed", "alpha": alpha}
+
+    def fun(x):
+        r = prob.residuals(x)
+        return np.concatenate([r, alpha * (x - x_start)]) if alpha else r
+
+    def jac(x):
+        J = prob.jacobian(x)
+        return np.vstack([J, alpha * np.eye(x.size)]) if alpha else J
+
+    def callback(intermediate_result):
+        xi = intermediate_result.x
+        history.append({"iteration": len(history), "cost": float(intermediate_result.cost),
+                        "parameters": dict(zip(names, map(float, prob.to_p(xi)[prob.idx])))})
+
+    bounds = (-np.inf, np.inf) if method == "lm" else (xl, xh)
+    if method == "lm" and (np.any(np.isfinite(lo)) or np.any(np.isfinite(hi))):
+        log.info("Levenberg-Marquardt ignores the parameter bounds")
+    history.append({"iteration": 0, "cost": 0.5 * float(np.sum(fun(x_start) ** 2)),
+                    "parameters": dict(zip(names, map(float, p_start)))})
+    try:
+        sol = least_squares(fun, x_start, jac=jac, bounds=bounds, method=method, x_scale="jac" if method != "lm" else 1.0,
+                            ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev, callback=callback if method != "lm" else None)
+    except NumericalError:
+        raise
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise NumericalError(f"the least-squares solver failed: {exc}") from None
+    return sol, history, reg
+
+
+def _modal_weights(weights, measurement_std):
+    """User weights of the modal residuals, divided by the measurement standard deviations where
+    given: ``(weights, sigma)`` with ``sigma`` the checked ``measurement_std`` (or None)."""
+    w = dict(weights or {})
+    sigma = None
+    if measurement_std:
+        sigma = dict(measurement_std)
+        for key in ("eigenvalue", "shape"):
+            if key in sigma:
+                if not np.all(np.asarray(sigma[key], float) > 0):
+                    raise InputError(f"measurement_std[{key!r}] must be positive")
+                w[key] = np.asarray(w.get(key, 1.0), float) / np.asarray(sigma[key], float)
+    return w, sigma
+
+
 def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
            shape_scaling: str = "unit", ref_dof: str | None = None, weights: Mapping | None = None,
            measurement_std: Mapping | None = None, min_mac: float = 0.5, n_modes: int | None = None,
@@ -341,30 +439,9 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     p_base = model.resolve(values)
     for name, v in dict(x0 or {}).items():
         p_base[model.parameter_index(name)] = float(v)
-    w = dict(weights or {})
-    sigma = None
-    if measurement_std:
-        sigma = dict(measurement_std)
-        for key in ("eigenvalue", "shape"):
-            if key in sigma:
-                if not np.all(np.asarray(sigma[key], float) > 0):
-                    raise InputError(f"measurement_std[{key!r}] must be positive")
-                w[key] = np.asarray(w.get(key, 1.0), float) / np.asarray(sigma[key], float)
+    w, sigma = _modal_weights(weights, measurement_std)
     prob = _Problem(model, data, names, shape_scaling, ref_dof, w, min_mac, n_modes, parametrisation, p_base,
                     use_shapes, sensitivity)
-    lo, hi = model.bounds
-    lo, hi = lo[prob.idx], hi[prob.idx]
-    p_start = p_base[prob.idx]
-    outside = [n for n, v, a, b in zip(names, p_start, lo, hi) if not a <= v <= b]
-    if outside:
-        raise InputError(f"starting value(s) outside the bounds for: {', '.join(outside)}")
-    if parametrisation == "log" and (np.any(p_start <= 0) or np.any(lo < 0)):
-        raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
-    x_start = prob.from_p(p_start)
-    with np.errstate(divide="ignore"):
-        xl, xh = prob.from_p(lo) if parametrisation != "log" else np.log(np.maximum(lo, 0)), prob.from_p(hi) if parametrisation != "log" else np.log(hi)
-    if parametrisation == "relative" and np.any(p_start < 0):
-        xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
     # each mode: its eigenvalue, plus n_s - 1 independent shape entries (the scaling removes one)
     n_data = sum(1 + (0 if r is None else len(r[1]) - 1) for r in prob.shape_rows)
     if n_data < len(names) and regularization is None:
@@ -372,51 +449,8 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
             f"{len(names)} parameters but only {n_data} independent data (eigenvalues and scaled shape entries): "
             "the problem is underdetermined; add data, fix parameters, or use regularization (e.g. --regularization gcv)"
         )
-    history: list[dict] = []
-
-    # regularisation
-    reg: dict = {}
-    alpha = 0.0
-    if regularization is not None:
-        if isinstance(regularization, str):
-            from .regularization import choose_alpha
-
-            J0 = prob.jacobian(x_start)
-            r0 = prob.residuals(x_start)
-            choice = choose_alpha(J0, r0, rule=regularization)
-            alpha = float(choice.alpha)
-            reg = {"rule": regularization, "alpha": alpha}
-        else:
-            alpha = float(regularization)
-            if not alpha >= 0:
-                raise InputError("the regularization factor must be >= 0")
-            reg = {"rule": "fixed", "alpha": alpha}
-
-    def fun(x):
-        r = prob.residuals(x)
-        return np.concatenate([r, alpha * (x - x_start)]) if alpha else r
-
-    def jac(x):
-        J = prob.jacobian(x)
-        return np.vstack([J, alpha * np.eye(x.size)]) if alpha else J
-
-    def callback(intermediate_result):
-        xi = intermediate_result.x
-        history.append({"iteration": len(history), "cost": float(intermediate_result.cost),
-                        "parameters": dict(zip(names, map(float, prob.to_p(xi)[prob.idx])))})
-
-    bounds = (-np.inf, np.inf) if method == "lm" else (xl, xh)
-    if method == "lm" and (np.any(np.isfinite(lo)) or np.any(np.isfinite(hi))):
-        log.info("Levenberg-Marquardt ignores the parameter bounds")
-    history.append({"iteration": 0, "cost": 0.5 * float(np.sum(fun(x_start) ** 2)),
-                    "parameters": dict(zip(names, map(float, p_start)))})
-    try:
-        sol = least_squares(fun, x_start, jac=jac, bounds=bounds, method=method, x_scale="jac" if method != "lm" else 1.0,
-                            ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev, callback=callback if method != "lm" else None)
-    except NumericalError:
-        raise
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        raise NumericalError(f"the least-squares solver failed: {exc}") from None
+    sol, history, reg = _solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
     p_final = prob.to_p(sol.x)
     _, modes, pairs = prob._evaluate(sol.x)
     r = prob.residuals(sol.x)
@@ -430,5 +464,5 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         pairs=[(k, j, float(m) if np.isfinite(m) else float(mac(prob.shape_rows[k][1], modes.shapes[prob.shape_rows[k][0], j])[0, 0]) if prob.shape_rows[k] is not None else math.nan) for k, j, m in pairs],
         test_frequencies_hz=data.frequencies_hz, model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
         swaps=list(prob.swaps), diagnostics=diag, regularization=reg,
-        start=dict(zip(names, map(float, p_start))), sensitivity=prob.sensitivity_used,
+        start=dict(zip(names, map(float, p_base[prob.idx]))), sensitivity=prob.sensitivity_used,
     )
