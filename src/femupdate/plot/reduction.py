@@ -1,0 +1,49 @@
+"""Figures of the model-reduction paper sections (Tan's truss, Lin's super-element beam)."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .paper_figures import _save  # noqa: E402
+
+
+def truss_metrics_axes(table: dict, methods, axes=None):
+    """Accuracy (max frequency error) and robustness (self-orthogonality) per method and scenario."""
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(10, 4))
+    x = np.arange(len(methods))
+    w = 0.8 / len(table)
+    for k, (name, t) in enumerate(table.items()):
+        axes[0].bar(x + k * w, [max(t[m]["max_frequency_error"], 1e-16) for m in methods], w, label=name)
+        axes[1].bar(x + k * w, [t[m]["self_orthogonality_max_offdiag"] for m in methods], w, label=name)
+    axes[0].set(yscale="log", ylabel="max |f_r / f - 1|", title="accuracy: reduced vs full frequencies")
+    axes[1].set(ylabel="max |off-diagonal|", title="robustness: test self-orthogonality")
+    axes[1].axhline(0.1, color="k", lw=0.8, ls="--")
+    for ax in axes:
+        ax.set_xticks(x + 0.4 - w / 2, methods)
+        ax.legend()
+    return axes
+
+
+def truss_metrics_figure(path, table, methods) -> str:
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    truss_metrics_axes(table, methods, axes)
+    return _save(fig, path)
+
+
+def superelement_figure(path, true, updated, direct, K) -> str:
+    """Updated super-element moduli against the truth, and the banded reduced stiffness."""
+    fig, (a0, a1) = plt.subplots(1, 2, figsize=(10, 4))
+    k = np.arange(1, len(true) + 1)
+    a0.plot(k, (np.asarray(updated) / true - 1) * 100, "o-", label="iterative, 10 modes")
+    a0.plot(k, (np.asarray(direct) / true - 1) * 100, "s--", label="direct on reduced model")
+    a0.set(xlabel="super-element", ylabel="error of the updated modulus [%]", title="52-dof super-element model")
+    a0.axhline(0, color="k", lw=0.8)
+    a0.legend()
+    a1.spy(K, markersize=2)
+    a1.set_title("reduced stiffness: banded")
+    return _save(fig, path)

@@ -1,0 +1,32 @@
+"""Model reduction and mode-shape expansion (reference paper, "Model Reduction Techniques").
+
+* :func:`reduce` — the one projection primitive :math:`T^T K T`, :math:`T^T M T` of an affine model;
+* transformation builders :func:`guyan`, :func:`irs`, :func:`kammer_modal`, :func:`kammer_hybrid`,
+  :func:`serep` (and :class:`Reducer`, which shares one factorisation of K_oo between them);
+* :func:`expand` — measured shapes to every model dof with the same transformations;
+* :mod:`~femupdate.reduction.metrics` — Tan's (1993) accuracy and robustness measures;
+* :mod:`~femupdate.reduction.criteria` — Gordis's and Larsson & Sas's pre-reduction checks;
+* :mod:`~femupdate.reduction.selection` — retained-dof mass fraction, effective independence;
+* :mod:`~femupdate.reduction.superelement` — connectivity-preserving super-elements (Lin 1993).
+"""
+
+from .criteria import ReductionCriteria, reduction_criteria
+from .expansion import EXPANSION_METHODS, ExpandedShapes, ExpansionBiasWarning, expand
+from .metrics import TamMetrics, orthogonality, tam_metrics
+from .selection import EfiResult, effective_independence, mass_fraction
+from .superelement import assemble, condense, split_structure, superelement_model
+from .transforms import (
+    METHODS, Reducer, Transformation, guyan, irs, kammer_hybrid, kammer_modal, mechanism_dofs, project,
+    reduce, reduced_eigenvalues, reduced_matrices, serep, transformation,
+)
+
+__all__ = [
+    "reduce", "project", "Reducer", "Transformation", "METHODS", "transformation",
+    "guyan", "irs", "kammer_modal", "kammer_hybrid", "serep", "mechanism_dofs",
+    "reduced_matrices", "reduced_eigenvalues",
+    "expand", "ExpandedShapes", "ExpansionBiasWarning", "EXPANSION_METHODS",
+    "tam_metrics", "TamMetrics", "orthogonality",
+    "reduction_criteria", "ReductionCriteria",
+    "mass_fraction", "effective_independence", "EfiResult",
+    "assemble", "condense", "split_structure", "superelement_model",
+]
