@@ -1,0 +1,375 @@
+"""FRF commands: ``femupdate frf`` (simulate), ``frf-update`` (iterative / multi-start / global
+updating from FRFs), ``frf-select`` (choose spectral lines) and ``surface`` (residual surfaces)."""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from .._errors import InputError, NumericalError
+from ..cli import _Ctx, _emit, _fmt, _values, cli, json_option, parse_set, set_option
+
+
+def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
+    """``"0.5,1,1.5"`` or ``"START:STOP:N"`` (N lines, ends included) -> rad/s."""
+    text = (text or "").strip()
+    if not text:
+        raise InputError(f"{what}: no frequencies given")
+    if text.count(":") == 2 and "," not in text:
+        a, b, n = text.split(":")
+        try:
+            a, b, n = float(a), float(b), int(n)
+        except ValueError:
+            raise InputError(f"{what}: {text!r} is not START:STOP:N (numbers, N an integer)") from None
+        if n < 1 or not (np.isfinite(a) and np.isfinite(b)):
+            raise InputError(f"{what}: {text!r}: need finite ends and N >= 1")
+        return np.linspace(a, b, n)
+    out = []
+    for item in text.split(","):
+        item = item.strip()
+        try:
+            out.append(float(item))
+        except ValueError:
+            raise InputError(f"{what}: {item!r} is not a number (give a list 0.5,1,1.5 or START:STOP:N)") from None
+    return np.array(out)
+
+
+def parse_force(text: str) -> dict:
+    """``"2:x"`` (unit force) or ``"2:x=1.5,1:x=-0.5"`` -> {dof: amplitude}."""
+    out = {}
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        dof, eq, amp = item.partition("=")
+        try:
+            out[dof.strip()] = float(amp) if eq else 1.0
+        except ValueError:
+            raise InputError(f"--force: amplitude of {dof.strip()!r} is not a number: {amp!r}") from None
+    if not out:
+        raise InputError("--force: give a dof (e.g. 2:x) or dof=amplitude pairs")
+    return out
+
+
+def parse_damping(text: str | None):
+    from ..frf import Damping
+    from ..frf._lines import as_damping
+
+    if not text:
+        return Damping()
+    try:
+        values = parse_set(text)
+    except InputError as exc:
+        raise InputError(str(exc).replace("--set", "--damping")) from None
+    return as_damping(values)
+
+
+def _dofs(text: str | None):
+    return [d.strip() for d in text.split(",") if d.strip()] if text else None
+
+
+def _pairs(h: np.ndarray) -> list:
+    return [[float(np.real(v)), float(np.imag(v))] for v in h]
+
+
+damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E",
+                              help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped.")
+
+
+# ---------------------------------------------------------------------------------- frf
+@cli.command("frf")
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...", help="Excitation (unit force by default).")
+@click.option("--omega", "omega_text", required=True, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
+@click.option("--dofs", "dofs_text", default=None, help="Response dofs (default every model dof).")
+@click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
+@damping_option
+@click.option("--noise", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
+@click.option("--noise-kind", type=click.Choice(["relative", "absolute", "coherent"]), default="relative", show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write the receptances as universal file datasets 58.")
+@click.option("--test-data", "data_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write them as test-data JSON (the 'frf' object), ready for frf-update.")
+@set_option
+@json_option
+def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_text, noise, noise_kind, seed, uff_path,
+                data_path, set_text, json_path):
+    """Frequency response functions of MODEL to a force (receptance, mobility or accelerance)."""
+    from ..frf import convert, resonances, simulate
+    from ..io.model_file import load_model
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    omega = parse_omega(omega_text)
+    force = parse_force(force_text)
+    damping = parse_damping(damping_text)
+    data = simulate(model, omega, force, _dofs(dofs_text), values, damping, noise, noise_kind, seed)
+    H = convert(data.response, omega, kind) if kind != "receptance" else data.response
+    notes = []
+    from ..modal import DENSE_LIMIT
+
+    if model.n_dofs <= DENSE_LIMIT:
+        res = resonances(model, omega, values)
+        near = res.near(1e-3)
+        if near.size:
+            notes.append(f"lines within 1e-3 of a resonance (large, sensitive values): {res.describe(near)}")
+    t = Table(title=f"{model.name}: {kind}, force {', '.join(f'{d}={_fmt(v)}' for d, v in data.force.items())}")
+    t.add_column("omega (rad/s)", justify="right")
+    shown = list(data.dofs[:6])
+    for d in shown:
+        t.add_column(f"|{d}|", justify="right")
+    step = max(1, omega.size // 20)
+    for i in range(0, omega.size, step):
+        t.add_row(_fmt(omega[i]), *(_fmt(abs(H[i, k])) for k in range(len(shown))))
+    ctx.console.print(t)
+    if len(data.dofs) > len(shown) or step > 1:
+        ctx.console.print(f"({omega.size} lines x {len(data.dofs)} dofs; the table shows a sample)")
+    for n in notes:
+        ctx.console.print(f"note: {n}")
+    if uff_path is not None:
+        from ..io.uff import write_uff_frf
+
+        write_uff_frf(uff_path, data, nodes=model.nodes, model_name=model.name)
+        ctx.console.print(f"receptances written to {uff_path} (datasets 58)")
+    frf_obj = {"omega_rad_s": omega, "force": dict(data.force),
+               "response": {d: _pairs(data.response[:, k]) for k, d in enumerate(data.dofs)}}
+    if data_path is not None:
+        from ..io.results import write_json
+
+        write_json(data_path, {"frf": frf_obj})
+        ctx.console.print(f"test data written to {data_path}")
+    _emit(ctx, {
+        "model": model.name, "omega_rad_s": omega, "dofs": list(data.dofs), "kind": kind,
+        "response": {d: _pairs(H[:, k]) for k, d in enumerate(data.dofs)},
+        "force": dict(data.force), "damping": damping.as_dict(), "noise": {"level": noise, "kind": noise_kind, "seed": seed},
+        "parameters": dict(zip(model.parameter_names, model.resolve(values))), "notes": notes,
+    })
+
+
+# ---------------------------------------------------------------------------------- frf-update
+def _frf_payload(model, data, res, ms, extra=None):
+    from ..cli import _update_payload
+
+    out = _update_payload(model, data, res, ms)
+    out.update({
+        "omega_rad_s": res.omega, "skipped": res.skipped, "residual": res.residual, "frac": res.frac,
+        "natural_frequencies_hz": res.natural_frequencies_hz, "notes": res.notes,
+    })
+    out.update(extra or {})
+    return out
+
+
+@cli.command("frf-update")
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
+@click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
+              help="1: start from the model's values; R > 1: R random starts within the bounds.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
+@click.option("--global", "global_method", type=click.Choice(["differential_evolution", "basinhopping", "dual_annealing"]),
+              default=None, help="Global search within the bounds, then a local polish.")
+@click.option("--runs", type=click.IntRange(min=1), default=1, show_default=True, help="Independent global runs.")
+@click.option("--global-residual", type=click.Choice(["linear", "relative", "log"]), default="log", show_default=True,
+              help="Residual of the global stage (the polish uses --residual).")
+@click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear", show_default=True)
+@click.option("--lines", "lines_text", default=None, help="Lines to use, 1-based (e.g. 1,2,5); default all.")
+@click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many lines by conditioning.")
+@click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,
+              help="Lines within --resonance-tol of a resonance of the starting model.")
+@click.option("--resonance-tol", type=click.FloatRange(min=0), default=1e-3, show_default=True)
+@damping_option
+@click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
+@click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
+@click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
+@click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
+@click.option("--std", type=click.FloatRange(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
+@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Write the FRF overlay and convergence figures to this folder.")
+@set_option
+@json_option
+def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, global_method, runs, global_residual,
+                       residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
+                       reg_text, max_nfev, std, plot_dir, set_text, json_path):
+    """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
+    from ..cli import _parameter_table, _parse_regularization
+    from ..frf.updating import frf_data, frf_multistart, frf_update
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    data = load_testdata(data_path, model)
+    frf = frf_data(data)
+    params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
+    lines = None
+    if lines_text:
+        try:
+            lines = [int(v) - 1 for v in lines_text.split(",") if v.strip()]
+        except ValueError:
+            raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
+    kw = dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
+              damping=parse_damping(damping_text), parametrisation=parametrisation, method=method,
+              regularization=_parse_regularization(reg_text), max_nfev=max_nfev, values=values,
+              measurement_std=std)
+    ms, extra = None, {}
+    if global_method:
+        from ..frf.search import global_search
+
+        glob = {k: kw[k] for k in ("residual", "lines", "select", "resonance", "resonance_tol", "damping", "values",
+                                   "measurement_std")}
+        with ctx.console.status("global search", spinner="dots") if ctx.console.is_terminal else nullcontext():
+            ms = global_search(model, data, method=global_method, params=params, runs=runs, seed=seed,
+                               scheduler=scheduler, global_residual=global_residual, **glob)
+        extra["global"] = {"method": global_method, "runs": runs, "residual": global_residual, "optimizer": ms.optimizer}
+    elif starts > 1 or scheduler:
+        from rich.progress import Progress
+
+        with Progress(console=ctx.console, transient=True, disable=json_path == "-" or not ctx.console.is_terminal) as bar:
+            task = bar.add_task("starts", total=starts)
+            ms = frf_multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
+                                progress=lambda done, total: bar.update(task, completed=done), **kw)
+    if ms is not None and ms.best is None:
+        _emit(ctx, {"model": model.name, "success": False, "starts": {
+            "total": ms.total, "converged": 0, "solutions": [], "failed": [r for r in ms.runs if isinstance(r, str)]},
+            **extra})
+        raise NumericalError(f"none of the {ms.total} {'runs' if global_method else 'starts'} converged")
+    res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
+    c = ctx.console
+    c.print(_parameter_table(res, f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
+                                  f"{res.omega.size} lines x {len(frf.dofs)} dofs, {res.residual} residual)"))
+    c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
+    d = res.diagnostics
+    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; condition number "
+            f"of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
+    for s in res.skipped:
+        c.print(f"skipped line {s['line']} ({_fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
+    for note in res.notes:
+        c.print(f"note: {note}")
+    if ms is not None:
+        what = f"{global_method} runs" if global_method else "starts"
+        c.print(f"{ms.converged}/{ms.total} {what} converged to {len(ms.solutions)} distinct solution(s):")
+        for s in ms.solutions[:10]:
+            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={_fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+    if plot_dir is not None:
+        from ..frf import frf as model_frf
+        from ..plot.frf import save_frf_update_figures
+
+        use = np.isin(frf.omega, res.omega)
+        _, xa = model_frf(model, frf.omega[use], frf.force, frf.dofs, res.parameters, kw["damping"])
+        names = save_frf_update_figures(plot_dir, res.history, frf.omega[use], frf.dofs, frf.response[use], xa)
+        c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
+    _emit(ctx, _frf_payload(model, data, res, ms, extra))
+    if not res.success:
+        raise NumericalError(f"the FRF update did not converge: {res.message}")
+
+
+# ---------------------------------------------------------------------------------- frf-select
+@cli.command("frf-select")
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...")
+@click.option("--candidates", "cand_text", required=True, metavar="LIST|START:STOP:N", help="Candidate lines, rad/s.")
+@click.option("--lines", "n_lines", type=click.IntRange(min=1), required=True, help="How many lines to choose.")
+@click.option("--kind", type=click.Choice(["direct", "sensitivity"]), default="direct", show_default=True,
+              help="direct: complete data (eq. 28); sensitivity: measured at --dofs (eqs. 31-32).")
+@click.option("--dofs", "dofs_text", default=None, help="Measured dofs (kind sensitivity; default all).")
+@click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
+@click.option("--margin", type=click.FloatRange(min=0), default=0.05, show_default=True,
+              help="Keep this relative eigenvalue distance from resonances.")
+@damping_option
+@set_option
+@json_option
+def frf_select_command(model_path, force_text, cand_text, n_lines, kind, dofs_text, unknowns, margin, damping_text,
+                       set_text, json_path):
+    """Choose spectral lines that make the FRF updating equations best conditioned (He 1993; Ren & Beards 1993)."""
+    from ..frf.selection import select_frequencies
+    from ..io.model_file import load_model
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    sel = select_frequencies(model, parse_omega(cand_text, "--candidates"), n_lines, parse_force(force_text), kind=kind,
+                             response=_dofs(dofs_text), unknowns=_dofs(unknowns), values=values,
+                             damping=parse_damping(damping_text), margin=margin)
+    c = ctx.console
+    c.print(f"chosen lines (rad/s): {', '.join(_fmt(w) for w in sel.omega)}  (condition number {sel.condition_number:.4g})")
+    c.print(f"evenly spread lines {', '.join(_fmt(w) for w in sel.uniform['omega_rad_s'])}: condition number "
+            f"{sel.uniform['condition_number']:.4g}")
+    if sel.excluded:
+        c.print(f"{len(sel.excluded)} candidate(s) excluded near resonances")
+    _emit(ctx, {"model": model.name, "kind": kind, "omega_rad_s": sel.omega, "lines": (sel.index + 1).tolist(),
+                "condition_number": sel.condition_number, "uniform": sel.uniform, "excluded": sel.excluded,
+                "history": sel.history})
+
+
+# ---------------------------------------------------------------------------------- surface
+def _range(text: str, what: str) -> np.ndarray:
+    g = parse_omega(text, what)
+    if g.size < 2:
+        raise InputError(f"{what}: a grid needs at least two values")
+    return g
+
+
+@cli.command("surface")
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--params", "params_text", required=True, metavar="P1,P2", help="The two parameters of the grid.")
+@click.option("--x", "x_text", required=True, metavar="START:STOP:N", help="Grid of the first parameter.")
+@click.option("--y", "y_text", required=True, metavar="START:STOP:N", help="Grid of the second parameter.")
+@click.option("--kind", type=click.Choice(["frf", "modal"]), default="frf", show_default=True,
+              help="frf: eq. 34 from the data's FRFs; modal: eq. 33 from its modes.")
+@click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear", show_default=True)
+@click.option("--ref-dof", default=None, help="Modal: scale shapes to 1 here (default first measured dof).")
+@damping_option
+@click.option("--truth", "truth_text", default=None, metavar="P1=V1,P2=V2", help="Mark the true solution.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the surface and contour figure (PNG).")
+@set_option
+@json_option
+def surface_command(model_path, data_path, params_text, x_text, y_text, kind, residual, ref_dof, damping_text,
+                    truth_text, plot_path, set_text, json_path):
+    """Residual surface over two parameters (paper Figures 5-7): grid minimum and local minima."""
+    from ..frf.surfaces import frf_surface, modal_surface
+    from ..frf.updating import frf_data
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    data = load_testdata(data_path, model)
+    names = [p.strip() for p in params_text.split(",") if p.strip()]
+    x, y = _range(x_text, "--x"), _range(y_text, "--y")
+    truth = None
+    if truth_text:
+        t = parse_set(truth_text)
+        missing = [n for n in names if n not in t]
+        if missing:
+            raise InputError(f"--truth: give a value for {', '.join(missing)}")
+        truth = (t[names[0]], t[names[1]])
+    if kind == "frf":
+        surf = frf_surface(model, frf_data(data), names, x, y, values, parse_damping(damping_text), residual, truth=truth)
+    else:
+        if not data.modes:
+            raise InputError(f"{data_path}: no modes for a modal surface")
+        surf = modal_surface(model, data, names, x, y, values, ref_dof, truth=truth)
+    summ = surf.summary()
+    m = summ["minimum"]
+    ctx.console.print(f"{surf.kind} over {names[0]} x {names[1]} ({x.size} x {y.size}): minimum {m['value']:.4g} at "
+                      f"{names[0]}={_fmt(m[names[0]])}, {names[1]}={_fmt(m[names[1]])}; {summ['local_minima']} interior "
+                      f"local minima (8 neighbours), {summ['edge_minima']} on the border, {summ['singular_points']} "
+                      "points exactly on a resonance")
+    if plot_path is not None:
+        from ..plot.frf import save_surface_figure
+
+        save_surface_figure(plot_path, surf, f"log10 r, {surf.kind}")
+        ctx.console.print(f"figure written to {plot_path}")
+    _emit(ctx, {"model": model.name, "kind": surf.kind, "params": names, "x": x, "y": y, "values": surf.values,
+                **{k: summ[k] for k in ("minimum", "local_minima", "edge_minima", "minima", "singular_points")}})

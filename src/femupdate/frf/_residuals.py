@@ -1,0 +1,72 @@
+r"""FRF residuals shared by iterative updating, residual surfaces and global search.
+
+For model responses :math:`x_A` and measured ones :math:`x_E` at the same lines and dofs:
+
+* ``"linear"``: :math:`w\,(x_A - x_E)` — the paper's eq. 34 (real and imaginary parts of complex
+  data as separate residuals);
+* ``"relative"``: :math:`w\,(x_A - x_E) / |x_E|` — every measured value counts alike, whether it
+  sits on a peak or in a trough;
+* ``"log"``: :math:`w\,(\ln|x_A| - \ln|x_E|)` — log-magnitude, phase ignored (usable with real
+  data against a damped model and vice versa).  Undamped, :math:`\ln|x| \to -\infty` at an
+  anti-resonance: a model anti-resonance cannot be moved across a measured line, so lines next
+  to anti-resonances trap the iteration (keep them away, or start close).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._errors import InputError
+
+RESIDUALS = ("linear", "relative", "log")
+_TINY = np.finfo(float).tiny
+
+
+def check_kind(kind: str) -> str:
+    if kind not in RESIDUALS:
+        raise InputError(f"unknown FRF residual {kind!r}: use {', '.join(RESIDUALS)}")
+    return kind
+
+
+def prepare(xe: np.ndarray, kind: str, weights, real: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Per-value weights (broadcast to ``xe``'s shape) with the ``"relative"`` scaling folded in,
+    and the transformed measured values (``ln|x_E|`` for ``"log"``).  ``real``: the model's
+    responses are real, so complex data (checked to have a negligible imaginary part) are
+    compared through their real part."""
+    if real and np.iscomplexobj(xe):
+        xe = xe.real
+    w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, float), xe.shape).copy()
+    if not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise InputError("FRF residual weights must be finite and >= 0")
+    mag = np.abs(xe)
+    if kind == "relative":
+        floor = 1e-12 * max(float(mag.max()), _TINY)
+        w = w / np.maximum(mag, floor)
+    if kind == "log":
+        if np.any(mag == 0):
+            raise InputError("log-magnitude residuals need non-zero measured values (a zero response was given)")
+        return w, np.log(mag)
+    return w, xe
+
+
+def values(xa: np.ndarray, target: np.ndarray, w: np.ndarray, kind: str) -> np.ndarray:
+    """Residuals of model responses ``xa`` (any leading axes; trailing axes as ``target``),
+    complex ones as (..., 2, lines, dofs) real and imaginary parts — flatten as needed."""
+    if kind == "log":
+        return w * (np.log(np.maximum(np.abs(xa), _TINY)) - target)
+    d = w * (xa - target)
+    return np.stack([d.real, d.imag], axis=-3) if np.iscomplexobj(d) else d
+
+
+def jacobian(xa: np.ndarray, dxa: np.ndarray, w: np.ndarray, kind: str) -> np.ndarray:
+    """``∂r/∂p`` from ``dxa = ∂x_A/∂p`` (trailing parameter axis); same layout as :func:`values`
+    with the parameter axis last."""
+    if kind == "log":  # d ln|x| = Re(dx / x)
+        return w[..., None] * np.real(dxa / np.where(xa == 0, _TINY, xa)[..., None])
+    d = w[..., None] * dxa
+    return np.stack([d.real, d.imag], axis=-4) if np.iscomplexobj(d) else d
+
+
+def squared_sum(r: np.ndarray, n_trailing: int) -> np.ndarray:
+    """Sum of squares over the last ``n_trailing`` axes (eq. 34's r²)."""
+    return np.sum(r**2, axis=tuple(range(-n_trailing, 0)))

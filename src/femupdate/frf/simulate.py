@@ -1,0 +1,239 @@
+r"""Frequency response functions of the model: receptance, mobility, accelerance; noise models.
+
+The receptance matrix (paper eq. 23, the inverse of the dynamic stiffness)
+
+.. math::  \alpha(\omega) = Z(\omega)^{-1}, \qquad Z = K - \omega^2 M \ \ \text{(undamped)},
+
+is never formed: only its columns at the excitation dofs are solved for (one solve per
+excitation dof and line), and the rows at the response dofs kept.  Mobility is
+:math:`i\omega\alpha` and accelerance :math:`-\omega^2\alpha`.  Damping is optional
+(:class:`~femupdate.frf.Damping`: Rayleigh and structural); the paper's models are undamped and
+their receptances real.
+
+Noise models (:func:`add_noise`) act on simulated test data:
+
+* ``"relative"``: every value times :math:`(1 + \epsilon)`, :math:`\epsilon \sim N(0, \sigma^2)`
+  (complex data: real and imaginary parts each of variance :math:`\sigma^2/2`);
+* ``"absolute"``: :math:`+\,\sigma\,\epsilon` in the units of the response (a noise floor);
+* ``"coherent"``: one relative error per spectral line, shared by every response channel: the
+  error of the force measurement, which scales all the line's FRFs together.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from .._errors import InputError
+from ..dofs import canonical_all, describe
+from ..testdata import FRFData
+from ._lines import Damping, LineSystems, as_damping, check_omega, force_vector, nonnegative, resonances
+
+log = logging.getLogger(__name__)
+
+KINDS = ("receptance", "mobility", "accelerance")
+NOISE_KINDS = ("relative", "absolute", "coherent")
+#: lines closer than this (relative eigenvalue distance) to an undamped resonance are refused
+SINGULAR_TOL = 1e-10
+
+
+def convert(h: np.ndarray, omega: np.ndarray, to: str = "receptance", frm: str = "receptance") -> np.ndarray:
+    r"""Convert FRFs between receptance, mobility (:math:`i\omega\alpha`) and accelerance
+    (:math:`-\omega^2\alpha`); the first axis of ``h`` runs over the lines ``omega``."""
+    for k in (to, frm):
+        if k not in KINDS:
+            raise InputError(f"unknown FRF kind {k!r}: use {', '.join(KINDS)}")
+    if to == frm:
+        return np.asarray(h)
+    w = np.asarray(omega, float).reshape((-1,) + (1,) * (np.ndim(h) - 1))
+    factor = {"receptance": np.ones_like(w, dtype=complex), "mobility": 1j * w, "accelerance": -(w**2) + 0j}
+    if frm != "receptance" and np.any(w == 0):
+        raise InputError(f"a {frm} cannot be converted at zero frequency")
+    return np.asarray(h) * factor[to] / factor[frm]
+
+
+def response_dofs(model, response: Sequence[str] | None, what: str = "response") -> tuple[tuple[str, ...], np.ndarray]:
+    """Labels and model positions of the response dofs (default every model dof)."""
+    labels = model.dofs if response is None else canonical_all(response, what)
+    if not labels:
+        raise InputError(f"{what}: no dofs given")
+    return tuple(labels), model.dof_index(labels, what)
+
+
+def check_lines(model, omega, values=None, damping: Damping | None = None, tol: float = SINGULAR_TOL):
+    """Refuse undamped lines that lie (numerically) on a resonance of the model, naming them.
+
+    Checked against every eigenvalue for models up to :data:`femupdate.modal.DENSE_LIMIT` dofs;
+    larger models rely on the sparse factorisation, which reports an exactly singular line
+    (:class:`NumericalError`, naming it).
+    """
+    from ..modal import DENSE_LIMIT as MODAL_DENSE
+
+    damping = as_damping(damping)
+    if not damping.undamped or model.n_dofs > MODAL_DENSE:
+        return None
+    res = resonances(model, omega, values)
+    bad = res.near(tol)
+    if bad.size:
+        raise InputError(f"frequencies coincide with undamped model resonances: {res.describe(bad)}; "
+                         "move these lines or add damping")
+    return res
+
+
+def receptance(model, omega, excitation: Sequence[str], response: Sequence[str] | None = None, values=None,
+               damping=None, method: str = "auto") -> np.ndarray:
+    r"""Receptances :math:`\alpha_{ab}(\omega)`, shape ``(n_lines, n_response, n_excitation)``.
+
+    Parameters
+    ----------
+    model : Model
+    omega : array_like (n_lines,)
+        Frequencies in rad/s.
+    excitation : sequence of dof labels (the columns of α solved for: one solve per dof and line).
+    response : dof labels of the rows kept (default every model dof).
+    values : parameter values (default nominal).
+    damping : :class:`Damping` or {alpha, beta, eta}; default undamped (real receptances).
+    method : ``"auto"`` (stacked dense solves up to ``DENSE_LIMIT`` dofs, sparse LU above),
+        ``"dense"`` or ``"sparse"``.
+
+    Raises
+    ------
+    InputError
+        Unknown dofs (named), bad frequencies, an undamped line on a resonance (named).
+    """
+    w = check_omega(omega)
+    damping = as_damping(damping)
+    p = model.resolve(values)
+    exc = canonical_all(excitation, "excitation")
+    _, ie = response_dofs(model, exc, "excitation")
+    _, ir = response_dofs(model, response)
+    check_lines(model, w, p, damping)
+    E = np.zeros((model.n_dofs, len(exc)))
+    E[ie, np.arange(len(exc))] = 1.0
+    X = LineSystems(model, p, w, damping, method).solve(E)
+    return X[:, ir, :]
+
+
+def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
+        kind: str = "receptance", method: str = "auto") -> tuple[tuple[str, ...], np.ndarray]:
+    """Responses to the force vector ``{dof: amplitude}``: ``(dofs, H)`` with ``H`` of shape
+    ``(n_lines, n_response)``, as receptance (displacement / force), mobility or accelerance.
+
+    One solve per line whatever the number of loaded dofs.  Real when undamped, real force and
+    receptance; complex otherwise.
+    """
+    if kind not in KINDS:
+        raise InputError(f"unknown FRF kind {kind!r}: use {', '.join(KINDS)}")
+    w = check_omega(omega)
+    damping = as_damping(damping)
+    p = model.resolve(values)
+    f = force_vector(model, force)
+    labels, ir = response_dofs(model, response)
+    check_lines(model, w, p, damping)
+    X = LineSystems(model, p, w, damping, method).solve(f)[:, ir]
+    return labels, (convert(X, w, kind) if kind != "receptance" else X)
+
+
+def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
+             noise: float = 0.0, noise_kind: str = "relative", seed: int | None = None,
+             method: str = "auto") -> FRFData:
+    """Simulated FRF test data (receptances, :class:`~femupdate.FRFData`), optionally noisy."""
+    labels, X = frf(model, omega, force, response, values, damping, method=method)
+    data = FRFData(check_omega(omega), dict(force), labels, X)
+    return add_noise(data, noise, noise_kind, seed) if noise else data
+
+
+def add_noise(data: FRFData, level: float, kind: str = "relative", seed: int | None = None) -> FRFData:
+    """Copy of ``data`` with measurement noise of standard deviation ``level`` (see module doc).
+
+    Real data stay real (real noise); complex data get circular complex noise.
+    """
+    if kind not in NOISE_KINDS:
+        raise InputError(f"unknown noise kind {kind!r}: use {', '.join(NOISE_KINDS)}")
+    level = nonnegative(level, "noise level")
+    rng = np.random.default_rng(seed)
+    X = data.response
+    cplx = np.iscomplexobj(X)
+
+    def draw(shape):
+        if cplx:
+            return (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) * np.sqrt(0.5)
+        return rng.standard_normal(shape)
+
+    if kind == "relative":
+        Y = X * (1 + level * draw(X.shape))
+    elif kind == "absolute":
+        Y = X + level * draw(X.shape)
+    else:
+        Y = X * (1 + level * draw((X.shape[0], 1)))
+    return FRFData(data.omega, dict(data.force), data.dofs, Y)
+
+
+def from_channels(force: Mapping, channels: Mapping[str, tuple], rtol: float = 1e-9) -> FRFData:
+    """FRF data from separately recorded channels ``{dof: (omega, values)}``.
+
+    Every channel must share one frequency axis: a channel whose axis differs (length or
+    values, beyond ``rtol``) is refused with a message naming it and the first channel.
+    """
+    if not channels:
+        raise InputError("frf channels: none given")
+    first = None
+    dofs, cols = [], []
+    for d, item in channels.items():
+        try:
+            w, v = item
+        except (TypeError, ValueError):
+            raise InputError(f"frf channel {d}: expected a pair (omega, values)") from None
+        w = check_omega(w, f"frf channel {d} omega")
+        v = np.asarray(v)
+        if v.shape != w.shape:
+            raise InputError(f"frf channel {d}: {v.size} values for {w.size} frequencies")
+        if first is None:
+            first = (d, w)
+        else:
+            d0, w0 = first
+            if w.shape != w0.shape or not np.allclose(w, w0, rtol=rtol, atol=0):
+                k = int(np.argmax(~np.isclose(w, w0, rtol=rtol, atol=0))) if w.shape == w0.shape else None
+                detail = (f"{w.size} lines against {w0.size}" if k is None
+                          else f"line {k + 1}: {w[k]:.9g} against {w0[k]:.9g} rad/s")
+                raise InputError(f"frf channel {d}: its frequency axis differs from that of channel {d0} ({detail}); "
+                                 "every channel of one excitation must share one axis (resample first)")
+        dofs.append(d)
+        cols.append(v)
+    kinds = {np.iscomplexobj(c) for c in cols}
+    resp = np.column_stack([c.astype(complex) if True in kinds else c for c in cols])
+    return FRFData(first[1], dict(force), tuple(dofs), resp)
+
+
+def check_data_against_model(model, data: FRFData, damping: Damping, residual: str, imag_tol: float = 1e-6) -> None:
+    """Refuse data the model cannot be compared with, naming the culprit.
+
+    * a response or force dof the model lacks;
+    * complex data with a significant imaginary part where the model's responses are real
+      (undamped, real force) — unless the residual compares magnitudes (``"log"``);
+    * real data where the model's responses are complex (damping, or a complex force): the
+      phase is missing — unless ``"log"``.
+    """
+    f = force_vector(model, data.force, "frf force")
+    missing = [d for d in data.dofs if d not in set(model.dofs)]
+    if missing:
+        raise InputError(f"frf response at dof(s) the model {model.name!r} lacks: {describe(missing)}")
+    if residual == "log":
+        return
+    real_model = damping.undamped and not np.iscomplexobj(f)
+    X = data.response
+    if real_model and np.iscomplexobj(X):
+        mag = np.abs(X)
+        ratio = np.abs(X.imag) / np.maximum(mag, np.finfo(float).tiny)
+        k = np.unravel_index(np.argmax(np.where(mag > 1e-12 * mag.max(), ratio, 0)), X.shape)
+        if ratio[k] > imag_tol:
+            raise InputError(
+                f"frf response is complex (|Im|/|x| = {ratio[k]:.2g} at {data.dofs[k[1]]}, line {k[0] + 1}, "
+                f"{data.omega[k[0]]:g} rad/s) but the model's responses are real (undamped, real force): give "
+                "damping, or compare magnitudes (residual 'log')")
+    if not real_model and not np.iscomplexobj(X):
+        why = "damped" if not damping.undamped else "driven by a complex force"
+        raise InputError(f"frf response is real but the model is {why} (complex responses): give the data as "
+                         "[re, im] pairs, or compare magnitudes (residual 'log')")

@@ -1,0 +1,304 @@
+r"""Iterative updating from incomplete FRF measurements (paper eqs. 30-31, with eq. 32).
+
+The residual stacks, for every used line :math:`\omega_l` and measured dof s, the difference of
+the model's and the measured response to the test's force (:mod:`femupdate.frf._residuals`:
+``"linear"`` = eq. 34, ``"relative"``, or ``"log"``-magnitude), optionally weighted.  Its
+Jacobian is eq. 31's sensitivity matrix, built from Brandon's expression (eq. 32) for the
+force vector: per line ONE factorisation of Z and the solves
+
+.. math::  x = Z^{-1} f, \qquad Y_S = Z^{-1} I_{:,S}, \qquad
+           \partial x_S / \partial p_j = -\,Y_S^T\,(c_K K_j + c_M M_j)\,x,
+
+all lines at once in one stacked dense solve for small models.  The iteration of eq. 30
+(:math:`D_{j+1} = D_j + S^+\Delta`) is made robust by SciPy's least squares (trust-region
+reflective with bounds, dogbox, Levenberg–Marquardt) — the same driver, parametrisations,
+regularisation and :class:`~femupdate.updating.UpdateResult` / diagnostics as modal updating.
+
+Lines are chosen with ``lines`` (indices) or ``select`` (the best-conditioned N lines,
+:func:`femupdate.frf.selection.select_frequencies`); lines within ``resonance_tol`` of a
+resonance of the starting model are skipped (``resonance="skip"``, named in ``notes``),
+refused (``"error"``) or kept (``"keep"``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+
+import numpy as np
+
+from .._errors import InputError, NumericalError
+from ..testdata import FRFData, TestData
+from ..updating import PARAMETRISATIONS, UpdateResult, _diagnostics, _Parametrised, _solve
+from . import _residuals as R
+from ._lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
+from .simulate import check_data_against_model
+
+log = logging.getLogger(__name__)
+
+RESONANCE_POLICIES = ("skip", "error", "keep")
+#: default: lines within this relative eigenvalue distance of a resonance of the starting model
+RESONANCE_TOL = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class FRFUpdateResult(UpdateResult):
+    """:class:`~femupdate.updating.UpdateResult` of an FRF update, plus
+
+    ``omega`` (the lines used, rad/s), ``skipped`` ([{line, omega_rad_s, reason}]), ``residual``
+    (its form), ``frac`` ({dof: FRAC of test vs updated model}), ``natural_frequencies_hz`` of the
+    updated model (lowest ten) and ``notes``.
+    """
+
+    omega: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    skipped: list = field(default_factory=list)
+    residual: str = "linear"
+    frac: dict = field(default_factory=dict)
+    natural_frequencies_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    notes: list = field(default_factory=list)
+
+
+def frf_data(data) -> FRFData:
+    if isinstance(data, FRFData):
+        return data
+    if isinstance(data, TestData) and data.frf is not None:
+        return data.frf
+    raise InputError("FRF updating needs FRF test data (omega_rad_s, force, response)")
+
+
+def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
+    """Frequency response assurance criterion per dof (columns): |x_Eᴴ x_A|² / (|x_E|² |x_A|²)."""
+    num = np.abs(np.sum(np.conj(xe) * xa, axis=0)) ** 2
+    den = np.sum(np.abs(xe) ** 2, axis=0) * np.sum(np.abs(xa) ** 2, axis=0)
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+
+
+class _FRFProblem(_Parametrised):
+    """Residuals and Jacobian of one FRF updating problem (cached per parameter vector)."""
+
+    def __init__(self, model, frf: FRFData, names, parametrisation, p_base, residual, weights, lines, damping, solver):
+        super().__init__(model, names, parametrisation, p_base)
+        self.model = model
+        self.damping = damping
+        self.solver = solver
+        self.kind = R.check_kind(residual)
+        self.f = force_vector(model, frf.force, "frf force")
+        self.S = model.dof_index(frf.dofs, "frf response")
+        self.omega = frf.omega[lines]
+        xe = frf.response[lines]
+        w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, float), frf.response.shape)[lines]
+        real = damping.undamped and not np.iscomplexobj(self.f)
+        self.w, self.target = R.prepare(xe, self.kind, w, real)
+        self.xe = xe.real if real and np.iscomplexobj(xe) else xe
+        self.forms = ParameterForms(model, self.idx)
+        n = model.n_dofs
+        self.B = np.zeros((n, 1 + self.S.size), dtype=self.f.dtype)
+        self.B[:, 0] = self.f
+        self.B[self.S, 1 + np.arange(self.S.size)] = 1.0
+        self.cache_key = None
+        self.nfev = 0
+
+    def _evaluate(self, x):
+        key = x.tobytes()
+        if key != self.cache_key:
+            p = self.to_p(x)
+            sys_ = LineSystems(self.model, p, self.omega, self.damping, self.solver)
+            X = sys_.solve(self.B)  # (n_l, n, 1 + n_s)
+            self.cache_key, self.cache = key, (p, sys_, X)
+        return self.cache
+
+    def responses(self, x) -> np.ndarray:
+        _, _, X = self._evaluate(x)
+        return X[:, self.S, 0]
+
+    def residuals(self, x):
+        self.nfev += 1
+        r = R.values(self.responses(x), self.target, self.w, self.kind).ravel()
+        if not np.all(np.isfinite(r)):
+            raise NumericalError("non-finite FRF residuals (a line lies on a resonance of the model at these parameter values)")
+        return r
+
+    def jacobian(self, x):
+        _, sys_, X = self._evaluate(x)
+        L = self.idx.size
+        # eq. 32 for the force vector: dx_S/dp_j = -Y_S^T (c_K K_j + c_M M_j) x, every j at once
+        dx = np.stack([-self.forms(X[i, :, 1:], X[i, :, :1], sys_.cK[i], sys_.cM[i])[:, :, 0].T
+                       for i in range(self.omega.size)])  # (n_l, n_s, L)
+        J = R.jacobian(X[:, self.S, 0], dx, self.w, self.kind)
+        return J.reshape(-1, L) * self.dp_dx(x)[None, :]
+
+
+def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_tol, names, damping, notes):
+    n_all = frf.omega.size
+    if lines is None:
+        use = np.arange(n_all)
+    else:
+        use = np.asarray(lines)
+        if use.dtype == bool:
+            if use.shape != (n_all,):
+                raise InputError(f"lines: a mask needs {n_all} entries (one per line), got {use.shape}")
+            use = np.flatnonzero(use)
+        use = use.astype(int)
+        bad = use[(use < 0) | (use >= n_all)]
+        if bad.size:
+            raise InputError(f"lines: index(es) {bad.tolist()} outside 0..{n_all - 1}")
+        use = np.unique(use)
+    skipped = []
+    if resonance not in RESONANCE_POLICIES:
+        raise InputError(f"unknown resonance policy {resonance!r}: use {', '.join(RESONANCE_POLICIES)}")
+    if resonance != "keep":
+        res = resonances(model, frf.omega[use], p)
+        near = res.near(resonance_tol)
+        if near.size:
+            where = "; ".join(f"line {use[i] + 1} ({frf.omega[use[i]]:.6g} rad/s, {res.distance[i]:.2g} from the "
+                              f"resonance at {math.sqrt(max(res.nearest[i], 0)):.6g} rad/s)" for i in near)
+            if resonance == "error":
+                raise InputError(f"FRF data at frequencies that coincide with resonances of the model: {where}; "
+                                 "drop these lines, or use resonance='skip'")
+            log.warning("FRF lines skipped, within %g of a model resonance: %s", resonance_tol, where)
+            for i in near:
+                skipped.append({"line": int(use[i]) + 1, "omega_rad_s": float(frf.omega[use[i]]),
+                                "reason": f"within {resonance_tol:g} (relative eigenvalue distance) of the model "
+                                          f"resonance at {math.sqrt(max(res.nearest[i], 0)):.6g} rad/s"})
+            notes.append(f"skipped near resonance: {where}")
+            use = np.delete(use, near)
+    if select is not None:
+        from .selection import select_frequencies
+
+        sel = select_frequencies(model, frf.omega[use], int(select), dict(frf.force), kind="sensitivity",
+                                 response=frf.dofs, unknowns=names, values=p, damping=damping, margin=0.0)
+        use = use[sel.index]
+        notes.append(f"selected {use.size} lines by conditioning (cond {sel.condition_number:.3g}, evenly spread "
+                     f"{sel.uniform['condition_number']:.3g}): {np.round(frf.omega[use], 6).tolist()} rad/s")
+    if use.size == 0:
+        raise InputError("no FRF lines left to update with")
+    return use, skipped
+
+
+def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
+               residual: str = "linear", weights=None, measurement_std=None, lines=None, select: int | None = None,
+               resonance: str = "skip", resonance_tol: float = RESONANCE_TOL, damping=None,
+               parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
+               xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None, values=None,
+               solver: str = "auto") -> FRFUpdateResult:
+    """Update the model's parameters so that its FRFs match measured ones (eqs. 30-32).
+
+    Parameters
+    ----------
+    model : Model
+    data : TestData with ``frf``, or FRFData: responses at any subset of dofs to one force vector.
+    params : names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : starting values {name: value} (default: the model's values).
+    residual : ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (log-magnitude).
+    weights : array broadcastable to (n_lines, n_dofs) of the data, multiplying the residuals.
+    measurement_std : standard deviation of the residual entries (scalar or broadcastable array);
+        the residuals are divided by it and the covariance is absolute.
+    lines : indices (0-based) or a boolean mask of the data's lines to use (default all).
+    select : choose this many of the lines by conditioning of the sensitivity matrix.
+    resonance : ``"skip"`` | ``"error"`` | ``"keep"`` for lines within ``resonance_tol`` (relative
+        eigenvalue distance) of a resonance of the model at ``values`` (the nominal model: the
+        same lines for every start of a multi-start study).
+    damping : :class:`~femupdate.frf.Damping` of the model (default undamped: real responses).
+    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values :
+        as in :func:`femupdate.updating.update`.
+    solver : ``"auto"`` | ``"dense"`` | ``"sparse"`` for the line solves.
+
+    Returns
+    -------
+    FRFUpdateResult
+    """
+    prob, sigma, skipped, notes = _prepare(model, data, params, x0, residual, weights, measurement_std, lines, select,
+                                           resonance, resonance_tol, damping, parametrisation, values, solver,
+                                           regularization is not None, method)
+    names = prob.names
+    frf = frf_data(data)
+    sol, history, reg = _solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+    p_final = prob.to_p(sol.x)
+    r = prob.residuals(sol.x)
+    J = prob.jacobian(sol.x)
+    diag = _diagnostics(prob, sol.x, r, J, sigma)
+    xa = prob.responses(sol.x)
+    pairs, f_test, f_model, natural = _modal_report(model, data, p_final)
+    return FRFUpdateResult(
+        parameters=dict(zip(model.parameter_names, map(float, p_final))),
+        names=tuple(names), x=p_final[prob.idx], success=bool(sol.success), status=int(sol.status),
+        message=str(sol.message), cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev),
+        njev=int(sol.njev or 0), iterations=max(len(history) - 1, int(sol.njev or 0)), history=history,
+        pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=[], diagnostics=diag,
+        regularization=reg, start=dict(zip(names, map(float, prob.p_base[prob.idx]))), sensitivity="brandon",
+        omega=prob.omega, skipped=skipped, residual=residual, frac=dict(zip(frf.dofs, frac(prob.xe, xa))),
+        natural_frequencies_hz=natural, notes=notes,
+    )
+
+
+def _prepare(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
+             damping, parametrisation, values, solver, regularized, method="trf"):
+    """Checks, line choice and the :class:`_FRFProblem` (shared by local and global FRF updating)."""
+    frf = frf_data(data)
+    if parametrisation not in PARAMETRISATIONS:
+        raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
+    if method not in ("trf", "dogbox", "lm"):
+        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
+    R.check_kind(residual)
+    damping = as_damping(damping)
+    check_data_against_model(model, frf, damping, residual)
+    names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+    if not names:
+        raise InputError("no parameters to update: every parameter is fixed")
+    p_nominal = model.resolve(values)
+    p_base = p_nominal.copy()
+    for name, v in dict(x0 or {}).items():
+        p_base[model.parameter_index(name)] = float(v)
+    w = weights
+    sigma = None
+    if measurement_std is not None:
+        sigma = np.asarray(measurement_std, float)
+        if not np.all(sigma > 0) or not np.all(np.isfinite(sigma)):
+            raise InputError("measurement_std must be positive and finite")
+        w = np.asarray(1.0 if weights is None else weights, float) / sigma
+    notes: list[str] = []
+    use, skipped = _select_lines(model, frf, p_nominal, lines, select, resonance, resonance_tol, names, damping, notes)
+    prob = _FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
+    n_res = prob.xe.size * (2 if np.iscomplexobj(prob.xe) and residual != "log" else 1)
+    if n_res < len(names) and not regularized:
+        raise InputError(f"{len(names)} parameters but only {n_res} residuals from {use.size} line(s) at "
+                         f"{prob.S.size} dof(s): add lines or dofs, fix parameters, or use regularization")
+    return prob, sigma, skipped, notes
+
+
+def _modal_report(model, data, p):
+    """Natural frequencies of the updated model, and its MAC pairing with measured modes if the
+    test data also hold modes (the same pairing report as modal updating)."""
+    from ..modal import DENSE_LIMIT, model_modes
+
+    n_modes = None if model.n_dofs <= DENSE_LIMIT else min(10, model.n_dofs - 2)
+    modes = model_modes(model, p, n_modes=n_modes)
+    natural = modes.frequencies_hz[:10]
+    if isinstance(data, TestData) and data.modes:
+        from ..correlation import correlate
+
+        corr = correlate(data, modes)
+        pairs = [(int(i), int(j), float(m)) for i, j, m in corr.pairs]
+        return pairs, data.frequencies_hz, np.array([modes.frequencies_hz[j] for _, j, _ in corr.pairs]), natural
+    return [], np.zeros(0), np.zeros(0), natural
+
+
+def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
+                   scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
+                   log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
+    """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
+    as :func:`femupdate.multistart.multistart`), locally or on Dask; a
+    :class:`~femupdate.multistart.MultiStartResult` in the same format."""
+    from ..multistart import draw_starts, run_starts, run_with
+
+    if starts < 1:
+        raise InputError("the number of starts must be at least 1")
+    names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    X0 = draw_starts(model, names, starts, seed, log_uniform)
+    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
+                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout,
+                      runner=partial(run_with, frf_update))

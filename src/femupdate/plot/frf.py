@@ -1,0 +1,181 @@
+"""Figures of FRF-based updating: condition of X (Figure 4), residual surfaces (Figures 5-7),
+receptance-sensitivity accuracy near resonance (eq. 32), starts reaching the truth, FRF overlays."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .paper_figures import _save  # noqa: E402
+
+
+def _log10(values):
+    v = np.asarray(values, float)
+    finite = np.isfinite(v) & (v > 0)
+    lo = np.min(v[finite]) if finite.any() else 1e-300
+    hi = np.max(v[finite]) if finite.any() else 1.0
+    return np.log10(np.clip(np.where(np.isfinite(v), v, hi), lo, hi))
+
+
+def condition_axes(spacings, curves: dict, ax=None):
+    """cond(X) against the spacing, lowest line = spacing (Figure 4); one curve per label."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4))
+    for label, c in curves.items():
+        ax.semilogy(spacings, c, label=label)
+    ax.set(xlabel="lowest frequency = spacing [rad/s]", ylabel="cond(X)", title="condition of X, 5 lines (eq. 28)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    return ax
+
+
+def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
+    """log10 cond(X) over lowest frequency × spacing."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4))
+    im = ax.pcolormesh(spacings, starts, _log10(cond), shading="auto", cmap="viridis")
+    ax.plot(spacings, spacings, "w--", lw=1, label="lowest = spacing (Figure 4)")
+    ax.set(xlabel="spacing [rad/s]", ylabel="lowest frequency [rad/s]", title=title)
+    ax.figure.colorbar(im, ax=ax, shrink=0.85)
+    ax.legend(loc="upper right", fontsize=8)
+    return ax
+
+
+def save_condition_figure(path, spacings, curves, starts, map_spacings, cond_map) -> str:
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    condition_axes(spacings, curves, axes[0])
+    condition_map_axes(starts, map_spacings, cond_map, axes[1])
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _clipped_log10(surface):
+    """log10 of the residual, clipped for display: spikes (lines on resonance) at three decades
+    above the 99th percentile, the exact zero at the truth at 1e-10 of the median."""
+    v = np.asarray(surface.values, float)
+    pos = v[np.isfinite(v) & (v > 0)]
+    if not pos.size:
+        return np.zeros_like(v)
+    lo = max(float(pos.min()), 1e-10 * float(np.median(pos)))
+    hi = min(float(pos.max()), 1e3 * float(np.percentile(pos, 99)))
+    return np.log10(np.clip(np.where(np.isfinite(v), v, hi), lo, hi))
+
+
+def surface_axes(surface, ax=None):
+    """3-D surface of log10 of the residual (the paper's plots; spikes clipped for display)."""
+    if ax is None:
+        fig = plt.figure(figsize=(6, 4.5))
+        ax = fig.add_subplot(projection="3d")
+    X, Y = np.meshgrid(surface.x, surface.y, indexing="ij")
+    Z = _clipped_log10(surface)
+    ax.plot_surface(X, Y, Z, cmap="viridis", linewidth=0, antialiased=False, rcount=150, ccount=150)
+    if surface.truth is not None:
+        ax.scatter(*surface.truth, float(np.min(Z)), color="r", s=40, depthshade=False)
+    ax.set(xlabel=surface.names[0], ylabel=surface.names[1], zlabel="log10 r")
+    return ax
+
+
+def contour_axes(surface, ax=None, minima=None):
+    """Filled contours of log10 residual, the true solution (red star) and grid local minima (white)."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4.5))
+    Z = _clipped_log10(surface)
+    cs = ax.contourf(surface.x, surface.y, Z.T, levels=30, cmap="viridis")
+    ax.figure.colorbar(cs, ax=ax, shrink=0.85, label="log10 r")
+    for m in (minima if minima is not None else surface.minima()):
+        ax.plot(m[surface.names[0]], m[surface.names[1]], "o", mfc="none", mec="w", ms=5)
+    if surface.truth is not None:
+        ax.plot(*surface.truth, "r*", ms=12, label=f"true ({surface.truth[0]:g}, {surface.truth[1]:g})")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set(xlabel=surface.names[0], ylabel=surface.names[1])
+    return ax
+
+
+def save_surface_figure(path, surface, title: str) -> str:
+    fig = plt.figure(figsize=(12, 4.8))
+    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
+    surface_axes(surface, ax3)
+    ax3.set_title(title, fontsize=9)
+    ax2 = fig.add_subplot(1, 2, 2)
+    contour_axes(surface, ax2)
+    ax2.set_title("contours; circles: grid local minima", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
+    """Relative errors against frequency (log scale), model resonances as dotted lines."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    for label, e in curves.items():
+        ax.semilogy(omega, np.maximum(np.asarray(e, float), 1e-17), label=label)
+    for w in resonances_rad_s:
+        ax.axvline(w, color="k", ls=":", lw=0.8)
+    ax.set(xlabel="omega [rad/s]", ylabel="relative error", title="receptance sensitivity near resonances (eq. 32)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
+
+
+def save_accuracy_figure(path, omega, curves, resonances_rad_s) -> str:
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    accuracy_axes(omega, curves, resonances_rad_s, ax)
+    return _save(fig, path)
+
+
+def starts_axes(starts, reached, title, truth=None, ax=None):
+    """Random starts: green if the local update from there reached the truth, red otherwise."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(4.5, 4))
+    starts = np.asarray(starts)
+    reached = np.asarray(reached, bool)
+    ax.plot(starts[reached, 0], starts[reached, 1], "o", color="tab:green", ms=4, label=f"reached truth ({reached.sum()})")
+    ax.plot(starts[~reached, 0], starts[~reached, 1], "x", color="tab:red", ms=4, label=f"did not ({(~reached).sum()})")
+    if truth is not None:
+        ax.plot(*truth, "k*", ms=12)
+    ax.set(title=title, xlabel="k1", ylabel="k2")
+    ax.legend(loc="upper right", fontsize=7)
+    return ax
+
+
+def save_starts_figure(path, panels) -> str:
+    """``panels``: list of (starts, reached, title, truth)."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 4), squeeze=False)
+    for ax, (starts, reached, title, truth) in zip(axes[0], panels):
+        starts_axes(starts, reached, title, truth, ax)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def frf_axes(omega, dofs, measured, model, ax=None):
+    """Magnitude of measured (dots) and model (lines) FRFs, log scale."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, d in enumerate(dofs):
+        c = colours[k % len(colours)]
+        ax.semilogy(omega, np.abs(measured[:, k]), "o", color=c, ms=3, label=f"{d} test")
+        ax.semilogy(omega, np.abs(model[:, k]), "-", color=c, lw=1, label=f"{d} model")
+    ax.set(xlabel="omega [rad/s]", ylabel="|receptance|", title="FRF: test vs updated model")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> list[str]:
+    """``frf.png`` (test vs updated model) and ``convergence.png`` (cost per iteration)."""
+    from .updating import convergence_axes
+
+    out_dir = Path(out_dir)
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    frf_axes(omega, dofs, measured, model, ax)
+    names = [_save(fig, out_dir / "frf.png")]
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    convergence_axes(history, ax)
+    names.append(_save(fig, out_dir / "convergence.png"))
+    return names
