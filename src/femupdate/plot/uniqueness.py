@@ -1,0 +1,63 @@
+"""Heat map of a uniqueness study: measured-dof sets × numbers of modes."""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
+from matplotlib.patches import Patch, Rectangle  # noqa: E402
+
+from .paper_figures import _save  # noqa: E402
+
+VERDICTS = ("unique", "non-unique", "not converging")
+_COLOURS = ("#4daf4a", "#e41a1c", "#bdbdbd")
+
+
+def _row_label(dofs, nested):
+    return f"n = {len(dofs)}" if nested else ",".join(dofs) if len(dofs) <= 3 else f"{dofs[0]}..{dofs[-1]} ({len(dofs)})"
+
+
+def uniqueness_axes(cases, n_parameters: int, ax=None, title: str | None = None):
+    """The (dof set, m) table of a study's ``cases`` (the JSON ``cases`` of ``femupdate
+    uniqueness``): colour = verdict; text = distinct solutions found and log10 of the condition
+    number at the truth; hatched where the paper's criterion (mn >= L and n > 1) predicts a unique
+    solution."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.5, 5))
+    sets = list(dict.fromkeys(tuple(c["measured_dofs"]) for c in cases))
+    modes = sorted({int(c["n_modes"]) for c in cases})
+    nested = all(s == sets[-1][: len(s)] for s in sets)
+    grid = np.full((len(sets), len(modes)), np.nan)
+    ax.set_facecolor("white")
+    for c in cases:
+        i, j = sets.index(tuple(c["measured_dofs"])), modes.index(int(c["n_modes"]))
+        verdict = c.get("verdict") or {True: "unique", False: "non-unique", None: "not converging"}[c["unique"]]
+        grid[i, j] = VERDICTS.index(verdict)
+        cond = c.get("condition_number")
+        cond_txt = "∞" if cond is None or not math.isfinite(cond) else f"{math.log10(cond):.0f}"
+        n_sol = len(c["solutions"])
+        ax.text(j, i, f"{n_sol if n_sol < 100 else '≥100'}\n{cond_txt}", ha="center", va="center", fontsize=8)
+        n, m = len(c["measured_dofs"]), int(c["n_modes"])
+        if m * n >= n_parameters and n > 1:
+            ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, lw=0, hatch="//", ec="0.25"))
+    ax.imshow(np.ma.masked_invalid(grid), cmap=ListedColormap(_COLOURS), vmin=-0.5, vmax=2.5, aspect="auto")
+    ax.set(xticks=range(len(modes)), xticklabels=modes, yticks=range(len(sets)),
+           yticklabels=[_row_label(s, nested) for s in sets], xlabel="measured modes m",
+           ylabel="measured dofs" + (" (the first n)" if nested else ""),
+           title=title or "uniqueness: solutions found / log10 cond(S)")
+    handles = [Patch(color=col, label=v) for v, col in zip(VERDICTS, _COLOURS)]
+    handles.append(Patch(fill=False, ec="0.25", hatch="//", label="paper: mn ≥ L and n > 1"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    return ax
+
+
+def save_uniqueness_figure(path, cases, n_parameters: int, title: str | None = None) -> str:
+    """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name."""
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    uniqueness_axes(cases, n_parameters, ax, title)
+    return _save(fig, path)
