@@ -1,0 +1,319 @@
+"""``femupdate damage``, ``update-multi``, ``rank-modifications`` and ``fullfield``.
+
+* ``damage BASELINE DATA``: localise stiffness loss from a validated baseline (one stiffness per
+  element, expansion, L1 regularisation), with the baseline checked against ``--undamaged`` data;
+* ``update-multi MODEL --config DATA[:MODIFICATION] ...``: one set of unknowns updated from several
+  test configurations (perturbed boundary conditions), directly when every configuration's data
+  are complete, iteratively otherwise;
+* ``rank-modifications MODEL CANDIDATES``: pre-test ranking of candidate modifications;
+* ``fullfield MODEL SCAN``: scanning data by coordinates onto the model's dofs, then the direct solution.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from ..cli import _Ctx, _emit, _fmt, _values, cli, json_option, set_option
+from .._errors import InputError, NumericalError
+
+_path = click.Path(dir_okay=False, path_type=Path)
+
+
+def _load_structure(path: Path):
+    """(Structure or None, Model) of a model file; ``[matrices]`` models have no structure."""
+    from ..io.model_file import load_model, read_toml
+    from ..structure import Structure
+
+    if path.suffix.lower() != ".toml":
+        return None, load_model(path)
+    raw = read_toml(path)
+    if "matrices" in raw:
+        return None, load_model(path)
+    try:
+        s = Structure.from_dict(raw, source=str(path))
+        return s, s.build()
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if str(path) in msg else f"{path}: {msg}") from None
+
+
+def _parameter_table(title, model, values, names, x, stderr) -> Table:
+    """Start, identified value and standard error of each unknown."""
+    t = Table(title=title)
+    for col in ("parameter", "start", "identified", "std. error"):
+        t.add_column(col, justify="left" if col == "parameter" else "right")
+    p0 = dict(zip(model.parameter_names, model.resolve(values)))
+    for n, v, se in zip(names, x, stderr):
+        t.add_row(n, _fmt(p0[n]), _fmt(v), "-" if not np.isfinite(se) else _fmt(se))
+    return t
+
+
+def _names(text):
+    return [p.strip() for p in text.split(",") if p.strip()] if text else None
+
+
+# ---------------------------------------------------------------------------------- damage
+@cli.command()
+@click.argument("baseline_path", metavar="BASELINE_MODEL", type=_path)
+@click.argument("data_path", metavar="DATA", type=_path)
+@click.option("--undamaged", "undamaged_path", type=_path, default=None,
+              help="Test data of the undamaged structure: the baseline must match them first.")
+@click.option("--elements", "elements_text", default=None, help="Element parameters that may change (default all).")
+@click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True)
+@click.option("--alpha", type=click.FloatRange(0, 1, min_open=True), default=None,
+              help="L1 factor as a fraction of alpha_max (default: chosen by BIC).")
+@click.option("--expansion", type=click.Choice(["serep", "irs", "guyan"]), default="serep", show_default=True)
+@click.option("--n-basis", type=click.IntRange(min=1), default=None, help="SEREP modes (default: twice the highest paired).")
+@click.option("--allow-increase", is_flag=True, help="Let element stiffness increase too.")
+@click.option("--min-change", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
+              help="Smallest relative change reported as damage.")
+@click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Expansions (later ones with the damaged estimate).")
+@click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True, help="Noise replicates for the confidence.")
+@click.option("--noise-frequency", type=click.FloatRange(min=0), default=0.001, show_default=True, help="Relative frequency noise.")
+@click.option("--noise-shape", type=click.FloatRange(min=0), default=None,
+              help="Shape noise relative to each shape's largest value (default: from the expansion misfit).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--max-frequency-error", type=click.FloatRange(min=0), default=0.02, show_default=True,
+              help="Baseline check: largest frequency error against --undamaged.")
+@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.9, show_default=True, help="Baseline check: smallest MAC.")
+@click.option("--localise-min-mac", type=click.FloatRange(0, 1), default=0.8, show_default=True,
+              help="A damaged mode pairing with no baseline mode this well stops the localisation.")
+@set_option
+@json_option
+def damage(baseline_path, data_path, undamaged_path, elements_text, method, alpha, expansion, n_basis, allow_increase,
+           min_change, iterations, bootstrap, noise_frequency, noise_shape, seed, max_frequency_error, min_mac,
+           localise_min_mac, set_text, json_path):
+    """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
+    from ..cli import parse_set
+    from ..damage.detect import detect_damage, element_parameters
+    from ..io.testdata_json import load_testdata
+
+    ctx = _Ctx(json_path)
+    structure, model = _load_structure(baseline_path)
+    notes = []
+    if structure is not None:
+        values = parse_set(set_text)
+        em, _ = element_parameters(structure, values)
+        model = em.build()
+    else:
+        values = _values(model, set_text)
+        model = model.with_values(values) if values is not None else model
+        notes.append("matrix model: its parameters are taken as the elements")
+    data = load_testdata(data_path, model)
+    undamaged = load_testdata(undamaged_path, model) if undamaged_path is not None else None
+    if undamaged is None:
+        notes.append("no --undamaged data: the baseline was not checked against the undamaged structure")
+    noise = {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
+    res = detect_damage(model, data, undamaged=undamaged, elements=_names(elements_text), method=method, alpha=alpha,
+                        expansion=expansion, n_basis=n_basis, allow_increase=allow_increase, min_change=min_change,
+                        iterations=iterations, bootstrap=bootstrap, noise=noise, seed=seed,
+                        localise_min_mac=localise_min_mac, max_frequency_error=max_frequency_error, min_mac=min_mac)
+    c = ctx.console
+    t = Table(title=f"{model.name}: {len(res.changes)} element stiffnesses, {len(data.modes)} measured modes")
+    for col in ("test mode", "baseline mode", "MAC", "frequency change"):
+        t.add_column(col, justify="right")
+    for (k, j, m), fc in zip(res.pairs, res.frequency_change):
+        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
+    c.print(t)
+    if res.localised:
+        t = Table(title=f"located ({res.method}, alpha {res.alpha:.3g})")
+        for col in ("element", "change", "std. error", "selected in replicates"):
+            t.add_column(col, justify="left" if col == "element" else "right")
+        sel = res.confidence.get("selection_frequency", {})
+        se = res.confidence.get("standard_error", {})
+        for n in res.located:
+            t.add_row(n, f"{res.changes[n] * 100:+.1f} %", "-" if not np.isfinite(se.get(n, np.nan)) else f"{se[n] * 100:.1f} %",
+                      "-" if n not in sel else f"{sel[n] * 100:.0f} %")
+        c.print(t)
+        if not res.located:
+            c.print("no element changed by more than the threshold")
+        c.print(f"separation (smallest located / largest other change): {res.confidence.get('separation', float('nan')):.3g}")
+        if res.tikhonov:
+            c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} element(s) by more than "
+                    f"{min_change * 100:g} %")
+    else:
+        c.print(f"[bold]not localised[/bold]: {res.reason}")
+    for n in notes + res.notes:
+        c.print(f"note: {n}")
+    _emit(ctx, {
+        "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
+        "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
+        "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
+        "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
+        "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
+        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes,
+    })
+    if not res.localised:
+        raise NumericalError(f"damage not localised: {res.reason}")
+
+
+# ---------------------------------------------------------------------------------- update-multi
+def _multi_payload(model, res) -> dict:
+    d = res.diagnostics
+    return {
+        "model": model.name, "method": res.method, "parameters": res.parameters, "updated": list(res.names),
+        "success": res.success, "message": res.message, "cost": res.cost, "iterations": res.iterations,
+        "nfev": res.nfev, "standard_error": dict(zip(res.names, res.standard_error)),
+        "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
+        "regularization": res.regularization, "notes": res.notes,
+        "direct": None if res.direct is None else {
+            "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
+            "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,
+            "rank": res.direct.rank, "unique": res.direct.unique, "n_equations": res.direct.system.n_equations},
+        "diagnostics": None if d is None else {
+            "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
+            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std))},
+    }
+
+
+@cli.command("update-multi")
+@click.argument("model_path", metavar="MODEL", type=_path)
+@click.option("--config", "configs", multiple=True, required=True, metavar="DATA[:MODIFICATION]",
+              help="One test configuration: its data, and the file of its known modification (TOML/JSON; none: the "
+                   "unmodified structure). Repeat for each configuration.")
+@click.option("--method", type=click.Choice(["auto", "direct", "iterative"]), default="auto", show_default=True,
+              help="auto: direct when every configuration's data are complete.")
+@click.option("--params", "params_text", default=None, help="Parameters to identify (default: all not fixed).")
+@click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
+@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
+@click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative).")
+@click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
+@click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct).")
+@set_option
+@json_option
+def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, max_nfev, reg_text, eigenvalues_only,
+                 bounded, set_text, json_path):
+    """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
+    from ..cli import _parse_regularization
+    from ..damage.files import load_modification, split_config_spec
+    from ..damage.multiconfig import Configuration, Modification, configure, solve_configurations
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    cfgs = []
+    for spec in configs:
+        dpath, mpath = split_config_spec(spec)
+        mod = load_modification(mpath) if mpath is not None else Modification(name=dpath.stem)
+        cm = configure(model, mod).model
+        data = load_testdata(dpath, cm)
+        cfgs.append(Configuration(data, mod, name=mod.name if mpath is not None else dpath.stem))
+    res = solve_configurations(model, cfgs, method, unknowns=_names(params_text), values=values, bounded=bounded,
+                               shape_scaling=shape_scaling, min_mac=min_mac, max_nfev=max_nfev,
+                               regularization=_parse_regularization(reg_text), use_shapes=not eigenvalues_only)
+    c = ctx.console
+    c.print(_parameter_table(f"{model.name}: {res.method} update from {len(cfgs)} configurations", model, values,
+                             res.names, res.x, res.standard_error))
+    t = Table(title="conditioning (column-scaled / normalised)")
+    for col in ("configurations", "rank", "condition number", "smallest singular value"):
+        t.add_column(col, justify="left" if col == "configurations" else "right")
+    for row in res.conditioning["cumulative"]:
+        t.add_row(" + ".join(row["configurations"]), f"{row['rank']}/{len(res.names)}", f"{row['condition_number']:.4g}",
+                  f"{row['min_singular']:.4g}")
+    c.print(t)
+    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}")
+    _emit(ctx, _multi_payload(model, res))
+    if not res.success:
+        raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
+
+
+# ---------------------------------------------------------------------------------- rank-modifications
+@cli.command("rank-modifications")
+@click.argument("model_path", metavar="MODEL", type=_path)
+@click.argument("candidates_path", metavar="CANDIDATES", type=_path)
+@click.option("--measured-dofs", "dofs_text", required=True, help="The planned sensors, e.g. \"1:x,2:x\".")
+@click.option("--modes", "n_modes", type=click.IntRange(min=1), required=True, help="Modes measured in each configuration.")
+@click.option("--criterion", type=click.Choice(["condition", "logdet", "min_singular"]), default="condition", show_default=True)
+@click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many candidates greedily.")
+@click.option("--params", "params_text", default=None, help="The unknowns (default: all not fixed).")
+@click.option("--eigenvalues-only", is_flag=True, help="Plan for frequencies only.")
+@set_option
+@json_option
+def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterion, select, params_text, eigenvalues_only,
+                       set_text, json_path):
+    """Rank CANDIDATES (modifications) by the new, independent information each adds to MODEL's test."""
+    from ..damage.files import load_candidates
+    from ..damage.multiconfig import rank_modifications as _rank
+    from ..io.model_file import load_model
+
+    ctx = _Ctx(json_path)
+    model = load_model(model_path)
+    values = _values(model, set_text)
+    cands = load_candidates(candidates_path)
+    res = _rank(model, cands, _names(dofs_text) or [], n_modes, params=_names(params_text), values=values,
+                criterion=criterion, select=select, use_shapes=not eigenvalues_only)
+    t = Table(title=f"{model.name}: candidates ranked by {criterion} (baseline: condition {res.baseline['condition_number']:.4g}, "
+                    f"rank {res.baseline['rank']}/{len(res.unknowns)})")
+    for col in ("rank", "candidate", "gain", "condition number", "smallest s.v.", "largest freq. shift"):
+        t.add_column(col, justify="left" if col == "candidate" else "right")
+    for k, row in enumerate(res.candidates, start=1):
+        t.add_row(str(k), row["name"], f"{row['gain']:.4g}", f"{row['condition_number']:.4g}", f"{row['min_singular']:.4g}",
+                  f"{row['frequency_shift'] * 100:.1f} %")
+    ctx.console.print(t)
+    if res.selected:
+        ctx.console.print("greedy selection: " + " -> ".join(res.selected))
+    _emit(ctx, {"model": model.name, "criterion": res.criterion, "unknowns": list(res.unknowns), "baseline": res.baseline,
+                "candidates": res.candidates, "selected": res.selected})
+
+
+# ---------------------------------------------------------------------------------- fullfield
+@cli.command()
+@click.argument("model_path", metavar="MODEL", type=_path)
+@click.argument("scan_path", metavar="SCAN", type=_path)
+@click.option("--method", type=click.Choice(["rbf", "elements", "local"]), default="rbf", show_default=True,
+              help="Mapping onto the dofs: smoothing spline, element shape functions, or local fits.")
+@click.option("--form", type=click.Choice(["projected", "pointwise"]), default="projected", show_default=True,
+              help="Direct equations projected onto the measured shapes, or pointwise (paper eqs. 4-10).")
+@click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
+@click.option("--bounded", is_flag=True, help="Honour parameter bounds.")
+@click.option("--write-data", "data_out", type=_path, default=None, help="Also write the completed test data (JSON).")
+@set_option
+@json_option
+def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, set_text, json_path):
+    """Map a full-field SCAN (points by coordinates) onto MODEL's dofs and identify its parameters directly."""
+    from ..damage.files import load_scan
+    from ..damage.fullfield import full_field_direct, structure_segments
+
+    ctx = _Ctx(json_path)
+    structure, model = _load_structure(model_path)
+    values = _values(model, set_text)
+    scan = load_scan(scan_path)
+    res, mp = full_field_direct(model, scan, method=method, form=form, values=values, unknowns=_names(unknowns),
+                                bounded=bounded, segments=structure_segments(structure) if structure is not None else None)
+    c = ctx.console
+    c.print(f"{len(scan.points)} scan points, largest distance from the geometry {mp.max_distance:.3g} (tolerance "
+            f"{mp.tolerance:.3g}); mapped by {mp.method}: interpolation error {mp.interpolation_error * 100:.3g} % of the "
+            f"largest value; rotations inferred: {', '.join(mp.inferred) or 'none'}; zero: {', '.join(mp.zero) or 'none'}")
+    c.print(_parameter_table(f"{model.name}: direct ({form}) from {res.system.n_equations} equations", model, values,
+                             res.unknowns, res.x, res.standard_error))
+    for n in mp.notes + res.notes:
+        c.print(f"note: {n}")
+    if data_out is not None:
+        from ..io.results import write_json
+
+        write_json(data_out, {"modes": [{"eigenvalue": m.eigenvalue, "label": m.label, "shape": dict(zip(m.dofs, m.shape))}
+                                        for m in mp.data.modes]}
+                   | ({"frf": {"omega_rad_s": mp.data.frf.omega, "force": mp.data.frf.force,
+                               "response": {d: [[complex(v).real, complex(v).imag] for v in mp.data.frf.response[:, j]]
+                                            for j, d in enumerate(mp.data.frf.dofs)}}} if mp.data.frf is not None else {}))
+        c.print(f"completed test data written to {data_out}")
+    _emit(ctx, {
+        "model": model.name, "parameters": res.parameters, "unknowns": list(res.unknowns),
+        "standard_error": dict(zip(res.unknowns, res.standard_error)), "condition_number": res.condition_number,
+        "condition_number_scaled": res.condition_number_scaled, "residual_norm": res.residual_norm,
+        "relative_residual": res.relative_residual, "rank": res.rank, "unique": res.unique, "form": form,
+        "mapping": {"method": mp.method, "interpolation_error": mp.interpolation_error, "max_distance": mp.max_distance,
+                    "tolerance": mp.tolerance, "inferred": mp.inferred, "zero": mp.zero, "fields": mp.fields,
+                    "node_gap": mp.node_gap, "notes": mp.notes},
+        "notes": res.notes,
+    })
+    if not res.unique:
+        raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")

@@ -1,0 +1,110 @@
+"""Structures and simulated tests of the full-field and damage studies (paper sections, tests).
+
+* :func:`segmented_cantilever` — a plane cantilever beam whose bending stiffness is unknown per
+  segment (Young's modulus ``E1 .. En``): the full-field direct identification example.
+* :func:`scan_beam` — a scanning-vibrometer test of a beam along x: transverse motion at points
+  that are not nodes, from the element shape functions (cubic Hermite) of a (finer) truth model.
+* :func:`concentrated_mass_truss` — a plane truss with concentrated masses on flexible mounts
+  (instrument packages), cantilevered or free-free: the Doebling et al. (1993) setting, in
+  which the local modes of the masses crowd the low frequencies of the free-free structure.
+* :func:`noisy_modes` — measured modes from a model: the lowest elastic modes at chosen dofs,
+  shapes scaled to 1 at their largest entry, with Gaussian noise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+
+from ..modal import model_modes
+from ..structure import Structure
+from ..testdata import MeasuredMode, TestData
+from .fullfield import ScanData, ScanMode
+
+
+def segmented_cantilever(n_el: int = 12, E: Sequence[float] = (2.1e11,) * 4, length: float = 1.0, A: float = 1e-3,
+                         I: float = 8.33e-8, rho: float = 7850.0, bounds=(1e10, 5e11)) -> Structure:
+    """Cantilever (node 0 clamped) of ``n_el`` beam2d elements along x; E per segment (equal lengths)."""
+    s = Structure(f"segmented cantilever ({n_el} elements)")
+    x = np.linspace(0.0, length, n_el + 1)
+    s.add_nodes(range(n_el + 1), np.c_[x, 0 * x])
+    for k, e in enumerate(E, start=1):
+        s.parameter(f"E{k}", e, bounds)
+    seg = np.minimum(np.arange(n_el) * len(E) // n_el, len(E) - 1)
+    s.beam2d(np.c_[np.arange(n_el), np.arange(1, n_el + 1)], E=[f"E{k + 1}" for k in seg], A=A, I=I, rho=rho)
+    s.support_node([0])
+    return s
+
+
+def scan_beam(truth, points_x: np.ndarray, n_modes: int = 4, noise: float = 0.0, seed: int = 0) -> ScanData:
+    """Scan of a beam along x (nodes 0..n at x_i, node 0 clamped): ``y`` at ``points_x``.
+
+    The truth's mode shapes are evaluated between its nodes by their own cubic Hermite shape
+    functions (the beam element's displacement field), scaled to 1 at the largest scanned value,
+    and perturbed by Gaussian noise of standard deviation ``noise``.  Axial motion is declared
+    zero (bending modes).
+    """
+    ids = sorted(truth.nodes)
+    x = np.array([truth.nodes[i][0] for i in ids])
+    modes = model_modes(truth, n_modes=n_modes)
+    rng = np.random.default_rng(seed)
+    out = []
+    for r in range(n_modes):
+        v = np.array([modes.shapes[truth.dofs.index(f"{i}:y"), r] if f"{i}:y" in truth.dofs else 0.0 for i in ids])
+        th = np.array([modes.shapes[truth.dofs.index(f"{i}:rz"), r] if f"{i}:rz" in truth.dofs else 0.0 for i in ids])
+        f = CubicHermiteSpline(x, v, th)(points_x)
+        f = f / np.max(np.abs(f))
+        out.append(ScanMode(float(modes.eigenvalues[r]), {"y": f + noise * rng.standard_normal(f.size)}, f"mode {r + 1}"))
+    pts = np.column_stack([points_x, np.zeros(len(points_x)), np.zeros(len(points_x))])
+    return ScanData(pts, tuple(out), zero=("x",))
+
+
+# concentrated masses: (top-chord bay, mount frequency in Hz)
+PACKAGES = ((2, 22.0), (4, 28.0), (6, 34.0), (8, 40.0))
+
+
+def concentrated_mass_truss(support: str = "cantilever", n_bays: int = 8, bay: float = 1.0, A: float = 4e-4,
+                            E: float = 7.0e10, rho: float = 2700.0, joint_mass: float = 2.0, package_mass: float = 15.0,
+                            packages=PACKAGES) -> Structure:
+    """Plane aluminium truss with instrument packages on flexible mounts.
+
+    Bottom-chord nodes 1..n+1 at y = 0, top-chord nodes 101..101+n at y = ``bay``; chords, posts
+    and one diagonal per bay (rods, lumped mass) and a lumped ``joint_mass`` at every joint.
+    Package i (node 200+i, dof ``y`` only) of mass ``package_mass`` hangs on a spring from top
+    node 101+bay_i, tuned to its mount frequency: a local mode.  ``support``: ``"cantilever"``
+    (both nodes of the left end fixed) or ``"free"`` (three rigid-body modes).
+    """
+    if support not in ("cantilever", "free"):
+        raise ValueError(f"support must be 'cantilever' or 'free', got {support!r}")
+    s = Structure(f"{n_bays}-bay truss with concentrated masses ({support})")
+    bot = np.arange(1, n_bays + 2)
+    top = 100 + bot
+    s.add_nodes(bot, np.c_[np.arange(n_bays + 1) * bay, np.zeros(n_bays + 1)])
+    s.add_nodes(top, np.c_[np.arange(n_bays + 1) * bay, np.full(n_bays + 1, bay)])
+    pairs = np.r_[np.c_[bot[:-1], bot[1:]], np.c_[top[:-1], top[1:]], np.c_[bot, top], np.c_[bot[:-1], top[1:]]]
+    s.rod(pairs, E=E, A=A, rho=rho, dim=2, mass="lumped", where="truss members")
+    for n in np.r_[bot, top]:
+        s.mass([f"{n}:x", f"{n}:y"], m=joint_mass, where=f"joint {n}")
+    for i, (b, f) in enumerate(packages):
+        node = 200 + i
+        s.spring([f"{node}:y", f"{top[b]}:y"], k=package_mass * (2 * np.pi * f) ** 2, where=f"package {i + 1} mount")
+        s.mass([f"{node}:y"], m=package_mass, where=f"package {i + 1}")
+    if support == "cantilever":
+        s.support_node([int(bot[0]), int(top[0])])
+    return s
+
+
+def noisy_modes(model, dofs: Sequence[str], n_modes: int, values=None, frequency_noise: float = 0.0,
+                shape_noise: float = 0.0, seed: int = 0) -> TestData:
+    """The lowest ``n_modes`` elastic modes at ``dofs`` (values: parameter values), with noise."""
+    modes = model_modes(model, values)
+    rng = np.random.default_rng(seed)
+    pos = model.dof_index(dofs)
+    out = []
+    for r in [r for r in range(modes.n_modes) if modes.eigenvalues[r] > 0][:n_modes]:
+        sh = modes.shapes[pos, r] / np.max(np.abs(modes.shapes[pos, r]))
+        lam = modes.eigenvalues[r] * (1 + frequency_noise * rng.standard_normal()) ** 2
+        out.append(MeasuredMode(lam, tuple(dofs), sh + shape_noise * rng.standard_normal(sh.size), f"mode {len(out) + 1}"))
+    return TestData(modes=tuple(out))
