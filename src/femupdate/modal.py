@@ -207,14 +207,22 @@ def _dense(K, M, n_modes, dofs):
     return lam, Phi
 
 
+PIVOT_THRESHOLD = 0.1  # SuperLU symmetric mode: off-diagonal pivot only below this fraction
+
+
 def _factor(A):
     """Sparse LU of a symmetric matrix with a symmetric fill-reducing ordering.
 
     ``MMD_AT_PLUS_A`` orders on the pattern of A + A^T, which for FE matrices gives far less
     fill than SuperLU's default COLAMD (meant for unsymmetric A^T A): on a 100,000-dof frame
-    it halves the factorisation time and memory.
+    it halves the factorisation time and memory.  SuperLU's *symmetric mode* (diagonal pivots
+    preferred, an off-diagonal one only when the diagonal is below 0.1 of its column) keeps that
+    ordering intact: with the default partial pivoting the omitted partition K_oo of a 23,400-dof
+    frame took 37-120 s instead of 2 s for the same fill.  The threshold keeps indefinite
+    (K - omega^2 M) and complex matrices as accurate as partial pivoting (residuals 1e-13).
     """
-    return spla.splu(sp.csc_array(A), permc_spec="MMD_AT_PLUS_A")
+    return spla.splu(sp.csc_array(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=PIVOT_THRESHOLD,
+                     options={"SymmetricMode": True})
 
 
 def _nearly_singular(lu) -> bool:
