@@ -122,3 +122,14 @@ def test_sparse_factor_pivots_off_the_diagonal_when_it_must():
     b = rng.standard_normal(n)
     x = _factor(sp.csc_array(Z)).solve(b)
     assert np.linalg.norm(Z @ x - b) <= 1e-12 * np.linalg.norm(b) * np.linalg.cond(Z)
+
+
+def test_sign_convention_is_stable_for_antisymmetric_shapes():
+    """Entries of equal magnitude and opposite sign, perturbed by round-off either way, must not
+    flip the sign chosen (the eigensolvers' round-off differs)."""
+    from femupdate.modal import _sign_fix
+
+    a = np.array([[0.5], [1.0 + 1e-13], [-1.0], [0.2]])
+    b = np.array([[0.5], [1.0], [-1.0 - 1e-13], [0.2]])
+    np.testing.assert_array_equal(_sign_fix(a) > 0, _sign_fix(b) > 0)
+    np.testing.assert_array_equal(_sign_fix(-b), _sign_fix(b))

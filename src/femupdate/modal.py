@@ -72,8 +72,13 @@ class Modes:
 
 
 def _sign_fix(Phi: np.ndarray) -> np.ndarray:
-    """Make the largest-magnitude entry of each column positive (deterministic signs)."""
-    k = np.argmax(np.abs(Phi), axis=0)
+    """Make the largest-magnitude entry of each column positive (deterministic signs).
+
+    "Largest" is the first entry within a relative 1e-6 of the column's maximum, so that modes
+    with entries of equal magnitude and opposite sign (antisymmetric shapes) get the same sign
+    from every eigensolver, whatever its round-off."""
+    A = np.abs(Phi)
+    k = np.argmax(A >= (1.0 - 1e-6) * A.max(axis=0, initial=0.0), axis=0)
     s = np.sign(Phi[k, np.arange(Phi.shape[1])])
     s[s == 0] = 1.0
     return Phi * s
