@@ -153,3 +153,12 @@ def test_uff_round_trip_through_the_cli(tmp_path, capsys):
     res = json.loads(out)
     # universal files keep about six significant digits
     np.testing.assert_allclose([res["parameters"][k] for k in ("k1", "k2", "k3", "k4")], [1000, 2000, 1500, 500], rtol=1e-4)
+
+
+def test_terminal_output_keeps_dof_labels_literal(capsys):
+    """Rich would turn ":x:" between two dof labels ("1:x:2:x", "3:x:ok") into emoji."""
+    from femupdate.cli import _Ctx
+
+    ctx = _Ctx(None)
+    ctx.console.print("pairs 1:x:2:x and 3:cross_mark:")
+    assert "pairs 1:x:2:x and 3:cross_mark:" in capsys.readouterr().out

@@ -26,7 +26,8 @@ class _Ctx:
     def __init__(self, json_path):
         self.json_path = json_path
         quiet = json_path == "-"
-        self.console = Console(file=sys.stderr if quiet else sys.stdout, quiet=quiet, highlight=False, soft_wrap=True)
+        self.console = Console(file=sys.stderr if quiet else sys.stdout, quiet=quiet, highlight=False, soft_wrap=True,
+                               emoji=False)  # dof labels such as "1:x:" are not emoji codes
 
 
 def parse_set(text: str | None) -> dict[str, float]:
