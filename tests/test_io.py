@@ -185,7 +185,7 @@ def test_matrix_model_bad_matrices(tmp_path):
 
 
 @pytest.mark.parametrize("data, match", [
-    ({"modes": [{"frequency_hz": float("nan")}]}, "NaN"),
+    ({"modes": [{"frequency_hz": float("nan")}]}, r"^modes\[1\] frequency_hz: NaN"),  # the place named once
     ({"modes": [{"frequency_hz": 1.0, "shape": {"1:x": float("nan")}}]}, "NaN"),
     ({"modes": [{"frequency_hz": 1.0, "eigenvalue": 2.0}]}, "exactly one"),
     ({"modes": [{"frequency_hz": -1.0}]}, ">= 0"),

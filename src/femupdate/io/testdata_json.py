@@ -114,7 +114,8 @@ def parse_testdata(raw) -> TestData:
             else:
                 modes.append(MeasuredMode(_number(m["eigenvalue"], f"{where} eigenvalue"), tuple(shape), arr, label))
         except InputError as exc:
-            raise InputError(f"{where}: {exc}") from None
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
     frf = None
     if raw.get("frf") is not None:
         frf = _frf(raw["frf"])
