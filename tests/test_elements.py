@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from femupdate import InputError, Structure, model_modes
 from femupdate import elements as el
+from femupdate.paper.element_sections import appendix_matrix
 
 # βL of the Euler-Bernoulli beam (roots of cos βL cosh βL = ∓1), to 12+ digits.
 CANTILEVER_BL = np.array([1.875104068711961, 4.694091132974175, 7.854757438237613, 10.995540734875467])
@@ -106,31 +107,6 @@ def textbook_frame3d(E, G, A, Iy, Iz, J, rho, L):
         (4, 4): 4 * L**2, (4, 8): -13 * L, (4, 10): -3 * L**2, (8, 8): 156, (8, 10): 22 * L, (10, 10): 4 * L**2,
     }, 12)
     return K, M
-
-
-def appendix_matrix(u: np.ndarray) -> np.ndarray:
-    """The reference paper's Appendix 1 (Iy = Iz): local nodal forces = A(u) @ terms.
-
-    u = (x1 y1 z1 θ1 φ1 ψ1 x2 y2 z2 θ2 φ2 ψ2) (φ = rotation about local y, ψ about local z);
-    terms = (EA/l, 12EI/l^3, 6EI/l^2, GJ/l, 2EI/l).  Transcribed row by row from the paper,
-    with its two typos corrected: row 7 reads -x1 + x2 (printed -x1 - x2) and the printed
-    7 columns are the 5 term columns.
-    """
-    x1, y1, z1, t1, f1, p1, x2, y2, z2, t2, f2, p2 = u
-    return np.array([
-        [x1 - x2, 0, 0, 0, 0],
-        [0, y1 - y2, p1 + p2, 0, 0],
-        [0, z1 - z2, -f1 - f2, 0, 0],
-        [0, 0, 0, t1 - t2, 0],
-        [0, 0, -z1 + z2, 0, 2 * f1 + f2],
-        [0, 0, y1 - y2, 0, 2 * p1 + p2],
-        [-x1 + x2, 0, 0, 0, 0],
-        [0, -y1 + y2, -p1 - p2, 0, 0],
-        [0, -z1 + z2, f1 + f2, 0, 0],
-        [0, 0, 0, -t1 + t2, 0],
-        [0, 0, -z1 + z2, 0, f1 + 2 * f2],
-        [0, 0, y1 - y2, 0, p1 + 2 * p2],
-    ])
 
 
 def rigid_modes_3d(xyz: np.ndarray, rotations: bool) -> np.ndarray:

@@ -35,3 +35,13 @@ def test_builtin_demo_data_is_what_the_generator_makes():
     shipped = json.loads((resources.files("femupdate") / "data" / "figure2_test.json").read_text())
     assert shipped == json.loads(json.dumps(figure2_test_data()))
     assert isinstance(parse_testdata(shipped), TestData)
+
+
+def test_appendix_section_checks_the_element_and_the_printed_row_7(tmp_path):
+    from femupdate.paper.element_sections import appendix_frame_terms
+
+    sec = appendix_frame_terms(tmp_path, figures=False)
+    assert sec["max_rel_difference_corrected"] < 1e-12  # femupdate's element = corrected Appendix matrix
+    assert sec["rigid_axial_translation_force"]["corrected"] == 0.0
+    assert sec["rigid_axial_translation_force"]["as_printed"] > 0.0  # printed row 7 breaks equilibrium
+    assert sec["identification_from_one_state"]["max_rel_error"] < 1e-10
