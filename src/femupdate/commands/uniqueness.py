@@ -164,7 +164,8 @@ def _print_table(console, res) -> None:
     """Cases as a table: one row per case with verdict, counts and conditioning."""
     t = Table(title=f"uniqueness study: {res.study.n_starts} random starts per case")
     for col in ("dofs", "m", "verdict", "sol.", "conv.", "loc.", "n.c.", "fail", "cond(S)", "paper"):
-        t.add_column(col, justify="left" if col in ("dofs", "verdict") else "right", no_wrap=col != "dofs")
+        t.add_column(col, justify="left" if col in ("dofs", "verdict") else "right", no_wrap=col != "dofs",
+                     min_width=8 if col == "dofs" else None)
     for cr in res.cases:
         d = cr.case.measured_dofs
         label = f"first {len(d)}" if d == res.study.model.dofs[:len(d)] else ",".join(d)
