@@ -242,3 +242,21 @@ def test_test_data_parser_only_raises_input_error(value):
     assert isinstance(data, TestData)
     for m in data.modes:
         assert math.isfinite(m.eigenvalue)
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    """Atomic writes go through a private temporary file; the result must not stay private (0600)."""
+    import os
+
+    from femupdate.io.results import atomic_write_text
+
+    umask = os.umask(0o022)
+    try:
+        atomic_write_text(tmp_path / "new.json", "{}")
+        assert (tmp_path / "new.json").stat().st_mode & 0o777 == 0o644
+        (tmp_path / "old.json").write_text("{}")
+        os.chmod(tmp_path / "old.json", 0o640)
+        atomic_write_text(tmp_path / "old.json", "[]")  # a replaced file keeps its permissions
+        assert (tmp_path / "old.json").stat().st_mode & 0o777 == 0o640
+    finally:
+        os.umask(umask)

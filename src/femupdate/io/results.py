@@ -32,6 +32,17 @@ def to_jsonable(obj):
     return obj
 
 
+def _mode_for(path: Path) -> int:
+    """Permissions of a written file: those of the file it replaces, else 0o666 less the umask
+    (what ``open(path, "w")`` gives; mkstemp's private 0o600 would surprise the user)."""
+    try:
+        return path.stat().st_mode & 0o777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: a temporary file in the same folder, flushed to
     disk, then renamed over ``path`` (readers see the old file or the new one, never a part)."""
@@ -43,6 +54,7 @@ def atomic_write_bytes(path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, _mode_for(path))
         os.replace(tmp, path)
     except BaseException:
         try:
