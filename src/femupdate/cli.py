@@ -436,7 +436,7 @@ def paper(out_dir, sections, no_figures, json_path):
 # ---------------------------------------------------------------------------------- demo
 @cli.command()
 @click.option("--write-files", "write_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Also copy the example model and test data to this folder.")
+              help="Also write the example models and test data of every command to this folder (see README).")
 @json_option
 def demo(write_dir, json_path):
     """Identify the paper's Figure 2 system from its built-in (simulated, noisy) test data."""
@@ -457,6 +457,11 @@ def demo(write_dir, json_path):
 
             atomic_write_text(write_dir / "figure2.toml", Path(mpath).read_text())
             atomic_write_text(write_dir / "figure2_test.json", Path(dpath).read_text())
+            from .examples import example_files
+
+            for name, text in example_files().items():  # the examples of the other commands
+                if not name.startswith("figure2"):
+                    atomic_write_text(write_dir / name, text)
     c = ctx.console
     c.print(f"[bold]femupdate demo[/bold]: {model.name}; {model.n_dofs} dofs, unknowns {', '.join(model.parameter_names)}")
     c.print(f"test data: {len(data.modes)} modes measured at every dof (simulated at the true values, 1 % noise on the shapes)")

@@ -134,3 +134,110 @@ def figure2_model_toml() -> str:
     for i, m in enumerate(FIGURE1_MASS, start=1):
         lines += ["[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', f"m = {m}", ""]
     return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------- example files
+TWO_DOF_START = {"k1": 7.0, "k2": 6.5}  # the example's (wrong) starting values; the truth is (8, 6)
+TRUSS_DAMAGED = "E.102-103"  # the member that loses stiffness in the damage example
+TRUSS_LOSS = 0.4
+
+
+def two_dof_model_toml(values=TWO_DOF_START) -> str:
+    """TOML of the Figure 3 system at ``values``, bounds of the paper's surfaces (k1 3..13, k2 1..11)."""
+    lines = ['[model]', 'name = "two-dof chain (paper Figure 3)"', ""]
+    for name, b in (("k1", "[3.0, 13.0]"), ("k2", "[1.0, 11.0]")):
+        lines += [f"[parameters.{name}]", f"value = {values[name]}", f"bounds = {b}", ""]
+    for dofs, k in ((["1:x"], "k1"), (["1:x", "2:x"], "k2")):
+        lines += ["[[element]]", 'type = "spring"', f"dofs = {dofs}".replace("'", '"'), f'k = "{k}"', ""]
+    for i, m in ((1, 2.0), (2, 4.0)):
+        lines += ["[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', f"m = {m}", ""]
+    return "\n".join(lines)
+
+
+def truss_model_toml() -> str:
+    """TOML of a 3-bay plane truss (aluminium rods, one shared modulus E, 2 kg at six joints):
+    the baseline of the damage example."""
+    nodes = [(1, 0, 0), (2, 1, 0), (3, 2, 0), (4, 3, 0), (101, 0, 1), (102, 1, 1), (103, 2, 1), (104, 3, 1)]
+    pairs = [(1, 2), (2, 3), (3, 4), (101, 102), (102, 103), (103, 104), (2, 102), (3, 103), (4, 104), (1, 102),
+             (2, 103), (3, 104)]
+    lines = ['[model]', 'name = "3-bay plane truss"', "", "[parameters.E]", "value = 7.0e10", "bounds = [1.0e10, 1.0e11]", ""]
+    for i, x, y in nodes:
+        lines += ["[[node]]", f"id = {i}", f"xyz = [{x:.1f}, {y:.1f}]", ""]
+    for a, b in pairs:
+        lines += ["[[element]]", 'type = "rod"', f"nodes = [{a}, {b}]", 'E = "E"', "A = 4e-4", "rho = 2700.0", "dim = 2",
+                  'mass = "lumped"', ""]
+    for n in (2, 3, 4, 102, 103, 104):
+        lines += ["[[element]]", 'type = "mass"', f'dofs = ["{n}:x", "{n}:y"]', "m = 2.0", ""]
+    lines += ["[[support]]", 'dofs = ["1:x", "1:y", "101:x", "101:y"]', ""]
+    return "\n".join(lines)
+
+
+def _modes_object(data) -> dict:
+    return {"modes": [{"eigenvalue": float(m.eigenvalue), "shape": {d: float(v) for d, v in zip(m.dofs, m.shape)}}
+                      for m in data.modes]}
+
+
+def example_files() -> dict[str, str]:
+    """Every example file ``femupdate demo --write-files DIR`` writes, as {name: text}.
+
+    * ``figure2.toml``, ``figure2_test.json`` — the demo: Figure 2 system, all modes at every dof;
+    * ``two_dof.toml`` (Figure 3 system at k = (7, 6.5); the truth is (8, 6)),
+      ``two_dof_frf.json`` (receptances at 7 lines 0.4 .. 2.8 rad/s, force at dof 1, both dofs, 0.1 % noise),
+      ``two_dof_frequencies.json`` (its two natural frequencies only: two solutions),
+      ``plus_2kg.toml`` and ``two_dof_plus_2kg.json`` (the same test with 2 kg added at dof 2),
+      ``candidates.toml`` (modifications to rank before testing);
+    * ``truss.toml`` (3-bay truss, baseline), ``truss_undamaged.json``, ``truss_damaged.json`` (member
+      ``E.102-103`` has lost 40 % of its stiffness; 4 modes at every joint, 0.1 % noise).
+    """
+    import json
+    import tomllib
+
+    import numpy as np
+
+    from .damage.detect import element_parameters
+    from .damage.examples import noisy_modes
+    from .damage.files import modification_from_dict
+    from .damage.multiconfig import simulate as simulate_configuration
+    from .frf.simulate import simulate
+    from .modal import model_modes
+    from .structure import Structure
+
+    def dumps(obj) -> str:
+        return json.dumps(obj, indent=1) + "\n"
+
+    files = {"figure2.toml": figure2_model_toml(), "figure2_test.json": dumps(figure2_test_data())}
+    truth = two_dof()
+    files["two_dof.toml"] = two_dof_model_toml()
+    lines = 0.4 * np.arange(1, 8)
+    d = simulate(truth, lines, {"1:x": 1.0}, noise=1e-3, seed=1)
+    files["two_dof_frf.json"] = dumps({"frf": {
+        "omega_rad_s": lines.tolist(), "force": {"1:x": 1.0},
+        "response": {dof: np.real(d.response[:, k]).tolist() for k, dof in enumerate(d.dofs)}}})
+    files["two_dof_frequencies.json"] = dumps({"modes": [{"eigenvalue": float(v)} for v in model_modes(truth).eigenvalues]})
+    files["plus_2kg.toml"] = 'name = "+2 kg at dof 2"\n[[mass]]\ndofs = ["2:x"]\nm = 2.0\n'
+    plus = modification_from_dict(tomllib.loads(files["plus_2kg.toml"]), "plus_2kg.toml", default_name="plus_2kg")
+    files["two_dof_plus_2kg.json"] = dumps({"modes": [{"eigenvalue": float(m.eigenvalue)} for m in
+                                                      simulate_configuration(truth, plus, [], n_modes=2).modes]})
+    files["candidates.toml"] = ('[[candidate]]\nname = "0.5 kg at dof 2"\n[[candidate.mass]]\ndofs = ["2:x"]\nm = 0.5\n\n'
+                                '[[candidate]]\nname = "2 kg at dof 1"\n[[candidate.mass]]\ndofs = ["1:x"]\nm = 2.0\n\n'
+                                '[[candidate]]\nname = "2 kg at dof 2"\n[[candidate.mass]]\ndofs = ["2:x"]\nm = 2.0\n')
+    files["truss.toml"] = truss_model_toml()
+    em = element_parameters(Structure.from_dict(tomllib.loads(files["truss.toml"])))[0].build()
+    joints = list(em.dofs)
+    base = {TRUSS_DAMAGED: em.values[em.parameter_index(TRUSS_DAMAGED)] * (1 - TRUSS_LOSS)}
+    files["truss_undamaged.json"] = dumps(_modes_object(noisy_modes(em, joints, 4, None, 1e-3, 1e-3, seed=1)))
+    files["truss_damaged.json"] = dumps(_modes_object(noisy_modes(em, joints, 4, base, 1e-3, 1e-3, seed=2)))
+    return files
+
+
+def write_example_files(directory) -> list[str]:
+    """Write :func:`example_files` into ``directory`` (atomically, one file at a time); their names."""
+    from pathlib import Path
+
+    from .io.results import atomic_write_text
+
+    directory = Path(directory)
+    files = example_files()
+    for name, text in files.items():
+        atomic_write_text(directory / name, text)
+    return list(files)
