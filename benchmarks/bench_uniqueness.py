@@ -72,6 +72,7 @@ HERE = Path(__file__).resolve().parent
 if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out source tree
     sys.path.insert(0, str(HERE.parent / "src"))
 import femupdate  # noqa: E402
+from femupdate.batch import FAILED  # noqa: E402
 from femupdate.paper.uniqueness_sections import six_dof_model  # noqa: E402
 from femupdate.uniqueness.study import (define_study, nested_dof_sets, reference_unit, run_study,  # noqa: E402
                                         summarise)
@@ -91,7 +92,7 @@ def _timed(fn):
 
 
 def _outcome(status, cost):
-    if status == -3:
+    if status == FAILED:
         return "failed"
     if status == 0:
         return "not-converged"

@@ -21,7 +21,7 @@ from femupdate.updating import _Problem
 from femupdate.uniqueness import counting_criteria, criteria_verdicts, define_study, exact_solutions, run_study
 from femupdate.uniqueness import study as study_mod
 from femupdate.uniqueness.problem import StudyProblem
-from femupdate.uniqueness.study import (cluster_solutions, nested_dof_sets, parse_measured_dofs, parse_modes,
+from femupdate.uniqueness.study import (nested_dof_sets, parse_measured_dofs, parse_modes,
                                         reference_unit, summarise)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -191,6 +191,20 @@ def test_study_problem_residuals_and_jacobians_equal_update_problem(rng):
         np.testing.assert_allclose(J[r][cols], J_ref, rtol=1e-6, atol=1e-9 * np.abs(J_ref).max())
         others = np.setdiff1d(np.arange(T * (1 + u)), cols)
         assert np.all(ev.fun[r, others] == 0) and np.all(J[r][others] == 0)
+
+
+def cluster_solutions(points, costs, rel_tol):
+    """The greedy clustering written out point by point (the reference for the vectorised one)."""
+    reps, groups = [], []
+    for i in np.argsort(costs):
+        for g, r in enumerate(reps):
+            if np.all(np.abs(points[i] - points[r]) <= rel_tol * np.maximum(np.abs(points[r]), 1e-300)):
+                groups[g].append(int(i))
+                break
+        else:
+            reps.append(int(i))
+            groups.append([int(i)])
+    return groups
 
 
 def test_fast_clustering_equals_multistart_cluster(rng):

@@ -74,7 +74,7 @@ from scipy.optimize import linear_sum_assignment
 from ._errors import FemupdateError, InputError
 from .modal import DENSE_LIMIT
 from .sensitivity._common import REPEATED_TOL
-from .updating import PARAMETRISATIONS, UpdateResult, _diagnostics, _Problem, update
+from .updating import PARAMETRISATIONS, UpdateResult, _diagnostics, _modal_weights, _Problem, update
 
 log = logging.getLogger(__name__)
 
@@ -726,15 +726,7 @@ class BatchProblem:
         self.names = tuple(names)
         self.options = dict(max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
         p_base = model.resolve(values)
-        w = dict(weights or {})
-        self.sigma = None
-        if measurement_std:
-            self.sigma = dict(measurement_std)
-            for key in ("eigenvalue", "shape"):
-                if key in self.sigma:
-                    if not np.all(np.asarray(self.sigma[key], float) > 0):
-                        raise InputError(f"measurement_std[{key!r}] must be positive")
-                    w[key] = np.asarray(w.get(key, 1.0), float) / np.asarray(self.sigma[key], float)
+        w, self.sigma = _modal_weights(weights, measurement_std)
         self._problem_args = (model, data, names, shape_scaling, ref_dof, w, min_mac, n_modes, parametrisation)
         self._problem_kw = (use_shapes, sensitivity)
         tpl = _Problem(model, data, names, shape_scaling, ref_dof, w, min_mac, n_modes, parametrisation, p_base,
@@ -1222,10 +1214,12 @@ class BatchProblem:
     def _jac(self, ev, sel):
         return self.jacobian(ev, sel)
 
+    own_residuals = None  #: (R,) residuals of each row's own when rows are zero-padded (None: all)
+
     def solve(self, progress=None) -> BatchLSQResult:
         """Run :func:`least_squares_batch` from every start's ``x_start`` within ``(lb, ub)``."""
         return least_squares_batch(self._fun, self._jac, self.x_start, (self.lb, self.ub), progress=progress,
-                                   **self.options)
+                                   n_residuals=self.own_residuals, **self.options)
 
 
 # ====================================================================== multi-start driver

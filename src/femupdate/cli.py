@@ -457,11 +457,9 @@ def demo(write_dir, json_path):
 
             atomic_write_text(write_dir / "figure2.toml", Path(mpath).read_text())
             atomic_write_text(write_dir / "figure2_test.json", Path(dpath).read_text())
-            from .examples import example_files
+            from .examples import write_example_files
 
-            for name, text in example_files().items():  # the examples of the other commands
-                if not name.startswith("figure2"):
-                    atomic_write_text(write_dir / name, text)
+            write_example_files(write_dir)  # the examples of the other commands
     c = ctx.console
     c.print(f"[bold]femupdate demo[/bold]: {model.name}; {model.n_dofs} dofs, unknowns {', '.join(model.parameter_names)}")
     c.print(f"test data: {len(data.modes)} modes measured at every dof (simulated at the true values, 1 % noise on the shapes)")

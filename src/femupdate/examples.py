@@ -178,9 +178,9 @@ def _modes_object(data) -> dict:
 
 
 def example_files() -> dict[str, str]:
-    """Every example file ``femupdate demo --write-files DIR`` writes, as {name: text}.
+    """The example files ``femupdate demo --write-files DIR`` writes besides the demo's own
+    (``figure2.toml``, ``figure2_test.json``, packaged with femupdate), as {name: text}.
 
-    * ``figure2.toml``, ``figure2_test.json`` — the demo: Figure 2 system, all modes at every dof;
     * ``two_dof.toml`` (Figure 3 system at k = (7, 6.5); the truth is (8, 6)),
       ``two_dof_frf.json`` (receptances at 7 lines 0.4 .. 2.8 rad/s, force at dof 1, both dofs, 0.1 % noise),
       ``two_dof_frequencies.json`` (its two natural frequencies only: two solutions),
@@ -205,7 +205,7 @@ def example_files() -> dict[str, str]:
     def dumps(obj) -> str:
         return json.dumps(obj, indent=1) + "\n"
 
-    files = {"figure2.toml": figure2_model_toml(), "figure2_test.json": dumps(figure2_test_data())}
+    files = {}
     truth = two_dof()
     files["two_dof.toml"] = two_dof_model_toml()
     lines = 0.4 * np.arange(1, 8)

@@ -61,20 +61,22 @@ def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_unifo
 def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> list[list[int]]:
     """Group solutions whose parameters agree within ``rel_tol`` (relative, per parameter).
 
-    Greedy in order of increasing cost: each cluster is represented by its lowest-cost member.
+    Greedy in order of increasing cost: each point joins the first cluster (in order of creation)
+    whose representative — its lowest-cost member — it is within ``rel_tol`` of, else founds a
+    new one.  One NumPy pass per cluster: the lowest-cost unclaimed point founds the next
+    cluster and claims every unclaimed point near it.  Members are listed in increasing cost.
     """
     order = np.argsort(costs)
-    reps: list[int] = []
+    P = np.asarray(points, float)[order]
+    free = np.ones(len(order), bool)
     groups: list[list[int]] = []
-    for i in order:
-        for g, r in enumerate(reps):
-            scale = np.maximum(np.abs(points[r]), 1e-300)
-            if np.all(np.abs(points[i] - points[r]) <= rel_tol * scale):
-                groups[g].append(int(i))
-                break
-        else:
-            reps.append(int(i))
-            groups.append([int(i)])
+    while free.any():
+        i = int(np.argmax(free))
+        scale = np.maximum(np.abs(P[i]), 1e-300)
+        near = free & np.all(np.abs(P - P[i]) <= rel_tol * scale, axis=1)
+        near[i] = True
+        groups.append([int(order[j]) for j in np.flatnonzero(near)])
+        free &= ~near
     return groups
 
 
@@ -170,16 +172,24 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
     return MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed)
 
 
-def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner=_run_one):
-    """``runner(model, data, names, X0[k], kwargs)`` for every k on the cluster at ``address``."""
+def connect(address: str, timeout: float, what: str = "--scheduler"):
+    """A ``dask.distributed.Client`` of the scheduler at ``address``; a missing Dask or an
+    unreachable scheduler is an :class:`InputError` naming it."""
     try:
-        from dask.distributed import Client, as_completed
+        from dask.distributed import Client
     except ImportError:
-        raise InputError("--scheduler needs dask.distributed: pip install 'femupdate[dask]'") from None
+        raise InputError(f"{what} needs dask.distributed: pip install 'femupdate[dask]'") from None
     try:
-        client = Client(address, timeout=timeout)
+        return Client(address, timeout=timeout)
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+
+
+def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner):
+    """``runner(model, data, names, X0[k], kwargs)`` for every k on the cluster at ``address``."""
+    client = connect(address, timeout)
+    from dask.distributed import as_completed
+
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
         futures = [client.submit(runner, m_f, d_f, names, x, kwargs, pure=False) for x in X0]

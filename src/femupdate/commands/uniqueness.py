@@ -134,9 +134,13 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
     payload["criteria_agreement"] = _criteria_agreement(res.cases)
     if exact:
         truth = dict(zip(model.parameter_names, study.truth))
+        exact: dict[int, dict] = {}  # frequencies only: the answer depends on the number of modes alone
         for case, cd in zip(res.cases, payload["cases"]):
             if case.case.n_measured == 1:
-                cd["exact"] = _exact_for(model, list(study.names), case.case, truth)
+                m = case.case.n_modes
+                if m not in exact:
+                    exact[m] = _exact_for(model, list(study.names), case.case, truth)
+                cd["exact"] = exact[m]
     _print_table(c, res)
     agree = payload["criteria_agreement"]
     t = Table(title="counting criteria against the study's verdicts")
@@ -153,7 +157,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
     if plot_dir is not None:
         from ..plot.uniqueness import save_uniqueness_figure
 
-        name = save_uniqueness_figure(Path(plot_dir) / "uniqueness.png", payload["cases"], len(study.names),
+        name = save_uniqueness_figure(Path(plot_dir) / "uniqueness.png", payload["cases"],
                                       title=f"{model.name}: {starts} starts per case")
         payload["figure"] = str(Path(plot_dir) / name)
         c.print(f"figure: {payload['figure']}")

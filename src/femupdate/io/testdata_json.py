@@ -108,14 +108,15 @@ def parse_testdata(raw) -> TestData:
         vals = [_complex(v, f"{where} shape {d}") for d, v in shape.items()]
         arr = np.array(vals, dtype=complex if any(isinstance(v, complex) for v in vals) else float)
         label = str(m.get("label", f"mode {i}"))
+        value = (_number(m["frequency_hz"], f"{where} frequency_hz") if "frequency_hz" in m
+                 else _number(m["eigenvalue"], f"{where} eigenvalue"))  # these name the mode themselves
         try:
             if "frequency_hz" in m:
-                modes.append(MeasuredMode.from_frequency(_number(m["frequency_hz"], f"{where} frequency_hz"), list(shape), arr, label))
+                modes.append(MeasuredMode.from_frequency(value, list(shape), arr, label))
             else:
-                modes.append(MeasuredMode(_number(m["eigenvalue"], f"{where} eigenvalue"), tuple(shape), arr, label))
+                modes.append(MeasuredMode(value, tuple(shape), arr, label))
         except InputError as exc:
-            msg = str(exc)
-            raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+            raise InputError(f"{where}: {exc}") from None
     frf = None
     if raw.get("frf") is not None:
         frf = _frf(raw["frf"])

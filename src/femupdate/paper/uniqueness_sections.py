@@ -110,7 +110,7 @@ def _cond_text(c):
 def six_dof_uniqueness(out_dir, figures=True) -> dict:
     """The paper's 6-dof, six-spring simulation: every (n, m), 100 random starts per case."""
     model = six_dof_model()
-    N = L = 6
+    N = 6
     cases = [(d, m) for d in nested_dof_sets(model) for m in range(1, N + 1)]
     st = define_study(model, cases, starts=STARTS, seed=SEED)
     res = run_study(st)
@@ -176,7 +176,7 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
     if figures:
         from ..plot.uniqueness import save_uniqueness_figure
 
-        out["figure"] = save_uniqueness_figure(out_dir / "six_dof_uniqueness.png", payload["cases"], L,
+        out["figure"] = save_uniqueness_figure(out_dir / "six_dof_uniqueness.png", payload["cases"],
                                                title=f"six-spring chain: {STARTS} random starts per case")
     return out
 

@@ -22,7 +22,7 @@ def _row_label(dofs, nested):
     return f"n = {len(dofs)}" if nested else ",".join(dofs) if len(dofs) <= 3 else f"{dofs[0]}..{dofs[-1]} ({len(dofs)})"
 
 
-def uniqueness_axes(cases, n_parameters: int, ax=None, title: str | None = None):
+def uniqueness_axes(cases, ax=None, title: str | None = None):
     """The (dof set, m) table of a study's ``cases`` (the JSON ``cases`` of ``femupdate
     uniqueness``): colour = verdict; text = distinct solutions found and log10 of the condition
     number at the truth; hatched where the paper's criterion (mn >= L and n > 1) predicts a unique
@@ -36,14 +36,12 @@ def uniqueness_axes(cases, n_parameters: int, ax=None, title: str | None = None)
     ax.set_facecolor("white")
     for c in cases:
         i, j = sets.index(tuple(c["measured_dofs"])), modes.index(int(c["n_modes"]))
-        verdict = c.get("verdict") or {True: "unique", False: "non-unique", None: "not converging"}[c["unique"]]
-        grid[i, j] = VERDICTS.index(verdict)
+        grid[i, j] = VERDICTS.index(c["verdict"])
         cond = c.get("condition_number")
         cond_txt = "∞" if cond is None or not math.isfinite(cond) else f"{math.log10(cond):.0f}"
         n_sol = len(c["solutions"])
         ax.text(j, i, f"{n_sol if n_sol < 100 else '≥100'}\n{cond_txt}", ha="center", va="center", fontsize=8)
-        n, m = len(c["measured_dofs"]), int(c["n_modes"])
-        if m * n >= n_parameters and n > 1:
+        if c["criteria"]["paper"]:
             ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, lw=0, hatch="//", ec="0.25"))
     ax.imshow(np.ma.masked_invalid(grid), cmap=ListedColormap(_COLOURS), vmin=-0.5, vmax=2.5, aspect="auto")
     ax.set(xticks=range(len(modes)), xticklabels=modes, yticks=range(len(sets)),
@@ -56,8 +54,8 @@ def uniqueness_axes(cases, n_parameters: int, ax=None, title: str | None = None)
     return ax
 
 
-def save_uniqueness_figure(path, cases, n_parameters: int, title: str | None = None) -> str:
+def save_uniqueness_figure(path, cases, title: str | None = None) -> str:
     """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name."""
     fig, ax = plt.subplots(figsize=(7.5, 5))
-    uniqueness_axes(cases, n_parameters, ax, title)
+    uniqueness_axes(cases, ax, title)
     return _save(fig, path)

@@ -249,12 +249,5 @@ class StudyProblem(BatchProblem):
         dpsi = (dd * f[:, None, None, :] - psi[:, None, :, :] * (ds / s[:, None, :])[:, :, None, :]) * mask[:, None]
         return np.concatenate([d_eig[..., None], dpsi.transpose(0, 1, 3, 2)], axis=3).reshape(S, L, -1)
 
-    def solve(self, progress=None):
-        """:func:`~femupdate.batch.least_squares_batch` over every row, each with its own residual count."""
-        from ..batch import least_squares_batch
-
-        return least_squares_batch(self._fun, self._jac, self.x_start, (self.lb, self.ub), progress=progress,
-                                   n_residuals=self.own_residuals, **self.options)
-
 
 __all__ = ["RowData", "StudyProblem"]

@@ -47,8 +47,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import FemupdateError, InputError
-from ..multistart import Solution as _MultiStartSolution
+from ..batch import FAILED
 from ..dofs import canonical_all
+from ..multistart import Solution as _MultiStartSolution
+from ..multistart import cluster, connect
 from .checkpoint import Checkpoint
 from .criteria import counting_criteria
 
@@ -56,7 +58,6 @@ log = logging.getLogger(__name__)
 
 ALGORITHM = "femupdate-uniqueness-1"  # part of the study key: bump when raw results change meaning
 DEFAULT_UNIT_ROWS = 4096
-FAILED = -3
 
 
 # ====================================================================== definition
@@ -297,11 +298,12 @@ def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=No
     return lam, psi / s
 
 
-def case_testdata(study: Study, c: int, level: int = 0, start: int = 0):
-    """The :class:`~femupdate.testdata.TestData` of case ``c`` as seen by start ``start``."""
+def case_testdata(study: Study, c: int, level: int = 0, start: int = 0, modes=None):
+    """The :class:`~femupdate.testdata.TestData` of case ``c`` as seen by start ``start``
+    (``modes``: the truth's modes, if at hand)."""
     from ..testdata import MeasuredMode, TestData
 
-    lam, psi = case_data(study, c, level, slice(start, start + 1))
+    lam, psi = case_data(study, c, level, slice(start, start + 1), modes)
     dofs = study.cases[c].measured_dofs
     return TestData(modes=tuple(MeasuredMode(float(lam[0, k]), dofs, psi[0, :, k]) for k in range(lam.shape[1])))
 
@@ -370,6 +372,7 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
     A case with fewer independent data than unknowns is solved with ``regularization=0`` (the
     same unregularised problem; ``update`` otherwise refuses it as underdetermined).
     """
+    from ..modal import model_modes
     from ..updating import update
 
     idx = list(range(study.n_starts)) if starts is None else [int(k) for k in starts]
@@ -378,8 +381,9 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
     n_data = case.n_modes * (case.n_measured if case.n_measured >= 2 else 1)
     out = {"case": c, "level": level, "start": idx[0] if idx else 0, "x": [], "cost": [], "status": [], "nfev": [],
            "messages": {}, "starts": idx}
+    truth_modes = model_modes(study.model, study.truth)  # the data of every start derive from them
     for k in idx:
-        data = case_testdata(study, c, level, k)
+        data = case_testdata(study, c, level, k, truth_modes)
         try:
             res = update(study.model, data, params=list(study.names), x0=dict(zip(study.names, study.starts[k])),
                          values=study.truth, min_mac=study.min_mac, max_nfev=study.max_nfev, ftol=study.tol,
@@ -398,28 +402,6 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
 
 
 # ====================================================================== results
-def cluster_solutions(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> list[list[int]]:
-    """:func:`femupdate.multistart.cluster`'s greedy clustering, one NumPy pass per cluster.
-
-    Points in increasing cost; each joins the first representative (lowest-cost member of a
-    cluster, in order of creation) within ``rel_tol`` (relative, per parameter), else founds a
-    new cluster.  Same groups as ``cluster``, in O(clusters) vector operations instead of
-    O(points × clusters) Python steps.
-    """
-    order = np.argsort(costs)
-    P = np.asarray(points, float)[order]
-    free = np.ones(len(order), bool)
-    groups = []
-    while free.any():
-        i = int(np.argmax(free))
-        scale = np.maximum(np.abs(P[i]), 1e-300)
-        near = free & np.all(np.abs(P - P[i]) <= rel_tol * scale, axis=1)
-        near[i] = True
-        groups.append([int(order[j]) for j in np.flatnonzero(near)])
-        free &= ~near
-    return groups
-
-
 @dataclass(frozen=True, eq=False)
 class Solution(_MultiStartSolution):
     """A distinct solution of a case (:class:`femupdate.multistart.Solution`: the representative's
@@ -596,7 +578,7 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
         sols = []
         if conv.any():
             pts, costs, who = xs[conv], cs[conv], ks[conv]
-            for g in cluster_solutions(pts, costs, rel_tol):
+            for g in cluster(pts, costs, rel_tol):
                 rep = pts[g[0]]
                 err = float(np.max(np.abs(rep - p_true) / scale))
                 sols.append(Solution(dict(zip(study.names, map(float, rep))), float(costs[g[0]]), len(g),
@@ -631,15 +613,12 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
 
 # ====================================================================== running
 def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
+    if scheduler:
+        return connect(scheduler, timeout, "--scheduler / --workers"), None
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
         raise InputError("--scheduler / --workers need dask.distributed: pip install 'femupdate[dask]'") from None
-    if scheduler:
-        try:
-            return Client(scheduler, timeout=timeout), None
-        except (OSError, TimeoutError) as exc:
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None)
     return Client(cluster), cluster
@@ -707,6 +686,6 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
 
 __all__ = [
     "Case", "CaseResult", "NoiseResult", "Solution", "Study", "StudyResult", "case_data", "case_testdata",
-    "cluster_solutions", "define_study", "nested_dof_sets", "parse_measured_dofs", "parse_modes", "reference_unit",
+    "define_study", "nested_dof_sets", "parse_measured_dofs", "parse_modes", "reference_unit",
     "run_study", "solve_unit", "summarise", "truth_sensitivities",
 ]
