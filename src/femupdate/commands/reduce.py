@@ -37,7 +37,6 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
 
     from .._errors import FemupdateError
     from ..io.model_file import load_model
-    from ..modal import model_modes
     from ..reduction import Reducer, mass_fraction, reduction_criteria
     from ..reduction.transforms import project, reduced_eigenvalues
 
@@ -47,9 +46,7 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
     red = Reducer(model, _keep_list(keep_text), values)
     a = red.n_keep
     n_full = min(model.n_dofs, a)
-    full = model_modes(model, red.values, n_modes=n_full,
-                       method="sparse" if model.n_dofs > 300 and n_full < model.n_dofs // 4 else "auto")
-    f_full = full.frequencies_hz
+    f_full = red.modes(n_full).frequencies_hz  # cached: modal, hybrid and SEREP reuse these modes
 
     def run(meth):
         t = red.transformation(meth, n_modes)

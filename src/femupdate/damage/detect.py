@@ -476,7 +476,8 @@ def _measured(data: TestData):
         raise InputError("damage detection needs measured mode shapes (at two or more dofs)")
     if len(modes) < len(data.modes):
         log.info("modes without shapes are ignored by damage detection")
-    common = [d for d in modes[0].dofs if all(d in set(m.dofs) for m in modes[1:])]
+    others = [set(m.dofs) for m in modes[1:]]
+    common = [d for d in modes[0].dofs if all(d in o for o in others)]
     if len(common) < 2:
         raise InputError("the measured modes share fewer than two dofs; damage detection needs one sensor set")
     Phi = np.column_stack([np.real(m.shape * np.exp(-1j * np.angle(m.shape[np.argmax(np.abs(m.shape))])))

@@ -192,7 +192,8 @@ def configure(model: Model, modification: Modification) -> ConfiguredModel:
         raise InputError(f"{where}: support node(s) {missing_nodes[:8]} have no dof in the model {model.name!r}")
     for name in mod.values:
         model.parameter_index(name)  # names an unknown parameter
-    fixed = set(mod.supports) | {d for d in model.dofs if parse_dof(d)[0] in set(mod.support_nodes)}
+    support_nodes = set(mod.support_nodes)
+    fixed = set(mod.supports) | {d for d in model.dofs if parse_dof(d)[0] in support_nodes}
     clash = [d for d in [d for d, _ in mod.masses] + [d for dofs, _ in mod.springs for d in dofs] if d in fixed]
     if clash:
         raise InputError(f"{where}: mass or spring on supported dof(s) {describe(list(dict.fromkeys(clash)))}")
@@ -236,7 +237,8 @@ def configure(model: Model, modification: Modification) -> ConfiguredModel:
         parameters=tuple(params), dK=tuple(dKs), dM=tuple(dMs),
         name=f"{model.name} [{mod.name}]", nodes=model.nodes,
     )
-    return ConfiguredModel(cfg, tuple(dropped), tuple(model.dofs[i] for i in range(n) if i not in set(keep.tolist())))
+    kept = set(keep.tolist())
+    return ConfiguredModel(cfg, tuple(dropped), tuple(model.dofs[i] for i in range(n) if i not in kept))
 
 
 def simulate(model: Model, modification: Modification | None = None, measured_dofs: Sequence[str] | None = None,
@@ -257,10 +259,11 @@ def simulate(model: Model, modification: Modification | None = None, measured_do
         dofs = list(cm.dofs)
     else:
         wanted = canonical_all(measured_dofs, "measured dofs")
-        unknown = [d for d in wanted if d not in set(model.dofs)]
+        in_model, in_config = set(model.dofs), set(cm.dofs)
+        unknown = [d for d in wanted if d not in in_model]
         if unknown:
             raise InputError(f"measured dofs not in the model {model.name!r}: {describe(unknown)}")
-        dofs = [d for d in wanted if d in set(cm.dofs)]
+        dofs = [d for d in wanted if d in in_config]
     pos = cm.dof_index(dofs)
     return TestData(modes=tuple(MeasuredMode(modes.eigenvalues[r], tuple(dofs), modes.shapes[pos, r], f"mode {k + 1}")
                                 for k, r in enumerate(elastic)))
@@ -547,12 +550,13 @@ class _Stacked(_Parametrised):
     def n_data(self) -> int:
         return sum(1 + (0 if r is None else len(r[1]) - 1) for _, prob, _ in self.subs for r in prob.shape_rows)
 
-    def normalised_blocks(self, x):
-        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks."""
+    def normalised_blocks(self, x, blocks=None):
+        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks (``blocks``: the
+        :meth:`jacobian_blocks` at ``x``, if at hand)."""
         p = self.to_p(x)[self.idx]
         d = self.dp_dx(x)
         w = np.where(p != 0, np.abs(p), 1.0) / d
-        return [B * w[None, :] for B in self.jacobian_blocks(x)]
+        return [B * w[None, :] for B in (self.jacobian_blocks(x) if blocks is None else blocks)]
 
 
 def update_configurations(model: Model, configurations: Sequence[Configuration], *, params: Sequence[str] | None = None,
@@ -598,8 +602,8 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     p_final = prob.to_p(sol.x)
     blocks = prob.residual_blocks(sol.x)
     r = np.concatenate(blocks)
-    J = prob.jacobian(sol.x)
-    diag = _diagnostics(prob, sol.x, r, J, sigma)
+    J_blocks = prob.jacobian_blocks(sol.x)
+    diag = _diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma)
     per = []
     for (label, sub, cols), rc, c in zip(prob.subs, blocks, configurations):
         _, modes, pairs = sub._evaluate(p_final[prob.idx][cols])
@@ -609,7 +613,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
                     "frequencies_hz": {"test": c.data.frequencies_hz,
                                        "model": np.array([modes.frequencies_hz[j] for _, j, _ in pairs])},
                     "swaps": list(sub.swaps)})
-    cond = conditioning(prob.normalised_blocks(sol.x), names, [c.label for c in configurations])
+    cond = conditioning(prob.normalised_blocks(sol.x, J_blocks), names, [c.label for c in configurations])
     return MultiConfigResult(
         method="iterative", parameters=dict(zip(model.parameter_names, map(float, p_final))), names=tuple(names),
         x=p_final[prob.idx], success=bool(sol.success), message=str(sol.message), configurations=per,
@@ -748,7 +752,8 @@ def rank_modifications(model: Model, candidates: Sequence[Modification], measure
         info = _information(np.vstack([S[0], S[k]]))
         data = configs[k].data
         shift = float(np.max(np.abs(np.sqrt(data.eigenvalues / ref_modes.eigenvalues) - 1.0)))
-        common = [d for d in ref_modes.modes[0].dofs if d in set(data.modes[0].dofs)]
+        measured = set(data.modes[0].dofs)
+        common = [d for d in ref_modes.modes[0].dofs if d in measured]
         A = ref_modes.shape_matrix(common)[1]
         B = data.shape_matrix(common)[1]
         rows.append({"name": m.name, "modification": m.describe(), "gain": _gain(info, base, criterion),

@@ -66,7 +66,3 @@ def jacobian(xa: np.ndarray, dxa: np.ndarray, w: np.ndarray, kind: str) -> np.nd
     d = w[..., None] * dxa
     return np.stack([d.real, d.imag], axis=-4) if np.iscomplexobj(d) else d
 
-
-def squared_sum(r: np.ndarray, n_trailing: int) -> np.ndarray:
-    """Sum of squares over the last ``n_trailing`` axes (eq. 34's r²)."""
-    return np.sum(r**2, axis=tuple(range(-n_trailing, 0)))

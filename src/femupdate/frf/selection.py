@@ -136,7 +136,6 @@ def condition_study(model, force: Mapping, spacings, starts=None, n_lines: int =
     k = np.arange(n_lines)
     if starts is None:
         omega = sp_[None, :, None] * (1 + k)[None, None, :]  # (1, n_d, n_lines)
-        st = sp_.copy()
     else:
         st = check_omega(starts, "starts")
         omega = st[:, None, None] + sp_[None, :, None] * k[None, None, :]
@@ -226,8 +225,8 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
     idx = _unknowns(model, unknowns)
     names = [model.parameter_names[j] for j in idx]
     p = model.resolve(values)
-    res = resonances(model, cand, p)
-    near = res.near(margin)
+    res = resonances(model, cand, p) if margin > 0 else None  # no margin: nothing to exclude
+    near = res.near(margin) if res is not None else np.array([], dtype=np.intp)
     excluded = [{"line": int(i) + 1, "omega_rad_s": float(cand[i]),
                  "reason": f"within {margin:g} of a resonance ({res.describe([i])})"} for i in near]
     if kind == "direct":

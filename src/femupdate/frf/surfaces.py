@@ -35,11 +35,11 @@ from .._errors import InputError
 from ..dofs import canonical
 from ..testdata import FRFData, TestData
 from . import _residuals as R
-from ._lines import BLOCK_BYTES, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
+from ._lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
 
 log = logging.getLogger(__name__)
 
-SURFACE_DENSE_LIMIT = 200
+SURFACE_DENSE_LIMIT = DENSE_LIMIT  # the dense stacked evaluation: the same limit as the dense line solves
 
 
 @dataclass(frozen=True, eq=False)

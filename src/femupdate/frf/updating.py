@@ -35,13 +35,14 @@ from ..testdata import FRFData, TestData
 from ..updating import PARAMETRISATIONS, UpdateResult, _diagnostics, _Parametrised, _solve
 from . import _residuals as R
 from ._lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
+from .sensitivity import RESONANCE_TOL
 from .simulate import check_data_against_model
 
 log = logging.getLogger(__name__)
 
 RESONANCE_POLICIES = ("skip", "error", "keep")
-#: default: lines within this relative eigenvalue distance of a resonance of the starting model
-RESONANCE_TOL = 1e-3
+# RESONANCE_TOL (from .sensitivity): lines within this relative eigenvalue distance of a resonance
+# of the starting model are skipped (or refused) by default
 
 
 @dataclass(frozen=True, eq=False)

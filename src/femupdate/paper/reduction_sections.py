@@ -106,7 +106,7 @@ def reduction_truss(out_dir, figures=True, seeds: int = 5, noise: float = 0.03, 
     model = s.build()
     keep = truss_keep(TRUSS["n_bays"])
     red = Reducer(model, keep)
-    fm = model_modes(model, n_modes=30, method="sparse")
+    fm = red.modes(30)  # cached: the modal and hybrid transformations reuse these
     frac = mass_fraction(model, keep)
     scenarios = {"global": 5, "with_local": 6}
     crit = {k: reduction_criteria(model, keep, reducer=red, n_interest=m, f_max_hz=float(fm.frequencies_hz[m - 1]), warn=False)
@@ -217,8 +217,7 @@ def superelement_beam(out_dir, figures=True, n_test_modes: int = 10, seed: int =
     p_full = np.array([res_full.parameters[n] for n in full.parameter_names])
     direct_full_data = direct_update(se, data)
     p_dir = np.array([direct_full_data.parameters[n] for n in se.parameter_names])
-    smt = model_modes(se, true, n_modes=min(se.n_dofs, n_test_modes + 2))
-    data_red = TestData(modes=tuple(MeasuredMode(smt.eigenvalues[i], keep, smt.at(keep)[:, i]) for i in elastic))
+    data_red = TestData(modes=tuple(MeasuredMode(sm.eigenvalues[i], keep, sm.at(keep)[:, i]) for i in elastic))
     direct_red_data = direct_update(se, data_red)
     p_dir2 = np.array([direct_red_data.parameters[n] for n in se.parameter_names])
     nu = se.n_dofs
