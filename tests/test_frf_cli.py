@@ -81,6 +81,11 @@ def test_frf_exports_uff_and_test_data_that_update_back(model_file, tmp_path, ca
     assert res["global"]["method"] == "differential_evolution" and len(res["global"]["optimizer"]) == 2
     np.testing.assert_allclose([res["parameters"]["k1"], res["parameters"]["k2"]], [8, 6], rtol=1e-8)
     assert (tmp_path / "plots" / "frf.png").exists() and (tmp_path / "plots" / "convergence.png").exists()
+    # the local options reach the polish of a global search
+    code, out, err = run(["frf-update", str(model_file), str(data), "--global", "differential_evolution",
+                          "--resonance", "keep", "--regularization", "0.5", "--json", "-"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["regularization"] == {"rule": "fixed", "alpha": 0.5}
 
 
 def test_select_and_surface_commands(model_file, tmp_path, capsys):

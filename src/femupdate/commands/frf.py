@@ -223,8 +223,8 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     if global_method:
         from ..frf.search import global_search
 
-        glob = {k: kw[k] for k in ("residual", "lines", "select", "resonance", "resonance_tol", "damping", "values",
-                                   "measurement_std")}
+        # every local option reaches the polish except --method (global_search's method is the global one)
+        glob = {k: v for k, v in kw.items() if k != "method"}
         with ctx.console.status("global search", spinner="dots") if ctx.console.is_terminal else nullcontext():
             ms = global_search(model, data, method=global_method, params=params, runs=runs, seed=seed,
                                scheduler=scheduler, global_residual=global_residual, **glob)
