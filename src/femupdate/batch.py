@@ -86,7 +86,6 @@ SUPPORTED_OPTIONS = frozenset({
 })
 _CHUNK_ELEMENTS = 4_000_000  # float64 entries (32 MB) per working array: starts are chunked beyond
 
-EPS = np.finfo(float).eps
 TERMINATION_MESSAGES = {  # scipy.optimize.least_squares' messages, for identical reports
     0: "The maximum number of function evaluations is exceeded.",
     1: "`gtol` termination condition is satisfied.",
@@ -169,7 +168,8 @@ class BatchLSQResult:
 
     ``status`` as :func:`scipy.optimize.least_squares` (0 evaluations exhausted, 1 gtol, 2 ftol,
     3 xtol, 4 ftol and xtol) or :data:`FAILED`; ``message`` the termination message or the error;
-    ``history`` per start a list of (cost, x) after each iteration (the first entry: the start).
+    ``history`` per start a list of (cost, x) after each iteration (the first entry: the start),
+    built from the arrays ``history_cost`` and ``history_x``.
     """
 
     x: np.ndarray
@@ -183,231 +183,80 @@ class BatchLSQResult:
     iterations: np.ndarray
     status: np.ndarray
     message: list[str]
-    history: list[list[tuple[float, np.ndarray]]]
+    history_cost: np.ndarray  #: (R, H) cost after each iteration (entries up to ``iterations``)
+    history_x: np.ndarray  #: (R, H, n) the variables after each iteration
 
     @property
     def success(self) -> np.ndarray:
         return self.status > 0
 
-
-# ====================================================================== vectorised TRF pieces
-# Row-wise (one row per start) transcriptions of scipy.optimize._lsq.common / trf.py.
-# Row-wise dot products, norms and gradients go through matmul on (1, m) @ (m, k) stacks, which
-# calls the same BLAS kernels as NumPy's 1-D ``dot``: bit for bit what SciPy computes per start,
-# so accept/reject and termination decisions agree even at the round-off floor of the cost.
-def _dot(a, b):
-    return np.matmul(a[:, None, :], b[:, :, None])[:, 0, 0]
-
-
-def _norm(a):
-    return np.sqrt(_dot(a, a))
+    @property
+    def history(self) -> list[list[tuple[float, np.ndarray]]]:
+        """Per start a list of (cost, x) after each iteration, the first entry the start (empty
+        when no history was kept)."""
+        H = self.history_cost.shape[1]
+        return [[(float(self.history_cost[r, k]), self.history_x[r, k].copy())
+                 for k in range(min(int(self.iterations[r]) + 1, H))] if self.status[r] != FAILED or self.nfev[r] else []
+                for r in range(self.x.shape[0])]
 
 
-def _grad(J, f):
-    """Jᵀf per row (scipy ``compute_grad``)."""
-    return np.matmul(f[:, None, :], J)[:, 0, :]
-
-
-def _col_norms(J):
-    """Column norms per row (scipy ``compute_jac_scale``)."""
-    return np.sum(J**2, axis=1) ** 0.5
-
-
-def _cl_scaling(x, g, lb, ub):
-    """Coleman–Li scaling vector v and its derivative dv (scipy ``CL_scaling_vector``)."""
-    v = np.ones_like(x)
-    dv = np.zeros_like(x)
-    mask = (g < 0) & np.isfinite(ub)
-    v = np.where(mask, ub - x, v)
-    dv = np.where(mask, -1.0, dv)
-    mask = (g > 0) & np.isfinite(lb)
-    v = np.where(mask, x - lb, v)
-    dv = np.where(mask, 1.0, dv)
-    return v, dv
-
-
-def _step_size_to_bound(x, s, lb, ub):
-    """Smallest t >= 0 with x + t s on a bound, and which variables hit it (scipy's rule)."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        steps = np.maximum((lb - x) / s, (ub - x) / s)
-    steps = np.where(s != 0, steps, np.inf)
-    t = np.min(steps, axis=1)
-    hits = (steps == t[:, None]) * np.sign(s)
-    return t, hits
-
-
+# ====================================================================== the batched solver
 def _make_strictly_feasible(x, lb, ub, rstep):
-    """scipy ``make_strictly_feasible`` row-wise (``rstep = 0``: the next float inside)."""
+    """scipy ``make_strictly_feasible`` row-wise, for the starting points (``rstep`` > 0)."""
     x_new = x.copy()
     with np.errstate(invalid="ignore", over="ignore"):  # infinite bounds: masked out below
-        if rstep == 0:
-            x_new = np.where(x <= lb, np.nextafter(lb, ub), x_new)
-            x_new = np.where(x >= ub, np.nextafter(ub, lb), x_new)
-        else:
-            lower_dist, upper_dist = x - lb, ub - x
-            lower = np.isfinite(lb) & (lower_dist <= np.minimum(upper_dist, rstep * np.maximum(1, np.abs(lb))))
-            upper = np.isfinite(ub) & (upper_dist <= np.minimum(lower_dist, rstep * np.maximum(1, np.abs(ub))))
-            x_new = np.where(lower & ~upper, lb + rstep * np.maximum(1, np.abs(lb)), x_new)
-            x_new = np.where(upper, ub - rstep * np.maximum(1, np.abs(ub)), x_new)
+        lower_dist, upper_dist = x - lb, ub - x
+        lower = np.isfinite(lb) & (lower_dist <= np.minimum(upper_dist, rstep * np.maximum(1, np.abs(lb))))
+        upper = np.isfinite(ub) & (upper_dist <= np.minimum(lower_dist, rstep * np.maximum(1, np.abs(ub))))
+        x_new = np.where(lower & ~upper, lb + rstep * np.maximum(1, np.abs(lb)), x_new)
+        x_new = np.where(upper, ub - rstep * np.maximum(1, np.abs(ub)), x_new)
         tight = (x_new < lb) | (x_new > ub)
         return np.where(tight, 0.5 * (lb + ub), x_new)
 
 
-def _evaluate_quadratic(Bh, g, s):
-    """0.5 sᵀ(JᵀJ + diag)s + gᵀs per row, with Bh (B, n, n) any factor of JᵀJ + diag = BhᵀBh."""
-    v = np.einsum("bij,bj->bi", Bh, s)
-    return 0.5 * _dot(v, v) + _dot(s, g)
+def _prepare(x0, bounds, max_nfev):
+    """Starting points, bounds, the rows refused before any evaluation, and max_nfev."""
+    x0 = np.array(x0, dtype=float, ndmin=2)
+    R, n = x0.shape
+    lb = np.broadcast_to(np.asarray(bounds[0], float), (R, n)).copy()
+    ub = np.broadcast_to(np.asarray(bounds[1], float), (R, n)).copy()
+    if max_nfev is None:
+        max_nfev = 100 * n
+    message: list[str | None] = [None] * R
+    for r in np.flatnonzero(np.any(lb >= ub, axis=1)):
+        message[r] = "each lower bound must be strictly less than each upper bound"
+    for r in np.flatnonzero(~np.all((x0 >= lb) & (x0 <= ub), axis=1)):
+        message[r] = message[r] or "the initial guess is outside of the provided bounds"
+    return x0, _make_strictly_feasible(x0, lb, ub, rstep=1e-10), lb, ub, int(max_nfev), message
 
 
-def _build_quadratic_1d(Bh, g, s, s0=None):
-    """Coefficients of t ↦ q(s0 + t s) (scipy ``build_quadratic_1d``), q as :func:`_evaluate_quadratic`."""
-    v = np.einsum("bij,bj->bi", Bh, s)
-    a = 0.5 * _dot(v, v)
-    b = _dot(g, s)
-    if s0 is None:
-        return a, b
-    u = np.einsum("bij,bj->bi", Bh, s0)
-    return a, b + _dot(u, v), 0.5 * _dot(u, u) + _dot(g, s0)
+def _result(st, message) -> BatchLSQResult:
+    """The solver's state as a :class:`BatchLSQResult` (rows still running: out of evaluations)."""
+    from . import _trf
+
+    S = dict(zip(_trf.STATE, st))
+    status = S["status"]
+    status[status == _RUNNING] = 0
+    msgs = [message[r] if status[r] == FAILED else TERMINATION_MESSAGES[int(status[r])] for r in range(status.size)]
+    J, f = S["J"], S["f"]
+    g = np.matmul(f[:, None, :], J)[:, 0, :]
+    return BatchLSQResult(x=S["x"], cost=S["cost"], fun=f, jac=J, grad=g, optimality=S["g_norm"], nfev=S["nfev"],
+                          njev=S["njev"], iterations=S["iterations"], status=status, message=msgs,
+                          history_cost=S["hist_cost"], history_x=S["hist_x"])
 
 
-def _minimize_quadratic_1d(a, b, lo, hi, c=0.0):
-    """argmin of a t² + b t + c over [lo, hi], candidates in scipy's order (lo, hi, extremum)."""
-    lo = np.broadcast_to(lo, a.shape).astype(float)
-    hi = np.broadcast_to(hi, a.shape).astype(float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ext = -0.5 * b / a
-    valid = (a != 0) & (lo < ext) & (ext < hi)
-    T = np.stack([lo, hi, np.where(valid, ext, 0.0)])
-    Y = T * (a * T + b) + c
-    Y[2] = np.where(valid, Y[2], np.inf)
-    k = np.argmin(Y, axis=0)
-    cols = np.arange(a.size)
-    return T[k, cols], Y[k, cols]
-
-
-def _intersect_trust_region(x, s, Delta):
-    """Roots t of ‖x + t s‖ = Δ per row; ``bad`` where scipy would raise (s = 0 or x outside)."""
-    a = _dot(s, s)
-    b = _dot(x, s)
-    c = _dot(x, x) - Delta**2
-    bad = (a == 0) | (c > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.sqrt(b * b - a * c)
-        q = -(b + np.copysign(d, b))
-        t1 = q / a
-        t2 = c / q
-    return np.minimum(t1, t2), np.maximum(t1, t2), bad
-
-
-def _solve_lsq_trust_region(m, uf, s, V, Delta, alpha0, rtol=0.01, max_iter=10):
-    """Moré's trust-region subproblem on one SVD per row (scipy ``solve_lsq_trust_region``)."""
-    B, n = uf.shape
-    suf = s * uf
-    full_rank = (np.asarray(m) >= n) & (s[:, -1] > EPS * np.asarray(m) * s[:, 0])  # m: scalar or per row
-    with np.errstate(divide="ignore", invalid="ignore"):
-        p_gn = -np.matmul(V, np.where(full_rank[:, None], uf / np.where(s > 0, s, 1.0), 0.0)[:, :, None])[:, :, 0]
-    gn = full_rank & (_norm(p_gn) <= Delta)
-
-    def phi_and_derivative(alpha):
-        denom = s**2 + alpha[:, None]
-        p_norm = _norm(suf / denom)
-        return p_norm - Delta, -np.sum(suf**2 / denom**3, axis=1) / p_norm
-
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        alpha_upper = _norm(suf) / Delta
-        phi, phi_prime = phi_and_derivative(np.zeros(B))
-        alpha_lower = np.where(full_rank, -phi / phi_prime, 0.0)
-        restart = np.maximum(0.001 * alpha_upper, np.sqrt(alpha_lower * alpha_upper))
-        alpha = np.where(~full_rank & (alpha0 == 0), restart, alpha0)
-        live = ~gn
-        for _ in range(max_iter):
-            if not live.any():
-                break
-            out = (alpha < alpha_lower) | (alpha > alpha_upper)
-            alpha = np.where(live & out, np.maximum(0.001 * alpha_upper, np.sqrt(alpha_lower * alpha_upper)), alpha)
-            phi, phi_prime = phi_and_derivative(alpha)
-            alpha_upper = np.where(live & (phi < 0), alpha, alpha_upper)
-            ratio = phi / phi_prime
-            alpha_lower = np.where(live, np.maximum(alpha_lower, alpha - ratio), alpha_lower)
-            alpha = np.where(live, alpha - (phi + Delta) * ratio / Delta, alpha)
-            live &= ~(np.abs(phi) < rtol * Delta)
-        p = -np.matmul(V, (suf / (s**2 + alpha[:, None]))[:, :, None])[:, :, 0]
-        p *= (Delta / _norm(p))[:, None]
-    p = np.where(gn[:, None], p_gn, p)
-    alpha = np.where(gn, 0.0, alpha)
-    return p, alpha
-
-
-def _select_step(x, Bh, g_h, p, p_h, d, Delta, lb, ub, theta):
-    """Trust-region step, its reflection or the scaled anti-gradient (scipy ``select_step``).
-
-    The quadratic model ½ sᵀ(J_hᵀJ_h + diag_h)s + g_hᵀs is evaluated with the factor
-    ``Bh = diag(σ) Vᵀ`` of the augmented Jacobian's SVD (``J_augᵀJ_aug = BhᵀBh``): (n, n) work per
-    row instead of (m + n, n).  Returns (step, step_h, predicted_reduction, bad) row-wise; ``bad``
-    marks rows where SciPy would raise.
-    """
-    step, step_h = p.copy(), p_h.copy()
-    pred = -_evaluate_quadratic(Bh, g_h, p_h)
-    bad = np.zeros(x.shape[0], bool)
-    xp = x + p
-    out = ~np.all((xp >= lb) & (xp <= ub), axis=1)
-    if not out.any():
-        return step, step_h, pred, bad
-    o = np.flatnonzero(out)
-    x, Bh, g_h, p, p_h, d, Delta, lb, ub, theta = (a[o] for a in (x, Bh, g_h, p, p_h, d, Delta, lb, ub, theta))
-    th = theta[:, None]
-    p_stride, hits = _step_size_to_bound(x, p, lb, ub)
-    r_h = np.where(hits != 0, -p_h, p_h)
-    r = d * r_h
-    p = p * p_stride[:, None]
-    p_h = p_h * p_stride[:, None]
-    x_on_bound = x + p
-    _, to_tr, bad_o = _intersect_trust_region(p_h, r_h, Delta)
-    to_bound, _ = _step_size_to_bound(x_on_bound, r, lb, ub)
-    r_stride = np.minimum(to_bound, to_tr)
-    pos = r_stride > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_lo = np.where(pos, (1 - theta) * p_stride / r_stride, 0.0)
-    r_hi = np.where(pos, np.where(r_stride == to_bound, theta * to_bound, to_tr), -1.0)
-    avail = r_lo <= r_hi
-    a, b, c = _build_quadratic_1d(Bh, g_h, r_h, s0=p_h)
-    r_t, r_value = _minimize_quadratic_1d(a, b, np.where(avail, r_lo, 0.0), np.where(avail, r_hi, 0.0), c)
-    r_value = np.where(avail, r_value, np.inf)
-    r_h = r_h * r_t[:, None] + p_h
-    r = r_h * d
-    p = p * th
-    p_h = p_h * th
-    p_value = _evaluate_quadratic(Bh, g_h, p_h)
-    ag_h = -g_h
-    ag = d * ag_h
-    with np.errstate(divide="ignore", invalid="ignore"):
-        to_tr = Delta / _norm(ag_h)
-    to_bound, _ = _step_size_to_bound(x, ag, lb, ub)
-    ag_stride = np.where(to_bound < to_tr, theta * to_bound, to_tr)
-    a, b = _build_quadratic_1d(Bh, g_h, ag_h)
-    ag_stride, ag_value = _minimize_quadratic_1d(a, b, 0.0, ag_stride)
-    ag_h = ag_h * ag_stride[:, None]
-    ag = ag * ag_stride[:, None]
-    take_p = (p_value < r_value) & (p_value < ag_value)
-    take_r = ~take_p & (r_value < p_value) & (r_value < ag_value)
-    step[o] = np.where(take_p[:, None], p, np.where(take_r[:, None], r, ag))
-    step_h[o] = np.where(take_p[:, None], p_h, np.where(take_r[:, None], r_h, ag_h))
-    pred[o] = -np.where(take_p, p_value, np.where(take_r, r_value, ag_value))
-    bad[o] = bad_o
-    return step, step_h, pred, bad
-
-
-# ====================================================================== the batched solver
 def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-8,
                         max_nfev: int | None = None, progress: Callable[[int, int], None] | None = None,
-                        n_residuals=None) -> BatchLSQResult:
+                        n_residuals=None, history: bool = True) -> BatchLSQResult:
     r"""Trust-region-reflective least squares for R independent problems at once.
 
-    A row-wise transcription of :func:`scipy.optimize.least_squares` with ``method="trf"``,
-    ``x_scale="jac"``, ``tr_solver="exact"`` and a linear loss (see the module notes): for the
-    same residuals each row takes the same decisions as that function would (up to round-off at
-    the floor of the cost).  Bounds are handled as trf does: Coleman–Li reflective scaling,
-    iterates kept strictly feasible, steps reflected at the bounds.
+    Each row follows :func:`scipy.optimize.least_squares` with ``method="trf"``,
+    ``x_scale="jac"``, ``tr_solver="exact"`` and a linear loss decision for decision (the
+    compiled transcription :mod:`femupdate._trf`; see the module notes): for the same residuals
+    each row takes the same steps as that function would, up to round-off at the floor of the
+    cost.  Bounds are handled as trf does: Coleman–Li reflective scaling, iterates kept strictly
+    feasible, steps reflected at the bounds.  A round evaluates every active row once, in one
+    call of ``fun``.
 
     Parameters
     ----------
@@ -425,203 +274,81 @@ def least_squares_batch(fun, jac, x0, bounds, *, ftol: float = 1e-8, xtol: float
     n_residuals : (R,) per start, the number of residuals that are its own when the rows of F
         are zero-padded to a common width (several problems solved together); SciPy's rank
         test ``σ_min > eps·m·σ_max`` then uses each start's own ``m``.  Default: F's width.
+    history : keep (cost, x) after every iteration of every row.
 
     Returns
     -------
     BatchLSQResult
     """
-    x0 = np.array(x0, dtype=float, ndmin=2)
+    from . import _trf
+
+    x0, x, lb, ub, max_nfev, message = _prepare(x0, bounds, max_nfev)
     R, n = x0.shape
-    lb = np.broadcast_to(np.asarray(bounds[0], float), (R, n)).copy()
-    ub = np.broadcast_to(np.asarray(bounds[1], float), (R, n)).copy()
-    if max_nfev is None:
-        max_nfev = 100 * n
-    status = np.full(R, _RUNNING)
-    pending = np.full(R, _RUNNING)  # a termination found in the inner loop, applied at the top
-    message: list[str | None] = [None] * R
-    for r in np.flatnonzero(np.any(lb >= ub, axis=1)):
-        status[r], message[r] = FAILED, "each lower bound must be strictly less than each upper bound"
-    for r in np.flatnonzero(~np.all((x0 >= lb) & (x0 <= ub), axis=1)):
-        status[r], message[r] = FAILED, "the initial guess is outside of the provided bounds"
-    x = _make_strictly_feasible(x0, lb, ub, rstep=1e-10)
-    nfev = np.zeros(R, int)
-    njev = np.zeros(R, int)
-    iterations = np.zeros(R, int)
-    g_norm = np.full(R, np.nan)
-    history: list[list[tuple[float, np.ndarray]]] = [[] for _ in range(R)]
+    refused = np.array([m is not None for m in message], bool)
+    rows = np.flatnonzero(~refused)
+    if rows.size == 0:
+        st = _trf.new_state(x, lb, ub, 0, np.zeros(R), np.zeros(R), 1 if history else 0)
+        st[_trf.STATE.index("status")][:] = FAILED
+        return _result(st, message)
+    F0, err, token = fun(x[rows], rows)
+    m = F0.shape[1]
+    m_row = np.full(R, m) if n_residuals is None else np.broadcast_to(np.asarray(n_residuals, dtype=int), (R,))
+    st = _trf.new_state(x, lb, ub, m, m_row, np.full(R, m), max_nfev + 1 if history else 0)
+    S = dict(zip(_trf.STATE, st))
+    status, nfev, f, J = S["status"], S["nfev"], S["f"], S["J"]
+    status[refused] = FAILED
 
     def fail(rows, errors):
         for r, e in zip(rows, errors):
             if e is not None:
                 status[r], message[r] = FAILED, e
 
-    rows = np.flatnonzero(status == _RUNNING)
-    if rows.size == 0:
-        msgs = [str(e) for e in message]
-        zero = np.zeros(R)
-        return BatchLSQResult(x=x, cost=zero, fun=np.zeros((R, 0)), jac=np.zeros((R, 0, n)), grad=np.zeros((R, n)),
-                              optimality=g_norm, nfev=nfev, njev=njev, iterations=iterations, status=status,
-                              message=msgs, history=[[] for _ in range(R)])
-    F0, err, token = fun(x[rows], rows)
     nfev[rows] += 1
-    m = F0.shape[1]
-    m_row = np.full(R, m) if n_residuals is None else np.broadcast_to(np.asarray(n_residuals, dtype=int), (R,))
-    f = np.zeros((R, m))
-    J = np.zeros((R, m, n))
     f[rows] = F0
     fail(rows, err)
     ok = np.array([e is None for e in err], bool)
     if ok.any():
         J0, jerr = jac(token, np.flatnonzero(ok))
         J[rows[ok]] = J0
-        njev[rows[ok]] += 1
+        S["njev"][rows[ok]] += 1
         fail(rows[ok], jerr)
-    cost = 0.5 * _dot(f, f)
-    for r in range(R):
-        history[r].append((float(cost[r]), x[r].copy()))
-    g = _grad(J, f)
-    scale_inv = _col_norms(J)
-    scale_inv[scale_inv == 0] = 1.0
-    v, dv = _cl_scaling(x, g, lb, ub)
-    v = np.where(dv != 0, v * scale_inv, v)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        Delta = _norm(x * scale_inv / v**0.5)
-    Delta[Delta == 0] = 1.0
-    alpha = np.zeros(R)
-    # per-iteration quantities (recomputed after an accepted step)
-    d = np.zeros((R, n))
-    g_h = np.zeros((R, n))
-    theta = np.zeros(R)
-    s_svd = np.zeros((R, n))
-    V_svd = np.zeros((R, n, n))
-    Bh = np.zeros((R, n, n))  # R11 of the QR of the augmented Jacobian: BhᵀBh = J_augᵀJ_aug
-    r12 = np.zeros((R, n))
-    uf = np.zeros((R, n))
-    p_gn = np.zeros((R, n))
-    full_rank = np.zeros(R, bool)
-    have_svd = np.zeros(R, bool)
-    need_setup = np.ones(R, bool)
+    _trf.rows_init(st, rows.astype(np.int64))
     finished = int(np.sum(status != _RUNNING))
     if progress and finished:
         progress(finished, R)
-
+    degenerate = "the least-squares solver failed: the trust-region step is degenerate"
     while True:
-        # ---- top of scipy's outer loop, for the starts that begin an iteration
-        top = np.flatnonzero((status == _RUNNING) & need_setup)
-        if top.size:
-            v, dv = _cl_scaling(x[top], g[top], lb[top], ub[top])
-            g_norm[top] = np.max(np.abs(g[top] * v), axis=1) if n else 0.0
-            st = np.where(g_norm[top] < gtol, 1, pending[top])
-            st = np.where((st == _RUNNING) & (nfev[top] >= max_nfev), 0, st)
-            status[top] = st
-            go = st == _RUNNING
-            t, v, dv = top[go], v[go], dv[go]
-            if t.size:
-                sc_inv = scale_inv[t]
-                scale = 1 / sc_inv
-                v = np.where(dv != 0, v * sc_inv, v)
-                d[t] = v**0.5 * scale
-                diag_h = g[t] * dv * scale
-                g_h[t] = d[t] * g[t]
-                # SVD of J_aug = [J d; diag(diag_h)^½] through the R factor of [J_aug | f_aug]:
-                # J_aug = Q R11, Qᵀ f_aug = r12, so σ, V are R11's and Uᵀf_aug = U_R11ᵀ r12.
-                B = t.size
-                Jf = np.zeros((B, m + n, n + 1))
-                Jf[:, :m, :n] = J[t] * d[t][:, None, :]
-                Jf[:, m + np.arange(n), np.arange(n)] = diag_h**0.5
-                Jf[:, :m, n] = f[t]
-                Rf = np.linalg.qr(Jf, mode="r")
-                Bh[t] = Rf[:, :n, :n]
-                r12[t] = Rf[:, :n, n]
-                # singular values first (cheap); the Gauss–Newton step by back-substitution; the
-                # singular vectors only when the trust region cuts the step (see below)
-                s_svd[t] = np.linalg.svd(Bh[t], compute_uv=False)
-                full_rank[t] = (m_row[t] >= n) & (s_svd[t, -1] > EPS * m_row[t] * s_svd[t, 0])
-                fr = t[full_rank[t]]
-                if fr.size:
-                    p_gn[fr] = -np.linalg.solve(Bh[fr], r12[fr][:, :, None])[:, :, 0]
-                have_svd[t] = False
-                theta[t] = np.maximum(0.995, 1 - g_norm[t])
-                need_setup[t] = False
+        act = np.flatnonzero(status == _RUNNING).astype(np.int64)
+        flags = np.zeros(act.size, np.int64)
+        if act.size:
+            _trf.rows_propose(st, act, gtol, max_nfev, flags)
+            for r, fl in zip(act, flags):
+                if fl == _trf.DEGENERATE:
+                    status[r], message[r] = FAILED, degenerate
+                elif fl == _trf.BAD_JACOBIAN:
+                    status[r], message[r] = FAILED, "NumericalError: non-finite Jacobian"
         done = int(np.sum(status != _RUNNING))
         if progress and done != finished:
             progress(done, R)
         finished = done
-        act = np.flatnonzero(status == _RUNNING)
+        act = act[flags == _trf.PROPOSED]
         if act.size == 0:
             break
-        # ---- one trial step per active start
-        # trust-region step: the Gauss–Newton step when J_aug has full rank and the step fits,
-        # else Moré's iteration on the SVD of R11 (computed once per outer iteration)
-        gn = full_rank[act] & (_norm(p_gn[act]) <= Delta[act])
-        p_h = p_gn[act].copy()
-        alpha[act[gn]] = 0.0
-        more = act[~gn]
-        if more.size:
-            need = more[~have_svd[more]]
-            if need.size:
-                U, sv, Vt = np.linalg.svd(Bh[need])
-                s_svd[need] = sv
-                V_svd[need] = np.swapaxes(Vt, 1, 2)
-                uf[need] = np.matmul(r12[need][:, None, :], U)[:, 0, :]
-                have_svd[need] = True
-            p_h[~gn], alpha[more] = _solve_lsq_trust_region(m_row[more], uf[more], s_svd[more], V_svd[more], Delta[more],
-                                                            alpha[more])
-        p = d[act] * p_h
-        step, step_h, predicted, bad = _select_step(x[act], Bh[act], g_h[act], p, p_h, d[act], Delta[act],
-                                                    lb[act], ub[act], theta[act])
-        fail(act[bad], ["the least-squares solver failed: the trust-region step is degenerate"] * int(bad.sum()))
-        keep = ~bad
-        act, step, step_h, predicted = act[keep], step[keep], step_h[keep], predicted[keep]
-        if act.size == 0:
-            continue
-        x_new = _make_strictly_feasible(x[act] + step, lb[act], ub[act], rstep=0)
-        F_new, err, token = fun(x_new, act)
+        F_new, err, token = fun(S["x_new"][act], act)
         nfev[act] += 1
-        fail(act, err)
         good = np.array([e is None for e in err], bool)
-        cost_new = 0.5 * _dot(F_new, F_new)
-        actual = cost[act] - cost_new
-        step_h_norm = _norm(step_h)
-        Delta_old = Delta[act]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(predicted > 0, actual / predicted,
-                             np.where((predicted == 0) & (actual == 0), 1.0, 0.0))
-        Delta_new = np.where(ratio < 0.25, 0.25 * step_h_norm,
-                             np.where((ratio > 0.75) & (step_h_norm > 0.95 * Delta_old), 2.0 * Delta_old, Delta_old))
-        step_norm = _norm(step)
-        ftol_ok = (actual < ftol * cost[act]) & (ratio > 0.25)
-        xtol_ok = step_norm < xtol * (xtol + _norm(x[act]))
-        term = np.where(ftol_ok & xtol_ok, 4, np.where(ftol_ok, 2, np.where(xtol_ok, 3, _RUNNING)))
-        cont = (term == _RUNNING) & good
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            alpha[act[cont]] *= Delta_old[cont] / Delta_new[cont]
-        Delta[act[cont]] = Delta_new[cont]
-        accepted = good & (actual > 0)
-        pending[act[good & (term != _RUNNING)]] = term[good & (term != _RUNNING)]
-        # the inner loop ends on acceptance, on termination, or when the evaluations run out
-        end_inner = good & (accepted | (term != _RUNNING) | (nfev[act] >= max_nfev))
-        if accepted.any():
-            a_rows = act[accepted]
-            x[a_rows] = x_new[accepted]
-            f[a_rows] = F_new[accepted]
-            cost[a_rows] = cost_new[accepted]
-            J_new, jerr = jac(token, np.flatnonzero(accepted))
-            njev[a_rows] += 1
-            fail(a_rows, jerr)
-            J[a_rows] = J_new
-            g[a_rows] = _grad(J_new, F_new[accepted])
-            scale_inv[a_rows] = np.maximum(_col_norms(J_new), scale_inv[a_rows])
-        for r in act[end_inner]:
-            iterations[r] += 1
-            need_setup[r] = True
-            history[r].append((float(cost[r]), x[r].copy()))
-
-    status[status == _RUNNING] = 0
-    msgs = [message[r] if status[r] == FAILED else TERMINATION_MESSAGES[int(status[r])] for r in range(R)]
-    g = _grad(J, f)
-    return BatchLSQResult(x=x, cost=cost, fun=f, jac=J, grad=g, optimality=g_norm, nfev=nfev, njev=njev,
-                          iterations=iterations, status=status, message=msgs, history=history)
+        fail(act, err)
+        acc = np.zeros(act.size, np.bool_)
+        ended = np.zeros(act.size, np.bool_)
+        g_rows = act[good]
+        _trf.rows_judge(st, g_rows, np.ascontiguousarray(F_new[good]), ftol, xtol, max_nfev, acc[: g_rows.size],
+                        ended[: g_rows.size])
+        accepted = np.flatnonzero(good)[acc[: g_rows.size]]
+        if accepted.size:
+            J_new, jerr = jac(token, accepted)
+            _trf.rows_accept(st, act[accepted], np.ascontiguousarray(J_new))
+            fail(act[accepted], jerr)
+    return _result(st, message)
 
 
 # ====================================================================== the batched problem
@@ -1265,6 +992,7 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     res = prob.solve(progress=progress)
     alive = np.flatnonzero(res.status != FAILED)
     final = prob.evaluate(res.x[alive], alive)  # pairs and MACs at the solutions, in one batch
+    n_hist = np.minimum(res.iterations + 1, res.history_cost.shape[1])
     runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: the least-squares solver failed: {m}"
                   for m in res.message]  # (used for the failed starts only)
     for i, r in enumerate(alive):
@@ -1282,8 +1010,8 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
             optimality=float(res.optimality[r]), pairs=pairs,
             model_frequencies_hz=np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi),
             start=dict(zip(names, map(float, X0[r]))),
-            history_cost=np.array([c for c, _ in res.history[r]]),
-            history_x=prob.to_p(np.array([xi for _, xi in res.history[r]]), np.full(len(res.history[r]), r)),
+            history_cost=res.history_cost[r, :n_hist[r]].copy(),
+            history_x=prob.to_p(res.history_x[r, :n_hist[r]], np.full(n_hist[r], r)),
         )
     ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol)
     best = None

@@ -1,0 +1,593 @@
+r"""SciPy's trust-region-reflective least squares, compiled, one problem (row) at a time.
+
+A transcription of :func:`scipy.optimize.least_squares` with ``method="trf"``,
+``x_scale="jac"``, ``tr_solver="exact"`` and a linear loss (``scipy/optimize/_lsq/trf.py``
+``trf_bounds`` and the helpers of ``_lsq/common.py``): the Coleman–Li reflective scaling for the
+bounds, Moré's Levenberg–Marquardt parameter for the exact trust-region subproblem, the choice
+between the trust-region step, its reflection and the scaled anti-gradient, the radius update and
+the ``ftol``/``xtol``/``gtol`` tests and status codes — decision for decision, so that a row lands
+where SciPy lands from the same start.  The arithmetic differs only in round-off: the augmented
+Jacobian ``[J d; diag_h^½]`` is reduced to its (n, n) R factor by Householder reflections (with
+the residual as an extra column, giving ``Qᵀf``), and its SVD is taken of that factor; the
+quadratic models are evaluated with the factor.  Decisions can therefore differ only at the
+round-off floor of the cost, after convergence.
+
+The state of R rows lives in arrays (one row each; the tuple :data:`STATE`).  Two drivers use
+the row functions:
+
+* :func:`rows_propose` / :func:`rows_judge` / :func:`rows_accept` advance many rows one
+  evaluation at a time, with the residuals computed in between by Python
+  (:func:`femupdate.batch.least_squares_batch`, any residual function);
+* :mod:`femupdate._modal_kernels` runs rows to the end inside compiled code, with the modal
+  residuals and exact Jacobians compiled too, the rows spread over the CPU cores.
+
+Everything here is compiled by numba on first use and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+try:  # singular values only (LAPACK gesdd, JOBZ='N'): half the cost of the full SVD
+    from numba.np.linalg import _compute_singular_values as _sv_only
+except ImportError:  # pragma: no cover - older or newer numba without the helper
+    _sv_only = None
+
+EPS = float(np.finfo(float).eps)
+RUNNING = -99  #: status of a row still iterating
+FAILED = -3  #: status of a row whose evaluation failed
+# flags of rows_propose
+PROPOSED, STOPPED, DEGENERATE, BAD_JACOBIAN = 0, 1, 2, 3
+
+#: names of the state arrays, in the order of the state tuple
+STATE = ("x", "f", "J", "cost", "g", "scale_inv", "lb", "ub", "m_row", "m_qr", "Delta", "alpha", "d", "g_h",
+         "theta", "R11", "r12", "sv", "V", "uf", "p_gn", "full_rank", "have_svd", "need_setup", "status",
+         "pending", "nfev", "njev", "iterations", "g_norm", "x_new", "step", "step_h", "pred", "hist_cost",
+         "hist_x")
+
+jit = njit(cache=True, error_model="numpy", nogil=True)
+
+
+def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
+    """Fresh state arrays for R rows of n variables and at most m residuals.
+
+    ``m_row`` (R,) each row's residual count for SciPy's rank test; ``m_qr`` (R,) how many
+    leading residual rows enter the QR (the others are zero); ``history`` the iterations kept
+    per row (0: none).
+    """
+    R, n = x0.shape
+    z = np.zeros
+    st = dict(
+        x=np.array(x0, float), f=z((R, m)), J=z((R, m, n)), cost=z(R), g=z((R, n)), scale_inv=np.ones((R, n)),
+        lb=np.array(lb, float), ub=np.array(ub, float), m_row=np.asarray(m_row, np.int64).copy(),
+        m_qr=np.asarray(m_qr, np.int64).copy(), Delta=z(R), alpha=z(R), d=z((R, n)), g_h=z((R, n)), theta=z(R),
+        R11=z((R, n, n)), r12=z((R, n)), sv=z((R, n)), V=z((R, n, n)), uf=z((R, n)), p_gn=z((R, n)),
+        full_rank=z(R, np.bool_), have_svd=z(R, np.bool_), need_setup=np.ones(R, np.bool_),
+        status=np.full(R, RUNNING, np.int64), pending=np.full(R, RUNNING, np.int64), nfev=z(R, np.int64),
+        njev=z(R, np.int64), iterations=z(R, np.int64), g_norm=np.full(R, np.nan), x_new=z((R, n)), step=z((R, n)),
+        step_h=z((R, n)), pred=z(R), hist_cost=z((R, history)), hist_x=z((R, history, n)),
+    )
+    return tuple(st[k] for k in STATE)
+
+
+# ---------------------------------------------------------------------------------------------
+# small dense helpers
+# ---------------------------------------------------------------------------------------------
+@jit
+def _dot(a, b):
+    s = 0.0
+    for i in range(a.size):
+        s += a[i] * b[i]
+    return s
+
+
+@jit
+def _norm(a):
+    return math.sqrt(_dot(a, a))
+
+
+@jit
+def _quad(R11, g, s):
+    """½‖R11 s‖² + gᵀs: SciPy's ``evaluate_quadratic`` with ``R11ᵀR11 = J_hᵀJ_h + diag_h``."""
+    n = s.size
+    a = 0.0
+    for i in range(n):
+        v = 0.0
+        for k in range(i, n):
+            v += R11[i, k] * s[k]
+        a += v * v
+    return 0.5 * a + _dot(g, s)
+
+
+@jit
+def _quad_1d(R11, g, s, s0):
+    """Coefficients (a, b, c) of t ↦ q(s0 + t s) (SciPy's ``build_quadratic_1d``)."""
+    n = s.size
+    a = 0.0
+    b = 0.0
+    c = 0.0
+    for i in range(n):
+        v = 0.0
+        u = 0.0
+        for k in range(i, n):
+            v += R11[i, k] * s[k]
+            u += R11[i, k] * s0[k]
+        a += v * v
+        b += u * v
+        c += u * u
+    return 0.5 * a, _dot(g, s) + b, 0.5 * c + _dot(g, s0)
+
+
+@jit
+def _min_quad_1d(a, b, lo, hi, c):
+    """argmin of a t² + b t + c over [lo, hi], candidates in SciPy's order (lo, hi, extremum)."""
+    t_best = lo
+    y_best = lo * (a * lo + b) + c
+    y = hi * (a * hi + b) + c
+    if y < y_best:
+        t_best, y_best = hi, y
+    if a != 0:
+        ext = -0.5 * b / a
+        if lo < ext < hi:
+            y = ext * (a * ext + b) + c
+            if y < y_best:
+                t_best, y_best = ext, y
+    return t_best, y_best
+
+
+@jit
+def _step_to_bound(x, s, lb, ub, hits):
+    """Smallest t >= 0 with x + t s on a bound; ``hits`` (out) marks the variables that hit it."""
+    n = x.size
+    t = np.inf
+    for i in range(n):
+        if s[i] != 0:
+            st = max((lb[i] - x[i]) / s[i], (ub[i] - x[i]) / s[i])
+            if st < t:
+                t = st
+    for i in range(n):
+        if s[i] != 0:
+            st = max((lb[i] - x[i]) / s[i], (ub[i] - x[i]) / s[i])
+            hits[i] = st == t
+        else:
+            hits[i] = False
+    return t
+
+
+@jit
+def _cl_scaling(x, g, lb, ub, v, dv):
+    """Coleman–Li scaling vector v and its derivative dv (SciPy's ``CL_scaling_vector``)."""
+    for i in range(x.size):
+        v[i] = 1.0
+        dv[i] = 0.0
+        if g[i] < 0 and np.isfinite(ub[i]):
+            v[i] = ub[i] - x[i]
+            dv[i] = -1.0
+        if g[i] > 0 and np.isfinite(lb[i]):
+            v[i] = x[i] - lb[i]
+            dv[i] = 1.0
+
+
+@jit
+def _householder_r(A, ncols):
+    """Overwrite A (p, q) with the R factor of its QR decomposition in the first ``ncols``
+    columns; the later columns receive Qᵀ times themselves."""
+    p, q = A.shape
+    for k in range(ncols):
+        tail = 0.0
+        for i in range(k + 1, p):
+            tail += A[i, k] * A[i, k]
+        if tail == 0.0:  # nothing below the diagonal: no reflection (LAPACK's dlarfg alike)
+            continue
+        nx = math.sqrt(A[k, k] * A[k, k] + tail)
+        beta = -nx if A[k, k] >= 0 else nx
+        v0 = A[k, k] - beta
+        vn = v0 * v0 + tail  # ‖v‖² with v = (A[k,k] − β, A[k+1:, k])
+        if vn <= 0.0:
+            A[k, k] = beta
+            continue
+        for c in range(k + 1, q):
+            t = v0 * A[k, c]
+            for i in range(k + 1, p):
+                t += A[i, k] * A[i, c]
+            t = 2.0 * t / vn
+            A[k, c] -= t * v0
+            for i in range(k + 1, p):
+                A[i, c] -= t * A[i, k]
+        A[k, k] = beta
+        for i in range(k + 1, p):
+            A[i, k] = 0.0
+
+
+@jit
+def _singular_values(A):
+    if _sv_only is not None:
+        return _sv_only(A)
+    return np.linalg.svd(A)[1]  # pragma: no cover
+
+
+# ---------------------------------------------------------------------------------------------
+# the row functions
+# ---------------------------------------------------------------------------------------------
+@jit
+def init_row(st, r):
+    """SciPy's set-up after the first evaluation and Jacobian of row r (f, J in the state)."""
+    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
+     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
+     hist_cost, hist_x) = st
+    n = x.shape[1]
+    m = f.shape[1]
+    cost[r] = 0.5 * _dot(f[r], f[r])
+    for i in range(n):
+        gi = 0.0
+        sc = 0.0
+        for k in range(m):
+            gi += J[r, k, i] * f[r, k]
+            sc += J[r, k, i] * J[r, k, i]
+        g[r, i] = gi
+        sc = math.sqrt(sc)
+        scale_inv[r, i] = sc if sc != 0 else 1.0
+    v = np.empty(n)
+    dv = np.empty(n)
+    _cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
+    D = 0.0
+    for i in range(n):
+        if dv[i] != 0:
+            v[i] *= scale_inv[r, i]
+        t = x[r, i] * scale_inv[r, i] / v[i] ** 0.5
+        D += t * t
+    D = math.sqrt(D)
+    Delta[r] = D if D != 0 else 1.0
+    alpha[r] = 0.0
+    need_setup[r] = True
+    record(st, r)
+
+
+@jit
+def record(st, r):
+    """Keep (cost, x) of row r after its current iteration (when history is kept)."""
+    cost, x, iterations, hist_cost, hist_x = st[3], st[0], st[28], st[34], st[35]
+    k = iterations[r]
+    if k < hist_cost.shape[1]:
+        hist_cost[r, k] = cost[r]
+        hist_x[r, k] = x[r]
+
+
+@jit
+def _top(st, r, gtol, max_nfev):
+    """Top of SciPy's outer loop for row r: the termination tests, then the scaled augmented
+    system, its R factor and singular values, and the Gauss–Newton step.  Returns 1 when the row
+    goes on, 0 when it terminated, -1 when its Jacobian is not finite (the row must fail)."""
+    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
+     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
+     hist_cost, hist_x) = st
+    n = x.shape[1]
+    v = np.empty(n)
+    dv = np.empty(n)
+    _cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
+    gn = 0.0
+    for i in range(n):
+        gn = max(gn, abs(g[r, i] * v[i]))
+    g_norm[r] = gn
+    stt = pending[r]
+    if gn < gtol:
+        stt = 1
+    if stt == RUNNING and nfev[r] >= max_nfev:
+        stt = 0
+    status[r] = stt
+    if stt != RUNNING:
+        return 0
+    mq = m_qr[r]
+    A = np.zeros((mq + n, n + 1))
+    for i in range(n):
+        if dv[i] != 0:
+            v[i] *= scale_inv[r, i]
+        scale = 1 / scale_inv[r, i]
+        d[r, i] = v[i] ** 0.5 * scale
+        g_h[r, i] = d[r, i] * g[r, i]
+        A[mq + i, i] = (g[r, i] * dv[i] * scale) ** 0.5  # diag_h^½
+    for k in range(mq):
+        for i in range(n):
+            A[k, i] = J[r, k, i] * d[r, i]
+        A[k, n] = f[r, k]
+    for k in range(mq + n):
+        for i in range(n + 1):
+            if not np.isfinite(A[k, i]):
+                return -1
+    _householder_r(A, n)
+    for i in range(n):
+        r12[r, i] = A[i, n]
+        for k in range(n):
+            R11[r, i, k] = A[i, k] if k >= i else 0.0
+    s = _singular_values(R11[r])
+    for i in range(n):
+        sv[r, i] = s[i]
+    full_rank[r] = n == 0 or (m_row[r] >= n and s[n - 1] > EPS * m_row[r] * s[0])
+    if full_rank[r]:  # Gauss–Newton step p = −R11⁻¹ r12 by back-substitution
+        for i in range(n - 1, -1, -1):
+            t = -r12[r, i]
+            for k in range(i + 1, n):
+                t -= R11[r, i, k] * p_gn[r, k]
+            p_gn[r, i] = t / R11[r, i, i]
+    have_svd[r] = False
+    theta[r] = max(0.995, 1 - gn)
+    need_setup[r] = False
+    return 1
+
+
+@jit
+def _phi_and_derivative(suf, s, a, D):
+    """‖p(α)‖ − Δ and its derivative in α (SciPy's ``phi_and_derivative``)."""
+    pn = 0.0
+    der = 0.0
+    for i in range(s.size):
+        den = s[i] ** 2 + a
+        pn += (suf[i] / den) ** 2
+        der += suf[i] ** 2 / den**3
+    pn = math.sqrt(pn)
+    return pn - D, -der / pn
+
+
+@jit
+def _tr_subproblem(st, r, p_h):
+    """Moré's trust-region subproblem on the SVD of R11 (SciPy's ``solve_lsq_trust_region``),
+    for a row whose Gauss–Newton step is not available or not inside the radius."""
+    R11, r12, sv, V, uf, alpha, Delta, m_row, full_rank, have_svd = (st[15], st[16], st[17], st[18], st[19], st[11],
+                                                                      st[10], st[8], st[21], st[22])
+    n = p_h.size
+    if not have_svd[r]:
+        U, s, Vt = np.linalg.svd(R11[r])
+        for i in range(n):
+            sv[r, i] = s[i]
+            t = 0.0
+            for k in range(n):
+                V[r, i, k] = Vt[k, i]
+                t += U[k, i] * r12[r, k]
+            uf[r, i] = t
+        have_svd[r] = True
+    s = sv[r]
+    D = Delta[r]
+    suf = s * uf[r]
+    fr = full_rank[r]
+
+    alpha_upper = _norm(suf) / D
+    if fr:
+        phi, phi_prime = _phi_and_derivative(suf, s, 0.0, D)
+        alpha_lower = -phi / phi_prime
+    else:
+        alpha_lower = 0.0
+    a = alpha[r]
+    if not fr and a == 0:
+        a = max(0.001 * alpha_upper, (alpha_lower * alpha_upper) ** 0.5)
+    for _ in range(10):
+        if a < alpha_lower or a > alpha_upper:
+            a = max(0.001 * alpha_upper, (alpha_lower * alpha_upper) ** 0.5)
+        phi, phi_prime = _phi_and_derivative(suf, s, a, D)
+        if phi < 0:
+            alpha_upper = a
+        ratio = phi / phi_prime
+        alpha_lower = max(alpha_lower, a - ratio)
+        a -= (phi + D) * ratio / D
+        if abs(phi) < 0.01 * D:
+            break
+    for i in range(n):
+        t = 0.0
+        for k in range(n):
+            t -= V[r, i, k] * suf[k] / (s[k] ** 2 + a)
+        p_h[i] = t
+    pn = _norm(p_h)
+    for i in range(n):
+        p_h[i] *= D / pn
+    alpha[r] = a
+
+
+@jit
+def propose(st, r, gtol, max_nfev):
+    """The next trial point of row r (``x_new``, with ``step``, ``step_h`` and the predicted
+    reduction ``pred``): PROPOSED, or STOPPED (terminated: ``status`` says how), DEGENERATE
+    (SciPy would raise in ``intersect_trust_region``) or BAD_JACOBIAN (not finite)."""
+    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
+     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
+     hist_cost, hist_x) = st
+    if need_setup[r]:
+        go = _top(st, r, gtol, max_nfev)
+        if go == 0:
+            return STOPPED
+        if go < 0:
+            return BAD_JACOBIAN
+    n = x.shape[1]
+    D = Delta[r]
+    p_h = np.empty(n)
+    if full_rank[r] and _norm(p_gn[r]) <= D:
+        for i in range(n):
+            p_h[i] = p_gn[r, i]
+        alpha[r] = 0.0
+    else:
+        _tr_subproblem(st, r, p_h)
+    xr, lbr, ubr, dr, ghr, Rr, th = x[r], lb[r], ub[r], d[r], g_h[r], R11[r], theta[r]
+    p = dr * p_h
+    inside = True
+    for i in range(n):
+        xp = xr[i] + p[i]
+        if not (xp >= lbr[i] and xp <= ubr[i]):
+            inside = False
+    if inside:
+        step[r] = p
+        step_h[r] = p_h
+        pred[r] = -_quad(Rr, ghr, p_h)
+    else:  # SciPy's select_step: the step cut at the bound, its reflection, the anti-gradient
+        hits = np.empty(n, np.bool_)
+        p_stride = _step_to_bound(xr, p, lbr, ubr, hits)
+        r_h = p_h.copy()
+        for i in range(n):
+            if hits[i]:
+                r_h[i] = -r_h[i]
+        rr = dr * r_h
+        p = p * p_stride
+        p_h = p_h * p_stride
+        x_on_bound = xr + p
+        # intersect_trust_region(p_h, r_h, Delta)
+        a2 = _dot(r_h, r_h)
+        b2 = _dot(p_h, r_h)
+        c2 = _dot(p_h, p_h) - D**2
+        if a2 == 0 or c2 > 0:
+            return DEGENERATE
+        dd = math.sqrt(b2 * b2 - a2 * c2)
+        q = -(b2 + math.copysign(dd, b2))
+        to_tr = max(q / a2, c2 / q)
+        to_bound = _step_to_bound(x_on_bound, rr, lbr, ubr, hits)
+        r_stride = min(to_bound, to_tr)
+        if r_stride > 0:
+            r_lo = (1 - th) * p_stride / r_stride
+            r_hi = th * to_bound if r_stride == to_bound else to_tr
+        else:
+            r_lo = 0.0
+            r_hi = -1.0
+        if r_lo <= r_hi:
+            qa, qb, qc = _quad_1d(Rr, ghr, r_h, p_h)
+            r_t, r_value = _min_quad_1d(qa, qb, r_lo, r_hi, qc)
+            r_h = r_h * r_t + p_h
+            rr = r_h * dr
+        else:
+            r_value = np.inf
+        p = p * th
+        p_h = p_h * th
+        p_value = _quad(Rr, ghr, p_h)
+        ag_h = -ghr
+        ag = dr * ag_h
+        to_tr = D / _norm(ag_h)
+        to_bound = _step_to_bound(xr, ag, lbr, ubr, hits)
+        ag_stride = th * to_bound if to_bound < to_tr else to_tr
+        qa = 0.0
+        for i in range(n):
+            t = 0.0
+            for k in range(i, n):
+                t += Rr[i, k] * ag_h[k]
+            qa += t * t
+        ag_stride, ag_value = _min_quad_1d(0.5 * qa, _dot(ghr, ag_h), 0.0, ag_stride, 0.0)
+        if p_value < r_value and p_value < ag_value:
+            step[r] = p
+            step_h[r] = p_h
+            pred[r] = -p_value
+        elif r_value < p_value and r_value < ag_value:
+            step[r] = rr
+            step_h[r] = r_h
+            pred[r] = -r_value
+        else:
+            step[r] = ag * ag_stride
+            step_h[r] = ag_h * ag_stride
+            pred[r] = -ag_value
+    for i in range(n):  # make_strictly_feasible(x + step, rstep=0)
+        xi = xr[i] + step[r, i]
+        if xi <= lbr[i]:
+            xi = np.nextafter(lbr[i], ubr[i])
+        if xr[i] + step[r, i] >= ubr[i]:
+            xi = np.nextafter(ubr[i], lbr[i])
+        if xi < lbr[i] or xi > ubr[i]:
+            xi = 0.5 * (lbr[i] + ubr[i])
+        x_new[r, i] = xi
+    return PROPOSED
+
+
+@jit
+def judge(st, r, f_new, ftol, xtol, max_nfev):
+    """SciPy's inner-loop bookkeeping after evaluating row r's trial point at residuals f_new:
+    radius update, termination tests, acceptance.  Returns (accepted, iteration_ended); an
+    accepted point's x, f and cost are taken over (its Jacobian goes to :func:`accept`), and an
+    ended iteration is counted (recorded in the history once the Jacobian is in)."""
+    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
+     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
+     hist_cost, hist_x) = st
+    cost_new = 0.5 * _dot(f_new, f_new)
+    actual = cost[r] - cost_new
+    predicted = pred[r]
+    shn = _norm(step_h[r])
+    D = Delta[r]
+    if predicted > 0:
+        ratio = actual / predicted
+    elif predicted == 0 and actual == 0:
+        ratio = 1.0
+    else:
+        ratio = 0.0
+    if ratio < 0.25:
+        D_new = 0.25 * shn
+    elif ratio > 0.75 and shn > 0.95 * D:
+        D_new = 2.0 * D
+    else:
+        D_new = D
+    ftol_ok = actual < ftol * cost[r] and ratio > 0.25
+    xtol_ok = _norm(step[r]) < xtol * (xtol + _norm(x[r]))
+    term = RUNNING
+    if ftol_ok and xtol_ok:
+        term = 4
+    elif ftol_ok:
+        term = 2
+    elif xtol_ok:
+        term = 3
+    if term == RUNNING:
+        alpha[r] *= D / D_new
+        Delta[r] = D_new
+    else:
+        pending[r] = term
+    accepted = actual > 0
+    if accepted:
+        x[r] = x_new[r]
+        f[r] = f_new
+        cost[r] = cost_new
+    ended = accepted or term != RUNNING or nfev[r] >= max_nfev
+    if ended:
+        iterations[r] += 1
+        need_setup[r] = True
+        record(st, r)
+    return accepted, ended
+
+
+@jit
+def accept(st, r):
+    """After an accepted step, with the new Jacobian in ``J[r]``: gradient and Jacobian scale."""
+    f, J, g, scale_inv, njev = st[1], st[2], st[4], st[5], st[27]
+    m, n = J.shape[1], J.shape[2]
+    njev[r] += 1
+    for i in range(n):
+        gi = 0.0
+        sc = 0.0
+        for k in range(m):
+            gi += J[r, k, i] * f[r, k]
+            sc += J[r, k, i] * J[r, k, i]
+        g[r, i] = gi
+        scale_inv[r, i] = max(math.sqrt(sc), scale_inv[r, i])
+
+
+# ---------------------------------------------------------------------------------------------
+# many rows, one evaluation at a time (the residuals computed by Python in between)
+# ---------------------------------------------------------------------------------------------
+@jit
+def rows_init(st, rows):
+    for r in rows:
+        init_row(st, r)
+
+
+@jit
+def rows_propose(st, rows, gtol, max_nfev, flags):
+    """:func:`propose` for each of ``rows`` (flags out)."""
+    for i in range(rows.size):
+        flags[i] = propose(st, rows[i], gtol, max_nfev)
+
+
+@jit
+def rows_judge(st, rows, F_new, ftol, xtol, max_nfev, accepted, ended):
+    """:func:`judge` for each of ``rows`` with its residuals ``F_new[i]`` (flags out)."""
+    for i in range(rows.size):
+        accepted[i], ended[i] = judge(st, rows[i], F_new[i], ftol, xtol, max_nfev)
+
+
+@jit
+def rows_accept(st, rows, J_new):
+    for i in range(rows.size):
+        st[2][rows[i]] = J_new[i]
+        accept(st, rows[i])
+
+
