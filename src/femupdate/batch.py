@@ -943,10 +943,69 @@ class BatchProblem:
 
     own_residuals = None  #: (R,) residuals of each row's own when rows are zero-padded (None: all)
 
-    def solve(self, progress=None) -> BatchLSQResult:
-        """Run :func:`least_squares_batch` from every start's ``x_start`` within ``(lb, ub)``."""
+    def solve(self, progress=None, compiled: bool = True) -> BatchLSQResult:
+        """Every start from its ``x_start`` within ``(lb, ub)`` to the end: compiled, each start
+        run through by :func:`femupdate._modal.solve_rows` (the default), or round by round by
+        :func:`least_squares_batch` with the NumPy residuals and Jacobians of this class."""
+        if compiled:
+            return solve_compiled(self, self.datasets(), np.zeros(self.R, np.int64), progress=progress)
         return least_squares_batch(self._fun, self._jac, self.x_start, (self.lb, self.ub), progress=progress,
                                    n_residuals=self.own_residuals, **self.options)
+
+    def datasets(self):
+        """The test data as :func:`femupdate._modal.spec` takes it: one data set."""
+        modes = [(self.lam_e[k], self.w_lam[k], *(row if row is not None else (None, None, None)))
+                 for k, row in enumerate(self.shape_rows)]
+        return [(modes, self.nm)]
+
+
+def solve_compiled(prob: BatchProblem, datasets, row_dataset, *, progress=None, history: bool = True,
+                   chunk: int = 256) -> BatchLSQResult:
+    """Run every start of ``prob`` to the end in compiled code (:func:`femupdate._modal.solve_rows`).
+
+    ``datasets`` and ``row_dataset`` as :func:`femupdate._modal.spec`.  Rows go in a fixed
+    shuffled order, ``chunk`` at a time (the rows of a chunk in parallel over the cores; progress
+    reported and Ctrl-C taken between chunks); the result does not depend on the order.
+    """
+    from . import _modal, _trf
+
+    o = prob.options
+    x0, x, lb, ub, max_nfev, message = _prepare(prob.x_start, (prob.lb, prob.ub), o["max_nfev"])
+    R, L = x0.shape
+    refused = np.array([m is not None for m in message], bool)
+    mass_error = None if prob.M_varies else prob._mass_error  # a fixed M that is not positive definite
+    early = [None if refused[r] else (prob.start_errors[r] or mass_error) for r in range(R)]
+    if mass_error:  # every start fails at its first evaluation
+        sp_, m_row = None, np.zeros(R, np.int64)
+    else:
+        sp_, m_row = _modal.spec(prob, datasets, row_dataset, prob.scaling, prob.w_shape, prob.min_mac)
+    m = int(max(m_row.max(initial=0), 1))
+    st = _trf.new_state(x, lb, ub, m, m_row, m_row, max_nfev + 1 if history else 0)
+    S = dict(zip(_trf.STATE, st))
+    status, nfev = S["status"], S["nfev"]
+    status[refused] = FAILED
+    for r, e in enumerate(early):
+        if e is not None:
+            status[r], message[r] = FAILED, e
+            nfev[r] = 1
+    T = max((len(modes) for modes, _ in datasets), default=1)
+    err_code = np.zeros(R, np.int64)
+    err_i = np.zeros((R, 2), np.int64)
+    err_f = np.zeros((R, 2))
+    err_modes = np.zeros((R, max(T, 1)), np.bool_)
+    todo = np.random.default_rng(0).permutation(np.flatnonzero(status == _RUNNING)).astype(np.int64)
+    done = R - todo.size
+    if progress and done:
+        progress(done, R)
+    for a in range(0, todo.size, chunk):
+        rows = todo[a:a + chunk]
+        _modal.solve_rows(sp_, st, rows, o["gtol"], o["ftol"], o["xtol"], max_nfev, err_code, err_i, err_f, err_modes)
+        done += rows.size
+        if progress:
+            progress(done, R)
+    for r in np.flatnonzero(err_code):
+        message[r] = _modal.message(err_code[r], err_i[r], err_f[r], err_modes[r], prob.min_mac)
+    return _result(st, message)
 
 
 # ====================================================================== multi-start driver

@@ -98,6 +98,28 @@ class StudyProblem(BatchProblem):
         self.n_residuals = self.T * (1 + self.u)
         self.own_residuals = self.n_test_row * (1 + self.smask.sum(axis=1))
         self.n_test = self.T
+        self.lam_e_rows = rows.lam_e
+
+    # ------------------------------------------------------------------ the compiled route
+    def datasets(self):
+        """Each row's own data set, as :func:`femupdate._modal.spec` takes them (unit-length test
+        shapes at the row's measured dofs; none for one-sensor rows)."""
+        out = []
+        for b in range(self.lam_e_rows.shape[0]):
+            T = int(self.n_test_row[b])
+            at = self.U[self.smask[b]]
+            shp = self.rows.psi_e[b][self.smask[b]]  # (n_s, T)
+            out.append(([(self.lam_e_rows[b, k], 1.0, at if at.size else None, shp[:, k] if at.size else None, None)
+                         for k in range(T)], int(self.nm_row[b])))
+        return out
+
+    def solve(self, progress=None, compiled: bool = True):
+        """Every row to the end, compiled (default), or round by round with the NumPy residuals."""
+        from ..batch import solve_compiled
+
+        if compiled:
+            return solve_compiled(self, self.datasets(), np.arange(self.R), progress=progress, history=False)
+        return super().solve(progress=progress, compiled=False)
 
     # ------------------------------------------------------------------ evaluation
     def _pair_rows(self, lam, Phi, rows, ok, errors):
