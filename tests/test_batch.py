@@ -144,6 +144,8 @@ def test_residuals_and_jacobians_equal_problem(scaling, ref_dof, parametrisation
     ev = bp.evaluate(X)
     J, errors = bp.jacobian(ev)
     assert ev.errors == [None] * 4 and errors == [None] * 4
+    Fc, Jc, msgs = bp.evaluate_compiled(X)
+    assert msgs == [None] * 4
     for r in range(4):
         p_base = model.values.copy()
         p_base[idx] = starts[r]
@@ -153,6 +155,9 @@ def test_residuals_and_jacobians_equal_problem(scaling, ref_dof, parametrisation
         assert [(k, j) for k, j, _ in prob.last_pairs] == [(k, int(j)) for k, j in enumerate(ev.pairs[r])]
         np.testing.assert_allclose(ev.fun[r], f, rtol=0, atol=1e-12 * max(1.0, np.abs(f).max()))
         np.testing.assert_allclose(J[r], Jp, rtol=0, atol=1e-9 * np.abs(Jp).max())
+        # the compiled kernels (the default solve route) against the same reference
+        np.testing.assert_allclose(Fc[r], f, rtol=0, atol=1e-12 * max(1.0, np.abs(f).max()))
+        np.testing.assert_allclose(Jc[r], Jp, rtol=0, atol=1e-9 * np.abs(Jp).max())
 
 
 def test_jacobian_against_finite_differences_with_mass_parameters(rng):
@@ -166,6 +171,7 @@ def test_jacobian_against_finite_differences_with_mass_parameters(rng):
     assert bp.M_varies
     X = bp.x_start.copy()
     J = bp.jacobians(X)
+    Jc = bp.evaluate_compiled(X)[1]
     h = 1e-6
     for c in range(X.shape[1]):
         Xp, Xm = X.copy(), X.copy()
@@ -173,6 +179,9 @@ def test_jacobian_against_finite_differences_with_mass_parameters(rng):
         Xm[:, c] -= h
         Jfd = (bp.residuals(Xp) - bp.residuals(Xm)) / (2 * h)
         np.testing.assert_allclose(J[:, :, c], Jfd, atol=1e-6 * np.abs(J).max())
+        # and of the compiled residuals, for the compiled Jacobian
+        Jfd_c = (bp.evaluate_compiled(Xp)[0] - bp.evaluate_compiled(Xm)[0]) / (2 * h)
+        np.testing.assert_allclose(Jc[:, :, c], Jfd_c, atol=1e-6 * np.abs(Jc).max())
 
 
 def test_dense_parameter_matrices(rng):
@@ -195,11 +204,14 @@ def test_dense_parameter_matrices(rng):
     assert bp.full_support and bp.M_varies
     X = bp.x_start + rng.uniform(-0.05, 0.05, starts.shape)
     F, J = bp.residuals(X), bp.jacobians(X)
+    Fc, Jc, _ = bp.evaluate_compiled(X)
     for r in range(5):
         prob = _Problem(model, data, model.parameter_names, "max", None, {}, 0.5, None, "log", starts[r].copy(), True, "auto")
         np.testing.assert_allclose(F[r], prob.residuals(X[r]), atol=1e-12)
         Jp = prob.jacobian(X[r])
         np.testing.assert_allclose(J[r], Jp, atol=1e-9 * np.abs(Jp).max())
+        np.testing.assert_allclose(Fc[r], prob.residuals(X[r]), atol=1e-12)
+        np.testing.assert_allclose(Jc[r], Jp, atol=1e-9 * np.abs(Jp).max())
     fast = multistart(model, data, starts=6, seed=1, shape_scaling="max", parametrisation="log")
     slow = multistart(model, data, starts=6, seed=1, shape_scaling="max", parametrisation="log", batched=False)
     assert_same_study(fast, slow)
@@ -347,3 +359,41 @@ def test_bench_multistart_quick_runs(tmp_path):
     assert size["ratio_a_over_f"] > 0 and size["seconds"]["f_batched"] > 0
     assert size["agreement_f_a"]["of"] == size["starts"] == 12
     assert size["outcomes"]["f_batched"]["truth"] >= 1
+
+
+# ------------------------------------------------------------------ the two solve routes
+def test_compiled_route_equals_round_by_round_route():
+    """BatchProblem.solve: every start run through in compiled code (default) against the NumPy
+    residuals advanced round by round by least_squares_batch: the same outcome, start by start."""
+    model, k = building(8)
+    data = measured(model, [f"{i}:x" for i in range(2, 9, 2)], 5)
+    from femupdate.multistart import draw_starts
+
+    names = model.parameter_names
+    starts = draw_starts(model, names, 24, 11)
+    a = BatchProblem(model, data, names, starts).solve()
+    b = BatchProblem(model, data, names, starts).solve(compiled=False)
+    assert list(a.status) == list(b.status) and a.message == b.message
+    ok = a.status > 0
+    assert ok.sum() >= 12
+    np.testing.assert_allclose(a.x[ok], b.x[ok], rtol=1e-8)
+    assert np.mean(a.nfev == b.nfev) >= 0.9  # counts agree but at the round-off floor of the cost
+    np.testing.assert_allclose(a.history_cost[:, 0], b.history_cost[:, 0], rtol=1e-12)
+
+
+def test_compiled_route_failure_messages_equal_numpy_route():
+    model = two_dof()
+    data = measured(model, ["1:x", "2:x"], 2)
+    starts = np.array([[9.0, 5.5], [90.0, 1.0], [8.5, 6.2]])
+    for opts in ({"min_mac": 0.9999999}, {"min_mac": 0.5}):
+        a = BatchProblem(model, data, model.parameter_names, starts, **opts).solve()
+        b = BatchProblem(model, data, model.parameter_names, starts, **opts).solve(compiled=False)
+        assert a.message == b.message and list(a.status) == list(b.status)
+        if opts["min_mac"] > 0.99:  # no start pairs its modes that well
+            assert all(s == FAILED for s in a.status) and all("pair with no model mode" in m for m in a.message)
+        else:
+            assert all(a.status > 0)
+    F, J, msgs = BatchProblem(model, data, model.parameter_names, starts, min_mac=0.9999999).evaluate_compiled(
+        np.ones((3, 2)))
+    ev = BatchProblem(model, data, model.parameter_names, starts, min_mac=0.9999999).evaluate(np.ones((3, 2)))
+    assert msgs == ev.errors

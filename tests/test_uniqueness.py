@@ -171,6 +171,8 @@ def test_study_problem_residuals_and_jacobians_equal_update_problem(rng):
     ev = prob.evaluate(X)
     J, errors = prob.jacobian(ev)
     assert all(e is None for e in ev.errors) and all(e is None for e in errors)
+    Fc, Jc, msgs = prob.evaluate_compiled(X)  # the compiled kernels: each row's own residuals first
+    assert msgs == [None] * X.shape[0]
     for r in range(X.shape[0]):
         c = r // 3
         data = study_mod.case_testdata(st, c)
@@ -191,6 +193,14 @@ def test_study_problem_residuals_and_jacobians_equal_update_problem(rng):
         np.testing.assert_allclose(J[r][cols], J_ref, rtol=1e-6, atol=1e-9 * np.abs(J_ref).max())
         others = np.setdiff1d(np.arange(T * (1 + u)), cols)
         assert np.all(ev.fun[r, others] == 0) and np.all(J[r][others] == 0)
+        # compiled: per mode the eigenvalue, then the shape at the row's dofs in ascending dof order
+        ns = len(pos) if len(pos) >= 2 else 0
+        order = np.concatenate([[k * (1 + ns)] + list(k * (1 + ns) + 1 + np.argsort(at[:ns]))
+                                for k in range(st.cases[c].n_modes)]).astype(int)
+        m = f_ref.size
+        np.testing.assert_allclose(Fc[r, :m], f_ref[order], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(Jc[r, :m], J_ref[order], rtol=1e-6, atol=1e-9 * np.abs(J_ref).max())
+        assert np.all(Fc[r, m:] == 0) and np.all(Jc[r, m:] == 0)
 
 
 def cluster_solutions(points, costs, rel_tol):

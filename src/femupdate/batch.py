@@ -948,9 +948,37 @@ class BatchProblem:
         run through by :func:`femupdate._modal.solve_rows` (the default), or round by round by
         :func:`least_squares_batch` with the NumPy residuals and Jacobians of this class."""
         if compiled:
-            return solve_compiled(self, self.datasets(), np.zeros(self.R, np.int64), progress=progress)
+            return solve_compiled(self, self.datasets(), self.row_datasets(), progress=progress)
         return least_squares_batch(self._fun, self._jac, self.x_start, (self.lb, self.ub), progress=progress,
                                    n_residuals=self.own_residuals, **self.options)
+
+    def evaluate_compiled(self, X, rows=None):
+        """Residuals (S, m), exact Jacobians (S, m, L) and messages (None where fine) of the
+        compiled kernels (:mod:`femupdate._modal`) at solver variables X (S, L) of ``rows``; each
+        row's own residuals first (in :func:`femupdate.updating.update`'s order), zeros after."""
+        from . import _modal
+
+        X = np.array(X, dtype=float, ndmin=2)
+        rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows, dtype=np.int64)
+        S, n = X.shape[0], self.n
+        sp_, m_row = _modal.spec(self, self.datasets(), self.row_datasets(), self.scaling, self.w_shape, self.min_mac)
+        m, T = int(m_row.max()), self.n_test
+        F, J = np.zeros((S, m)), np.zeros((S, m, X.shape[1]))
+        LAM, PHI, PAIRS = np.zeros((S, n)), np.zeros((S, n, n)), np.zeros((S, T), np.int64)
+        code, ci, cf, cm = np.zeros(S, np.int64), np.zeros((S, 2), np.int64), np.zeros((S, 2)), np.zeros((S, T), bool)
+        _modal.evaluate_rows(sp_, rows.astype(np.int64), X, F, LAM, PHI, PAIRS, code, ci, cf, cm)
+        ok = np.flatnonzero(code == 0)
+        c2 = np.zeros(ok.size, np.int64)
+        Jok = np.zeros((ok.size, m, X.shape[1]))
+        _modal.jacobian_rows(sp_, rows[ok].astype(np.int64), X[ok], Jok, LAM[ok], PHI[ok], PAIRS[ok], c2, ci[ok], cf[ok])
+        J[ok] = Jok
+        code[ok] = c2
+        msgs = [None if c == 0 else _modal.message(c, ci[i], cf[i], cm[i], self.min_mac) for i, c in enumerate(code)]
+        return F, J, msgs
+
+    def row_datasets(self):
+        """The data set of each start (here one for all)."""
+        return np.zeros(self.R, np.int64)
 
     def datasets(self):
         """The test data as :func:`femupdate._modal.spec` takes it: one data set."""

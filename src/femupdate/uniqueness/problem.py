@@ -113,12 +113,15 @@ class StudyProblem(BatchProblem):
                          for k in range(T)], int(self.nm_row[b])))
         return out
 
+    def row_datasets(self):
+        return np.arange(self.R, dtype=np.int64)
+
     def solve(self, progress=None, compiled: bool = True):
         """Every row to the end, compiled (default), or round by round with the NumPy residuals."""
         from ..batch import solve_compiled
 
         if compiled:
-            return solve_compiled(self, self.datasets(), np.arange(self.R), progress=progress, history=False)
+            return solve_compiled(self, self.datasets(), self.row_datasets(), progress=progress, history=False)
         return super().solve(progress=progress, compiled=False)
 
     # ------------------------------------------------------------------ evaluation
