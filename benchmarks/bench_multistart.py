@@ -23,6 +23,8 @@ sensor on every other floor (floors 2, 4, ..., N).  The same ``--starts`` random
     that cannot pair fails);
 (p) optionally (``--per-start``) femupdate's own per-start path, ``multistart(..., batched=False)``.
 
+Before the sizes, one tiny batched run loads femupdate's compiled code (numba's disk cache, or a
+build of some 20 s on a fresh install); its time is reported as ``first_call_seconds``.
 Reported per size: wall-clock and CPU (process) seconds of each route, the ratios a/f (target
 >= 20; on a machine shared with other jobs the CPU-time ratio is the steadier figure), and the
 outcome of every start in each route: converged to the truth (max relative parameter error
@@ -271,6 +273,14 @@ def main(args) -> int:
         "target_ratio_a_over_f": 20.0,
         "sizes": [],
     }
+    # warm-up: the first batched call of a process loads femupdate's compiled code from numba's
+    # disk cache (or compiles it, some 20 s, on a fresh install); timed and reported apart
+    wm, wd, *_ = problem(4)
+    t = time.perf_counter()
+    multistart(wm, wd, starts=2, seed=0, batched=True)
+    results["first_call_seconds"] = time.perf_counter() - t
+    print(f"first batched call in this process (loads or builds the compiled code): {results['first_call_seconds']:.2f} s",
+          flush=True)
     for n in sizes:
         r = bench_size(n, n_starts, args.seed, args.per_start)
         results["sizes"].append(r)

@@ -96,7 +96,8 @@ def spec(prob, datasets, row_dataset, scaling: str, w_shape: float, min_mac: flo
     ``datasets`` a list of data sets, each a list of test modes ``(lam_e, w_lam, pos, psi_e,
     ref)`` (``pos`` None for a mode without shape; ``ref`` None or the position of the
     reference dof) together with ``nm`` (modes computed and paired): ``(modes, nm)``;
-    ``row_dataset`` (R,) each row's data set.
+    ``row_dataset`` (R,) each row's data set.  ``datasets`` may also be given as the tuple of
+    :func:`data_arrays`.
 
     Returns (spec, m_row): m_row (R,) the residual count of each row.
     """
@@ -120,6 +121,24 @@ def spec(prob, datasets, row_dataset, scaling: str, w_shape: float, min_mac: flo
         raise ValueError(prob._mass_error)  # (the caller refuses the study before)
     else:
         Cinv = prob.Cinv
+    data = datasets if isinstance(datasets, tuple) else data_arrays(datasets)
+    ds_t0, ds_T, ds_nm, ds_m, lam_e, w_lam, pptr, pos, psi_e, ref = data
+    row_dataset = np.asarray(row_dataset, np.int64)
+    s = (
+        np.ascontiguousarray(prob.K_const, float), kp, ki, kj, kv,
+        bool(prob.M_varies), np.ascontiguousarray(prob.M_const, float), mp, mi, mj, mv, np.ascontiguousarray(Cinv, float),
+        sptr, sidx, PARAMETRISATIONS[prob.param], np.ascontiguousarray(prob.scale, float),
+        ds_t0, ds_T, ds_nm, ds_m, row_dataset, lam_e, w_lam, pptr, pos, psi_e, ref,
+        SCALINGS[scaling], float(w_shape), float(min_mac), float(REPEATED_TOL),
+    )
+    return s, ds_m[row_dataset]
+
+
+def data_arrays(datasets):
+    """The data sets of :func:`spec` as its flat arrays: per data set the first test mode, the
+    number of test modes, of modes to pair among and of residuals; per test mode λ_E, w_λ, the
+    pointer into the positions; per position the model dof and ψ_E; per test mode the reference
+    position (-1: none)."""
     ds_t0, ds_T, ds_nm, ds_m = [], [], [], []
     lam_e, w_lam, pptr, pos, psi_e, ref = [], [], [0], [], [], []
     q = 0
@@ -142,18 +161,9 @@ def spec(prob, datasets, row_dataset, scaling: str, w_shape: float, min_mac: flo
             m += 1
             q += 1
         ds_m.append(m)
-    ds_m = np.array(ds_m, np.int64)
-    row_dataset = np.asarray(row_dataset, np.int64)
-    s = (
-        np.ascontiguousarray(prob.K_const, float), kp, ki, kj, kv,
-        bool(prob.M_varies), np.ascontiguousarray(prob.M_const, float), mp, mi, mj, mv, np.ascontiguousarray(Cinv, float),
-        sptr, sidx, PARAMETRISATIONS[prob.param], np.ascontiguousarray(prob.scale, float),
-        np.array(ds_t0, np.int64), np.array(ds_T, np.int64), np.array(ds_nm, np.int64), ds_m, row_dataset,
-        np.array(lam_e, float), np.array(w_lam, float), np.array(pptr, np.int64), np.array(pos, np.int64),
-        np.array(psi_e, float), np.array(ref, np.int64),
-        SCALINGS[scaling], float(w_shape), float(min_mac), float(REPEATED_TOL),
-    )
-    return s, ds_m[row_dataset]
+    i64 = (lambda a: np.array(a, np.int64))
+    return (i64(ds_t0), i64(ds_T), i64(ds_nm), i64(ds_m), np.array(lam_e, float), np.array(w_lam, float), i64(pptr),
+            i64(pos), np.array(psi_e, float), i64(ref))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -27,29 +27,29 @@ around tiny LAPACK calls.  This module advances ALL ``R`` starts together:
   followed by the scaled-shape rules of :mod:`femupdate.sensitivity.scaling` and the parameter
   transformation (``relative`` / ``log`` / ``absolute``) of :mod:`femupdate.updating`.
 
-The optimiser, :func:`least_squares_batch`, is a vectorised transcription of SciPy's
-trust-region-reflective method (``scipy.optimize.least_squares(method="trf",
-x_scale="jac", tr_solver="exact")``, the per-start path's solver): the same Coleman–Li
+The optimiser is SciPy's trust-region-reflective method (``scipy.optimize.least_squares(
+method="trf", x_scale="jac", tr_solver="exact")``, the per-start path's solver) transcribed
+decision for decision and compiled per start (:mod:`femupdate._trf`, numba): the same Coleman–Li
 reflective scaling for the bounds, the same exact trust-region subproblem (Moré's
-Levenberg–Marquardt parameter on one SVD per iteration), the same choice between the
-trust-region step, its reflection and the scaled anti-gradient, the same radius update and the
-same ``ftol``/``xtol``/``gtol`` tests and status codes.  Every start keeps its own radius,
-damping parameter and counters; a round of the loop makes exactly one evaluation per active
-start, so a start that rejects a step simply takes another round with a smaller radius, and a
-start that terminates leaves the active set.  Reproducing the per-start algorithm decision for
-decision (rather than inventing another damping scheme) is what makes the batched path land in
-the same basin as the per-start path from the same start, so both give the same clusters.  The
-arithmetic differs only in round-off: the augmented Jacobian's SVD is taken from the R factor of
-its QR decomposition, and the quadratic model is evaluated with that (n, n) factor instead of
-the (m + n, n) matrix; costs, gradients and norms use the same BLAS kernels as SciPy.  Decisions
-can therefore differ only at the round-off floor of the cost, after convergence (typically an
-extra or a missing final evaluation).
+Levenberg–Marquardt parameter on one SVD per iteration), the same choice between the trust-region
+step, its reflection and the scaled anti-gradient, the same radius update and the same
+``ftol``/``xtol``/``gtol`` tests and status codes.  Reproducing the per-start algorithm (rather
+than inventing another damping scheme) is what makes the batched path land in the same basin as
+the per-start path from the same start, so both give the same clusters.  The arithmetic differs
+only in round-off: the augmented Jacobian is reduced to its R factor by Householder reflections
+and the SVD taken of that factor.  Decisions can therefore differ only at the round-off floor of
+the cost, after convergence (typically an extra or a missing final evaluation).
 
-Cost per round and start: one symmetric eigen-decomposition (n, n), one QR of (m + L, L + 1) and
-one SVD of (L, L) when a step is accepted, and the exact Jacobian, O(n_s n L) per paired mode
-with measured shape (n_s measured dofs) — all inside batched LAPACK/BLAS calls — plus a fixed
-Python overhead of about a millisecond per round, which dominates once only a few starts are
-still running.  Matrices this small are best served by a single-threaded BLAS.
+Two routes drive it:
+
+* :meth:`BatchProblem.solve` (default): the residuals and Jacobians above compiled too
+  (:mod:`femupdate._modal`), every start run to the end inside compiled code, the starts spread
+  over the CPU cores — no Python between iterations.  Cost per start and iteration: one
+  symmetric eigen-decomposition (n, n), one QR of (m + L, L + 1), singular values of (L, L)
+  (the singular vectors too when the trust region cuts the step), and the exact Jacobian.
+* :func:`least_squares_batch` with any Python residual function (and
+  ``BatchProblem.solve(compiled=False)`` with the NumPy residuals of this module): every active
+  start evaluated once per round in one call, the solver's bookkeeping compiled per start.
 
 A start whose evaluation fails — repeated or rigid-body paired modes (their derivatives are not
 defined), a test mode that pairs with no model mode, a non-positive-definite mass matrix, a
@@ -58,6 +58,8 @@ of the batch carries on.
 
 Use :func:`femupdate.multistart.multistart` (it dispatches here automatically for models of at
 most :data:`AUTO_MAX_DOFS` dofs and supported options) or :func:`multistart_batched` directly.
+The compiled code is built by numba on first use (some 20 s) and cached on disk beside the
+package (or in numba's user cache when that is read-only); later processes load it.
 """
 
 from __future__ import annotations
@@ -962,7 +964,7 @@ class BatchProblem:
         rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows, dtype=np.int64)
         S, n = X.shape[0], self.n
         sp_, m_row = _modal.spec(self, self.datasets(), self.row_datasets(), self.scaling, self.w_shape, self.min_mac)
-        m, T = int(m_row.max()), self.n_test
+        m, T = int(m_row.max()), int(self.n_test)
         F, J = np.zeros((S, m)), np.zeros((S, m, X.shape[1]))
         LAM, PHI, PAIRS = np.zeros((S, n)), np.zeros((S, n, n)), np.zeros((S, T), np.int64)
         code, ci, cf, cm = np.zeros(S, np.int64), np.zeros((S, 2), np.int64), np.zeros((S, 2)), np.zeros((S, T), bool)
@@ -1016,7 +1018,7 @@ def solve_compiled(prob: BatchProblem, datasets, row_dataset, *, progress=None, 
         if e is not None:
             status[r], message[r] = FAILED, e
             nfev[r] = 1
-    T = max((len(modes) for modes, _ in datasets), default=1)
+    T = int(datasets[1].max(initial=1)) if isinstance(datasets, tuple) else max((len(d[0]) for d in datasets), default=1)
     err_code = np.zeros(R, np.int64)
     err_i = np.zeros((R, 2), np.int64)
     err_f = np.zeros((R, 2))

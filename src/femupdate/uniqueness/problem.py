@@ -1,12 +1,15 @@
 r"""Many updating problems of one model solved as one batch: every (case, start) pair a row.
 
 A uniqueness study updates one model from many measurement plans (cases: measured dofs × number
-of modes) and many random starts.  :class:`femupdate.batch.BatchProblem` advances the starts of
-ONE data set together; with a fixed Python overhead of a millisecond or two per round of the
-solver, one batch per case costs (cases × rounds) of that overhead.  :class:`StudyProblem`
-removes the per-case factor: all rows — whatever their case, noise realisation or start — share
-one stack of model matrices, one batched eigen-solution and one Jacobian evaluation per round,
-and :func:`femupdate.batch.least_squares_batch` advances them together.
+of modes) and many random starts.  :class:`StudyProblem` gives every row — whatever its case,
+noise realisation or start — its own data set on one shared model, and :meth:`StudyProblem.solve`
+runs all rows through the compiled solver (:func:`femupdate.batch.solve_compiled`: residuals,
+Jacobians and SciPy's trf per row in compiled code, rows in parallel), each row with exactly its
+own residuals, so its decisions are those of :func:`femupdate.updating.update` for that case from
+that start.
+
+The NumPy residuals below (``evaluate``/``jacobian``, used by ``solve(compiled=False)`` and for
+checks) keep a padded layout:
 
 Residual layout (padded and masked).  With T the most test modes of any row and U the union of
 the measured dofs (u = |U|), every row has T blocks of 1 + u entries: per test mode k its
@@ -102,16 +105,24 @@ class StudyProblem(BatchProblem):
 
     # ------------------------------------------------------------------ the compiled route
     def datasets(self):
-        """Each row's own data set, as :func:`femupdate._modal.spec` takes them (unit-length test
-        shapes at the row's measured dofs; none for one-sensor rows)."""
-        out = []
-        for b in range(self.lam_e_rows.shape[0]):
-            T = int(self.n_test_row[b])
-            at = self.U[self.smask[b]]
-            shp = self.rows.psi_e[b][self.smask[b]]  # (n_s, T)
-            out.append(([(self.lam_e_rows[b, k], 1.0, at if at.size else None, shp[:, k] if at.size else None, None)
-                         for k in range(T)], int(self.nm_row[b])))
-        return out
+        """Each row's own data set, as the flat arrays of :func:`femupdate._modal.data_arrays`
+        (unit-length test shapes at the row's measured dofs, in ascending dof order; none for
+        one-sensor rows; weights 1), built without a loop over rows."""
+        B, T = self.lam_e_rows.shape
+        nt = self.n_test_row.astype(np.int64)
+        ns = self.smask.sum(axis=1).astype(np.int64)  # 0 for one-sensor rows (smask cleared)
+        real = self.tmask  # (B, T)
+        lam_e = self.lam_e_rows[real]
+        q_ns = np.broadcast_to(ns[:, None], (B, T))[real]  # positions of each test mode
+        pptr = np.concatenate([[0], np.cumsum(q_ns)]).astype(np.int64)
+        sel = real[:, None, :] & self.smask[:, :, None]  # (B, u, T): measured (dof, mode) pairs
+        order = np.transpose(sel, (0, 2, 1))  # (B, T, u): per mode its dofs, ascending
+        pos = np.broadcast_to(self.U[None, None, :], order.shape)[order].astype(np.int64)
+        psi_e = np.transpose(self.rows.psi_e, (0, 2, 1))[order]
+        ds_t0 = np.concatenate([[0], np.cumsum(nt)[:-1]]).astype(np.int64)
+        ds_m = nt * (1 + ns)
+        return (ds_t0, nt, self.nm_row.astype(np.int64), ds_m, lam_e, np.ones(lam_e.size), pptr, pos, psi_e,
+                np.full(lam_e.size, -1, np.int64))
 
     def row_datasets(self):
         return np.arange(self.R, dtype=np.int64)

@@ -12,8 +12,8 @@ noise realisation per start), showing how conditioning turns into scatter.
 
 How it runs.  All rows (case × noise level × start) of a study are split, in a fixed order, into
 work units of at most ``unit_rows`` rows; each unit is solved as ONE batch
-(:class:`.problem.StudyProblem`: all its cases together, one vectorised eigen-solution and
-Jacobian per round).  A unit's result is a pure function of (study, unit number), so units run
+(:class:`.problem.StudyProblem`: all its cases together, every row run to the end in compiled
+code, the rows spread over the process's CPU cores).  A unit's result is a pure function of (study, unit number), so units run
 in process by default or as tasks of a Dask cluster (``scheduler`` address, or ``workers`` for a
 local cluster) with identical results; a task lost with its worker is simply recomputed.  With a
 checkpoint path every finished unit is written to disk (:mod:`.checkpoint`) and a re-run of the
