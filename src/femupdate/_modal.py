@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.sparse as sp
 from numba import njit, prange
 
 from . import _trf
@@ -75,7 +76,7 @@ def message(code: int, ints, floats, modes, min_mac: float) -> str:
 # ---------------------------------------------------------------------------------------------
 # the spec
 # ---------------------------------------------------------------------------------------------
-def _coo(mats, n):
+def _coo(mats):
     """Per-parameter COO triplets (ptr, rows, cols, values) of the sparse matrices ``mats``."""
     ptr, ri, ci, vv = [0], [], [], []
     for d in mats:
@@ -105,13 +106,11 @@ def spec(prob, datasets, row_dataset, scaling: str, w_shape: float, min_mac: flo
     model = prob.model
     dK = [model.dK[j] for j in prob.idx]
     dM = [model.dM[j] for j in prob.idx]
-    import scipy.sparse as sp
-
     zero = sp.csr_array((n, n))
     dK = [d if d is not None else zero for d in dK]
     dM = [d if d is not None else zero for d in dM]
-    kp, ki, kj, kv = _coo(dK, n)
-    mp, mi, mj, mv = _coo(dM, n)
+    kp, ki, kj, kv = _coo(dK)
+    mp, mi, mj, mv = _coo(dM)
     supp = [np.union1d(sp.coo_array(a).row, sp.coo_array(b).row) for a, b in zip(dK, dM)]
     sptr = np.cumsum([0] + [len(s) for s in supp]).astype(np.int64)
     sidx = np.concatenate(supp).astype(np.int64) if supp else np.zeros(0, np.int64)
@@ -249,6 +248,25 @@ def _scaled(scaling, phs, ref):
         s = nrm if phs[kmax] > 0 else (-nrm if phs[kmax] < 0 else 0.0)
         return s, k, False
     return s, k, not (abs(s) > 1e-12 * amax)
+
+
+@jit
+def _measured_shape(scaling, Phi, pos, psi_e, ref, a, b, j):
+    """Model mode j at the positions a..b-1 of a test mode: the shape, its scale s, the position
+    k of the scaling entry, whether ref/max scaling meets a node, and the ``"unit"`` sign that
+    aligns it with the test shape."""
+    phs = np.empty(b - a)
+    for i in range(a, b):
+        phs[i - a] = Phi[pos[i], j]
+    s, k, node = _scaled(scaling, phs, ref)
+    sign = 1.0
+    if scaling == 0:
+        dot = 0.0
+        for i in range(a, b):
+            dot += phs[i - a] / s * psi_e[i]
+        if dot < 0:
+            sign = -1.0
+    return phs, s, k, node, sign
 
 
 @jit
@@ -408,20 +426,10 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, err_i, err_f, err_modes):
         row += 1
         a, b = pptr[q], pptr[q + 1]
         if b > a:
-            phs = np.empty(b - a)
-            for i in range(a, b):
-                phs[i - a] = Phi[pos[i], j]
-            s, kk, node = _scaled(scaling, phs, ref[q])
+            phs, s, kk, node, sign = _measured_shape(scaling, Phi, pos, psi_e, ref[q], a, b, j)
             if node:
                 err_i[0] = kk
                 return E_NODE
-            sign = 1.0
-            if scaling == 0:
-                dot = 0.0
-                for i in range(a, b):
-                    dot += phs[i - a] / s * psi_e[i]
-                if dot < 0:
-                    sign = -1.0
             for i in range(a, b):
                 if i - a == ref[q]:
                     continue
@@ -479,17 +487,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         a, b = pptr[q], pptr[q + 1]
         ns = b - a
         if ns:
-            phs = np.empty(ns)
-            for i in range(a, b):
-                phs[i - a] = Phi[pos[i], t]
-            s, kk, node = _scaled(scaling, phs, ref[q])
-            sign = 1.0
-            if scaling == 0:
-                dot = 0.0
-                for i in range(a, b):
-                    dot += phs[i - a] / s * psi_e[i]
-                if dot < 0:
-                    sign = -1.0
+            phs, s, kk, node, sign = _measured_shape(scaling, Phi, pos, psi_e, ref[q], a, b, t)
             fct = w_shape * sign / s
             dd = np.empty(ns)
         for j in range(L):
@@ -546,10 +544,10 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
 @jit
 def _run_row(sp_, st, r, gtol, ftol, xtol, max_nfev, err_code, err_i, err_f, err_modes):
     x, f, J, status, nfev, njev, x_new = st[0], st[1], st[2], st[24], st[26], st[27], st[30]
-    n = Phi_n = sp_[0].shape[0]
+    n = sp_[0].shape[0]
     m = f.shape[1]
     lam = np.zeros(n)
-    Phi = np.zeros((Phi_n, Phi_n))
+    Phi = np.zeros((n, n))
     pairs = np.zeros(err_modes.shape[1], np.int64)
     code = evaluate_row(sp_, r, x[r], f[r], lam, Phi, pairs, err_i[r], err_f[r], err_modes[r])
     nfev[r] += 1

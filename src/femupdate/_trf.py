@@ -213,14 +213,11 @@ def _singular_values(A):
 # the row functions
 # ---------------------------------------------------------------------------------------------
 @jit
-def init_row(st, r):
-    """SciPy's set-up after the first evaluation and Jacobian of row r (f, J in the state)."""
-    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
-     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
-     hist_cost, hist_x) = st
-    n = x.shape[1]
-    m = f.shape[1]
-    cost[r] = 0.5 * _dot(f[r], f[r])
+def _gradient(st, r):
+    """g = Jᵀf of row r; returns the column norms of its J (for the Jacobian scale)."""
+    f, J, g = st[1], st[2], st[4]
+    m, n = J.shape[1], J.shape[2]
+    norms = np.empty(n)
     for i in range(n):
         gi = 0.0
         sc = 0.0
@@ -228,8 +225,21 @@ def init_row(st, r):
             gi += J[r, k, i] * f[r, k]
             sc += J[r, k, i] * J[r, k, i]
         g[r, i] = gi
-        sc = math.sqrt(sc)
-        scale_inv[r, i] = sc if sc != 0 else 1.0
+        norms[i] = math.sqrt(sc)
+    return norms
+
+
+@jit
+def init_row(st, r):
+    """SciPy's set-up after the first evaluation and Jacobian of row r (f, J in the state)."""
+    (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
+     full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
+     hist_cost, hist_x) = st
+    n = x.shape[1]
+    cost[r] = 0.5 * _dot(f[r], f[r])
+    norms = _gradient(st, r)
+    for i in range(n):
+        scale_inv[r, i] = norms[i] if norms[i] != 0 else 1.0
     v = np.empty(n)
     dv = np.empty(n)
     _cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
@@ -335,8 +345,8 @@ def _phi_and_derivative(suf, s, a, D):
 def _tr_subproblem(st, r, p_h):
     """Moré's trust-region subproblem on the SVD of R11 (SciPy's ``solve_lsq_trust_region``),
     for a row whose Gauss–Newton step is not available or not inside the radius."""
-    R11, r12, sv, V, uf, alpha, Delta, m_row, full_rank, have_svd = (st[15], st[16], st[17], st[18], st[19], st[11],
-                                                                      st[10], st[8], st[21], st[22])
+    R11, r12, sv, V, uf, alpha, Delta, full_rank, have_svd = (st[15], st[16], st[17], st[18], st[19], st[11], st[10],
+                                                              st[21], st[22])
     n = p_h.size
     if not have_svd[r]:
         U, s, Vt = np.linalg.svd(R11[r])
@@ -548,17 +558,11 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
 @jit
 def accept(st, r):
     """After an accepted step, with the new Jacobian in ``J[r]``: gradient and Jacobian scale."""
-    f, J, g, scale_inv, njev = st[1], st[2], st[4], st[5], st[27]
-    m, n = J.shape[1], J.shape[2]
+    scale_inv, njev = st[5], st[27]
     njev[r] += 1
-    for i in range(n):
-        gi = 0.0
-        sc = 0.0
-        for k in range(m):
-            gi += J[r, k, i] * f[r, k]
-            sc += J[r, k, i] * J[r, k, i]
-        g[r, i] = gi
-        scale_inv[r, i] = max(math.sqrt(sc), scale_inv[r, i])
+    norms = _gradient(st, r)
+    for i in range(norms.size):
+        scale_inv[r, i] = max(norms[i], scale_inv[r, i])
 
 
 # ---------------------------------------------------------------------------------------------

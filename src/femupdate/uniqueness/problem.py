@@ -101,18 +101,17 @@ class StudyProblem(BatchProblem):
         self.n_residuals = self.T * (1 + self.u)
         self.own_residuals = self.n_test_row * (1 + self.smask.sum(axis=1))
         self.n_test = self.T
-        self.lam_e_rows = rows.lam_e
 
     # ------------------------------------------------------------------ the compiled route
     def datasets(self):
         """Each row's own data set, as the flat arrays of :func:`femupdate._modal.data_arrays`
         (unit-length test shapes at the row's measured dofs, in ascending dof order; none for
         one-sensor rows; weights 1), built without a loop over rows."""
-        B, T = self.lam_e_rows.shape
+        B, T = self.rows.lam_e.shape
         nt = self.n_test_row.astype(np.int64)
         ns = self.smask.sum(axis=1).astype(np.int64)  # 0 for one-sensor rows (smask cleared)
         real = self.tmask  # (B, T)
-        lam_e = self.lam_e_rows[real]
+        lam_e = self.rows.lam_e[real]
         q_ns = np.broadcast_to(ns[:, None], (B, T))[real]  # positions of each test mode
         pptr = np.concatenate([[0], np.cumsum(q_ns)]).astype(np.int64)
         sel = real[:, None, :] & self.smask[:, :, None]  # (B, u, T): measured (dof, mode) pairs
