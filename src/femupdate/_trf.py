@@ -90,8 +90,8 @@ def _norm(a):
 
 
 @jit
-def _quad(R11, g, s):
-    """½‖R11 s‖² + gᵀs: SciPy's ``evaluate_quadratic`` with ``R11ᵀR11 = J_hᵀJ_h + diag_h``."""
+def _half_sq(R11, s):
+    """½‖R11 s‖² for upper-triangular R11."""
     n = s.size
     a = 0.0
     for i in range(n):
@@ -99,7 +99,13 @@ def _quad(R11, g, s):
         for k in range(i, n):
             v += R11[i, k] * s[k]
         a += v * v
-    return 0.5 * a + _dot(g, s)
+    return 0.5 * a
+
+
+@jit
+def _quad(R11, g, s):
+    """½‖R11 s‖² + gᵀs: SciPy's ``evaluate_quadratic`` with ``R11ᵀR11 = J_hᵀJ_h + diag_h``."""
+    return _half_sq(R11, s) + _dot(g, s)
 
 
 @jit
@@ -471,13 +477,7 @@ def propose(st, r, gtol, max_nfev):
         to_tr = D / _norm(ag_h)
         to_bound = _step_to_bound(xr, ag, lbr, ubr, hits)
         ag_stride = th * to_bound if to_bound < to_tr else to_tr
-        qa = 0.0
-        for i in range(n):
-            t = 0.0
-            for k in range(i, n):
-                t += Rr[i, k] * ag_h[k]
-            qa += t * t
-        ag_stride, ag_value = _min_quad_1d(0.5 * qa, _dot(ghr, ag_h), 0.0, ag_stride, 0.0)
+        ag_stride, ag_value = _min_quad_1d(_half_sq(Rr, ag_h), _dot(ghr, ag_h), 0.0, ag_stride, 0.0)
         if p_value < r_value and p_value < ag_value:
             step[r] = p
             step_h[r] = p_h
