@@ -316,7 +316,7 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
     """Update MODEL's parameters iteratively from measured modes in DATA (any measured dofs)."""
     from .io.model_file import load_model
     from .io.testdata_json import load_testdata
-    from .multistart import multistart
+    from .updating import multistart
     from .updating import update as _update
 
     ctx = _Ctx(json_path)

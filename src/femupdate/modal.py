@@ -17,6 +17,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from . import rules
 from ._errors import InputError, NumericalError
 from .dofs import canonical, describe, index_of
 
@@ -187,14 +188,14 @@ def solve_modes(
     # a genuine first mode of a fine beam/frame mesh can lie at 1e-10 of it.
     kd = np.abs(K.diagonal() if sp.issparse(K) else np.diag(np.asarray(K, float)))
     md = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, float))
-    scale = max(float(np.max(np.abs(lam))), float(np.max(kd / md)), 1e-300)
-    rigid = np.abs(lam) <= 1e-12 * scale
-    if np.any(lam < -1e-12 * scale):
+    lam = np.array(lam, float)
+    code, low = rules.check_spectrum(lam, lam.size, float(np.max(kd / md)))
+    if code != rules.OK:
         raise InputError(
             "K is not positive semi-definite: negative eigenvalue "
-            f"{lam.min():.4g} (check for negative stiffness parameters)"
+            f"{low:.4g} (check for negative stiffness parameters)"
         )
-    lam = np.where(rigid, 0.0, lam)
+    rigid = lam == 0.0
     Phi = normalise(Phi, normalisation, M=M, dofs=dofs)
     return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()), factor)
 

@@ -15,7 +15,7 @@ restricted to the dofs left free by its supports.  All configurations are update
   :math:`\sum_j p_j (K_j - \lambda M_j)\phi = (\lambda M_{f,c} - K_{f,c})\phi` to one system
   :math:`A p = b`, solved by the pseudo-inverse, eq. 10);
 * **iteratively** otherwise: the residuals and Jacobians of the configurations
-  (:class:`femupdate.updating._Problem`, relative eigenvalues and scaled shapes, eq. 19) are
+  (:class:`femupdate.updating.Problem`, relative eigenvalues and scaled shapes, eq. 19) are
   stacked and minimised by SciPy's least squares (eq. 20).
 
 The conditioning the added configurations buy is reported (each configuration alone, and the
@@ -56,7 +56,7 @@ from ..dofs import canonical_all, describe, parse_dof
 from ..modal import model_modes
 from ..model import Model
 from ..testdata import MeasuredMode, TestData
-from ..updating import PARAMETRISATIONS, Diagnostics, _diagnostics, _modal_weights, _Parametrised, _Problem, _solve
+from ..updating import PARAMETRISATIONS, Diagnostics, Parametrisation, Problem, diagnostics, modal_weights, solve
 
 log = logging.getLogger(__name__)
 
@@ -498,16 +498,17 @@ def direct_configurations(model: Model, configurations: Sequence[Configuration],
 
 
 # ------------------------------------------------------------------------------ iterative
-class _Stacked(_Parametrised):
+class _Stacked(Parametrisation):
     """Residuals and Jacobian of several configurations stacked; one vector of unknowns.
 
-    Each configuration is a :class:`femupdate.updating._Problem` on its own model in absolute
-    parameters; this class maps the common scaled unknowns ``x`` (:class:`_Parametrised`) to them,
-    and offers what :func:`femupdate.updating._solve` and ``_diagnostics`` need.
+    Each configuration is a :class:`femupdate.updating.Problem` on its own model in absolute
+    parameters; this class maps the common scaled unknowns ``x`` (:class:`Parametrisation`) to
+    them, and offers what :func:`femupdate.updating.solve` and ``diagnostics`` need.
     """
 
     def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, shape_scaling="unit",
-                 ref_dof=None, weights=None, min_mac=0.5, n_modes=None, use_shapes=True, sensitivity="auto"):
+                 ref_dof=None, weights=None, measurement_std=None, min_mac=0.5, n_modes=None, use_shapes=True,
+                 sensitivity="auto"):
         if parametrisation not in PARAMETRISATIONS:
             raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
         super().__init__(model, names, parametrisation, p_base)
@@ -519,8 +520,9 @@ class _Stacked(_Parametrised):
             cols = np.array([self.names.index(n) for n in mine], dtype=np.intp)
             pb = _config_values(model, cm, c.modification, p_base)
             try:
-                prob = _Problem(cm, c.data, mine, shape_scaling, ref_dof, weights, min_mac, n_modes, "absolute", pb,
-                                use_shapes, sensitivity)
+                prob = Problem(cm, c.data, mine, values=pb, shape_scaling=shape_scaling, ref_dof=ref_dof,
+                               weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
+                               parametrisation="absolute", use_shapes=use_shapes, sensitivity=sensitivity)
             except InputError as exc:
                 raise InputError(f"configuration {c.label!r}: {exc}") from None
             self.subs.append((c.label, prob, cols))
@@ -548,7 +550,7 @@ class _Stacked(_Parametrised):
         return np.vstack(self.jacobian_blocks(x))
 
     def n_data(self) -> int:
-        return sum(1 + (0 if r is None else len(r[1]) - 1) for _, prob, _ in self.subs for r in prob.shape_rows)
+        return sum(prob.targets.n_independent for _, prob, _ in self.subs)
 
     def normalised_blocks(self, x, blocks=None):
         """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks (``blocks``: the
@@ -588,27 +590,28 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     p_base = model.resolve(values)
     for name, v in dict(x0 or {}).items():
         p_base[model.parameter_index(name)] = float(v)
-    w, sigma = _modal_weights(weights, measurement_std)
+    _, sigma = modal_weights(weights, measurement_std)
     prob = _Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
-                    shape_scaling=shape_scaling, ref_dof=ref_dof, weights=w, min_mac=min_mac, n_modes=n_modes,
+                    shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
+                    measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
                     use_shapes=use_shapes, sensitivity=sensitivity)
     n_data = prob.n_data()
     if n_data < len(names) and regularization is None:
         raise InputError(f"{len(names)} parameters but only {n_data} independent data over all configurations "
                          "(eigenvalues and scaled shape entries): add configurations or data, fix parameters, "
                          "or use regularization")
-    sol, history, reg = _solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol, xtol=xtol,
+    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol, xtol=xtol,
                                gtol=gtol, max_nfev=max_nfev)
     p_final = prob.to_p(sol.x)
     blocks = prob.residual_blocks(sol.x)
     r = np.concatenate(blocks)
     J_blocks = prob.jacobian_blocks(sol.x)
-    diag = _diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma)
+    diag = diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma)
     per = []
     for (label, sub, cols), rc, c in zip(prob.subs, blocks, configurations):
-        _, modes, pairs = sub._evaluate(p_final[prob.idx][cols])
+        _, modes, pairs = sub.evaluate(p_final[prob.idx][cols])
         per.append({"name": label, "modification": c.modification.describe(),
-                    "n_data": sum(1 + (0 if row is None else len(row[1]) - 1) for row in sub.shape_rows),
+                    "n_data": sub.targets.n_independent,
                     "pairs": [(k, j, float(m)) for k, j, m in pairs], "cost": float(0.5 * rc @ rc),
                     "frequencies_hz": {"test": c.data.frequencies_hz,
                                        "model": np.array([modes.frequencies_hz[j] for _, j, _ in pairs])},

@@ -16,7 +16,7 @@ polished by the local least-squares FRF update with the chosen residual:
 * ``"dual_annealing"`` (generalised simulated annealing).
 
 ``runs`` independent runs (seeds ``seed, seed + 1, ...``) are reported exactly like a
-multi-start study (:class:`~femupdate.multistart.MultiStartResult`: solutions clustered and
+multi-start study (:class:`~femupdate.updating.MultiStartResult`: solutions clustered and
 counted), locally or on an existing Dask cluster (``scheduler``).
 """
 
@@ -30,7 +30,7 @@ import numpy as np
 from scipy import optimize
 
 from .._errors import FemupdateError, InputError
-from ..multistart import MultiStartResult, cluster, run_starts
+from ..updating import MultiStartResult, cluster, run_starts
 from .surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .updating import _prepare, frf_data, frf_update
 
@@ -43,7 +43,7 @@ _LOCAL_KEYS = ("residual", "weights", "measurement_std", "lines", "select", "res
 
 @dataclass(frozen=True, eq=False)
 class GlobalSearchResult(MultiStartResult):
-    """A :class:`~femupdate.multistart.MultiStartResult` (``runs`` are the polished
+    """A :class:`~femupdate.updating.MultiStartResult` (``runs`` are the polished
     :class:`~femupdate.frf.updating.FRFUpdateResult` of each run, ``starts`` the global optimiser's
     best point of each run, from which the polish started) plus ``method`` and ``optimizer``:
     per run {seed, x, cost, nfev, nit, message, minima} (``minima``: the distinct local minima
@@ -228,8 +228,7 @@ def global_search(model, data, *, method: str = "differential_evolution", params
                        cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout, runner=_runner).runs
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
-    from ..multistart import converged_solutions
-    from ..updating import UpdateResult
+    from ..updating import UpdateResult, converged_solutions
 
     ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol)
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None

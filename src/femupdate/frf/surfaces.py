@@ -281,7 +281,7 @@ def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1
     """
     from scipy.optimize import least_squares
 
-    from ..multistart import cluster
+    from ..updating import cluster
 
     lo = np.array([surface.x.min(), surface.y.min()]) if bounds is None else np.asarray(bounds[0], float)
     hi = np.array([surface.x.max(), surface.y.max()]) if bounds is None else np.asarray(bounds[1], float)

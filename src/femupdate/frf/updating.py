@@ -32,7 +32,7 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..testdata import FRFData, TestData
-from ..updating import PARAMETRISATIONS, UpdateResult, _diagnostics, _Parametrised, _solve
+from ..updating import PARAMETRISATIONS, Parametrisation, UpdateResult, diagnostics, solve
 from . import _residuals as R
 from ._lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
 from .sensitivity import RESONANCE_TOL
@@ -77,7 +77,7 @@ def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
     return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
-class _FRFProblem(_Parametrised):
+class _FRFProblem(Parametrisation):
     """Residuals and Jacobian of one FRF updating problem (cached per parameter vector)."""
 
     def __init__(self, model, frf: FRFData, names, parametrisation, p_base, residual, weights, lines, damping, solver):
@@ -216,12 +216,12 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
                                            regularization is not None, method)
     names = prob.names
     frf = frf_data(data)
-    sol, history, reg = _solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
+    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
                                xtol=xtol, gtol=gtol, max_nfev=max_nfev)
     p_final = prob.to_p(sol.x)
     r = prob.residuals(sol.x)
     J = prob.jacobian(sol.x)
-    diag = _diagnostics(prob, sol.x, r, J, sigma)
+    diag = diagnostics(prob, sol.x, r, J, sigma)
     xa = prob.responses(sol.x)
     pairs, f_test, f_model, natural = _modal_report(model, data, p_final)
     return FRFUpdateResult(
@@ -292,9 +292,9 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
                    scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
                    log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
     """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
-    as :func:`femupdate.multistart.multistart`), locally or on Dask; a
-    :class:`~femupdate.multistart.MultiStartResult` in the same format."""
-    from ..multistart import draw_starts, run_starts, run_with
+    as :func:`femupdate.updating.multistart`), locally or on Dask; a
+    :class:`~femupdate.updating.MultiStartResult` in the same format."""
+    from ..updating.multistart import draw_starts, run_starts, run_with
 
     if starts < 1:
         raise InputError("the number of starts must be at least 1")

@@ -15,7 +15,7 @@ from ..damage import (Configuration, Modification, complete_direct, detect_damag
 from ..damage.examples import concentrated_mass_truss, noisy_modes, scan_beam, segmented_cantilever
 from ..examples import FIGURE2_K4, three_dof, two_dof
 from ..modal import model_modes
-from ..multistart import cluster, draw_starts, multistart
+from ..updating import cluster, draw_starts, multistart
 from ..testdata import MeasuredMode, TestData
 from ..updating import update
 from .direct_sections import two_dof_inverse

@@ -23,7 +23,7 @@ from ..frf.selection import condition_study, select_frequencies
 from ..frf.surfaces import AffineStack, distinct_minima, frf_residuals, frf_surface, modal_residuals, modal_surface
 from ..frf.updating import frf_multistart
 from ..modal import model_modes
-from ..multistart import multistart
+from ..updating import multistart
 from ..testdata import MeasuredMode, TestData
 
 ORDER = 40

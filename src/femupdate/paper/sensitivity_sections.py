@@ -6,7 +6,7 @@ import numpy as np
 
 from ..examples import two_dof
 from ..modal import model_modes
-from ..multistart import multistart
+from ..updating import multistart
 from ..sensitivity import eigenvalue_derivatives, finite_difference
 from ..testdata import MeasuredMode, TestData
 

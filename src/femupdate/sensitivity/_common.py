@@ -17,9 +17,10 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.sparse as sp
 
+from .. import rules
 from .._errors import InputError, NumericalError
 
-REPEATED_TOL = 1e-8  # relative eigenvalue gap below which modes count as repeated
+REPEATED_TOL = rules.REPEATED_TOL  # relative eigenvalue gap below which modes count as repeated
 
 
 def resolve_params(model, params) -> np.ndarray:
@@ -42,23 +43,15 @@ def resolve_which(modes, which) -> np.ndarray:
 
 
 def check_distinct(modes, which: Sequence[int], mass_normalised: bool = True) -> None:
-    """Refuse derivatives of rigid-body or repeated modes (they are not differentiable as such)."""
+    """Refuse derivatives of rigid-body or repeated modes (they are not differentiable as such;
+    :func:`femupdate.rules.check_distinct`)."""
     if mass_normalised and modes.normalisation != "mass":
         raise InputError(f"sensitivities need mass-normalised modes, got {modes.normalisation!r} (use model_modes(..., normalisation='mass'))")
-    lam = modes.eigenvalues
-    scale = max(float(np.max(np.abs(lam))), 1e-300)
+    lam = np.asarray(modes.eigenvalues, float)
     for i in which:
-        if lam[i] == 0.0:
-            raise NumericalError(f"mode {i + 1} is a rigid-body mode (zero frequency): its derivatives are not defined; differentiate the flexible modes only")
-        gap = np.abs(lam - lam[i]) <= REPEATED_TOL * max(abs(lam[i]), 1e-12 * scale)
-        gap[i] = False
-        if np.any(gap):
-            j = int(np.flatnonzero(gap)[0])
-            raise NumericalError(
-                f"modes {i + 1} and {j + 1} are repeated (eigenvalues {lam[i]:.10g} and {lam[j]:.10g}): "
-                "eigenvector derivatives of repeated modes are not unique; femupdate refuses rather than "
-                "return a wrong derivative (pair modes by subspace, or perturb the model to split them)"
-            )
+        code, j = rules.check_distinct(lam, lam.size, int(i))
+        if code != rules.OK:
+            raise NumericalError(rules.message(code, int(i), j, lam[i], lam[j]))
 
 
 class ParameterProducts:

@@ -12,7 +12,7 @@ noise realisation per start), showing how conditioning turns into scatter.
 
 How it runs.  All rows (case × noise level × start) of a study are split, in a fixed order, into
 work units of at most ``unit_rows`` rows; each unit is solved as ONE batch
-(:class:`.problem.StudyProblem`: all its cases together, every row run to the end in compiled
+(:func:`.problem.study_problem`: all its cases together, every row run to the end in compiled
 code, the rows spread over the process's CPU cores).  A unit's result is a pure function of (study, unit number), so units run
 in process by default or as tasks of a Dask cluster (``scheduler`` address, or ``workers`` for a
 local cluster) with identical results; a task lost with its worker is simply recomputed.  With a
@@ -47,10 +47,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import FemupdateError, InputError
-from ..batch import FAILED
+from ..updating.batched import FAILED
 from ..dofs import canonical_all
-from ..multistart import Solution as _MultiStartSolution
-from ..multistart import cluster, connect
+from ..updating.clustering import cluster
+from ..updating.multistart import connect
+from ..updating.results import Solution as _MultiStartSolution
 from .checkpoint import Checkpoint
 from .criteria import counting_criteria
 
@@ -206,16 +207,16 @@ def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, va
     model : Model (small: at most :data:`femupdate.modal.DENSE_LIMIT` dofs, solved densely).
     cases : :class:`Case` objects or ``(measured_dofs, n_modes)`` pairs.
     starts, seed : R random starts within the bounds, drawn once by
-        :func:`femupdate.multistart.draw_starts` (uniform, or log-uniform).
+        :func:`femupdate.updating.draw_starts` (uniform, or log-uniform).
     values : the truth, as {name: value} (default: the model's values).
     params : the unknown parameters (default: every parameter not fixed).
     noise : relative noise levels (> 0): eigenvalues × (1 + σε), unit-length shapes + σε.
     min_mac, max_nfev, tol : solver options, as :func:`femupdate.updating.update`.
     unit_rows : rows (case × level × start) per work unit.
     """
-    from ..batch import unsupported
+    from ..updating.batched import unsupported
     from ..modal import model_modes
-    from ..multistart import draw_starts
+    from ..updating import draw_starts
 
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     if not names:
@@ -347,13 +348,13 @@ def solve_unit(study: Study, unit: int, progress: Callable[[int, int], None] | N
     ``x`` (final values of the unknowns), ``cost``, ``status`` (SciPy's codes, or -3 failed),
     ``nfev``, and ``messages`` {start: message} of the failed ones.
     """
-    from .problem import StudyProblem
+    from .problem import study_problem
 
     pieces = study.units()[unit]
     rows, X0 = _row_data(study, pieces)
-    prob = StudyProblem(study.model, study.names, rows, X0, values=study.truth, min_mac=study.min_mac,
-                        max_nfev=study.max_nfev, ftol=study.tol, xtol=study.tol, gtol=study.tol)
-    res = prob.solve(progress=progress)
+    prob = study_problem(study.model, study.names, rows, X0, values=study.truth, min_mac=study.min_mac,
+                         max_nfev=study.max_nfev, ftol=study.tol, xtol=study.tol, gtol=study.tol)
+    res = prob.solve(progress=progress, history=False)
     X = prob.to_p(res.x, np.arange(X0.shape[0]))
     out, r = [], 0
     for c, lv, a, b in pieces:
@@ -404,7 +405,7 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
 # ====================================================================== results
 @dataclass(frozen=True, eq=False)
 class Solution(_MultiStartSolution):
-    """A distinct solution of a case (:class:`femupdate.multistart.Solution`: the representative's
+    """A distinct solution of a case (:class:`femupdate.updating.Solution`: the representative's
     values, its cost, how many starts and which) and its distance from the truth."""
 
     max_rel_error: float = math.nan  #: largest |p / p_true − 1| over the unknowns
@@ -512,31 +513,22 @@ class StudyResult:
 def truth_sensitivities(study: Study) -> list[tuple[np.ndarray, int]]:
     """Per case the normalised sensitivity matrix S = ∂r/∂(p/p_true) at the truth, noise-free
     (its own rows only), and its number of residuals."""
-    from .problem import StudyProblem
+    from .problem import study_problem
 
     C = len(study.cases)
     pieces = [(c, 0, 0, 1) for c in range(C)]
     rows, _ = _row_data(study, pieces)
     idx = [study.model.parameter_index(n) for n in study.names]
     X0 = np.tile(study.truth[idx], (C, 1))
-    prob = StudyProblem(study.model, study.names, rows, X0, values=study.truth, min_mac=study.min_mac)
+    prob = study_problem(study.model, study.names, rows, X0, values=study.truth, min_mac=study.min_mac)
     ev = prob.evaluate(prob.x_start)
-    J, errors = prob.jacobian(ev)
+    m = prob.n_residuals
     out = []
     for c in range(C):
-        err = ev.errors[c] or errors[c]
-        if err is not None:
-            raise InputError(f"case {c + 1}: the model cannot be differentiated at the truth: {err}")
-        out.append((J[c][_own_columns(prob, c)], int(prob.own_residuals[c])))
+        if ev.messages[c] is not None:
+            raise InputError(f"case {c + 1}: the model cannot be differentiated at the truth: {ev.messages[c]}")
+        out.append((ev.jac[c, :m[c]], int(m[c])))
     return out
-
-
-def _own_columns(prob, r) -> np.ndarray:
-    """Columns of the padded layout that belong to row ``r``'s own problem."""
-    own = np.zeros((prob.T, 1 + prob.u), bool)
-    own[:prob.n_test_row[r], 0] = True
-    own[:prob.n_test_row[r], 1:] = prob.smask[r][None, :]
-    return own.ravel()
 
 
 def _conditioning(S: np.ndarray, m: int):

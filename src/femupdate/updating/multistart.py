@@ -9,37 +9,15 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import FemupdateError, InputError
-from .updating import UpdateResult, update
+from .._errors import FemupdateError, InputError
+from .clustering import converged_solutions
+from .results import MultiStartResult, UpdateResult
+from .solve import update
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, eq=False)
-class Solution:
-    parameters: dict[str, float]
-    cost: float
-    count: int
-    starts: list[int]
-
-
-@dataclass(frozen=True, eq=False)
-class MultiStartResult:
-    """``best`` (lowest-cost converged run), ``solutions`` (clusters, most frequent first),
-    ``runs`` (every start's result or error message), ``starts`` (the drawn starting values)."""
-
-    best: UpdateResult | None
-    solutions: list[Solution]
-    runs: list
-    starts: np.ndarray
-    names: tuple[str, ...]
-    total: int
-    converged: int
-    seed: int | None
 
 
 def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_uniform: bool = False) -> np.ndarray:
@@ -58,45 +36,6 @@ def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_unifo
     return rng.uniform(lo, hi, size=(n, len(idx)))
 
 
-def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> list[list[int]]:
-    """Group solutions whose parameters agree within ``rel_tol`` (relative, per parameter).
-
-    Greedy in order of increasing cost: each point joins the first cluster (in order of creation)
-    whose representative — its lowest-cost member — it is within ``rel_tol`` of, else founds a
-    new one.  One NumPy pass per cluster: the lowest-cost unclaimed point founds the next
-    cluster and claims every unclaimed point near it.  Members are listed in increasing cost.
-    """
-    order = np.argsort(costs)
-    P = np.asarray(points, float)[order]
-    free = np.ones(len(order), bool)
-    groups: list[list[int]] = []
-    while free.any():
-        i = int(np.argmax(free))
-        scale = np.maximum(np.abs(P[i]), 1e-300)
-        near = free & np.all(np.abs(P - P[i]) <= rel_tol * scale, axis=1)
-        near[i] = True
-        groups.append([int(order[j]) for j in np.flatnonzero(near)])
-        free &= ~near
-    return groups
-
-
-def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_tol: float | None,
-                        rel_tol: float) -> tuple[list[int], list[Solution]]:
-    """Indices of the runs of type ``kind`` that converged (and, with ``cost_tol``, fit), and their
-    distinct solutions from :func:`cluster`, most frequent first (ties: lowest cost first)."""
-    ok = [k for k, r in enumerate(runs) if isinstance(r, kind) and r.success
-          and (cost_tol is None or r.cost <= cost_tol)]
-    solutions = []
-    if ok:
-        pts = np.array([runs[k].x for k in ok])
-        costs = np.array([runs[k].cost for k in ok])
-        for g in cluster(pts, costs, rel_tol):
-            rep = runs[ok[g[0]]]
-            solutions.append(Solution(dict(zip(names, map(float, rep.x))), rep.cost, len(g), [ok[i] for i in g]))
-        solutions.sort(key=lambda s: (-s.count, s.cost))
-    return ok, solutions
-
-
 def run_with(fn, model, data, names, start, kwargs):
     """``fn(model, data, params=names, x0=start, **kwargs)``; a start that fails is a message, not a crash."""
     try:
@@ -113,7 +52,7 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
                scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
                log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
                connect_timeout: float = 10.0, batched: bool | None = None, **kwargs) -> MultiStartResult:
-    """Run :func:`femupdate.updating.update` from ``starts`` random starting points.
+    """Run :func:`femupdate.update` from ``starts`` random starting points.
 
     Parameters
     ----------
@@ -124,9 +63,9 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     rel_tol : relative distance under which two solutions are the same.
     cost_tol : a run counts as converged when the solver reports success and its cost is below
         this (default: no cost limit, i.e. local minima count as converged solutions too).
-    batched : advance all starts at once (:mod:`femupdate.batch`, same algorithm, same answers);
+    batched : advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
         ``None`` (default): batched when no scheduler is given, the model has at most
-        :data:`femupdate.batch.AUTO_MAX_DOFS` dofs and the options are supported; ``False``: one
+        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported; ``False``: one
         :func:`update` per start.
     **kwargs : passed to :func:`update`.
     """
@@ -136,11 +75,11 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     X0 = draw_starts(model, names, starts, seed, log_uniform)
     # ---- batched path (femupdate.batch): all starts at once for small dense models -------------
     if batched is None:
-        from .batch import supports
+        from .batched import supports
 
         batched = scheduler is None and supports(model, kwargs)
     if batched:
-        from .batch import multistart_batched, unsupported
+        from .batched import multistart_batched, unsupported
 
         if scheduler:
             raise InputError("batched=True runs the starts locally; give no scheduler, or batched=False")

@@ -12,13 +12,13 @@ the residual as an extra column, giving ``Qᵀf``), and its SVD is taken of that
 quadratic models are evaluated with the factor.  Decisions can therefore differ only at the
 round-off floor of the cost, after convergence.
 
-The state of R rows lives in arrays (one row each; the tuple :data:`STATE`).  Two drivers use
+The state of R rows lives in arrays (one row each), named in :class:`State`.  Two drivers use
 the row functions:
 
 * :func:`rows_propose` / :func:`rows_judge` / :func:`rows_accept` advance many rows one
   evaluation at a time, with the residuals computed in between by Python
-  (:func:`femupdate.batch.least_squares_batch`, any residual function);
-* :mod:`femupdate._modal_kernels` runs rows to the end inside compiled code, with the modal
+  (:func:`femupdate.updating.batched.least_squares_batch`, any residual function);
+* :mod:`femupdate.updating.batched.kernel` runs rows to the end inside compiled code, with the modal
   residuals and exact Jacobians compiled too, the rows spread over the CPU cores.
 
 Everything here is compiled by numba on first use and cached on disk (``cache=True``).
@@ -27,14 +27,20 @@ Everything here is compiled by numba on first use and cached on disk (``cache=Tr
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import config, njit
 
-try:  # singular values only (LAPACK gesdd, JOBZ='N'): half the cost of the full SVD
-    from numba.np.linalg import _compute_singular_values as _sv_only
-except ImportError:  # pragma: no cover - older or newer numba without the helper
-    _sv_only = None
+# Singular values only (LAPACK gesdd, JOBZ='N') cost half the full SVD.  numba has no public
+# function for them, so its internal one is used when present and compiled code runs; otherwise
+# (another numba, or NUMBA_DISABLE_JIT=1 where the internal one cannot run) the full SVD.
+_sv_only = None
+if not config.DISABLE_JIT:
+    try:
+        from numba.np.linalg import _compute_singular_values as _sv_only
+    except ImportError:  # pragma: no cover - a numba without the helper
+        _sv_only = None
 
 EPS = float(np.finfo(float).eps)
 RUNNING = -99  #: status of a row still iterating
@@ -42,11 +48,52 @@ FAILED = -3  #: status of a row whose evaluation failed
 # flags of rows_propose
 PROPOSED, STOPPED, DEGENERATE, BAD_JACOBIAN = 0, 1, 2, 3
 
-#: names of the state arrays, in the order of the state tuple
-STATE = ("x", "f", "J", "cost", "g", "scale_inv", "lb", "ub", "m_row", "m_qr", "Delta", "alpha", "d", "g_h",
-         "theta", "R11", "r12", "sv", "V", "uf", "p_gn", "full_rank", "have_svd", "need_setup", "status",
-         "pending", "nfev", "njev", "iterations", "g_norm", "x_new", "step", "step_h", "pred", "hist_cost",
-         "hist_x")
+
+
+class State(NamedTuple):
+    """The solver's state for R rows of n variables and at most m residuals (row r of each array
+    is start r's); arrays are updated in place."""
+
+    x: np.ndarray  #: (R, n) current point
+    f: np.ndarray  #: (R, m) residuals at x
+    J: np.ndarray  #: (R, m, n) Jacobian at x
+    cost: np.ndarray  #: (R,) ½‖f‖²
+    g: np.ndarray  #: (R, n) gradient Jᵀf
+    scale_inv: np.ndarray  #: (R, n) inverse of the Jacobian column norms (x_scale="jac")
+    lb: np.ndarray  #: (R, n) lower bounds
+    ub: np.ndarray  #: (R, n) upper bounds
+    m_row: np.ndarray  #: (R,) residual count of each row, for the rank test
+    m_qr: np.ndarray  #: (R,) leading residual rows that enter the QR
+    Delta: np.ndarray  #: (R,) trust-region radius
+    alpha: np.ndarray  #: (R,) Levenberg–Marquardt parameter
+    d: np.ndarray  #: (R, n) Coleman–Li scaling
+    g_h: np.ndarray  #: (R, n) scaled gradient
+    theta: np.ndarray  #: (R,) step-back factor from the bounds
+    R11: np.ndarray  #: (R, n, n) R factor of the augmented scaled Jacobian
+    r12: np.ndarray  #: (R, n) Qᵀf of the augmented system
+    sv: np.ndarray  #: (R, n) singular values of R11
+    V: np.ndarray  #: (R, n, n) right singular vectors of R11
+    uf: np.ndarray  #: (R, n) Uᵀ Qᵀ f
+    p_gn: np.ndarray  #: (R, n) Gauss–Newton step
+    full_rank: np.ndarray  #: (R,) bool
+    have_svd: np.ndarray  #: (R,) bool: V and uf are current
+    need_setup: np.ndarray  #: (R,) bool: the iteration's set-up is to be done
+    status: np.ndarray  #: (R,) RUNNING, FAILED or SciPy's status
+    pending: np.ndarray  #: (R,) status to take when the row stops
+    nfev: np.ndarray  #: (R,) evaluations
+    njev: np.ndarray  #: (R,) Jacobian evaluations
+    iterations: np.ndarray  #: (R,)
+    g_norm: np.ndarray  #: (R,) first-order optimality ‖g‖∞
+    x_new: np.ndarray  #: (R, n) proposed point
+    step: np.ndarray  #: (R, n) proposed step
+    step_h: np.ndarray  #: (R, n) proposed step in the scaled variables
+    pred: np.ndarray  #: (R,) predicted reduction
+    hist_cost: np.ndarray  #: (R, H) cost after each iteration
+    hist_x: np.ndarray  #: (R, H, n) x after each iteration
+
+
+#: names of the state arrays, in order
+STATE = State._fields
 
 jit = njit(cache=True, error_model="numpy", nogil=True)
 
@@ -70,7 +117,7 @@ def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
         njev=z(R, np.int64), iterations=z(R, np.int64), g_norm=np.full(R, np.nan), x_new=z((R, n)), step=z((R, n)),
         step_h=z((R, n)), pred=z(R), hist_cost=z((R, history)), hist_x=z((R, history, n)),
     )
-    return tuple(st[k] for k in STATE)
+    return State(**st)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -212,7 +259,7 @@ def _householder_r(A, ncols):
 def _singular_values(A):
     if _sv_only is not None:
         return _sv_only(A)
-    return np.linalg.svd(A)[1]  # pragma: no cover
+    return np.linalg.svd(A)[1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,7 +268,7 @@ def _singular_values(A):
 @jit
 def _gradient(st, r):
     """g = Jᵀf of row r; returns the column norms of its J (for the Jacobian scale)."""
-    f, J, g = st[1], st[2], st[4]
+    f, J, g = st.f, st.J, st.g
     m, n = J.shape[1], J.shape[2]
     norms = np.empty(n)
     for i in range(n):
@@ -265,7 +312,7 @@ def init_row(st, r):
 @jit
 def record(st, r):
     """Keep (cost, x) of row r after its current iteration (when history is kept)."""
-    cost, x, iterations, hist_cost, hist_x = st[3], st[0], st[28], st[34], st[35]
+    cost, x, iterations, hist_cost, hist_x = st.cost, st.x, st.iterations, st.hist_cost, st.hist_x
     k = iterations[r]
     if k < hist_cost.shape[1]:
         hist_cost[r, k] = cost[r]
@@ -351,8 +398,8 @@ def _phi_and_derivative(suf, s, a, D):
 def _tr_subproblem(st, r, p_h):
     """Moré's trust-region subproblem on the SVD of R11 (SciPy's ``solve_lsq_trust_region``),
     for a row whose Gauss–Newton step is not available or not inside the radius."""
-    R11, r12, sv, V, uf, alpha, Delta, full_rank, have_svd = (st[15], st[16], st[17], st[18], st[19], st[11], st[10],
-                                                              st[21], st[22])
+    R11, r12, sv, V, uf, alpha, Delta, full_rank, have_svd = (st.R11, st.r12, st.sv, st.V, st.uf, st.alpha, st.Delta,
+                                                              st.full_rank, st.have_svd)
     n = p_h.size
     if not have_svd[r]:
         U, s, Vt = np.linalg.svd(R11[r])
@@ -558,7 +605,7 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
 @jit
 def accept(st, r):
     """After an accepted step, with the new Jacobian in ``J[r]``: gradient and Jacobian scale."""
-    scale_inv, njev = st[5], st[27]
+    scale_inv, njev = st.scale_inv, st.njev
     njev[r] += 1
     norms = _gradient(st, r)
     for i in range(norms.size):
@@ -591,7 +638,7 @@ def rows_judge(st, rows, F_new, ftol, xtol, max_nfev, accepted, ended):
 @jit
 def rows_accept(st, rows, J_new):
     for i in range(rows.size):
-        st[2][rows[i]] = J_new[i]
+        st.J[rows[i]] = J_new[i]
         accept(st, rows[i])
 
 

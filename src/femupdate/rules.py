@@ -1,0 +1,405 @@
+r"""The rules of the modal updating problem, written once.
+
+Every route that evaluates the modal updating problem — one local solve
+(:class:`femupdate.updating.Problem`), the compiled batched route
+(:mod:`femupdate.updating.batched`), uniqueness studies, multi-configuration updating — takes
+these functions for:
+
+* the map between the optimiser's variables x and the physical parameters p
+  (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / |p_start|, ``log`` x = ln p, ``absolute``);
+* the checks of a computed spectrum (:func:`check_spectrum`: no negative eigenvalue, rigid-body
+  eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`);
+* the pairing of test modes with model modes (:func:`mac_vector`, :func:`assign`,
+  :func:`pair_by_mac`): by MAC over each test mode's measured dofs, the assignment maximising
+  the total MAC (Hungarian algorithm), a test mode below ``min_mac`` failing; test modes without
+  a shape take the lowest free model modes in order;
+* the scaling of a measured shape (:func:`shape_scale`: unit length with the sign of the largest
+  entry, 1 at a reference dof, or 1 at the largest entry) and the sign that aligns a unit-length
+  model shape with the test shape (:func:`unit_sign`);
+* the residuals (:func:`eigenvalue_residual`, :func:`shape_residuals`)
+
+  .. math:: r_\lambda = w_\lambda \frac{\lambda_A - \lambda_E}{\lambda_E}, \qquad
+            r_\psi = w_\psi (\psi_A - \psi_E)
+
+  (the normalised sensitivity equation of the reference paper, eq. 19; the reference-dof
+  scaling is its eq. 33) and their exact derivatives given ∂λ/∂p and ∂φ/∂p at the measured dofs
+  (:func:`eigenvalue_gradient`, :func:`shape_jacobian`): with ψ = φ_s / s(φ_s),
+  ψ' = φ_s'/s − ψ s'/s.
+
+The functions are plain Python on NumPy arrays and scalars — no objects, no exceptions: a
+failure is an error code (:data:`ERRORS`, turned into a message by :func:`message`).  They are
+written in the subset of Python that numba compiles, and marked with :func:`rule`; the compiled
+backend registers every rule with numba (``numba.extending.register_jitable``) when it is
+imported, so that its kernels call these very functions.  This module does not import numba.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: every function marked with :func:`rule`, in definition order
+RULES: list = []
+
+
+def rule(fn):
+    """Mark ``fn`` as a rule of the problem: plain Python here, compiled by the compiled backend."""
+    RULES.append(fn)
+    return fn
+
+
+# ---------------------------------------------------------------------------------------------
+# codes
+# ---------------------------------------------------------------------------------------------
+UNIT, REF, MAX = 0, 1, 2
+#: shape scalings by name
+SCALINGS = {"unit": UNIT, "ref": REF, "max": MAX}
+RELATIVE, LOG, ABSOLUTE = 0, 1, 2
+#: parametrisations by name
+PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
+#: relative eigenvalue gap below which two modes count as repeated
+REPEATED_TOL = 1e-8
+#: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
+RIGID_TOL = 1e-12
+
+(OK, E_NONFINITE, E_MASS_DIAG, E_MASS_CHOL, E_NEGATIVE, E_NO_PAIR, E_NO_MODE_LEFT, E_NODE, E_RIGID, E_REPEATED,
+ E_DEGENERATE, E_BAD_JACOBIAN) = range(12)
+
+#: messages of the error codes; ``{k}`` and ``{k1}`` are 1-based mode numbers (or positions),
+#: ``{i0}`` a count, ``{f0}``/``{f1}`` values, ``{modes}`` the 1-based test modes concerned
+ERRORS = {
+    E_NONFINITE: "non-finite residuals (the model became singular at these parameter values)",
+    E_MASS_DIAG: "the least-squares solver failed: the mass matrix is not positive definite: a dof has no mass",
+    E_MASS_CHOL: ("the least-squares solver failed: the mass matrix is not positive definite (its Cholesky "
+                  "factorisation failed)"),
+    E_NEGATIVE: ("the least-squares solver failed: K is not positive semi-definite: negative eigenvalue {f0:.4g} "
+                 "(check for negative stiffness parameters)"),
+    E_NO_PAIR: ("test mode(s) {modes} pair with no model mode (MAC below {min_mac:g} for all {i0} computed modes): "
+                "check the dof labels, or lower --min-mac"),
+    E_NO_MODE_LEFT: "test mode {k}: no model mode left to pair with",
+    E_NODE: "cannot scale the shape to 1 at measured dof #{k}: the mode has a node there",
+    E_RIGID: ("mode {k} is a rigid-body mode (zero frequency): its derivatives are not defined; differentiate the "
+              "flexible modes only"),
+    E_REPEATED: ("modes {k} and {k1} are repeated (eigenvalues {f0:.10g} and {f1:.10g}): eigenvector derivatives "
+                 "of repeated modes are not unique; femupdate refuses rather than return a wrong derivative (pair "
+                 "modes by subspace, or perturb the model to split them)"),
+    E_DEGENERATE: "the least-squares solver failed: the trust-region step is degenerate",
+    E_BAD_JACOBIAN: "the least-squares solver failed: non-finite Jacobian",
+}
+
+
+def message(code: int, i0: int = 0, i1: int = 0, f0: float = 0.0, f1: float = 0.0, modes=(),
+            min_mac: float = 0.5) -> str:
+    """The message of error ``code`` with its numbers (``modes``: 0-based test modes)."""
+    return ERRORS[int(code)].format(i0=int(i0), k=int(i0) + 1, k1=int(i1) + 1, f0=float(f0), f1=float(f1),
+                                    modes=[int(k) + 1 for k in modes], min_mac=min_mac)
+
+
+# ---------------------------------------------------------------------------------------------
+# parameters
+# ---------------------------------------------------------------------------------------------
+@rule
+def to_p(code, x, scale):
+    """Physical values of the updated parameters at the optimiser's variables ``x`` (L,);
+    ``scale`` (L,) the |starting values| of the relative parametrisation."""
+    if code == RELATIVE:
+        return x * scale
+    if code == LOG:
+        return np.exp(x)
+    return x.copy()
+
+
+@rule
+def dp_dx(code, x, scale):
+    """∂p/∂x (L,), the diagonal of the parametrisation's Jacobian."""
+    if code == RELATIVE:
+        return scale.copy()
+    if code == LOG:
+        return np.exp(x)
+    return np.ones(x.size)
+
+
+# ---------------------------------------------------------------------------------------------
+# the spectrum
+# ---------------------------------------------------------------------------------------------
+@rule
+def check_spectrum(lam, nm, pencil_scale):
+    """Checks of the lowest ``nm`` eigenvalues ``lam`` (ascending); rigid-body ones set to 0 in
+    place.  ``pencil_scale``: the largest single-dof Rayleigh quotient max |K_ii| / M_ii.
+
+    Returns ``(code, value)``: ``E_NEGATIVE`` and the lowest eigenvalue when one lies below
+    −1e-12 of the scale max(|λ|, pencil_scale), else ``OK``.
+    """
+    scale = max(pencil_scale, 1e-300)
+    low = 0.0
+    for i in range(nm):
+        scale = max(scale, abs(lam[i]))
+        low = min(low, lam[i])
+    if low < -RIGID_TOL * scale:
+        return E_NEGATIVE, low
+    for i in range(nm):
+        if abs(lam[i]) <= RIGID_TOL * scale:
+            lam[i] = 0.0
+    return OK, 0.0
+
+
+@rule
+def check_distinct(lam, nm, t):
+    """Can mode ``t`` be differentiated?  ``lam`` the eigenvalues, the lowest ``nm`` computed.
+
+    Returns ``(code, other)``: ``E_RIGID`` for a rigid-body mode, ``E_REPEATED`` and the first
+    mode whose eigenvalue lies within :data:`REPEATED_TOL` (relative) of mode t's, else ``OK``.
+    """
+    scale = 1e-300
+    for i in range(nm):
+        scale = max(scale, abs(lam[i]))
+    li = lam[t]
+    if li == 0.0:
+        return E_RIGID, t
+    tol = REPEATED_TOL * max(abs(li), 1e-12 * scale)
+    for j in range(nm):
+        if j != t and abs(lam[j] - li) <= tol:
+            return E_REPEATED, j
+    return OK, t
+
+
+# ---------------------------------------------------------------------------------------------
+# pairing
+# ---------------------------------------------------------------------------------------------
+@rule
+def mac_vector(psi, B):
+    """MAC (nm,) of the shape ``psi`` (n_s,) against the columns of ``B`` (n_s, nm), in [0, 1]
+    (0 where a column is zero)."""
+    ee = np.dot(psi, psi)
+    num = np.dot(psi, B)
+    aa = np.sum(B * B, axis=0)
+    out = np.zeros(B.shape[1])
+    for j in range(out.size):
+        den = ee * aa[j]
+        v = num[j] * num[j] / den if den > 0 else 0.0
+        out[j] = min(max(v, 0.0), 1.0)
+    return out
+
+
+@rule
+def assign(C, nr, nc, out):
+    """Rows 0..nr-1 of the cost matrix C (nr <= nc) to distinct columns, minimising the total
+    cost (the Hungarian algorithm with potentials and shortest augmenting paths, as
+    :func:`scipy.optimize.linear_sum_assignment`); ``out[i]`` the column of row i."""
+    INF = np.inf
+    u = np.zeros(nr + 1)
+    v = np.zeros(nc + 1)
+    p = np.zeros(nc + 1, np.int64)
+    way = np.zeros(nc + 1, np.int64)
+    for i in range(1, nr + 1):
+        p[0] = i
+        j0 = 0
+        minv = np.full(nc + 1, INF)
+        used = np.zeros(nc + 1, np.bool_)
+        while True:
+            used[j0] = True
+            i0 = p[j0]
+            delta = INF
+            j1 = 0
+            for j in range(1, nc + 1):
+                if not used[j]:
+                    cur = C[i0 - 1, j - 1] - u[i0] - v[j]
+                    if cur < minv[j]:
+                        minv[j] = cur
+                        way[j] = j0
+                    if minv[j] < delta:
+                        delta = minv[j]
+                        j1 = j
+            for j in range(nc + 1):
+                if used[j]:
+                    u[p[j]] += delta
+                    v[j] -= delta
+                else:
+                    minv[j] -= delta
+            j0 = j1
+            if p[j0] == 0:
+                break
+        while True:
+            j1 = way[j0]
+            p[j0] = p[j1]
+            j0 = j1
+            if j0 == 0:
+                break
+    for j in range(1, nc + 1):
+        if p[j] != 0:
+            out[p[j] - 1] = j - 1
+
+
+@rule
+def pair_by_mac(MAC, shaped, nm, min_mac, pairs, bad):
+    """Pair the T test modes with the lowest ``nm`` model modes.
+
+    ``MAC`` (T, ≥nm): row k the MAC of test mode k against the model modes (read only where
+    ``shaped[k]``).  Test modes with a shape are assigned so that the total MAC is largest (when
+    each one's best mode is strictly best, distinct and above ``min_mac``, that is the
+    assignment; otherwise :func:`assign`); a paired MAC below ``min_mac`` fails.  Test modes
+    without a shape then take the lowest free model modes in order.
+
+    Fills ``pairs`` (T,) and, on ``E_NO_PAIR``, ``bad`` (T,) the failing test modes.  Returns
+    ``(code, i)``: ``E_NO_PAIR`` with ``i = nm``, ``E_NO_MODE_LEFT`` with ``i`` the test mode
+    left without a model mode, else ``(OK, 0)``.
+    """
+    T = shaped.size
+    nws = 0
+    for k in range(T):
+        if shaped[k]:
+            nws += 1
+    taken = np.zeros(max(nm, 1), np.bool_)
+    if nws:
+        ws = np.empty(nws, np.int64)
+        c = 0
+        for k in range(T):
+            if shaped[k]:
+                ws[c] = k
+                c += 1
+        col = np.empty(nws, np.int64)
+        fast = True  # every test mode's best mode strictly best, distinct and above min_mac
+        for c in range(nws):
+            row = MAC[ws[c]]
+            best = 0
+            for j in range(1, nm):
+                if row[j] > row[best]:
+                    best = j
+            col[c] = best
+            for j in range(nm):
+                if j != best and not row[best] > row[j]:
+                    fast = False
+            if not row[best] >= min_mac:
+                fast = False
+            for c2 in range(c):
+                if col[c2] == best:
+                    fast = False
+        if not fast:
+            if nws > nm:
+                for c in range(nws):
+                    bad[ws[c]] = True
+                return E_NO_PAIR, nm
+            C = np.empty((nws, nm))
+            for c in range(nws):
+                for j in range(nm):
+                    C[c, j] = -MAC[ws[c], j]
+            assign(C, nws, nm, col)
+            failed = False
+            for c in range(nws):
+                if not MAC[ws[c], col[c]] >= min_mac:
+                    bad[ws[c]] = True
+                    failed = True
+            if failed:
+                return E_NO_PAIR, nm
+        for c in range(nws):
+            pairs[ws[c]] = col[c]
+            taken[col[c]] = True
+    nxt = 0
+    for k in range(T):
+        if not shaped[k]:
+            while nxt < nm and taken[nxt]:
+                nxt += 1
+            if nxt >= nm:
+                return E_NO_MODE_LEFT, k
+            pairs[k] = nxt
+            taken[nxt] = True
+    return OK, 0
+
+
+# ---------------------------------------------------------------------------------------------
+# shapes and residuals
+# ---------------------------------------------------------------------------------------------
+@rule
+def shape_scale(scaling, phs, ref):
+    """The scale s of a measured shape ``phs`` (n_s,) and the position k of its scaling entry:
+    ``UNIT`` s = ±‖φ_s‖ with the sign of the largest entry (k the largest entry); ``REF``
+    s = φ_s[ref]; ``MAX`` s = the largest-magnitude entry.  Returns ``(s, k, node)``, ``node``
+    True when ``REF``/``MAX`` meets an entry below 1e-12 of the largest (a node of the mode)."""
+    amax = 0.0
+    kmax = 0
+    for i in range(phs.size):
+        if abs(phs[i]) > amax:
+            amax = abs(phs[i])
+            kmax = i
+    if scaling == UNIT:
+        nrm = math.sqrt(np.dot(phs, phs))
+        s = nrm if phs[kmax] > 0 else (-nrm if phs[kmax] < 0 else 0.0)
+        return s, kmax, False
+    k = ref if scaling == REF else kmax
+    s = phs[k]
+    return s, k, not (abs(s) > 1e-12 * amax)
+
+
+@rule
+def unit_sign(scaling, phs, s, psi_e):
+    """−1 when the unit-length model shape φ_s/s points against the test shape ψ_E, else 1
+    (always 1 for the other scalings, whose scale fixes the sign)."""
+    if scaling != UNIT:
+        return 1.0
+    return -1.0 if np.dot(phs, psi_e) / s < 0 else 1.0
+
+
+@rule
+def n_shape_residuals(ns, ref):
+    """Residuals of a shape measured at ``ns`` dofs: the reference entry (``ref`` >= 0) is 1 by
+    construction and dropped."""
+    return ns - 1 if ref >= 0 else ns
+
+
+@rule
+def eigenvalue_residual(lam, lam_e, w):
+    """w (λ_A − λ_E) / λ_E (paper eq. 19, normalised by the measured eigenvalue)."""
+    return w * (lam - lam_e) / lam_e
+
+
+@rule
+def eigenvalue_gradient(dlam, lam_e, w, dpdx, out):
+    """∂r_λ/∂x (L,) from ∂λ/∂p ``dlam`` (L,) into ``out``."""
+    for j in range(dlam.size):
+        out[j] = w * dlam[j] / lam_e * dpdx[j]
+
+
+@rule
+def shape_residuals(scaling, phs, psi_e, ref, w, out):
+    """w (ψ_A − ψ_E) of a measured model shape ``phs`` against the scaled test shape ``psi_e``
+    into ``out`` (:func:`n_shape_residuals` entries).  Returns the position of the scaling entry
+    when it is a node of the mode (the residual is then undefined), else −1."""
+    s, k, node = shape_scale(scaling, phs, ref)
+    if node:
+        return k
+    sign = unit_sign(scaling, phs, s, psi_e)
+    r = w * (sign * phs / s - psi_e)
+    if ref >= 0:
+        out[:ref] = r[:ref]
+        out[ref:] = r[ref + 1:]
+    else:
+        out[:] = r
+    return -1
+
+
+@rule
+def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
+    """∂r_ψ/∂x into ``out`` (n_shape_residuals, L) from the derivatives ``dphs`` (n_s, L) of the
+    mass-normalised measured shape: ψ' = φ_s'/s − ψ s'/s, s' = φ_sᵀφ_s'/s for unit length and
+    φ_k' for the reference and largest-entry scalings."""
+    s, k, node = shape_scale(scaling, phs, ref)
+    sign = unit_sign(scaling, phs, s, psi_e)
+    if scaling == UNIT:
+        ds = np.dot(phs, dphs) / s
+    else:
+        ds = dphs[k].copy()
+    D = (dphs - np.outer(phs / s, ds)) * ((w * sign / s) * dpdx)
+    if ref >= 0:
+        out[:ref] = D[:ref]
+        out[ref:] = D[ref + 1:]
+    else:
+        out[:, :] = D
+
+
+__all__ = [
+    "RULES", "rule", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
+    "to_p", "dp_dx", "check_spectrum", "check_distinct", "mac_vector", "assign", "pair_by_mac", "shape_scale",
+    "unit_sign", "n_shape_residuals", "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals",
+    "shape_jacobian",
+]

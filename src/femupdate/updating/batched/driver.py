@@ -1,0 +1,522 @@
+r"""The batched route: many starts (and data sets) of one small model solved at once, compiled.
+
+:func:`femupdate.updating.multistart` runs :func:`femupdate.update` once per random start.  For
+a small model (tens to a few hundred dofs) each run is dominated by Python overhead around tiny
+LAPACK calls.  Here every start of a :class:`~femupdate.updating.Problem` — or every row of a
+uniqueness study, each with its own data set — is run to the end in compiled code
+(:mod:`.kernel`): the problem's own rules (:mod:`femupdate.rules`) on its own
+:class:`~femupdate.updating.problem.Targets`, exact Jacobians from all modes of a dense
+eigen-solution, and SciPy's trust-region-reflective method transcribed decision for decision
+(:mod:`.trf`), so that a start lands where :func:`femupdate.update` lands from it.  Starts run
+in parallel over the CPU cores.
+
+A start whose evaluation fails — repeated or rigid-body paired modes, a test mode that pairs
+with no model mode, a mass matrix that is not positive definite, non-finite residuals — is marked
+failed with the message the local route gives; the rest carry on.
+
+The compiled code is built by numba on first use and cached on disk beside the package (or in
+numba's user cache when that is read-only); later processes load it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..._errors import FemupdateError, InputError
+from ...modal import DENSE_LIMIT
+from ..problem import Parametrisation, Problem, Targets
+from ..results import UpdateResult
+from ..solve import result_at, update
+from .lsq import FAILED, BatchLSQResult, prepare, result_of
+from .spec import DataArrays, ModelArrays, Spec, error_message, new_errors
+
+log = logging.getLogger(__name__)
+
+AUTO_MAX_DOFS = 200  #: models up to this size take the batched route by default
+#: keyword options of :func:`femupdate.update` the batched route implements
+SUPPORTED_OPTIONS = frozenset({
+    "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "n_modes", "parametrisation",
+    "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
+})
+_PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "n_modes",
+                    "parametrisation", "use_shapes", "values", "sensitivity")
+_SOLVER_OPTIONS = ("max_nfev", "ftol", "xtol", "gtol")
+
+
+# ====================================================================== options
+def unsupported(model, options: Mapping, explicit: bool = False) -> str | None:
+    """Why the batched route cannot run this study (None when it can).
+
+    ``explicit``: the caller asked for the batched route, so only hard limits apply (dense models
+    up to :data:`femupdate.modal.DENSE_LIMIT` dofs); otherwise the automatic choice also requires
+    at most :data:`AUTO_MAX_DOFS` dofs.
+    """
+    extra = sorted(set(options) - SUPPORTED_OPTIONS)
+    if extra:
+        return f"option(s) {', '.join(extra)} are not implemented by the batched route"
+    if options.get("method", "trf") != "trf":
+        return f"method={options['method']!r}: the batched route implements trf only"
+    if options.get("regularization") is not None:
+        return "regularization: the batched route solves the unregularised problem only"
+    if options.get("sensitivity", "auto") != "auto":
+        return f"sensitivity={options['sensitivity']!r}: the batched route uses exact derivatives (sensitivity='auto')"
+    limit = DENSE_LIMIT if explicit else AUTO_MAX_DOFS
+    if model.n_dofs > limit:
+        return f"the model has {model.n_dofs} dofs; the batched (dense) route takes at most {limit}"
+    return None
+
+
+def supports(model, options: Mapping) -> bool:
+    """True when :func:`femupdate.updating.multistart` should take the batched route by itself."""
+    return unsupported(model, options) is None
+
+
+# ====================================================================== results
+@dataclass(frozen=True, eq=False)
+class BatchRun:
+    """Result of one start of a batched study (a light :class:`~femupdate.updating.UpdateResult`).
+
+    ``x`` are the updated parameters' values (``names`` order) and ``parameters`` every model
+    parameter; ``cost`` = ½‖r‖²; ``fun`` (m,) and ``jac`` (m, L, in the solver's variables) at the
+    solution; ``pairs`` [(test mode, model mode, MAC)]; ``status``/``message``/``success`` as
+    :func:`scipy.optimize.least_squares` reports them; ``history`` one entry per iteration.
+    """
+
+    parameters: dict[str, float]
+    names: tuple[str, ...]
+    x: np.ndarray
+    success: bool
+    status: int
+    message: str
+    cost: float
+    fun: np.ndarray
+    jac: np.ndarray
+    nfev: int
+    njev: int
+    iterations: int
+    optimality: float
+    pairs: list[tuple[int, int, float]]
+    model_frequencies_hz: np.ndarray
+    start: dict[str, float] = field(default_factory=dict)
+    history_cost: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (iterations + 1,)
+    history_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  #: (iterations + 1, L) values of names
+
+    @property
+    def history(self) -> list[dict]:
+        """One entry per iteration, as :attr:`UpdateResult.history` (built on demand)."""
+        return [{"iteration": i, "cost": float(c), "parameters": dict(zip(self.names, map(float, x)))}
+                for i, (c, x) in enumerate(zip(self.history_cost, self.history_x))]
+
+    def __repr__(self) -> str:
+        values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
+        return f"BatchRun({'converged' if self.success else 'NOT converged'}, cost {self.cost:.4g}: {values})"
+
+
+# ====================================================================== the batched problem
+@dataclass(eq=False)
+class Evaluation:
+    """:meth:`BatchedProblem.evaluate` at S points."""
+
+    fun: np.ndarray  #: (S, m)
+    jac: np.ndarray  #: (S, m, L)
+    eigenvalues: np.ndarray  #: (S, n) all eigenvalues, ascending
+    pairs: np.ndarray  #: (S, T) model mode of each test mode
+    macs: np.ndarray  #: (S, T) MAC of each pair (NaN without shape)
+    messages: list  #: (S,) None or the failure
+
+
+
+def data_arrays(targets: Sequence[Targets], row_dataset) -> DataArrays:
+    """The data sets ``targets`` concatenated as the kernels read them."""
+    i64 = (lambda a: np.asarray(a, np.int64))
+    t0 = np.cumsum([0] + [t.n_test for t in targets])[:-1]
+    p0 = np.cumsum([0] + [t.pos.size for t in targets])[:-1]
+    pptr = np.concatenate([[0]] + [t.pptr[1:] + a for t, a in zip(targets, p0)])
+    cat = (lambda name, dtype: np.concatenate([np.asarray(getattr(t, name), dtype) for t in targets])
+           if targets else np.zeros(0, dtype))
+    return DataArrays(i64(t0), i64([t.n_test for t in targets]), i64([t.nm for t in targets]),
+                      i64([t.n_residuals for t in targets]), i64(row_dataset), cat("lam_e", float),
+                      cat("w_lam", float), i64(pptr), cat("pos", np.int64), cat("psi_e", float), cat("ref", np.int64))
+
+
+class BatchedProblem:
+    """One small model, R starts, each row with its data set: the input of the compiled route.
+
+    Parameters
+    ----------
+    model : Model
+    names : the updated parameters.
+    starts : (R, L) starting values of ``names`` (physical units).
+    data : the data sets, a list of :class:`~femupdate.updating.problem.Targets` or the
+        :class:`~.kernel.DataArrays` built from them.
+    row_dataset : (R,) the data set of each row (default: all the first).
+    values : values of the parameters that are not updated (default nominal).
+    parametrisation, shape_scaling, w_shape, min_mac : the problem's rules, as
+        :class:`~femupdate.updating.Problem` holds them.
+    max_nfev, ftol, xtol, gtol : the solver's limits.
+
+    :meth:`from_problem` builds it for the starts of a :class:`~femupdate.updating.Problem`.
+
+    Attributes
+    ----------
+    x_start, lb, ub : (R, L) starting points and bounds in the solver's variables.
+    start_errors : (R,) None, or why the local route would refuse that start.
+    """
+
+    def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
+                 parametrisation: str = "relative", shape_scaling: str = "unit", w_shape: float = 1.0,
+                 min_mac: float = 0.5, max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10,
+                 gtol: float = 1e-10):
+        names = list(names)
+        if not names:
+            raise InputError("no parameters to update: every parameter is fixed")
+        starts = np.array(starts, dtype=float, ndmin=2)
+        if starts.shape[1] != len(names):
+            raise InputError(f"starts has shape {starts.shape}, expected (R, {len(names)}) for {', '.join(names)}")
+        if model.n_dofs > DENSE_LIMIT:
+            raise InputError(f"batched updating: the model has {model.n_dofs} dofs; the batched (dense) route "
+                             f"takes at most {DENSE_LIMIT}")
+        R = starts.shape[0]
+        self.model = model
+        self.names = tuple(names)
+        self.R = R
+        self.starts = starts
+        self.options = dict(max_nfev=int(max_nfev), ftol=float(ftol), xtol=float(xtol), gtol=float(gtol))
+        self.p_fixed = model.resolve(values)
+        self.param = parametrisation
+        self.scaling = shape_scaling
+        self.w_shape = float(w_shape)
+        self.min_mac = float(min_mac)
+        # per start: the parametrisation of the local route from that start
+        self.idx = Parametrisation(model, names, parametrisation, self.p_fixed).idx
+        self.scale = np.where(starts != 0, np.abs(starts), 1.0)
+        lo, hi = model.bounds
+        lo, hi = lo[self.idx], hi[self.idx]
+        if parametrisation == "log" and np.any(lo < 0):
+            raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
+        errors: list[str | None] = [None] * R
+        for r in range(R):
+            outside = [nm for nm, v, a, b in zip(names, starts[r], lo, hi) if not a <= v <= b]
+            if outside:
+                errors[r] = f"InputError: starting value(s) outside the bounds for: {', '.join(outside)}"
+            elif parametrisation == "log" and np.any(starts[r] <= 0):
+                errors[r] = "InputError: log parametrisation needs positive starting values and non-negative lower bounds"
+        self.start_errors = errors
+        self.x_start = self._from_p(np.where(starts > 0, starts, 1.0) if parametrisation == "log" else starts)
+        if parametrisation == "log":
+            with np.errstate(divide="ignore"):
+                xl = np.broadcast_to(np.log(np.maximum(lo, 0)), starts.shape)
+                xh = np.broadcast_to(np.log(hi), starts.shape)
+        else:
+            xl, xh = self._from_p(np.broadcast_to(lo, starts.shape)), self._from_p(np.broadcast_to(hi, starts.shape))
+            xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
+        self.lb, self.ub = np.array(xl, float), np.array(xh, float)
+        if isinstance(data, DataArrays):
+            self.data = data
+        else:
+            self.data = data_arrays(list(data), np.zeros(R, np.int64) if row_dataset is None else row_dataset)
+        self._model_setup()
+
+    @classmethod
+    def from_problem(cls, problem: Problem, starts, **solver_options) -> BatchedProblem:
+        """The starts ``starts`` (R, L) of ``problem``: each row is the problem that
+        :func:`femupdate.update` solves from that start."""
+        n_data = problem.targets.n_independent
+        if n_data < len(problem.names):
+            raise InputError(
+                f"{len(problem.names)} parameters but only {n_data} independent data (eigenvalues and scaled shape "
+                "entries): the problem is underdetermined; add data, fix parameters, or use regularization "
+                "(e.g. --regularization gcv)"
+            )
+        p_fixed = problem.p_base.copy()
+        return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
+                   parametrisation=problem.param, shape_scaling=problem.scaling, w_shape=problem.w_shape,
+                   min_mac=problem.min_mac, **solver_options)
+
+    def _p_base(self, start):
+        p = self.p_fixed.copy()
+        p[[self.model.parameter_index(n) for n in self.names]] = start
+        return p
+
+    # ------------------------------------------------------------------ parameters
+    def _from_p(self, p):
+        if self.param == "relative":
+            return p / self.scale
+        if self.param == "log":
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.log(p)
+        return np.array(p, float)
+
+    def to_p(self, X, rows) -> np.ndarray:
+        """Updated parameters' values (S, L) at solver variables X (S, L) of the starts ``rows``."""
+        from ... import rules
+
+        code = rules.PARAMETRISATIONS[self.param]
+        X = np.atleast_2d(np.asarray(X, float))
+        rows = np.asarray(rows)
+        with np.errstate(over="ignore"):
+            return np.array([rules.to_p(code, X[i], self.scale[rows[i]]) for i in range(X.shape[0])]).reshape(X.shape)
+
+    def full_p(self, X, rows) -> np.ndarray:
+        """Full parameter vectors (S, n_parameters)."""
+        P = np.broadcast_to(self.p_fixed, (len(rows), self.p_fixed.size)).copy()
+        P[:, self.idx] = self.to_p(X, rows)
+        return P
+
+    # ------------------------------------------------------------------ the model's arrays
+    def _model_setup(self) -> None:
+        model, n = self.model, self.model.n_dofs
+        self.n = n
+        fixed = np.setdiff1d(np.arange(len(model.parameters)), self.idx)
+        zero = sp.csr_array((n, n))
+
+        def const(base, derivs):
+            c = base.toarray()
+            for j in fixed:
+                if derivs[j] is not None:
+                    c = c + self.p_fixed[j] * derivs[j].toarray()
+            return c
+
+        self.K_const = const(model.K0, model.dK)
+        self.M_const = const(model.M0, model.dM)
+        self.dK = [model.dK[j] if model.dK[j] is not None else zero for j in self.idx]
+        self.dM = [model.dM[j] if model.dM[j] is not None else zero for j in self.idx]
+        self.M_varies = any(d.nnz for d in self.dM)
+        self.mass_error: str | None = None
+        self.Cinv = np.eye(n)
+        if not self.M_varies:
+            if np.any(~(np.diag(self.M_const) > 0)):
+                self.mass_error = "InputError: the mass matrix is not positive definite (a dof has no mass)"
+            else:
+                try:
+                    self.Cinv = np.linalg.inv(np.linalg.cholesky(self.M_const))
+                except np.linalg.LinAlgError:
+                    self.mass_error = ("NumericalError: the least-squares solver failed: the mass matrix is not "
+                                       "positive definite (its Cholesky factorisation failed)")
+
+    def spec(self):
+        """The :class:`~.kernel.Spec` of this batch (compiles nothing)."""
+        from ... import rules
+
+        def coo(mats):
+            ptr, ri, ci, vv = [0], [], [], []
+            for d in mats:
+                c = sp.coo_array(d)
+                ri.append(c.row)
+                ci.append(c.col)
+                vv.append(c.data)
+                ptr.append(ptr[-1] + c.nnz)
+            cat = (lambda a, t: np.concatenate(a).astype(t) if a else np.zeros(0, t))
+            return np.array(ptr, np.int64), cat(ri, np.int64), cat(ci, np.int64), cat(vv, float)
+
+        kp, ki, kj, kv = coo(self.dK)
+        mp, mi, mj, mv = coo(self.dM)
+        supp = [np.union1d(sp.coo_array(a).row, sp.coo_array(b).row) for a, b in zip(self.dK, self.dM)]
+        sptr = np.cumsum([0] + [len(s) for s in supp]).astype(np.int64)
+        sidx = np.concatenate(supp).astype(np.int64) if supp else np.zeros(0, np.int64)
+        arrays = ModelArrays(np.ascontiguousarray(self.K_const), kp, ki, kj, kv, bool(self.M_varies),
+                             np.ascontiguousarray(self.M_const), mp, mi, mj, mv, np.ascontiguousarray(self.Cinv),
+                             sptr, sidx, rules.PARAMETRISATIONS[self.param], np.ascontiguousarray(self.scale))
+        return Spec.of(arrays, self.data, rules.SCALINGS[self.scaling], self.w_shape, self.min_mac)
+
+    @property
+    def n_residuals(self) -> np.ndarray:
+        """(R,) the residual count of each row."""
+        return np.asarray(self.data.m)[np.asarray(self.data.row_ds)]
+
+    # ------------------------------------------------------------------ compiled evaluation and solution
+    def evaluate(self, X, rows=None, jacobian: bool = True):
+        """The compiled evaluation at solver variables X (S, L) of ``rows``: residuals F (S, m)
+        (each row's own first, zeros after), exact Jacobians J (S, m, L), all eigenvalues
+        (S, n), the pairs and their MAC (S, T), and the messages (None where fine)."""
+        from . import kernel
+
+        X = np.array(X, dtype=float, ndmin=2)
+        rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows, dtype=np.int64)
+        S, L = X.shape
+        m, T = int(self.n_residuals.max(initial=1)), int(np.max(self.data.T, initial=1))
+        out = Evaluation(np.zeros((S, m)), np.zeros((S, m, L)), np.zeros((S, self.n)), np.zeros((S, T), np.int64),
+                         np.full((S, T), np.nan), [None] * S)
+        if self.mass_error:
+            out.messages[:] = [self.mass_error] * S
+            return out
+        err = new_errors(S, T)
+        _announce_first_use()
+        kernel.evaluate_rows(self.spec(), rows.astype(np.int64), X, out.fun, out.jac, out.eigenvalues, out.pairs,
+                             out.macs, err, bool(jacobian))
+        out.messages[:] = [None if err.code[i] == 0 else error_message(err, i, self.min_mac) for i in range(S)]
+        return out
+
+    def solve(self, progress: Callable[[int, int], None] | None = None, history: bool = True,
+              chunk: int = 256) -> BatchLSQResult:
+        """Run every start to the end in compiled code (:func:`.kernel.solve_rows`).
+
+        Rows go in a fixed shuffled order, ``chunk`` at a time (the rows of a chunk in parallel
+        over the cores; progress reported and Ctrl-C taken between chunks); the result does not
+        depend on the order.
+        """
+        from . import kernel, trf
+
+        o = self.options
+        x0, x, lb, ub, max_nfev, message = prepare(self.x_start, (self.lb, self.ub), o["max_nfev"])
+        R, L = x0.shape
+        refused = np.array([m is not None for m in message], bool)
+        early = [None if refused[r] else (self.start_errors[r] or self.mass_error) for r in range(R)]
+        m_row = self.n_residuals if not self.mass_error else np.zeros(R, np.int64)
+        m = int(max(m_row.max(initial=0), 1))
+        st = trf.new_state(x, lb, ub, m, m_row, m_row, max_nfev + 1 if history else 0)
+        st.status[refused] = FAILED
+        for r, e in enumerate(early):
+            if e is not None:
+                st.status[r], message[r] = FAILED, e
+                st.nfev[r] = 1
+        err = new_errors(R, int(np.max(self.data.T, initial=1)))
+        todo = np.random.default_rng(0).permutation(np.flatnonzero(st.status == trf.RUNNING)).astype(np.int64)
+        done = R - todo.size
+        if progress and done:
+            progress(done, R)
+        if todo.size:
+            _announce_first_use()
+            spec = self.spec()
+            for a in range(0, todo.size, chunk):
+                rows = todo[a:a + chunk]
+                kernel.solve_rows(spec, st, rows, o["gtol"], o["ftol"], o["xtol"], max_nfev, err)
+                done += rows.size
+                if progress:
+                    progress(done, R)
+        for r in np.flatnonzero(err.code):
+            message[r] = error_message(err, r, self.min_mac)
+        return result_of(st, message)
+
+
+_ANNOUNCED = False
+
+
+def _announce_first_use() -> None:
+    """Say, once per process, that the compiled code is being loaded — or built, which takes a
+    while the first time after installation."""
+    global _ANNOUNCED
+    if _ANNOUNCED or "femupdate.updating.batched.kernel" in sys.modules and _kernel_ready():
+        _ANNOUNCED = True
+        return
+    _ANNOUNCED = True
+    log.warning("femupdate: loading the compiled batched solver (the first use after installation compiles it "
+                "with numba and caches it on disk)")
+
+
+def _kernel_ready() -> bool:
+    from . import kernel
+
+    return bool(getattr(kernel.solve_rows, "signatures", ()))
+
+
+# ====================================================================== multi-start
+def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
+                       cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
+                       polish: bool = True, **options):
+    """Multi-start updating with every start run in compiled code; same result as the local route.
+
+    Parameters
+    ----------
+    model, data : as :func:`femupdate.update`.
+    names : updated parameters.
+    starts : (R, L) starting values (e.g. from :func:`femupdate.updating.draw_starts`).
+    seed : recorded in the result.
+    rel_tol, cost_tol : clustering and acceptance, as :func:`femupdate.updating.multistart`.
+    progress : ``progress(finished, R)``.
+    polish : re-run :func:`~femupdate.update` once from the best solution (a final check by the
+        local route); its ``start``, ``history``, ``nfev``, ``njev`` and ``iterations`` then
+        cover the batched run and the polish together.  Without it (or should the polish fail)
+        ``best`` is the full result at the batched solution itself.
+    **options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
+
+    Returns
+    -------
+    femupdate.updating.MultiStartResult
+        ``runs[k]`` is a :class:`BatchRun`, or the error message (str) of a start that failed,
+        exactly as the local route reports it.
+    """
+    from ..clustering import converged_solutions
+    from ..results import MultiStartResult
+
+    names = tuple(names)
+    X0 = np.array(starts, dtype=float, ndmin=2)
+    R = X0.shape[0]
+    reason = unsupported(model, options, explicit=True)
+    if reason:
+        raise InputError(f"batched multi-start: {reason}")
+    prob_kw = {k: options[k] for k in _PROBLEM_OPTIONS if k in options}
+    solver_kw = {k: options[k] for k in _SOLVER_OPTIONS if k in options}
+    try:
+        problem = Problem(model, data, names, **prob_kw)
+        bp = BatchedProblem.from_problem(problem, X0, **solver_kw)
+    except FemupdateError as exc:  # update() would refuse every start alike
+        msg = f"{type(exc).__name__}: {exc}"
+        return MultiStartResult(None, [], [msg] * R, X0, names, R, 0, seed)
+    res = bp.solve(progress=progress)
+    alive = np.flatnonzero(res.status != FAILED)
+    runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: {m}"
+                  for m in res.message]  # (used for the failed starts only)
+    final = bp.evaluate(res.x[alive], alive, jacobian=False)  # pairs and MACs at the solutions, in one call
+    P_alive = bp.full_p(res.x[alive], alive)
+    m_row = bp.n_residuals
+    for i, r in enumerate(alive):
+        if final.messages[i] is not None:  # pragma: no cover - the solver evaluated this point already
+            runs[r] = final.messages[i]
+            continue
+        P = P_alive[i]
+        f = final.fun[i, :m_row[r]].copy()
+        pr = final.pairs[i, :problem.targets.n_test]
+        n_hist = min(int(res.iterations[r]) + 1, res.history_cost.shape[1])
+        runs[r] = BatchRun(
+            parameters=dict(zip(model.parameter_names, map(float, P))), names=names, x=P[bp.idx],
+            success=bool(res.status[r] > 0), status=int(res.status[r]), message=res.message[r],
+            cost=float(0.5 * f @ f), fun=f, jac=res.jac[r, :m_row[r]], nfev=int(res.nfev[r]),
+            njev=int(res.njev[r]), iterations=int(max(res.iterations[r], res.njev[r])),
+            optimality=float(res.optimality[r]),
+            pairs=[(k, int(j), float(final.macs[i, k])) for k, j in enumerate(pr)],
+            model_frequencies_hz=np.sqrt(np.clip(final.eigenvalues[i, pr], 0, None)) / (2 * np.pi),
+            start=dict(zip(names, map(float, X0[r]))),
+            history_cost=res.history_cost[r, :n_hist].copy(),
+            history_x=bp.to_p(res.history_x[r, :n_hist], np.full(n_hist, r)),
+        )
+    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol)
+    best = None
+    if ok:
+        k_best = min(ok, key=lambda k: runs[k].cost)
+        best = _polish(model, data, names, runs[k_best], options) if polish else None
+        if best is None:  # not asked for, or the polish failed: the full result at the batched solution
+            run = runs[k_best]
+            at = Problem(model, data, names, **dict(prob_kw, x0=run.start))
+            best = dataclasses.replace(result_at(at, at.from_p(run.x), sol=run, history=run.history), swaps=[])
+    log.info("batched multi-start: %d starts, %d converged, %d solutions, %d evaluations in total",
+             R, len(ok), len(solutions), int(res.nfev.sum()))
+    return MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed)
+
+
+def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
+    """One full :func:`update` from a batched solution: diagnostics, swaps and a final check."""
+    try:
+        res = update(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), **options)
+    except FemupdateError as exc:
+        log.warning("polishing the best batched solution failed: %s", exc)
+        return None
+    if not res.success:
+        return None
+    offset = len(run.history)
+    history = list(run.history) + [dict(h, iteration=h["iteration"] + offset) for h in res.history[1:]]
+    return dataclasses.replace(
+        res, start=dict(run.start), history=history, nfev=res.nfev + run.nfev, njev=res.njev + run.njev,
+        iterations=res.iterations + run.iterations,
+    )
+
+
+__all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "BatchRun", "BatchedProblem", "data_arrays",
+           "multistart_batched", "supports", "unsupported", "Evaluation"]

@@ -1,0 +1,357 @@
+r"""The modal updating problem compiled: residuals, exact Jacobians and a whole solve per row.
+
+The compiled route evaluates the *same* problem as :class:`femupdate.updating.Problem`: the
+rules (parametrisation, spectrum checks, MAC pairing, shape scaling, residuals and their
+derivatives) are the functions of :mod:`femupdate.rules`, registered with numba when this module
+is imported and called from the kernels below; the test data are the problem's
+:class:`~femupdate.updating.problem.Targets`, concatenated over the data sets of a batch.  What
+is particular to this route is only how the eigen-solution and its derivatives are obtained —
+for a small dense model, every mode at once:
+
+* ``K = K_c + Σ_j p_j K_j`` (and ``M`` alike, or its fixed Cholesky factor), reduction to the
+  standard form ``A = C⁻¹ K C⁻ᵀ``, all n eigenpairs by LAPACK (``eigh``), ``φ = C⁻ᵀ y``
+  mass-normalised;
+* ``λ_t' = φ_tᵀ G_j`` with ``G_j = (K_j − λ_t M_j) φ_t`` (Fox & Kapoor, paper eq. 21) and, all
+  modes being at hand, the complete modal method
+  ``φ_t' = Σ_{r≠t} φ_r φ_rᵀG_j/(λ_t − λ_r) − ½ (φ_tᵀ M_j φ_t) φ_t`` at the measured dofs.
+
+:func:`solve_rows` runs SciPy's trust-region-reflective method (:mod:`.trf`) for every row
+inside compiled code, the rows spread over the CPU cores, with no Python between iterations.
+Failures are error codes of :mod:`femupdate.rules`, turned into messages by Python.
+
+Everything here is compiled by numba on first use and cached on disk.  numba's cache does not
+notice a change in another module that a cached function calls, so the cache of this module is
+discarded when the source of the rules, the solver or this module changes (:func:`_fresh_cache`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+from numba import njit, prange
+from numba.extending import register_jitable
+
+from ... import rules
+from . import trf
+from .spec import Errors, Spec  # noqa: F401  (the kernels' argument types)
+
+log = logging.getLogger(__name__)
+
+for _rule in rules.RULES:  # the rules, callable from the kernels below
+    register_jitable(_rule)
+
+
+def _fresh_cache() -> None:
+    """Remove this module's cached compiled code when a source it depends on has changed."""
+    sources = [Path(rules.__file__), Path(trf.__file__), Path(__file__)]
+    stamp = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
+    cache = Path(__file__).parent / "__pycache__"
+    mark = cache / "kernel.sources.sha256"
+    try:
+        if mark.exists() and mark.read_text() == stamp:
+            return
+        for f in list(cache.glob("kernel.*.nbi")) + list(cache.glob("kernel.*.nbc")) + \
+                list(cache.glob("trf.*.nbi")) + list(cache.glob("trf.*.nbc")):
+            f.unlink()
+        cache.mkdir(exist_ok=True)
+        mark.write_text(stamp)
+    except OSError:  # a read-only install: numba then caches in the user's cache directory
+        log.debug("cannot check the compiled-code cache beside %s", __file__)
+
+
+_fresh_cache()
+
+jit = njit(cache=True, error_model="numpy", nogil=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# one row
+# ---------------------------------------------------------------------------------------------
+@jit
+def _cholesky_inverse(M):
+    """C⁻¹ of the Cholesky factor M = C Cᵀ; a zero first column signals failure."""
+    n = M.shape[0]
+    C = np.zeros((n, n))
+    Cinv = np.zeros((n, n))
+    for i in range(n):
+        for k in range(i + 1):
+            t = M[i, k]
+            for q in range(k):
+                t -= C[i, q] * C[k, q]
+            if i == k:
+                if not t > 0:
+                    return Cinv, False
+                C[i, i] = math.sqrt(t)
+            else:
+                C[i, k] = t / C[k, k]
+    for i in range(n):
+        Cinv[i, i] = 1.0 / C[i, i]
+        for k in range(i):
+            t = 0.0
+            for q in range(k, i):
+                t += C[i, q] * Cinv[q, k]
+            Cinv[i, k] = -t / C[i, i]
+    return Cinv, True
+
+
+@jit
+def _shaped(d, t0, T):
+    out = np.zeros(T, np.bool_)
+    for k in range(T):
+        out[k] = d.pptr[t0 + k + 1] > d.pptr[t0 + k]
+    return out
+
+
+@jit
+def _measured(Phi, pos, j):
+    """Mode j at the dofs ``pos`` (contiguous)."""
+    out = np.empty(pos.size)
+    for i in range(pos.size):
+        out[i] = Phi[pos[i], j]
+    return out
+
+
+@jit
+def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes):
+    """Residuals of row r at x into ``fout``; the eigen-solution and the pairs with their MAC
+    (NaN without shape) into the work arrays ``lam`` (n,), ``Phi`` (n, n), ``pairs`` and ``pmac``
+    (T,).  Returns an error code (OK = 0)."""
+    md = d = sp_
+    n = md.K_const.shape[0]
+    L = x.size
+    ds = d.row_ds[r]
+    t0, T, nm = d.t0[ds], d.T[ds], d.nm[ds]
+    p = rules.to_p(md.pcode, x, md.pscale[r])
+    for j in range(L):
+        if not np.isfinite(p[j]):
+            return rules.E_NONFINITE
+    K = md.K_const.copy()
+    for j in range(L):
+        for e in range(md.kp[j], md.kp[j + 1]):
+            K[md.ki[e], md.kj[e]] += p[j] * md.kv[e]
+    mdiag = np.empty(n)
+    if md.M_varies:
+        M = md.M_const.copy()
+        for j in range(L):
+            for e in range(md.mp[j], md.mp[j + 1]):
+                M[md.mi[e], md.mj[e]] += p[j] * md.mv[e]
+        for i in range(n):
+            mdiag[i] = M[i, i]
+            if not mdiag[i] > 0:
+                return rules.E_MASS_DIAG
+        Cinv, ok = _cholesky_inverse(M)
+        if not ok:
+            return rules.E_MASS_CHOL
+    else:
+        Cinv = md.Cinv
+        for i in range(n):
+            mdiag[i] = md.M_const[i, i]
+    A = Cinv @ K @ Cinv.T
+    A = 0.5 * (A + A.T)
+    w, Y = np.linalg.eigh(A)
+    Ph = Cinv.T @ Y
+    for i in range(n):
+        lam[i] = w[i]
+        for k in range(n):
+            Phi[i, k] = Ph[i, k]
+    pencil = 0.0
+    for i in range(n):
+        pencil = max(pencil, abs(K[i, i]) / mdiag[i])
+    code, low = rules.check_spectrum(lam, nm, pencil)
+    if code != rules.OK:
+        err_f[0] = low
+        return code
+    # pairing
+    shaped = _shaped(d, t0, T)
+    MAC = np.zeros((T, max(nm, 1)))
+    for k in range(T):
+        if shaped[k]:
+            a, b = d.pptr[t0 + k], d.pptr[t0 + k + 1]
+            pos = d.pos[a:b]
+            B = np.empty((b - a, nm))
+            for i in range(b - a):
+                for j in range(nm):
+                    B[i, j] = Phi[pos[i], j]
+            MAC[k, :nm] = rules.mac_vector(np.ascontiguousarray(d.psi_e[a:b]), B)
+    code, i0 = rules.pair_by_mac(MAC, shaped, nm, sp_.min_mac, pairs, err_modes)
+    if code != rules.OK:
+        err_i[0] = i0
+        return code
+    for k in range(T):
+        pmac[k] = MAC[k, pairs[k]] if shaped[k] else np.nan
+    # residuals
+    row = 0
+    for k in range(T):
+        q = t0 + k
+        j = pairs[k]
+        fout[row] = rules.eigenvalue_residual(lam[j], d.lam_e[q], d.w_lam[q])
+        row += 1
+        a, b = d.pptr[q], d.pptr[q + 1]
+        if b > a:
+            ns = rules.n_shape_residuals(b - a, d.ref[q])
+            node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j),
+                                         np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], sp_.w_shape,
+                                         fout[row:row + ns])
+            if node >= 0:
+                err_i[0] = node
+                return rules.E_NODE
+            row += ns
+    for i in range(row):
+        if not np.isfinite(fout[i]):
+            return rules.E_NONFINITE
+    return rules.OK
+
+
+@jit
+def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
+    """Exact Jacobian ∂r/∂x (m, L) of row r at the point of its last evaluation (work arrays)."""
+    md = d = sp_
+    n = md.K_const.shape[0]
+    L = x.size
+    ds = d.row_ds[r]
+    t0, T, nm = d.t0[ds], d.T[ds], d.nm[ds]
+    for k in range(T):  # paired modes must be flexible and distinct
+        code, other = rules.check_distinct(lam, nm, pairs[k])
+        if code != rules.OK:
+            err_i[0] = pairs[k]
+            err_i[1] = other
+            err_f[0] = lam[pairs[k]]
+            err_f[1] = lam[other]
+            return code
+    dpdx = rules.dp_dx(md.pcode, x, md.pscale[r])
+    G = np.zeros(n)
+    coef = np.empty(n)
+    dlam = np.empty(L)
+    row0 = 0
+    for k in range(T):
+        q = t0 + k
+        t = pairs[k]
+        lt = lam[t]
+        a, b = d.pptr[q], d.pptr[q + 1]
+        ns = b - a
+        dphs = np.zeros((ns, L))
+        for j in range(L):
+            for e in range(md.sptr[j], md.sptr[j + 1]):
+                G[md.sidx[e]] = 0.0
+            for e in range(md.kp[j], md.kp[j + 1]):
+                G[md.ki[e]] += md.kv[e] * Phi[md.kj[e], t]
+            mjj = 0.0
+            if md.M_varies:
+                for e in range(md.mp[j], md.mp[j + 1]):
+                    G[md.mi[e]] -= lt * md.mv[e] * Phi[md.mj[e], t]
+                    mjj += Phi[md.mi[e], t] * md.mv[e] * Phi[md.mj[e], t]
+            dl = 0.0
+            for e in range(md.sptr[j], md.sptr[j + 1]):
+                dl += Phi[md.sidx[e], t] * G[md.sidx[e]]
+            dlam[j] = dl  # Fox & Kapoor
+            if ns == 0:
+                continue
+            for rr in range(n):  # the complete modal method
+                if rr == t:
+                    coef[rr] = -0.5 * mjj
+                    continue
+                h = 0.0
+                for e in range(md.sptr[j], md.sptr[j + 1]):
+                    h += Phi[md.sidx[e], rr] * G[md.sidx[e]]
+                coef[rr] = h / (lt - lam[rr])
+            for i in range(ns):
+                v = 0.0
+                pi = d.pos[a + i]
+                for rr in range(n):
+                    v += Phi[pi, rr] * coef[rr]
+                dphs[i, j] = v
+        rules.eigenvalue_gradient(dlam, d.lam_e[q], d.w_lam[q], dpdx, Jout[row0])
+        row0 += 1
+        if ns:
+            nr = rules.n_shape_residuals(ns, d.ref[q])
+            rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t), dphs,
+                                 np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], sp_.w_shape, dpdx,
+                                 Jout[row0:row0 + nr])
+            row0 += nr
+    for i in range(row0):
+        for j in range(L):
+            if not np.isfinite(Jout[i, j]):
+                return rules.E_BAD_JACOBIAN
+    return rules.OK
+
+
+# ---------------------------------------------------------------------------------------------
+# the driver: every row to the end
+# ---------------------------------------------------------------------------------------------
+@jit
+def _fail(st, err, r, code):
+    st.status[r] = trf.FAILED
+    err.code[r] = code
+
+
+@jit
+def _run_row(sp_, st, r, gtol, ftol, xtol, max_nfev, err):
+    n = sp_.K_const.shape[0]
+    m = st.f.shape[1]
+    lam = np.zeros(n)
+    Phi = np.zeros((n, n))
+    pairs = np.zeros(err.modes.shape[1], np.int64)
+    pmac = np.zeros(err.modes.shape[1])
+    code = evaluate_row(sp_, r, st.x[r], st.f[r], lam, Phi, pairs, pmac, err.ints[r], err.floats[r], err.modes[r])
+    st.nfev[r] += 1
+    if code != rules.OK:
+        _fail(st, err, r, code)
+        return
+    code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, err.ints[r], err.floats[r])
+    st.njev[r] += 1
+    trf.init_row(st, r)
+    if code != rules.OK:
+        _fail(st, err, r, code)
+        return
+    f_new = np.zeros(m)
+    while True:
+        flag = trf.propose(st, r, gtol, max_nfev)
+        if flag == trf.STOPPED:
+            return
+        if flag != trf.PROPOSED:
+            _fail(st, err, r, rules.E_DEGENERATE if flag == trf.DEGENERATE else rules.E_BAD_JACOBIAN)
+            return
+        f_new[:] = 0.0
+        code = evaluate_row(sp_, r, st.x_new[r], f_new, lam, Phi, pairs, pmac, err.ints[r], err.floats[r],
+                            err.modes[r])
+        st.nfev[r] += 1
+        if code != rules.OK:
+            _fail(st, err, r, code)
+            return
+        accepted, ended = trf.judge(st, r, f_new, ftol, xtol, max_nfev)
+        if accepted:
+            st.J[r] = 0.0
+            code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, err.ints[r], err.floats[r])
+            trf.accept(st, r)
+            if code != rules.OK:
+                _fail(st, err, r, code)
+                return
+
+
+@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
+def solve_rows(sp_, st, rows, gtol, ftol, xtol, max_nfev, err):
+    """Run each of ``rows`` to the end (rows in parallel over the cores)."""
+    for i in prange(rows.size):
+        _run_row(sp_, st, rows[i], gtol, ftol, xtol, max_nfev, err)
+
+
+@jit
+def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err, with_jacobian):
+    """Residuals F (S, m), eigenvalues LAM (S, n), pairs and their MAC (S, T) and, when
+    ``with_jacobian``, Jacobians J (S, m, L) of ``rows`` at X (S, L), one after the other;
+    ``err`` per row of X."""
+    n = sp_.K_const.shape[0]
+    for i in range(rows.size):
+        Phi = np.zeros((n, n))
+        code = evaluate_row(sp_, rows[i], X[i], F[i], LAM[i], Phi, PAIRS[i], PMAC[i], err.ints[i], err.floats[i],
+                            err.modes[i])
+        if code == rules.OK and with_jacobian:
+            code = jacobian_row(sp_, rows[i], X[i], J[i], LAM[i], Phi, PAIRS[i], err.ints[i], err.floats[i])
+        err.code[i] = code
+
+
+__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows"]

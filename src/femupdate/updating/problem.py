@@ -1,0 +1,380 @@
+r"""The modal updating problem: what is updated, against which data, by which rules.
+
+A :class:`Problem` owns everything that defines the problem — the updated parameters and their
+parametrisation, the measured eigenvalues and scaled shapes with their weights, the pairing
+threshold, the number of model modes to pair among — and evaluates its residuals and exact
+Jacobian at one point by the rules of :mod:`femupdate.rules` (paper eqs. 16–21; the residual
+vector stacks, per test mode, its relative eigenvalue error and its scaled shape differences).
+The drivers consume it: :func:`~femupdate.updating.solve` (one local solve),
+:func:`~femupdate.updating.multistart` and the compiled batched route
+(:mod:`femupdate.updating.batched`, which compiles the same rules and reads the same
+:class:`Targets`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from .. import rules
+from .._errors import InputError, NumericalError
+from ..modal import Modes, model_modes
+from ..sensitivity import eigenvalue_derivatives
+from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
+from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
+from ..sensitivity.subspace import buffered_modes
+from ..testdata import TestData
+
+PARAMETRISATIONS = tuple(rules.PARAMETRISATIONS)  #: ``("relative", "log", "absolute")``
+SHAPE_SCALINGS = tuple(rules.SCALINGS)  #: ``("unit", "ref", "max")``
+SENSITIVITY_CHOICES = SENSITIVITY_METHODS  #: ``"auto"``, ``"nelson"``, ``"modal"``, ... (the Jacobian's route)
+
+
+class Parametrisation:
+    """The optimiser's variables x and the full parameter vector p.
+
+    Parameters
+    ----------
+    model : Model
+    names : the updated parameters, in the order of x.
+    kind : ``"relative"`` (x = p / |p_start|, the default of every driver), ``"log"`` (x = ln p)
+        or ``"absolute"`` (x = p).
+    p_base : (n_parameters,) full parameter vector: the starting values of ``names`` and the
+        values of every other parameter, which stay fixed.
+    """
+
+    def __init__(self, model, names: Sequence[str], kind: str, p_base: np.ndarray):
+        if kind not in rules.PARAMETRISATIONS:
+            raise InputError(f"unknown parametrisation {kind!r}: use {', '.join(PARAMETRISATIONS)}")
+        self.idx = np.array([model.parameter_index(n) for n in names], dtype=np.intp)
+        self.names = tuple(names)
+        self.param = kind
+        self.code = rules.PARAMETRISATIONS[kind]
+        self.p_base = np.asarray(p_base, float)
+        start = self.p_base[self.idx]
+        self.scale = np.where(start != 0, np.abs(start), 1.0)
+
+    def to_p(self, x: np.ndarray) -> np.ndarray:
+        """Full parameter vector (n_parameters,) at the variables x (L,)."""
+        p = self.p_base.copy()
+        p[self.idx] = rules.to_p(self.code, np.asarray(x, float), self.scale)
+        return p
+
+    def dp_dx(self, x: np.ndarray) -> np.ndarray:
+        """∂p/∂x (L,) of the updated parameters."""
+        return rules.dp_dx(self.code, np.asarray(x, float), self.scale)
+
+    def from_p(self, p_sel) -> np.ndarray:
+        """The variables x (L,) of the updated parameters' values ``p_sel``."""
+        p_sel = np.asarray(p_sel, float)
+        if self.param == "relative":
+            return p_sel / self.scale
+        if self.param == "log":
+            if np.any(p_sel <= 0):
+                raise InputError("log parametrisation needs positive parameter values and bounds")
+            return np.log(p_sel)
+        return p_sel.copy()
+
+    def bounds_x(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of x from the updated parameters' bounds ``lo``, ``hi`` (L,)."""
+        if self.param == "log":
+            with np.errstate(divide="ignore"):
+                return np.log(np.maximum(lo, 0)), np.log(hi)
+        xl, xh = self.from_p(lo), self.from_p(hi)
+        return np.minimum(xl, xh), np.maximum(xl, xh)
+
+
+class Targets(NamedTuple):
+    """The measured data of a modal updating problem in flat arrays — the one layout that every
+    route reads (the compiled kernels too).
+
+    ``lam_e`` (T,) measured eigenvalues (rad²/s²); ``w_lam`` (T,) their weights; test mode k's
+    measured dofs are ``pos[pptr[k]:pptr[k + 1]]`` (model dof indices; none: frequency only)
+    with the scaled test shape ``psi_e`` at the same positions; ``ref`` (T,) the position of the
+    reference dof within the mode's measured dofs for ``"ref"`` scaling (−1: none); ``nm`` the
+    number of lowest model modes the test modes are paired among.
+    """
+
+    lam_e: np.ndarray
+    w_lam: np.ndarray
+    pptr: np.ndarray
+    pos: np.ndarray
+    psi_e: np.ndarray
+    ref: np.ndarray
+    nm: int
+
+    @property
+    def n_test(self) -> int:
+        return int(self.lam_e.size)
+
+    @property
+    def shaped(self) -> np.ndarray:
+        """(T,) bool: test modes compared by shape."""
+        return np.diff(self.pptr) > 0
+
+    def measured(self, k: int) -> slice:
+        """Positions of test mode k's measured dofs in ``pos`` and ``psi_e``."""
+        return slice(int(self.pptr[k]), int(self.pptr[k + 1]))
+
+    @property
+    def n_residuals(self) -> int:
+        ns = np.diff(self.pptr)
+        return int(self.n_test + np.sum(ns) - np.sum((self.ref >= 0) & (ns > 0)))
+
+    @property
+    def n_independent(self) -> int:
+        """Independent data: each mode's eigenvalue plus n_s − 1 shape entries (the scaling
+        removes one)."""
+        ns = np.diff(self.pptr)
+        return int(self.n_test + np.sum(np.maximum(ns - 1, 0)))
+
+
+def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
+    """User weights of the modal residuals divided by the measurement standard deviations where
+    given: ``(weights, sigma)`` with ``sigma`` the checked ``measurement_std`` (or None).
+
+    ``weights`` / ``measurement_std``: ``{"eigenvalue": scalar or per-test-mode array, "shape":
+    scalar}``; the eigenvalue's standard deviation is relative (of λ), the shape's absolute (of
+    the scaled shape entries).
+    """
+    w = dict(weights or {})
+    unknown = sorted(set(w) - {"eigenvalue", "shape"})
+    if unknown:
+        raise InputError(f"unknown weight(s) {', '.join(unknown)}: use eigenvalue, shape")
+    sigma = None
+    if measurement_std:
+        sigma = dict(measurement_std)
+        for key in ("eigenvalue", "shape"):
+            if key in sigma:
+                if not np.all(np.asarray(sigma[key], float) > 0):
+                    raise InputError(f"measurement_std[{key!r}] must be positive")
+                w[key] = np.asarray(w.get(key, 1.0), float) / np.asarray(sigma[key], float)
+    return w, sigma
+
+
+def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None, w_eigenvalue, use_shapes: bool,
+                  n_modes: int | None) -> Targets:
+    """The :class:`Targets` of ``data`` for ``model``: test shapes scaled as the residuals
+    compare them (complex shapes rotated to their largest entry and made real)."""
+    if not data.modes:
+        raise InputError("iterative modal updating needs measured modes (frequencies and optionally shapes)")
+    lam_e = np.asarray(data.eigenvalues, float)
+    if np.any(lam_e <= 0):
+        bad = [k + 1 for k in np.flatnonzero(lam_e <= 0)]
+        raise InputError(f"test mode(s) {bad} have zero frequency: rigid-body modes cannot be used as updating targets")
+    w_lam = np.broadcast_to(np.asarray(w_eigenvalue, float), lam_e.shape).copy()
+    code = rules.SCALINGS[shape_scaling]
+    pptr, pos, psi, ref = [0], [], [], []
+    for k, m in enumerate(data.modes):
+        r = -1
+        if use_shapes and m.has_shape and len(m.dofs) >= 2:
+            at = model.dof_index(m.dofs, f"test mode {k + 1} shape")
+            phi = m.shape
+            if np.iscomplexobj(phi):
+                phi = np.real(phi * np.exp(-1j * np.angle(phi[np.argmax(np.abs(phi))])))
+            phi = np.asarray(phi, float)
+            if shape_scaling == "ref":
+                label = ref_dof or m.dofs[0]
+                if label not in m.dofs:
+                    raise InputError(f"test mode {k + 1}: reference dof {label} is not measured")
+                r = list(m.dofs).index(label)
+            s, kk, node = rules.shape_scale(code, phi, r)
+            if node:
+                raise NumericalError(rules.message(rules.E_NODE, kk))
+            pos.extend(int(i) for i in at)
+            psi.extend(phi / s)
+        ref.append(r)
+        pptr.append(len(pos))
+    nm = min(model.n_dofs, n_modes or buffered_modes(lam_e.size))
+    return Targets(lam_e, w_lam, np.array(pptr, np.int64), np.array(pos, np.int64), np.array(psi, float),
+                   np.array(ref, np.int64), int(nm))
+
+
+class Problem(Parametrisation):
+    """The modal updating problem of ``model`` against the measured modes of ``data``.
+
+    Parameters
+    ----------
+    model : Model
+    data : TestData
+        Measured modes; a shape may be partial (any subset of the model's dofs, any scaling).
+    params : names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : starting values ``{name: value}`` (default: the model's nominal values).
+    values : values of the parameters that are not updated (default: nominal).
+    shape_scaling : ``"unit"`` (unit length over the measured dofs, default), ``"ref"`` (1 at
+        ``ref_dof``, default the first measured dof of each mode: the paper's eq. 33) or
+        ``"max"`` (1 at the largest entry).
+    weights, measurement_std : see :func:`modal_weights`.
+    min_mac : pairing threshold; a test mode with a shape must reach it with its model mode.
+    n_modes : model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
+    parametrisation : ``"relative"`` | ``"log"`` | ``"absolute"`` (see :class:`Parametrisation`).
+    use_shapes : False: frequencies only.
+    sensitivity : the derivative route of the local Jacobian
+        (:func:`femupdate.sensitivity.jacobian`; the compiled route always uses the exact
+        complete modal method).
+
+    Attributes
+    ----------
+    targets : Targets
+    n_residuals : int
+    swaps : list of dict — mode swaps seen while evaluating (``evaluation``, ``test_mode``,
+        ``from_model_mode``, ``to_model_mode``).
+    """
+
+    def __init__(self, model, data: TestData, params: Sequence[str] | None = None, *,
+                 x0: Mapping[str, float] | None = None, values=None, shape_scaling: str = "unit",
+                 ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
+                 min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
+                 use_shapes: bool = True, sensitivity: str = "auto"):
+        if shape_scaling not in rules.SCALINGS:
+            raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
+        if sensitivity not in SENSITIVITY_CHOICES:
+            raise InputError(f"unknown sensitivity method {sensitivity!r}: use {', '.join(SENSITIVITY_CHOICES)}")
+        try:
+            min_mac = float(min_mac)
+        except (TypeError, ValueError):
+            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
+        if not 0.0 <= min_mac <= 1.0:
+            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
+        names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+        if not names:
+            raise InputError("no parameters to update: every parameter is fixed")
+        p_base = model.resolve(values)
+        for name, v in dict(x0 or {}).items():
+            p_base[model.parameter_index(name)] = float(v)
+        super().__init__(model, names, parametrisation, p_base)
+        w, self.sigma = modal_weights(weights, measurement_std)
+        self.model = model
+        self.data = data
+        self.scaling = shape_scaling
+        self.scaling_code = rules.SCALINGS[shape_scaling]
+        self.min_mac = float(min_mac)
+        self.w_shape = float(w.get("shape", 1.0))
+        self.sensitivity = sensitivity
+        self.sensitivity_used = sensitivity
+        self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0), use_shapes,
+                                     n_modes)
+        self.n_modes = self.targets.nm
+        self.n_residuals = self.targets.n_residuals
+        tg = self.targets
+        self.any_shape = bool(tg.shaped.any())
+        self.sensors = np.unique(tg.pos) if tg.pos.size else np.zeros(0, np.int64)  # where shape derivatives are needed
+        self._cache_key: bytes | None = None
+        self._cache: tuple = ()
+        self._pairs_seen: dict[int, int] = {}
+        self.swaps: list[dict] = []
+        self.nfev = 0
+
+    # ------------------------------------------------------------------ conveniences
+    @property
+    def start(self) -> np.ndarray:
+        """Starting values of the updated parameters (L,)."""
+        return self.p_base[self.idx].copy()
+
+    @property
+    def x_start(self) -> np.ndarray:
+        return self.from_p(self.start)
+
+    def n_shape_entries(self, k: int) -> int:
+        return int(self.targets.pptr[k + 1] - self.targets.pptr[k])
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
+        """Parameters, model modes and pairs ``[(test mode, model mode, MAC)]`` at x (cached)."""
+        x = np.asarray(x, float)
+        key = x.tobytes()
+        if key == self._cache_key:
+            return self._cache
+        p = self.to_p(x)
+        modes = model_modes(self.model, p, n_modes=self.n_modes)
+        pairs = self._pair(modes)
+        self._cache_key, self._cache = key, (p, modes, pairs)
+        return self._cache
+
+    def _pair(self, modes: Modes) -> list[tuple[int, int, float]]:
+        tg = self.targets
+        T, nm = tg.n_test, min(tg.nm, modes.n_modes)
+        shaped = tg.shaped
+        MAC = np.zeros((T, max(nm, 1)))
+        for k in np.flatnonzero(shaped):
+            sl = tg.measured(k)
+            MAC[k, :nm] = rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm])
+        pairs = np.zeros(T, np.int64)
+        bad = np.zeros(T, np.bool_)
+        code, i = rules.pair_by_mac(MAC, shaped, nm, self.min_mac, pairs, bad)
+        if code != rules.OK:
+            raise NumericalError(rules.message(code, i, modes=np.flatnonzero(bad), min_mac=self.min_mac))
+        out = [(k, int(pairs[k]), float(MAC[k, pairs[k]]) if shaped[k] else math.nan) for k in range(T)]
+        for k, j, _ in out:
+            if k in self._pairs_seen and self._pairs_seen[k] != j:
+                self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
+                                   "to_model_mode": j})
+            self._pairs_seen[k] = j
+        return out
+
+    def residuals(self, x) -> np.ndarray:
+        """The residual vector (m,) at x: per test mode its eigenvalue residual, then its shape
+        residuals (:mod:`femupdate.rules`)."""
+        self.nfev += 1
+        p, modes, pairs = self.evaluate(x)
+        tg = self.targets
+        r = np.zeros(self.n_residuals)
+        row = 0
+        for k, j, _ in pairs:
+            r[row] = rules.eigenvalue_residual(modes.eigenvalues[j], tg.lam_e[k], tg.w_lam[k])
+            row += 1
+            sl = tg.measured(k)
+            if sl.stop > sl.start:
+                n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
+                node = rules.shape_residuals(self.scaling_code, modes.shapes[tg.pos[sl], j], tg.psi_e[sl], tg.ref[k],
+                                             self.w_shape, r[row:row + n])
+                if node >= 0:
+                    raise NumericalError(rules.message(rules.E_NODE, node))
+                row += n
+        if not np.all(np.isfinite(r)):
+            raise NumericalError(rules.message(rules.E_NONFINITE))
+        return r
+
+    def jacobian(self, x) -> np.ndarray:
+        """The exact Jacobian ∂r/∂x (m, L) at x, the derivatives by the route ``sensitivity``."""
+        p, modes, pairs = self.evaluate(x)
+        tg = self.targets
+        which = [j for _, j, _ in pairs]
+        if self.any_shape:
+            # mass-normalised derivatives at the measured dofs only, by the route asked for
+            sens = sensitivity_jacobian(self.model, modes, which, self.sensors, params=self.idx, values=p,
+                                        method=self.sensitivity, shape_scaling="mass", relative_eigenvalues=False)
+            dlam, dphi = sens.dlam, sens.dpsi
+            self.sensitivity_used = sens.method
+        else:
+            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx), None
+            self.sensitivity_used = "fox-kapoor"
+        dpdx = self.dp_dx(x)
+        J = np.zeros((self.n_residuals, self.idx.size))
+        row = 0
+        for c, (k, j, _) in enumerate(pairs):
+            rules.eigenvalue_gradient(dlam[c], tg.lam_e[k], tg.w_lam[k], dpdx, J[row])
+            row += 1
+            sl = tg.measured(k)
+            if sl.stop > sl.start:
+                n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
+                at = np.searchsorted(self.sensors, tg.pos[sl])
+                rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl],
+                                     tg.ref[k], self.w_shape, dpdx, J[row:row + n])
+                row += n
+        return J
+
+    def mac_of_pair(self, modes: Modes, k: int, j: int) -> float:
+        """MAC of test mode k with model mode j (NaN for a test mode without shape)."""
+        tg = self.targets
+        sl = tg.measured(k)
+        if sl.stop == sl.start:
+            return math.nan
+        return float(rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], j:j + 1])[0])
+
+
+__all__ = ["Problem", "Parametrisation", "Targets", "modal_weights", "build_targets", "PARAMETRISATIONS",
+           "SHAPE_SCALINGS", "SENSITIVITY_CHOICES"]

@@ -1,0 +1,146 @@
+"""Result objects of the updating drivers: short to print, complete to inspect."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnostics:
+    """Identifiability at the solution.
+
+    Attributes
+    ----------
+    singular_values : (L,) of the normalised sensitivity matrix S = ∂r/∂(p/|p|) (columns scaled
+        by the parameter values, so units do not matter).
+    condition_number : σ_max / σ_min of S (inf when rank-deficient or with fewer data than
+        parameters).
+    rank : numerical rank of S (singular values above 1e-6 σ_max).
+    poorly_determined : parameters dominating the right singular vectors of the singular values
+        below 1e-6 σ_max (the combinations the data cannot determine).
+    covariance : (L, L) in parameter units — from the stated measurement standard deviations
+        when given, else from the residual variance; NaN when not estimable.
+    std : (L,) standard deviations, the square roots of the covariance's diagonal.
+    n_residuals, n_parameters : m and L.
+    """
+
+    singular_values: np.ndarray
+    condition_number: float
+    rank: int
+    poorly_determined: list[str]
+    covariance: np.ndarray
+    std: np.ndarray
+    n_residuals: int
+    n_parameters: int
+
+    def __repr__(self) -> str:
+        poor = f", poorly determined: {', '.join(self.poorly_determined)}" if self.poorly_determined else ""
+        return (f"Diagnostics(rank {self.rank}/{self.n_parameters}, condition {self.condition_number:.3g}, "
+                f"{self.n_residuals} residuals{poor})")
+
+
+@dataclass(frozen=True, eq=False)
+class UpdateResult:
+    """Result of :func:`femupdate.update`, in the spirit of :class:`scipy.optimize.OptimizeResult`.
+
+    Attributes
+    ----------
+    parameters : every model parameter's value {name: value} at the solution (physical units).
+    names : the updated parameters; ``x`` (L,) their values, in that order.
+    success, status, message : convergence as :func:`scipy.optimize.least_squares` reports it
+        (status 1 gtol, 2 ftol, 3 xtol, 4 ftol and xtol, 0 evaluations exhausted).
+    cost : ½‖r‖² at the solution; ``fun`` (m,) the residuals r (dimensionless: relative
+        eigenvalue errors and scaled shape differences, times their weights).
+    jac : (m, L) ∂r/∂x, the Jacobian in the optimiser's variables x — with the default
+        ``"relative"`` parametrisation x = p / |p_start|, so column j is the change of the
+        residuals per unit relative change of parameter j (∂r/∂p_j · |p_start,j|); with ``"log"``
+        per unit change of ln p_j; with ``"absolute"`` per unit of p_j.
+    nfev, njev, iterations : counts of the solver.
+    history : per iteration {``iteration``, ``cost``, ``parameters`` {name: value}}.
+    pairs : [(test mode, model mode, MAC)] at the solution (0-based; MAC NaN without shape).
+    test_frequencies_hz, model_frequencies_hz : of the pairs, in test-mode order.
+    swaps : mode swaps seen during the iteration.
+    diagnostics : :class:`Diagnostics` at the solution.
+    regularization : {``rule``, ``alpha``} when Tikhonov regularisation was used.
+    start : the starting values {name: value}.
+    sensitivity : the derivative route used at the solution.
+    """
+
+    parameters: dict[str, float]
+    names: tuple[str, ...]
+    x: np.ndarray
+    success: bool
+    status: int
+    message: str
+    cost: float
+    fun: np.ndarray
+    jac: np.ndarray
+    nfev: int
+    njev: int
+    iterations: int
+    history: list[dict]
+    pairs: list[tuple[int, int, float]]
+    test_frequencies_hz: np.ndarray
+    model_frequencies_hz: np.ndarray
+    swaps: list[dict]
+    diagnostics: Diagnostics | None
+    regularization: dict = field(default_factory=dict)
+    start: dict[str, float] = field(default_factory=dict)
+    sensitivity: str = ""  # the derivative route used at the solution (``"auto"`` resolved)
+
+    def __repr__(self) -> str:
+        values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
+        state = "converged" if self.success else "NOT converged"
+        return (f"{type(self).__name__}({state}, cost {self.cost:.4g}, {self.iterations} iterations, "
+                f"{len(self.pairs)} pairs: {values})")
+
+    def summary(self) -> str:
+        """A few lines for a terminal or a log: convergence, parameters with their change and
+        standard deviation, the paired modes."""
+        d = self.diagnostics
+        lines = [f"{'converged' if self.success else 'NOT converged'}: {self.message}",
+                 f"cost {self.cost:.6g} after {self.iterations} iterations ({self.nfev} evaluations)"]
+        lines.append(f"{'parameter':<16}{'start':>14}{'updated':>14}{'change':>10}{'std':>12}")
+        for j, (n, v) in enumerate(zip(self.names, self.x)):
+            s0 = self.start.get(n, math.nan)
+            ch = (v / s0 - 1) * 100 if s0 else math.nan
+            sd = d.std[j] if d is not None and j < d.std.size else math.nan
+            lines.append(f"{n:<16}{s0:>14.6g}{v:>14.6g}{ch:>9.2f}%{sd:>12.3g}")
+        lines.append(f"{'test':>5}{'model':>7}{'f test [Hz]':>14}{'f model [Hz]':>14}{'error':>9}{'MAC':>7}")
+        for (k, j, m), ft, fa in zip(self.pairs, self.test_frequencies_hz, self.model_frequencies_hz):
+            err = (fa - ft) / ft * 100 if ft else math.nan
+            lines.append(f"{k + 1:>5}{j + 1:>7}{ft:>14.6g}{fa:>14.6g}{err:>8.3f}%{m:>7.3f}")
+        if d is not None:
+            lines.append(repr(d))
+        if self.swaps:
+            lines.append(f"{len(self.swaps)} mode swap(s) during the iteration")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    parameters: dict[str, float]
+    cost: float
+    count: int
+    starts: list[int]
+
+
+@dataclass(frozen=True, eq=False)
+class MultiStartResult:
+    """``best`` (lowest-cost converged run), ``solutions`` (clusters, most frequent first),
+    ``runs`` (every start's result or error message), ``starts`` (the drawn starting values)."""
+
+    best: UpdateResult | None
+    solutions: list[Solution]
+    runs: list
+    starts: np.ndarray
+    names: tuple[str, ...]
+    total: int
+    converged: int
+    seed: int | None
+
+
+__all__ = ["Diagnostics", "UpdateResult", "Solution", "MultiStartResult"]

@@ -1,0 +1,220 @@
+r"""Local solution of an updating problem, and :func:`update`, the modal updating verb.
+
+:func:`solve` minimises any problem that offers ``residuals(x)``, ``jacobian(x)`` and the maps of
+:class:`~femupdate.updating.problem.Parametrisation` (modal, FRF, multi-configuration) with
+SciPy's least squares — the Gauss–Newton iteration of the reference paper's eq. 20 made robust
+(trust-region reflective by default, dogbox, Levenberg–Marquardt) — with bounds, optional Tikhonov
+regularisation and the iteration history.  :func:`diagnostics` gives the identifiability figures
+at the solution.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .._errors import InputError, NumericalError
+from ..testdata import TestData
+from .problem import Problem
+from .results import Diagnostics, UpdateResult
+
+log = logging.getLogger(__name__)
+
+
+def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
+    """Identifiability figures (:class:`Diagnostics`) of ``prob`` at x from its residuals r (m,)
+    and Jacobian J (m, L); ``sigma``: the measurement standard deviations when the residuals are
+    already divided by them (the covariance is then absolute), else None."""
+    p = prob.to_p(x)[prob.idx]
+    dxdp = 1.0 / prob.dp_dx(x)
+    Jp = J * dxdp[None, :]  # ∂r/∂p
+    S = Jp * np.where(p != 0, np.abs(p), 1.0)[None, :]  # ∂r/∂(p/|p|): normalised sensitivity
+    s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
+    m, L = J.shape
+    U, sv, Vt = np.linalg.svd(S, full_matrices=True) if S.size else (None, s, np.eye(L))
+    tol = 1e-6 * (sv[0] if sv.size else 0)
+    rank = int(np.sum(sv > tol))
+    poor: set[str] = set()
+    for k in range(rank, L):
+        v = Vt[k]
+        for j in np.flatnonzero(np.abs(v) >= 0.3 * np.abs(v).max()):
+            poor.add(prob.names[j])
+    cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and L <= m else math.inf
+    cov = np.full((L, L), np.nan)
+    if rank == L and m > 0:
+        JtJ_inv = np.linalg.pinv(Jp.T @ Jp)
+        if sigma is not None:
+            cov = JtJ_inv  # residuals already divided by their standard deviations
+        elif m > L:
+            cov = JtJ_inv * float(r @ r) / (m - L)
+    std = np.sqrt(np.clip(np.diag(cov), 0, None)) if np.all(np.isfinite(cov)) else np.full(L, np.nan)
+    return Diagnostics(s, cond, rank, sorted(poor), cov, std, m, L)
+
+
+def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,
+           max_nfev: int):
+    """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base``.
+
+    Shared by every iterative updating problem (modal, FRF): the parameters' ``bounds`` (the
+    model's full ``(lo, hi)``) mapped to the optimiser's variables, Tikhonov augmentation
+    α (x − x_start) with α fixed or chosen by ``"gcv"`` / ``"lcurve"`` at the start, and the
+    iteration history.  ``prob`` provides ``residuals(x)``, ``jacobian(x)`` and the
+    :class:`_Parametrised` maps.  Returns ``(sol, history, regularization)``.
+    """
+    names = prob.names
+    parametrisation = prob.param
+    lo, hi = bounds
+    lo, hi = lo[prob.idx], hi[prob.idx]
+    p_start = prob.p_base[prob.idx]
+    outside = [n for n, v, a, b in zip(names, p_start, lo, hi) if not a <= v <= b]
+    if outside:
+        raise InputError(f"starting value(s) outside the bounds for: {', '.join(outside)}")
+    if parametrisation == "log" and (np.any(p_start <= 0) or np.any(lo < 0)):
+        raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
+    x_start = prob.from_p(p_start)
+    with np.errstate(divide="ignore"):
+        xl, xh = prob.from_p(lo) if parametrisation != "log" else np.log(np.maximum(lo, 0)), prob.from_p(hi) if parametrisation != "log" else np.log(hi)
+    if parametrisation == "relative" and np.any(p_start < 0):
+        xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
+    history: list[dict] = []
+
+    # regularisation
+    reg: dict = {}
+    alpha = 0.0
+    if regularization is not None:
+        if isinstance(regularization, str):
+            from ..regularization import choose_alpha
+
+            J0 = prob.jacobian(x_start)
+            r0 = prob.residuals(x_start)
+            choice = choose_alpha(J0, r0, rule=regularization)
+            alpha = float(choice.alpha)
+            reg = {"rule": regularization, "alpha": alpha}
+        else:
+            alpha = float(regularization)
+            if not alpha >= 0:
+                raise InputError("the regularization factor must be >= 0")
+            reg = {"rule": "fixed", "alpha": alpha}
+
+    def fun(x):
+        r = prob.residuals(x)
+        return np.concatenate([r, alpha * (x - x_start)]) if alpha else r
+
+    def jac(x):
+        J = prob.jacobian(x)
+        return np.vstack([J, alpha * np.eye(x.size)]) if alpha else J
+
+    def callback(intermediate_result):
+        xi = intermediate_result.x
+        history.append({"iteration": len(history), "cost": float(intermediate_result.cost),
+                        "parameters": dict(zip(names, map(float, prob.to_p(xi)[prob.idx])))})
+
+    bounds = (-np.inf, np.inf) if method == "lm" else (xl, xh)
+    if method == "lm" and (np.any(np.isfinite(lo)) or np.any(np.isfinite(hi))):
+        log.info("Levenberg-Marquardt ignores the parameter bounds")
+    history.append({"iteration": 0, "cost": 0.5 * float(np.sum(fun(x_start) ** 2)),
+                    "parameters": dict(zip(names, map(float, p_start)))})
+    try:
+        sol = least_squares(fun, x_start, jac=jac, bounds=bounds, method=method, x_scale="jac" if method != "lm" else 1.0,
+                            ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev, callback=callback if method != "lm" else None)
+    except NumericalError:
+        raise
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise NumericalError(f"the least-squares solver failed: {exc}") from None
+    return sol, history, reg
+
+
+def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
+           shape_scaling: str = "unit", ref_dof: str | None = None, weights: Mapping | None = None,
+           measurement_std: Mapping | None = None, min_mac: float = 0.5, n_modes: int | None = None,
+           parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
+           ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
+           regularization: float | str | None = None, values=None, sensitivity: str = "auto") -> UpdateResult:
+    """Update the model's parameters so that its modes match the measured ones.
+
+    Parameters
+    ----------
+    model : Model
+    data : TestData
+        Measured modes; shapes may be partial (any subset of model dofs, any scaling).
+    params : names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : starting values {name: value} (default: the model's nominal values).
+    shape_scaling : ``"unit"`` | ``"ref"`` | ``"max"``; ``ref_dof`` for ``"ref"`` (default: the
+        first measured dof of each mode, the paper's eq. 33 convention).
+    weights : {"eigenvalue": w or per-mode array, "shape": w}.
+    measurement_std : {"eigenvalue": relative std of λ, "shape": std of scaled shape entries};
+        when given the residuals are divided by them (weights = 1/std) and the covariance is
+        absolute, not scaled by the residual.
+    min_mac : pairing threshold.
+    parametrisation : ``"relative"`` (x = p / p_start, default), ``"log"`` (x = log p) or ``"absolute"``.
+    method : ``"trf"`` | ``"dogbox"`` | ``"lm"`` (Levenberg–Marquardt; no bounds).
+    sensitivity : derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`):
+        ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint series when there are fewer
+        measured dofs than parameters, else the subspace series), ``"nelson"``, ``"modal"``,
+        ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
+    regularization : None, a Tikhonov factor α, or ``"gcv"`` / ``"lcurve"`` to choose it at the
+        start; the residual is augmented with α (x − x_start), pulling the scaled parameters
+        toward the starting model.
+    values : values of the fixed parameters (default nominal).
+
+    Returns
+    -------
+    UpdateResult
+        ``success``/``status``/``message`` report convergence (non-convergence is a status,
+        not an exception); ``diagnostics`` holds the identifiability figures.
+    """
+    if method not in ("trf", "dogbox", "lm"):
+        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
+    prob = Problem(model, data, params, x0=x0, values=values, shape_scaling=shape_scaling, ref_dof=ref_dof,
+                   weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
+                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity)
+    return solve_problem(prob, method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol,
+                         regularization=regularization)
+
+
+def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
+                  xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None) -> UpdateResult:
+    """Solve the modal updating problem ``prob`` from its starting point (:func:`update` on a
+    :class:`Problem` already built); options as :func:`update`."""
+    model, names = prob.model, prob.names
+    n_data = prob.targets.n_independent
+    if n_data < len(names) and regularization is None:
+        raise InputError(
+            f"{len(names)} parameters but only {n_data} independent data (eigenvalues and scaled shape entries): "
+            "the problem is underdetermined; add data, fix parameters, or use regularization (e.g. --regularization gcv)"
+        )
+    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                              xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+    return result_at(prob, sol.x, sol, history, reg)
+
+
+def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResult:
+    """The :class:`UpdateResult` of ``prob`` at the variables x: residuals, Jacobian, pairs and
+    diagnostics there; ``sol`` (a SciPy ``OptimizeResult`` or an object with its fields) gives
+    the convergence figures (none: a plain evaluation, 0 iterations)."""
+    p_final = prob.to_p(x)
+    _, modes, pairs = prob.evaluate(x)
+    r = prob.residuals(x)
+    J = prob.jacobian(x)
+    history = history if history is not None else []
+    status = int(sol.status) if sol is not None else 0
+    njev = int(sol.njev or 0) if sol is not None else 0
+    return UpdateResult(
+        parameters=dict(zip(prob.model.parameter_names, map(float, p_final))),
+        names=tuple(prob.names), x=p_final[prob.idx], success=bool(sol.success) if sol is not None else False,
+        status=status, message=str(sol.message) if sol is not None else "evaluated, not solved",
+        cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=njev,
+        iterations=max(len(history) - 1, njev), history=history,
+        pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
+        test_frequencies_hz=prob.data.frequencies_hz,
+        model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
+        swaps=list(prob.swaps), diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
+        start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
+    )
+
+
+__all__ = ["update", "solve", "solve_problem", "result_at", "diagnostics"]
