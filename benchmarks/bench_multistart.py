@@ -11,10 +11,10 @@ with one stiffness parameter per storey, true stiffnesses decreasing with height
 (``k_r = 2e7 (1 - 0.4 (r - 1)/(N - 1))`` N/m, floor masses 1e4 kg), bounds ±50 % around the
 truth; noise-free "measured" modes: the lowest ``n_modes`` (6, 8, 10 for N = 10, 20, 30) at a
 sensor on every other floor (floors 2, 4, ..., N).  The same ``--starts`` random starts
-(:func:`femupdate.multistart.draw_starts`, one seed) are used by every route:
+(:func:`femupdate.updating.draw_starts`, one seed) are used by every route:
 
-(f) ``femupdate.multistart.multistart(..., batched=True)`` — all starts advanced at once
-    (:mod:`femupdate.batch`), including clustering and the one polishing ``update()`` of the best;
+(f) ``femupdate.multistart(..., batched=True)`` — all starts advanced at once
+    (:mod:`femupdate.updating.batched`), including clustering and the one polishing ``update()`` of the best;
 (a) the baseline: a plain Python loop of ``scipy.optimize.least_squares`` (trf, the same bounds,
     tolerances 1e-10, ``max_nfev=200``, ``x_scale="jac"``) with ``jac="2-point"`` on a residual
     function written here with NumPy and ``scipy.linalg.eigh`` — the same residual definition as
@@ -81,7 +81,7 @@ if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out so
 import femupdate  # noqa: E402
 from femupdate import MeasuredMode, TestData, model_modes  # noqa: E402
 from femupdate.generators import shear_building  # noqa: E402
-from femupdate.multistart import draw_starts, multistart  # noqa: E402
+from femupdate.updating import draw_starts, multistart  # noqa: E402
 
 N_MODES = {10: 6, 20: 8, 30: 10}
 TRUTH_RTOL = 1e-6  # a start "reaches the truth" when every parameter is within this (relative)

@@ -13,12 +13,12 @@ n, m = 1..6, ``--starts`` random starts per case (one seeded draw, the same for 
 noise-free data.  Routes, on the same starts:
 
 (f) ``run_study`` in this process: every case and start in ONE batch
-    (:class:`femupdate.uniqueness.problem.StudyProblem` + ``femupdate.batch.least_squares_batch``),
+    (:func:`femupdate.uniqueness.problem.study_problem`, every row run in compiled code),
     clustering and the condition numbers at the truth included;
 (d) optionally (``--dask-workers W``) the same study split into W work units on a local Dask
     cluster of W worker processes, timed once the cluster is up (its start-up time is reported
     separately);
-(a) the baseline: a plain Python loop of ``femupdate.updating.update`` — one
+(a) the baseline: a plain Python loop of ``femupdate.update`` — one
     ``scipy.optimize.least_squares`` (trf, exact Nelson Jacobian, tolerances 1e-10,
     ``max_nfev=200``) per start and case — summarised by the same clustering.
 
@@ -72,7 +72,7 @@ HERE = Path(__file__).resolve().parent
 if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out source tree
     sys.path.insert(0, str(HERE.parent / "src"))
 import femupdate  # noqa: E402
-from femupdate.batch import FAILED  # noqa: E402
+from femupdate.updating.batched import FAILED  # noqa: E402
 from femupdate.paper.uniqueness_sections import six_dof_model  # noqa: E402
 from femupdate.uniqueness.study import (define_study, nested_dof_sets, reference_unit, run_study,  # noqa: E402
                                         summarise)

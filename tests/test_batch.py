@@ -1,8 +1,9 @@
-"""Batched multi-start updating (femupdate.batch): same answers as the per-start path.
+"""The compiled batched route (femupdate.updating.batched): same answers as the local route.
 
-Two routes to one answer throughout: the batched path against ``update()`` per start (same
-clusters, same counts), batched residuals/Jacobians against ``_Problem``, and the vectorised
-trust-region-reflective solver against ``scipy.optimize.least_squares`` itself.
+Two routes to one answer throughout: the batched route against ``update()`` per start (same
+clusters, same counts), the compiled residuals and Jacobians against the local route's
+``Problem`` and against central differences, and the compiled trust-region-reflective solver
+against ``scipy.optimize.least_squares`` itself.
 """
 
 import json
@@ -15,13 +16,12 @@ import pytest
 from scipy.optimize import least_squares
 
 from femupdate import InputError, MeasuredMode, NumericalError, Structure, TestData, model_modes
-from femupdate.batch import (
-    FAILED, BatchProblem, BatchRun, least_squares_batch, multistart_batched, supports, unsupported,
-)
 from femupdate.examples import chain, two_dof
 from femupdate.generators import shear_building
-from femupdate.multistart import multistart
-from femupdate.updating import UpdateResult, _Problem, update
+from femupdate.updating import Problem, UpdateResult, multistart, update
+from femupdate.updating.batched import (
+    FAILED, BatchedProblem, BatchRun, least_squares_batch, multistart_batched, supports, unsupported,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 K6 = np.array([1000.0, 1800.0, 1500.0, 1200.0, 900.0, 1600.0])
@@ -139,49 +139,39 @@ def test_residuals_and_jacobians_equal_problem(scaling, ref_dof, parametrisation
     starts = rng.uniform(lo[idx], hi[idx], size=(4, len(names)))
     opts = dict(shape_scaling=scaling, ref_dof=ref_dof, parametrisation=parametrisation,
                 weights={"eigenvalue": np.linspace(1.0, 2.0, len(data.modes)), "shape": 0.7})
-    bp = BatchProblem(model, data, names, starts, **opts)
+    local = [Problem(model, data, names, x0=dict(zip(names, starts[r])), **opts) for r in range(4)]
+    bp = BatchedProblem.from_problem(local[0], starts)
     X = bp.x_start + rng.uniform(-0.05, 0.05, starts.shape) * np.abs(bp.x_start)
     ev = bp.evaluate(X)
-    J, errors = bp.jacobian(ev)
-    assert ev.errors == [None] * 4 and errors == [None] * 4
-    Fc, Jc, msgs = bp.evaluate_compiled(X)
-    assert msgs == [None] * 4
+    assert ev.messages == [None] * 4
     for r in range(4):
-        p_base = model.values.copy()
-        p_base[idx] = starts[r]
-        prob = _Problem(model, data, names, scaling, ref_dof, opts["weights"], 0.5, None, parametrisation, p_base,
-                        True, "auto")
+        prob = local[r]
         f, Jp = prob.residuals(X[r]), prob.jacobian(X[r])
-        assert [(k, j) for k, j, _ in prob.last_pairs] == [(k, int(j)) for k, j in enumerate(ev.pairs[r])]
+        _, _, pairs = prob.evaluate(X[r])
+        assert [(k, j) for k, j, _ in pairs] == [(k, int(j)) for k, j in enumerate(ev.pairs[r])]
+        np.testing.assert_allclose(ev.macs[r], [m for _, _, m in pairs], rtol=1e-12)
         np.testing.assert_allclose(ev.fun[r], f, rtol=0, atol=1e-12 * max(1.0, np.abs(f).max()))
-        np.testing.assert_allclose(J[r], Jp, rtol=0, atol=1e-9 * np.abs(Jp).max())
-        # the compiled kernels (the default solve route) against the same reference
-        np.testing.assert_allclose(Fc[r], f, rtol=0, atol=1e-12 * max(1.0, np.abs(f).max()))
-        np.testing.assert_allclose(Jc[r], Jp, rtol=0, atol=1e-9 * np.abs(Jp).max())
+        np.testing.assert_allclose(ev.jac[r], Jp, rtol=0, atol=1e-9 * np.abs(Jp).max())
 
 
 def test_jacobian_against_finite_differences_with_mass_parameters(rng):
-    """Independent of _Problem: central differences of the batched residuals themselves."""
+    """Independent of the local route: central differences of the compiled residuals themselves."""
     model, _ = building(5, "storey_mass")
     names = ["k_1", "k_2", "k_3", "k_4", "k_5", "m_2", "m_4"]
     data = measured(model, ["1:x", "3:x", "5:x"], 4, values=model.values * rng.uniform(0.9, 1.1, 10))
     idx = [model.parameter_index(nm) for nm in names]
     starts = model.values[idx][None, :] * rng.uniform(0.8, 1.2, (3, len(names)))
-    bp = BatchProblem(model, data, names, starts)
+    bp = BatchedProblem.from_problem(Problem(model, data, names), starts)
     assert bp.M_varies
     X = bp.x_start.copy()
-    J = bp.jacobians(X)
-    Jc = bp.evaluate_compiled(X)[1]
+    J = bp.evaluate(X).jac
     h = 1e-6
     for c in range(X.shape[1]):
         Xp, Xm = X.copy(), X.copy()
         Xp[:, c] += h
         Xm[:, c] -= h
-        Jfd = (bp.residuals(Xp) - bp.residuals(Xm)) / (2 * h)
+        Jfd = (bp.evaluate(Xp).fun - bp.evaluate(Xm).fun) / (2 * h)
         np.testing.assert_allclose(J[:, :, c], Jfd, atol=1e-6 * np.abs(J).max())
-        # and of the compiled residuals, for the compiled Jacobian
-        Jfd_c = (bp.evaluate_compiled(Xp)[0] - bp.evaluate_compiled(Xm)[0]) / (2 * h)
-        np.testing.assert_allclose(Jc[:, :, c], Jfd_c, atol=1e-6 * np.abs(Jc).max())
 
 
 def test_dense_parameter_matrices(rng):
@@ -200,18 +190,16 @@ def test_dense_parameter_matrices(rng):
                           dK=[K1, K2, None], dM=[None, None, M1])
     data = measured(model, ["1:x", "3:x", "4:x", "6:x"], 3, values={"a": 1.3, "b": 0.8, "c": 1.2})
     starts = rng.uniform(0.5, 2.0, (5, 3))
-    bp = BatchProblem(model, data, model.parameter_names, starts, shape_scaling="max", parametrisation="log")
-    assert bp.full_support and bp.M_varies
+    opts = dict(shape_scaling="max", parametrisation="log")
+    bp = BatchedProblem.from_problem(Problem(model, data, **opts), starts)
+    assert bp.M_varies
     X = bp.x_start + rng.uniform(-0.05, 0.05, starts.shape)
-    F, J = bp.residuals(X), bp.jacobians(X)
-    Fc, Jc, _ = bp.evaluate_compiled(X)
+    ev = bp.evaluate(X)
     for r in range(5):
-        prob = _Problem(model, data, model.parameter_names, "max", None, {}, 0.5, None, "log", starts[r].copy(), True, "auto")
-        np.testing.assert_allclose(F[r], prob.residuals(X[r]), atol=1e-12)
+        prob = Problem(model, data, x0=dict(zip(model.parameter_names, starts[r])), **opts)
+        np.testing.assert_allclose(ev.fun[r], prob.residuals(X[r]), atol=1e-12)
         Jp = prob.jacobian(X[r])
-        np.testing.assert_allclose(J[r], Jp, atol=1e-9 * np.abs(Jp).max())
-        np.testing.assert_allclose(Fc[r], prob.residuals(X[r]), atol=1e-12)
-        np.testing.assert_allclose(Jc[r], Jp, atol=1e-9 * np.abs(Jp).max())
+        np.testing.assert_allclose(ev.jac[r], Jp, atol=1e-9 * np.abs(Jp).max())
     fast = multistart(model, data, starts=6, seed=1, shape_scaling="max", parametrisation="log")
     slow = multistart(model, data, starts=6, seed=1, shape_scaling="max", parametrisation="log", batched=False)
     assert_same_study(fast, slow)
@@ -362,18 +350,47 @@ def test_bench_multistart_quick_runs(tmp_path):
 
 
 # ------------------------------------------------------------------ the two solve routes
-def test_compiled_route_equals_round_by_round_route():
-    """BatchProblem.solve: every start run through in compiled code (default) against the NumPy
-    residuals advanced round by round by least_squares_batch: the same outcome, start by start."""
+def local_rows(problems):
+    """``least_squares_batch``'s residual and Jacobian functions from the local route's
+    Problem of each start (model_modes, MAC pairing, Nelson's derivatives)."""
+    from femupdate import FemupdateError
+
+    def fun(X, rows):
+        F = np.zeros((len(rows), problems[0].n_residuals))
+        errors = []
+        for i, r in enumerate(rows):
+            try:
+                F[i] = problems[r].residuals(X[i])
+                errors.append(None)
+            except FemupdateError as exc:
+                errors.append(f"{type(exc).__name__}: {exc}")
+        return F, errors, (X.copy(), np.asarray(rows))
+
+    def jac(token, sel):
+        X, rows = token
+        J = np.zeros((len(sel), problems[0].n_residuals, X.shape[1]))
+        for i, s_ in enumerate(sel):
+            J[i] = problems[rows[s_]].jacobian(X[s_])
+        return J, [None] * len(sel)
+
+    return fun, jac
+
+
+def test_compiled_route_equals_local_residuals_driven_by_the_same_solver():
+    """BatchedProblem.solve (everything compiled) against least_squares_batch driven by the local
+    route's residuals and Jacobians: the same outcome, start by start."""
+    from femupdate.updating import draw_starts
+
     model, k = building(8)
     data = measured(model, [f"{i}:x" for i in range(2, 9, 2)], 5)
-    from femupdate.multistart import draw_starts
-
     names = model.parameter_names
     starts = draw_starts(model, names, 24, 11)
-    a = BatchProblem(model, data, names, starts).solve()
-    b = BatchProblem(model, data, names, starts).solve(compiled=False)
-    assert list(a.status) == list(b.status) and a.message == b.message
+    problems = [Problem(model, data, x0=dict(zip(names, starts[r]))) for r in range(len(starts))]
+    bp = BatchedProblem.from_problem(problems[0], starts)
+    a = bp.solve()
+    fun, jac = local_rows(problems)
+    b = least_squares_batch(fun, jac, bp.x_start, (bp.lb, bp.ub), ftol=1e-10, xtol=1e-10, gtol=1e-10, max_nfev=200)
+    assert [s > 0 for s in a.status] == [s > 0 for s in b.status]
     ok = a.status > 0
     assert ok.sum() >= 12
     np.testing.assert_allclose(a.x[ok], b.x[ok], rtol=1e-8)
@@ -381,19 +398,23 @@ def test_compiled_route_equals_round_by_round_route():
     np.testing.assert_allclose(a.history_cost[:, 0], b.history_cost[:, 0], rtol=1e-12)
 
 
-def test_compiled_route_failure_messages_equal_numpy_route():
+def test_compiled_route_failure_messages_equal_local_route():
     model = two_dof()
     data = measured(model, ["1:x", "2:x"], 2)
     starts = np.array([[9.0, 5.5], [90.0, 1.0], [8.5, 6.2]])
     for opts in ({"min_mac": 0.9999999}, {"min_mac": 0.5}):
-        a = BatchProblem(model, data, model.parameter_names, starts, **opts).solve()
-        b = BatchProblem(model, data, model.parameter_names, starts, **opts).solve(compiled=False)
-        assert a.message == b.message and list(a.status) == list(b.status)
+        a = BatchedProblem.from_problem(Problem(model, data, **opts), starts).solve()
+        for r in range(3):
+            try:
+                update(model, data, x0=dict(zip(model.parameter_names, starts[r])), **opts)
+                local = None
+            except NumericalError as exc:
+                local = f"NumericalError: {exc}"
+            if local is None:
+                assert a.status[r] > 0
+            else:
+                assert a.status[r] == FAILED and a.message[r] == local
         if opts["min_mac"] > 0.99:  # no start pairs its modes that well
             assert all(s == FAILED for s in a.status) and all("pair with no model mode" in m for m in a.message)
         else:
             assert all(a.status > 0)
-    F, J, msgs = BatchProblem(model, data, model.parameter_names, starts, min_mac=0.9999999).evaluate_compiled(
-        np.ones((3, 2)))
-    ev = BatchProblem(model, data, model.parameter_names, starts, min_mac=0.9999999).evaluate(np.ones((3, 2)))
-    assert msgs == ev.errors

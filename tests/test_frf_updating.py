@@ -10,8 +10,7 @@ from femupdate.examples import chain, three_dof, two_dof
 from femupdate.frf import Damping, simulate
 from femupdate.frf.search import GlobalSearchResult, global_search
 from femupdate.frf.updating import FRFUpdateResult, _FRFProblem, frf_multistart, frf_update
-from femupdate.multistart import MultiStartResult, draw_starts
-from femupdate.updating import UpdateResult
+from femupdate.updating import MultiStartResult, UpdateResult, draw_starts
 
 K6 = np.array([120.0, 90.0, 150.0, 80.0, 110.0, 100.0])
 M6 = np.array([1.0, 1.4, 0.8, 1.2, 1.0, 0.9])

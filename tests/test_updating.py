@@ -5,8 +5,7 @@ import pytest
 
 from femupdate import InputError, MeasuredMode, NumericalError, Structure, TestData, model_modes
 from femupdate.examples import chain, two_dof
-from femupdate.multistart import cluster, draw_starts, multistart
-from femupdate.updating import update
+from femupdate.updating import Problem, cluster, draw_starts, multistart, update
 
 K6 = np.array([1000.0, 1800.0, 1500.0, 1200.0, 900.0, 1600.0])
 M6 = np.array([1.0, 1.2, 0.8, 1.1, 0.9, 1.0])
@@ -53,12 +52,11 @@ def test_methods_agree(method):
 def test_analytic_jacobian_matches_finite_differences():
     from scipy.optimize._numdiff import approx_derivative
 
-    from femupdate.updating import _Problem
-
     model = six_dof()
     data = measured(model, ["2:x", "3:x", "6:x"], 3)
     for scaling, ref in (("unit", None), ("ref", "3:x"), ("max", None)):
-        prob = _Problem(model, data, model.parameter_names, scaling, ref, {}, 0.5, None, "relative", model.values * 1.1, True, "auto")
+        prob = Problem(model, data, x0=dict(zip(model.parameter_names, model.values * 1.1)), shape_scaling=scaling,
+                       ref_dof=ref)
         x = np.ones(6)
         J = prob.jacobian(x)
         Jfd = approx_derivative(prob.residuals, x, method="3-point", rel_step=1e-6)
@@ -77,15 +75,13 @@ def long_chain(n=1600, k=(2.0e6, 1.5e6, 1.8e6, 1.2e6)):
 
 
 def test_large_model_takes_the_series_jacobian_and_it_matches_nelson():
-    from femupdate.updating import _Problem
-
     model = long_chain()
     assert model.n_dofs > 1500  # "auto" leaves Nelson's dense route
     data = measured(model, ["400:x", "1000:x", "1600:x"], 3)  # 3 sensors < 4 parameters: adjoint
     x = np.array([1.1, 0.9, 1.05, 0.95])
     J = {}
     for how in ("auto", "nelson", "subspace"):
-        prob = _Problem(model, data, model.parameter_names, "ref", None, {}, 0.5, None, "relative", model.values, True, how)
+        prob = Problem(model, data, shape_scaling="ref", sensitivity=how)
         J[how] = prob.jacobian(x)
         assert prob.sensitivity_used == ("adjoint" if how == "auto" else how)
     np.testing.assert_allclose(J["auto"], J["nelson"], rtol=0, atol=1e-7 * np.abs(J["nelson"]).max())

@@ -22,9 +22,12 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,7 +38,7 @@ from ..problem import Parametrisation, Problem, Targets
 from ..results import UpdateResult
 from ..solve import result_at, update
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
-from .spec import DataArrays, ModelArrays, Spec, error_message, new_errors
+from .spec import DataArrays, ModelArrays, Spec, error_message, new_report
 
 log = logging.getLogger(__name__)
 
@@ -332,7 +335,7 @@ class BatchedProblem:
         return np.asarray(self.data.m)[np.asarray(self.data.row_ds)]
 
     # ------------------------------------------------------------------ compiled evaluation and solution
-    def evaluate(self, X, rows=None, jacobian: bool = True):
+    def evaluate(self, X, rows=None):
         """The compiled evaluation at solver variables X (S, L) of ``rows``: residuals F (S, m)
         (each row's own first, zeros after), exact Jacobians J (S, m, L), all eigenvalues
         (S, n), the pairs and their MAC (S, T), and the messages (None where fine)."""
@@ -347,10 +350,10 @@ class BatchedProblem:
         if self.mass_error:
             out.messages[:] = [self.mass_error] * S
             return out
-        err = new_errors(S, T)
+        err = new_report(S, T)
         _announce_first_use()
         kernel.evaluate_rows(self.spec(), rows.astype(np.int64), X, out.fun, out.jac, out.eigenvalues, out.pairs,
-                             out.macs, err, bool(jacobian))
+                             out.macs, err)
         out.messages[:] = [None if err.code[i] == 0 else error_message(err, i, self.min_mac) for i in range(S)]
         return out
 
@@ -358,9 +361,9 @@ class BatchedProblem:
               chunk: int = 256) -> BatchLSQResult:
         """Run every start to the end in compiled code (:func:`.kernel.solve_rows`).
 
-        Rows go in a fixed shuffled order, ``chunk`` at a time (the rows of a chunk in parallel
-        over the cores; progress reported and Ctrl-C taken between chunks); the result does not
-        depend on the order.
+        Rows go in a fixed shuffled order, ``chunk`` at a time (the rows of a chunk split over
+        one thread per core; progress reported and Ctrl-C taken between chunks); the result does
+        not depend on the order or the number of threads.
         """
         from . import kernel, trf
 
@@ -377,7 +380,7 @@ class BatchedProblem:
             if e is not None:
                 st.status[r], message[r] = FAILED, e
                 st.nfev[r] = 1
-        err = new_errors(R, int(np.max(self.data.T, initial=1)))
+        err = new_report(R, int(np.max(self.data.T, initial=1)))
         todo = np.random.default_rng(0).permutation(np.flatnonzero(st.status == trf.RUNNING)).astype(np.int64)
         done = R - todo.size
         if progress and done:
@@ -385,15 +388,27 @@ class BatchedProblem:
         if todo.size:
             _announce_first_use()
             spec = self.spec()
-            for a in range(0, todo.size, chunk):
-                rows = todo[a:a + chunk]
-                kernel.solve_rows(spec, st, rows, o["gtol"], o["ftol"], o["xtol"], max_nfev, err)
-                done += rows.size
-                if progress:
-                    progress(done, R)
+            threads = max(1, min(_cores(), todo.size))
+            with ThreadPoolExecutor(threads) as pool:
+                for a in range(0, todo.size, chunk):
+                    parts = np.array_split(todo[a:a + chunk], threads)
+                    list(pool.map(lambda rows: kernel.solve_rows(spec, st, rows, o["gtol"], o["ftol"], o["xtol"],
+                                                                 max_nfev, err), [p for p in parts if p.size]))
+                    done += sum(p.size for p in parts)
+                    if progress:
+                        progress(done, R)
         for r in np.flatnonzero(err.code):
             message[r] = error_message(err, r, self.min_mac)
-        return result_of(st, message)
+        return dataclasses.replace(result_of(st, message), pairs=err.pairs, macs=err.macs,
+                                   pair_eigenvalues=err.eigenvalues)
+
+
+def _cores() -> int:
+    """CPU cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
 
 
 _ANNOUNCED = False
@@ -464,16 +479,12 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     alive = np.flatnonzero(res.status != FAILED)
     runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: {m}"
                   for m in res.message]  # (used for the failed starts only)
-    final = bp.evaluate(res.x[alive], alive, jacobian=False)  # pairs and MACs at the solutions, in one call
     P_alive = bp.full_p(res.x[alive], alive)
     m_row = bp.n_residuals
+    T = problem.targets.n_test
     for i, r in enumerate(alive):
-        if final.messages[i] is not None:  # pragma: no cover - the solver evaluated this point already
-            runs[r] = final.messages[i]
-            continue
         P = P_alive[i]
-        f = final.fun[i, :m_row[r]].copy()
-        pr = final.pairs[i, :problem.targets.n_test]
+        f = res.fun[r, :m_row[r]].copy()
         n_hist = min(int(res.iterations[r]) + 1, res.history_cost.shape[1])
         runs[r] = BatchRun(
             parameters=dict(zip(model.parameter_names, map(float, P))), names=names, x=P[bp.idx],
@@ -481,8 +492,8 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
             cost=float(0.5 * f @ f), fun=f, jac=res.jac[r, :m_row[r]], nfev=int(res.nfev[r]),
             njev=int(res.njev[r]), iterations=int(max(res.iterations[r], res.njev[r])),
             optimality=float(res.optimality[r]),
-            pairs=[(k, int(j), float(final.macs[i, k])) for k, j in enumerate(pr)],
-            model_frequencies_hz=np.sqrt(np.clip(final.eigenvalues[i, pr], 0, None)) / (2 * np.pi),
+            pairs=[(k, int(res.pairs[r, k]), float(res.macs[r, k])) for k in range(T)],
+            model_frequencies_hz=np.sqrt(np.clip(res.pair_eigenvalues[r, :T], 0, None)) / (2 * np.pi),
             start=dict(zip(names, map(float, X0[r]))),
             history_cost=res.history_cost[r, :n_hist].copy(),
             history_x=bp.to_p(res.history_x[r, :n_hist], np.full(n_hist, r)),

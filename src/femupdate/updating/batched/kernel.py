@@ -16,7 +16,8 @@ for a small dense model, every mode at once:
   ``φ_t' = Σ_{r≠t} φ_r φ_rᵀG_j/(λ_t − λ_r) − ½ (φ_tᵀ M_j φ_t) φ_t`` at the measured dofs.
 
 :func:`solve_rows` runs SciPy's trust-region-reflective method (:mod:`.trf`) for every row
-inside compiled code, the rows spread over the CPU cores, with no Python between iterations.
+inside compiled code, with no Python between iterations, and without the GIL: the driver spreads
+rows over the CPU cores with threads (numba's own parallel loops cost some 25 s more to compile).
 Failures are error codes of :mod:`femupdate.rules`, turned into messages by Python.
 
 Everything here is compiled by numba on first use and cached on disk.  numba's cache does not
@@ -32,12 +33,11 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numba.extending import register_jitable
 
 from ... import rules
 from . import trf
-from .spec import Errors, Spec  # noqa: F401  (the kernels' argument types)
 
 log = logging.getLogger(__name__)
 
@@ -283,73 +283,71 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
 # the driver: every row to the end
 # ---------------------------------------------------------------------------------------------
 @jit
-def _fail(st, err, r, code):
-    st.status[r] = trf.FAILED
-    err.code[r] = code
+def _keep(rep, r, lam, pairs, pmac):
+    """The pairs of row r's current point into the report."""
+    for k in range(rep.pairs.shape[1]):
+        rep.pairs[r, k] = pairs[k]
+        rep.macs[r, k] = pmac[k]
+        rep.eigenvalues[r, k] = lam[pairs[k]]
 
 
 @jit
-def _run_row(sp_, st, r, gtol, ftol, xtol, max_nfev, err):
+def solve_rows(sp_, st, rows, gtol, ftol, xtol, max_nfev, rep):
+    """Run each of ``rows`` to the end, one after the other, the GIL released (the driver runs
+    several calls at once, one per core).  A failure stops its row: ``status`` FAILED and the
+    error in ``rep``."""
     n = sp_.K_const.shape[0]
     m = st.f.shape[1]
+    T = rep.pairs.shape[1]
     lam = np.zeros(n)
     Phi = np.zeros((n, n))
-    pairs = np.zeros(err.modes.shape[1], np.int64)
-    pmac = np.zeros(err.modes.shape[1])
-    code = evaluate_row(sp_, r, st.x[r], st.f[r], lam, Phi, pairs, pmac, err.ints[r], err.floats[r], err.modes[r])
-    st.nfev[r] += 1
-    if code != rules.OK:
-        _fail(st, err, r, code)
-        return
-    code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, err.ints[r], err.floats[r])
-    st.njev[r] += 1
-    trf.init_row(st, r)
-    if code != rules.OK:
-        _fail(st, err, r, code)
-        return
+    pairs = np.zeros(T, np.int64)
+    pmac = np.zeros(T)
     f_new = np.zeros(m)
-    while True:
-        flag = trf.propose(st, r, gtol, max_nfev)
-        if flag == trf.STOPPED:
-            return
-        if flag != trf.PROPOSED:
-            _fail(st, err, r, rules.E_DEGENERATE if flag == trf.DEGENERATE else rules.E_BAD_JACOBIAN)
-            return
-        f_new[:] = 0.0
-        code = evaluate_row(sp_, r, st.x_new[r], f_new, lam, Phi, pairs, pmac, err.ints[r], err.floats[r],
-                            err.modes[r])
+    for i in range(rows.size):
+        r = rows[i]
+        code = evaluate_row(sp_, r, st.x[r], st.f[r], lam, Phi, pairs, pmac, rep.ints[r], rep.floats[r], rep.modes[r])
         st.nfev[r] += 1
-        if code != rules.OK:
-            _fail(st, err, r, code)
-            return
-        accepted, ended = trf.judge(st, r, f_new, ftol, xtol, max_nfev)
-        if accepted:
-            st.J[r] = 0.0
-            code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, err.ints[r], err.floats[r])
-            trf.accept(st, r)
+        if code == rules.OK:
+            _keep(rep, r, lam, pairs, pmac)
+            code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, rep.ints[r], rep.floats[r])
+            st.njev[r] += 1
+            trf.init_row(st, r)
+        while code == rules.OK:
+            flag = trf.propose(st, r, gtol, max_nfev)
+            if flag == trf.STOPPED:
+                break
+            if flag != trf.PROPOSED:
+                code = rules.E_DEGENERATE if flag == trf.DEGENERATE else rules.E_BAD_JACOBIAN
+                break
+            f_new[:] = 0.0
+            code = evaluate_row(sp_, r, st.x_new[r], f_new, lam, Phi, pairs, pmac, rep.ints[r], rep.floats[r],
+                                rep.modes[r])
+            st.nfev[r] += 1
             if code != rules.OK:
-                _fail(st, err, r, code)
-                return
-
-
-@njit(cache=True, error_model="numpy", nogil=True, parallel=True)
-def solve_rows(sp_, st, rows, gtol, ftol, xtol, max_nfev, err):
-    """Run each of ``rows`` to the end (rows in parallel over the cores)."""
-    for i in prange(rows.size):
-        _run_row(sp_, st, rows[i], gtol, ftol, xtol, max_nfev, err)
+                break
+            accepted, ended = trf.judge(st, r, f_new, ftol, xtol, max_nfev)
+            if accepted:
+                _keep(rep, r, lam, pairs, pmac)
+                st.J[r] = 0.0
+                code = jacobian_row(sp_, r, st.x[r], st.J[r], lam, Phi, pairs, rep.ints[r], rep.floats[r])
+                trf.accept(st, r)
+        if code != rules.OK:
+            st.status[r] = trf.FAILED
+            rep.code[r] = code
 
 
 @jit
-def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err, with_jacobian):
-    """Residuals F (S, m), eigenvalues LAM (S, n), pairs and their MAC (S, T) and, when
-    ``with_jacobian``, Jacobians J (S, m, L) of ``rows`` at X (S, L), one after the other;
+def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err):
+    """Residuals F (S, m), eigenvalues LAM (S, n), pairs and their MAC (S, T) and
+    Jacobians J (S, m, L) of ``rows`` at X (S, L), one after the other;
     ``err`` per row of X."""
     n = sp_.K_const.shape[0]
     for i in range(rows.size):
         Phi = np.zeros((n, n))
         code = evaluate_row(sp_, rows[i], X[i], F[i], LAM[i], Phi, PAIRS[i], PMAC[i], err.ints[i], err.floats[i],
                             err.modes[i])
-        if code == rules.OK and with_jacobian:
+        if code == rules.OK:
             code = jacobian_row(sp_, rows[i], X[i], J[i], LAM[i], Phi, PAIRS[i], err.ints[i], err.floats[i])
         err.code[i] = code
 

@@ -51,6 +51,9 @@ class BatchLSQResult:
     message: list[str]
     history_cost: np.ndarray  #: (R, H) cost after each iteration (entries up to ``iterations``)
     history_x: np.ndarray  #: (R, H, n) the variables after each iteration
+    pairs: np.ndarray | None = None  #: (R, T) the modal route's pairs at x (model mode of each test mode)
+    macs: np.ndarray | None = None  #: (R, T) their MAC (NaN without shape)
+    pair_eigenvalues: np.ndarray | None = None  #: (R, T) the paired model modes' eigenvalues
 
     @property
     def success(self) -> np.ndarray:

@@ -90,26 +90,30 @@ class Spec(NamedTuple):
         return cls(*model, *data, int(scaling), float(w_shape), float(min_mac))
 
 
-class Errors(NamedTuple):
-    """Per row: the error code and the numbers of its message."""
+class Report(NamedTuple):
+    """Per row: the error code and the numbers of its message, and the pairs at the row's
+    current point (its last accepted evaluation)."""
 
     code: np.ndarray  #: (R,) int64, 0 = none
     ints: np.ndarray  #: (R, 2) int64
     floats: np.ndarray  #: (R, 2)
     modes: np.ndarray  #: (R, T) bool: test modes concerned
+    pairs: np.ndarray  #: (R, T) int64: the model mode of each test mode
+    macs: np.ndarray  #: (R, T) the MAC of each pair (NaN without shape)
+    eigenvalues: np.ndarray  #: (R, T) the eigenvalue of each pair's model mode
 
 
-def new_errors(R: int, T: int) -> Errors:
-    return Errors(np.zeros(R, np.int64), np.zeros((R, 2), np.int64), np.zeros((R, 2)), np.zeros((R, max(T, 1)), np.bool_))
+def new_report(R: int, T: int) -> Report:
+    T = max(T, 1)
+    return Report(np.zeros(R, np.int64), np.zeros((R, 2), np.int64), np.zeros((R, 2)), np.zeros((R, T), np.bool_),
+                  np.zeros((R, T), np.int64), np.full((R, T), np.nan), np.full((R, T), np.nan))
 
 
-def error_message(err: Errors, r: int, min_mac: float) -> str:
+def error_message(err: Report, r: int, min_mac: float) -> str:
     """The message of row r's error, as the local route words it."""
     c = int(err.code[r])
     text = rules.message(c, err.ints[r, 0], err.ints[r, 1], err.floats[r, 0], err.floats[r, 1],
                          np.flatnonzero(err.modes[r]), min_mac)
     return f"NumericalError: {text}"
 
-
-
-__all__ = ["ModelArrays", "DataArrays", "Spec", "Errors", "new_errors", "error_message"]
+__all__ = ["ModelArrays", "DataArrays", "Spec", "Report", "new_report", "error_message"]
