@@ -30,7 +30,10 @@ The functions are plain Python on NumPy arrays and scalars — no objects, no ex
 failure is an error code (:data:`ERRORS`, turned into a message by :func:`message`).  They are
 written in the subset of Python that numba compiles, and marked with :func:`rule`; the compiled
 backend registers every rule with numba (``numba.extending.register_jitable``) when it is
-imported, so that its kernels call these very functions.  This module does not import numba.
+imported, so that its kernels call these very functions.  Inner products go through
+:func:`dot`, the one primitive with a compiled implementation of its own (a sequential sum, so
+that compiled results do not depend on a BLAS's summation order).  This module does not import
+numba.
 """
 
 from __future__ import annotations
@@ -47,6 +50,12 @@ def rule(fn):
     """Mark ``fn`` as a rule of the problem: plain Python here, compiled by the compiled backend."""
     RULES.append(fn)
     return fn
+
+
+def dot(a, b) -> float:
+    """The inner product of two vectors.  Here NumPy's; the compiled backend gives compiled code
+    its own implementation, a plain sequential sum (``numba.extending.overload``)."""
+    return float(np.dot(a, b))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -171,13 +180,12 @@ def check_distinct(lam, nm, t):
 def mac_vector(psi, B):
     """MAC (nm,) of the shape ``psi`` (n_s,) against the columns of ``B`` (n_s, nm), in [0, 1]
     (0 where a column is zero)."""
-    ee = np.dot(psi, psi)
-    num = np.dot(psi, B)
-    aa = np.sum(B * B, axis=0)
+    ee = dot(psi, psi)
     out = np.zeros(B.shape[1])
     for j in range(out.size):
-        den = ee * aa[j]
-        v = num[j] * num[j] / den if den > 0 else 0.0
+        num = dot(psi, B[:, j])
+        den = ee * dot(B[:, j], B[:, j])
+        v = num * num / den if den > 0 else 0.0
         out[j] = min(max(v, 0.0), 1.0)
     return out
 
@@ -323,7 +331,7 @@ def shape_scale(scaling, phs, ref):
             amax = abs(phs[i])
             kmax = i
     if scaling == UNIT:
-        nrm = math.sqrt(np.dot(phs, phs))
+        nrm = math.sqrt(dot(phs, phs))
         s = nrm if phs[kmax] > 0 else (-nrm if phs[kmax] < 0 else 0.0)
         return s, kmax, False
     k = ref if scaling == REF else kmax
@@ -337,7 +345,7 @@ def unit_sign(scaling, phs, s, psi_e):
     (always 1 for the other scalings, whose scale fixes the sign)."""
     if scaling != UNIT:
         return 1.0
-    return -1.0 if np.dot(phs, psi_e) / s < 0 else 1.0
+    return -1.0 if dot(phs, psi_e) / s < 0 else 1.0
 
 
 @rule
@@ -385,11 +393,11 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
     φ_k' for the reference and largest-entry scalings."""
     s, k, node = shape_scale(scaling, phs, ref)
     sign = unit_sign(scaling, phs, s, psi_e)
-    if scaling == UNIT:
-        ds = np.dot(phs, dphs) / s
-    else:
-        ds = dphs[k].copy()
-    D = (dphs - np.outer(phs / s, ds)) * ((w * sign / s) * dpdx)
+    L = dphs.shape[1]
+    ds = np.empty(L)
+    for j in range(L):
+        ds[j] = dot(phs, dphs[:, j]) / s if scaling == UNIT else dphs[k, j]
+    D = (w * sign / s) * (dphs - np.outer(phs / s, ds)) * dpdx
     if ref >= 0:
         out[:ref] = D[:ref]
         out[ref:] = D[ref + 1:]
@@ -398,7 +406,7 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
 
 
 __all__ = [
-    "RULES", "rule", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
+    "RULES", "rule", "dot", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
     "to_p", "dp_dx", "check_spectrum", "check_distinct", "mac_vector", "assign", "pair_by_mac", "shape_scale",
     "unit_sign", "n_shape_residuals", "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals",
     "shape_jacobian",

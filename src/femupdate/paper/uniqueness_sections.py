@@ -13,7 +13,7 @@ from ..modal import model_modes
 from ..testdata import MeasuredMode, TestData
 from ..uniqueness.criteria import CRITERIA, counting_criteria
 from ..uniqueness.exact import exact_solutions
-from ..uniqueness.study import define_study, nested_dof_sets, run_study, truth_sensitivities
+from ..uniqueness.study import conditioning, define_study, nested_dof_sets, run_study, truth_sensitivities
 
 STARTS = 100  #: random starts per case, as the paper's 6-dof simulation
 SEED = 1994
@@ -133,8 +133,7 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
         sp = define_study(model, [(s, m) for s in sets], starts=1, seed=SEED)
         conds = []
         for s, (S, m_own) in zip(sets, truth_sensitivities(sp)):
-            sv = np.linalg.svd(S, compute_uv=False)
-            conds.append(float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf)
+            conds.append(conditioning(S, m_own)[0])
         placements[key] = {"sets": [",".join(s) for s in sets], "condition_number": conds,
                            "singular": [",".join(s) for s, c in zip(sets, conds) if not c < 1e12]}
     paper_holds = not mismatch

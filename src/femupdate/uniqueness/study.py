@@ -531,11 +531,15 @@ def truth_sensitivities(study: Study) -> list[tuple[np.ndarray, int]]:
     return out
 
 
-def _conditioning(S: np.ndarray, m: int):
+def conditioning(S: np.ndarray, m: int):
+    """Condition number (inf when numerically rank-deficient), singular values and numerical
+    rank of a sensitivity matrix S with m residuals."""
     s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
     L = S.shape[1]
-    cond = float(s[0] / s[-1]) if s.size == L and s[-1] > 0 and m >= L else math.inf
     rank = int(np.sum(s > max(S.shape) * np.finfo(float).eps * s[0])) if s.size else 0
+    # a numerically rank-deficient matrix has no finite condition number: its smallest singular
+    # value is round-off, and so would be any figure computed from it
+    cond = float(s[0] / s[-1]) if s.size == L and rank == L and m >= L else math.inf
     return cond, s, rank
 
 
@@ -577,7 +581,7 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
                                      sorted(int(who[i]) for i in g), err, err <= rel_tol))
             sols.sort(key=lambda s: (-s.count, s.cost))
         S, m_own = sens[c]
-        cond, sv, rank = _conditioning(S, m_own)
+        cond, sv, rank = conditioning(S, m_own)
         noise = []
         for lv in range(1, len(study.levels)):
             hz = have[c, lv]
@@ -679,5 +683,5 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
 __all__ = [
     "Case", "CaseResult", "NoiseResult", "Solution", "Study", "StudyResult", "case_data", "case_testdata",
     "define_study", "nested_dof_sets", "parse_measured_dofs", "parse_modes", "reference_unit",
-    "run_study", "solve_unit", "summarise", "truth_sensitivities",
+    "run_study", "solve_unit", "summarise", "truth_sensitivities", "conditioning",
 ]

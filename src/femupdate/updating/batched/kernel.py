@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 from numba import njit
-from numba.extending import register_jitable
+from numba.extending import overload, register_jitable
 
 from ... import rules
 from . import trf
@@ -43,6 +43,17 @@ log = logging.getLogger(__name__)
 
 for _rule in rules.RULES:  # the rules, callable from the kernels below
     register_jitable(_rule)
+
+
+@overload(rules.dot)
+def _dot(a, b):
+    """:func:`femupdate.rules.dot` in compiled code: a sequential sum, any array layout."""
+    def impl(a, b):
+        s = 0.0
+        for i in range(a.size):
+            s += a[i] * b[i]
+        return s
+    return impl
 
 
 def _fresh_cache() -> None:

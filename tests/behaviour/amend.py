@@ -1,0 +1,129 @@
+"""Amend the recorded baseline for a deliberate change of behaviour, and only that change.
+
+    python tests/behaviour/amend.py NAME [NAME ...]
+
+re-runs the manifest entries NAME with the current code and compares them with the recorded
+JSON as ``tests/test_behaviour.py`` does.  Every difference must be one that an amendment of
+:data:`AMENDMENTS` accepts, or nothing is written; the accepted values are written into the
+recorded file and the amendment is listed in the manifest's ``amendments``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import record  # noqa: E402
+
+#: name -> (reason, accepts(path, recorded, now))
+AMENDMENTS = {
+    "rank-deficient condition numbers are infinite": (
+        "A sensitivity matrix that is numerically rank-deficient (singular values below "
+        "max(m, L)·eps·σ_max) has no finite condition number: its smallest singular value is "
+        "round-off.  The baseline printed that round-off ratio (1e15-1e17, different at every "
+        "change of arithmetic); the study now reports inf (null in JSON).",
+        lambda path, rec, now: (re.search(r"condition_number(\[\d+\])?$", path) is not None
+                                and isinstance(rec, float) and rec >= 1e14 and now is None)
+        or (isinstance(rec, str) and isinstance(now, str)
+            and re.sub(r"\b\d(\.\d+)?e\+(1[4-9]|[2-9]\d)\b", "inf", rec) == now),
+    ),
+    "local route's shape derivatives in the compiled route's arithmetic": (
+        "The local route now evaluates the shape-residual derivatives by the same rule as the compiled "
+        "route (femupdate.rules.shape_jacobian), so its Jacobian changes at round-off (4e-17 relative on "
+        "the full-field beam).  Two local solves in flat valleys then stop (xtol) at other points of the "
+        "valley: the super-element beam's 25 moduli (2.5e-8 relative, within their standard deviations; "
+        "8 -> 6 iterations) and the iterative update on the 1 % full-field data (max error 0.026625 -> "
+        "0.026630, cost equal to 7e-9 relative).",
+        lambda path, rec, now: path.startswith(("sections.superelement_beam.", "sections.full_field_direct.iterative"))
+        and ((isinstance(rec, (int, float)) and isinstance(now, type(rec)) and not isinstance(rec, bool)
+              and (path.endswith("iterations") or abs(rec - now) <= max(1e-3 * max(abs(rec), abs(now)), 1e-8)))
+             or (isinstance(rec, str) and isinstance(now, str) and path.endswith(".summary"))
+             or (isinstance(rec, str) and isinstance(now, str)
+                 and abs(float(rec) - float(now)) <= 1e-3 * abs(float(rec)) if _is_number(rec) and _is_number(now)
+                 else False)),
+    ),
+}
+
+
+def _is_number(text) -> bool:
+    try:
+        float(text)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def _diffs(expected, actual, path, out):
+    if isinstance(expected, dict) and isinstance(actual, dict) and expected.keys() == actual.keys():
+        for k in expected:
+            _diffs(expected[k], actual[k], f"{path}.{k}" if path else k, out)
+    elif isinstance(expected, list) and isinstance(actual, list) and len(expected) == len(actual):
+        for i, (e, a) in enumerate(zip(expected, actual)):
+            _diffs(e, a, f"{path}[{i}]", out)
+    elif isinstance(expected, float) and isinstance(actual, float):
+        if not (math.isnan(expected) and math.isnan(actual)) and \
+                not abs(expected - actual) <= max(1e-12 * max(abs(expected), abs(actual)), 1e-12):
+            out.append((path, expected, actual))
+    elif expected != actual or type(expected) is not type(actual):
+        out.append((path, expected, actual))
+
+
+def _set(obj, path, value):
+    keys = re.findall(r"[^.\[\]]+|\[\d+\]", path)
+    for k in keys[:-1]:
+        obj = obj[int(k[1:-1])] if k.startswith("[") else obj[k]
+    last = keys[-1]
+    if last.startswith("["):
+        obj[int(last[1:-1])] = value
+    else:
+        obj[last] = value
+
+
+def main(names):
+    recorded_dir = record.RECORDED
+    manifest = json.loads((recorded_dir / "MANIFEST.json").read_text())
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        ex = tmp / "ex"
+        with record.pinned_arpack(), contextlib.suppress(SystemExit), contextlib.redirect_stdout(io.StringIO()):
+            record._cli(["demo", "--write-files", str(ex)])
+        for name in names:
+            work = tmp / name
+            work.mkdir()
+            entry = manifest["entries"][name]
+            out = work / name
+            code, raw, err = record.run_command({"args": entry["command"][3:], "result": entry["result"]}, ex, work, out)
+            if code != entry["exit"] or raw is None:
+                raise SystemExit(f"{name}: exit {code}, recorded {entry['exit']}: {err[-2000:]}")
+            actual = record.normalise(raw, record._placeholders(ex, work, out))
+            expected = json.loads((recorded_dir / name).read_text())
+            diffs = []
+            _diffs(expected, actual, "", diffs)
+            used = set()
+            refused = [(p_, r_, n_) for p_, r_, n_ in diffs
+                       if not any(accepts(p_, r_, n_) for _, accepts in AMENDMENTS.values())]
+            if refused:
+                lines = "\n".join(f"  {p_}: {str(r_)[:150]!r} vs {str(n_)[:150]!r}" for p_, r_, n_ in refused)
+                raise SystemExit(f"{name}: {len(refused)} difference(s) no amendment accepts; nothing written:\n{lines}")
+            for path, rec, now in diffs:
+                ok = [k for k, (_, accepts) in AMENDMENTS.items() if accepts(path, rec, now)]
+                used.update(ok)
+                _set(expected, path, now)
+            (recorded_dir / name).write_text(json.dumps(expected, indent=1, allow_nan=True) + "\n")
+            for k in used:
+                entry = manifest.setdefault("amendments", {}).setdefault(k, {"reason": AMENDMENTS[k][0], "files": []})
+                entry["files"] = sorted(set(entry["files"]) | {name})
+            print(f"{name}: {len(diffs)} value(s) amended ({', '.join(sorted(used)) or 'none'})")
+    (recorded_dir / "MANIFEST.json").write_text(json.dumps(manifest, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
