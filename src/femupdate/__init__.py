@@ -74,7 +74,7 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .damage import detect_damage, update_configurations
     from .direct import DirectResult, direct_update
     from .frf import frf_update
-    from .frf import simulate as simulate_frf
+    from .frf import simulate as simulate_frf  # type: ignore[no-redef]  # frf.simulate is also a module
     from .io.model_file import load_model
     from .io.results import write_json
     from .io.testdata_json import load_testdata as load_test_data

@@ -58,8 +58,9 @@ def study_data(rows: RowData, n_dofs: int) -> DataArrays:
     psi_e = np.transpose(rows.psi_e, (0, 2, 1))[order]
     nm = np.array([min(n_dofs, buffered_modes(int(t))) for t in nt], dtype=np.int64)
     t0 = np.concatenate([[0], np.cumsum(nt)[:-1]]).astype(np.int64)
-    return DataArrays(t0, nt, nm, nt * (1 + ns), np.arange(B, dtype=np.int64), lam_e.astype(float),
-                      np.ones(lam_e.size), pptr, pos, psi_e.astype(float), np.full(lam_e.size, -1, np.int64))
+    return DataArrays(t0=t0, T=nt, nm=nm, m=nt * (1 + ns), row_ds=np.arange(B, dtype=np.int64),
+                      lam_e=lam_e.astype(float), w_lam=np.ones(lam_e.size), w_psi=np.ones(lam_e.size), pptr=pptr,
+                      pos=pos, psi_e=psi_e.astype(float), ref=np.full(lam_e.size, -1, np.int64))
 
 
 def study_problem(model, names, rows: RowData, starts, *, values=None, min_mac: float = 0.5, max_nfev: int = 200,

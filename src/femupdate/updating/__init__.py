@@ -11,7 +11,7 @@
 """
 
 from .clustering import cluster, converged_solutions
-from .multistart import draw_starts, multistart, run_starts
+from .starts import draw_starts, multistart, run_starts
 from .problem import (PARAMETRISATIONS, SENSITIVITY_CHOICES, SHAPE_SCALINGS, Parametrisation, Problem, Targets,
                       modal_weights)
 from .results import Diagnostics, MultiStartResult, Solution, UpdateResult

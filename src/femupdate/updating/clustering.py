@@ -35,8 +35,8 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
                         rel_tol: float) -> tuple[list[int], list[Solution]]:
     """Indices of the runs of type ``kind`` that converged (and, with ``cost_tol``, fit), and their
     distinct solutions from :func:`cluster`, most frequent first (ties: lowest cost first)."""
-    ok = [k for k, r in enumerate(runs) if isinstance(r, kind) and r.success
-          and (cost_tol is None or r.cost <= cost_tol)]
+    ok = [k for k, r in enumerate(runs) if isinstance(r, kind) and getattr(r, "success")
+          and (cost_tol is None or getattr(r, "cost") <= cost_tol)]
     solutions = []
     if ok:
         pts = np.array([runs[k].x for k in ok])

@@ -91,20 +91,30 @@ class Targets(NamedTuple):
     """The measured data of a modal updating problem in flat arrays — the one layout that every
     route reads (the compiled kernels too).
 
-    ``lam_e`` (T,) measured eigenvalues (rad²/s²); ``w_lam`` (T,) their weights; test mode k's
-    measured dofs are ``pos[pptr[k]:pptr[k + 1]]`` (model dof indices; none: frequency only)
-    with the scaled test shape ``psi_e`` at the same positions; ``ref`` (T,) the position of the
-    reference dof within the mode's measured dofs for ``"ref"`` scaling (−1: none); ``nm`` the
-    number of lowest model modes the test modes are paired among.
+    ``lam_e`` (T,) measured eigenvalues (rad²/s²); ``w_lam`` (T,) their weights; ``w_psi`` (T,)
+    the weight of each mode's shape residuals; test mode k's measured dofs are
+    ``pos[pptr[k]:pptr[k + 1]]`` (model dof indices; none: frequency only) with the scaled test
+    shape ``psi_e`` at the same positions; ``ref`` (T,) the position of the reference dof within
+    the mode's measured dofs for ``"ref"`` scaling (−1: none); ``nm`` the number of lowest model
+    modes the test modes are paired among.
+
+    The compiled route carries every array field (:data:`PER_MODE` and :data:`PER_POSITION`)
+    to its kernels by name: a new per-mode datum is a new field here, filled by
+    :func:`build_targets` and read by the rules.
     """
 
     lam_e: np.ndarray
     w_lam: np.ndarray
+    w_psi: np.ndarray
     pptr: np.ndarray
     pos: np.ndarray
     psi_e: np.ndarray
     ref: np.ndarray
     nm: int
+
+    #: the fields with one entry per test mode, and with one per measured (mode, dof) position
+    PER_MODE = ("lam_e", "w_lam", "w_psi", "ref")
+    PER_POSITION = ("pos", "psi_e")
 
     @property
     def n_test(self) -> int:
@@ -136,9 +146,9 @@ def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
     """User weights of the modal residuals divided by the measurement standard deviations where
     given: ``(weights, sigma)`` with ``sigma`` the checked ``measurement_std`` (or None).
 
-    ``weights`` / ``measurement_std``: ``{"eigenvalue": scalar or per-test-mode array, "shape":
-    scalar}``; the eigenvalue's standard deviation is relative (of λ), the shape's absolute (of
-    the scaled shape entries).
+    ``weights`` / ``measurement_std``: ``{"eigenvalue": ..., "shape": ...}``, each a scalar or
+    one value per test mode; the eigenvalue's standard deviation is relative (of λ), the shape's
+    absolute (of the scaled shape entries).
     """
     w = dict(weights or {})
     unknown = sorted(set(w) - {"eigenvalue", "shape"})
@@ -155,8 +165,8 @@ def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
     return w, sigma
 
 
-def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None, w_eigenvalue, use_shapes: bool,
-                  n_modes: int | None) -> Targets:
+def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None, w_eigenvalue, w_shape,
+                  use_shapes: bool, n_modes: int | None) -> Targets:
     """The :class:`Targets` of ``data`` for ``model``: test shapes scaled as the residuals
     compare them (complex shapes rotated to their largest entry and made real)."""
     if not data.modes:
@@ -165,9 +175,18 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
     if np.any(lam_e <= 0):
         bad = [k + 1 for k in np.flatnonzero(lam_e <= 0)]
         raise InputError(f"test mode(s) {bad} have zero frequency: rigid-body modes cannot be used as updating targets")
-    w_lam = np.broadcast_to(np.asarray(w_eigenvalue, float), lam_e.shape).copy()
+    try:
+        w_lam = np.broadcast_to(np.asarray(w_eigenvalue, float), lam_e.shape).copy()
+        w_psi = np.broadcast_to(np.asarray(w_shape, float), lam_e.shape).copy()
+    except ValueError:
+        raise InputError(f"weights: give one value or one per test mode ({lam_e.size})") from None
+    if not (np.all(np.isfinite(w_lam)) and np.all(w_lam >= 0) and np.all(np.isfinite(w_psi)) and np.all(w_psi >= 0)):
+        raise InputError("weights must be finite and non-negative")
     code = rules.SCALINGS[shape_scaling]
-    pptr, pos, psi, ref = [0], [], [], []
+    pptr: list[int] = [0]
+    pos: list[int] = []
+    psi: list[float] = []
+    ref: list[int] = []
     for k, m in enumerate(data.modes):
         r = -1
         if use_shapes and m.has_shape and len(m.dofs) >= 2:
@@ -185,11 +204,11 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
             if node:
                 raise NumericalError(rules.message(rules.E_NODE, kk))
             pos.extend(int(i) for i in at)
-            psi.extend(phi / s)
+            psi.extend(map(float, phi / s))
         ref.append(r)
         pptr.append(len(pos))
     nm = min(model.n_dofs, n_modes or buffered_modes(lam_e.size))
-    return Targets(lam_e, w_lam, np.array(pptr, np.int64), np.array(pos, np.int64), np.array(psi, float),
+    return Targets(lam_e, w_lam, w_psi, np.array(pptr, np.int64), np.array(pos, np.int64), np.array(psi, float),
                    np.array(ref, np.int64), int(nm))
 
 
@@ -207,7 +226,7 @@ class Problem(Parametrisation):
     shape_scaling : ``"unit"`` (unit length over the measured dofs, default), ``"ref"`` (1 at
         ``ref_dof``, default the first measured dof of each mode: the paper's eq. 33) or
         ``"max"`` (1 at the largest entry).
-    weights, measurement_std : see :func:`modal_weights`.
+    weights, measurement_std : see :func:`modal_weights`; each a single value or one per test mode.
     min_mac : pairing threshold; a test mode with a shape must reach it with its model mode.
     n_modes : model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
     parametrisation : ``"relative"`` | ``"log"`` | ``"absolute"`` (see :class:`Parametrisation`).
@@ -252,11 +271,10 @@ class Problem(Parametrisation):
         self.scaling = shape_scaling
         self.scaling_code = rules.SCALINGS[shape_scaling]
         self.min_mac = float(min_mac)
-        self.w_shape = float(w.get("shape", 1.0))
         self.sensitivity = sensitivity
         self.sensitivity_used = sensitivity
-        self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0), use_shapes,
-                                     n_modes)
+        self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0),
+                                     w.get("shape", 1.0), use_shapes, n_modes)
         self.n_modes = self.targets.nm
         self.n_residuals = self.targets.n_residuals
         tg = self.targets
@@ -299,7 +317,7 @@ class Problem(Parametrisation):
         T, nm = tg.n_test, min(tg.nm, modes.n_modes)
         shaped = tg.shaped
         MAC = np.zeros((T, max(nm, 1)))
-        for k in np.flatnonzero(shaped):
+        for k in map(int, np.flatnonzero(shaped)):
             sl = tg.measured(k)
             MAC[k, :nm] = rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm])
         pairs = np.zeros(T, np.int64)
@@ -330,7 +348,7 @@ class Problem(Parametrisation):
             if sl.stop > sl.start:
                 n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
                 node = rules.shape_residuals(self.scaling_code, modes.shapes[tg.pos[sl], j], tg.psi_e[sl], tg.ref[k],
-                                             self.w_shape, r[row:row + n])
+                                             tg.w_psi[k], r[row:row + n])
                 if node >= 0:
                     raise NumericalError(rules.message(rules.E_NODE, node))
                 row += n
@@ -362,8 +380,9 @@ class Problem(Parametrisation):
             if sl.stop > sl.start:
                 n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
                 at = np.searchsorted(self.sensors, tg.pos[sl])
+                assert dphi is not None  # a shape is measured: the derivatives were computed
                 rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl],
-                                     tg.ref[k], self.w_shape, dpdx, J[row:row + n])
+                                     tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
                 row += n
         return J
 

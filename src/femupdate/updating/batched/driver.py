@@ -34,11 +34,11 @@ import scipy.sparse as sp
 
 from ..._errors import FemupdateError, InputError
 from ...modal import DENSE_LIMIT
-from ..problem import Parametrisation, Problem, Targets
+from ..problem import Parametrisation, Problem
 from ..results import UpdateResult
 from ..solve import result_at, update
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
-from .spec import DataArrays, ModelArrays, Spec, error_message, new_report
+from .spec import DataArrays, ModelArrays, data_arrays, error_message, make_spec, new_report
 
 log = logging.getLogger(__name__)
 
@@ -136,19 +136,6 @@ class Evaluation:
 
 
 
-def data_arrays(targets: Sequence[Targets], row_dataset) -> DataArrays:
-    """The data sets ``targets`` concatenated as the kernels read them."""
-    i64 = (lambda a: np.asarray(a, np.int64))
-    t0 = np.cumsum([0] + [t.n_test for t in targets])[:-1]
-    p0 = np.cumsum([0] + [t.pos.size for t in targets])[:-1]
-    pptr = np.concatenate([[0]] + [t.pptr[1:] + a for t, a in zip(targets, p0)])
-    cat = (lambda name, dtype: np.concatenate([np.asarray(getattr(t, name), dtype) for t in targets])
-           if targets else np.zeros(0, dtype))
-    return DataArrays(i64(t0), i64([t.n_test for t in targets]), i64([t.nm for t in targets]),
-                      i64([t.n_residuals for t in targets]), i64(row_dataset), cat("lam_e", float),
-                      cat("w_lam", float), i64(pptr), cat("pos", np.int64), cat("psi_e", float), cat("ref", np.int64))
-
-
 class BatchedProblem:
     """One small model, R starts, each row with its data set: the input of the compiled route.
 
@@ -161,7 +148,7 @@ class BatchedProblem:
         :class:`~.kernel.DataArrays` built from them.
     row_dataset : (R,) the data set of each row (default: all the first).
     values : values of the parameters that are not updated (default nominal).
-    parametrisation, shape_scaling, w_shape, min_mac : the problem's rules, as
+    parametrisation, shape_scaling, min_mac : the problem's rules, as
         :class:`~femupdate.updating.Problem` holds them.
     max_nfev, ftol, xtol, gtol : the solver's limits.
 
@@ -174,7 +161,7 @@ class BatchedProblem:
     """
 
     def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
-                 parametrisation: str = "relative", shape_scaling: str = "unit", w_shape: float = 1.0,
+                 parametrisation: str = "relative", shape_scaling: str = "unit",
                  min_mac: float = 0.5, max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10,
                  gtol: float = 1e-10):
         names = list(names)
@@ -195,7 +182,6 @@ class BatchedProblem:
         self.p_fixed = model.resolve(values)
         self.param = parametrisation
         self.scaling = shape_scaling
-        self.w_shape = float(w_shape)
         self.min_mac = float(min_mac)
         # per start: the parametrisation of the local route from that start
         self.idx = Parametrisation(model, names, parametrisation, self.p_fixed).idx
@@ -240,7 +226,7 @@ class BatchedProblem:
             )
         p_fixed = problem.p_base.copy()
         return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
-                   parametrisation=problem.param, shape_scaling=problem.scaling, w_shape=problem.w_shape,
+                   parametrisation=problem.param, shape_scaling=problem.scaling,
                    min_mac=problem.min_mac, **solver_options)
 
     def _p_base(self, start):
@@ -305,7 +291,7 @@ class BatchedProblem:
                                        "positive definite (its Cholesky factorisation failed)")
 
     def spec(self):
-        """The :class:`~.kernel.Spec` of this batch (compiles nothing)."""
+        """The :data:`~.spec.Spec` of this batch (compiles nothing)."""
         from ... import rules
 
         def coo(mats):
@@ -327,7 +313,7 @@ class BatchedProblem:
         arrays = ModelArrays(np.ascontiguousarray(self.K_const), kp, ki, kj, kv, bool(self.M_varies),
                              np.ascontiguousarray(self.M_const), mp, mi, mj, mv, np.ascontiguousarray(self.Cinv),
                              sptr, sidx, rules.PARAMETRISATIONS[self.param], np.ascontiguousarray(self.scale))
-        return Spec.of(arrays, self.data, rules.SCALINGS[self.scaling], self.w_shape, self.min_mac)
+        return make_spec(arrays, self.data, rules.SCALINGS[self.scaling], self.min_mac)
 
     @property
     def n_residuals(self) -> np.ndarray:
@@ -382,7 +368,7 @@ class BatchedProblem:
                 st.nfev[r] = 1
         err = new_report(R, int(np.max(self.data.T, initial=1)))
         todo = np.random.default_rng(0).permutation(np.flatnonzero(st.status == trf.RUNNING)).astype(np.int64)
-        done = R - todo.size
+        done = int(R - todo.size)
         if progress and done:
             progress(done, R)
         if todo.size:
@@ -394,10 +380,10 @@ class BatchedProblem:
                     parts = np.array_split(todo[a:a + chunk], threads)
                     list(pool.map(lambda rows: kernel.solve_rows(spec, st, rows, o["gtol"], o["ftol"], o["xtol"],
                                                                  max_nfev, err), [p for p in parts if p.size]))
-                    done += sum(p.size for p in parts)
+                    done += int(sum(p.size for p in parts))
                     if progress:
                         progress(done, R)
-        for r in np.flatnonzero(err.code):
+        for r in map(int, np.flatnonzero(err.code)):
             message[r] = error_message(err, r, self.min_mac)
         return dataclasses.replace(result_of(st, message), pairs=err.pairs, macs=err.macs,
                                    pair_eigenvalues=err.eigenvalues)
@@ -482,6 +468,7 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     P_alive = bp.full_p(res.x[alive], alive)
     m_row = bp.n_residuals
     T = problem.targets.n_test
+    assert res.pairs is not None and res.macs is not None and res.pair_eigenvalues is not None
     for i, r in enumerate(alive):
         P = P_alive[i]
         f = res.fun[r, :m_row[r]].copy()

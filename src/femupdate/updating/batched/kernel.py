@@ -205,7 +205,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
         if b > a:
             ns = rules.n_shape_residuals(b - a, d.ref[q])
             node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j),
-                                         np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], sp_.w_shape,
+                                         np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], d.w_psi[q],
                                          fout[row:row + ns])
             if node >= 0:
                 err_i[0] = node
@@ -280,7 +280,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         if ns:
             nr = rules.n_shape_residuals(ns, d.ref[q])
             rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t), dphs,
-                                 np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], sp_.w_shape, dpdx,
+                                 np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], d.w_psi[q], dpdx,
                                  Jout[row0:row0 + nr])
             row0 += nr
     for i in range(row0):

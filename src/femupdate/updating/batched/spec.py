@@ -7,6 +7,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ... import rules
+from ..problem import Targets
 
 
 class ModelArrays(NamedTuple):
@@ -31,63 +32,45 @@ class ModelArrays(NamedTuple):
     pscale: np.ndarray  #: (R, L) |start| of each row, for the relative parametrisation
 
 
-class DataArrays(NamedTuple):
-    """The data sets of a batch: the :class:`~femupdate.updating.problem.Targets` of each,
-    concatenated, with per data set its first test mode ``t0``, its number of test modes ``T``,
-    of modes to pair among ``nm`` and of residuals ``m``; ``row_ds`` (R,) each row's data set."""
+#: per data set: its first test mode, its numbers of test modes, of modes paired among and of
+#: residuals; per row: its data set
+_DATASET_FIELDS = [("t0", np.ndarray), ("T", np.ndarray), ("nm", np.ndarray), ("m", np.ndarray),
+                   ("row_ds", np.ndarray)]
 
-    t0: np.ndarray
-    T: np.ndarray
-    nm: np.ndarray
-    m: np.ndarray
-    row_ds: np.ndarray
-    lam_e: np.ndarray
-    w_lam: np.ndarray
-    pptr: np.ndarray
-    pos: np.ndarray
-    psi_e: np.ndarray
-    ref: np.ndarray
+#: The data sets of a batch: the per-data-set fields above, then every array field of
+#: :class:`~femupdate.updating.problem.Targets` (its per-mode and per-position fields, and
+#: ``pptr``), concatenated over the data sets — built from ``Targets``' own field names, so a new
+#: field of the problem's data reaches the kernels as ``spec.<name>`` without another change here.
+DataArrays = NamedTuple("DataArrays", _DATASET_FIELDS + [(f, np.ndarray) for f in Targets._fields if f != "nm"])
+
+#: Everything a row's evaluation reads: the fields of :class:`ModelArrays`, then those of
+#: :data:`DataArrays`, then the rules' settings — one flat tuple (numba's parallel loops and its
+#: caching handle flat tuples best).
+Spec = NamedTuple("Spec", [(f, ModelArrays.__annotations__[f]) for f in ModelArrays._fields]
+                  + list(zip(DataArrays._fields, [np.ndarray] * len(DataArrays._fields)))
+                  + [("scaling", int), ("min_mac", float)])
 
 
-class Spec(NamedTuple):
-    """Everything a row's evaluation reads: the fields of :class:`ModelArrays`, then those of
-    :class:`DataArrays`, then the rules' settings (one flat tuple: numba's parallel loops take
-    no nested tuples)."""
+def make_spec(model: ModelArrays, data, scaling: int, min_mac: float):
+    """The :data:`Spec` of a batch (``scaling`` as :data:`femupdate.rules.SCALINGS`)."""
+    return Spec(*model, *data, int(scaling), float(min_mac))
 
-    K_const: np.ndarray
-    kp: np.ndarray
-    ki: np.ndarray
-    kj: np.ndarray
-    kv: np.ndarray
-    M_varies: bool
-    M_const: np.ndarray
-    mp: np.ndarray
-    mi: np.ndarray
-    mj: np.ndarray
-    mv: np.ndarray
-    Cinv: np.ndarray
-    sptr: np.ndarray
-    sidx: np.ndarray
-    pcode: int
-    pscale: np.ndarray
-    t0: np.ndarray
-    T: np.ndarray
-    nm: np.ndarray
-    m: np.ndarray
-    row_ds: np.ndarray
-    lam_e: np.ndarray
-    w_lam: np.ndarray
-    pptr: np.ndarray
-    pos: np.ndarray
-    psi_e: np.ndarray
-    ref: np.ndarray
-    scaling: int  #: :data:`femupdate.rules.SCALINGS`
-    w_shape: float
-    min_mac: float
 
-    @classmethod
-    def of(cls, model: ModelArrays, data: DataArrays, scaling: int, w_shape: float, min_mac: float) -> Spec:
-        return cls(*model, *data, int(scaling), float(w_shape), float(min_mac))
+def data_arrays(targets, row_dataset):
+    """The data sets ``targets`` (a sequence of :class:`~femupdate.updating.problem.Targets`)
+    concatenated as the kernels read them; ``row_dataset`` (R,) each row's data set."""
+    i64 = (lambda a: np.asarray(a, np.int64))
+    p0 = np.cumsum([0] + [t.pos.size for t in targets])[:-1]
+    fields = {
+        "t0": i64(np.cumsum([0] + [t.n_test for t in targets])[:-1]), "T": i64([t.n_test for t in targets]),
+        "nm": i64([t.nm for t in targets]), "m": i64([t.n_residuals for t in targets]), "row_ds": i64(row_dataset),
+        "pptr": i64(np.concatenate([[0]] + [t.pptr[1:] + a for t, a in zip(targets, p0)])),
+    }
+    for name in Targets.PER_MODE + Targets.PER_POSITION:
+        dtype = np.asarray(getattr(targets[0], name)).dtype if targets else float
+        fields[name] = np.concatenate([np.asarray(getattr(t, name), dtype) for t in targets]) if targets \
+            else np.zeros(0, dtype)
+    return DataArrays(**fields)
 
 
 class Report(NamedTuple):
@@ -116,4 +99,4 @@ def error_message(err: Report, r: int, min_mac: float) -> str:
                          np.flatnonzero(err.modes[r]), min_mac)
     return f"NumericalError: {text}"
 
-__all__ = ["ModelArrays", "DataArrays", "Spec", "Report", "new_report", "error_message"]
+__all__ = ["ModelArrays", "DataArrays", "Spec", "make_spec", "data_arrays", "Report", "new_report", "error_message"]

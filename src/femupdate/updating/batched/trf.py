@@ -27,6 +27,7 @@ Everything here is compiled by numba on first use and cached on disk (``cache=Tr
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -35,8 +36,8 @@ from numba import config, njit
 # Singular values only (LAPACK gesdd, JOBZ='N') cost half the full SVD.  numba has no public
 # function for them, so its internal one is used when present and compiled code runs; otherwise
 # (another numba, or NUMBA_DISABLE_JIT=1 where the internal one cannot run) the full SVD.
-_sv_only = None
-if not config.DISABLE_JIT:
+_sv_only: Callable | None = None
+if not getattr(config, "DISABLE_JIT", False):
     try:
         from numba.np.linalg import _compute_singular_values as _sv_only
     except ImportError:  # pragma: no cover - a numba without the helper
