@@ -19,6 +19,10 @@ class InputError(FemupdateError, ValueError):
 
     exit_code = 2
 
+    #: offending positions in an element group; set only on the errors of
+    #: :mod:`femupdate.elements` (read with ``getattr(exc, "positions", None)``)
+    positions: list[int]
+
 
 class NumericalError(FemupdateError, ArithmeticError):
     """A numerical failure (singular system, no convergence).

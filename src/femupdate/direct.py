@@ -146,7 +146,9 @@ class _Builder:
         pk[self.free] = 0.0
         self.Kf = model.K(pk)
         self.Mf = model.M(pk)
-        self.cols, self.rhs, self.blocks = [], [], []
+        self.cols: list[np.ndarray] = []
+        self.rhs: list[np.ndarray] = []
+        self.blocks: list[tuple[str, int]] = []
         # Frobenius norms of dK/dp_j and dM/dp_j, to tell information from round-off
         self.kn = np.array([_fro(model.dK[j]) for j in self.free])
         self.mn = np.array([_fro(model.dM[j]) for j in self.free])

@@ -30,6 +30,7 @@ moment for bending in the local x-y plane (about local z), ``Iy`` for the local 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -221,7 +222,7 @@ def beam2d_terms(xa, xb, mass: str = "consistent") -> ElementTerms:
     ax = _place(n, 6, [([0, 3], _AX)]) / length[:, None, None]
     bend = np.zeros((n, 6, 6))
     bend[np.ix_(range(n), [1, 2, 4, 5], [1, 2, 4, 5])] = _bending_stiffness_unit(length)
-    K = [(("E", "A"), _to_global(ax, T)), (("E", "I"), _to_global(bend, T))]
+    K: Terms = [(("E", "A"), _to_global(ax, T)), (("E", "I"), _to_global(bend, T))]
     return ElementTerms(K=K, M=_beam2d_mass(T, length, mass))
 
 
@@ -234,7 +235,7 @@ def beam2d_physical_terms(xa, xb, mass: str = "consistent") -> ElementTerms:
     T, length = _beam2d_T(xa, xb)
     n = len(length)
     idx = [1, 2, 4, 5]
-    K = [(("EA_l",), _to_global(_place(n, 6, [([0, 3], _AX)]), T))]
+    K: Terms = [(("EA_l",), _to_global(_place(n, 6, [([0, 3], _AX)]), T))]
     for name, unit in (("k12", _B12), ("k6", _B6), ("k2", _B2)):
         K.append(((name,), _to_global(_place(n, 6, [(idx, unit)]), T)))
     return ElementTerms(K=K, M=_beam2d_mass(T, length, mass))
@@ -293,7 +294,7 @@ def frame3d_terms(xa, xb, orientation, mass: str = "consistent") -> ElementTerms
     bz[np.ix_(range(n), _PLANE_XY, _PLANE_XY)] = _bending_stiffness_unit(length)
     by = np.zeros((n, 12, 12))
     by[np.ix_(range(n), _PLANE_XZ, _PLANE_XZ)] = _FLIP @ _bending_stiffness_unit(length) @ _FLIP
-    K = [
+    K: Terms = [
         (("E", "A"), _to_global(ax, T)),
         (("G", "J"), _to_global(tor, T)),
         (("E", "Iz"), _to_global(bz, T)),
@@ -316,7 +317,7 @@ def frame3d_physical_terms(xa, xb, orientation, mass: str = "consistent") -> Ele
     """
     T, length = _frame_T(xa, xb, orientation)
     n = len(length)
-    K = [
+    K: Terms = [
         (("EA_l",), _to_global(_place(n, 12, [(_AXIAL, _AX)]), T)),
         (("GJ_l",), _to_global(_place(n, 12, [(_TORSION, _AX)]), T)),
     ]
@@ -335,7 +336,7 @@ def combine(terms: Terms, props: dict[str, np.ndarray]) -> np.ndarray:
             coef = coef * np.broadcast_to(np.asarray(props[f], float), coef.shape)
         part = coef[:, None, None] * unit
         out = part if out is None else out + part
-    return out
+    return cast(np.ndarray, out)  # None for an empty ``terms``, as before
 
 
 def physical_terms_of_frame(E, G, A, Iy, Iz, J, length) -> dict[str, np.ndarray]:

@@ -8,6 +8,7 @@ each function and in the README.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from .model import Model
 from .structure import Structure
@@ -88,7 +89,7 @@ def portal_frame(E_columns: float = 2.1e11, E_beam: float = 2.1e11, n_per_member
     col_l = np.c_[ids[:n], ids[1 : n + 1]]
     beam = np.c_[ids[n : 2 * n], ids[n + 1 : 2 * n + 1]]
     col_r = np.c_[ids[2 * n : 3 * n], ids[2 * n + 1 : 3 * n + 1]]
-    sec = dict(A=4e-3, I=1.2e-5, rho=7850.0)
+    sec: dict[str, Any] = dict(A=4e-3, I=1.2e-5, rho=7850.0)  # keyword arguments of beam2d
     s.beam2d(np.r_[col_l, col_r], E="E_col", where="columns", **sec)
     s.beam2d(beam, E="E_beam", where="beam", **sec)
     s.support_node([1, len(pts)])

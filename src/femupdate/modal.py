@@ -213,6 +213,13 @@ def _dense(K, M, n_modes, dofs):
     return lam, Phi
 
 
+def arpack_options() -> dict:
+    """Keyword arguments of :func:`scipy.sparse.linalg.eigsh` that make its result reproducible:
+    ARPACK's start and restart vectors from a fixed seed (left alone, SciPy draws them from the
+    operating system's entropy, and eigenpairs change by round-off from run to run)."""
+    return {"rng": np.random.default_rng(0)}
+
+
 PIVOT_THRESHOLD = 0.1  # SuperLU symmetric mode: off-diagonal pivot only below this fraction
 
 
@@ -260,7 +267,7 @@ def _sparse(K, M, n_modes, sigma, tol):
         if lu is None:
             lu = _factor(K - sigma * M)
         OPinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
-        lam, Phi = spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv)
+        lam, Phi = spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv, **arpack_options())
     except spla.ArpackNoConvergence as exc:
         raise NumericalError(
             f"the sparse eigensolver did not converge for {n_modes} modes "

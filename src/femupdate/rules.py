@@ -112,21 +112,19 @@ def message(code: int, i0: int = 0, i1: int = 0, f0: float = 0.0, f1: float = 0.
 def to_p(code, x, scale):
     """Physical values of the updated parameters at the optimiser's variables ``x`` (L,);
     ``scale`` (L,) the |starting values| of the relative parametrisation."""
-    if code == RELATIVE:
-        return x * scale
-    if code == LOG:
-        return np.exp(x)
-    return x.copy()
+    p = np.empty(x.size)
+    for j in range(x.size):
+        p[j] = x[j] * scale[j] if code == RELATIVE else (math.exp(x[j]) if code == LOG else x[j])
+    return p
 
 
 @rule
 def dp_dx(code, x, scale):
     """∂p/∂x (L,), the diagonal of the parametrisation's Jacobian."""
-    if code == RELATIVE:
-        return scale.copy()
-    if code == LOG:
-        return np.exp(x)
-    return np.ones(x.size)
+    d = np.empty(x.size)
+    for j in range(x.size):
+        d[j] = scale[j] if code == RELATIVE else (math.exp(x[j]) if code == LOG else 1.0)
+    return d
 
 
 # ---------------------------------------------------------------------------------------------
@@ -377,12 +375,11 @@ def shape_residuals(scaling, phs, psi_e, ref, w, out):
     if node:
         return k
     sign = unit_sign(scaling, phs, s, psi_e)
-    r = w * (sign * phs / s - psi_e)
-    if ref >= 0:
-        out[:ref] = r[:ref]
-        out[ref:] = r[ref + 1:]
-    else:
-        out[:] = r
+    o = 0
+    for i in range(phs.size):
+        if i != ref:
+            out[o] = w * (sign * phs[i] / s - psi_e[i])
+            o += 1
     return -1
 
 
@@ -393,16 +390,14 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
     φ_k' for the reference and largest-entry scalings."""
     s, k, node = shape_scale(scaling, phs, ref)
     sign = unit_sign(scaling, phs, s, psi_e)
-    L = dphs.shape[1]
-    ds = np.empty(L)
-    for j in range(L):
-        ds[j] = dot(phs, dphs[:, j]) / s if scaling == UNIT else dphs[k, j]
-    D = (w * sign / s) * (dphs - np.outer(phs / s, ds)) * dpdx
-    if ref >= 0:
-        out[:ref] = D[:ref]
-        out[ref:] = D[ref + 1:]
-    else:
-        out[:, :] = D
+    fct = w * sign / s
+    for j in range(dphs.shape[1]):
+        ds = dot(phs, dphs[:, j]) / s if scaling == UNIT else dphs[k, j]
+        o = 0
+        for i in range(phs.size):
+            if i != ref:
+                out[o, j] = fct * (dphs[i, j] - phs[i] / s * ds) * dpdx[j]
+                o += 1
 
 
 __all__ = [

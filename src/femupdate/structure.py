@@ -110,7 +110,7 @@ class Structure:
         """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0)."""
         self.add_nodes([node_id], [xyz])
 
-    def add_nodes(self, ids: Sequence[int], xyz) -> None:
+    def add_nodes(self, ids: Sequence[int] | np.ndarray, xyz) -> None:
         """Add many nodes at once: ``ids`` (n,), ``xyz`` (n, 2 | 3)."""
         xyz = np.asarray(xyz, dtype=float)
         if xyz.ndim != 2 or xyz.shape[1] not in (2, 3) or xyz.shape[0] != len(ids):
@@ -326,7 +326,8 @@ class Structure:
         pnames = list(self.parameters)
         pindex = {n: j for j, n in enumerate(pnames)}
         L, n = len(pnames), len(dofs)
-        trip = {("K", t): [] for t in range(-1, L)} | {("M", t): [] for t in range(-1, L)}
+        trip: dict[tuple[str, int], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
+            (target, t): [] for target in ("K", "M") for t in range(-1, L)}  # every K key, then every M key
         for g in groups:
             terms = self._terms(g)
             idx = np.array([[index.get(lab, -1) for lab in row] for row in g.labels], dtype=np.int64)
@@ -335,7 +336,7 @@ class Structure:
                 for factors, unit in tlist:
                     coef, pid = self._combine(g, factors, resolved, target)
                     _triplets(trip, target, unit, idx, coef, pid)
-        mats = {}
+        mats: dict[tuple[str, int], sp.csr_array | None] = {}
         for (target, t), parts in trip.items():
             if not parts:
                 mats[(target, t)] = None
@@ -357,6 +358,8 @@ class Structure:
         )
 
     def _coords(self, g: _Group) -> tuple[np.ndarray, np.ndarray]:
+        if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
+            raise TypeError(f"{g.where[0]}: a {g.type} group has no end nodes")
         ids = np.unique(g.nodes)
         missing = [int(i) for i in ids if int(i) not in self.nodes]
         if missing:

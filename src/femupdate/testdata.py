@@ -21,7 +21,7 @@ def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> No
     if np.any(bad):
         if dofs is not None and arr.ndim >= 1 and arr.shape[-1] == len(dofs):
             cols = np.flatnonzero(bad.reshape(-1, len(dofs)).any(axis=0))
-            raise InputError(f"{what}: NaN or infinite value(s) at dof(s) {describe([dofs[c] for c in cols])}")
+            raise InputError(f"{what}: NaN or infinite value(s) at dof(s) {describe([dofs[int(c)] for c in cols])}")
         raise InputError(f"{what}: NaN or infinite value(s)")
 
 

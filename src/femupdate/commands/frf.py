@@ -20,9 +20,9 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
     if not text:
         raise InputError(f"{what}: no frequencies given")
     if text.count(":") == 2 and "," not in text:
-        a, b, n = text.split(":")
+        sa, sb, sn = text.split(":")
         try:
-            a, b, n = float(a), float(b), int(n)
+            a, b, n = float(sa), float(sb), int(sn)
         except ValueError:
             raise InputError(f"{what}: {text!r} is not START:STOP:N (numbers, N an integer)") from None
         if n < 1 or not (np.isfinite(a) and np.isfinite(b)):

@@ -58,6 +58,7 @@ import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -142,7 +143,7 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
 
     for g in structure.groups:
         n_el = len(g.labels)
-        props = {k: [_resolve(structure, v, values) for v in vs] for k, vs in g.props.items()}
+        props: dict[str, list] = {k: [_resolve(structure, v, values) for v in vs] for k, vs in g.props.items()}
         if g.type == "mass":
             for i in range(n_el):
                 out.mass(g.labels[i], m=props["m"][i], where=g.where[i])
@@ -152,7 +153,7 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
                              f"a {g.type} element has several stiffness terms: build the baseline with "
                              f"{'beam2d' if g.type.startswith('beam') else 'frame3d'} elements")
         prop = MODULUS[g.type]
-        names = []
+        names: list[float | str] = []
         for i in range(n_el):
             if supported(g.labels[i]):
                 names.append(props[prop][i])
@@ -281,9 +282,9 @@ class _Equations:
             vals.append(d.data * theta0[j])
             owner.append(np.full(d.nnz, c))
         self.rows, self.cols = np.concatenate(rows), np.concatenate(cols)
-        self.vals, owner = np.concatenate(vals), np.concatenate(owner)
+        self.vals, own = np.concatenate(vals), np.concatenate(owner)
         self.n, self.L = model.n_dofs, len(self.idx)
-        self.G = sp.csr_array((np.ones(owner.size), (np.arange(owner.size), owner)), shape=(owner.size, self.L)).T.tocsr()
+        self.G = sp.csr_array((np.ones(own.size), (np.arange(own.size), own)), shape=(own.size, self.L)).T.tocsr()
         self.K0 = model.K(theta0)
         self.M = model.M(theta0)
 
@@ -381,7 +382,8 @@ def _l1_path(A, r, lower, upper, threshold, alpha=None) -> _Fit:
         return _Fit(z, z, 0.0, 0.0, [])
     fracs = np.geomspace(1.0, 1e-3, N_PATH) if alpha is None else np.array([float(alpha)])
     n = A.shape[0]
-    x, best, path, worse = None, None, [], 0
+    x, path, worse = None, [], 0
+    best: tuple[float, float, np.ndarray, np.ndarray] | None = None
     for fr in fracs:
         if worse >= 3:  # the criterion has risen clearly three times running: the rest of the path only adds elements
             break
@@ -395,6 +397,8 @@ def _l1_path(A, r, lower, upper, threshold, alpha=None) -> _Fit:
         if best is None or bic < best[0] - 1e-9:
             best = (bic, fr, x.copy(), xd)
         worse = worse + 1 if bic > best[0] + math.log(n) else 0
+    if best is None:  # set on the first step of the path
+        raise TypeError("cannot unpack non-iterable NoneType object")
     _, fr, x, xd = best
     return _Fit(x, xd, float(fr * amax), amax, path)
 
@@ -578,9 +582,9 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     notes: list[str] = []
     n_rigid = int(np.sum(base_modes.eigenvalues <= 0))
     idx = _indices(model, names)
-    common = dict(baseline=dict(zip(names, map(float, theta0[idx]))), detected=detected,
-                  pairs=[(k, j, float(mm)) for k, (j, mm) in sorted(best.items())], frequency_change=fchange,
-                  baseline_check=chk)
+    common: dict[str, Any] = dict(baseline=dict(zip(names, map(float, theta0[idx]))), detected=detected,
+                                  pairs=[(k, j, float(mm)) for k, (j, mm) in sorted(best.items())],
+                                  frequency_change=fchange, baseline_check=chk)
     poor = [k for k in range(m) if best[k][1] < localise_min_mac]
     if poor:
         reason = ("measured mode(s) " + ", ".join(f"{k + 1} (best MAC {best[k][1]:.2f})" for k in poor)
@@ -610,7 +614,7 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     rng = np.random.default_rng(seed)
     peak = np.max(np.abs(Phi_a), axis=0)
 
-    def perturbed():
+    def perturbed() -> tuple[np.ndarray, np.ndarray]:
         return (lam * (1.0 + sig_f * rng.standard_normal(m)) ** 2,
                 Phi_a + sig_s * peak * rng.standard_normal(Phi_a.shape))
 

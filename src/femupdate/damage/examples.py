@@ -102,7 +102,7 @@ def noisy_modes(model, dofs: Sequence[str], n_modes: int, values=None, frequency
     modes = model_modes(model, values)
     rng = np.random.default_rng(seed)
     pos = model.dof_index(dofs)
-    out = []
+    out: list[MeasuredMode] = []
     for r in [r for r in range(modes.n_modes) if modes.eigenvalues[r] > 0][:n_modes]:
         sh = modes.shapes[pos, r] / np.max(np.abs(modes.shapes[pos, r]))
         lam = modes.eigenvalues[r] * (1 + frequency_noise * rng.standard_normal()) ** 2

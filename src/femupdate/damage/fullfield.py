@@ -145,7 +145,12 @@ class ScanData:
 
     @property
     def components(self) -> tuple[str, ...]:
-        src = self.modes[0].values if self.modes else self.frf.values
+        if self.modes:
+            src = self.modes[0].values
+        elif self.frf is not None:
+            src = self.frf.values
+        else:  # refused by __post_init__
+            raise AttributeError("'NoneType' object has no attribute 'values'")
         return tuple(sorted(src))
 
 
@@ -418,11 +423,11 @@ def element_design(model, geom: Geometry, points, seg, along, comps, zero) -> tu
         put(r, b_id, ehat, beta * np.where(lin, s, H[:, 2]), False)
         put(r, a_id, axis, beta * np.where(lin, 0.0, H[:, 1]), True)
         put(r, b_id, axis, beta * np.where(lin, 0.0, H[:, 3]), True)
-    rows, cols, vals = (np.concatenate(x) if x else np.zeros(0) for x in (rows, cols, vals))
-    N = sp.csr_array((vals, (rows.astype(np.intp), cols.astype(np.intp))), shape=(n * len(comps), model.n_dofs))
+    r_all, c_all, v_all = (np.concatenate(x) if x else np.zeros(0) for x in (rows, cols, vals))
+    N = sp.csr_array((v_all, (r_all.astype(np.intp), c_all.astype(np.intp))), shape=(n * len(comps), model.n_dofs))
     N.sum_duplicates()
     seen = np.zeros(model.n_dofs, dtype=bool)
-    seen[np.unique(cols.astype(np.intp))] = True
+    seen[np.unique(c_all.astype(np.intp))] = True
     return N, seen
 
 

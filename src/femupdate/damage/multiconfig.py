@@ -201,7 +201,9 @@ def configure(model: Model, modification: Modification) -> ConfiguredModel:
     for (dofs, k) in mod.springs:
         i = index[dofs[0]]
         if len(dofs) == 1:
-            rows.append(i), cols.append(i), vals.append(k)
+            rows.append(i)
+            cols.append(i)
+            vals.append(k)
         else:
             j = index[dofs[1]]
             rows += [i, j, i, j]

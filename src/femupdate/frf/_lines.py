@@ -30,6 +30,7 @@ import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical, describe
+from ..modal import arpack_options
 
 log = logging.getLogger(__name__)
 
@@ -382,7 +383,8 @@ def nearest_mode(K, M, s: float, lu, where: str) -> tuple[float, np.ndarray]:
     real factor ``lu`` of K − sM; the vector mass-normalised."""
     op = spla.LinearOperator(K.shape, matvec=lambda v: lu_apply(lu, v), dtype=float)
     try:
-        lam, vec = spla.eigsh(K, k=1, M=M, sigma=s, which="LM", OPinv=op, tol=1e-8, ncv=min(8, K.shape[0] - 1))
+        lam, vec = spla.eigsh(K, k=1, M=M, sigma=s, which="LM", OPinv=op, tol=1e-8, ncv=min(8, K.shape[0] - 1),
+                              **arpack_options())
     except spla.ArpackNoConvergence as exc:
         raise NumericalError(f"{where}: the nearest resonance was not found ({len(exc.eigenvalues)} converged)") from None
     v = vec[:, 0]

@@ -32,7 +32,7 @@ from scipy import optimize
 from .._errors import FemupdateError, InputError
 from ..updating import MultiStartResult, cluster, run_starts
 from .surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
-from .updating import _prepare, frf_data, frf_update
+from .updating import FRFUpdateResult, _prepare, frf_data, frf_update
 
 log = logging.getLogger(__name__)
 
@@ -181,6 +181,7 @@ def _run_global(model, data, names, seed, kwargs) -> tuple:
     info.update({"x": dict(zip(names, map(float, res.x))), "cost": float(res.fun), "nfev": int(cost.nfev),
                  "nit": int(getattr(res, "nit", 0)), "message": str(getattr(res, "message", ""))})
     polish = {k: v for k, v in kwargs.items() if k not in ("method", "options", "global_residual")}
+    run: FRFUpdateResult | str
     try:
         run = frf_update(model, data, params=names, x0=dict(zip(names, np.clip(res.x, lo, hi))), **polish)
     except FemupdateError as exc:

@@ -228,7 +228,8 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
     res = resonances(model, cand, p) if margin > 0 else None  # no margin: nothing to exclude
     near = res.near(margin) if res is not None else np.array([], dtype=np.intp)
     excluded = [{"line": int(i) + 1, "omega_rad_s": float(cand[i]),
-                 "reason": f"within {margin:g} of a resonance ({res.describe([i])})"} for i in near]
+                 "reason": f"within {margin:g} of a resonance ({res.describe([i])})"}
+                for i in near] if res is not None else []  # near is empty without resonances
     if kind == "direct":
         blocks = direct_blocks(model, cand, force, p, names, damping)
     else:

@@ -164,6 +164,8 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
         for i, lu in sys_.each():
             block(i, lu_apply(lu, B))
             if check and not small:
+                if Phi is None:  # allocated whenever check is set
+                    raise TypeError("'NoneType' object does not support item assignment")
                 where = _line_name(i, w[i])
                 real_lu = lu if damping.undamped else factor(sp.csc_array(sys_.K - w[i] ** 2 * sys_.M), where)
                 nearest[i], Phi[:, i] = nearest_mode(sys_.K, sys_.M, w[i] ** 2, real_lu, where)
@@ -171,6 +173,8 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
             res = resonances(model, w, p, idx) if small else collect_resonances(model, p, w, nearest, Phi, np.full(w.size, -1), idx)
     near = res.near(resonance_tol) if res is not None else np.zeros(0, dtype=np.intp)
     if near.size:
+        if res is None:  # near is empty without resonances
+            raise AttributeError("'NoneType' object has no attribute 'describe'")
         log.warning("receptance sensitivities near resonance (first-order predictions hold only for small changes): %s",
                     res.describe(near))
     return ReceptanceSensitivity(w, r_labels, e_labels, tuple(model.parameter_names[j] for j in idx), p,
@@ -246,5 +250,8 @@ def first_order_check(model, omega, force: Mapping, param: str, delta: float, re
     exact = x1 - x0
     pred = dx[..., 0] * (q[j] - p[j])
     err = np.linalg.norm(pred - exact, axis=1) / np.maximum(np.linalg.norm(exact, axis=1), np.finfo(float).tiny)
-    est = sens.resonances.first_order_error(delta)[:, 0]
-    return FirstOrderCheck(sens.omega, param, float(delta), exact, pred, err, est, sens.resonances.distance)
+    res = sens.resonances
+    if res is None:  # no resonance check (damped model above modal.DENSE_LIMIT dofs)
+        raise AttributeError("'NoneType' object has no attribute 'first_order_error'")
+    est = res.first_order_error(delta)[:, 0]
+    return FirstOrderCheck(sens.omega, param, float(delta), exact, pred, err, est, res.distance)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -206,8 +207,9 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
     """
     gx, gy, P = _grid(model, names, x, y)
     out = frf_r2(model, data, names, P, values, damping, residual, weights)
-    return Surface(tuple(names), gx, gy, out.reshape(gx.size, gy.size), f"frf (eq. 34, {residual})",
-                   None if truth is None else tuple(map(float, truth)),
+    return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size),
+                   f"frf (eq. 34, {residual})",
+                   None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
                    {"omega_rad_s": data.omega.tolist(), "dofs": list(data.dofs), "force": dict(data.force)})
 
 
@@ -266,8 +268,8 @@ def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None
     measured dof of each mode), test mode i against model mode i."""
     gx, gy, P = _grid(model, names, x, y)
     out = modal_r2(model, data, names, P, values, ref_dof)
-    return Surface(tuple(names), gx, gy, out.reshape(gx.size, gy.size), "modal (eq. 33)",
-                   None if truth is None else tuple(map(float, truth)),
+    return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size), "modal (eq. 33)",
+                   None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
                    {"eigenvalues": data.eigenvalues.tolist(), "ref_dof": ref_dof})
 
 
@@ -299,11 +301,11 @@ def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1
         vals.append(2 * sol.cost)
     if not pts:
         return []
-    pts, vals = np.array(pts), np.array(vals)
+    P, V = np.array(pts), np.array(vals)
     span = hi - lo
     out = []
-    for g in cluster(pts, vals, rel_tol):
-        x = pts[g[0]]
-        out.append({n1: float(x[0]), n2: float(x[1]), "value": float(vals[g[0]]), "grid_minima": len(g),
+    for g in cluster(P, V, rel_tol):
+        x = P[g[0]]
+        out.append({n1: float(x[0]), n2: float(x[1]), "value": float(V[g[0]]), "grid_minima": len(g),
                     "on_boundary": bool(np.any((x - lo) < 1e-6 * span) or np.any((hi - x) < 1e-6 * span))})
     return sorted(out, key=lambda m: m["value"])

@@ -294,7 +294,7 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
     """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
     as :func:`femupdate.updating.multistart`), locally or on Dask; a
     :class:`~femupdate.updating.MultiStartResult` in the same format."""
-    from ..updating.multistart import draw_starts, run_starts, run_with
+    from ..updating.starts import draw_starts, run_starts, run_with
 
     if starts < 1:
         raise InputError("the number of starts must be at least 1")

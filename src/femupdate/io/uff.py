@@ -39,6 +39,7 @@ import tempfile
 import uuid
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pyuff
@@ -200,7 +201,7 @@ def _read_nodes(dset: dict, where: str, nodes: dict[int, tuple[float, float, flo
 def _read_units(dset: dict, where: str) -> dict:
     try:
         code = int(dset["units_code"])
-        units = {
+        units: dict[str, Any] = {
             "code": code,
             "system": UNIT_SYSTEMS.get(code, "unknown"),
             "description": str(dset.get("units_description", "")).strip(),
@@ -414,8 +415,10 @@ def read_uff(
             units = u
 
     modes: list[MeasuredMode] = []
-    frf_axis = frf_omega = None
-    frf_ref = frf_first = None
+    frf_axis: np.ndarray | None = None
+    frf_omega: np.ndarray | None = None
+    frf_ref: str | None = None
+    frf_first: str | None = None
     frf_dofs: list[str] = []
     frf_cols: list[np.ndarray] = []
     for t, k, dset in records:
@@ -439,6 +442,8 @@ def read_uff(
                     f"{where}: excitation dof {ref} differs from {frf_ref} of {frf_first}; "
                     "one file must hold the FRFs of one excitation dof"
                 )
+            elif frf_axis is None:  # set together with frf_ref
+                raise AttributeError("'NoneType' object has no attribute 'shape'")
             elif not _same_axis(frf_axis, x):
                 raise InputError(
                     f"{where}: frequency axis ({x.size} points, {x[0]:g} .. {x[-1]:g}) differs from that of "
@@ -453,6 +458,8 @@ def read_uff(
     if frf_cols:
         cplx = any(np.iscomplexobj(c) for c in frf_cols)
         resp = np.column_stack([c.astype(complex) if cplx else c for c in frf_cols])
+        if frf_omega is None or frf_ref is None:  # both set with the first FRF record
+            raise InputError(f"{name}: datasets 58: no frequency axis or excitation dof")
         try:
             frf = FRFData(frf_omega, {frf_ref: 1.0}, tuple(frf_dofs), resp)
         except InputError as exc:

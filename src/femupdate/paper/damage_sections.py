@@ -146,7 +146,7 @@ def full_field_direct(out_dir, figures=True, n_points: int = 200) -> dict:
     rows = []
     for noise, seeds in ((0.0, (0,)), (1e-3, (1, 2)), (1e-2, (1, 2))):
         for method in ("elements", "rbf", "local"):
-            errs = {"pointwise": [], "projected": []}
+            errs: dict[str, list[float]] = {"pointwise": [], "projected": []}
             interp = []
             for seed in seeds:
                 scan = scan_beam(truth, xs, 4, noise, seed)

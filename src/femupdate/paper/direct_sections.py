@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .._errors import InputError
@@ -61,12 +63,13 @@ def figure2_direct(out_dir, figures=True) -> dict:
     modes = model_modes(truth)
     start = _start(truth)
     mm = [MeasuredMode(modes.eigenvalues[i], truth.dofs, modes.shapes[:, i], f"mode {i + 1}") for i in range(3)]
+    one: dict[str, bool | str]
     try:
         direct_update(start, TestData(modes=(mm[0],)))
         one = {"solved": True}
     except InputError as exc:
         one = {"solved": False, "message": str(exc)}
-    cases = []
+    cases: list[dict[str, Any]] = []
     ok = not one["solved"]
     for sel in ((0, 1), (0, 2), (1, 2), (0, 1, 2)):
         res = direct_update(start, TestData(modes=tuple(mm[i] for i in sel)))
@@ -172,7 +175,7 @@ def two_dof_characteristic(out_dir, figures=True) -> dict:
     for k1, k2 in sols:
         ev = model_modes(truth, {"k1": k1, "k2": k2}).eigenvalues
         check.append({"k1": k1, "k2": k2, "eigenvalues": ev, "same_eigenvalues": bool(np.allclose(ev, lam, rtol=1e-12))})
-    paper = {"a2": 8, "a1": 68, "a0": 48, "solutions": [[8, 6], [9, 16 / 3]]}
+    paper: dict[str, Any] = {"a2": 8, "a1": 68, "a0": 48, "solutions": [[8, 6], [9, 16 / 3]]}
     ok = (np.allclose([a2, a1, a0], [8, 68, 48], rtol=1e-12) and len(sols) == 2
           and np.allclose([from_eigs["a1"], from_eigs["a0"]], [a1, a0], rtol=1e-12)
           and np.allclose(sols, paper["solutions"], rtol=1e-12) and all(c["same_eigenvalues"] for c in check))

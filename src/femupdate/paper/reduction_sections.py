@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..modal import model_modes
@@ -24,8 +26,8 @@ ORDER = 50
 METHODS = ("guyan", "irs", "modal", "hybrid")
 
 # ---------------------------------------------------------------------------------- the truss
-TRUSS = {"n_bays": 10, "bay": 0.5, "width": 0.4, "n_sub": 2, "E": 70e9, "rho": 2700.0, "D": 0.025, "t": 0.0015,
-         "joint_mass": 0.005}
+TRUSS: dict[str, Any] = {"n_bays": 10, "bay": 0.5, "width": 0.4, "n_sub": 2, "E": 70e9, "rho": 2700.0, "D": 0.025,
+                         "t": 0.0015, "joint_mass": 0.005}
 
 
 def larc_truss(n_bays: int = 10, bay: float = 0.5, width: float = 0.4, n_sub: int = 2, E: float = 70e9,
@@ -123,7 +125,7 @@ def reduction_truss(out_dir, figures=True, seeds: int = 5, noise: float = 0.03, 
     eq42 = {"guyan": ferr(trans[("guyan", "global")].T), "irs_corrected": ferr(trans[("irs", "global")].T),
             "irs_as_printed": ferr(irs_as_printed(red))}
     # test data from perturbed trusses (member moduli ~ N(1, sigma_E), joint masses x U(0.5, 2), shape noise)
-    per = {k: {meth: [] for meth in METHODS} for k in scenarios}
+    per: dict[str, dict[str, list[dict]]] = {k: {meth: [] for meth in METHODS} for k in scenarios}
     for seed in range(seeds):
         rng = np.random.default_rng(1000 + seed)
         st, _ = larc_truss(**{**TRUSS, "E_factors": rng.normal(1.0, sigma_E, n_members),
@@ -208,7 +210,7 @@ def superelement_beam(out_dir, figures=True, n_test_modes: int = 10, seed: int =
     fm = model_modes(full, true, n_modes=n_test_modes + 2)
     r0 = fm.n_rigid
     elastic = range(r0, r0 + n_test_modes)
-    data = TestData(modes=tuple(MeasuredMode(fm.eigenvalues[i], keep, fm.at(keep)[:, i]) for i in elastic))
+    data = TestData(modes=tuple(MeasuredMode(fm.eigenvalues[i], tuple(keep), fm.at(keep)[:, i]) for i in elastic))
     sm = model_modes(se, true, n_modes=min(se.n_dofs, n_test_modes + 2))
     f_err = sm.frequencies_hz[r0:r0 + n_test_modes] / fm.frequencies_hz[r0:r0 + n_test_modes] - 1
     res = update(se, data)
@@ -217,7 +219,7 @@ def superelement_beam(out_dir, figures=True, n_test_modes: int = 10, seed: int =
     p_full = np.array([res_full.parameters[n] for n in full.parameter_names])
     direct_full_data = direct_update(se, data)
     p_dir = np.array([direct_full_data.parameters[n] for n in se.parameter_names])
-    data_red = TestData(modes=tuple(MeasuredMode(sm.eigenvalues[i], keep, sm.at(keep)[:, i]) for i in elastic))
+    data_red = TestData(modes=tuple(MeasuredMode(sm.eigenvalues[i], tuple(keep), sm.at(keep)[:, i]) for i in elastic))
     direct_red_data = direct_update(se, data_red)
     p_dir2 = np.array([direct_red_data.parameters[n] for n in se.parameter_names])
     nu = se.n_dofs

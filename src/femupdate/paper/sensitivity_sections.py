@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..examples import two_dof
@@ -17,7 +19,7 @@ PAPER_EQ22_COND = 16.3
 def eq22_sensitivity(out_dir, figures=True) -> dict:
     model = two_dof()
     K1, K2 = (model.dK_dp(j).toarray() for j in range(2))
-    per_norm = {}
+    per_norm: dict[str, dict[str, Any]] = {}
     for how in ("unit", "mass", "max", "ref:1:x"):
         modes = model_modes(model, normalisation=how)
         lam, Phi = modes.eigenvalues, modes.shapes
@@ -52,9 +54,9 @@ def two_dof_multistart(out_dir, figures=True, starts: int = 100, seed: int = 199
     model = two_dof()
     modes = model_modes(model)
     # measured at dof 1 only, two modes: one sensor, so the shapes carry no information (the paper)
-    data = TestData(modes=tuple(MeasuredMode(modes.eigenvalues[i], ["1:x"], modes.shapes[:1, i]) for i in range(2)))
+    data = TestData(modes=tuple(MeasuredMode(modes.eigenvalues[i], ("1:x",), modes.shapes[:1, i]) for i in range(2)))
     ms = multistart(model, data, starts=starts, seed=seed)
-    sols = [{"parameters": s.parameters, "count": s.count, "cost": s.cost} for s in ms.solutions]
+    sols: list[dict[str, Any]] = [{"parameters": s.parameters, "count": s.count, "cost": s.cost} for s in ms.solutions]
     found = {(round(s.parameters["k1"], 6), round(s.parameters["k2"], 6)) for s in ms.solutions if s.cost < 1e-20}
     expected = {(8.0, 6.0), (9.0, round(16 / 3, 6))}
     out = {

@@ -26,6 +26,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from .._errors import NumericalError
+from ..modal import arpack_options
 from .transforms import Reducer, reduced_eigenvalues
 
 DENSE_LIMIT = 300
@@ -89,7 +90,8 @@ def omitted_eigenvalues(red: Reducer, k: int = 6) -> np.ndarray:
     else:
         op = spla.LinearOperator(red.K_oo.shape, matvec=lu.solve, dtype=float)
         try:
-            lam = spla.eigsh(red.K_oo, k=k, M=red.M_oo, sigma=0.0, which="LM", OPinv=op, return_eigenvectors=False)
+            lam = spla.eigsh(red.K_oo, k=k, M=red.M_oo, sigma=0.0, which="LM", OPinv=op, return_eigenvectors=False,
+                             **arpack_options())
         except (spla.ArpackNoConvergence, RuntimeError) as exc:
             raise NumericalError(f"eigenvalues of the omitted partition: the sparse eigensolver failed ({exc})") from None
         return np.sort(lam)

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from .._errors import InputError
 from ..dofs import canonical_all, describe, sort_key
-from ..model import Model
+from ..model import Model, Parameter
 from ..structure import Structure, _Group
 from .transforms import Reducer, reduce
 
@@ -96,14 +96,15 @@ def assemble(models: Sequence[Model], dofs: Sequence[str] | None = None, name: s
         union = list(dofs)
     pos = {d: i for i, d in enumerate(union)}
     n = len(union)
-    params: dict[str, object] = {}
+    params: dict[str, Parameter] = {}
     for m in models:
         for p in m.parameters:
             if p.name in params and params[p.name] != p:
                 raise InputError(f"assemble: parameter {p.name!r} is declared differently in two parts")
             params.setdefault(p.name, p)
     names = list(params)
-    trip = {("K", -1): [], ("M", -1): []} | {(t, j): [] for t in "KM" for j in range(len(names))}
+    trip: dict[tuple[str, int], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {("K", -1): [], ("M", -1): []}
+    trip |= {(t, j): [] for t in "KM" for j in range(len(names))}
     for m in models:
         idx = np.array([pos[d] for d in m.dofs], dtype=np.int64)
         terms = [(("K", -1), m.K0), (("M", -1), m.M0)]
@@ -123,7 +124,7 @@ def assemble(models: Sequence[Model], dofs: Sequence[str] | None = None, name: s
         return sp.csr_array(sp.coo_array((v, (r, c)), shape=(n, n)))
 
     zero = sp.csr_array((n, n))
-    nodes = {}
+    nodes: dict[int, tuple[float, float, float]] = {}
     for m in models:
         nodes.update(m.nodes)
     return Model(dofs=tuple(union), K0=mat(("K", -1)) if trip[("K", -1)] else zero,

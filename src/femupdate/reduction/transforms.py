@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical_all, describe
-from ..modal import _factor, _nearly_singular, model_modes
+from ..modal import Modes, _factor, _nearly_singular, arpack_options, model_modes
 from ..model import Model
 
 log = logging.getLogger(__name__)
@@ -218,7 +218,7 @@ class Reducer:
         mask[self.ia] = False
         self.io = np.flatnonzero(mask)
         self.values = model.resolve(values)
-        self._modes: dict[int, object] = {}
+        self._modes: dict[int, Modes] = {}
 
     # -------------------------------------------------------------- matrices
     @cached_property
@@ -450,7 +450,7 @@ def mechanism_dofs(K_oo, labels: Sequence[str], tol: float = 1e-9) -> tuple[list
     d = np.abs(K.diagonal())
     zero = np.flatnonzero(d <= 1e-300)
     if zero.size:
-        return [labels[i] for i in zero], int(zero.size)
+        return [labels[int(i)] for i in zero], int(zero.size)
     s = 1.0 / np.sqrt(d)
     S = sp.csc_array(sp.diags_array(s) @ K @ sp.diags_array(s))
     n = S.shape[0]
@@ -459,7 +459,7 @@ def mechanism_dofs(K_oo, labels: Sequence[str], tol: float = 1e-9) -> tuple[list
     else:
         k = min(8, n - 2)
         try:
-            lam, V = spla.eigsh(S, k=k, sigma=-1e-3, which="LM")
+            lam, V = spla.eigsh(S, k=k, sigma=-1e-3, which="LM", **arpack_options())
         except (RuntimeError, spla.ArpackNoConvergence) as exc:
             raise NumericalError(f"K_oo is singular and its null space could not be found: {exc}") from None
     null = lam < tol
@@ -468,7 +468,7 @@ def mechanism_dofs(K_oo, labels: Sequence[str], tol: float = 1e-9) -> tuple[list
     Vn = V[:, null]
     amp = np.max(np.abs(Vn) / np.max(np.abs(Vn), axis=0), axis=1)
     idx = np.flatnonzero(amp >= 0.1)
-    return [labels[i] for i in idx], int(null.sum())
+    return [labels[int(i)] for i in idx], int(null.sum())
 
 
 # ---------------------------------------------------------------------------------- functions

@@ -26,10 +26,10 @@ REPEATED_TOL = rules.REPEATED_TOL  # relative eigenvalue gap below which modes c
 def resolve_params(model, params) -> np.ndarray:
     if params is None:
         return np.asarray(model.free, dtype=np.intp)
-    out = []
+    listed = []
     for p in params:
-        out.append(model.parameter_index(p) if isinstance(p, str) else int(p))
-    out = np.asarray(out, dtype=np.intp)
+        listed.append(model.parameter_index(p) if isinstance(p, str) else int(p))
+    out = np.asarray(listed, dtype=np.intp)
     if out.size and (out.min() < 0 or out.max() >= len(model.parameters)):
         raise InputError(f"parameter index out of range 0..{len(model.parameters) - 1}")
     return out

@@ -32,6 +32,8 @@ class Checkpoint:
             self._load()
 
     def _load(self) -> None:
+        if self.path is None:  # only called with a path (see __init__)
+            raise AttributeError("'NoneType' object has no attribute 'read_text'")
         try:
             doc = json.loads(self.path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

@@ -299,7 +299,8 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
     roots = [] if h.degree() <= 0 else sorted(set(h.real_roots()), key=lambda r: float(sp.N(r, 30)))
     lo, hi = model.bounds
     idx = np.array([model.parameter_index(n) for n in names])
-    good, rejected = [], []
+    good: list[ExactSolution] = []
+    rejected: list[ExactSolution] = []
     for r in roots:
         exact_vals = {}
         for s in syms:

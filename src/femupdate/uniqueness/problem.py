@@ -22,7 +22,8 @@ import numpy as np
 
 from ..sensitivity.subspace import buffered_modes
 from ..updating.batched import BatchedProblem
-from ..updating.batched.spec import DataArrays
+from ..updating.batched.spec import DataSets
+from ..updating.problem import Targets
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,7 +40,7 @@ class RowData:
     sensors: np.ndarray
 
 
-def study_data(rows: RowData, n_dofs: int) -> DataArrays:
+def study_data(rows: RowData, n_dofs: int) -> tuple[DataSets, Targets]:
     """Each row's own data set, concatenated (one data set per row), built without a loop over
     rows: unit-length test shapes at the row's measured dofs in ascending dof order, none for
     rows with fewer than two sensors, weights 1, no reference dof."""
@@ -58,9 +59,10 @@ def study_data(rows: RowData, n_dofs: int) -> DataArrays:
     psi_e = np.transpose(rows.psi_e, (0, 2, 1))[order]
     nm = np.array([min(n_dofs, buffered_modes(int(t))) for t in nt], dtype=np.int64)
     t0 = np.concatenate([[0], np.cumsum(nt)[:-1]]).astype(np.int64)
-    return DataArrays(t0=t0, T=nt, nm=nm, m=nt * (1 + ns), row_ds=np.arange(B, dtype=np.int64),
-                      lam_e=lam_e.astype(float), w_lam=np.ones(lam_e.size), w_psi=np.ones(lam_e.size), pptr=pptr,
-                      pos=pos, psi_e=psi_e.astype(float), ref=np.full(lam_e.size, -1, np.int64))
+    sets = DataSets(t0=t0, T=nt, nm=nm, m=nt * (1 + ns), row_ds=np.arange(B, dtype=np.int64))
+    return sets, Targets(lam_e=lam_e.astype(float), w_lam=np.ones(lam_e.size), w_psi=np.ones(lam_e.size), pptr=pptr,
+                         pos=pos, psi_e=psi_e.astype(float), ref=np.full(lam_e.size, -1, np.int64),
+                         nm=int(nm.max(initial=0)))
 
 
 def study_problem(model, names, rows: RowData, starts, *, values=None, min_mac: float = 0.5, max_nfev: int = 200,

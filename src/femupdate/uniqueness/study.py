@@ -43,14 +43,16 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
 
 from .._errors import FemupdateError, InputError
 from ..updating.batched import FAILED
 from ..dofs import canonical_all
+from ..model import Model
 from ..updating.clustering import cluster
-from ..updating.multistart import connect
+from ..updating.starts import connect
 from ..updating.results import Solution as _MultiStartSolution
 from .checkpoint import Checkpoint
 from .criteria import counting_criteria
@@ -116,7 +118,7 @@ def nested_dof_sets(model, n_max: int | None = None) -> list[tuple[str, ...]]:
 class Study:
     """A uniqueness study, fully determined (see :func:`define_study`)."""
 
-    model: object
+    model: Model
     names: tuple[str, ...]
     truth: np.ndarray  #: full parameter vector (the model's values, or ``values``)
     cases: tuple[Case, ...]
@@ -380,8 +382,8 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
     case = study.cases[c]
     L = len(study.names)
     n_data = case.n_modes * (case.n_measured if case.n_measured >= 2 else 1)
-    out = {"case": c, "level": level, "start": idx[0] if idx else 0, "x": [], "cost": [], "status": [], "nfev": [],
-           "messages": {}, "starts": idx}
+    out: dict[str, Any] = {"case": c, "level": level, "start": idx[0] if idx else 0, "x": [], "cost": [], "status": [],
+                           "nfev": [], "messages": {}, "starts": idx}
     truth_modes = model_modes(study.model, study.truth)  # the data of every start derive from them
     for k in idx:
         data = case_testdata(study, c, level, k, truth_modes)
@@ -615,6 +617,8 @@ def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
         from dask.distributed import Client, LocalCluster
     except ImportError:
         raise InputError("--scheduler / --workers need dask.distributed: pip install 'femupdate[dask]'") from None
+    if workers is None:  # run_study starts a local cluster only when workers is given
+        raise TypeError("int() argument must be a string, a bytes-like object or a real number, not 'NoneType'")
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None)
     return Client(cluster), cluster
@@ -671,7 +675,10 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
     else:
         for i in todo:
             base = done
-            ck.add(i, solve_unit(study, i, progress=(lambda k, _n, b=base: progress(b + k, total)) if progress else None))
+            # cast: mypy cannot infer a lambda with a default argument against Callable[[int, int], None]
+            unit_progress = (cast("Callable[[int, int], None]", lambda k, _n, b=base: progress(b + k, total))
+                             if progress else None)
+            ck.add(i, solve_unit(study, i, progress=unit_progress))
             done = base + size[i]
     raw = [p for i in range(len(units)) for p in ck.units[i]]
     cases = summarise(study, raw, rel_tol=rel_tol, cost_tol=cost_tol)

@@ -98,9 +98,9 @@ class Targets(NamedTuple):
     the mode's measured dofs for ``"ref"`` scaling (−1: none); ``nm`` the number of lowest model
     modes the test modes are paired among.
 
-    The compiled route carries every array field (:data:`PER_MODE` and :data:`PER_POSITION`)
-    to its kernels by name: a new per-mode datum is a new field here, filled by
-    :func:`build_targets` and read by the rules.
+    The compiled route hands its kernels the same ``Targets`` (every data set's concatenated,
+    field by field: :data:`TARGETS_PER_MODE`, :data:`TARGETS_PER_POSITION`): a new per-mode datum
+    is a new field here, filled by :func:`build_targets` and read by the rules.
     """
 
     lam_e: np.ndarray
@@ -111,10 +111,6 @@ class Targets(NamedTuple):
     psi_e: np.ndarray
     ref: np.ndarray
     nm: int
-
-    #: the fields with one entry per test mode, and with one per measured (mode, dof) position
-    PER_MODE = ("lam_e", "w_lam", "w_psi", "ref")
-    PER_POSITION = ("pos", "psi_e")
 
     @property
     def n_test(self) -> int:
@@ -140,6 +136,12 @@ class Targets(NamedTuple):
         removes one)."""
         ns = np.diff(self.pptr)
         return int(self.n_test + np.sum(np.maximum(ns - 1, 0)))
+
+
+#: the fields of :class:`Targets` with one entry per test mode, and with one per measured
+#: (mode, dof) position
+TARGETS_PER_MODE = ("lam_e", "w_lam", "w_psi", "ref")
+TARGETS_PER_POSITION = ("pos", "psi_e")
 
 
 def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):

@@ -2,9 +2,9 @@
 at once (see :mod:`.driver`); :func:`least_squares_batch`, SciPy's trf for many problems of any
 Python residual function (:mod:`.lsq`)."""
 
-from .driver import (AUTO_MAX_DOFS, SUPPORTED_OPTIONS, BatchedProblem, BatchRun, Evaluation, data_arrays,
+from .driver import (AUTO_MAX_DOFS, SUPPORTED_OPTIONS, BatchedProblem, BatchRun, Evaluation, concatenate,
                      multistart_batched, supports, unsupported)
 from .lsq import FAILED, BatchLSQResult, least_squares_batch
 
 __all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "FAILED", "BatchRun", "BatchLSQResult", "BatchedProblem",
-           "Evaluation", "data_arrays", "least_squares_batch", "multistart_batched", "supports", "unsupported"]
+           "Evaluation", "concatenate", "least_squares_batch", "multistart_batched", "supports", "unsupported"]

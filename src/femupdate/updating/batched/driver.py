@@ -38,7 +38,7 @@ from ..problem import Parametrisation, Problem
 from ..results import UpdateResult
 from ..solve import result_at, update
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
-from .spec import DataArrays, ModelArrays, data_arrays, error_message, make_spec, new_report
+from .spec import DataSets, ModelArrays, Spec, concatenate, error_message, new_report
 
 log = logging.getLogger(__name__)
 
@@ -145,7 +145,7 @@ class BatchedProblem:
     names : the updated parameters.
     starts : (R, L) starting values of ``names`` (physical units).
     data : the data sets, a list of :class:`~femupdate.updating.problem.Targets` or the
-        :class:`~.kernel.DataArrays` built from them.
+        ``(DataSets, Targets)`` pair of :func:`.spec.concatenate`.
     row_dataset : (R,) the data set of each row (default: all the first).
     values : values of the parameters that are not updated (default nominal).
     parametrisation, shape_scaling, min_mac : the problem's rules, as
@@ -207,10 +207,11 @@ class BatchedProblem:
             xl, xh = self._from_p(np.broadcast_to(lo, starts.shape)), self._from_p(np.broadcast_to(hi, starts.shape))
             xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
         self.lb, self.ub = np.array(xl, float), np.array(xh, float)
-        if isinstance(data, DataArrays):
-            self.data = data
+        if isinstance(data, tuple) and len(data) == 2 and isinstance(data[0], DataSets):
+            self.sets, self.targets = data
         else:
-            self.data = data_arrays(list(data), np.zeros(R, np.int64) if row_dataset is None else row_dataset)
+            self.sets, self.targets = concatenate(list(data), np.zeros(R, np.int64) if row_dataset is None
+                                                  else row_dataset)
         self._model_setup()
 
     @classmethod
@@ -313,12 +314,12 @@ class BatchedProblem:
         arrays = ModelArrays(np.ascontiguousarray(self.K_const), kp, ki, kj, kv, bool(self.M_varies),
                              np.ascontiguousarray(self.M_const), mp, mi, mj, mv, np.ascontiguousarray(self.Cinv),
                              sptr, sidx, rules.PARAMETRISATIONS[self.param], np.ascontiguousarray(self.scale))
-        return make_spec(arrays, self.data, rules.SCALINGS[self.scaling], self.min_mac)
+        return Spec(arrays, self.sets, self.targets, rules.SCALINGS[self.scaling], float(self.min_mac))
 
     @property
     def n_residuals(self) -> np.ndarray:
         """(R,) the residual count of each row."""
-        return np.asarray(self.data.m)[np.asarray(self.data.row_ds)]
+        return np.asarray(self.sets.m)[np.asarray(self.sets.row_ds)]
 
     # ------------------------------------------------------------------ compiled evaluation and solution
     def evaluate(self, X, rows=None):
@@ -330,7 +331,7 @@ class BatchedProblem:
         X = np.array(X, dtype=float, ndmin=2)
         rows = np.arange(X.shape[0]) if rows is None else np.asarray(rows, dtype=np.int64)
         S, L = X.shape
-        m, T = int(self.n_residuals.max(initial=1)), int(np.max(self.data.T, initial=1))
+        m, T = int(self.n_residuals.max(initial=1)), int(np.max(self.sets.T, initial=1))
         out = Evaluation(np.zeros((S, m)), np.zeros((S, m, L)), np.zeros((S, self.n)), np.zeros((S, T), np.int64),
                          np.full((S, T), np.nan), [None] * S)
         if self.mass_error:
@@ -366,7 +367,7 @@ class BatchedProblem:
             if e is not None:
                 st.status[r], message[r] = FAILED, e
                 st.nfev[r] = 1
-        err = new_report(R, int(np.max(self.data.T, initial=1)))
+        err = new_report(R, int(np.max(self.sets.T, initial=1)))
         todo = np.random.default_rng(0).permutation(np.flatnonzero(st.status == trf.RUNNING)).astype(np.int64)
         done = int(R - todo.size)
         if progress and done:
@@ -516,5 +517,5 @@ def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
     )
 
 
-__all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "BatchRun", "BatchedProblem", "data_arrays",
+__all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "BatchRun", "BatchedProblem", "concatenate",
            "multistart_batched", "supports", "unsupported", "Evaluation"]

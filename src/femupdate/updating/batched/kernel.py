@@ -131,11 +131,11 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     """Residuals of row r at x into ``fout``; the eigen-solution and the pairs with their MAC
     (NaN without shape) into the work arrays ``lam`` (n,), ``Phi`` (n, n), ``pairs`` and ``pmac``
     (T,).  Returns an error code (OK = 0)."""
-    md = d = sp_
+    md, sets, d = sp_.model, sp_.sets, sp_.targets
     n = md.K_const.shape[0]
     L = x.size
-    ds = d.row_ds[r]
-    t0, T, nm = d.t0[ds], d.T[ds], d.nm[ds]
+    ds = sets.row_ds[r]
+    t0, T, nm = sets.t0[ds], sets.T[ds], sets.nm[ds]
     p = rules.to_p(md.pcode, x, md.pscale[r])
     for j in range(L):
         if not np.isfinite(p[j]):
@@ -220,11 +220,11 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
 @jit
 def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
     """Exact Jacobian ∂r/∂x (m, L) of row r at the point of its last evaluation (work arrays)."""
-    md = d = sp_
+    md, sets, d = sp_.model, sp_.sets, sp_.targets
     n = md.K_const.shape[0]
     L = x.size
-    ds = d.row_ds[r]
-    t0, T, nm = d.t0[ds], d.T[ds], d.nm[ds]
+    ds = sets.row_ds[r]
+    t0, T, nm = sets.t0[ds], sets.T[ds], sets.nm[ds]
     for k in range(T):  # paired modes must be flexible and distinct
         code, other = rules.check_distinct(lam, nm, pairs[k])
         if code != rules.OK:
@@ -307,7 +307,7 @@ def solve_rows(sp_, st, rows, gtol, ftol, xtol, max_nfev, rep):
     """Run each of ``rows`` to the end, one after the other, the GIL released (the driver runs
     several calls at once, one per core).  A failure stops its row: ``status`` FAILED and the
     error in ``rep``."""
-    n = sp_.K_const.shape[0]
+    n = sp_.model.K_const.shape[0]
     m = st.f.shape[1]
     T = rep.pairs.shape[1]
     lam = np.zeros(n)
@@ -353,7 +353,7 @@ def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err):
     """Residuals F (S, m), eigenvalues LAM (S, n), pairs and their MAC (S, T) and
     Jacobians J (S, m, L) of ``rows`` at X (S, L), one after the other;
     ``err`` per row of X."""
-    n = sp_.K_const.shape[0]
+    n = sp_.model.K_const.shape[0]
     for i in range(rows.size):
         Phi = np.zeros((n, n))
         code = evaluate_row(sp_, rows[i], X[i], F[i], LAM[i], Phi, PAIRS[i], PMAC[i], err.ints[i], err.floats[i],

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 
 from ... import rules
-from ..problem import Targets
+from ..problem import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets
 
 
 class ModelArrays(NamedTuple):
@@ -32,45 +33,45 @@ class ModelArrays(NamedTuple):
     pscale: np.ndarray  #: (R, L) |start| of each row, for the relative parametrisation
 
 
-#: per data set: its first test mode, its numbers of test modes, of modes paired among and of
-#: residuals; per row: its data set
-_DATASET_FIELDS = [("t0", np.ndarray), ("T", np.ndarray), ("nm", np.ndarray), ("m", np.ndarray),
-                   ("row_ds", np.ndarray)]
+class DataSets(NamedTuple):
+    """The data sets of a batch: per data set its first test mode ``t0`` in the concatenated
+    :class:`~femupdate.updating.problem.Targets`, its numbers of test modes ``T``, of model modes
+    paired among ``nm`` and of residuals ``m``; ``row_ds`` (R,) each row's data set."""
 
-#: The data sets of a batch: the per-data-set fields above, then every array field of
-#: :class:`~femupdate.updating.problem.Targets` (its per-mode and per-position fields, and
-#: ``pptr``), concatenated over the data sets — built from ``Targets``' own field names, so a new
-#: field of the problem's data reaches the kernels as ``spec.<name>`` without another change here.
-DataArrays = NamedTuple("DataArrays", _DATASET_FIELDS + [(f, np.ndarray) for f in Targets._fields if f != "nm"])
-
-#: Everything a row's evaluation reads: the fields of :class:`ModelArrays`, then those of
-#: :data:`DataArrays`, then the rules' settings — one flat tuple (numba's parallel loops and its
-#: caching handle flat tuples best).
-Spec = NamedTuple("Spec", [(f, ModelArrays.__annotations__[f]) for f in ModelArrays._fields]
-                  + list(zip(DataArrays._fields, [np.ndarray] * len(DataArrays._fields)))
-                  + [("scaling", int), ("min_mac", float)])
+    t0: np.ndarray
+    T: np.ndarray
+    nm: np.ndarray
+    m: np.ndarray
+    row_ds: np.ndarray
 
 
-def make_spec(model: ModelArrays, data, scaling: int, min_mac: float):
-    """The :data:`Spec` of a batch (``scaling`` as :data:`femupdate.rules.SCALINGS`)."""
-    return Spec(*model, *data, int(scaling), float(min_mac))
+class Spec(NamedTuple):
+    """Everything a row's evaluation reads.  ``targets`` are the problem's own
+    :class:`~femupdate.updating.problem.Targets` — every data set's, concatenated — so the
+    kernels read the measured data in the very layout (and under the very field names) that the
+    local route reads: a new field of ``Targets`` is in the kernels' hands without a change here."""
+
+    model: ModelArrays
+    sets: DataSets
+    targets: Targets
+    scaling: int  #: :data:`femupdate.rules.SCALINGS`
+    min_mac: float
 
 
-def data_arrays(targets, row_dataset):
-    """The data sets ``targets`` (a sequence of :class:`~femupdate.updating.problem.Targets`)
-    concatenated as the kernels read them; ``row_dataset`` (R,) each row's data set."""
+def concatenate(targets: Sequence[Targets], row_dataset) -> tuple[DataSets, Targets]:
+    """The data sets ``targets`` as one :class:`DataSets` and one concatenated ``Targets``;
+    ``row_dataset`` (R,) each row's data set."""
     i64 = (lambda a: np.asarray(a, np.int64))
     p0 = np.cumsum([0] + [t.pos.size for t in targets])[:-1]
-    fields = {
-        "t0": i64(np.cumsum([0] + [t.n_test for t in targets])[:-1]), "T": i64([t.n_test for t in targets]),
-        "nm": i64([t.nm for t in targets]), "m": i64([t.n_residuals for t in targets]), "row_ds": i64(row_dataset),
-        "pptr": i64(np.concatenate([[0]] + [t.pptr[1:] + a for t, a in zip(targets, p0)])),
-    }
-    for name in Targets.PER_MODE + Targets.PER_POSITION:
-        dtype = np.asarray(getattr(targets[0], name)).dtype if targets else float
-        fields[name] = np.concatenate([np.asarray(getattr(t, name), dtype) for t in targets]) if targets \
-            else np.zeros(0, dtype)
-    return DataArrays(**fields)
+    sets = DataSets(i64(np.cumsum([0] + [t.n_test for t in targets])[:-1]), i64([t.n_test for t in targets]),
+                    i64([t.nm for t in targets]), i64([t.n_residuals for t in targets]), i64(row_dataset))
+    fields: dict = {"pptr": i64(np.concatenate([[0]] + [t.pptr[1:] + a for t, a in zip(targets, p0)])),
+                    "nm": int(max((t.nm for t in targets), default=0))}
+    for name in TARGETS_PER_MODE + TARGETS_PER_POSITION:
+        dtype = np.asarray(getattr(targets[0], name)).dtype if targets else np.dtype(float)
+        fields[name] = (np.concatenate([np.asarray(getattr(t, name), dtype) for t in targets]) if targets
+                        else np.zeros(0, dtype))
+    return sets, Targets(**fields)
 
 
 class Report(NamedTuple):
@@ -99,4 +100,4 @@ def error_message(err: Report, r: int, min_mac: float) -> str:
                          np.flatnonzero(err.modes[r]), min_mac)
     return f"NumericalError: {text}"
 
-__all__ = ["ModelArrays", "DataArrays", "Spec", "make_spec", "data_arrays", "Report", "new_report", "error_message"]
+__all__ = ["ModelArrays", "DataSets", "Spec", "concatenate", "Report", "new_report", "error_message"]
