@@ -56,33 +56,41 @@ def _dot(a, b):
     return impl
 
 
-def _fresh_cache() -> None:
-    """Remove this module's cached compiled code when a source it depends on has changed."""
+def _fresh_cache(dispatchers) -> None:
+    """Remove the cached compiled code of this module and of :mod:`.trf` when a source they
+    depend on has changed (numba watches only the file that defines a function, not the rules
+    it calls).  The cache is wherever numba keeps it: beside the package, under
+    ``NUMBA_CACHE_DIR``, or in the user's cache directory for a read-only install."""
     sources = [Path(rules.__file__), Path(trf.__file__), Path(__file__)]
     stamp = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
-    cache = Path(__file__).parent / "__pycache__"
-    mark = cache / "kernel.sources.sha256"
-    try:
-        if mark.exists() and mark.read_text() == stamp:
-            return
-        for f in list(cache.glob("kernel.*.nbi")) + list(cache.glob("kernel.*.nbc")) + \
-                list(cache.glob("trf.*.nbi")) + list(cache.glob("trf.*.nbc")):
-            f.unlink()
-        cache.mkdir(exist_ok=True)
-        mark.write_text(stamp)
-    except OSError:  # a read-only install: numba then caches in the user's cache directory
-        log.debug("cannot check the compiled-code cache beside %s", __file__)
+    dirs = {Path(__file__).parent / "__pycache__"}
+    for d in dispatchers:
+        cache_path = getattr(getattr(d, "_cache", None), "_cache_path", None)  # numba's own choice
+        if cache_path:
+            dirs.add(Path(cache_path))
+    for cache in dirs:
+        mark = cache / "kernel.sources.sha256"
+        try:
+            if mark.exists() and mark.read_text() == stamp:
+                continue
+            for pattern in ("kernel.*.nbi", "kernel.*.nbc", "trf.*.nbi", "trf.*.nbc"):
+                for f in cache.glob(pattern):
+                    f.unlink()
+            cache.mkdir(parents=True, exist_ok=True)
+            mark.write_text(stamp)
+        except OSError:  # not ours to write: numba then uses another cache directory
+            log.debug("cannot check the compiled-code cache in %s", cache)
 
-
-_fresh_cache()
 
 jit = njit(cache=True, error_model="numpy", nogil=True)
+#: functions only compiled code calls: no wrapper for calls from Python (less to build)
+inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True)
 
 
 # ---------------------------------------------------------------------------------------------
 # one row
 # ---------------------------------------------------------------------------------------------
-@jit
+@inner
 def _cholesky_inverse(M):
     """C⁻¹ of the Cholesky factor M = C Cᵀ; a zero first column signals failure."""
     n = M.shape[0]
@@ -109,7 +117,7 @@ def _cholesky_inverse(M):
     return Cinv, True
 
 
-@jit
+@inner
 def _shaped(d, t0, T):
     out = np.zeros(T, np.bool_)
     for k in range(T):
@@ -117,7 +125,7 @@ def _shaped(d, t0, T):
     return out
 
 
-@jit
+@inner
 def _measured(Phi, pos, j):
     """Mode j at the dofs ``pos`` (contiguous)."""
     out = np.empty(pos.size)
@@ -126,7 +134,7 @@ def _measured(Phi, pos, j):
     return out
 
 
-@jit
+@inner
 def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes):
     """Residuals of row r at x into ``fout``; the eigen-solution and the pairs with their MAC
     (NaN without shape) into the work arrays ``lam`` (n,), ``Phi`` (n, n), ``pairs`` and ``pmac``
@@ -217,7 +225,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     return rules.OK
 
 
-@jit
+@inner
 def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
     """Exact Jacobian ∂r/∂x (m, L) of row r at the point of its last evaluation (work arrays)."""
     md, sets, d = sp_.model, sp_.sets, sp_.targets
@@ -293,7 +301,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
 # ---------------------------------------------------------------------------------------------
 # the driver: every row to the end
 # ---------------------------------------------------------------------------------------------
-@jit
+@inner
 def _keep(rep, r, lam, pairs, pmac):
     """The pairs of row r's current point into the report."""
     for k in range(rep.pairs.shape[1]):
@@ -362,5 +370,7 @@ def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err):
             code = jacobian_row(sp_, rows[i], X[i], J[i], LAM[i], Phi, PAIRS[i], err.ints[i], err.floats[i])
         err.code[i] = code
 
+
+_fresh_cache([solve_rows, evaluate_rows, trf.rows_propose])
 
 __all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows"]

@@ -97,6 +97,8 @@ class State(NamedTuple):
 STATE = State._fields
 
 jit = njit(cache=True, error_model="numpy", nogil=True)
+#: functions only compiled code calls: no wrapper for calls from Python (less to build)
+inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True)
 
 
 def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
@@ -124,7 +126,7 @@ def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
 # ---------------------------------------------------------------------------------------------
 # small dense helpers
 # ---------------------------------------------------------------------------------------------
-@jit
+@inner
 def _dot(a, b):
     s = 0.0
     for i in range(a.size):
@@ -132,12 +134,12 @@ def _dot(a, b):
     return s
 
 
-@jit
+@inner
 def _norm(a):
     return math.sqrt(_dot(a, a))
 
 
-@jit
+@inner
 def _half_sq(R11, s):
     """½‖R11 s‖² for upper-triangular R11."""
     n = s.size
@@ -150,13 +152,13 @@ def _half_sq(R11, s):
     return 0.5 * a
 
 
-@jit
+@inner
 def _quad(R11, g, s):
     """½‖R11 s‖² + gᵀs: SciPy's ``evaluate_quadratic`` with ``R11ᵀR11 = J_hᵀJ_h + diag_h``."""
     return _half_sq(R11, s) + _dot(g, s)
 
 
-@jit
+@inner
 def _quad_1d(R11, g, s, s0):
     """Coefficients (a, b, c) of t ↦ q(s0 + t s) (SciPy's ``build_quadratic_1d``)."""
     n = s.size
@@ -175,7 +177,7 @@ def _quad_1d(R11, g, s, s0):
     return 0.5 * a, _dot(g, s) + b, 0.5 * c + _dot(g, s0)
 
 
-@jit
+@inner
 def _min_quad_1d(a, b, lo, hi, c):
     """argmin of a t² + b t + c over [lo, hi], candidates in SciPy's order (lo, hi, extremum)."""
     t_best = lo
@@ -192,7 +194,7 @@ def _min_quad_1d(a, b, lo, hi, c):
     return t_best, y_best
 
 
-@jit
+@inner
 def _step_to_bound(x, s, lb, ub, hits):
     """Smallest t >= 0 with x + t s on a bound; ``hits`` (out) marks the variables that hit it."""
     n = x.size
@@ -211,7 +213,7 @@ def _step_to_bound(x, s, lb, ub, hits):
     return t
 
 
-@jit
+@inner
 def _cl_scaling(x, g, lb, ub, v, dv):
     """Coleman–Li scaling vector v and its derivative dv (SciPy's ``CL_scaling_vector``)."""
     for i in range(x.size):
@@ -225,7 +227,7 @@ def _cl_scaling(x, g, lb, ub, v, dv):
             dv[i] = 1.0
 
 
-@jit
+@inner
 def _householder_r(A, ncols):
     """Overwrite A (p, q) with the R factor of its QR decomposition in the first ``ncols``
     columns; the later columns receive Qᵀ times themselves."""
@@ -256,7 +258,7 @@ def _householder_r(A, ncols):
             A[i, k] = 0.0
 
 
-@jit
+@inner
 def _singular_values(A):
     if _sv_only is not None:
         return _sv_only(A)
@@ -266,7 +268,7 @@ def _singular_values(A):
 # ---------------------------------------------------------------------------------------------
 # the row functions
 # ---------------------------------------------------------------------------------------------
-@jit
+@inner
 def _gradient(st, r):
     """g = Jᵀf of row r; returns the column norms of its J (for the Jacobian scale)."""
     f, J, g = st.f, st.J, st.g
@@ -283,7 +285,7 @@ def _gradient(st, r):
     return norms
 
 
-@jit
+@inner
 def init_row(st, r):
     """SciPy's set-up after the first evaluation and Jacobian of row r (f, J in the state)."""
     (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
@@ -310,7 +312,7 @@ def init_row(st, r):
     record(st, r)
 
 
-@jit
+@inner
 def record(st, r):
     """Keep (cost, x) of row r after its current iteration (when history is kept)."""
     cost, x, iterations, hist_cost, hist_x = st.cost, st.x, st.iterations, st.hist_cost, st.hist_x
@@ -320,7 +322,7 @@ def record(st, r):
         hist_x[r, k] = x[r]
 
 
-@jit
+@inner
 def _top(st, r, gtol, max_nfev):
     """Top of SciPy's outer loop for row r: the termination tests, then the scaled augmented
     system, its R factor and singular values, and the Gauss–Newton step.  Returns 1 when the row
@@ -382,7 +384,7 @@ def _top(st, r, gtol, max_nfev):
     return 1
 
 
-@jit
+@inner
 def _phi_and_derivative(suf, s, a, D):
     """‖p(α)‖ − Δ and its derivative in α (SciPy's ``phi_and_derivative``)."""
     pn = 0.0
@@ -395,7 +397,7 @@ def _phi_and_derivative(suf, s, a, D):
     return pn - D, -der / pn
 
 
-@jit
+@inner
 def _tr_subproblem(st, r, p_h):
     """Moré's trust-region subproblem on the SVD of R11 (SciPy's ``solve_lsq_trust_region``),
     for a row whose Gauss–Newton step is not available or not inside the radius."""
@@ -448,7 +450,7 @@ def _tr_subproblem(st, r, p_h):
     alpha[r] = a
 
 
-@jit
+@inner
 def propose(st, r, gtol, max_nfev):
     """The next trial point of row r (``x_new``, with ``step``, ``step_h`` and the predicted
     reduction ``pred``): PROPOSED, or STOPPED (terminated: ``status`` says how), DEGENERATE
@@ -550,7 +552,7 @@ def propose(st, r, gtol, max_nfev):
     return PROPOSED
 
 
-@jit
+@inner
 def judge(st, r, f_new, ftol, xtol, max_nfev):
     """SciPy's inner-loop bookkeeping after evaluating row r's trial point at residuals f_new:
     radius update, termination tests, acceptance.  Returns (accepted, iteration_ended); an
@@ -603,7 +605,7 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
     return accepted, ended
 
 
-@jit
+@inner
 def accept(st, r):
     """After an accepted step, with the new Jacobian in ``J[r]``: gradient and Jacobian scale."""
     scale_inv, njev = st.scale_inv, st.njev
