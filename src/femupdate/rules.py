@@ -193,6 +193,10 @@ def assign(C, nr, nc, out):
     """Rows 0..nr-1 of the cost matrix C (nr <= nc) to distinct columns, minimising the total
     cost (the Hungarian algorithm with potentials and shortest augmenting paths, as
     :func:`scipy.optimize.linear_sum_assignment`); ``out[i]`` the column of row i."""
+    if nr > nc:  # no assignment exists: every row unassigned
+        for i in range(nr):
+            out[i] = -1
+        return
     INF = np.inf
     u = np.zeros(nr + 1)
     v = np.zeros(nc + 1)
@@ -257,6 +261,11 @@ def pair_by_mac(MAC, shaped, nm, min_mac, pairs, bad):
         if shaped[k]:
             nws += 1
     taken = np.zeros(max(nm, 1), np.bool_)
+    if nws > nm:  # more test modes with a shape than model modes to pair them with
+        for k in range(T):
+            if shaped[k]:
+                bad[k] = True
+        return E_NO_PAIR, nm
     if nws:
         ws = np.empty(nws, np.int64)
         c = 0
@@ -282,10 +291,6 @@ def pair_by_mac(MAC, shaped, nm, min_mac, pairs, bad):
                 if col[c2] == best:
                     fast = False
         if not fast:
-            if nws > nm:
-                for c in range(nws):
-                    bad[ws[c]] = True
-                return E_NO_PAIR, nm
             C = np.empty((nws, nm))
             for c in range(nws):
                 for j in range(nm):
@@ -331,7 +336,7 @@ def shape_scale(scaling, phs, ref):
     if scaling == UNIT:
         nrm = math.sqrt(dot(phs, phs))
         s = nrm if phs[kmax] > 0 else (-nrm if phs[kmax] < 0 else 0.0)
-        return s, kmax, False
+        return s, kmax, not nrm > 0  # a shape that is zero at every measured dof cannot be scaled
     k = ref if scaling == REF else kmax
     s = phs[k]
     return s, k, not (abs(s) > 1e-12 * amax)

@@ -23,7 +23,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -402,21 +401,19 @@ _ANNOUNCED = False
 
 
 def _announce_first_use() -> None:
-    """Say, once per process, that the compiled code is being loaded — or built, which takes a
-    while the first time after installation."""
+    """Say once per process, before the compiled solver is first needed, whether it is loaded
+    from numba's disk cache or built — which, once after installation, takes a while."""
     global _ANNOUNCED
-    if _ANNOUNCED or "femupdate.updating.batched.kernel" in sys.modules and _kernel_ready():
-        _ANNOUNCED = True
+    if _ANNOUNCED:
         return
     _ANNOUNCED = True
-    log.warning("femupdate: loading the compiled batched solver (the first use after installation compiles it "
-                "with numba and caches it on disk)")
-
-
-def _kernel_ready() -> bool:
     from . import kernel
 
-    return bool(getattr(kernel.solve_rows, "signatures", ()))
+    if kernel.cached():
+        log.info("loading the compiled batched solver from numba's cache")
+    else:
+        log.warning("femupdate: building the compiled batched solver with numba - once after installation, about "
+                    "half a minute on two cores; later runs load it from the cache")
 
 
 # ====================================================================== multi-start

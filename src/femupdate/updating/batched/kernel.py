@@ -373,4 +373,10 @@ def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err):
 
 _fresh_cache([solve_rows, evaluate_rows, trf.rows_propose])
 
-__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows"]
+
+def cached() -> bool:
+    """Whether numba's disk cache holds a build of :func:`solve_rows` for these sources."""
+    cache_path = getattr(getattr(solve_rows, "_cache", None), "_cache_path", None)
+    return bool(cache_path) and any(Path(cache_path).glob("kernel.solve_rows-*.nbi"))
+
+__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "cached"]
