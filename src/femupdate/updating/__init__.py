@@ -20,5 +20,6 @@ from .solve import diagnostics, result_at, solve, solve_problem, update
 __all__ = [
     "Problem", "Parametrisation", "Targets", "modal_weights", "PARAMETRISATIONS", "SHAPE_SCALINGS",
     "SENSITIVITY_CHOICES", "update", "solve", "solve_problem", "result_at", "diagnostics", "UpdateResult",
-    "Diagnostics", "multistart", "MultiStartResult", "Solution", "cluster", "draw_starts", "run_starts",
+    "Diagnostics", "multistart", "MultiStartResult", "Solution", "cluster", "converged_solutions", "draw_starts",
+    "run_starts",
 ]

@@ -2,8 +2,8 @@
 at once (see :mod:`.driver`); :func:`least_squares_batch`, SciPy's trf for many problems of any
 Python residual function (:mod:`.lsq`)."""
 
-from .driver import (AUTO_MAX_DOFS, SUPPORTED_OPTIONS, BatchedProblem, BatchRun, Evaluation, concatenate,
-                     multistart_batched, supports, unsupported)
+from .driver import AUTO_MAX_DOFS, SUPPORTED_OPTIONS, BatchedProblem, Evaluation, concatenate, supports, unsupported
+from .starts import BatchRun, multistart_batched
 from .lsq import FAILED, BatchLSQResult, least_squares_batch
 
 __all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "FAILED", "BatchRun", "BatchLSQResult", "BatchedProblem",

@@ -33,11 +33,11 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 from numba.extending import overload, register_jitable
 
 from ... import rules
 from . import trf
+from .jit import inner, jit
 
 log = logging.getLogger(__name__)
 
@@ -57,11 +57,11 @@ def _dot(a, b):
 
 
 def _fresh_cache(dispatchers) -> None:
-    """Remove the cached compiled code of this module and of :mod:`.trf` when a source they
-    depend on has changed (numba watches only the file that defines a function, not the rules
-    it calls).  The cache is wherever numba keeps it: beside the package, under
+    """Remove the cached compiled code of this package when a source it depends on has changed
+    (numba watches only the file that defines a function, not the functions it calls in other
+    files).  The cache is wherever numba keeps it: beside the package, under
     ``NUMBA_CACHE_DIR``, or in the user's cache directory for a read-only install."""
-    sources = [Path(rules.__file__), Path(trf.__file__), Path(__file__)]
+    sources = [Path(rules.__file__)] + sorted(Path(__file__).parent.glob("*.py"))
     stamp = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
     dirs = {Path(__file__).parent / "__pycache__"}
     for d in dispatchers:
@@ -73,19 +73,13 @@ def _fresh_cache(dispatchers) -> None:
         try:
             if mark.exists() and mark.read_text() == stamp:
                 continue
-            for pattern in ("kernel.*.nbi", "kernel.*.nbc", "trf.*.nbi", "trf.*.nbc"):
+            for pattern in ("*.nbi", "*.nbc"):  # numba's index and code files: this package's only
                 for f in cache.glob(pattern):
                     f.unlink()
             cache.mkdir(parents=True, exist_ok=True)
             mark.write_text(stamp)
         except OSError:  # not ours to write: numba then uses another cache directory
             log.debug("cannot check the compiled-code cache in %s", cache)
-
-
-jit = njit(cache=True, error_model="numpy", nogil=True)
-#: functions only compiled code calls: no wrapper for calls from Python (less to build)
-inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True)
-
 
 # ---------------------------------------------------------------------------------------------
 # one row
@@ -377,6 +371,6 @@ _fresh_cache([solve_rows, evaluate_rows, trf.rows_propose])
 def cached() -> bool:
     """Whether numba's disk cache holds a build of :func:`solve_rows` for these sources."""
     cache_path = getattr(getattr(solve_rows, "_cache", None), "_cache_path", None)
-    return bool(cache_path) and any(Path(cache_path).glob("kernel.solve_rows-*.nbi"))
+    return cache_path is not None and any(Path(str(cache_path)).glob("kernel.solve_rows-*.nbi"))
 
 __all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "cached"]

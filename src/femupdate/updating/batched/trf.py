@@ -27,21 +27,12 @@ Everything here is compiled by numba on first use and cached on disk (``cache=Tr
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
-from numba import config, njit
 
-# Singular values only (LAPACK gesdd, JOBZ='N') cost half the full SVD.  numba has no public
-# function for them, so its internal one is used when present and compiled code runs; otherwise
-# (another numba, or NUMBA_DISABLE_JIT=1 where the internal one cannot run) the full SVD.
-_sv_only: Callable | None = None
-if not getattr(config, "DISABLE_JIT", False):
-    try:
-        from numba.np.linalg import _compute_singular_values as _sv_only
-    except ImportError:  # pragma: no cover - a numba without the helper
-        _sv_only = None
+from . import dense
+from .jit import inner, jit
 
 EPS = float(np.finfo(float).eps)
 RUNNING = -99  #: status of a row still iterating
@@ -96,9 +87,6 @@ class State(NamedTuple):
 #: names of the state arrays, in order
 STATE = State._fields
 
-jit = njit(cache=True, error_model="numpy", nogil=True)
-#: functions only compiled code calls: no wrapper for calls from Python (less to build)
-inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True)
 
 
 def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
@@ -121,148 +109,6 @@ def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
         step_h=z((R, n)), pred=z(R), hist_cost=z((R, history)), hist_x=z((R, history, n)),
     )
     return State(**st)
-
-
-# ---------------------------------------------------------------------------------------------
-# small dense helpers
-# ---------------------------------------------------------------------------------------------
-@inner
-def _dot(a, b):
-    s = 0.0
-    for i in range(a.size):
-        s += a[i] * b[i]
-    return s
-
-
-@inner
-def _norm(a):
-    return math.sqrt(_dot(a, a))
-
-
-@inner
-def _half_sq(R11, s):
-    """½‖R11 s‖² for upper-triangular R11."""
-    n = s.size
-    a = 0.0
-    for i in range(n):
-        v = 0.0
-        for k in range(i, n):
-            v += R11[i, k] * s[k]
-        a += v * v
-    return 0.5 * a
-
-
-@inner
-def _quad(R11, g, s):
-    """½‖R11 s‖² + gᵀs: SciPy's ``evaluate_quadratic`` with ``R11ᵀR11 = J_hᵀJ_h + diag_h``."""
-    return _half_sq(R11, s) + _dot(g, s)
-
-
-@inner
-def _quad_1d(R11, g, s, s0):
-    """Coefficients (a, b, c) of t ↦ q(s0 + t s) (SciPy's ``build_quadratic_1d``)."""
-    n = s.size
-    a = 0.0
-    b = 0.0
-    c = 0.0
-    for i in range(n):
-        v = 0.0
-        u = 0.0
-        for k in range(i, n):
-            v += R11[i, k] * s[k]
-            u += R11[i, k] * s0[k]
-        a += v * v
-        b += u * v
-        c += u * u
-    return 0.5 * a, _dot(g, s) + b, 0.5 * c + _dot(g, s0)
-
-
-@inner
-def _min_quad_1d(a, b, lo, hi, c):
-    """argmin of a t² + b t + c over [lo, hi], candidates in SciPy's order (lo, hi, extremum)."""
-    t_best = lo
-    y_best = lo * (a * lo + b) + c
-    y = hi * (a * hi + b) + c
-    if y < y_best:
-        t_best, y_best = hi, y
-    if a != 0:
-        ext = -0.5 * b / a
-        if lo < ext < hi:
-            y = ext * (a * ext + b) + c
-            if y < y_best:
-                t_best, y_best = ext, y
-    return t_best, y_best
-
-
-@inner
-def _step_to_bound(x, s, lb, ub, hits):
-    """Smallest t >= 0 with x + t s on a bound; ``hits`` (out) marks the variables that hit it."""
-    n = x.size
-    t = np.inf
-    for i in range(n):
-        if s[i] != 0:
-            st = max((lb[i] - x[i]) / s[i], (ub[i] - x[i]) / s[i])
-            if st < t:
-                t = st
-    for i in range(n):
-        if s[i] != 0:
-            st = max((lb[i] - x[i]) / s[i], (ub[i] - x[i]) / s[i])
-            hits[i] = st == t
-        else:
-            hits[i] = False
-    return t
-
-
-@inner
-def _cl_scaling(x, g, lb, ub, v, dv):
-    """Coleman–Li scaling vector v and its derivative dv (SciPy's ``CL_scaling_vector``)."""
-    for i in range(x.size):
-        v[i] = 1.0
-        dv[i] = 0.0
-        if g[i] < 0 and np.isfinite(ub[i]):
-            v[i] = ub[i] - x[i]
-            dv[i] = -1.0
-        if g[i] > 0 and np.isfinite(lb[i]):
-            v[i] = x[i] - lb[i]
-            dv[i] = 1.0
-
-
-@inner
-def _householder_r(A, ncols):
-    """Overwrite A (p, q) with the R factor of its QR decomposition in the first ``ncols``
-    columns; the later columns receive Qᵀ times themselves."""
-    p, q = A.shape
-    for k in range(ncols):
-        tail = 0.0
-        for i in range(k + 1, p):
-            tail += A[i, k] * A[i, k]
-        if tail == 0.0:  # nothing below the diagonal: no reflection (LAPACK's dlarfg alike)
-            continue
-        nx = math.sqrt(A[k, k] * A[k, k] + tail)
-        beta = -nx if A[k, k] >= 0 else nx
-        v0 = A[k, k] - beta
-        vn = v0 * v0 + tail  # ‖v‖² with v = (A[k,k] − β, A[k+1:, k])
-        if vn <= 0.0:
-            A[k, k] = beta
-            continue
-        for c in range(k + 1, q):
-            t = v0 * A[k, c]
-            for i in range(k + 1, p):
-                t += A[i, k] * A[i, c]
-            t = 2.0 * t / vn
-            A[k, c] -= t * v0
-            for i in range(k + 1, p):
-                A[i, c] -= t * A[i, k]
-        A[k, k] = beta
-        for i in range(k + 1, p):
-            A[i, k] = 0.0
-
-
-@inner
-def _singular_values(A):
-    if _sv_only is not None:
-        return _sv_only(A)
-    return np.linalg.svd(A)[1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -292,13 +138,13 @@ def init_row(st, r):
      full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
      hist_cost, hist_x) = st
     n = x.shape[1]
-    cost[r] = 0.5 * _dot(f[r], f[r])
+    cost[r] = 0.5 * dense.dot(f[r], f[r])
     norms = _gradient(st, r)
     for i in range(n):
         scale_inv[r, i] = norms[i] if norms[i] != 0 else 1.0
     v = np.empty(n)
     dv = np.empty(n)
-    _cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
+    dense.cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
     D = 0.0
     for i in range(n):
         if dv[i] != 0:
@@ -333,7 +179,7 @@ def _top(st, r, gtol, max_nfev):
     n = x.shape[1]
     v = np.empty(n)
     dv = np.empty(n)
-    _cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
+    dense.cl_scaling(x[r], g[r], lb[r], ub[r], v, dv)
     gn = 0.0
     for i in range(n):
         gn = max(gn, abs(g[r, i] * v[i]))
@@ -363,12 +209,12 @@ def _top(st, r, gtol, max_nfev):
         for i in range(n + 1):
             if not np.isfinite(A[k, i]):
                 return -1
-    _householder_r(A, n)
+    dense.householder_r(A, n)
     for i in range(n):
         r12[r, i] = A[i, n]
         for k in range(n):
             R11[r, i, k] = A[i, k] if k >= i else 0.0
-    s = _singular_values(R11[r])
+    s = dense.singular_values(R11[r])
     for i in range(n):
         sv[r, i] = s[i]
     full_rank[r] = n == 0 or (m_row[r] >= n and s[n - 1] > EPS * m_row[r] * s[0])
@@ -419,7 +265,7 @@ def _tr_subproblem(st, r, p_h):
     suf = s * uf[r]
     fr = full_rank[r]
 
-    alpha_upper = _norm(suf) / D
+    alpha_upper = dense.norm(suf) / D
     if fr:
         phi, phi_prime = _phi_and_derivative(suf, s, 0.0, D)
         alpha_lower = -phi / phi_prime
@@ -444,7 +290,7 @@ def _tr_subproblem(st, r, p_h):
         for k in range(n):
             t -= V[r, i, k] * suf[k] / (s[k] ** 2 + a)
         p_h[i] = t
-    pn = _norm(p_h)
+    pn = dense.norm(p_h)
     for i in range(n):
         p_h[i] *= D / pn
     alpha[r] = a
@@ -467,7 +313,7 @@ def propose(st, r, gtol, max_nfev):
     n = x.shape[1]
     D = Delta[r]
     p_h = np.empty(n)
-    if full_rank[r] and _norm(p_gn[r]) <= D:
+    if full_rank[r] and dense.norm(p_gn[r]) <= D:
         for i in range(n):
             p_h[i] = p_gn[r, i]
         alpha[r] = 0.0
@@ -483,10 +329,10 @@ def propose(st, r, gtol, max_nfev):
     if inside:
         step[r] = p
         step_h[r] = p_h
-        pred[r] = -_quad(Rr, ghr, p_h)
+        pred[r] = -dense.quad(Rr, ghr, p_h)
     else:  # SciPy's select_step: the step cut at the bound, its reflection, the anti-gradient
         hits = np.empty(n, np.bool_)
-        p_stride = _step_to_bound(xr, p, lbr, ubr, hits)
+        p_stride = dense.step_to_bound(xr, p, lbr, ubr, hits)
         r_h = p_h.copy()
         for i in range(n):
             if hits[i]:
@@ -496,15 +342,15 @@ def propose(st, r, gtol, max_nfev):
         p_h = p_h * p_stride
         x_on_bound = xr + p
         # intersect_trust_region(p_h, r_h, Delta)
-        a2 = _dot(r_h, r_h)
-        b2 = _dot(p_h, r_h)
-        c2 = _dot(p_h, p_h) - D**2
+        a2 = dense.dot(r_h, r_h)
+        b2 = dense.dot(p_h, r_h)
+        c2 = dense.dot(p_h, p_h) - D**2
         if a2 == 0 or c2 > 0:
             return DEGENERATE
         dd = math.sqrt(b2 * b2 - a2 * c2)
         q = -(b2 + math.copysign(dd, b2))
         to_tr = max(q / a2, c2 / q)
-        to_bound = _step_to_bound(x_on_bound, rr, lbr, ubr, hits)
+        to_bound = dense.step_to_bound(x_on_bound, rr, lbr, ubr, hits)
         r_stride = min(to_bound, to_tr)
         if r_stride > 0:
             r_lo = (1 - th) * p_stride / r_stride
@@ -513,21 +359,21 @@ def propose(st, r, gtol, max_nfev):
             r_lo = 0.0
             r_hi = -1.0
         if r_lo <= r_hi:
-            qa, qb, qc = _quad_1d(Rr, ghr, r_h, p_h)
-            r_t, r_value = _min_quad_1d(qa, qb, r_lo, r_hi, qc)
+            qa, qb, qc = dense.quad_1d(Rr, ghr, r_h, p_h)
+            r_t, r_value = dense.min_quad_1d(qa, qb, r_lo, r_hi, qc)
             r_h = r_h * r_t + p_h
             rr = r_h * dr
         else:
             r_value = np.inf
         p = p * th
         p_h = p_h * th
-        p_value = _quad(Rr, ghr, p_h)
+        p_value = dense.quad(Rr, ghr, p_h)
         ag_h = -ghr
         ag = dr * ag_h
-        to_tr = D / _norm(ag_h)
-        to_bound = _step_to_bound(xr, ag, lbr, ubr, hits)
+        to_tr = D / dense.norm(ag_h)
+        to_bound = dense.step_to_bound(xr, ag, lbr, ubr, hits)
         ag_stride = th * to_bound if to_bound < to_tr else to_tr
-        ag_stride, ag_value = _min_quad_1d(_half_sq(Rr, ag_h), _dot(ghr, ag_h), 0.0, ag_stride, 0.0)
+        ag_stride, ag_value = dense.min_quad_1d(dense.half_sq(Rr, ag_h), dense.dot(ghr, ag_h), 0.0, ag_stride, 0.0)
         if p_value < r_value and p_value < ag_value:
             step[r] = p
             step_h[r] = p_h
@@ -561,10 +407,10 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
     (x, f, J, cost, g, scale_inv, lb, ub, m_row, m_qr, Delta, alpha, d, g_h, theta, R11, r12, sv, V, uf, p_gn,
      full_rank, have_svd, need_setup, status, pending, nfev, njev, iterations, g_norm, x_new, step, step_h, pred,
      hist_cost, hist_x) = st
-    cost_new = 0.5 * _dot(f_new, f_new)
+    cost_new = 0.5 * dense.dot(f_new, f_new)
     actual = cost[r] - cost_new
     predicted = pred[r]
-    shn = _norm(step_h[r])
+    shn = dense.norm(step_h[r])
     D = Delta[r]
     if predicted > 0:
         ratio = actual / predicted
@@ -579,7 +425,7 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
     else:
         D_new = D
     ftol_ok = actual < ftol * cost[r] and ratio > 0.25
-    xtol_ok = _norm(step[r]) < xtol * (xtol + _norm(x[r]))
+    xtol_ok = dense.norm(step[r]) < xtol * (xtol + dense.norm(x[r]))
     term = RUNNING
     if ftol_ok and xtol_ok:
         term = 4

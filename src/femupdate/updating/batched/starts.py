@@ -1,0 +1,158 @@
+"""Multi-start updating on the compiled route: every start of a :class:`~femupdate.updating.Problem`
+run to the end at once (:class:`.driver.BatchedProblem`), clustered as the local route clusters."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._errors import FemupdateError, InputError
+from ..clustering import converged_solutions
+from ..problem import Problem
+from ..results import MultiStartResult, UpdateResult
+from ..solve import result_at, update
+from .driver import PROBLEM_OPTIONS, SOLVER_OPTIONS, BatchedProblem, unsupported
+from .lsq import FAILED
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class BatchRun:
+    """Result of one start of a batched study (a light :class:`~femupdate.updating.UpdateResult`).
+
+    ``x`` are the updated parameters' values (``names`` order) and ``parameters`` every model
+    parameter; ``cost`` = ½‖r‖²; ``fun`` (m,) and ``jac`` (m, L, in the solver's variables) at the
+    solution; ``pairs`` [(test mode, model mode, MAC)]; ``status``/``message``/``success`` as
+    :func:`scipy.optimize.least_squares` reports them; ``history`` one entry per iteration.
+    """
+
+    parameters: dict[str, float]
+    names: tuple[str, ...]
+    x: np.ndarray
+    success: bool
+    status: int
+    message: str
+    cost: float
+    fun: np.ndarray
+    jac: np.ndarray
+    nfev: int
+    njev: int
+    iterations: int
+    optimality: float
+    pairs: list[tuple[int, int, float]]
+    model_frequencies_hz: np.ndarray
+    start: dict[str, float] = field(default_factory=dict)
+    history_cost: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (iterations + 1,)
+    history_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  #: (iterations + 1, L) values of names
+
+    @property
+    def history(self) -> list[dict]:
+        """One entry per iteration, as :attr:`UpdateResult.history` (built on demand)."""
+        return [{"iteration": i, "cost": float(c), "parameters": dict(zip(self.names, map(float, x)))}
+                for i, (c, x) in enumerate(zip(self.history_cost, self.history_x))]
+
+    def __repr__(self) -> str:
+        values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
+        return f"BatchRun({'converged' if self.success else 'NOT converged'}, cost {self.cost:.4g}: {values})"
+
+
+def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
+                       cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
+                       polish: bool = True, **options):
+    """Multi-start updating with every start run in compiled code; same result as the local route.
+
+    Parameters
+    ----------
+    model, data : as :func:`femupdate.update`.
+    names : updated parameters.
+    starts : (R, L) starting values (e.g. from :func:`femupdate.updating.draw_starts`).
+    seed : recorded in the result.
+    rel_tol, cost_tol : clustering and acceptance, as :func:`femupdate.updating.multistart`.
+    progress : ``progress(finished, R)``.
+    polish : re-run :func:`~femupdate.update` once from the best solution (a final check by the
+        local route); its ``start``, ``history``, ``nfev``, ``njev`` and ``iterations`` then
+        cover the batched run and the polish together.  Without it (or should the polish fail)
+        ``best`` is the full result at the batched solution itself.
+    **options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
+
+    Returns
+    -------
+    femupdate.updating.MultiStartResult
+        ``runs[k]`` is a :class:`BatchRun`, or the error message (str) of a start that failed,
+        exactly as the local route reports it.
+    """
+    names = tuple(names)
+    X0 = np.array(starts, dtype=float, ndmin=2)
+    R = X0.shape[0]
+    reason = unsupported(model, options, explicit=True)
+    if reason:
+        raise InputError(f"batched multi-start: {reason}")
+    prob_kw = {k: options[k] for k in PROBLEM_OPTIONS if k in options}
+    solver_kw = {k: options[k] for k in SOLVER_OPTIONS if k in options}
+    try:
+        problem = Problem(model, data, names, **prob_kw)
+        bp = BatchedProblem.from_problem(problem, X0, **solver_kw)
+    except FemupdateError as exc:  # update() would refuse every start alike
+        msg = f"{type(exc).__name__}: {exc}"
+        return MultiStartResult(None, [], [msg] * R, X0, names, R, 0, seed)
+    res = bp.solve(progress=progress)
+    alive = np.flatnonzero(res.status != FAILED)
+    runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: {m}"
+                  for m in res.message]  # (used for the failed starts only)
+    P_alive = bp.full_p(res.x[alive], alive)
+    m_row = bp.n_residuals
+    T = problem.targets.n_test
+    assert res.pairs is not None and res.macs is not None and res.pair_eigenvalues is not None
+    for i, r in enumerate(alive):
+        P = P_alive[i]
+        f = res.fun[r, :m_row[r]].copy()
+        n_hist = min(int(res.iterations[r]) + 1, res.history_cost.shape[1])
+        runs[r] = BatchRun(
+            parameters=dict(zip(model.parameter_names, map(float, P))), names=names, x=P[bp.idx],
+            success=bool(res.status[r] > 0), status=int(res.status[r]), message=res.message[r],
+            cost=float(0.5 * f @ f), fun=f, jac=res.jac[r, :m_row[r]], nfev=int(res.nfev[r]),
+            njev=int(res.njev[r]), iterations=int(max(res.iterations[r], res.njev[r])),
+            optimality=float(res.optimality[r]),
+            pairs=[(k, int(res.pairs[r, k]), float(res.macs[r, k])) for k in range(T)],
+            model_frequencies_hz=np.sqrt(np.clip(res.pair_eigenvalues[r, :T], 0, None)) / (2 * np.pi),
+            start=dict(zip(names, map(float, X0[r]))),
+            history_cost=res.history_cost[r, :n_hist].copy(),
+            history_x=bp.to_p(res.history_x[r, :n_hist], np.full(n_hist, r)),
+        )
+    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol)
+    best = None
+    if ok:
+        k_best = min(ok, key=lambda k: runs[k].cost)
+        best = _polish(model, data, names, runs[k_best], options) if polish else None
+        if best is None:  # not asked for, or the polish failed: the full result at the batched solution
+            run = runs[k_best]
+            at = Problem(model, data, names, **dict(prob_kw, x0=run.start))
+            best = dataclasses.replace(result_at(at, at.from_p(run.x), sol=run, history=run.history), swaps=[])
+    log.info("batched multi-start: %d starts, %d converged, %d solutions, %d evaluations in total",
+             R, len(ok), len(solutions), int(res.nfev.sum()))
+    return MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed)
+
+
+def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
+    """One full :func:`update` from a batched solution: diagnostics, swaps and a final check."""
+    try:
+        res = update(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), **options)
+    except FemupdateError as exc:
+        log.warning("polishing the best batched solution failed: %s", exc)
+        return None
+    if not res.success:
+        return None
+    offset = len(run.history)
+    history = list(run.history) + [dict(h, iteration=h["iteration"] + offset) for h in res.history[1:]]
+    return dataclasses.replace(
+        res, start=dict(run.start), history=history, nfev=res.nfev + run.nfev, njev=res.njev + run.njev,
+        iterations=res.iterations + run.iterations,
+    )
+
+
+__all__ = ["BatchRun", "multistart_batched"]
