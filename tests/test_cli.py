@@ -157,8 +157,8 @@ def test_uff_round_trip_through_the_cli(tmp_path, capsys):
 
 def test_terminal_output_keeps_dof_labels_literal(capsys):
     """Rich would turn ":x:" between two dof labels ("1:x:2:x", "3:x:ok") into emoji."""
-    from femupdate.cli import _Ctx
+    from femupdate.cli._common import Ctx
 
-    ctx = _Ctx(None)
+    ctx = Ctx(None)
     ctx.console.print("pairs 1:x:2:x and 3:cross_mark:")
     assert "pairs 1:x:2:x and 3:cross_mark:" in capsys.readouterr().out

@@ -1,4 +1,4 @@
-"""``femupdate reduce``: reduce a model to its kept (measured) dofs (docs/interfaces.md)."""
+"""``femupdate reduce``: reduce a model to its kept (measured) dofs (docs/cli.md)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from ..cli import _Ctx, _emit, _fmt, _values, cli, json_option, set_option
+from ._common import Ctx, emit, fmt, json_option, model_values, set_option
 
 METHOD_CHOICES = ["guyan", "irs", "modal", "hybrid", "serep"]
 
@@ -21,7 +21,7 @@ def _keep_list(text: str) -> list[str]:
     return items
 
 
-@cli.command()
+@click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--keep", "keep_text", required=True, metavar="DOFS", help="Dofs to retain, comma-separated (e.g. 2:x,4:x).")
 @click.option("--method", type=click.Choice(METHOD_CHOICES), default="guyan", show_default=True)
@@ -40,9 +40,9 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
     from ..reduction import Reducer, mass_fraction, reduction_criteria
     from ..reduction.transforms import project, reduced_eigenvalues
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     red = Reducer(model, _keep_list(keep_text), values)
     a = red.n_keep
     n_full = min(model.n_dofs, a)
@@ -75,7 +75,7 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
     for col in ("mode", "full [Hz]", "reduced [Hz]", "error"):
         tab.add_column(col, justify="right")
     for i in range(max(f_red.size, f_full.size)):
-        tab.add_row(str(i + 1), _fmt(f_full[i]) if i < f_full.size else "-", _fmt(f_red[i]) if i < f_red.size else "-",
+        tab.add_row(str(i + 1), fmt(f_full[i]) if i < f_full.size else "-", fmt(f_red[i]) if i < f_red.size else "-",
                     f"{err[i] * 100:+.4f} %" if i < err.size else "-")
     c.print(tab)
     if compare:
@@ -93,7 +93,7 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
             f"{crit.grounded_frequency_hz:.6g} Hz (Larsson & Sas); Gordis overlap {crit.overlap}")
     for m in crit.messages:
         c.print(f"warning: {m}")
-    _emit(ctx, {
+    emit(ctx, {
         "model": model.name, "method": method, "keep": list(red.keep), "n_modes": t.n_modes,
         "frequencies_hz": {"full": f_full, "reduced": f_red},
         "K": K_r, "M": M_r,

@@ -17,8 +17,8 @@ import click
 import numpy as np
 from rich.table import Table
 
-from ..cli import _Ctx, _emit, _fmt, _values, cli, json_option, set_option
 from .._errors import InputError, NumericalError
+from ._common import Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -48,7 +48,7 @@ def _parameter_table(title, model, values, names, x, stderr) -> Table:
         t.add_column(col, justify="left" if col == "parameter" else "right")
     p0 = dict(zip(model.parameter_names, model.resolve(values)))
     for n, v, se in zip(names, x, stderr):
-        t.add_row(n, _fmt(p0[n]), _fmt(v), "-" if not np.isfinite(se) else _fmt(se))
+        t.add_row(n, fmt(p0[n]), fmt(v), "-" if not np.isfinite(se) else fmt(se))
     return t
 
 
@@ -57,7 +57,7 @@ def _names(text):
 
 
 # ---------------------------------------------------------------------------------- damage
-@cli.command()
+@click.command()
 @click.argument("baseline_path", metavar="BASELINE_MODEL", type=_path)
 @click.argument("data_path", metavar="DATA", type=_path)
 @click.option("--undamaged", "undamaged_path", type=_path, default=None,
@@ -89,11 +89,10 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
            min_change, iterations, bootstrap, noise_frequency, noise_shape, seed, max_frequency_error, min_mac,
            localise_min_mac, set_text, json_path):
     """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
-    from ..cli import parse_set
     from ..damage.detect import detect_damage, element_parameters
     from ..io.testdata_json import load_testdata
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     structure, model = _load_structure(baseline_path)
     notes = []
     if structure is not None:
@@ -101,7 +100,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
         em, _ = element_parameters(structure, values)
         model = em.build()
     else:
-        values = _values(model, set_text)
+        values = model_values(model, set_text)
         model = model.with_values(values) if values is not None else model
         notes.append("matrix model: its parameters are taken as the elements")
     data = load_testdata(data_path, model)
@@ -140,7 +139,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
         c.print(f"[bold]not localised[/bold]: {res.reason}")
     for n in notes + res.notes:
         c.print(f"note: {n}")
-    _emit(ctx, {
+    emit(ctx, {
         "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
         "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
         "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
@@ -171,7 +170,7 @@ def _multi_payload(model, res) -> dict:
     }
 
 
-@cli.command("update-multi")
+@click.command("update-multi")
 @click.argument("model_path", metavar="MODEL", type=_path)
 @click.option("--config", "configs", multiple=True, required=True, metavar="DATA[:MODIFICATION]",
               help="One test configuration: its data, and the file of its known modification (TOML/JSON; none: the "
@@ -190,15 +189,14 @@ def _multi_payload(model, res) -> dict:
 def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, max_nfev, reg_text, eigenvalues_only,
                  bounded, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
-    from ..cli import _parse_regularization
     from ..damage.files import load_modification, split_config_spec
     from ..damage.multiconfig import Configuration, Modification, configure, solve_configurations
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     cfgs = []
     for spec in configs:
         dpath, mpath = split_config_spec(spec)
@@ -208,7 +206,7 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
         cfgs.append(Configuration(data, mod, name=mod.name if mpath is not None else dpath.stem))
     res = solve_configurations(model, cfgs, method, unknowns=_names(params_text), values=values, bounded=bounded,
                                shape_scaling=shape_scaling, min_mac=min_mac, max_nfev=max_nfev,
-                               regularization=_parse_regularization(reg_text), use_shapes=not eigenvalues_only)
+                               regularization=parse_regularization(reg_text), use_shapes=not eigenvalues_only)
     c = ctx.console
     c.print(_parameter_table(f"{model.name}: {res.method} update from {len(cfgs)} configurations", model, values,
                              res.names, res.x, res.standard_error))
@@ -220,13 +218,13 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
                   f"{row['min_singular']:.4g}")
     c.print(t)
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}")
-    _emit(ctx, _multi_payload(model, res))
+    emit(ctx, _multi_payload(model, res))
     if not res.success:
         raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
 
 
 # ---------------------------------------------------------------------------------- rank-modifications
-@cli.command("rank-modifications")
+@click.command("rank-modifications")
 @click.argument("model_path", metavar="MODEL", type=_path)
 @click.argument("candidates_path", metavar="CANDIDATES", type=_path)
 @click.option("--measured-dofs", "dofs_text", required=True, help="The planned sensors, e.g. \"1:x,2:x\".")
@@ -244,9 +242,9 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
     from ..damage.multiconfig import rank_modifications as _rank
     from ..io.model_file import load_model
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     cands = load_candidates(candidates_path)
     res = _rank(model, cands, _names(dofs_text) or [], n_modes, params=_names(params_text), values=values,
                 criterion=criterion, select=select, use_shapes=not eigenvalues_only)
@@ -260,12 +258,12 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
     ctx.console.print(t)
     if res.selected:
         ctx.console.print("greedy selection: " + " -> ".join(res.selected))
-    _emit(ctx, {"model": model.name, "criterion": res.criterion, "unknowns": list(res.unknowns), "baseline": res.baseline,
+    emit(ctx, {"model": model.name, "criterion": res.criterion, "unknowns": list(res.unknowns), "baseline": res.baseline,
                 "candidates": res.candidates, "selected": res.selected})
 
 
 # ---------------------------------------------------------------------------------- fullfield
-@cli.command()
+@click.command()
 @click.argument("model_path", metavar="MODEL", type=_path)
 @click.argument("scan_path", metavar="SCAN", type=_path)
 @click.option("--method", type=click.Choice(["rbf", "elements", "local"]), default="rbf", show_default=True,
@@ -282,9 +280,9 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
     from ..damage.files import load_scan
     from ..damage.fullfield import full_field_direct, structure_segments
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     structure, model = _load_structure(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     scan = load_scan(scan_path)
     res, mp = full_field_direct(model, scan, method=method, form=form, values=values, unknowns=_names(unknowns),
                                 bounded=bounded, segments=structure_segments(structure) if structure is not None else None)
@@ -305,7 +303,7 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
                                "response": {d: [[complex(v).real, complex(v).imag] for v in mp.data.frf.response[:, j]]
                                             for j, d in enumerate(mp.data.frf.dofs)}}} if mp.data.frf is not None else {}))
         c.print(f"completed test data written to {data_out}")
-    _emit(ctx, {
+    emit(ctx, {
         "model": model.name, "parameters": res.parameters, "unknowns": list(res.unknowns),
         "standard_error": dict(zip(res.unknowns, res.standard_error)), "condition_number": res.condition_number,
         "condition_number_scaled": res.condition_number_scaled, "residual_norm": res.residual_norm,

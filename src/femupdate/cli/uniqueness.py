@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ..cli import _Ctx, _emit, _values, cli, json_option, set_option
+from ._common import Ctx, emit, json_option, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -43,7 +43,7 @@ def _exact_for(model, names, case, truth):
             "exact_data": ex.exact_data, "notes": ex.notes}
 
 
-@cli.command()
+@click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--measured-dofs", "dofs_text", default=None, metavar="SETS",
               help="Measured dof sets, ';' between sets, ',' within: \"1:x,2:x;1:x\". "
@@ -91,9 +91,9 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
     from ..io.model_file import load_model
     from ..uniqueness.study import define_study, nested_dof_sets, parse_measured_dofs, parse_modes, run_study
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     N = model.n_dofs
     if dofs_text is None and N > 12:
         raise InputError(f"--measured-dofs is required for models of more than 12 dofs (this one has {N})")
@@ -161,7 +161,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
                                       title=f"{model.name}: {starts} starts per case")
         payload["figure"] = str(Path(plot_dir) / name)
         c.print(f"figure: {payload['figure']}")
-    _emit(ctx, payload)
+    emit(ctx, payload)
 
 
 def _print_table(console, res) -> None:

@@ -11,7 +11,8 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ..cli import _Ctx, _emit, _fmt, _values, cli, json_option, parse_set, set_option
+from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+                      update_parameter_table, update_payload)
 
 
 def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
@@ -81,7 +82,7 @@ damping_option = click.option("--damping", "damping_text", default=None, metavar
 
 
 # ---------------------------------------------------------------------------------- frf
-@cli.command("frf")
+@click.command("frf")
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...", help="Excitation (unit force by default).")
 @click.option("--omega", "omega_text", required=True, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
@@ -103,9 +104,9 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
     from ..frf import convert, resonances, simulate
     from ..io.model_file import load_model
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     omega = parse_omega(omega_text)
     force = parse_force(force_text)
     damping = parse_damping(damping_text)
@@ -119,14 +120,14 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
         near = res.near(1e-3)
         if near.size:
             notes.append(f"lines within 1e-3 of a resonance (large, sensitive values): {res.describe(near)}")
-    t = Table(title=f"{model.name}: {kind}, force {', '.join(f'{d}={_fmt(v)}' for d, v in data.force.items())}")
+    t = Table(title=f"{model.name}: {kind}, force {', '.join(f'{d}={fmt(v)}' for d, v in data.force.items())}")
     t.add_column("omega (rad/s)", justify="right")
     shown = list(data.dofs[:6])
     for d in shown:
         t.add_column(f"|{d}|", justify="right")
     step = max(1, omega.size // 20)
     for i in range(0, omega.size, step):
-        t.add_row(_fmt(omega[i]), *(_fmt(abs(H[i, k])) for k in range(len(shown))))
+        t.add_row(fmt(omega[i]), *(fmt(abs(H[i, k])) for k in range(len(shown))))
     ctx.console.print(t)
     if len(data.dofs) > len(shown) or step > 1:
         ctx.console.print(f"({omega.size} lines x {len(data.dofs)} dofs; the table shows a sample)")
@@ -144,7 +145,7 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
 
         write_json(data_path, {"frf": frf_obj})
         ctx.console.print(f"test data written to {data_path}")
-    _emit(ctx, {
+    emit(ctx, {
         "model": model.name, "omega_rad_s": omega, "dofs": list(data.dofs), "kind": kind,
         "response": {d: _pairs(H[:, k]) for k, d in enumerate(data.dofs)},
         "force": dict(data.force), "damping": damping.as_dict(), "noise": {"level": noise, "kind": noise_kind, "seed": seed},
@@ -154,9 +155,8 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
 
 # ---------------------------------------------------------------------------------- frf-update
 def _frf_payload(model, data, res, ms, extra=None):
-    from ..cli import _update_payload
 
-    out = _update_payload(model, data, res, ms)
+    out = update_payload(model, data, res, ms)
     out.update({
         "omega_rad_s": res.omega, "skipped": res.skipped, "residual": res.residual, "frac": res.frac,
         "natural_frequencies_hz": res.natural_frequencies_hz, "notes": res.notes,
@@ -165,7 +165,7 @@ def _frf_payload(model, data, res, ms, extra=None):
     return out
 
 
-@cli.command("frf-update")
+@click.command("frf-update")
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
@@ -198,14 +198,13 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
                        reg_text, max_nfev, std, plot_dir, set_text, json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
-    from ..cli import _parameter_table, _parse_regularization
     from ..frf.updating import frf_data, frf_multistart, frf_update
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     data = load_testdata(data_path, model)
     frf = frf_data(data)
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
@@ -217,7 +216,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
             raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
     kw = dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
               damping=parse_damping(damping_text), parametrisation=parametrisation, method=method,
-              regularization=_parse_regularization(reg_text), max_nfev=max_nfev, values=values,
+              regularization=parse_regularization(reg_text), max_nfev=max_nfev, values=values,
               measurement_std=std)
     ms, extra = None, {}
     if global_method:
@@ -237,27 +236,27 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
             ms = frf_multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
                                 progress=lambda done, total: bar.update(task, completed=done), **kw)
     if ms is not None and ms.best is None:
-        _emit(ctx, {"model": model.name, "success": False, "starts": {
+        emit(ctx, {"model": model.name, "success": False, "starts": {
             "total": ms.total, "converged": 0, "solutions": [], "failed": [r for r in ms.runs if isinstance(r, str)]},
             **extra})
         raise NumericalError(f"none of the {ms.total} {'runs' if global_method else 'starts'} converged")
     res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
     c = ctx.console
-    c.print(_parameter_table(res, f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
+    c.print(update_parameter_table(res, f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
                                   f"{res.omega.size} lines x {len(frf.dofs)} dofs, {res.residual} residual)"))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
     d = res.diagnostics
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; condition number "
             f"of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
     for s in res.skipped:
-        c.print(f"skipped line {s['line']} ({_fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
+        c.print(f"skipped line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     for note in res.notes:
         c.print(f"note: {note}")
     if ms is not None:
         what = f"{global_method} runs" if global_method else "starts"
         c.print(f"{ms.converged}/{ms.total} {what} converged to {len(ms.solutions)} distinct solution(s):")
         for s in ms.solutions[:10]:
-            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={_fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
     if plot_dir is not None:
         from ..frf import frf as model_frf
         from ..plot.frf import save_frf_update_figures
@@ -266,13 +265,13 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         _, xa = model_frf(model, frf.omega[use], frf.force, frf.dofs, res.parameters, kw["damping"])
         names = save_frf_update_figures(plot_dir, res.history, frf.omega[use], frf.dofs, frf.response[use], xa)
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    _emit(ctx, _frf_payload(model, data, res, ms, extra))
+    emit(ctx, _frf_payload(model, data, res, ms, extra))
     if not res.success:
         raise NumericalError(f"the FRF update did not converge: {res.message}")
 
 
 # ---------------------------------------------------------------------------------- frf-select
-@cli.command("frf-select")
+@click.command("frf-select")
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...")
 @click.option("--candidates", "cand_text", required=True, metavar="LIST|START:STOP:N", help="Candidate lines, rad/s.")
@@ -292,19 +291,19 @@ def frf_select_command(model_path, force_text, cand_text, n_lines, kind, dofs_te
     from ..frf.selection import select_frequencies
     from ..io.model_file import load_model
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     sel = select_frequencies(model, parse_omega(cand_text, "--candidates"), n_lines, parse_force(force_text), kind=kind,
                              response=_dofs(dofs_text), unknowns=_dofs(unknowns), values=values,
                              damping=parse_damping(damping_text), margin=margin)
     c = ctx.console
-    c.print(f"chosen lines (rad/s): {', '.join(_fmt(w) for w in sel.omega)}  (condition number {sel.condition_number:.4g})")
-    c.print(f"evenly spread lines {', '.join(_fmt(w) for w in sel.uniform['omega_rad_s'])}: condition number "
+    c.print(f"chosen lines (rad/s): {', '.join(fmt(w) for w in sel.omega)}  (condition number {sel.condition_number:.4g})")
+    c.print(f"evenly spread lines {', '.join(fmt(w) for w in sel.uniform['omega_rad_s'])}: condition number "
             f"{sel.uniform['condition_number']:.4g}")
     if sel.excluded:
         c.print(f"{len(sel.excluded)} candidate(s) excluded near resonances")
-    _emit(ctx, {"model": model.name, "kind": kind, "omega_rad_s": sel.omega, "lines": (sel.index + 1).tolist(),
+    emit(ctx, {"model": model.name, "kind": kind, "omega_rad_s": sel.omega, "lines": (sel.index + 1).tolist(),
                 "condition_number": sel.condition_number, "uniform": sel.uniform, "excluded": sel.excluded,
                 "history": sel.history})
 
@@ -317,7 +316,7 @@ def _range(text: str, what: str) -> np.ndarray:
     return g
 
 
-@cli.command("surface")
+@click.command("surface")
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--params", "params_text", required=True, metavar="P1,P2", help="The two parameters of the grid.")
@@ -341,9 +340,9 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
-    ctx = _Ctx(json_path)
+    ctx = Ctx(json_path)
     model = load_model(model_path)
-    values = _values(model, set_text)
+    values = model_values(model, set_text)
     data = load_testdata(data_path, model)
     names = [p.strip() for p in params_text.split(",") if p.strip()]
     x, y = _range(x_text, "--x"), _range(y_text, "--y")
@@ -363,7 +362,7 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
     summ = surf.summary()
     m = summ["minimum"]
     ctx.console.print(f"{surf.kind} over {names[0]} x {names[1]} ({x.size} x {y.size}): minimum {m['value']:.4g} at "
-                      f"{names[0]}={_fmt(m[names[0]])}, {names[1]}={_fmt(m[names[1]])}; {summ['local_minima']} interior "
+                      f"{names[0]}={fmt(m[names[0]])}, {names[1]}={fmt(m[names[1]])}; {summ['local_minima']} interior "
                       f"local minima (8 neighbours), {summ['edge_minima']} on the border, {summ['singular_points']} "
                       "points exactly on a resonance")
     if plot_path is not None:
@@ -371,5 +370,5 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
 
         save_surface_figure(plot_path, surf, f"log10 r, {surf.kind}")
         ctx.console.print(f"figure written to {plot_path}")
-    _emit(ctx, {"model": model.name, "kind": surf.kind, "params": names, "x": x, "y": y, "values": surf.values,
+    emit(ctx, {"model": model.name, "kind": surf.kind, "params": names, "x": x, "y": y, "values": surf.values,
                 **{k: summ[k] for k in ("minimum", "local_minima", "edge_minima", "minima", "singular_points")}})

@@ -1,0 +1,5 @@
+"""``python -m femupdate.cli`` = the ``femupdate`` command."""
+
+from . import main
+
+main()

@@ -1,0 +1,199 @@
+"""What every ``femupdate`` command shares: the console and JSON output, the common options,
+parsing of ``--set`` and ``--regularization``, the tables and payloads of several commands, and
+the error handling of the entry point.
+
+Exit codes: 0 success, 2 bad input, 1 numerical failure; errors are one clear message on
+stderr, never a traceback.  Keep module-level imports light: heavy libraries are imported
+inside the functions that need them.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from .._errors import FemupdateError, InputError
+
+
+class Ctx:
+    """Where a command prints (stdout, or stderr and quiet with ``--json -``) and writes its JSON."""
+
+    def __init__(self, json_path):
+        self.json_path = json_path
+        quiet = json_path == "-"
+        self.console = Console(file=sys.stderr if quiet else sys.stdout, quiet=quiet, highlight=False, soft_wrap=True,
+                               emoji=False)  # dof labels such as "1:x:" are not emoji codes
+
+
+def parse_set(text: str | None) -> dict[str, float]:
+    """``"k1=9,k2=5.33"`` -> {"k1": 9.0, "k2": 5.33}."""
+    out: dict[str, float] = {}
+    if not text:
+        return out
+    for item in text.split(","):
+        item = item.strip()
+        if not item:
+            continue
+        name, eq, val = item.partition("=")
+        if not eq or not name.strip():
+            raise InputError(f"--set: {item!r} is not of the form name=value")
+        try:
+            out[name.strip()] = float(val)
+        except ValueError:
+            raise InputError(f"--set: value of {name.strip()!r} is not a number: {val!r}") from None
+        if not np.isfinite(out[name.strip()]):
+            raise InputError(f"--set: value of {name.strip()!r} is not finite")
+    return out
+
+
+def model_values(model, set_text):
+    """The model's parameter vector with ``--set`` applied, or None without ``--set``."""
+    values = parse_set(set_text)
+    for name in values:
+        model.parameter_index(name)  # names an unknown parameter clearly
+    return model.resolve(values) if values else None
+
+
+def parse_regularization(text):
+    """``--regularization``: None, ``gcv``, ``lcurve`` or a Tikhonov factor."""
+    if text is None:
+        return None
+    if text in ("gcv", "lcurve"):
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(f"--regularization must be gcv, lcurve or a number, got {text!r}") from None
+
+
+def emit(ctx: Ctx, payload: dict) -> None:
+    """Write the machine-readable result if ``--json`` was given."""
+    if ctx.json_path:
+        from ..io.results import write_json
+
+        write_json(ctx.json_path, payload)
+
+
+def fmt(v: float) -> str:
+    return f"{v:.6g}"
+
+
+json_option = click.option("--json", "json_path", metavar="PATH", default=None,
+                           help="Write the machine-readable result to PATH ('-' = stdout).")
+set_option = click.option("--set", "set_text", metavar="NAME=VALUE,...", default=None,
+                          help="Evaluate the model at other parameter values.")
+
+
+# ---------------------------------------------------------------------------------- tables and payloads
+def correlation_table(corr, title):
+    """Paired test and model modes: frequencies, error and MAC; unpaired test modes last."""
+    t = Table(title=title)
+    for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
+        t.add_column(col, justify="right")
+    for (i, j, m), e in zip(corr.pairs, corr.frequency_error):
+        t.add_row(str(i + 1), str(j + 1), fmt(corr.test_frequencies_hz[i]), fmt(corr.model_frequencies_hz[j]),
+                  f"{e * 100:+.2f} %", "-" if not np.isfinite(m) else f"{m:.4f}")
+    for i in corr.unpaired_test:
+        t.add_row(str(i + 1), "-", fmt(corr.test_frequencies_hz[i]), "-", "-", "unpaired")
+    return t
+
+
+def direct_payload(model, res, data, corr_before=None):
+    """JSON of a direct update (``direct`` and ``demo``)."""
+    return {
+        "model": model.name,
+        "parameters": res.parameters,
+        "unknowns": list(res.unknowns),
+        "standard_error": dict(zip(res.unknowns, res.standard_error)),
+        "condition_number": res.condition_number,
+        "condition_number_scaled": res.condition_number_scaled,
+        "residual_norm": res.residual_norm,
+        "relative_residual": res.relative_residual,
+        "rank": res.rank,
+        "unique": res.unique,
+        "n_equations": res.system.n_equations,
+        "bounded": res.bounded,
+        "notes": res.notes,
+    }
+
+
+def update_payload(model, data, res, ms=None):
+    """JSON of an iterative update (``update`` and, extended, ``frf-update``), with its starts."""
+    d = res.diagnostics
+    out = {
+        "model": model.name,
+        "parameters": res.parameters,
+        "updated": list(res.names),
+        "start": res.start,
+        "success": res.success,
+        "status": res.status,
+        "message": res.message,
+        "cost": res.cost,
+        "iterations": res.iterations,
+        "nfev": res.nfev,
+        "pairs": [[k, j, m] for k, j, m in res.pairs],
+        "frequencies_hz": {"test": res.test_frequencies_hz, "model": res.model_frequencies_hz},
+        "swaps": res.swaps,
+        "history": res.history,
+        "regularization": res.regularization,
+        "sensitivity": res.sensitivity,
+        "diagnostics": None if d is None else {
+            "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
+            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
+            "covariance": d.covariance, "n_residuals": d.n_residuals, "n_parameters": d.n_parameters,
+        },
+    }
+    if ms is not None:
+        out["starts"] = {
+            "total": ms.total, "converged": ms.converged, "seed": ms.seed,
+            "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count} for s in ms.solutions],
+            "failed": [r for r in ms.runs if isinstance(r, str)],
+        }
+    else:
+        out["starts"] = {"total": 1, "converged": int(res.success),
+                         "solutions": [{"parameters": {n: res.parameters[n] for n in res.names}, "cost": res.cost, "count": 1}] if res.success else []}
+    return out
+
+
+def update_parameter_table(res, title: str) -> Table:
+    """Start, updated value, standard deviation and change of each updated parameter."""
+    t = Table(title=title)
+    for col in ("parameter", "start", "updated", "std", "change"):
+        t.add_column(col, justify="left" if col == "parameter" else "right")
+    std_p = dict(zip(res.names, res.diagnostics.std))
+    for n in res.names:
+        p0, p1 = res.start[n], res.parameters[n]
+        t.add_row(n, fmt(p0), fmt(p1), "-" if not np.isfinite(std_p[n]) else fmt(std_p[n]),
+                  f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+    return t
+
+
+# ---------------------------------------------------------------------------------- entry point
+def run(group: click.Group, argv=None) -> None:
+    """Run ``group``, turning femupdate errors into one message and an exit code."""
+    try:
+        rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("femupdate: interrupted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except FemupdateError as exc:
+        click.echo(f"femupdate: error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        click.echo("femupdate: interrupted", err=True)
+        sys.exit(130)
+    except OSError as exc:  # e.g. an output folder that cannot be created or written
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)
+        sys.exit(2)
+    except MemoryError:
+        click.echo("femupdate: error: out of memory (try fewer modes or a smaller model)", err=True)
+        sys.exit(1)
+    sys.exit(rv if isinstance(rv, int) else 0)

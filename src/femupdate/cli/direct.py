@@ -1,0 +1,77 @@
+"""``femupdate direct``: parameters identified directly from data measured at every model dof."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from .._errors import NumericalError
+from ._common import Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values, set_option
+
+
+def _correlation_rows(data, model, values):
+    from ..correlation import correlate
+    from ..modal import model_modes
+
+    if not data.modes:
+        return None, None
+    mm = model_modes(model, values, n_modes=min(model.n_dofs, max(len(data.modes) + 4, 10)) if model.n_dofs > 1500 else None)
+    return mm, correlate(data, mm)
+
+
+@click.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--use", default="modes,frf,static", show_default=True, help="Kinds of data to use.")
+@click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
+@click.option("--bounded", is_flag=True, help="Honour parameter bounds (bounded least squares).")
+@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the updated model's modes as universal file datasets 55.")
+@set_option
+@json_option
+def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, json_path):
+    """Identify MODEL's parameters directly from DATA measured at every model dof."""
+    from ..direct import direct_update
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+
+    ctx = Ctx(json_path)
+    model = load_model(model_path)
+    values = model_values(model, set_text)
+    data = load_testdata(data_path, model)
+    kinds = [u.strip() for u in use.split(",") if u.strip()]
+    names = [u.strip() for u in unknowns.split(",")] if unknowns else None
+    res = direct_update(model, data, use=kinds, values=values, unknowns=names, bounded=bounded)
+    payload = direct_payload(model, res, data)
+    table = Table(title=f"{model.name}: direct update from {res.system.n_equations} equations")
+    for col in ("parameter", "start", "identified", "std. error", "change"):
+        table.add_column(col, justify="right" if col != "parameter" else "left")
+    p0 = model.resolve(values)
+    for j, name in enumerate(model.parameter_names):
+        new = res.parameters[name]
+        if name in res.unknowns:
+            se = res.standard_error[res.unknowns.index(name)]
+            table.add_row(name, fmt(p0[j]), fmt(new), "-" if not np.isfinite(se) else fmt(se),
+                          f"{(new - p0[j]) / p0[j] * 100:+.1f} %" if p0[j] else "")
+        else:
+            table.add_row(name, fmt(p0[j]), "(fixed)", "", "")
+    ctx.console.print(table)
+    ctx.console.print(f"condition number {res.condition_number:.4g} (columns scaled: {res.condition_number_scaled:.4g}), "
+                      f"residual {res.residual_norm:.4g} (relative {res.relative_residual:.3g}), rank {res.rank}/{len(res.unknowns)}")
+    if data.modes:
+        mm, corr = _correlation_rows(data, model, res.parameters)
+        payload["frequencies_hz"] = {"test": data.frequencies_hz, "model": [mm.frequencies_hz[j] for _, j, _ in corr.pairs]}
+        payload["pairs"] = [[i, j, m] for i, j, m in corr.pairs]
+        ctx.console.print(correlation_table(corr, "updated model vs test"))
+        if uff_path is not None:
+            from ..io.uff import write_uff_modes
+
+            write_uff_modes(uff_path, mm, nodes=model.nodes, model_name=model.name)
+    for note in res.notes:
+        ctx.console.print(f"note: {note}")
+    emit(ctx, payload)
+    if not res.unique:
+        raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")

@@ -1,0 +1,86 @@
+"""``femupdate modes`` (natural frequencies and mode shapes) and ``correlate`` (test against model modes)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+from rich.table import Table
+
+from .._errors import InputError
+from ._common import Ctx, correlation_table, emit, fmt, json_option, model_values, set_option
+
+
+# ---------------------------------------------------------------------------------- modes
+@click.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--n-modes", type=click.IntRange(min=1), default=None, help="Number of modes (default all for small models, 10 for large).")
+@click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
+              help="mass | unit | max | ref:<dof>")
+@click.option("--method", type=click.Choice(["auto", "dense", "sparse"]), default="auto", show_default=True)
+@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Also write the modes as universal file datasets 55 (with nodes 2411).")
+@set_option
+@json_option
+def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_path):
+    """Natural frequencies and mode shapes of MODEL."""
+    from ..io.model_file import load_model
+    from ..modal import model_modes
+
+    ctx = Ctx(json_path)
+    model = load_model(model_path)
+    values = model_values(model, set_text)
+    if n_modes is not None and n_modes > model.n_dofs:
+        raise InputError(f"--n-modes {n_modes}: the model has only {model.n_dofs} dofs")
+    res = model_modes(model, values, n_modes=n_modes, normalisation=normalisation, method=method)
+    t = Table(title=f"{model.name}: {model.n_dofs} dofs, {res.n_modes} modes")
+    t.add_column("mode", justify="right")
+    t.add_column("frequency [Hz]", justify="right")
+    t.add_column("eigenvalue [rad²/s²]", justify="right")
+    for r in range(res.n_modes):
+        t.add_row(str(r + 1), fmt(res.frequencies_hz[r]), fmt(res.eigenvalues[r]))
+    ctx.console.print(t)
+    if res.n_rigid:
+        ctx.console.print(f"{res.n_rigid} rigid-body mode(s)")
+    if uff_path is not None:
+        from ..io.uff import write_uff_modes
+
+        write_uff_modes(uff_path, res, nodes=model.nodes, model_name=model.name)
+        ctx.console.print(f"modes written to {uff_path}")
+    emit(ctx, {
+        "model": model.name, "eigenvalues": res.eigenvalues, "frequencies_hz": res.frequencies_hz,
+        "dofs": list(res.dofs), "shapes": res.shapes.T, "normalisation": res.normalisation,
+        "n_rigid": res.n_rigid,
+        "parameters": dict(zip(model.parameter_names, model.resolve(values))),
+    })
+
+
+# ---------------------------------------------------------------------------------- correlate
+@click.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@set_option
+@json_option
+def correlate(model_path, data_path, min_mac, set_text, json_path):
+    """Pair test and model modes by MAC; frequency errors and COMAC."""
+    from ..correlation import correlate as _correlate
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+    from ..modal import model_modes
+
+    ctx = Ctx(json_path)
+    model = load_model(model_path)
+    values = model_values(model, set_text)
+    data = load_testdata(data_path, model)
+    if not data.modes:
+        raise InputError(f"{data_path}: no modes to correlate")
+    mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
+    corr = _correlate(data, mm, min_mac=min_mac)
+    ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
+    emit(ctx, {
+        "dofs": list(corr.dofs), "mac": corr.mac, "pairs": [[i, j, m] for i, j, m in corr.pairs],
+        "frequencies_hz": {"test": corr.test_frequencies_hz, "model": corr.model_frequencies_hz},
+        "frequency_error": corr.frequency_error, "comac": dict(zip(corr.dofs, corr.comac)),
+        "unpaired_test": corr.unpaired_test,
+    })

@@ -1,0 +1,103 @@
+"""``femupdate update``: iterative (multi-start) updating from measured modes at any dofs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from .._errors import NumericalError
+from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+                      update_payload)
+
+
+@click.command()
+@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
+              help="1: start from the model's values; R > 1: R random starts within the bounds.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random starts.")
+@click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
+@click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
+@click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
+@click.option("--ref-dof", default=None, help="Reference dof for --shape-scaling ref (default: first measured dof).")
+@click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
+@click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
+@click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
+@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
+@click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
+@click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
+              default="auto", show_default=True,
+              help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
+@click.option("--std-eigenvalue", type=float, default=None, help="Relative std of measured eigenvalues (for the covariance).")
+@click.option("--std-shape", type=float, default=None, help="Std of scaled shape entries (for the covariance).")
+@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Write convergence and MAC figures to this folder.")
+@set_option
+@json_option
+def update(model_path, data_path, starts, seed, scheduler, params_text, shape_scaling, ref_dof, parametrisation,
+           method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, std_eigenvalue, std_shape, plot_dir,
+           set_text, json_path):
+    """Update MODEL's parameters iteratively from measured modes in DATA (any measured dofs)."""
+    from ..io.model_file import load_model
+    from ..io.testdata_json import load_testdata
+    from ..updating import multistart
+    from ..updating import update as _update
+
+    ctx = Ctx(json_path)
+    model = load_model(model_path)
+    values = model_values(model, set_text)
+    data = load_testdata(data_path, model)
+    params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
+    std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape)) if v is not None} or None
+    kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
+              regularization=parse_regularization(reg_text), min_mac=min_mac, max_nfev=max_nfev,
+              use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity)
+    ms = None
+    if starts == 1 and not scheduler:
+        res = _update(model, data, params=params, **kw)
+    else:
+        from rich.progress import Progress
+
+        with Progress(console=ctx.console, transient=True, disable=json_path == "-" or not ctx.console.is_terminal) as bar:
+            task = bar.add_task("starts", total=starts)
+            ms = multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
+                            progress=lambda done, total: bar.update(task, completed=done), **kw)
+        if ms.best is None:
+            emit(ctx, {"model": model.name, "success": False, "starts": {"total": ms.total, "converged": 0, "solutions": [],
+                        "failed": [r for r in ms.runs if isinstance(r, str)]}})
+            raise NumericalError(f"none of the {starts} starts converged")
+        res = ms.best
+    c = ctx.console
+    c.print(update_parameter_table(res, f"{model.name}: iterative update ({res.iterations} iterations, {res.nfev} evaluations)"))
+    t2 = Table(title="paired modes")
+    for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
+        t2.add_column(col, justify="right")
+    for (k, j, m), ft, fm in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz):
+        t2.add_row(str(k + 1), str(j + 1), fmt(ft), fmt(fm), f"{(fm - ft) / ft * 100:+.3f} %", "-" if not np.isfinite(m) else f"{m:.4f}")
+    c.print(t2)
+    d = res.diagnostics
+    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
+            f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
+    if d.poorly_determined:
+        c.print(f"poorly determined: {', '.join(d.poorly_determined)}")
+    for sw in res.swaps:
+        c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to {sw['to_model_mode'] + 1}")
+    if ms is not None:
+        c.print(f"{ms.converged}/{ms.total} starts converged to {len(ms.solutions)} distinct solution(s):")
+        for s in ms.solutions[:10]:
+            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+    if plot_dir is not None:
+        from ..correlation import correlate as _correlate
+        from ..modal import model_modes
+        from ..plot.updating import save_update_figures
+
+        corr = _correlate(data, model_modes(model, res.parameters, n_modes=min(model.n_dofs, 2 * len(data.modes) + 4)))
+        names = save_update_figures(plot_dir, res.history, corr.mac)
+        c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
+    emit(ctx, update_payload(model, data, res, ms))
+    if not res.success:
+        raise NumericalError(f"the update did not converge: {res.message}")
