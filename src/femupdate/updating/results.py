@@ -43,8 +43,9 @@ class Diagnostics:
 
 
 @dataclass(frozen=True, eq=False)
-class UpdateResult:
-    """Result of :func:`femupdate.update`, in the spirit of :class:`scipy.optimize.OptimizeResult`.
+class RunResult:
+    """What every solve from one start reports (:class:`UpdateResult`, and the lighter
+    :class:`~femupdate.updating.batched.BatchRun` of the compiled route).
 
     Attributes
     ----------
@@ -59,14 +60,6 @@ class UpdateResult:
         residuals per unit relative change of parameter j (∂r/∂p_j · |p_start,j|); with ``"log"``
         per unit change of ln p_j; with ``"absolute"`` per unit of p_j.
     nfev, njev, iterations : counts of the solver.
-    history : per iteration {``iteration``, ``cost``, ``parameters`` {name: value}}.
-    pairs : [(test mode, model mode, MAC)] at the solution (0-based; MAC NaN without shape).
-    test_frequencies_hz, model_frequencies_hz : of the pairs, in test-mode order.
-    swaps : mode swaps seen during the iteration.
-    diagnostics : :class:`Diagnostics` at the solution.
-    regularization : {``rule``, ``alpha``} when Tikhonov regularisation was used.
-    start : the starting values {name: value}.
-    sensitivity : the derivative route used at the solution.
     """
 
     parameters: dict[str, float]
@@ -81,6 +74,25 @@ class UpdateResult:
     nfev: int
     njev: int
     iterations: int
+
+
+@dataclass(frozen=True, eq=False)
+class UpdateResult(RunResult):
+    """Result of :func:`femupdate.update`, in the spirit of :class:`scipy.optimize.OptimizeResult`:
+    the fields of :class:`RunResult`, and
+
+    Attributes
+    ----------
+    history : per iteration {``iteration``, ``cost``, ``parameters`` {name: value}}.
+    pairs : [(test mode, model mode, MAC)] at the solution (0-based; MAC NaN without shape).
+    test_frequencies_hz, model_frequencies_hz : of the pairs, in test-mode order.
+    swaps : mode swaps seen during the iteration.
+    diagnostics : :class:`Diagnostics` at the solution.
+    regularization : {``rule``, ``alpha``} when Tikhonov regularisation was used.
+    start : the starting values {name: value}.
+    sensitivity : the derivative route used at the solution.
+    """
+
     history: list[dict]
     pairs: list[tuple[int, int, float]]
     test_frequencies_hz: np.ndarray
@@ -143,4 +155,4 @@ class MultiStartResult:
     seed: int | None
 
 
-__all__ = ["Diagnostics", "UpdateResult", "Solution", "MultiStartResult"]
+__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult"]

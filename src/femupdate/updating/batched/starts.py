@@ -13,7 +13,7 @@ import numpy as np
 from ..._errors import FemupdateError, InputError
 from ..clustering import converged_solutions
 from ..problem import Problem
-from ..results import MultiStartResult, UpdateResult
+from ..results import MultiStartResult, RunResult, UpdateResult
 from ..solve import result_at, update
 from .driver import PROBLEM_OPTIONS, SOLVER_OPTIONS, BatchedProblem, unsupported
 from .lsq import FAILED
@@ -22,27 +22,14 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, eq=False)
-class BatchRun:
-    """Result of one start of a batched study (a light :class:`~femupdate.updating.UpdateResult`).
-
-    ``x`` are the updated parameters' values (``names`` order) and ``parameters`` every model
-    parameter; ``cost`` = ½‖r‖²; ``fun`` (m,) and ``jac`` (m, L, in the solver's variables) at the
-    solution; ``pairs`` [(test mode, model mode, MAC)]; ``status``/``message``/``success`` as
-    :func:`scipy.optimize.least_squares` reports them; ``history`` one entry per iteration.
+class BatchRun(RunResult):
+    """Result of one start of a batched study: the fields of
+    :class:`~femupdate.updating.results.RunResult` (a light
+    :class:`~femupdate.updating.UpdateResult`), and ``optimality`` (‖gradient‖∞), ``pairs``
+    [(test mode, model mode, MAC)], the paired ``model_frequencies_hz``, the ``start`` and the
+    iteration ``history`` (built from ``history_cost`` and ``history_x`` on demand).
     """
 
-    parameters: dict[str, float]
-    names: tuple[str, ...]
-    x: np.ndarray
-    success: bool
-    status: int
-    message: str
-    cost: float
-    fun: np.ndarray
-    jac: np.ndarray
-    nfev: int
-    njev: int
-    iterations: int
     optimality: float
     pairs: list[tuple[int, int, float]]
     model_frequencies_hz: np.ndarray
