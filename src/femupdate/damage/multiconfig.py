@@ -50,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._errors import InputError
-from ..direct import DirectResult, LinearSystem, _Builder, frf_equations, modal_equations, solve_system, static_equations
+from ..direct import DirectResult, LinearSystem, EquationBuilder, frf_equations, modal_equations, solve_system, static_equations
 from ..correlation import mac
 from ..dofs import canonical_all, describe, parse_dof
 from ..modal import model_modes
@@ -458,7 +458,7 @@ def direct_configurations(model: Model, configurations: Sequence[Configuration],
     for c, cmc in zip(configurations, cms):
         cm = cmc.model
         mine = [n for n in names if n in cm.parameter_names]
-        b = _Builder(cm, _config_values(model, cm, c.modification, values), mine)
+        b = EquationBuilder(cm, _config_values(model, cm, c.modification, values), mine)
         cnotes: list[str] = []
         if "modes" in kinds and c.data.modes:
             modal_equations(b, c.data.modes, cnotes)
