@@ -90,7 +90,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
            localise_min_mac, set_text, json_path):
     """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
     from ..cli import parse_set
-    from ..damage.detect import detect_damage, element_parameters
+    from ..damage import detect_damage, element_parameters
     from ..io.testdata_json import load_testdata
 
     ctx = _Ctx(json_path)
@@ -191,8 +191,8 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
                  bounded, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
     from ..cli import _parse_regularization
-    from ..damage.files import load_modification, split_config_spec
-    from ..damage.multiconfig import Configuration, Modification, configure, solve_configurations
+    from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
+    from ..updating.multiconfig.files import load_modification, split_config_spec
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
@@ -240,8 +240,8 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
 def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterion, select, params_text, eigenvalues_only,
                        set_text, json_path):
     """Rank CANDIDATES (modifications) by the new, independent information each adds to MODEL's test."""
-    from ..damage.files import load_candidates
-    from ..damage.multiconfig import rank_modifications as _rank
+    from ..updating.multiconfig import rank_modifications as _rank
+    from ..updating.multiconfig.files import load_candidates
     from ..io.model_file import load_model
 
     ctx = _Ctx(json_path)
@@ -279,8 +279,8 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
 @json_option
 def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, set_text, json_path):
     """Map a full-field SCAN (points by coordinates) onto MODEL's dofs and identify its parameters directly."""
-    from ..damage.files import load_scan
-    from ..damage.fullfield import full_field_direct, structure_segments
+    from ..fullfield import full_field_direct, structure_segments
+    from ..fullfield.files import load_scan
 
     ctx = _Ctx(json_path)
     structure, model = _load_structure(model_path)
