@@ -11,13 +11,15 @@ from scipy.interpolate import CubicHermiteSpline
 
 from femupdate import InputError, Structure, model_modes
 from femupdate.cli import main
-from femupdate.damage import (Configuration, Modification, ScanData, ScanFRF, ScanMode, check_baseline, complete_direct,
-                              configure, detect_damage, direct_configurations, element_parameters, l1_solve, map_scan,
-                              rank_modifications, simulate, solve_configurations, structure_segments,
-                              update_configurations)
-from femupdate.damage.examples import concentrated_mass_truss, noisy_modes, scan_beam, segmented_cantilever
-from femupdate.damage.files import load_candidates, load_modification, scan_from_dict, split_config_spec
-from femupdate.damage.fullfield import inferable_rotations, model_geometry, project_system, rotation_operators
+from femupdate.damage import check_baseline, detect_damage, element_parameters, l1_solve
+from femupdate.damage.examples import concentrated_mass_truss, noisy_modes
+from femupdate.fullfield import (ScanData, ScanFRF, ScanMode, complete_direct, inferable_rotations, map_scan,
+                                 model_geometry, project_system, rotation_operators, structure_segments)
+from femupdate.fullfield.examples import scan_beam, segmented_cantilever
+from femupdate.fullfield.files import scan_from_dict
+from femupdate.updating.multiconfig import (Configuration, Modification, configure, direct_configurations,
+                                            rank_modifications, simulate, solve_configurations, update_configurations)
+from femupdate.updating.multiconfig.files import load_candidates, load_modification, split_config_spec
 from femupdate.direct import build_system
 from femupdate.examples import FIGURE2_K4, three_dof, two_dof
 from femupdate.io import write_json

@@ -16,7 +16,7 @@ Names are imported on first use, so ``import femupdate`` stays light (it loads n
 solvers nor numba, matplotlib, SymPy or Dask).  Modules whose names start with an underscore are
 internal; the sub-packages (:mod:`femupdate.updating`, :mod:`femupdate.sensitivity`,
 :mod:`femupdate.reduction`, :mod:`femupdate.frf`, :mod:`femupdate.uniqueness`,
-:mod:`femupdate.damage`, :mod:`femupdate.io`) hold the rest.
+:mod:`femupdate.fullfield`, :mod:`femupdate.damage`, :mod:`femupdate.io`) hold the rest.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ _LAZY = {
     "direct_update": "direct", "DirectResult": "direct",
     "Problem": "updating", "update": "updating", "UpdateResult": "updating", "Diagnostics": "updating",
     "multistart": "updating", "MultiStartResult": "updating",
-    "frf_update": "frf", "simulate_frf": "frf", "update_configurations": "damage",
+    "frf_update": "frf", "simulate_frf": "frf", "update_configurations": "updating.multiconfig",
     # identifiability, reduction, damage
     "counting_criteria": "uniqueness", "exact_solutions": "uniqueness", "define_study": "uniqueness",
     "run_study": "uniqueness", "reduce": "reduction", "expand": "reduction", "detect_damage": "damage",
@@ -71,7 +71,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .correlation import Correlation, correlate, mac
-    from .damage import detect_damage, update_configurations
+    from .damage import detect_damage
     from .direct import DirectResult, direct_update
     from .frf import frf_update
     from .frf import simulate as simulate_frf  # type: ignore[no-redef]  # frf.simulate is also a module
@@ -87,3 +87,4 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .testdata import FRFData, MeasuredMode, StaticData, TestData
     from .uniqueness import counting_criteria, define_study, exact_solutions, run_study
     from .updating import Diagnostics, MultiStartResult, Problem, UpdateResult, multistart, update
+    from .updating.multiconfig import update_configurations

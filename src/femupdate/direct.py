@@ -130,7 +130,7 @@ def _fro(A) -> float:
     return 0.0 if A is None else float(np.sqrt(np.sum(A.data**2)))
 
 
-class _Builder:
+class EquationBuilder:
     """Accumulates column blocks ``[(K_j - s M_j) x]_j`` and right-hand sides."""
 
     def __init__(self, model, values=None, unknowns: Sequence[str] | None = None):
@@ -193,7 +193,7 @@ class _Builder:
         return LinearSystem(A, b, names, self.blocks)
 
 
-def modal_equations(builder: _Builder, modes: Sequence[MeasuredMode], notes: list[str]) -> None:
+def modal_equations(builder: EquationBuilder, modes: Sequence[MeasuredMode], notes: list[str]) -> None:
     """Eqs. (4)-(9): one block of n rows per complete mode (shape normalised to unit length)."""
     for k, mode in enumerate(modes, start=1):
         name = mode.label or f"mode {k}"
@@ -208,7 +208,7 @@ def modal_equations(builder: _Builder, modes: Sequence[MeasuredMode], notes: lis
         builder.add(phi, mode.eigenvalue, None, name)
 
 
-def frf_equations(builder: _Builder, frf: FRFData) -> None:
+def frf_equations(builder: EquationBuilder, frf: FRFData) -> None:
     """Eqs. (24)-(28): one block per spectral line; complex data give real and imaginary rows."""
     x = _complete(builder.model, frf.dofs, frf.response.T, "frf response")  # (n, n_freq)
     f = _force(builder.model, dict(frf.force), "frf")
@@ -216,7 +216,7 @@ def frf_equations(builder: _Builder, frf: FRFData) -> None:
         builder.add(x[:, i], float(w) ** 2, f, f"frf line {i + 1} ({w:g} rad/s)")
 
 
-def static_equations(builder: _Builder, cases: Sequence[StaticData]) -> None:
+def static_equations(builder: EquationBuilder, cases: Sequence[StaticData]) -> None:
     """Static equilibrium K(p) u = f for each load case (Lallement et al. 1992)."""
     for k, case in enumerate(cases, start=1):
         u = _complete(builder.model, case.dofs, case.displacement, f"static case {k} displacement")
@@ -228,7 +228,7 @@ def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "s
                  values=None, unknowns=None, notes: list[str] | None = None) -> LinearSystem:
     """Stack the direct equations of the chosen kinds of data."""
     notes = [] if notes is None else notes
-    b = _Builder(model, values, unknowns)
+    b = EquationBuilder(model, values, unknowns)
     unknown_kinds = set(use) - {"modes", "frf", "static"}
     if unknown_kinds:
         raise InputError(f"unknown data kind(s) {sorted(unknown_kinds)}: use modes, frf, static")

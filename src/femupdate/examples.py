@@ -195,10 +195,10 @@ def example_files() -> dict[str, str]:
 
     import numpy as np
 
-    from .damage.detect import element_parameters
+    from .damage import element_parameters
     from .damage.examples import noisy_modes
-    from .damage.files import modification_from_dict
-    from .damage.multiconfig import simulate as simulate_configuration
+    from .updating.multiconfig import simulate as simulate_configuration
+    from .updating.multiconfig.files import modification_from_dict
     from .frf.simulate import simulate
     from .modal import model_modes
     from .structure import Structure

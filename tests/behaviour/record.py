@@ -207,7 +207,7 @@ def write_inputs(directory: Path = INPUTS) -> None:
     import numpy as np
 
     from femupdate import Structure
-    from femupdate.damage.examples import scan_beam
+    from femupdate.fullfield.examples import scan_beam
 
     directory.mkdir(parents=True, exist_ok=True)
     E = (2.0e11, 2.2e11, 1.9e11, 2.1e11)

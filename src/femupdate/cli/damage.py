@@ -89,7 +89,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
            min_change, iterations, bootstrap, noise_frequency, noise_shape, seed, max_frequency_error, min_mac,
            localise_min_mac, set_text, json_path):
     """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
-    from ..damage.detect import detect_damage, element_parameters
+    from ..damage import detect_damage, element_parameters
     from ..io.testdata_json import load_testdata
 
     ctx = Ctx(json_path)
@@ -189,8 +189,8 @@ def _multi_payload(model, res) -> dict:
 def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, max_nfev, reg_text, eigenvalues_only,
                  bounded, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
-    from ..damage.files import load_modification, split_config_spec
-    from ..damage.multiconfig import Configuration, Modification, configure, solve_configurations
+    from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
+    from ..updating.multiconfig.files import load_modification, split_config_spec
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
@@ -238,8 +238,8 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
 def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterion, select, params_text, eigenvalues_only,
                        set_text, json_path):
     """Rank CANDIDATES (modifications) by the new, independent information each adds to MODEL's test."""
-    from ..damage.files import load_candidates
-    from ..damage.multiconfig import rank_modifications as _rank
+    from ..updating.multiconfig import rank_modifications as _rank
+    from ..updating.multiconfig.files import load_candidates
     from ..io.model_file import load_model
 
     ctx = Ctx(json_path)
@@ -277,8 +277,8 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
 @json_option
 def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, set_text, json_path):
     """Map a full-field SCAN (points by coordinates) onto MODEL's dofs and identify its parameters directly."""
-    from ..damage.files import load_scan
-    from ..damage.fullfield import full_field_direct, structure_segments
+    from ..fullfield import full_field_direct, structure_segments
+    from ..fullfield.files import load_scan
 
     ctx = Ctx(json_path)
     structure, model = _load_structure(model_path)

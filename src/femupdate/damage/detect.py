@@ -27,7 +27,7 @@ the measured shapes with it "should be acceptable".  So:
 
    each mode's rows divided by :math:`\lambda_i\|M\phi_i\|`: m² rows (energy for k = i,
    orthogonality otherwise).  The pointwise rows at every dof would apply the stiffness to the
-   expansion's errors and to the noise (see :mod:`femupdate.damage.fullfield`); measured, they
+   expansion's errors and to the noise (see :mod:`femupdate.fullfield`); measured, they
    located the wrong members even without noise.  The element products are sparse (element e
    touches only its dofs), so the cost grows with the model's non-zeros, not its square.
 5. **Sparsity.** Few elements are damaged, so the equations are solved with an L1 penalty,
@@ -62,196 +62,17 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import lsq_linear, minimize
 
 from .._errors import InputError
-from ..correlation import mac, pair_modes
-from ..modal import model_modes
-from ..sensitivity.subspace import single_thread_blas
 from ..model import Model
-from ..structure import Structure
+from ..sensitivity.subspace import single_thread_blas
 from ..testdata import MeasuredMode, TestData
+from .baseline import check_baseline, paired_modes
+from .solvers import L1Fit, debias, l1_path, support_of, tikhonov
 
 log = logging.getLogger(__name__)
 
-MODULUS = {"spring": "k", "rod": "E", "beam2d": "E", "frame3d": "E"}
 METHODS = ("l1", "tikhonov")
-N_PATH = 20
-
-
-# ------------------------------------------------------------------------------ element parameters
-def _resolve(structure: Structure, v, values: Mapping) -> float:
-    if isinstance(v, str):
-        return float(values.get(v, structure.parameters[v].value))
-    return float(v)
-
-
-def _element_name(prop: str, g, i: int) -> str:
-    if g.nodes is not None:
-        a, b = (int(x) for x in g.nodes[i])
-        return f"{prop}.{a}-{b}"
-    return f"{prop}." + "-".join(lab.replace(":", "") for lab in g.labels[i])
-
-
-def element_parameters(structure: Structure, values: Mapping | None = None, bounds: tuple[float, float] = (0.0, 2.0),
-                       name: str | None = None) -> tuple[Structure, dict[str, str]]:
-    """A copy of ``structure`` with one stiffness parameter per element, at its validated value.
-
-    Every property is resolved to its value (``values`` overrides the structure's parameters, e.g.
-    with updated ones); then each spring's ``k`` and each rod's, beam's or frame's ``E`` becomes
-    a parameter of its own, named after the element (``E.4-5`` for the element between nodes 4
-    and 5, ``k.1x-2x`` for a spring between 1:x and 2:x; a suffix ``.2``, ``.3`` separates
-    elements between the same nodes).  Masses stay known.
-
-    Parameters
-    ----------
-    structure : Structure
-    values : {parameter: value}, optional
-    bounds : (lower, upper)
-        The new parameters' bounds relative to their values.
-    name : str, optional
-
-    Returns
-    -------
-    (Structure, dict)
-        The new structure and {parameter: description of its element}.
-
-    Raises
-    ------
-    InputError
-        Physical-term elements (``beam2d_terms``, ``frame3d_terms``): they have several stiffness
-        terms, so one parameter cannot scale the element; an unknown parameter in ``values``.
-    """
-    values = dict(values or {})
-    for k in values:
-        if k not in structure.parameters:
-            raise InputError(f"values: parameter {k!r} is not in the structure (its parameters: {', '.join(structure.parameters) or 'none'})")
-    lo, hi = bounds
-    if not 0 <= lo < 1 < hi:
-        raise InputError(f"bounds {bounds!r} must satisfy 0 <= lower < 1 < upper (relative to the element's value)")
-    out = Structure(name or f"{structure.name} (element stiffnesses)")
-    ids = list(structure.nodes)
-    if ids:
-        out.add_nodes(ids, [structure.nodes[i] for i in ids])
-    used: dict[str, int] = {}
-    described: dict[str, str] = {}
-    sup_nodes = set(structure.support_nodes)
-    fixed = set(structure.supports)
-
-    def supported(labels) -> bool:  # an element with no free dof carries no information
-        return all(lab in fixed or int(lab.split(":")[0]) in sup_nodes for lab in labels)
-
-    for g in structure.groups:
-        n_el = len(g.labels)
-        props: dict[str, list] = {k: [_resolve(structure, v, values) for v in vs] for k, vs in g.props.items()}
-        if g.type == "mass":
-            for i in range(n_el):
-                out.mass(g.labels[i], m=props["m"][i], where=g.where[i])
-            continue
-        if g.type not in MODULUS:
-            raise InputError(f"{g.where[0]}: damage detection gives each element one stiffness parameter (k or E); "
-                             f"a {g.type} element has several stiffness terms: build the baseline with "
-                             f"{'beam2d' if g.type.startswith('beam') else 'frame3d'} elements")
-        prop = MODULUS[g.type]
-        names: list[float | str] = []
-        for i in range(n_el):
-            if supported(g.labels[i]):
-                names.append(props[prop][i])
-                continue
-            base = _element_name(prop, g, i)
-            k = used.get(base, 0) + 1
-            used[base] = k
-            nm = base if k == 1 else f"{base}.{k}"
-            v = props[prop][i]
-            out.parameter(nm, v, bounds=(lo * v, hi * v))
-            described[nm] = g.where[i]
-            names.append(nm)
-        props[prop] = names
-        if g.type == "spring":
-            for i in range(n_el):
-                out.spring(g.labels[i], k=names[i], where=g.where[i])
-        elif g.type == "rod":
-            out.rod(g.nodes, dim=g.dim, mass=g.mass, where=g.where[0], **props)
-        elif g.type == "beam2d":
-            out.beam2d(g.nodes, mass=g.mass, where=g.where[0], **props)
-        else:
-            out.frame3d(g.nodes, orientation=g.orientation, mass=g.mass, where=g.where[0], **props)
-    out.supports = list(structure.supports)
-    out.support_nodes = list(structure.support_nodes)
-    return out, described
-
-
-# ------------------------------------------------------------------------------ baseline check
-@dataclass(frozen=True, eq=False)
-class BaselineCheck:
-    """Correlation of the baseline model with the undamaged structure's test data."""
-
-    ok: bool
-    frequency_error: np.ndarray
-    mac: np.ndarray
-    pairs: list
-    reasons: list[str]
-    max_frequency_error: float
-    min_mac: float
-
-    def as_dict(self) -> dict:
-        return {"ok": self.ok, "frequency_error": self.frequency_error, "mac": self.mac,
-                "pairs": [list(p) for p in self.pairs], "reasons": self.reasons,
-                "limits": {"max_frequency_error": self.max_frequency_error, "min_mac": self.min_mac}}
-
-
-def _paired(model, data: TestData, values, min_pair: float):
-    """Model modes (enough of them) and the MAC pairing of the test modes with shapes."""
-    n = len(data.modes)
-    modes = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else min(model.n_dofs - 2, 2 * n + 12))
-    rows = []
-    for m in data.modes:
-        if m.has_shape and len(m.dofs) >= 2:
-            rows.append(mac(np.real(m.shape), modes.at(m.dofs))[0])
-        else:
-            rows.append(np.zeros(modes.n_modes))
-    M = np.array(rows)
-    M[:, modes.eigenvalues <= 0] = 0.0  # never pair with rigid-body modes
-    return modes, M, pair_modes(M, min_pair)
-
-
-def check_baseline(model: Model, undamaged: TestData, values=None, *, max_frequency_error: float = 0.02,
-                   min_mac: float = 0.9, raise_on_failure: bool = True) -> BaselineCheck:
-    """Check that the baseline model reproduces the undamaged structure's test data.
-
-    Every undamaged test mode with a shape must pair (MAC) with a model mode with
-    ``MAC >= min_mac`` and ``|f_model - f_test| / f_test <= max_frequency_error``.
-
-    Raises
-    ------
-    InputError
-        (with ``raise_on_failure``) naming every mode beyond the limits: localising damage from a
-        baseline that does not match the undamaged structure would report its modelling errors
-        as damage.
-    """
-    if not undamaged.modes or not any(m.has_shape and len(m.dofs) >= 2 for m in undamaged.modes):
-        raise InputError("the undamaged data hold no mode shapes: the baseline cannot be checked")
-    modes, M, pairs = _paired(model, undamaged, values, 0.0)
-    by_test = {k: (j, m) for k, j, m in pairs}
-    errs, macs, reasons = [], [], []
-    for k, tm in enumerate(undamaged.modes):
-        if k not in by_test or not (tm.has_shape and len(tm.dofs) >= 2):
-            errs.append(math.nan)
-            macs.append(math.nan)
-            continue
-        j, m = by_test[k]
-        e = (modes.frequencies_hz[j] - tm.frequency_hz) / tm.frequency_hz
-        errs.append(e)
-        macs.append(m)
-        if abs(e) > max_frequency_error:
-            reasons.append(f"mode {k + 1}: frequency error {e * 100:+.2f} % (limit {max_frequency_error * 100:g} %)")
-        if m < min_mac:
-            reasons.append(f"mode {k + 1}: MAC {m:.3f} with its best model mode (limit {min_mac:g})")
-    chk = BaselineCheck(not reasons, np.array(errs), np.array(macs), pairs, reasons, max_frequency_error, min_mac)
-    if reasons and raise_on_failure:
-        raise InputError("the baseline model does not match the undamaged data, so its differences would be "
-                         "reported as damage; validate (update) the baseline first: " + "; ".join(reasons))
-    return chk
 
 
 # ------------------------------------------------------------------------------ equations
@@ -314,101 +135,6 @@ def _whitener(R: np.ndarray) -> np.ndarray:
     w = np.maximum(w, max(w.max(), 1e-300) * WHITEN_RANGE)
     keep = np.ones(w.size, dtype=bool)
     return (V[:, keep] / np.sqrt(w[keep])).T
-
-
-# ------------------------------------------------------------------------------ solvers
-def l1_solve(A, r, alpha: float, lower: float = -1.0, upper: float = 0.0, x0=None, tol: float = 1e-14) -> np.ndarray:
-    r"""Bounded L1-regularised least squares:
-    :math:`\min_\delta \tfrac12\|A\delta - r\|^2 + \alpha\|\delta\|_1`, ``lower <= δ <= upper``.
-
-    Solved with L-BFGS-B (:func:`scipy.optimize.minimize`) on ``δ = v - u``, ``u, v >= 0``, where the
-    objective is smooth: :math:`\tfrac12\|A(v-u) - r\|^2 + \alpha\,1^T(u + v)`.  ``A`` dense or sparse.
-    """
-    L = A.shape[1]
-    both = upper > 0
-    scale = max(float(r @ r), 1e-300)
-
-    def split(z):
-        return z[:L], (z[L:] if both else np.zeros(L))
-
-    def f(z):
-        u, v = split(z)
-        res = A @ (v - u) - r
-        g = A.T @ res
-        obj = 0.5 * float(res @ res) + alpha * float(np.sum(u) + np.sum(v))
-        grad = np.concatenate([-g + alpha] + ([g + alpha] if both else []))
-        return obj / scale, grad / scale
-
-    x0 = np.clip(np.zeros(L) if x0 is None else x0, lower, upper)
-    z0 = np.concatenate([np.maximum(-x0, 0)] + ([np.maximum(x0, 0)] if both else []))
-    bnds = [(0.0, -lower)] * L + ([(0.0, upper)] * L if both else [])
-    sol = minimize(f, z0, jac=True, method="L-BFGS-B", bounds=bnds,
-                   options={"maxiter": 20000, "maxfun": 40000, "ftol": tol, "gtol": 1e-14})
-    u, v = split(sol.x)
-    return v - u
-
-
-def _debias(A, r, support: np.ndarray, lower: float, upper: float) -> np.ndarray:
-    """Bounded least squares on the located elements only (removes the L1 shrinkage)."""
-    x = np.zeros(A.shape[1])
-    if support.size:
-        res = lsq_linear(A[:, support], r, bounds=(lower, upper if upper > lower else lower + 1e-12), method="bvls")
-        x[support] = res.x
-    return x
-
-
-def _support(x: np.ndarray, threshold: float) -> np.ndarray:
-    return np.flatnonzero(np.abs(x) >= threshold)
-
-
-@dataclass(frozen=True, eq=False)
-class _Fit:
-    l1: np.ndarray
-    debiased: np.ndarray
-    alpha: float
-    alpha_max: float
-    path: list
-
-
-def _l1_path(A, r, lower, upper, threshold, alpha=None) -> _Fit:
-    r"""L1 solutions from α_max down; α chosen by the Bayesian information criterion of the
-    debiased support, :math:`\|A\delta_S - r\|^2 + |S|\ln n` (rows whitened: unit noise variance),
-    or ``alpha`` (a fraction of α_max)."""
-    c = A.T @ r
-    g = np.abs(c) if upper > 0 else np.maximum(-c, 0.0)
-    amax = float(np.max(g)) if g.size else 0.0
-    if amax <= 0:
-        z = np.zeros(A.shape[1])
-        return _Fit(z, z, 0.0, 0.0, [])
-    fracs = np.geomspace(1.0, 1e-3, N_PATH) if alpha is None else np.array([float(alpha)])
-    n = A.shape[0]
-    x, path, worse = None, [], 0
-    best: tuple[float, float, np.ndarray, np.ndarray] | None = None
-    for fr in fracs:
-        if worse >= 3:  # the criterion has risen clearly three times running: the rest of the path only adds elements
-            break
-        x = l1_solve(A, r, fr * amax, lower, upper, x0=x)
-        S = _support(x, threshold)
-        xd = _debias(A, r, S, lower, upper)
-        res = A @ xd - r
-        rss = float(res @ res)
-        bic = rss + S.size * math.log(n)
-        path.append({"alpha": fr * amax, "alpha_fraction": float(fr), "n_located": int(S.size), "rss": rss, "bic": bic})
-        if best is None or bic < best[0] - 1e-9:
-            best = (bic, fr, x.copy(), xd)
-        worse = worse + 1 if bic > best[0] + math.log(n) else 0
-    if best is None:  # set on the first step of the path
-        raise TypeError("cannot unpack non-iterable NoneType object")
-    _, fr, x, xd = best
-    return _Fit(x, xd, float(fr * amax), amax, path)
-
-
-def tikhonov(A, r, rule="gcv") -> tuple[np.ndarray, float]:
-    """Tikhonov solution of A δ = r, the factor by GCV (or given), for comparison with L1."""
-    from ..regularization import choose_alpha, tikhonov_step
-
-    choice = choose_alpha(A, -r, rule=rule)
-    return tikhonov_step(A, -r, choice.alpha), float(choice.alpha)
 
 
 # ------------------------------------------------------------------------------ detection
@@ -575,7 +301,7 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     lower, upper = -1.0 + 1e-9, (1.0 if allow_increase else 0.0)
     # pairing with the baseline and the frequency changes
     measured = TestData(modes=tuple(MeasuredMode(lam[k], dofs, Phi_a[:, k]) for k in range(m)))
-    base_modes, _, pairs = _paired(model, measured, None, 0.0)
+    base_modes, _, pairs = paired_modes(model, measured, None, 0.0)
     best = {k: (j, mm) for k, j, mm in pairs}
     fchange = np.array([math.sqrt(lam[k] / base_modes.eigenvalues[best[k][0]]) - 1.0 for k in range(m)])
     detected = bool(np.any(np.abs(fchange) > 3 * sig_f))
@@ -634,14 +360,14 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
             with single_thread_blas():  # small dense problems: OpenBLAS threads only add hand-off time
                 if method == "l1" and it:
                     # later expansions re-estimate the located elements' loss; the location stays
-                    S = _support(fit.debiased, min_change)
-                    fit = _Fit(fit.l1, _debias(A, r, S, lower, upper), fit.alpha, fit.alpha_max, fit.path)
+                    S = support_of(fit.debiased, min_change)
+                    fit = L1Fit(fit.l1, debias(A, r, S, lower, upper), fit.alpha, fit.alpha_max, fit.path)
                 elif method == "l1":
-                    fit = _l1_path(A, r, lower, upper, min_change, fixed_alpha)
+                    fit = l1_path(A, r, lower, upper, min_change, fixed_alpha)
                 else:
                     d_t, a_t = tikhonov(A, r)
                     d_t = np.clip(d_t, lower, upper)
-                    fit = _Fit(d_t, d_t, a_t, math.nan, [])
+                    fit = L1Fit(d_t, d_t, a_t, math.nan, [])
             theta = theta0.copy()
             theta[eq.idx] = theta0[eq.idx] * (1.0 + fit.debiased)
         return fit, A, r
@@ -654,7 +380,7 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
             d_t, a_t = tikhonov(A, r)
         tk = {"changes": dict(zip(names, map(float, d_t))), "alpha": a_t,
               "n_above_threshold": int(np.sum(np.abs(d_t) >= min_change))}
-    S = _support(delta, min_change)
+    S = support_of(delta, min_change)
     order = S[np.argsort(-np.abs(delta[S]))]
     located = [names[i] for i in order]
     # each replicate re-runs the whole chain, the choice of alpha included
@@ -683,4 +409,4 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     )
 
 
-__all__ = ["element_parameters", "check_baseline", "BaselineCheck", "detect_damage", "DamageResult", "l1_solve", "tikhonov"]
+__all__ = ["detect_damage", "DamageResult"]

@@ -9,10 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import InputError
-from ..damage import (Configuration, Modification, complete_direct, detect_damage, direct_configurations,
-                      element_parameters, map_scan, rank_modifications, simulate, structure_segments,
-                      update_configurations)
-from ..damage.examples import concentrated_mass_truss, noisy_modes, scan_beam, segmented_cantilever
+from ..damage import detect_damage, element_parameters
+from ..damage.examples import concentrated_mass_truss, noisy_modes
+from ..fullfield import complete_direct, map_scan, structure_segments
+from ..fullfield.examples import scan_beam, segmented_cantilever
+from ..updating.multiconfig import (Configuration, Modification, direct_configurations, rank_modifications, simulate,
+                                    update_configurations)
 from ..examples import FIGURE2_K4, three_dof, two_dof
 from ..modal import model_modes
 from ..updating import cluster, draw_starts, multistart

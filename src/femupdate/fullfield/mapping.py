@@ -1,4 +1,4 @@
-r"""Full-field (scanning laser-Doppler) data onto the model's dofs, then the direct solution.
+r"""Full-field (scanning laser-Doppler) data onto the model's dofs.
 
 A scanning vibrometer gives the motion at many points whose coordinates do not coincide with
 the model's nodes — "too much data" (the reference paper, "Improving experimental data") — and
@@ -29,12 +29,12 @@ no rotations.  :func:`map_scan` turns such a scan into complete test data on the
 
    Rotations about axes the measured components cannot give (torsion of a beam, for one)
    must be declared zero, like unmeasured translations (e.g. the axial motion of bending modes).
-4. **Direct solution** (paper eqs. 1-10, 23-29) on the completed data: :func:`full_field_direct`.
+4. **Direct solution** (paper eqs. 1-10, 23-29) on the completed data:
+   :func:`femupdate.fullfield.direct.full_field_direct`.
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass, field
 
@@ -44,261 +44,15 @@ from scipy.interpolate import RBFInterpolator
 from scipy.spatial import cKDTree
 
 from .._errors import InputError
-from ..direct import DirectResult, LinearSystem, build_system, direct_update, solve_system
-from ..dofs import DIRECTIONS, describe, parse_dof
+from ..dofs import describe, parse_dof
 from ..testdata import FRFData, MeasuredMode, TestData
-
-log = logging.getLogger(__name__)
+from .geometry import Geometry, distance_to_geometry, inferable_rotations, model_geometry, rotation_operators
+from .scan import AXES, ScanData
 
 METHODS = ("elements", "rbf", "local")
 KERNELS = {1: "cubic", 2: "thin_plate_spline", 3: "linear"}  # polyharmonic splines of minimum curvature
 SMOOTHING_GRID = np.concatenate(([0.0], np.geomspace(1e-10, 1e1, 12)))
 TOLERANCE_FACTOR = 0.6  # default geometry tolerance: this fraction of the longest element
-_AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
-
-
-@dataclass(frozen=True)
-class ScanMode:
-    """One mode measured by scanning: eigenvalue and the values per direction ``{"y": (n,)}``."""
-
-    eigenvalue: float
-    values: dict
-    label: str = ""
-
-
-@dataclass(frozen=True)
-class ScanFRF:
-    """Operating deflection shapes at known forcing: ``values`` ``{"y": (n_freq, n_points)}``."""
-
-    omega: np.ndarray
-    force: dict
-    values: dict
-
-
-@dataclass(frozen=True)
-class ScanData:
-    """A full-field scan.
-
-    Attributes
-    ----------
-    points : ndarray (n, 3)
-        Coordinates of the scan points (same frame and units as the model's nodes).
-    modes : tuple of ScanMode
-    frf : ScanFRF or None
-    zero : tuple of str
-        Directions (``x`` ... ``rz``) known to be zero at every node (e.g. the axial motion and
-        the torsion of a beam's bending modes); they complete the data.
-    max_distance : float or None
-        Largest allowed distance of a point from the model's geometry (default
-        ``TOLERANCE_FACTOR`` times the longest element).
-    """
-
-    points: np.ndarray
-    modes: tuple = ()
-    frf: ScanFRF | None = None
-    zero: tuple = ()
-    max_distance: float | None = None
-
-    def __post_init__(self):
-        pts = np.asarray(self.points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] == 0:
-            raise InputError(f"scan points must have shape (n, 3), got {pts.shape}")
-        if pts.shape[1] == 2:
-            pts = np.column_stack([pts, np.zeros(len(pts))])
-        if not np.all(np.isfinite(pts)):
-            raise InputError("scan points contain NaN or infinite coordinates")
-        n = len(pts)
-        comps = None
-        for k, m in enumerate(self.modes, start=1):
-            comps = self._check(m.values, n, (n,), comps, m.label or f"mode {k}")
-        if self.frf is not None:
-            comps = self._check(self.frf.values, n, (np.asarray(self.frf.omega).size, n), comps, "frf")
-        if comps is None:
-            raise InputError("the scan holds no modes and no frf")
-        bad = [z for z in self.zero if z not in DIRECTIONS]
-        if bad:
-            raise InputError(f"zero: unknown direction(s) {', '.join(bad)} (use {', '.join(DIRECTIONS)})")
-        both = sorted(set(self.zero) & set(comps))
-        if both:
-            raise InputError(f"direction(s) {', '.join(both)} are both measured and declared zero")
-        if self.max_distance is not None and not self.max_distance > 0:
-            raise InputError(f"max_distance must be positive, got {self.max_distance!r}")
-        object.__setattr__(self, "points", pts)
-        object.__setattr__(self, "zero", tuple(self.zero))
-
-    @staticmethod
-    def _check(values, n, shape, comps, what):
-        if not values:
-            raise InputError(f"scan {what}: no values")
-        for d, v in values.items():
-            if d not in _AXES:
-                raise InputError(f"scan {what}: direction {d!r} must be x, y or z")
-            a = np.asarray(v)
-            if a.shape != shape:
-                raise InputError(f"scan {what} values.{d}: shape {a.shape}, expected {shape} ({n} scan points)")
-            if not np.all(np.isfinite(a)):
-                raise InputError(f"scan {what} values.{d}: NaN or infinite values")
-        c = tuple(sorted(values))
-        if comps is not None and c != comps:
-            raise InputError(f"scan {what}: measured directions {', '.join(c)} differ from the others' ({', '.join(comps)})")
-        return c
-
-    @property
-    def components(self) -> tuple[str, ...]:
-        if self.modes:
-            src = self.modes[0].values
-        elif self.frf is not None:
-            src = self.frf.values
-        else:  # refused by __post_init__
-            raise AttributeError("'NoneType' object has no attribute 'values'")
-        return tuple(sorted(src))
-
-
-# ------------------------------------------------------------------------------ geometry
-@dataclass(frozen=True, eq=False)
-class Geometry:
-    """Nodes, element segments and intrinsic coordinates of a model.
-
-    ``segments`` (s, 2) are pairs of node ids (the line elements); ``basis`` (3, d) spans the
-    structure's ``dim`` intrinsic directions (1 line, 2 surface, 3 solid) around ``centre``;
-    ``length`` is its largest extent (the unit of the normalised intrinsic coordinates).
-    """
-
-    node_ids: np.ndarray
-    xyz: np.ndarray
-    segments: np.ndarray
-    centre: np.ndarray
-    basis: np.ndarray
-    length: float
-
-    @property
-    def dim(self) -> int:
-        return self.basis.shape[1]
-
-    def intrinsic(self, x: np.ndarray) -> np.ndarray:
-        return (np.asarray(x, float) - self.centre) @ self.basis / self.length
-
-    def ends(self) -> tuple[np.ndarray, np.ndarray]:
-        """Coordinates of the segments' first and second nodes."""
-        pos = {int(i): k for k, i in enumerate(self.node_ids)}
-        a = self.xyz[[pos[int(i)] for i in self.segments[:, 0]]].reshape(-1, 3)
-        b = self.xyz[[pos[int(i)] for i in self.segments[:, 1]]].reshape(-1, 3)
-        return a, b
-
-    def longest_element(self) -> float:
-        if not len(self.segments):
-            return 0.0
-        a, b = self.ends()
-        return float(np.max(np.linalg.norm(b - a, axis=1)))
-
-
-def structure_segments(structure) -> np.ndarray:
-    """Node pairs of every line element of a :class:`~femupdate.Structure`, supported ends included."""
-    pairs = [np.asarray(g.nodes, dtype=np.int64) for g in structure.groups if g.nodes is not None]
-    return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
-
-
-def model_geometry(model, segments=None) -> Geometry:
-    """The model's nodes with coordinates and its element segments.
-
-    ``segments``: node-id pairs of the line elements (:func:`structure_segments`); by default the
-    pairs of nodes the stiffness couples (elements with a fully supported end are then missing:
-    give ``segments`` for them).
-    """
-    if not model.nodes:
-        raise InputError(f"model {model.name!r} has no node coordinates: full-field data need the geometry")
-    dof_nodes = np.array([parse_dof(d)[0] for d in model.dofs])
-    missing = sorted({int(nd) for nd in dof_nodes if int(nd) not in model.nodes})
-    if missing:
-        raise InputError(f"model {model.name!r}: node(s) {missing[:8]} have dofs but no coordinates")
-    ids = np.array(sorted(model.nodes), dtype=np.int64)
-    xyz = np.array([model.nodes[int(i)] for i in ids], dtype=float)
-    if segments is None:
-        pattern = abs(model.K0).tocoo()
-        for A in model.dK:
-            if A is not None:
-                pattern = pattern + abs(A).tocoo()
-        pattern = sp.coo_array(pattern)
-        a, b = dof_nodes[pattern.row], dof_nodes[pattern.col]
-        keep = (a < b) & np.isin(a, ids) & np.isin(b, ids)
-        segs = np.unique(np.column_stack([a[keep], b[keep]]), axis=0) if np.any(keep) else np.zeros((0, 2), np.int64)
-    else:
-        segs = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
-        unknown = sorted({int(i) for i in segs.ravel() if int(i) not in model.nodes})
-        if unknown:
-            raise InputError(f"segments: node(s) {unknown[:8]} have no coordinates in model {model.name!r}")
-    centre = xyz.mean(axis=0)
-    _, s, Vt = np.linalg.svd(xyz - centre, full_matrices=False)
-    length = float(np.max(np.ptp(xyz, axis=0))) if len(xyz) > 1 else 1.0
-    dim = int(np.sum(s > 1e-8 * max(s[0], 1e-300))) if len(xyz) > 1 else 0
-    if dim == 0:
-        raise InputError(f"model {model.name!r}: its nodes do not span a line, surface or volume")
-    return Geometry(ids, xyz, segs, centre, Vt[:dim].T, max(length, 1e-300))
-
-
-def distance_to_geometry(geom: Geometry, points: np.ndarray, chunk: int = 2048):
-    """Per point: distance to the geometry (nearest node or segment), the nearest segment (-1 if
-    none), and the position along it ``s`` in [0, 1]."""
-    pts = np.asarray(points, float)
-    best, _ = cKDTree(geom.xyz).query(pts)
-    which = np.full(len(pts), -1, dtype=np.int64)
-    along = np.zeros(len(pts))
-    if len(geom.segments):
-        A, B = geom.ends()
-        D = B - A
-        dd = np.einsum("ij,ij->i", D, D)
-        for s in range(0, len(pts), chunk):
-            P = pts[s:s + chunk, None, :] - A[None, :, :]  # (p, segs, 3)
-            t = np.clip(np.einsum("psk,sk->ps", P, D) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-            dist = np.linalg.norm(P - t[..., None] * D[None], axis=2)
-            k = np.argmin(dist, axis=1)
-            rows = np.arange(len(k))
-            which[s:s + chunk] = k
-            along[s:s + chunk] = t[rows, k]
-            best[s:s + chunk] = np.minimum(best[s:s + chunk], dist[rows, k])
-    return best, which, along
-
-
-# ------------------------------------------------------------------------------ rotations
-def _cross_matrix(e: np.ndarray) -> np.ndarray:
-    """[e]_x with [e]_x g = e x g."""
-    return np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
-
-
-def rotation_operators(geom: Geometry, components) -> dict[str, np.ndarray]:
-    r"""Per measured component c, the 3x3 matrix G_c with :math:`\theta = \sum_c G_c \nabla u_c`
-    (gradients in global coordinates, within the structure's tangent space; module docstring)."""
-    out = {}
-    if geom.dim == 1:
-        for c in components:
-            out[c] = -_cross_matrix(_AXES[c])  # g x e_c = -e_c x g
-    elif geom.dim == 2:
-        n = np.cross(geom.basis[:, 0], geom.basis[:, 1])
-        n /= np.linalg.norm(n)
-        for c in components:
-            e = _AXES[c]
-            en = float(e @ n)
-            et = e - en * n
-            # normal part: en * (g x n); in-plane part: 1/2 n n.(g x e_t)
-            out[c] = -en * _cross_matrix(n) + 0.5 * np.outer(n, n) @ (-_cross_matrix(et))
-    else:
-        for c in components:
-            out[c] = -0.5 * _cross_matrix(_AXES[c])
-    return out
-
-
-def inferable_rotations(geom: Geometry, components) -> list[str]:
-    """Rotation directions (``rx``, ``ry``, ``rz``) the measured components determine."""
-    G = rotation_operators(geom, components)
-    T = geom.basis @ geom.basis.T  # gradients lie in the tangent space
-    span = np.hstack([G[c] @ T for c in components]) if components else np.zeros((3, 0))
-    U, s, _ = np.linalg.svd(span)
-    Q = U[:, : int(np.sum(s > 1e-9))]
-    out = []
-    for r, e in (("rx", _AXES["x"]), ("ry", _AXES["y"]), ("rz", _AXES["z"])):
-        if np.linalg.norm(e - Q @ (Q.T @ e)) < 1e-8:
-            out.append(r)
-    return out
 
 
 # ------------------------------------------------------------------------------ fitting
@@ -409,7 +163,7 @@ def element_design(model, geom: Geometry, points, seg, along, comps, zero) -> tu
             vals.append(c[nz[ok]])
 
     for ci, c in enumerate(comps):
-        e = _AXES[c]
+        e = AXES[c]
         r = ci * n + np.arange(n)
         alpha = t @ e
         perp = e[None, :] - alpha[:, None] * t
@@ -701,82 +455,3 @@ def _smooth_route(model, geom, pts, F, meta, items, comps, zero, method, smoothi
                            "cv_error": float(rep["cv_rms"][k] / sc), "fit_error": float(rep["fit_rms"][k] / sc)})
     err_key = "cv_error" if method == "rbf" and smoothing == "cv" else "fit_error"
     return Q, fields, sorted({dr for kind, dr, _ in plan if kind == "r"}), err_key
-
-
-FORMS = ("projected", "pointwise")
-
-
-def project_system(system: LinearSystem, vectors: np.ndarray) -> LinearSystem:
-    r"""Galerkin projection of pointwise direct equations onto the measured vectors.
-
-    Each block of the pointwise system (one mode: :math:`(K(p) - \lambda_k M)\phi_k = 0` at every
-    dof; one FRF line, real and imaginary parts) is premultiplied by :math:`W^T`, W the measured
-    shapes and responses (unit length): for modes, :math:`\phi_i^T K(p)\phi_k = \lambda_k\phi_i^T M\phi_k`,
-    the energy and orthogonality relations.  Still linear in p; the pointwise rows apply the
-    stiffness to the measured shapes (a discrete fourth derivative along a beam), so their noise
-    is amplified and the least-squares estimate shrinks towards zero (errors in variables), while
-    the projected rows integrate it.
-
-    ``vectors``: (n, w) real, columns of unit length.
-    """
-    n = vectors.shape[0]
-    A, b = np.asarray(system.A), system.b
-    rows_A, rows_b, blocks, at = [], [], [], 0
-    for desc, k in system.blocks:
-        parts = k // n
-        if parts * n != k:
-            raise InputError(f"block {desc!r}: {k} rows is not a multiple of {n} dofs")
-        for q in range(parts):
-            sl = slice(at + q * n, at + (q + 1) * n)
-            rows_A.append(vectors.T @ A[sl])
-            rows_b.append(vectors.T @ b[sl])
-        blocks.append((f"{desc} (projected)", parts * vectors.shape[1]))
-        at += k
-    return LinearSystem(np.vstack(rows_A), np.concatenate(rows_b), system.unknowns, blocks)
-
-
-def measured_vectors(data: TestData) -> np.ndarray:
-    """Unit-length real vectors of the complete test data (mode shapes, FRF real and imaginary parts)."""
-    cols = [np.real(m.shape) for m in data.modes if m.has_shape]
-    if data.frf is not None:
-        for x in np.atleast_2d(data.frf.response):
-            cols.append(np.real(x))
-            if np.iscomplexobj(x) and np.any(np.imag(x)):
-                cols.append(np.imag(x))
-    W = np.column_stack(cols)
-    return W / np.linalg.norm(W, axis=0)
-
-
-def complete_direct(model, data: TestData, *, form: str = "projected", use=("modes", "frf", "static"), values=None,
-                    unknowns=None, bounded: bool = False) -> DirectResult:
-    """Direct solution from complete data, pointwise (paper eqs. 4-10, 24-29) or projected
-    (:func:`project_system`)."""
-    if form not in FORMS:
-        raise InputError(f"unknown form {form!r}: use {', '.join(FORMS)}")
-    if form == "pointwise":
-        return direct_update(model, data, use=use, values=values, unknowns=unknowns, bounded=bounded)
-    notes: list[str] = []
-    kinds = [u for u in use if u != "static"]
-    system = project_system(build_system(model, data, kinds, values, unknowns, notes), measured_vectors(data))
-    return solve_system(model, system, values, bounded, notes)
-
-
-def full_field_direct(model, scan: ScanData, *, form: str = "projected", use=("modes", "frf"), values=None, unknowns=None,
-                      bounded: bool = False, **mapping) -> tuple[DirectResult, FullFieldMapping]:
-    """Map the scan onto the model's dofs (:func:`map_scan`) and solve directly.
-
-    ``form``: ``"projected"`` (default: the pointwise equations projected onto the measured
-    vectors, :func:`project_system`) or ``"pointwise"`` (the paper's eqs. 4-10 and 24-29 as
-    printed).  Other keyword arguments go to :func:`map_scan`.
-    """
-    m = map_scan(model, scan, **mapping)
-    kinds = [u for u in use if (u == "modes" and m.data.modes) or (u == "frf" and m.data.frf is not None)]
-    if not kinds:
-        raise InputError(f"the scan holds none of the data kinds asked for ({', '.join(use)})")
-    res = complete_direct(model, m.data, form=form, use=kinds, values=values, unknowns=unknowns, bounded=bounded)
-    return res, m
-
-
-__all__ = ["ScanData", "ScanMode", "ScanFRF", "Geometry", "FullFieldMapping", "model_geometry", "structure_segments",
-           "distance_to_geometry", "element_design", "rotation_operators", "inferable_rotations", "map_scan",
-           "project_system", "measured_vectors", "complete_direct", "full_field_direct"]

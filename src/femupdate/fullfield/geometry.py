@@ -1,0 +1,161 @@
+r"""The model's geometry seen by a scan: nodes, line segments, intrinsic coordinates, distances,
+and the rotations that follow from measured translations (small rotations: :math:`u = \theta \times r`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .._errors import InputError
+from ..dofs import parse_dof
+from .scan import AXES
+
+
+@dataclass(frozen=True, eq=False)
+class Geometry:
+    """Nodes, element segments and intrinsic coordinates of a model.
+
+    ``segments`` (s, 2) are pairs of node ids (the line elements); ``basis`` (3, d) spans the
+    structure's ``dim`` intrinsic directions (1 line, 2 surface, 3 solid) around ``centre``;
+    ``length`` is its largest extent (the unit of the normalised intrinsic coordinates).
+    """
+
+    node_ids: np.ndarray
+    xyz: np.ndarray
+    segments: np.ndarray
+    centre: np.ndarray
+    basis: np.ndarray
+    length: float
+
+    @property
+    def dim(self) -> int:
+        return self.basis.shape[1]
+
+    def intrinsic(self, x: np.ndarray) -> np.ndarray:
+        return (np.asarray(x, float) - self.centre) @ self.basis / self.length
+
+    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """Coordinates of the segments' first and second nodes."""
+        pos = {int(i): k for k, i in enumerate(self.node_ids)}
+        a = self.xyz[[pos[int(i)] for i in self.segments[:, 0]]].reshape(-1, 3)
+        b = self.xyz[[pos[int(i)] for i in self.segments[:, 1]]].reshape(-1, 3)
+        return a, b
+
+    def longest_element(self) -> float:
+        if not len(self.segments):
+            return 0.0
+        a, b = self.ends()
+        return float(np.max(np.linalg.norm(b - a, axis=1)))
+
+
+def structure_segments(structure) -> np.ndarray:
+    """Node pairs of every line element of a :class:`~femupdate.Structure`, supported ends included."""
+    pairs = [np.asarray(g.nodes, dtype=np.int64) for g in structure.groups if g.nodes is not None]
+    return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
+
+
+def model_geometry(model, segments=None) -> Geometry:
+    """The model's nodes with coordinates and its element segments.
+
+    ``segments``: node-id pairs of the line elements (:func:`structure_segments`); by default the
+    pairs of nodes the stiffness couples (elements with a fully supported end are then missing:
+    give ``segments`` for them).
+    """
+    if not model.nodes:
+        raise InputError(f"model {model.name!r} has no node coordinates: full-field data need the geometry")
+    dof_nodes = np.array([parse_dof(d)[0] for d in model.dofs])
+    missing = sorted({int(nd) for nd in dof_nodes if int(nd) not in model.nodes})
+    if missing:
+        raise InputError(f"model {model.name!r}: node(s) {missing[:8]} have dofs but no coordinates")
+    ids = np.array(sorted(model.nodes), dtype=np.int64)
+    xyz = np.array([model.nodes[int(i)] for i in ids], dtype=float)
+    if segments is None:
+        pattern = abs(model.K0).tocoo()
+        for A in model.dK:
+            if A is not None:
+                pattern = pattern + abs(A).tocoo()
+        pattern = sp.coo_array(pattern)
+        a, b = dof_nodes[pattern.row], dof_nodes[pattern.col]
+        keep = (a < b) & np.isin(a, ids) & np.isin(b, ids)
+        segs = np.unique(np.column_stack([a[keep], b[keep]]), axis=0) if np.any(keep) else np.zeros((0, 2), np.int64)
+    else:
+        segs = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
+        unknown = sorted({int(i) for i in segs.ravel() if int(i) not in model.nodes})
+        if unknown:
+            raise InputError(f"segments: node(s) {unknown[:8]} have no coordinates in model {model.name!r}")
+    centre = xyz.mean(axis=0)
+    _, s, Vt = np.linalg.svd(xyz - centre, full_matrices=False)
+    length = float(np.max(np.ptp(xyz, axis=0))) if len(xyz) > 1 else 1.0
+    dim = int(np.sum(s > 1e-8 * max(s[0], 1e-300))) if len(xyz) > 1 else 0
+    if dim == 0:
+        raise InputError(f"model {model.name!r}: its nodes do not span a line, surface or volume")
+    return Geometry(ids, xyz, segs, centre, Vt[:dim].T, max(length, 1e-300))
+
+
+def distance_to_geometry(geom: Geometry, points: np.ndarray, chunk: int = 2048):
+    """Per point: distance to the geometry (nearest node or segment), the nearest segment (-1 if
+    none), and the position along it ``s`` in [0, 1]."""
+    pts = np.asarray(points, float)
+    best, _ = cKDTree(geom.xyz).query(pts)
+    which = np.full(len(pts), -1, dtype=np.int64)
+    along = np.zeros(len(pts))
+    if len(geom.segments):
+        A, B = geom.ends()
+        D = B - A
+        dd = np.einsum("ij,ij->i", D, D)
+        for s in range(0, len(pts), chunk):
+            P = pts[s:s + chunk, None, :] - A[None, :, :]  # (p, segs, 3)
+            t = np.clip(np.einsum("psk,sk->ps", P, D) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+            dist = np.linalg.norm(P - t[..., None] * D[None], axis=2)
+            k = np.argmin(dist, axis=1)
+            rows = np.arange(len(k))
+            which[s:s + chunk] = k
+            along[s:s + chunk] = t[rows, k]
+            best[s:s + chunk] = np.minimum(best[s:s + chunk], dist[rows, k])
+    return best, which, along
+
+
+# ------------------------------------------------------------------------------ rotations
+def _cross_matrix(e: np.ndarray) -> np.ndarray:
+    """[e]_x with [e]_x g = e x g."""
+    return np.array([[0.0, -e[2], e[1]], [e[2], 0.0, -e[0]], [-e[1], e[0], 0.0]])
+
+
+def rotation_operators(geom: Geometry, components) -> dict[str, np.ndarray]:
+    r"""Per measured component c, the 3x3 matrix G_c with :math:`\theta = \sum_c G_c \nabla u_c`
+    (gradients in global coordinates, within the structure's tangent space; module docstring)."""
+    out = {}
+    if geom.dim == 1:
+        for c in components:
+            out[c] = -_cross_matrix(AXES[c])  # g x e_c = -e_c x g
+    elif geom.dim == 2:
+        n = np.cross(geom.basis[:, 0], geom.basis[:, 1])
+        n /= np.linalg.norm(n)
+        for c in components:
+            e = AXES[c]
+            en = float(e @ n)
+            et = e - en * n
+            # normal part: en * (g x n); in-plane part: 1/2 n n.(g x e_t)
+            out[c] = -en * _cross_matrix(n) + 0.5 * np.outer(n, n) @ (-_cross_matrix(et))
+    else:
+        for c in components:
+            out[c] = -0.5 * _cross_matrix(AXES[c])
+    return out
+
+
+def inferable_rotations(geom: Geometry, components) -> list[str]:
+    """Rotation directions (``rx``, ``ry``, ``rz``) the measured components determine."""
+    G = rotation_operators(geom, components)
+    T = geom.basis @ geom.basis.T  # gradients lie in the tangent space
+    span = np.hstack([G[c] @ T for c in components]) if components else np.zeros((3, 0))
+    U, s, _ = np.linalg.svd(span)
+    Q = U[:, : int(np.sum(s > 1e-9))]
+    out = []
+    for r, e in (("rx", AXES["x"]), ("ry", AXES["y"]), ("rz", AXES["z"])):
+        if np.linalg.norm(e - Q @ (Q.T @ e)) < 1e-8:
+            out.append(r)
+    return out

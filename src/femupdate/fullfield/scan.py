@@ -1,0 +1,114 @@
+"""Full-field (scanning) test data: points by coordinates, measured translation components.
+
+:class:`ScanData` holds the points and, per mode (:class:`ScanMode`) or FRF line
+(:class:`ScanFRF`), the measured components at every point; :mod:`.mapping` maps them onto a
+model's dofs, :mod:`.files` reads them from JSON.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import InputError
+from ..dofs import DIRECTIONS
+
+AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
+
+
+@dataclass(frozen=True)
+class ScanMode:
+    """One mode measured by scanning: eigenvalue and the values per direction ``{"y": (n,)}``."""
+
+    eigenvalue: float
+    values: dict
+    label: str = ""
+
+
+@dataclass(frozen=True)
+class ScanFRF:
+    """Operating deflection shapes at known forcing: ``values`` ``{"y": (n_freq, n_points)}``."""
+
+    omega: np.ndarray
+    force: dict
+    values: dict
+
+
+@dataclass(frozen=True)
+class ScanData:
+    """A full-field scan.
+
+    Attributes
+    ----------
+    points : ndarray (n, 3)
+        Coordinates of the scan points (same frame and units as the model's nodes).
+    modes : tuple of ScanMode
+    frf : ScanFRF or None
+    zero : tuple of str
+        Directions (``x`` ... ``rz``) known to be zero at every node (e.g. the axial motion and
+        the torsion of a beam's bending modes); they complete the data.
+    max_distance : float or None
+        Largest allowed distance of a point from the model's geometry (default
+        ``TOLERANCE_FACTOR`` times the longest element).
+    """
+
+    points: np.ndarray
+    modes: tuple = ()
+    frf: ScanFRF | None = None
+    zero: tuple = ()
+    max_distance: float | None = None
+
+    def __post_init__(self):
+        pts = np.asarray(self.points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] == 0:
+            raise InputError(f"scan points must have shape (n, 3), got {pts.shape}")
+        if pts.shape[1] == 2:
+            pts = np.column_stack([pts, np.zeros(len(pts))])
+        if not np.all(np.isfinite(pts)):
+            raise InputError("scan points contain NaN or infinite coordinates")
+        n = len(pts)
+        comps = None
+        for k, m in enumerate(self.modes, start=1):
+            comps = self._check(m.values, n, (n,), comps, m.label or f"mode {k}")
+        if self.frf is not None:
+            comps = self._check(self.frf.values, n, (np.asarray(self.frf.omega).size, n), comps, "frf")
+        if comps is None:
+            raise InputError("the scan holds no modes and no frf")
+        bad = [z for z in self.zero if z not in DIRECTIONS]
+        if bad:
+            raise InputError(f"zero: unknown direction(s) {', '.join(bad)} (use {', '.join(DIRECTIONS)})")
+        both = sorted(set(self.zero) & set(comps))
+        if both:
+            raise InputError(f"direction(s) {', '.join(both)} are both measured and declared zero")
+        if self.max_distance is not None and not self.max_distance > 0:
+            raise InputError(f"max_distance must be positive, got {self.max_distance!r}")
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "zero", tuple(self.zero))
+
+    @staticmethod
+    def _check(values, n, shape, comps, what):
+        if not values:
+            raise InputError(f"scan {what}: no values")
+        for d, v in values.items():
+            if d not in AXES:
+                raise InputError(f"scan {what}: direction {d!r} must be x, y or z")
+            a = np.asarray(v)
+            if a.shape != shape:
+                raise InputError(f"scan {what} values.{d}: shape {a.shape}, expected {shape} ({n} scan points)")
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"scan {what} values.{d}: NaN or infinite values")
+        c = tuple(sorted(values))
+        if comps is not None and c != comps:
+            raise InputError(f"scan {what}: measured directions {', '.join(c)} differ from the others' ({', '.join(comps)})")
+        return c
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        if self.modes:
+            src = self.modes[0].values
+        elif self.frf is not None:
+            src = self.frf.values
+        else:  # refused by __post_init__
+            raise AttributeError("'NoneType' object has no attribute 'values'")
+        return tuple(sorted(src))

@@ -1,0 +1,55 @@
+"""Reading the small TOML-or-JSON input files (modifications, candidates, scans): shared checks."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+from .._errors import InputError
+from .model_file import read_toml
+
+
+def read_table_file(path) -> dict:
+    """The parsed contents of a ``.toml`` or ``.json`` file (an :class:`InputError` naming the file
+    when it is missing, unreadable or malformed)."""
+    path = Path(path)
+    if path.suffix.lower() == ".toml":
+        return read_toml(path)
+    if path.suffix.lower() != ".json":
+        raise InputError(f"{path}: expected a .toml or .json file")
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (IsADirectoryError, UnicodeDecodeError):
+        raise InputError(f"{path}: not a readable JSON text file") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: malformed JSON: {exc}") from None
+
+
+def list_of_tables(data, key, source) -> list:
+    """``data[key]`` as a list of tables (one table is a list of one; missing is empty)."""
+    items = data.get(key, [])
+    if isinstance(items, Mapping):
+        items = [items]
+    if not isinstance(items, list) or not all(isinstance(x, Mapping) for x in items):
+        raise InputError(f"{source}: '{key}' must be an array of tables ([[{key}]])")
+    return items
+
+
+def dof_labels(v, where: str) -> list[str]:
+    """A dof label or a non-empty list of them."""
+    if isinstance(v, str):
+        v = [v]
+    if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
+        raise InputError(f"{where}: dofs must be a list of dof labels such as [\"3:x\"], got {v!r}")
+    return v
+
+
+def finite_number(v, where: str) -> float:
+    """A finite int or float (not a bool) as a float."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise InputError(f"{where}: expected a finite number, got {v!r}")
+    return float(v)

@@ -1,0 +1,167 @@
+r"""Iterative joint updating of several configurations from (incomplete) modal data.
+
+The residuals and Jacobians of the configurations (:class:`femupdate.updating.Problem`, relative
+eigenvalues and scaled shapes, eq. 19) are stacked and minimised by SciPy's least squares
+(eq. 20) through :func:`femupdate.updating.solve`.  :func:`solve_configurations` chooses the
+direct solution when every configuration's data are complete, this one otherwise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..._errors import InputError
+from ...model import Model
+from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, modal_weights, solve
+from .configurations import Configuration, check_unknowns, config_values, is_complete, prepare
+from .direct import direct_configurations
+from .results import MultiConfigResult, conditioning
+
+
+class Stacked(Parametrisation):
+    """Residuals and Jacobian of several configurations stacked; one vector of unknowns.
+
+    Each configuration is a :class:`femupdate.updating.Problem` on its own model in absolute
+    parameters; this class maps the common scaled unknowns ``x`` (:class:`Parametrisation`) to
+    them, and offers what :func:`femupdate.updating.solve` and ``diagnostics`` need.
+    """
+
+    def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, shape_scaling="unit",
+                 ref_dof=None, weights=None, measurement_std=None, min_mac=0.5, n_modes=None, use_shapes=True,
+                 sensitivity="auto"):
+        if parametrisation not in PARAMETRISATIONS:
+            raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
+        super().__init__(model, names, parametrisation, p_base)
+        self.model = model
+        self.subs = []
+        for c, cmc in zip(configurations, cms):
+            cm = cmc.model
+            mine = [n for n in names if n in cm.parameter_names]
+            cols = np.array([self.names.index(n) for n in mine], dtype=np.intp)
+            pb = config_values(model, cm, c.modification, p_base)
+            try:
+                prob = Problem(cm, c.data, mine, values=pb, shape_scaling=shape_scaling, ref_dof=ref_dof,
+                               weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
+                               parametrisation="absolute", use_shapes=use_shapes, sensitivity=sensitivity)
+            except InputError as exc:
+                raise InputError(f"configuration {c.label!r}: {exc}") from None
+            self.subs.append((c.label, prob, cols))
+
+    def residual_blocks(self, x):
+        q = self.to_p(x)[self.idx]
+        return [prob.residuals(q[cols]) for _, prob, cols in self.subs]
+
+    def jacobian_blocks(self, x):
+        """Per configuration, ∂r_c/∂x (rows of configuration c, all unknowns)."""
+        q = self.to_p(x)[self.idx]
+        d = self.dp_dx(x)
+        out = []
+        for _, prob, cols in self.subs:
+            Jc = prob.jacobian(q[cols])
+            full = np.zeros((Jc.shape[0], len(self.names)))
+            full[:, cols] = Jc * d[cols][None, :]
+            out.append(full)
+        return out
+
+    def residuals(self, x):
+        return np.concatenate(self.residual_blocks(x))
+
+    def jacobian(self, x):
+        return np.vstack(self.jacobian_blocks(x))
+
+    def n_data(self) -> int:
+        return sum(prob.targets.n_independent for _, prob, _ in self.subs)
+
+    def normalised_blocks(self, x, blocks=None):
+        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks (``blocks``: the
+        :meth:`jacobian_blocks` at ``x``, if at hand)."""
+        p = self.to_p(x)[self.idx]
+        d = self.dp_dx(x)
+        w = np.where(p != 0, np.abs(p), 1.0) / d
+        return [B * w[None, :] for B in (self.jacobian_blocks(x) if blocks is None else blocks)]
+
+
+def update_configurations(model: Model, configurations: Sequence[Configuration], *, params: Sequence[str] | None = None,
+                          x0: Mapping[str, float] | None = None, shape_scaling: str = "unit", ref_dof: str | None = None,
+                          weights: Mapping | None = None, measurement_std: Mapping | None = None, min_mac: float = 0.5,
+                          n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf",
+                          max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10,
+                          use_shapes: bool = True, values=None, sensitivity: str = "auto",
+                          regularization: float | str | None = None) -> MultiConfigResult:
+    """Iterative joint updating of several configurations from (incomplete) modal data.
+
+    The residuals of every configuration (relative eigenvalue errors and scaled shape
+    differences at its measured dofs, as in :func:`femupdate.updating.update`) are stacked,
+    with the Jacobian of each configuration's model, and minimised over the one set of unknowns
+    by :func:`scipy.optimize.least_squares`.  The options mean what they mean in
+    :func:`~femupdate.updating.update` (``regularization``: a Tikhonov factor, or ``"gcv"`` /
+    ``"lcurve"``, pulling the scaled parameters toward the start).
+
+    Returns
+    -------
+    MultiConfigResult
+        ``conditioning`` holds each configuration's normalised sensitivity matrix alone and the
+        configurations stacked one after another, at the solution.
+    """
+    names = check_unknowns(model, params)
+    if method not in ("trf", "dogbox", "lm"):
+        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
+    cms = prepare(model, configurations, names)
+    p_base = model.resolve(values)
+    for name, v in dict(x0 or {}).items():
+        p_base[model.parameter_index(name)] = float(v)
+    _, sigma = modal_weights(weights, measurement_std)
+    prob = Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
+                    shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
+                    measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
+                    use_shapes=use_shapes, sensitivity=sensitivity)
+    n_data = prob.n_data()
+    if n_data < len(names) and regularization is None:
+        raise InputError(f"{len(names)} parameters but only {n_data} independent data over all configurations "
+                         "(eigenvalues and scaled shape entries): add configurations or data, fix parameters, "
+                         "or use regularization")
+    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol, xtol=xtol,
+                               gtol=gtol, max_nfev=max_nfev)
+    p_final = prob.to_p(sol.x)
+    blocks = prob.residual_blocks(sol.x)
+    r = np.concatenate(blocks)
+    J_blocks = prob.jacobian_blocks(sol.x)
+    diag = diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma)
+    per = []
+    for (label, sub, cols), rc, c in zip(prob.subs, blocks, configurations):
+        _, modes, pairs = sub.evaluate(p_final[prob.idx][cols])
+        per.append({"name": label, "modification": c.modification.describe(),
+                    "n_data": sub.targets.n_independent,
+                    "pairs": [(k, j, float(m)) for k, j, m in pairs], "cost": float(0.5 * rc @ rc),
+                    "frequencies_hz": {"test": c.data.frequencies_hz,
+                                       "model": np.array([modes.frequencies_hz[j] for _, j, _ in pairs])},
+                    "swaps": list(sub.swaps)})
+    cond = conditioning(prob.normalised_blocks(sol.x, J_blocks), names, [c.label for c in configurations])
+    return MultiConfigResult(
+        method="iterative", parameters=dict(zip(model.parameter_names, map(float, p_final))), names=tuple(names),
+        x=p_final[prob.idx], success=bool(sol.success), message=str(sol.message), configurations=per,
+        conditioning=cond, standard_error=diag.std, diagnostics=diag, cost=float(0.5 * r @ r), nfev=int(sol.nfev),
+        iterations=max(len(history) - 1, int(sol.njev or 0)), history=history, regularization=reg,
+        start=dict(zip(names, map(float, p_base[prob.idx]))),
+    )
+
+
+def solve_configurations(model: Model, configurations: Sequence[Configuration], method: str = "auto", *,
+                         unknowns: Sequence[str] | None = None, values=None, use: Sequence[str] = ("modes", "frf", "static"),
+                         bounded: bool = False, **iterative) -> MultiConfigResult:
+    """Joint update, direct when every configuration's data are complete, iterative otherwise.
+
+    ``method``: ``"auto"`` | ``"direct"`` | ``"iterative"``.  ``unknowns`` and ``values`` serve
+    both; ``use`` and ``bounded`` the direct solution (:func:`direct_configurations`); the other
+    keyword arguments the iterative one (:func:`update_configurations`).
+    """
+    if method not in ("auto", "direct", "iterative"):
+        raise InputError(f"unknown method {method!r}: use auto, direct or iterative")
+    if method == "auto":
+        cms = prepare(model, configurations, check_unknowns(model, unknowns))
+        method = "direct" if all(is_complete(c, cm.model) for c, cm in zip(configurations, cms)) else "iterative"
+    if method == "direct":
+        return direct_configurations(model, configurations, unknowns=unknowns, values=values, use=use, bounded=bounded)
+    return update_configurations(model, configurations, params=unknowns, values=values, **iterative)

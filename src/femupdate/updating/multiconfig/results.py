@@ -1,0 +1,85 @@
+"""The result of a joint update of several configurations and its conditioning report."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...direct import DirectResult
+from .. import Diagnostics
+
+
+@dataclass(frozen=True, eq=False)
+class MultiConfigResult:
+    """Joint update of several configurations.
+
+    Attributes
+    ----------
+    method : ``"direct"`` | ``"iterative"``
+    parameters : dict
+        Every parameter of the base model: identified for the unknowns, given for the others.
+    names : tuple of str
+        The unknowns.
+    x : ndarray
+        Their identified values.
+    success : bool
+    message : str
+    configurations : list of dict
+        Per configuration: ``name``, ``modification`` (text), ``n_data``; direct: ``n_equations``;
+        iterative: ``pairs`` [(test, model, mac)], ``frequencies_hz`` {``test``, ``model``}, ``cost``.
+    conditioning : dict
+        ``each``: per configuration alone, ``cumulative``: the configurations added in order, each
+        with ``rank``, ``condition_number`` and ``min_singular`` of the column-scaled direct
+        matrix (direct) or the normalised sensitivity matrix (iterative); ``stacked``: all.
+    standard_error : ndarray
+        Of ``x`` (NaN where not estimable).
+    direct : DirectResult or None
+    diagnostics : Diagnostics or None
+        Of the iterative solution (the stacked normalised sensitivity matrix).
+    cost, nfev, iterations, history :
+        Of the iterative solution (0 / [] for the direct one).
+    notes : list of str
+    """
+
+    method: str
+    parameters: dict[str, float]
+    names: tuple[str, ...]
+    x: np.ndarray
+    success: bool
+    message: str
+    configurations: list[dict]
+    conditioning: dict
+    standard_error: np.ndarray
+    direct: DirectResult | None = None
+    diagnostics: Diagnostics | None = None
+    cost: float = 0.0
+    nfev: int = 0
+    iterations: int = 0
+    history: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    regularization: dict = field(default_factory=dict)
+    start: dict[str, float] = field(default_factory=dict)
+
+
+def svd_summary(S: np.ndarray) -> dict:
+    """Rank, condition number and smallest singular value of ``S`` (columns already scaled)."""
+    L = S.shape[1]
+    s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
+    tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
+    rank = int(np.sum(s > tol))
+    full = rank == L and S.shape[0] >= L
+    return {"rank": rank, "n_rows": int(S.shape[0]), "min_singular": float(s[-1]) if full else 0.0,
+            "condition_number": float(s[0] / s[-1]) if full and s[-1] > 0 else math.inf,
+            "singular_values": s}
+
+
+def conditioning(blocks: Sequence[np.ndarray], names: Sequence[str], labels: Sequence[str]) -> dict:
+    """Conditioning of each block alone and of the blocks stacked one after another."""
+    each = [{"configuration": lab, **svd_summary(B)} for lab, B in zip(labels, blocks)]
+    cumulative = []
+    for k in range(1, len(blocks) + 1):
+        cumulative.append({"configurations": list(labels[:k]), **svd_summary(np.vstack(blocks[:k]))})
+    return {"unknowns": list(names), "each": each, "cumulative": cumulative, "stacked": cumulative[-1]}
