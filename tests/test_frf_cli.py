@@ -1,4 +1,4 @@
-"""The FRF commands (femupdate frf, frf-update, frf-select, surface): JSON of docs/interfaces.md,
+"""The FRF commands (femupdate frf, frf-update, frf-select, surface): JSON of docs/file-formats.md,
 UFF 58 export, round trips, and one clear message with the right exit code for bad input; the
 benchmark's smoke mode."""
 

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from femupdate import InputError, Structure
 from femupdate import elements as el
 
-# The model file of docs/interfaces.md, verbatim (comments included).
+# The model file of the user-facing contract (docs/file-formats.md), verbatim (comments included).
 INTERFACE_TOML = '''
 [model]
 name = "two-dof chain"

@@ -106,7 +106,7 @@ def figure2_test_data(noise: float = 0.01, seed: int = 1993) -> dict:
 
     All three modes at every dof; shapes scaled to 1 at their largest entry and perturbed by
     Gaussian noise of standard deviation ``noise`` (relative to that entry); frequencies
-    perturbed by ``noise / 10`` (relative).  Returns the JSON object of docs/interfaces.md.
+    perturbed by ``noise / 10`` (relative).  Returns the test-data JSON object (docs/file-formats.md).
     """
     import numpy as np
 

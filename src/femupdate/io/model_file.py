@@ -1,4 +1,4 @@
-"""Model files: the TOML schema of docs/interfaces.md, and models from plain matrices.
+"""Model files: the TOML schema of docs/file-formats.md, and models from plain matrices.
 
 A TOML file either describes a physical-parameter structure (``[[node]]``, ``[[element]]``,
 ``[[support]]``) or, with a ``[matrices]`` table, points at matrices exported from another FE

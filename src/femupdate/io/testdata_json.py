@@ -1,4 +1,4 @@
-"""Test data in the JSON format of docs/interfaces.md (and dispatch to UFF by suffix)."""
+"""Test data in the JSON format of docs/file-formats.md (and dispatch to UFF by suffix)."""
 
 from __future__ import annotations
 
