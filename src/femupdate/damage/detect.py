@@ -67,7 +67,7 @@ from scipy.optimize import lsq_linear, minimize
 from .._errors import InputError
 from ..correlation import mac, pair_modes
 from ..modal import model_modes
-from ..sensitivity.subspace import single_thread_blas
+from ..sensitivity.factor import single_thread_blas
 from ..model import Model
 from ..structure import Structure
 from ..testdata import MeasuredMode, TestData
