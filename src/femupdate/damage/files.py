@@ -40,7 +40,7 @@ import numpy as np
 
 from .._errors import InputError
 from ..io.model_file import read_toml
-from ..structure import _list_of_tables
+from ..structure.tables import list_of_tables
 from .multiconfig import Modification
 
 _MOD_KEYS = {"name", "mass", "spring", "support", "values"}
@@ -87,18 +87,18 @@ def modification_from_dict(raw, source: str = "modification", default_name: str 
     if not isinstance(name, str) or not name:
         raise InputError(f"{source}: name must be a non-empty string")
     masses, springs, supports, nodes = [], [], [], []
-    for i, t in enumerate(_list_of_tables(raw, "mass", source), start=1):
+    for i, t in enumerate(list_of_tables(raw, "mass", source), start=1):
         where = f"{source}: mass #{i}"
         if set(t) != {"dofs", "m"}:
             raise InputError(f"{where}: needs exactly 'dofs' and 'm', got {', '.join(map(str, t)) or 'nothing'}")
         m = _num(t["m"], f"{where} m")
         masses += [(d, m) for d in _labels(t["dofs"], where)]
-    for i, t in enumerate(_list_of_tables(raw, "spring", source), start=1):
+    for i, t in enumerate(list_of_tables(raw, "spring", source), start=1):
         where = f"{source}: spring #{i}"
         if set(t) != {"dofs", "k"}:
             raise InputError(f"{where}: needs exactly 'dofs' and 'k', got {', '.join(map(str, t)) or 'nothing'}")
         springs.append((tuple(_labels(t["dofs"], where)), _num(t["k"], f"{where} k")))
-    for i, t in enumerate(_list_of_tables(raw, "support", source), start=1):
+    for i, t in enumerate(list_of_tables(raw, "support", source), start=1):
         where = f"{source}: support #{i}"
         if not t or set(t) - {"dofs", "nodes"}:
             raise InputError(f"{where}: expected 'dofs' (labels) and/or 'nodes' (ids)")
@@ -133,7 +133,7 @@ def load_candidates(path) -> list[Modification]:
     if not isinstance(raw, Mapping) or key not in raw or set(raw) != {key}:
         raise InputError(f"{path}: expected only [[candidate]] tables (TOML) or {{\"candidates\": [...]}} (JSON)")
     out = [modification_from_dict(t, f"{path}: candidate #{i}", default_name=f"candidate {i}")
-           for i, t in enumerate(_list_of_tables(raw, key, str(path)), start=1)]
+           for i, t in enumerate(list_of_tables(raw, key, str(path)), start=1)]
     if not out:
         raise InputError(f"{path}: no candidates")
     return out

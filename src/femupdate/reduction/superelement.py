@@ -32,7 +32,8 @@ import scipy.sparse as sp
 from .._errors import InputError
 from ..dofs import canonical_all, describe, sort_key
 from ..model import Model, Parameter
-from ..structure import Structure, _Group
+from ..structure import Structure
+from ..structure.groups import ElementGroup
 from .transforms import Reducer, reduce
 
 
@@ -62,7 +63,7 @@ def split_structure(structure: Structure, key: Callable[[list[str], tuple | None
             used_params |= {v for vals in props.values() for v in vals if isinstance(v, str)}
             rows = [g.labels[i] for i in sel]
             labels_here |= {lab for r in rows for lab in r}
-            s.groups.append(_Group(
+            s.groups.append(ElementGroup(
                 type=g.type, props=props, labels=rows,
                 nodes=None if g.nodes is None else g.nodes[sel], mass=g.mass, dim=g.dim,
                 orientation=None if g.orientation is None else g.orientation[sel],
