@@ -34,7 +34,8 @@ from ..dofs import canonical_all, describe, sort_key
 from ..model import Model, Parameter
 from ..structure import Structure
 from ..structure.groups import ElementGroup
-from .transforms import Reducer, reduce
+from .projection import reduce
+from .reducer import Reducer
 
 
 def split_structure(structure: Structure, key: Callable[[list[str], tuple | None], Hashable]) -> dict:
