@@ -37,7 +37,7 @@ def omitted_modes_series(lu, M, Phi, R, shifts, *, tol: float = DEFAULT_TOL, max
     G_t R = Σ_k c_t^k T^k Y_0 = (I − c_t T)⁻¹ Y_0 with c_t = λ_t − σ.
 
     ``series="neumann"``
-        The partial sums of the Neumann series (module docstring); ratio of convergence
+        The partial sums of the Neumann series (:mod:`~femupdate.sensitivity.subspace`); ratio of convergence
         ρ_t = c_t / (λ_{m+1} − σ).
     ``series="krylov"``
         The same solves, Y_0, T Y_0, T² Y_0, …, span a block Krylov space that does not depend

@@ -42,7 +42,7 @@ class NoiseResult:
 
 @dataclass(frozen=True, eq=False)
 class CaseResult:
-    """Outcome of one case (see the module notes for the classification of starts)."""
+    """Outcome of one case (see :mod:`femupdate.uniqueness.study` for the classification of starts)."""
 
     case: Case
     criteria: dict
