@@ -66,6 +66,9 @@ horizontal leg).  Both criteria are evaluated on a grid of α at once (arrays of
 (n_alpha, q), no loop per α) and the grid optimum is polished by a bounded scalar search between
 its neighbours, as Regularization Tools' ``gcv`` and ``l_corner`` do with ``fminbnd``.
 
+Layout: :mod:`.tikhonov` (input checks, the standard form and :func:`tikhonov_step`) and
+:mod:`.choice` (:func:`gcv`, :func:`l_curve`, :func:`choose_alpha` and :class:`RegularizationChoice`).
+
 References
 ----------
 P. C. Hansen, "Analysis of discrete ill-posed problems by means of the L-curve", SIAM Review
@@ -79,9 +82,6 @@ ill-posed problems", Numer. Algorithms 6 (1994) 1-35; version 4.0, 46 (2007) 189
 P. C. Hansen, *Discrete Inverse Problems: Insight and Algorithms*, SIAM, 2010 (ch. 5).
 L. Eldén, "A weighted pseudoinverse, generalized singular values, and constrained least squares
 problems", BIT 22 (1982) 487-502.
-
-Layout: :mod:`.tikhonov` (input checks, the standard form and :func:`tikhonov_step`) and
-:mod:`.choice` (:func:`gcv`, :func:`l_curve`, :func:`choose_alpha` and :class:`RegularizationChoice`).
 """
 
 from .choice import RegularizationChoice, choose_alpha, gcv, l_curve
