@@ -56,7 +56,8 @@ from femupdate import Structure, model_modes  # noqa: E402
 from femupdate.correlation import mac, pair_modes  # noqa: E402
 from femupdate.generators import chs_section  # noqa: E402
 from femupdate.sensitivity import buffered_modes, jacobian, scaled_shape  # noqa: E402
-from femupdate.sensitivity.subspace import prepare_factor, subspace_details  # noqa: E402
+from femupdate.sensitivity.factor import prepare_factor  # noqa: E402
+from femupdate.sensitivity.subspace import subspace_details  # noqa: E402
 
 FULL_SIZE = (10, 10, 172)
 QUICK_SIZE = (5, 4, 18)

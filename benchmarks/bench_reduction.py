@@ -100,7 +100,7 @@ def run(size) -> dict:
     with Phase() as ph:
         red2 = Reducer(model, keep)
         ti = red2.irs()
-        from femupdate.reduction.transforms import project
+        from femupdate.reduction.projection import project
 
         K_I, M_I = project(red2.K, ti.T), project(red2.M, ti.T)
     rec("irs", ph)

@@ -22,7 +22,7 @@ from femupdate.reduction import (
     kammer_hybrid, kammer_modal, mass_fraction, reduce, reduced_eigenvalues, reduced_matrices, reduction_criteria,
     serep, superelement_model, tam_metrics,
 )
-from femupdate.reduction import transforms as tr
+from femupdate.reduction import reducer as reducer_mod
 from femupdate.reduction.criteria import ReductionCriteriaWarning
 from femupdate.reduction.metrics import orthogonality
 from femupdate.reduction.superelement import lin_beam, split_structure
@@ -115,8 +115,8 @@ def test_reduced_model_is_affine_with_T_frozen_and_exact_only_at_its_values(fram
 
 def test_k_oo_is_factorised_once_for_every_method(frame, monkeypatch):
     calls = []
-    real = tr._factor
-    monkeypatch.setattr(tr, "_factor", lambda A: calls.append(A.shape) or real(A))
+    real = reducer_mod._factor
+    monkeypatch.setattr(reducer_mod, "_factor", lambda A: calls.append(A.shape) or real(A))
     red = Reducer(frame, ["11:x", "13:y", "20:z", "24:x", "17:y", "8:z"])
     red.guyan(); red.irs(); red.kammer_hybrid(3)
     reduction_criteria(frame, red.keep, reducer=red, warn=False)

@@ -24,7 +24,9 @@ from femupdate.sensitivity import (
 from femupdate.sensitivity._common import param_products, parameter_products
 from femupdate.sensitivity.jacobian import choose_method
 from femupdate.sensitivity.adjoint import adjoint_details
-from femupdate.sensitivity.subspace import omitted_modes_series, prepare_factor, subspace_details
+from femupdate.sensitivity.factor import prepare_factor
+from femupdate.sensitivity.series import omitted_modes_series
+from femupdate.sensitivity.subspace import subspace_details
 
 FD_TOL = 2e-6  # analytic vs central differences (relative, per parameter)
 ROUTE_TOL = 1e-8  # analytic routes against one another
@@ -455,7 +457,7 @@ def test_benchmark_quick(tmp_path):
 # ------------------------------------------------------------------------------- the eigensolver's factor
 @pytest.mark.parametrize("name", ["cantilever", "free_free"])
 def test_series_routes_reuse_the_eigensolvers_factor(name, monkeypatch):
-    sub = importlib.import_module("femupdate.sensitivity.subspace")  # (the package exports a function of that name)
+    factor = importlib.import_module("femupdate.sensitivity.factor")  # where prepare_factor looks shifted_factor up
 
     c = case(name)
     model = c["model"]
@@ -469,7 +471,7 @@ def test_series_routes_reuse_the_eigensolvers_factor(name, monkeypatch):
     def no_factorising(*a, **k):
         raise AssertionError("factorised again although the modes carry their factor")
 
-    monkeypatch.setattr(sub, "shifted_factor", no_factorising)
+    monkeypatch.setattr(factor, "shifted_factor", no_factorising)
     for method in ("adjoint", "subspace"):
         reused = jacobian(model, sparse_modes, c["which"], c["sensors"], method=method, **kw)
         # against Nelson on every mode (dense), not merely against itself

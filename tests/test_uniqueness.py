@@ -18,7 +18,8 @@ from femupdate.io.results import to_jsonable
 from femupdate.examples import chain, three_dof, two_dof
 from femupdate.updating import Problem, cluster
 from femupdate.uniqueness import counting_criteria, criteria_verdicts, define_study, exact_solutions, run_study
-from femupdate.uniqueness import study as study_mod
+from femupdate.uniqueness.study import run as study_run
+from femupdate.uniqueness.study import units as study_units
 from femupdate.uniqueness.problem import study_problem
 from femupdate.uniqueness.study import (nested_dof_sets, parse_measured_dofs, parse_modes,
                                         reference_unit, summarise)
@@ -164,7 +165,7 @@ def test_study_problem_residuals_and_jacobians_equal_update_problem(rng):
     cases = [(first(1), 4), (first(2), 3), (("2:x", "5:x", "6:x"), 2), (first(6), 6), (("4:x", "1:x"), 5)]
     st = define_study(model, cases, starts=3, seed=5)
     pieces = [(c, 0, 0, 3) for c in range(len(cases))]
-    rows, X0 = study_mod._row_data(st, pieces)
+    rows, X0 = study_units.row_data(st, pieces)
     P = st.truth * rng.uniform(0.85, 1.15, X0.shape)  # near the truth (pairs by MAC), not at the starts
     prob = study_problem(model, st.names, rows, X0, values=st.truth)
     X = P / prob.scale
@@ -172,7 +173,7 @@ def test_study_problem_residuals_and_jacobians_equal_update_problem(rng):
     assert ev.messages == [None] * X.shape[0]
     for r in range(X.shape[0]):
         c = r // 3
-        data = study_mod.case_testdata(st, c)
+        data = study_units.case_testdata(st, c)
         ref = Problem(model, data, st.names, x0=dict(zip(st.names, X0[r])), values=st.truth)
         f_ref, J_ref = ref.residuals(X[r]), ref.jacobian(X[r])
         # compiled: per mode the eigenvalue, then the shape at the row's dofs in ascending dof order
@@ -281,7 +282,7 @@ def test_checkpoint_resume_after_interruption(small_study, small_result, tmp_pat
     n_units = len(st.units())
     ck = tmp_path / "study.checkpoint.json"
     calls = []
-    real = study_mod.solve_unit
+    real = study_run.solve_unit
 
     def interrupted(study, unit, progress=None):
         if len(calls) == 2:
@@ -289,12 +290,12 @@ def test_checkpoint_resume_after_interruption(small_study, small_result, tmp_pat
         calls.append(unit)
         return real(study, unit, progress)
 
-    monkeypatch.setattr(study_mod, "solve_unit", interrupted)
+    monkeypatch.setattr(study_run, "solve_unit", interrupted)
     with pytest.raises(KeyboardInterrupt):
         run_study(st, checkpoint=ck)
     saved = json.loads(ck.read_text())
     assert sorted(saved["units"]) == ["0", "1"]  # the finished units, written atomically
-    monkeypatch.setattr(study_mod, "solve_unit", lambda study, unit, progress=None: (calls.append(unit), real(study, unit, progress))[1])
+    monkeypatch.setattr(study_run, "solve_unit", lambda study, unit, progress=None: (calls.append(unit), real(study, unit, progress))[1])
     res = run_study(st, checkpoint=ck)
     assert calls == [0, 1] + list(range(2, n_units))  # nothing recomputed
     assert (res.units_resumed, res.units_computed) == (2, n_units - 2)

@@ -38,7 +38,7 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
     from .._errors import FemupdateError
     from ..io.model_file import load_model
     from ..reduction import Reducer, mass_fraction, reduction_criteria
-    from ..reduction.transforms import project, reduced_eigenvalues
+    from ..reduction.projection import project, reduced_eigenvalues
 
     ctx = Ctx(json_path)
     model = load_model(model_path)

@@ -65,7 +65,7 @@ import scipy.sparse as sp
 
 from .._errors import InputError
 from ..model import Model
-from ..sensitivity.subspace import single_thread_blas
+from ..sensitivity.factor import single_thread_blas
 from ..testdata import MeasuredMode, TestData
 from .baseline import check_baseline, paired_modes
 from .solvers import L1Fit, debias, l1_path, support_of, tikhonov

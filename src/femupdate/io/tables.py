@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
 from pathlib import Path
 
 from .._errors import InputError
+from ..structure.tables import list_of_tables
 from .model_file import read_toml
 
 
@@ -27,16 +27,6 @@ def read_table_file(path) -> dict:
         raise InputError(f"{path}: not a readable JSON text file") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: malformed JSON: {exc}") from None
-
-
-def list_of_tables(data, key, source) -> list:
-    """``data[key]`` as a list of tables (one table is a list of one; missing is empty)."""
-    items = data.get(key, [])
-    if isinstance(items, Mapping):
-        items = [items]
-    if not isinstance(items, list) or not all(isinstance(x, Mapping) for x in items):
-        raise InputError(f"{source}: '{key}' must be an array of tables ([[{key}]])")
-    return items
 
 
 def dof_labels(v, where: str) -> list[str]:

@@ -18,7 +18,7 @@ import numpy as np
 from ..modal import model_modes
 from ..reduction import Reducer, guyan, mass_fraction, reduce, reduced_eigenvalues, reduction_criteria, tam_metrics
 from ..reduction.superelement import lin_beam, superelement_model
-from ..reduction.transforms import project
+from ..reduction.projection import project
 from ..structure import Structure
 from ..testdata import MeasuredMode, TestData
 

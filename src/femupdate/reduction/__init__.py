@@ -13,12 +13,11 @@
 from .criteria import ReductionCriteria, reduction_criteria
 from .expansion import EXPANSION_METHODS, ExpandedShapes, ExpansionBiasWarning, expand
 from .metrics import TamMetrics, orthogonality, tam_metrics
+from .projection import Transformation, project, reduce, reduced_eigenvalues, reduced_matrices
+from .reducer import METHODS, Reducer, mechanism_dofs
 from .selection import EfiResult, effective_independence, mass_fraction
 from .superelement import assemble, condense, split_structure, superelement_model
-from .transforms import (
-    METHODS, Reducer, Transformation, guyan, irs, kammer_hybrid, kammer_modal, mechanism_dofs, project,
-    reduce, reduced_eigenvalues, reduced_matrices, serep, transformation,
-)
+from .transforms import guyan, irs, kammer_hybrid, kammer_modal, serep, transformation
 
 __all__ = [
     "reduce", "project", "Reducer", "Transformation", "METHODS", "transformation",

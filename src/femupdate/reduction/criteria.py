@@ -27,7 +27,8 @@ import scipy.sparse.linalg as spla
 
 from .._errors import NumericalError
 from ..modal import arpack_options
-from .transforms import Reducer, reduced_eigenvalues
+from .projection import reduced_eigenvalues
+from .reducer import Reducer
 
 DENSE_LIMIT = 300
 

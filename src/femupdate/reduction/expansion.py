@@ -30,7 +30,7 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import canonical_all
 from ..model import Model
-from .transforms import Reducer
+from .reducer import Reducer
 
 EXPANSION_METHODS = ("serep", "guyan", "irs")
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from .._errors import InputError
 from ..correlation import mac, pair_modes
-from .transforms import Transformation, reduced_matrices, reduced_modes
+from .projection import Transformation, reduced_matrices, reduced_modes
 
 
 def orthogonality(A: np.ndarray, B: np.ndarray, M: np.ndarray) -> np.ndarray:

@@ -32,8 +32,10 @@ import scipy.sparse as sp
 from .._errors import InputError
 from ..dofs import canonical_all, describe, sort_key
 from ..model import Model, Parameter
-from ..structure import Structure, _Group
-from .transforms import Reducer, reduce
+from ..structure import Structure
+from ..structure.groups import ElementGroup
+from .projection import reduce
+from .reducer import Reducer
 
 
 def split_structure(structure: Structure, key: Callable[[list[str], tuple | None], Hashable]) -> dict:
@@ -62,7 +64,7 @@ def split_structure(structure: Structure, key: Callable[[list[str], tuple | None
             used_params |= {v for vals in props.values() for v in vals if isinstance(v, str)}
             rows = [g.labels[i] for i in sel]
             labels_here |= {lab for r in rows for lab in r}
-            s.groups.append(_Group(
+            s.groups.append(ElementGroup(
                 type=g.type, props=props, labels=rows,
                 nodes=None if g.nodes is None else g.nodes[sel], mass=g.mass, dim=g.dim,
                 orientation=None if g.orientation is None else g.orientation[sel],

@@ -38,7 +38,8 @@ import numpy as np
 
 from .._errors import InputError
 from ._common import check_distinct, parameter_products, resolve_params, resolve_which
-from .subspace import DEFAULT_TOL, MAX_TERMS, check_modes, omitted_modes_series, prepare_factor
+from .factor import check_modes, prepare_factor
+from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
 
 def resolve_sensors(model, sensors) -> np.ndarray:
@@ -147,7 +148,7 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
         As for :func:`~femupdate.sensitivity.subspace`.
     series : ``"krylov"`` (default) | ``"neumann"``
         Galerkin (block Lanczos) acceleration of the series over the same mode-independent
-        Krylov space, or its plain partial sums (:func:`~femupdate.sensitivity.subspace.omitted_modes_series`).
+        Krylov space, or its plain partial sums (:func:`~femupdate.sensitivity.series.omitted_modes_series`).
         The Krylov basis holds (terms × n_s) vectors; the acceleration about halves the solves.
 
     Returns

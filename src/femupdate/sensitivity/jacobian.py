@@ -29,11 +29,13 @@ from ..dofs import canonical
 from ..modal import DENSE_LIMIT  # models up to this size take Nelson's method under "auto"
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 from .adjoint import adjoint_details, resolve_sensors
+from .factor import check_modes, prepare_factor
 from .finite_difference import finite_difference
 from .modal import _modal_part, modal, modal_static_correction
 from .nelson import nelson
 from .scaling import scaled_shape
-from .subspace import DEFAULT_TOL, check_modes, omitted_modes_series, prepare_factor, subspace_details
+from .series import DEFAULT_TOL, omitted_modes_series
+from .subspace import subspace_details
 
 METHODS = ("auto", "nelson", "modal", "static", "subspace", "adjoint", "fd")
 SCALINGS = ("ref", "max", "unit", "mass")
@@ -162,7 +164,7 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     series : ``"neumann"`` | ``"krylov"``, optional
         Summation of the omitted modes' series (default ``"krylov"`` for ``adjoint``,
         ``"neumann"`` for ``subspace``; see
-        :func:`~femupdate.sensitivity.subspace.omitted_modes_series`).
+        :func:`~femupdate.sensitivity.series.omitted_modes_series`).
 
     Returns
     -------

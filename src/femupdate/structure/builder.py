@@ -1,83 +1,20 @@
-"""Physical-parameter structures: nodes, elements, supports, parameters -> :class:`Model`.
-
-A :class:`Structure` is the editable description (the TOML model file maps onto it one to one);
-:meth:`Structure.build` assembles the affine sparse model.  Every element property is a number,
-the name of a declared parameter, or a sequence of those (one per element) for vectorised
-groups.  A parameter may appear in any number of elements (grouping).
-
-Example
--------
->>> s = Structure("two-dof chain")
->>> s.parameter("k1", 8.0, bounds=(0, 100)); s.parameter("k2", 6.0)
->>> s.spring(["1:x"], k="k1"); s.spring(["1:x", "2:x"], k="k2")
->>> s.mass(["1:x"], m=2.0); s.mass(["2:x"], m=4.0)
->>> model = s.build()
-"""
+"""The structure builder: :class:`Structure` collects parameters, nodes, elements and supports
+and :meth:`Structure.build` assembles the affine sparse :class:`~femupdate.model.Model`."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
-from . import elements as el
-from ._errors import InputError
-from .dofs import canonical, canonical_all, describe, dof, sort_key
-from .model import Model, Parameter
-
-MASS_KINDS = el.MASS_KINDS
-
-# element type -> (required properties, optional properties with defaults, stiffness-only?)
-_PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
-    "spring": (("k",), {}),
-    "mass": (("m",), {}),
-    "rod": (("E", "A", "rho"), {}),
-    "beam2d": (("E", "A", "I", "rho"), {}),
-    "beam2d_terms": (("EA_l", "k12", "k6", "k2", "rho", "A"), {}),
-    "frame3d": (("E", "G", "A", "Iy", "Iz", "J", "rho"), {}),
-    "frame3d_terms": (("EA_l", "GJ_l", "rho", "A", "Ip"), {}),
-}
-_BENDING = ("k12", "k6", "k2")
-_NODE_DIRS = {
-    "beam2d": ("x", "y", "rz"),
-    "beam2d_terms": ("x", "y", "rz"),
-    "frame3d": ("x", "y", "z", "rx", "ry", "rz"),
-    "frame3d_terms": ("x", "y", "z", "rx", "ry", "rz"),
-}
-ELEMENT_TYPES = tuple(_PROPS)
-
-
-@dataclass
-class _Group:
-    type: str
-    props: dict[str, list]  # property -> per-element list of float | str
-    labels: list[list[str]]  # per-element dof labels
-    nodes: np.ndarray | None = None  # (n_el, 2) node ids
-    mass: str = "consistent"
-    dim: int = 3
-    orientation: np.ndarray | None = None  # (n_el, 3)
-    where: list[str] = field(default_factory=list)  # per-element description for messages
-
-    @property
-    def key(self):
-        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)))
-
-
-def _per_element(value, n: int, what: str) -> list:
-    if isinstance(value, (str, int, float, np.number)) and not isinstance(value, bool):
-        return [value] * n
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        return [value.item()] * n
-    try:
-        seq = list(value)
-    except TypeError:
-        raise InputError(f"{what}: expected a number, a parameter name or one per element, got {value!r}") from None
-    if len(seq) != n:
-        raise InputError(f"{what}: {len(seq)} values given for {n} elements")
-    return seq
+from .. import elements as el
+from .._errors import InputError
+from ..dofs import canonical, canonical_all, describe, dof, sort_key
+from ..model import Model, Parameter
+from .groups import BENDING, NODE_DIRS, PROPS, ElementGroup, mass_kind, merge_groups, per_element, triplets
+from .tables import structure_from_dict
 
 
 class Structure:
@@ -87,7 +24,7 @@ class Structure:
         self.name = name
         self.parameters: dict[str, Parameter] = {}
         self.nodes: dict[int, tuple[float, float, float]] = {}
-        self.groups: list[_Group] = []
+        self.groups: list[ElementGroup] = []
         self.supports: list[str] = []
         self.support_nodes: list[int] = []
 
@@ -138,14 +75,14 @@ class Structure:
         n = len(labels)
         if n == 0:
             return
-        required, optional = _PROPS[type_]
+        required, optional = PROPS[type_]
         full = dict(optional)
         full.update({k: v for k, v in props.items() if v is not None})
         missing = [k for k in required if k not in full]
         if missing:
             raise InputError(f"{where}: {type_} needs {', '.join(missing)}")
-        per = {k: _per_element(v, n, f"{where}: {k}") for k, v in full.items()}
-        self.groups.append(_Group(type_, per, labels, where=[where if n == 1 else f"{where} [{i}]" for i in range(n)], **kw))
+        per = {k: per_element(v, n, f"{where}: {k}") for k, v in full.items()}
+        self.groups.append(ElementGroup(type_, per, labels, where=[where if n == 1 else f"{where} [{i}]" for i in range(n)], **kw))
 
     def spring(self, dofs: Sequence[str], k, where: str = "spring") -> None:
         """Spring of stiffness ``k`` to ground (one dof) or between two dofs."""
@@ -191,16 +128,16 @@ class Structure:
         if dim not in (2, 3):
             raise InputError(f"{where}: dim must be 2 or 3, got {dim!r}")
         dirs = ("x", "y") if dim == 2 else ("x", "y", "z")
-        self._line("rod", nodes, {"E": E, "A": A, "rho": rho}, where, dirs, mass=_mass_kind(mass, where), dim=dim)
+        self._line("rod", nodes, {"E": E, "A": A, "rho": rho}, where, dirs, mass=mass_kind(mass, where), dim=dim)
 
     def beam2d(self, nodes, E, A, I, rho, mass: str = "consistent", where: str = "beam2d") -> None:
         """Euler-Bernoulli beam(s) in the x-y plane (dofs x, y, rz)."""
-        self._line("beam2d", nodes, {"E": E, "A": A, "I": I, "rho": rho}, where, _NODE_DIRS["beam2d"], mass=_mass_kind(mass, where))
+        self._line("beam2d", nodes, {"E": E, "A": A, "I": I, "rho": rho}, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def beam2d_terms(self, nodes, EA_l, k12, k6, k2, rho, A, mass: str = "consistent", where: str = "beam2d_terms") -> None:
         """Beam2d with the Appendix's independent stiffness terms EA/l, 12EI/l^3, 6EI/l^2, 2EI/l."""
         props = {"EA_l": EA_l, "k12": k12, "k6": k6, "k2": k2, "rho": rho, "A": A}
-        self._line("beam2d_terms", nodes, props, where, _NODE_DIRS["beam2d"], mass=_mass_kind(mass, where))
+        self._line("beam2d_terms", nodes, props, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d") -> None:
         """12-dof space frame member(s); ``orientation`` lies in the local x-y plane."""
@@ -218,7 +155,7 @@ class Structure:
         props = {"EA_l": EA_l, "GJ_l": GJ_l, "rho": rho, "A": A, "Ip": Ip}
         given = {"k12": k12, "k6": k6, "k2": k2, "k12_y": k12_y, "k6_y": k6_y, "k2_y": k2_y,
                  "k12_z": k12_z, "k6_z": k6_z, "k2_z": k2_z}
-        for b in _BENDING:
+        for b in BENDING:
             both, y, z = given[b], given[b + "_y"], given[b + "_z"]
             if both is not None and (y is not None or z is not None):
                 raise InputError(f"{where}: give either {b} (both planes) or {b}_y and {b}_z, not both")
@@ -237,76 +174,22 @@ class Structure:
             o = np.broadcast_to(o, (len(pairs), 3))
         if o.shape != (len(pairs), 3) or not np.all(np.isfinite(o)):
             raise InputError(f"{where}: orientation must be three finite numbers (or one triple per element)")
-        dirs = _NODE_DIRS[type_]
+        dirs = NODE_DIRS[type_]
         labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
-        self._add(type_, labels, props, where, nodes=pairs, mass=_mass_kind(mass, where), orientation=np.array(o))
+        self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o))
 
     # ------------------------------------------------------------------ dict / TOML form
     @classmethod
     def from_dict(cls, data: Mapping, source: str = "model") -> Structure:
         """Structure from the parsed TOML model file (schema in docs/interfaces.md)."""
-        if not isinstance(data, Mapping):
-            raise InputError(f"{source}: expected a table at the top level")
-        known = {"model", "parameters", "node", "element", "support"}
-        extra = sorted(set(data) - known)
-        if extra:
-            raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
-        meta = data.get("model", {})
-        s = cls(str(meta.get("name", "model")) if isinstance(meta, Mapping) else "model")
-        params = data.get("parameters", {})
-        if not isinstance(params, Mapping):
-            raise InputError(f"{source}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
-        for name, spec in params.items():
-            where = f"{source}: [parameters.{name}]"
-            if not isinstance(spec, Mapping):
-                raise InputError(f"{where} must be a table with at least 'value'")
-            unknown = sorted(set(spec) - {"value", "bounds", "fixed"})
-            if unknown:
-                raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed)")
-            if "value" not in spec:
-                raise InputError(f"{where} has no 'value'")
-            try:
-                s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False))
-            except InputError as exc:
-                raise InputError(f"{source}: {exc}") from None
-        for i, nd in enumerate(_list_of_tables(data, "node", source), start=1):
-            where = f"{source}: node #{i}"
-            if "id" not in nd or "xyz" not in nd:
-                raise InputError(f"{where} needs 'id' and 'xyz'")
-            unknown = sorted(set(nd) - {"id", "xyz"})
-            if unknown:
-                raise InputError(f"{where}: unknown key(s) {', '.join(map(str, unknown))} (allowed: id, xyz)")
-            node_id = nd["id"]
-            if isinstance(node_id, bool) or not isinstance(node_id, (int, float)) or not float(node_id).is_integer():
-                raise InputError(f"{where}: id must be an integer, got {node_id!r}")
-            try:
-                s.node(int(node_id), nd["xyz"])
-            except InputError as exc:  # before ValueError: InputError is a ValueError
-                raise InputError(f"{where}: {exc}") from None
-            except (TypeError, ValueError):
-                raise InputError(f"{where}: xyz must be 2 or 3 numbers, got {nd['xyz']!r}") from None
-        for i, e in enumerate(_list_of_tables(data, "element", source), start=1):
-            _element_from_dict(s, e, f"{source}: element #{i}")
-        for i, sup in enumerate(_list_of_tables(data, "support", source), start=1):
-            where = f"{source}: support #{i}"
-            unknown = sorted(set(sup) - {"dofs", "nodes"})
-            if unknown or not sup:
-                raise InputError(f"{where}: expected 'dofs' (labels) and/or 'nodes' (ids)")
-            try:
-                if "dofs" in sup:
-                    s.support(list(sup["dofs"]))
-                if "nodes" in sup:
-                    s.support_node(list(sup["nodes"]))
-            except (TypeError, ValueError, OverflowError) as exc:
-                raise InputError(f"{where}: {exc}") from None
-        return s
+        return structure_from_dict(cls, data, source)
 
     # ------------------------------------------------------------------ assembly
     def build(self) -> Model:
         """Assemble the affine sparse model (no dense global matrix is formed)."""
         if not self.groups:
             raise InputError(f"structure {self.name!r} has no elements")
-        groups = _merge(self.groups)
+        groups = merge_groups(self.groups)
         all_labels = sorted({lab for g in groups for row in g.labels for lab in row}, key=sort_key)
         present = set(all_labels)
         unknown_sup = [d for d in self.supports if d not in present]
@@ -335,7 +218,7 @@ class Structure:
             for target, tlist in (("K", terms.K), ("M", terms.M)):
                 for factors, unit in tlist:
                     coef, pid = self._combine(g, factors, resolved, target)
-                    _triplets(trip, target, unit, idx, coef, pid)
+                    triplets(trip, target, unit, idx, coef, pid)
         mats: dict[tuple[str, int], sp.csr_array | None] = {}
         for (target, t), parts in trip.items():
             if not parts:
@@ -357,7 +240,7 @@ class Structure:
             name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
         )
 
-    def _coords(self, g: _Group) -> tuple[np.ndarray, np.ndarray]:
+    def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
         if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
             raise TypeError(f"{g.where[0]}: a {g.type} group has no end nodes")
         ids = np.unique(g.nodes)
@@ -368,7 +251,7 @@ class Structure:
         xyz = np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(len(g.nodes), 2, 3)
         return xyz[:, 0], xyz[:, 1]
 
-    def _terms(self, g: _Group) -> el.ElementTerms:
+    def _terms(self, g: ElementGroup) -> el.ElementTerms:
         n_el = len(g.labels)
         if g.type == "spring":
             return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
@@ -392,7 +275,7 @@ class Structure:
             raise InputError(f"{who}: {exc}") from None
         raise InputError(f"{g.where[0]}: unknown element type {g.type!r}")
 
-    def _resolve(self, g: _Group, prop: str, pindex: dict) -> tuple[np.ndarray, np.ndarray]:
+    def _resolve(self, g: ElementGroup, prop: str, pindex: dict) -> tuple[np.ndarray, np.ndarray]:
         """Per-element (numeric factor, parameter index or -1) of one property."""
         vals = g.props[prop]
         num = np.ones(len(vals))
@@ -417,7 +300,7 @@ class Structure:
                 raise InputError(f"{g.where[i]}: non-positive {kind} {prop} = {value:g}" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
         return num, pid
 
-    def _combine(self, g: _Group, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:
+    def _combine(self, g: ElementGroup, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:
         coef = np.ones(len(g.labels))
         pid = np.full(len(g.labels), -1, dtype=np.int64)
         for f in factors:
@@ -437,110 +320,4 @@ class Structure:
         return coef, pid
 
 
-def _mass_kind(mass, where):
-    if mass not in MASS_KINDS:
-        raise InputError(f"{where}: mass must be one of {', '.join(MASS_KINDS)}, got {mass!r}")
-    return mass
-
-
-def _list_of_tables(data, key, source):
-    items = data.get(key, [])
-    if isinstance(items, Mapping):
-        items = [items]
-    if not isinstance(items, list) or not all(isinstance(x, Mapping) for x in items):
-        raise InputError(f"{source}: '{key}' must be an array of tables ([[{key}]])")
-    return items
-
-
-_ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation"}
-_TYPE_KEYS = {  # non-property keys that apply to each line-element type
-    "rod": {"nodes", "mass", "dim"},
-    "beam2d": {"nodes", "mass"},
-    "beam2d_terms": {"nodes", "mass"},
-    "frame3d": {"nodes", "mass", "orientation"},
-    "frame3d_terms": {"nodes", "mass", "orientation"},
-}
-
-
-def _element_from_dict(s: Structure, e: Mapping, where: str) -> None:
-    t = e.get("type")
-    if not isinstance(t, str) or t not in _PROPS:
-        raise InputError(f"{where}: unknown element type {t!r} (known: {', '.join(ELEMENT_TYPES)})")
-    where = f"{where} ({t})"
-    if t in ("spring", "mass"):
-        allowed = {"type", "dofs", _PROPS[t][0][0]}
-    else:
-        allowed = {"type"} | _TYPE_KEYS[t] | set(_PROPS[t][0]) | set(_PROPS[t][1])
-        if t == "frame3d_terms":
-            allowed |= {b + s_ for b in _BENDING for s_ in ("", "_y", "_z")}
-    unknown = sorted(set(e) - allowed)
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(allowed))})")
-    props = {k: v for k, v in e.items() if k not in _ELEMENT_KEYS}
-    for k, v in props.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-            raise InputError(f"{where}: {k} must be a number or a parameter name, got {v!r}")
-    try:
-        if t == "spring":
-            if "dofs" not in e or "k" not in e:
-                raise InputError("spring needs 'dofs' and 'k'")
-            s.spring(list(e["dofs"]), k=e["k"], where=where)
-        elif t == "mass":
-            if "dofs" not in e or "m" not in e:
-                raise InputError("mass needs 'dofs' and 'm'")
-            s.mass(list(e["dofs"]), m=e["m"], where=where)
-        else:
-            if "nodes" not in e:
-                raise InputError(f"{t} needs 'nodes' = [a, b]")
-            kw = dict(mass=e.get("mass", "consistent"), where=where)
-            if t == "rod":
-                s.rod(e["nodes"], dim=e.get("dim", 3), **props, **kw)
-            elif t == "beam2d":
-                s.beam2d(e["nodes"], **props, **kw)
-            elif t == "beam2d_terms":
-                s.beam2d_terms(e["nodes"], **props, **kw)
-            elif t == "frame3d":
-                s.frame3d(e["nodes"], orientation=e.get("orientation"), **props, **kw)
-            else:
-                s.frame3d_terms(e["nodes"], orientation=e.get("orientation"), **props, **kw)
-    except TypeError as exc:  # missing required keyword arguments
-        raise InputError(f"{where}: {exc}".replace("() missing", " is missing")) from None
-    except InputError as exc:
-        msg = str(exc)
-        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
-
-
-def _merge(groups: list[_Group]) -> list[_Group]:
-    """Concatenate groups of the same type and options so that element matrices are vectorised."""
-    by_key: dict = {}
-    for g in groups:
-        by_key.setdefault(g.key, []).append(g)
-    out = []
-    for gs in by_key.values():
-        if len(gs) == 1:
-            out.append(gs[0])
-            continue
-        g0 = gs[0]
-        props = {k: [v for g in gs for v in g.props[k]] for k in g0.props}
-        out.append(_Group(
-            type=g0.type, props=props, labels=[row for g in gs for row in g.labels],
-            nodes=None if g0.nodes is None else np.concatenate([g.nodes for g in gs]),
-            mass=g0.mass, dim=g0.dim,
-            orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
-            where=[w for g in gs for w in g.where],
-        ))
-    return out
-
-
-def _triplets(trip, target, unit, idx, coef, pid) -> None:
-    """COO triplets of ``coef * unit`` scattered to ``idx``, split by parameter id."""
-    ne = idx.shape[1]
-    rows = np.broadcast_to(idx[:, :, None], (len(idx), ne, ne))
-    cols = np.broadcast_to(idx[:, None, :], (len(idx), ne, ne))
-    vals = coef[:, None, None] * unit
-    keep = (rows >= 0) & (cols >= 0) & (vals != 0)
-    owner = np.broadcast_to(pid[:, None, None], keep.shape)[keep]
-    r, c, v = rows[keep], cols[keep], vals[keep]
-    for t in np.unique(owner):
-        sel = owner == t
-        trip[(target, int(t))].append((r[sel], c[sel], v[sel]))
+__all__ = ["Structure"]

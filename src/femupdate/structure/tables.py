@@ -1,0 +1,140 @@
+"""The dict / TOML form of a structure (schema in docs/interfaces.md): parameters, nodes,
+elements and supports read into a :class:`~femupdate.structure.Structure`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from .._errors import InputError
+from .groups import BENDING, ELEMENT_TYPES, PROPS
+
+
+def structure_from_dict(cls, data: Mapping, source: str = "model"):
+    """An instance of ``cls`` (:class:`~femupdate.structure.Structure`) from the parsed TOML model file."""
+    if not isinstance(data, Mapping):
+        raise InputError(f"{source}: expected a table at the top level")
+    known = {"model", "parameters", "node", "element", "support"}
+    extra = sorted(set(data) - known)
+    if extra:
+        raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
+    meta = data.get("model", {})
+    s = cls(str(meta.get("name", "model")) if isinstance(meta, Mapping) else "model")
+    params = data.get("parameters", {})
+    if not isinstance(params, Mapping):
+        raise InputError(f"{source}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
+    for name, spec in params.items():
+        where = f"{source}: [parameters.{name}]"
+        if not isinstance(spec, Mapping):
+            raise InputError(f"{where} must be a table with at least 'value'")
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed)")
+        if "value" not in spec:
+            raise InputError(f"{where} has no 'value'")
+        try:
+            s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False))
+        except InputError as exc:
+            raise InputError(f"{source}: {exc}") from None
+    for i, nd in enumerate(list_of_tables(data, "node", source), start=1):
+        where = f"{source}: node #{i}"
+        if "id" not in nd or "xyz" not in nd:
+            raise InputError(f"{where} needs 'id' and 'xyz'")
+        unknown = sorted(set(nd) - {"id", "xyz"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(map(str, unknown))} (allowed: id, xyz)")
+        node_id = nd["id"]
+        if isinstance(node_id, bool) or not isinstance(node_id, (int, float)) or not float(node_id).is_integer():
+            raise InputError(f"{where}: id must be an integer, got {node_id!r}")
+        try:
+            s.node(int(node_id), nd["xyz"])
+        except InputError as exc:  # before ValueError: InputError is a ValueError
+            raise InputError(f"{where}: {exc}") from None
+        except (TypeError, ValueError):
+            raise InputError(f"{where}: xyz must be 2 or 3 numbers, got {nd['xyz']!r}") from None
+    for i, e in enumerate(list_of_tables(data, "element", source), start=1):
+        element_from_dict(s, e, f"{source}: element #{i}")
+    for i, sup in enumerate(list_of_tables(data, "support", source), start=1):
+        where = f"{source}: support #{i}"
+        unknown = sorted(set(sup) - {"dofs", "nodes"})
+        if unknown or not sup:
+            raise InputError(f"{where}: expected 'dofs' (labels) and/or 'nodes' (ids)")
+        try:
+            if "dofs" in sup:
+                s.support(list(sup["dofs"]))
+            if "nodes" in sup:
+                s.support_node(list(sup["nodes"]))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise InputError(f"{where}: {exc}") from None
+    return s
+
+
+def list_of_tables(data, key, source):
+    """The array of tables ``data[key]`` (a single table counts as an array of one)."""
+    items = data.get(key, [])
+    if isinstance(items, Mapping):
+        items = [items]
+    if not isinstance(items, list) or not all(isinstance(x, Mapping) for x in items):
+        raise InputError(f"{source}: '{key}' must be an array of tables ([[{key}]])")
+    return items
+
+
+ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation"}
+TYPE_KEYS = {  # non-property keys that apply to each line-element type
+    "rod": {"nodes", "mass", "dim"},
+    "beam2d": {"nodes", "mass"},
+    "beam2d_terms": {"nodes", "mass"},
+    "frame3d": {"nodes", "mass", "orientation"},
+    "frame3d_terms": {"nodes", "mass", "orientation"},
+}
+
+
+def element_from_dict(s, e: Mapping, where: str) -> None:
+    """Add one [[element]] table to the structure ``s``."""
+    t = e.get("type")
+    if not isinstance(t, str) or t not in PROPS:
+        raise InputError(f"{where}: unknown element type {t!r} (known: {', '.join(ELEMENT_TYPES)})")
+    where = f"{where} ({t})"
+    if t in ("spring", "mass"):
+        allowed = {"type", "dofs", PROPS[t][0][0]}
+    else:
+        allowed = {"type"} | TYPE_KEYS[t] | set(PROPS[t][0]) | set(PROPS[t][1])
+        if t == "frame3d_terms":
+            allowed |= {b + s_ for b in BENDING for s_ in ("", "_y", "_z")}
+    unknown = sorted(set(e) - allowed)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(allowed))})")
+    props = {k: v for k, v in e.items() if k not in ELEMENT_KEYS}
+    for k, v in props.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+            raise InputError(f"{where}: {k} must be a number or a parameter name, got {v!r}")
+    try:
+        if t == "spring":
+            if "dofs" not in e or "k" not in e:
+                raise InputError("spring needs 'dofs' and 'k'")
+            s.spring(list(e["dofs"]), k=e["k"], where=where)
+        elif t == "mass":
+            if "dofs" not in e or "m" not in e:
+                raise InputError("mass needs 'dofs' and 'm'")
+            s.mass(list(e["dofs"]), m=e["m"], where=where)
+        else:
+            if "nodes" not in e:
+                raise InputError(f"{t} needs 'nodes' = [a, b]")
+            kw = dict(mass=e.get("mass", "consistent"), where=where)
+            if t == "rod":
+                s.rod(e["nodes"], dim=e.get("dim", 3), **props, **kw)
+            elif t == "beam2d":
+                s.beam2d(e["nodes"], **props, **kw)
+            elif t == "beam2d_terms":
+                s.beam2d_terms(e["nodes"], **props, **kw)
+            elif t == "frame3d":
+                s.frame3d(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+            else:
+                s.frame3d_terms(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+    except TypeError as exc:  # missing required keyword arguments
+        raise InputError(f"{where}: {exc}".replace("() missing", " is missing")) from None
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+
+
+__all__ = ["structure_from_dict", "list_of_tables", "element_from_dict", "ELEMENT_KEYS", "TYPE_KEYS"]

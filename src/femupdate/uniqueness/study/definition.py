@@ -1,0 +1,226 @@
+"""Definition of a uniqueness study: the cases (measurement plans), the truth, the random starts
+and the split of the study's rows into work units."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._errors import InputError
+from ...dofs import canonical_all
+from ...model import Model
+
+ALGORITHM = "femupdate-uniqueness-1"  # part of the study key: bump when raw results change meaning
+DEFAULT_UNIT_ROWS = 4096
+
+
+# ====================================================================== definition
+@dataclass(frozen=True)
+class Case:
+    """One measurement plan: the measured dofs and the number of measured (lowest) modes."""
+
+    measured_dofs: tuple[str, ...]
+    n_modes: int
+
+    @property
+    def n_measured(self) -> int:
+        return len(self.measured_dofs)
+
+
+def parse_measured_dofs(text: str) -> list[tuple[str, ...]]:
+    """``"1:x,2:x;1:x"`` -> [("1:x", "2:x"), ("1:x",)]: dof sets separated by ``;``."""
+    sets = []
+    for k, part in enumerate(str(text).split(";"), start=1):
+        labels = [d.strip() for d in part.split(",") if d.strip()]
+        if not labels:
+            raise InputError(f"--measured-dofs: set {k} of {text!r} is empty")
+        sets.append(canonical_all(labels, f"--measured-dofs set {k}"))
+    return sets
+
+
+def parse_modes(text: str) -> list[int]:
+    """``"1,2,3"`` or ``"1-6"`` (or a mix, ``"1-3,6"``) -> sorted distinct mode counts."""
+    out: set[int] = set()
+    for item in str(text).split(","):
+        item = item.strip()
+        if not item:
+            continue
+        lo, dash, hi = item.partition("-")
+        try:
+            a = int(lo)
+            b = int(hi) if dash else a
+        except ValueError:
+            raise InputError(f"--modes: {item!r} is not a number or a range such as 1-6") from None
+        if a < 1 or b < a:
+            raise InputError(f"--modes: {item!r} must be positive, ranges low-high")
+        out.update(range(a, b + 1))
+    if not out:
+        raise InputError(f"--modes: no mode counts in {text!r}")
+    return sorted(out)
+
+
+def nested_dof_sets(model, n_max: int | None = None) -> list[tuple[str, ...]]:
+    """The paper's 6-dof simulation plans: the first n model dofs, n = 1 .. n_max (default N)."""
+    N = model.n_dofs if n_max is None else min(int(n_max), model.n_dofs)
+    return [tuple(model.dofs[:n]) for n in range(1, N + 1)]
+
+
+@dataclass(frozen=True, eq=False)
+class Study:
+    """A uniqueness study, fully determined (see :func:`define_study`)."""
+
+    model: Model
+    names: tuple[str, ...]
+    truth: np.ndarray  #: full parameter vector (the model's values, or ``values``)
+    cases: tuple[Case, ...]
+    starts: np.ndarray  #: (R, L) the random starts, shared by every case and noise level
+    seed: int
+    noise: tuple[float, ...] = ()
+    min_mac: float = 0.5
+    max_nfev: int = 200
+    tol: float = 1e-10  #: ftol = xtol = gtol of the least-squares solver (update()'s defaults)
+    unit_rows: int = DEFAULT_UNIT_ROWS
+
+    @property
+    def n_starts(self) -> int:
+        return self.starts.shape[0]
+
+    @property
+    def levels(self) -> tuple[float, ...]:
+        """Noise levels with 0 (the noise-free study) first."""
+        return (0.0,) + tuple(self.noise)
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.cases) * len(self.levels) * self.n_starts
+
+    def key(self) -> str:
+        """SHA-256 of everything that determines the raw results (the checkpoint's identity)."""
+        h = hashlib.sha256(ALGORITHM.encode())
+        m = self.model
+
+        def arr(a):
+            a = np.ascontiguousarray(a)
+            h.update(str((a.dtype.str, a.shape)).encode())
+            h.update(a.tobytes())
+
+        def mat(A):
+            if A is None:
+                h.update(b"none")
+                return
+            A = A.tocsr()
+            A.sort_indices()
+            for part in (A.data, A.indices.astype(np.int64), A.indptr.astype(np.int64)):
+                arr(part)
+
+        h.update(repr((m.dofs, m.parameter_names, [p.bounds for p in m.parameters])).encode())
+        for A in (m.K0, m.M0, *m.dK, *m.dM):
+            mat(A)
+        arr(np.asarray(self.truth, float))
+        arr(np.asarray(self.starts, float))
+        h.update(repr((self.names, [(c.measured_dofs, c.n_modes) for c in self.cases], self.seed,
+                       [float(v) for v in self.noise], float(self.min_mac), int(self.max_nfev), float(self.tol),
+                       int(self.unit_rows))).encode())
+        return h.hexdigest()
+
+    def describe(self) -> dict:
+        return {"model": self.model.name, "parameters": list(self.names), "cases": len(self.cases),
+                "starts": self.n_starts, "seed": self.seed, "noise": list(self.noise), "rows": self.n_rows,
+                "units": len(self.units())}
+
+    # -------------------------------------------------------------- the split into work units
+    def pieces(self) -> list[tuple[int, int, int, int]]:
+        """(case, level, first start, end start) of every piece, in the fixed order of the study."""
+        R, step = self.n_starts, max(1, int(self.unit_rows))
+        return [(c, lv, a, min(a + step, R)) for c in range(len(self.cases)) for lv in range(len(self.levels))
+                for a in range(0, R, step)]
+
+    def units(self) -> list[list[tuple[int, int, int, int]]]:
+        """Pieces packed in order into units of at most ``unit_rows`` rows."""
+        out: list[list] = []
+        rows = 0
+        for p in self.pieces():
+            n = p[3] - p[2]
+            if not out or rows + n > self.unit_rows:
+                out.append([])
+                rows = 0
+            out[-1].append(p)
+            rows += n
+        return out
+
+
+def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, values=None,
+                 params: Sequence[str] | None = None, noise: Sequence[float] = (), min_mac: float = 0.5,
+                 max_nfev: int = 200, tol: float = 1e-10, unit_rows: int = DEFAULT_UNIT_ROWS,
+                 log_uniform: bool = False) -> Study:
+    """Check and fix a study: the cases, the truth and the random starts.
+
+    Parameters
+    ----------
+    model : Model (small: at most :data:`femupdate.modal.DENSE_LIMIT` dofs, solved densely).
+    cases : :class:`Case` objects or ``(measured_dofs, n_modes)`` pairs.
+    starts, seed : R random starts within the bounds, drawn once by
+        :func:`femupdate.updating.draw_starts` (uniform, or log-uniform).
+    values : the truth, as {name: value} (default: the model's values).
+    params : the unknown parameters (default: every parameter not fixed).
+    noise : relative noise levels (> 0): eigenvalues × (1 + σε), unit-length shapes + σε.
+    min_mac, max_nfev, tol : solver options, as :func:`femupdate.updating.update`.
+    unit_rows : rows (case × level × start) per work unit.
+    """
+    from ...updating.batched import unsupported
+    from ...modal import model_modes
+    from ...updating import draw_starts
+
+    names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    if not names:
+        raise InputError("uniqueness study: no unknown parameters (every parameter is fixed)")
+    idx = [model.parameter_index(n) for n in names]
+    reason = unsupported(model, {}, explicit=True)
+    if reason:
+        raise InputError(f"uniqueness study: {reason}")
+    truth = model.resolve(values)
+    lo, hi = model.bounds
+    outside = [n for n, j in zip(names, idx) if not lo[j] <= truth[j] <= hi[j]]
+    if outside:
+        raise InputError(f"uniqueness study: the true value(s) lie outside the bounds for: {', '.join(outside)}")
+    if int(starts) < 1:
+        raise InputError("uniqueness study: the number of starts must be at least 1")
+    if seed is None or int(seed) != seed or seed < 0:
+        raise InputError(f"uniqueness study: the seed must be a non-negative integer, got {seed!r}")
+    if int(unit_rows) < 1:
+        raise InputError("uniqueness study: unit_rows must be at least 1")
+    if int(max_nfev) < 1 or not tol > 0 or not 0 <= min_mac <= 1:
+        raise InputError("uniqueness study: max_nfev >= 1, tol > 0 and 0 <= min_mac <= 1 are required")
+    levels = tuple(float(v) for v in noise)
+    bad = [v for v in levels if not (math.isfinite(v) and v > 0)]
+    if bad:
+        raise InputError(f"uniqueness study: noise levels must be positive numbers, got {bad}")
+    if not cases:
+        raise InputError("uniqueness study: no cases (give measured dof sets and numbers of modes)")
+    mm = model_modes(model, truth)
+    out = []
+    for k, cs in enumerate(cases, start=1):
+        dofs, m = (cs.measured_dofs, cs.n_modes) if isinstance(cs, Case) else cs
+        dofs = canonical_all(dofs, f"case {k} measured dofs")
+        if not dofs:
+            raise InputError(f"case {k}: no measured dofs")
+        model.dof_index(dofs, f"case {k} measured dofs")
+        m = int(m)
+        if not 1 <= m <= model.n_dofs:
+            raise InputError(f"case {k}: {m} modes asked for, the model has {model.n_dofs} dofs")
+        if np.any(mm.eigenvalues[:m] <= 0):
+            raise InputError(f"case {k}: the lowest {m} modes include rigid-body modes, which cannot be updating targets")
+        out.append(Case(dofs, m))
+    if len(set(out)) != len(out):
+        raise InputError("uniqueness study: a case is listed twice")
+    X0 = draw_starts(model, names, int(starts), int(seed), log_uniform)
+    return Study(model, names, truth, tuple(out), X0, int(seed), levels, float(min_mac), int(max_nfev), float(tol),
+                 int(unit_rows))
+
+
+__all__ = ["ALGORITHM", "DEFAULT_UNIT_ROWS", "Case", "Study", "define_study", "nested_dof_sets", "parse_measured_dofs",
+           "parse_modes"]

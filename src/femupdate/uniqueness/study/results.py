@@ -1,0 +1,226 @@
+"""Results of a uniqueness study: the raw per-start results of the units clustered into distinct
+solutions per case, with the counting criteria, the conditioning at the truth and the scatter
+under noise."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._errors import InputError
+from ...updating.batched import FAILED
+from ...updating.clustering import cluster
+from ...updating.results import Solution as _MultiStartSolution
+from ..criteria import counting_criteria
+from .definition import Case, Study
+from .units import row_data
+
+
+@dataclass(frozen=True, eq=False)
+class Solution(_MultiStartSolution):
+    """A distinct solution of a case (:class:`femupdate.updating.Solution`: the representative's
+    values, its cost, how many starts and which) and its distance from the truth."""
+
+    max_rel_error: float = math.nan  #: largest |p / p_true − 1| over the unknowns
+    is_truth: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class NoiseResult:
+    """One noise level of a case: scatter of the converged solutions around the truth."""
+
+    level: float
+    starts: int
+    converged: int  #: solver success with a cost within twice the noise floor, ½ m σ² (m residuals)
+    rms_rel_error: dict[str, float]  #: per unknown, RMS of p / p_true − 1 over the converged starts
+    median_max_rel_error: float
+    predicted_std: dict[str, float]  #: σ √diag((SᵀS)⁻¹), the linearised scatter (inf if S is singular)
+
+
+@dataclass(frozen=True, eq=False)
+class CaseResult:
+    """Outcome of one case (see :mod:`femupdate.uniqueness.study` for the classification of starts)."""
+
+    case: Case
+    criteria: dict
+    starts: int
+    converged: int
+    local_minima: int
+    not_converged: int
+    failed: int
+    solutions: list[Solution]
+    condition_number: float
+    singular_values: np.ndarray
+    rank: int
+    n_residuals: int
+    noise: list[NoiseResult] = field(default_factory=list)
+    failure_examples: list[str] = field(default_factory=list)
+
+    @property
+    def truth_found(self) -> bool:
+        return any(s.is_truth for s in self.solutions)
+
+    @property
+    def unique(self) -> bool | None:
+        """True: every converged start reached the truth; False: another solution reproduces the
+        data too; None: no start converged."""
+        if not self.solutions:
+            return None
+        return len(self.solutions) == 1 and self.solutions[0].is_truth
+
+    @property
+    def verdict(self) -> str:
+        return {True: "unique", False: "non-unique", None: "not converging"}[self.unique]
+
+    def to_dict(self, names) -> dict:
+        return {
+            "measured_dofs": list(self.case.measured_dofs), "n_measured": self.case.n_measured,
+            "n_modes": self.case.n_modes,
+            "criteria": {k: c.satisfied for k, c in self.criteria.items()},
+            "criteria_counts": {k: {"count": c.count, "threshold": c.threshold, "formula": c.formula,
+                                    "equation": c.equation} for k, c in self.criteria.items()},
+            "starts": self.starts, "converged": self.converged, "local_minima": self.local_minima,
+            "not_converged": self.not_converged, "failed": self.failed,
+            "solutions": [{"parameters": s.parameters, "count": s.count, "cost": s.cost,
+                           "max_rel_error": s.max_rel_error, "is_truth": s.is_truth} for s in self.solutions],
+            "unique": self.unique, "verdict": self.verdict, "truth_found": self.truth_found,
+            "condition_number": self.condition_number, "singular_values": self.singular_values,
+            "rank": self.rank, "n_parameters": len(names), "n_residuals": self.n_residuals,
+            "underdetermined": not self.criteria["data_count"].satisfied,
+            "noise": [{"level": z.level, "starts": z.starts, "converged": z.converged,
+                       "rms_rel_error": z.rms_rel_error, "median_max_rel_error": z.median_max_rel_error,
+                       "predicted_std": z.predicted_std} for z in self.noise],
+            "failure_examples": self.failure_examples,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class StudyResult:
+    """Result of :func:`run_study`: one :class:`CaseResult` per case, in the study's order."""
+
+    study: Study
+    cases: list[CaseResult]
+    seconds: float
+    units_computed: int
+    units_resumed: int
+    route: str
+    rel_tol: float
+    cost_tol: float
+    raw: list = field(default_factory=list)  #: per-start results of every piece (see :func:`solve_unit`)
+
+    def to_dict(self) -> dict:
+        """The JSON result of ``femupdate uniqueness`` (docs/interfaces.md, plus extras)."""
+        st = self.study
+        return {
+            "model": st.model.name, "parameters": list(st.names),
+            "truth": dict(zip(st.names, st.truth[[st.model.parameter_index(n) for n in st.names]])),
+            "n_dofs": st.model.n_dofs, "starts": st.n_starts, "seed": st.seed, "noise_levels": list(st.noise),
+            "rel_tol": self.rel_tol, "cost_tol": self.cost_tol, "max_nfev": st.max_nfev, "min_mac": st.min_mac,
+            "route": self.route, "units": {"total": len(st.units()), "computed": self.units_computed,
+                                           "resumed": self.units_resumed},
+            "seconds": self.seconds, "study_key": st.key(),
+            "cases": [c.to_dict(st.names) for c in self.cases],
+        }
+
+
+def truth_sensitivities(study: Study) -> list[tuple[np.ndarray, int]]:
+    """Per case the normalised sensitivity matrix S = ∂r/∂(p/p_true) at the truth, noise-free
+    (its own rows only), and its number of residuals."""
+    from ..problem import study_problem
+
+    C = len(study.cases)
+    pieces = [(c, 0, 0, 1) for c in range(C)]
+    rows, _ = row_data(study, pieces)
+    idx = [study.model.parameter_index(n) for n in study.names]
+    X0 = np.tile(study.truth[idx], (C, 1))
+    prob = study_problem(study.model, study.names, rows, X0, values=study.truth, min_mac=study.min_mac)
+    ev = prob.evaluate(prob.x_start)
+    m = prob.n_residuals
+    out = []
+    for c in range(C):
+        if ev.messages[c] is not None:
+            raise InputError(f"case {c + 1}: the model cannot be differentiated at the truth: {ev.messages[c]}")
+        out.append((ev.jac[c, :m[c]], int(m[c])))
+    return out
+
+
+def conditioning(S: np.ndarray, m: int):
+    """Condition number (inf when numerically rank-deficient), singular values and numerical
+    rank of a sensitivity matrix S with m residuals."""
+    s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
+    L = S.shape[1]
+    rank = int(np.sum(s > max(S.shape) * np.finfo(float).eps * s[0])) if s.size else 0
+    # a numerically rank-deficient matrix has no finite condition number: its smallest singular
+    # value is round-off, and so would be any figure computed from it
+    cond = float(s[0] / s[-1]) if s.size == L and rank == L and m >= L else math.inf
+    return cond, s, rank
+
+
+def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_tol: float = 1e-12,
+              sensitivities=None) -> list[CaseResult]:
+    """Case results from raw unit results (any split, any order)."""
+    C, R, L = len(study.cases), study.n_starts, len(study.names)
+    x = np.full((C, len(study.levels), R, L), np.nan)
+    cost = np.full((C, len(study.levels), R), np.nan)
+    status = np.full((C, len(study.levels), R), FAILED)
+    have = np.zeros((C, len(study.levels), R), bool)
+    messages: dict = {}
+    for piece in raw:
+        c, lv = piece["case"], piece["level"]
+        ks = piece.get("starts") or list(range(piece["start"], piece["start"] + len(piece["status"])))
+        x[c, lv, ks] = np.array(piece["x"], dtype=float).reshape(len(ks), L)
+        cost[c, lv, ks] = np.array(piece["cost"], dtype=float)
+        status[c, lv, ks] = np.array(piece["status"], dtype=int)
+        have[c, lv, ks] = True
+        for k, msg in piece.get("messages", {}).items():
+            messages.setdefault((c, lv), []).append(msg)
+    idx = [study.model.parameter_index(n) for n in study.names]
+    p_true = study.truth[idx]
+    scale = np.where(p_true != 0, np.abs(p_true), 1.0)
+    sens = sensitivities if sensitivities is not None else truth_sensitivities(study)
+    out = []
+    for c, case in enumerate(study.cases):
+        h = have[c, 0]
+        st, cs, xs = status[c, 0][h], cost[c, 0][h], x[c, 0][h]
+        ks = np.flatnonzero(h)
+        conv = (st > 0) & (cs <= cost_tol)
+        sols = []
+        if conv.any():
+            pts, costs, who = xs[conv], cs[conv], ks[conv]
+            for g in cluster(pts, costs, rel_tol):
+                rep = pts[g[0]]
+                err = float(np.max(np.abs(rep - p_true) / scale))
+                sols.append(Solution(dict(zip(study.names, map(float, rep))), float(costs[g[0]]), len(g),
+                                     sorted(int(who[i]) for i in g), err, err <= rel_tol))
+            sols.sort(key=lambda s: (-s.count, s.cost))
+        S, m_own = sens[c]
+        cond, sv, rank = conditioning(S, m_own)
+        noise = []
+        for lv in range(1, len(study.levels)):
+            hz = have[c, lv]
+            sigma = study.levels[lv]
+            # fits the noisy data: success with a cost within twice the expected noise floor ½ m σ²
+            ok = hz & (status[c, lv] > 0) & (cost[c, lv] <= cost_tol + m_own * sigma**2)
+            rel = (x[c, lv][ok] - p_true) / scale
+            if rank == L and m_own >= L:
+                pred = sigma * np.sqrt(np.diag(np.linalg.pinv(S.T @ S)))
+            else:
+                pred = np.full(L, math.inf)
+            noise.append(NoiseResult(
+                sigma, int(hz.sum()), int(ok.sum()),
+                dict(zip(study.names, map(float, np.sqrt(np.mean(rel**2, axis=0)) if ok.any() else [math.nan] * L))),
+                float(np.median(np.max(np.abs(rel), axis=1))) if ok.any() else math.nan,
+                dict(zip(study.names, map(float, pred)))))
+        crit = counting_criteria(case.n_measured, case.n_modes, L, study.model.n_dofs)
+        out.append(CaseResult(
+            case=case, criteria=crit, starts=int(h.sum()), converged=int(conv.sum()),
+            local_minima=int(np.sum((st > 0) & ~(cs <= cost_tol))), not_converged=int(np.sum(st == 0)),
+            failed=int(np.sum(st == FAILED)), solutions=sols, condition_number=cond, singular_values=sv, rank=rank,
+            n_residuals=m_own, noise=noise, failure_examples=sorted(set(messages.get((c, 0), [])))[:3]))
+    return out
+
+
+__all__ = ["Solution", "NoiseResult", "CaseResult", "StudyResult", "truth_sensitivities", "conditioning", "summarise"]

@@ -1,0 +1,98 @@
+"""Running a uniqueness study: its work units in process or as tasks of a Dask cluster, finished
+units kept in a checkpoint, then summarised (:func:`run_study`)."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import cast
+
+from ..._errors import InputError
+from ...updating.starts import connect
+from ..checkpoint import Checkpoint
+from .definition import Study
+from .results import StudyResult, summarise
+from .units import solve_unit
+
+log = logging.getLogger("femupdate.uniqueness.study")  # the package's logger, as before the split into modules
+
+
+def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
+    if scheduler:
+        return connect(scheduler, timeout, "--scheduler / --workers"), None
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError("--scheduler / --workers need dask.distributed: pip install 'femupdate[dask]'") from None
+    if workers is None:  # run_study starts a local cluster only when workers is given
+        raise TypeError("int() argument must be a string, a bytes-like object or a real number, not 'NoneType'")
+    cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def run_study(study: Study, *, scheduler: str | None = None, workers: int | None = None, checkpoint=None,
+              progress: Callable[[int, int], None] | None = None, rel_tol: float = 1e-4, cost_tol: float = 1e-12,
+              connect_timeout: float = 10.0) -> StudyResult:
+    """Run (or resume) ``study`` and summarise it.
+
+    Parameters
+    ----------
+    scheduler : address of an existing Dask scheduler (``tcp://host:port``): units run there.
+    workers : without ``scheduler``, start a local Dask cluster of this many worker processes;
+        neither: everything runs in this process.
+    checkpoint : path of the checkpoint file (created, or resumed when it holds this study).
+    progress : ``progress(rows_done, rows_total)``.
+    rel_tol : two solutions are the same when every unknown agrees within this (relative).
+    cost_tol : a converged start reproduces the data when its cost ½‖r‖² is at most this.
+    connect_timeout : seconds to wait for the scheduler (then an InputError).
+    """
+    t0 = time.perf_counter()
+    units = study.units()
+    ck = Checkpoint(checkpoint, study.key(), study.describe())
+    resumed = [i for i in range(len(units)) if i in ck]
+    todo = [i for i in range(len(units)) if i not in ck]
+    size = [sum(b - a for _, _, a, b in u) for u in units]
+    done = sum(size[i] for i in resumed)
+    total = sum(size)
+    if progress:
+        progress(done, total)
+    route = "local"
+    if todo and (scheduler or workers):
+        client, cluster = _dask_client(scheduler, workers, connect_timeout)
+        route = f"dask:{scheduler}" if scheduler else f"dask:local cluster of {workers} workers"
+        try:
+            from dask.distributed import as_completed
+
+            # the study travels inside each task (not scattered): a task lost with its worker can
+            # always be recomputed, even if every copy of a scattered object were lost with it
+            key = study.key()[:16]
+            futures = {client.submit(solve_unit, study, i, key=f"femupdate-uniqueness-{key}-unit-{i}", retries=2): i
+                       for i in todo}
+            for fut in as_completed(list(futures)):
+                i = futures[fut]
+                ck.add(i, fut.result())
+                done += size[i]
+                if progress:
+                    progress(done, total)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    else:
+        for i in todo:
+            base = done
+            # cast: mypy cannot infer a lambda with a default argument against Callable[[int, int], None]
+            unit_progress = (cast("Callable[[int, int], None]", lambda k, _n, b=base: progress(b + k, total))
+                             if progress else None)
+            ck.add(i, solve_unit(study, i, progress=unit_progress))
+            done = base + size[i]
+    raw = [p for i in range(len(units)) for p in ck.units[i]]
+    cases = summarise(study, raw, rel_tol=rel_tol, cost_tol=cost_tol)
+    log.info("uniqueness study: %d cases, %d rows in %d units (%d resumed), %.2f s", len(study.cases), total,
+             len(units), len(resumed), time.perf_counter() - t0)
+    return StudyResult(study, cases, time.perf_counter() - t0, len(todo), len(resumed), route, rel_tol, cost_tol, raw)
+
+
+__all__ = ["run_study"]
