@@ -43,3 +43,6 @@ def finite_number(v, where: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise InputError(f"{where}: expected a finite number, got {v!r}")
     return float(v)
+
+
+__all__ = ["read_table_file", "list_of_tables", "dof_labels", "finite_number"]
