@@ -14,12 +14,12 @@ from .clustering import cluster, converged_solutions
 from .starts import draw_starts, multistart, run_starts
 from .problem import (PARAMETRISATIONS, SENSITIVITY_CHOICES, SHAPE_SCALINGS, Parametrisation, Problem, Targets,
                       modal_weights)
-from .results import Diagnostics, MultiStartResult, Solution, UpdateResult
+from .results import Diagnostics, MultiStartResult, RunResult, Solution, UpdateResult
 from .solve import diagnostics, result_at, solve, solve_problem, update
 
 __all__ = [
     "Problem", "Parametrisation", "Targets", "modal_weights", "PARAMETRISATIONS", "SHAPE_SCALINGS",
-    "SENSITIVITY_CHOICES", "update", "solve", "solve_problem", "result_at", "diagnostics", "UpdateResult",
+    "SENSITIVITY_CHOICES", "RunResult", "update", "solve", "solve_problem", "result_at", "diagnostics", "UpdateResult",
     "Diagnostics", "multistart", "MultiStartResult", "Solution", "cluster", "converged_solutions", "draw_starts",
     "run_starts",
 ]
