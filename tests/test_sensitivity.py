@@ -247,7 +247,7 @@ def test_static_correction_beats_truncation_and_series_converges_to_nelson():
 
 def _series_derivative(model, modes, which, lu, sigma, n_terms):
     from femupdate.sensitivity._common import mode_rhs
-    from femupdate.sensitivity.modal import _modal_part
+    from femupdate.sensitivity.modal import modal_part
 
     M = model.M()
     params = np.arange(len(model.parameters))
@@ -258,7 +258,7 @@ def _series_derivative(model, modes, which, lu, sigma, n_terms):
         Q, used = omitted_modes_series(lu, M, modes.shapes, F, [modes.eigenvalues[i] - sigma], tol=0.0, max_terms=n_terms,
                                        strict=False)
         assert used == n_terms
-        dlam[r], dphi[:, r, :] = dl, _modal_part(modes, i, F, mjj) + Q[0]
+        dlam[r], dphi[:, r, :] = dl, modal_part(modes, i, F, mjj) + Q[0]
     return dlam, dphi
 
 

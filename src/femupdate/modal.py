@@ -223,7 +223,7 @@ def arpack_options() -> dict:
 PIVOT_THRESHOLD = 0.1  # SuperLU symmetric mode: off-diagonal pivot only below this fraction
 
 
-def _factor(A):
+def factorize(A):
     """Sparse LU of a symmetric matrix with a symmetric fill-reducing ordering.
 
     ``MMD_AT_PLUS_A`` orders on the pattern of A + A^T, which for FE matrices gives far less
@@ -238,7 +238,7 @@ def _factor(A):
                      options={"SymmetricMode": True})
 
 
-def _nearly_singular(lu) -> bool:
+def nearly_singular(lu) -> bool:
     U = lu.U
     piv = np.abs(U.diagonal())
     del U
@@ -253,8 +253,8 @@ def _sparse(K, M, n_modes, sigma, tol):
     if sigma is None:
         sigma = 0.0
         try:
-            lu = _factor(K)
-            if _nearly_singular(lu):
+            lu = factorize(K)
+            if nearly_singular(lu):
                 raise RuntimeError("nearly singular")
         except RuntimeError:
             # rigid-body modes: shift just below zero, relative to the pencil's scale
@@ -265,7 +265,7 @@ def _sparse(K, M, n_modes, sigma, tol):
             log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
     try:
         if lu is None:
-            lu = _factor(K - sigma * M)
+            lu = factorize(K - sigma * M)
         OPinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
         lam, Phi = spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv, **arpack_options())
     except spla.ArpackNoConvergence as exc:

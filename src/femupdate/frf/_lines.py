@@ -13,7 +13,7 @@ with the same two scalars :math:`c_K(\omega) = 1 + i\eta + i\omega b`,
 
 Two solution paths, chosen by size: small models stack every line's dense Z into one
 ``(n_lines, n, n)`` array and solve them in one LAPACK call; large ones factorise each line's
-sparse Z once (SuperLU with a symmetric ordering, :func:`femupdate.modal._factor`) and reuse the
+sparse Z once (SuperLU with a symmetric ordering, :func:`femupdate.modal.factorize`) and reuse the
 factor for every right-hand side.
 """
 
@@ -160,7 +160,7 @@ def use_dense(n: int, method: str = "auto") -> bool:
     return method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
 
 
-def _line_name(i: int, w: float) -> str:
+def line_name(i: int, w: float) -> str:
     return f"line {i + 1} (omega = {w:.6g} rad/s)"
 
 
@@ -185,7 +185,7 @@ def solve_stacked(Z: np.ndarray, B: np.ndarray, on_singular: str = "raise", omeg
     sing = ~np.isfinite(det) | (det == 0)
     if on_singular == "raise":
         g = int(np.flatnonzero(sing.ravel())[0]) if sing.any() else 0
-        where = _line_name(g, float(np.ravel(omega)[g])) if omega is not None else f"member {g + 1}"
+        where = line_name(g, float(np.ravel(omega)[g])) if omega is not None else f"member {g + 1}"
         raise NumericalError(f"the dynamic stiffness K - omega^2 M is singular at {where}: the line lies exactly "
                              "on a resonance of the model (move the line, skip it, or add damping)")
     Zs = np.where(sing[..., None, None], np.eye(Z.shape[-1]), Z)
@@ -196,10 +196,10 @@ def solve_stacked(Z: np.ndarray, B: np.ndarray, on_singular: str = "raise", omeg
 
 def factor(Z, where: str):
     """Sparse LU of one line's dynamic stiffness (complex symmetric when damped)."""
-    from ..modal import _factor
+    from ..modal import factorize
 
     try:
-        return _factor(Z)
+        return factorize(Z)
     except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
         raise NumericalError(f"the dynamic stiffness is singular at {where} ({exc}): the line lies on a "
                              "resonance of the model (move the line, skip it, or add damping)") from None
@@ -256,7 +256,7 @@ class LineSystems:
         (``lu`` is None for an exactly singular line when ``on_singular="inf"``)."""
         for i, w in enumerate(self.omega):
             try:
-                lu = factor(self.Z(i), _line_name(i, w))
+                lu = factor(self.Z(i), line_name(i, w))
             except NumericalError:
                 if on_singular != "inf":
                     raise
@@ -368,7 +368,7 @@ class Resonances:
 
     def describe(self, lines) -> str:
         return "; ".join(
-            f"{_line_name(int(i), float(self.omega[i]))} is {self.distance[i]:.2g} (relative) from "
+            f"{line_name(int(i), float(self.omega[i]))} is {self.distance[i]:.2g} (relative) from "
             f"{'mode ' + str(int(self.mode[i])) if self.mode[i] > 0 else 'a mode'} at "
             f"{math.sqrt(max(self.nearest[i], 0.0)):.6g} rad/s" for i in lines)
 
@@ -428,7 +428,7 @@ def resonances(model, omega, values=None, params=None) -> Resonances:
     nearest = np.empty(w.size)
     Phi = np.empty((model.n_dofs, w.size))
     for i, wi in enumerate(w):
-        where = _line_name(i, wi)
+        where = line_name(i, wi)
         nearest[i], Phi[:, i] = nearest_mode(K, M, wi**2, factor(sp.csc_array(K - wi**2 * M), where), where)
     return collect_resonances(model, p, w, nearest, Phi, np.full(w.size, -1), params)
 

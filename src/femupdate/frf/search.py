@@ -32,7 +32,7 @@ from scipy import optimize
 from .._errors import FemupdateError, InputError
 from ..updating import MultiStartResult, cluster, run_starts
 from .surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
-from .updating import FRFUpdateResult, _prepare, frf_data, frf_update
+from .updating import FRFUpdateResult, frf_data, frf_update, prepare_problem
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ class _Cost:
     """½ r² of the FRF problem at parameter points (batched for small models)."""
 
     def __init__(self, model, data, names, local):
-        prob, _, _, _ = _prepare(model, data, names, None, local.get("residual", "linear"), local.get("weights"),
+        prob, _, _, _ = prepare_problem(model, data, names, None, local.get("residual", "linear"), local.get("weights"),
                                  local.get("measurement_std"), local.get("lines"), local.get("select"),
                                  local.get("resonance", "skip"), local.get("resonance_tol", 1e-3), local.get("damping"),
                                  "absolute", local.get("values"), local.get("solver", "auto"), False)

@@ -38,7 +38,7 @@ import scipy.sparse as sp
 from .. import modal
 from .._errors import InputError
 from ..dofs import canonical_all
-from ._lines import (LineSystems, ParameterForms, Resonances, _line_name, as_damping, check_omega,
+from ._lines import (LineSystems, ParameterForms, Resonances, line_name, as_damping, check_omega,
                      collect_resonances, factor, force_vector, lu_apply, nearest_mode, resonances)
 from .simulate import response_dofs
 
@@ -166,7 +166,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
             if check and not small:
                 if Phi is None:  # allocated whenever check is set
                     raise TypeError("'NoneType' object does not support item assignment")
-                where = _line_name(i, w[i])
+                where = line_name(i, w[i])
                 real_lu = lu if damping.undamped else factor(sp.csc_array(sys_.K - w[i] ** 2 * sys_.M), where)
                 nearest[i], Phi[:, i] = nearest_mode(sys_.K, sys_.M, w[i] ** 2, real_lu, where)
         if check:

@@ -211,7 +211,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     -------
     FRFUpdateResult
     """
-    prob, sigma, skipped, notes = _prepare(model, data, params, x0, residual, weights, measurement_std, lines, select,
+    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
                                            resonance, resonance_tol, damping, parametrisation, values, solver,
                                            regularization is not None, method)
     names = prob.names
@@ -236,7 +236,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     )
 
 
-def _prepare(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
+def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
              damping, parametrisation, values, solver, regularized, method="trf"):
     """Checks, line choice and the :class:`_FRFProblem` (shared by local and global FRF updating)."""
     frf = frf_data(data)

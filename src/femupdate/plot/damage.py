@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .paper_figures import _save  # noqa: E402
+from .paper_figures import save_figure  # noqa: E402
 
 
 def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
@@ -37,7 +37,7 @@ def perturbed_boundary_figure(path, alone, joint, ranking, mc) -> str:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     perturbed_boundary_axes(alone, joint, ranking, mc, axes)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None):
@@ -68,7 +68,7 @@ def full_field_figure(path, model, scan, mapping, truth_modes) -> str:
     fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
     full_field_axes(model, scan, mapping, truth_modes, 1, axes)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 _COLOURS = {"exact": "#2a9d2a", "found first": "#9acd32", "found": "#f0c040", "missed": "#d04040", "not localisable": "#808080"}
@@ -101,4 +101,4 @@ def damage_study_figure(path, study, cases) -> str:
     fig, ax = plt.subplots(figsize=(7.5, 5))
     damage_study_axes(study, cases, ax)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .paper_figures import _save  # noqa: E402
+from .paper_figures import save_figure  # noqa: E402
 
 
 def _log10(values):
@@ -51,7 +51,7 @@ def save_condition_figure(path, spacings, curves, starts, map_spacings, cond_map
     condition_axes(spacings, curves, axes[0])
     condition_map_axes(starts, map_spacings, cond_map, axes[1])
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _clipped_log10(surface):
@@ -105,7 +105,7 @@ def save_surface_figure(path, surface, title: str) -> str:
     contour_axes(surface, ax2)
     ax2.set_title("contours; circles: grid local minima", fontsize=9)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
@@ -125,7 +125,7 @@ def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
 def save_accuracy_figure(path, omega, curves, resonances_rad_s) -> str:
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     accuracy_axes(omega, curves, resonances_rad_s, ax)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def starts_axes(starts, reached, title, truth=None, ax=None):
@@ -149,7 +149,7 @@ def save_starts_figure(path, panels) -> str:
     for ax, (starts, reached, title, truth) in zip(axes[0], panels):
         starts_axes(starts, reached, title, truth, ax)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def frf_axes(omega, dofs, measured, model, ax=None):
@@ -174,8 +174,8 @@ def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> l
     out_dir = Path(out_dir)
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     frf_axes(omega, dofs, measured, model, ax)
-    names = [_save(fig, out_dir / "frf.png")]
+    names = [save_figure(fig, out_dir / "frf.png")]
     fig, ax = plt.subplots(figsize=(5, 3.5))
     convergence_axes(history, ax)
-    names.append(_save(fig, out_dir / "convergence.png"))
+    names.append(save_figure(fig, out_dir / "convergence.png"))
     return names

@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 from ..io.results import atomic_write_bytes  # noqa: E402
 
 
-def _save(fig, path) -> str:
+def save_figure(fig, path) -> str:
     import io
 
     buf = io.BytesIO()
@@ -43,7 +43,7 @@ def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
 def characteristic_curves(path, a1, a0, m1, m2, solutions) -> str:
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     characteristic_axes(a1, a0, m1, m2, solutions, ax=ax)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def multistart_axes(ms, ax=None):
@@ -72,4 +72,4 @@ def multistart_axes(ms, ax=None):
 def multistart_scatter(path, ms) -> str:
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     multistart_axes(ms, ax)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .paper_figures import _save  # noqa: E402
+from .paper_figures import save_figure  # noqa: E402
 
 
 def truss_metrics_axes(table: dict, methods, axes=None):
@@ -32,7 +32,7 @@ def truss_metrics_axes(table: dict, methods, axes=None):
 def truss_metrics_figure(path, table, methods) -> str:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     truss_metrics_axes(table, methods, axes)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def superelement_figure(path, true, updated, direct, K) -> str:
@@ -46,4 +46,4 @@ def superelement_figure(path, true, updated, direct, K) -> str:
     a0.legend()
     a1.spy(K, markersize=2)
     a1.set_title("reduced stiffness: banded")
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
 
-from .paper_figures import _save  # noqa: E402
+from .paper_figures import save_figure  # noqa: E402
 
 VERDICTS = ("unique", "non-unique", "not converging")
 _COLOURS = ("#4daf4a", "#e41a1c", "#bdbdbd")
@@ -58,4 +58,4 @@ def save_uniqueness_figure(path, cases, title: str | None = None) -> str:
     """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name."""
     fig, ax = plt.subplots(figsize=(7.5, 5))
     uniqueness_axes(cases, ax, title)
-    return _save(fig, path)
+    return save_figure(fig, path)

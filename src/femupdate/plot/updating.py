@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .paper_figures import _save  # noqa: E402
+from .paper_figures import save_figure  # noqa: E402
 
 
 def convergence_axes(history, ax=None):
@@ -43,8 +43,8 @@ def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
     out_dir = Path(out_dir)
     fig, ax = plt.subplots(figsize=(5, 3.5))
     convergence_axes(history, ax)
-    names = [_save(fig, out_dir / "convergence.png")]
+    names = [save_figure(fig, out_dir / "convergence.png")]
     fig, ax = plt.subplots(figsize=(4.5, 4))
     mac_axes(mac_matrix, ax, "MAC, updated model vs test")
-    names.append(_save(fig, out_dir / "mac.png"))
+    names.append(save_figure(fig, out_dir / "mac.png"))
     return names

@@ -18,7 +18,7 @@ import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical_all, describe
-from ..modal import Modes, _factor, _nearly_singular, arpack_options, model_modes
+from ..modal import Modes, arpack_options, factorize, model_modes, nearly_singular
 from ..model import Model
 from .projection import Transformation, project
 
@@ -101,8 +101,8 @@ class Reducer:
         if self.io.size == 0:
             return None
         try:
-            lu = _factor(self.K_oo)
-            singular = _nearly_singular(lu)
+            lu = factorize(self.K_oo)
+            singular = nearly_singular(lu)
         except RuntimeError:  # SuperLU: "Factor is exactly singular"
             singular = True
         if singular:

@@ -31,7 +31,7 @@ from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 from .adjoint import adjoint_details, resolve_sensors
 from .factor import check_modes, prepare_factor
 from .finite_difference import finite_difference
-from .modal import _modal_part, modal, modal_static_correction
+from .modal import modal_part, modal, modal_static_correction
 from .nelson import nelson
 from .scaling import scaled_shape
 from .series import DEFAULT_TOL, omitted_modes_series
@@ -240,7 +240,7 @@ def _static_with_factor(model, modes, which, params, values, sigma, lu):
         dl, F, mjj = mode_rhs(model, params, lam[i], Phi[:, i], M @ Phi[:, i])
         Q, _ = omitted_modes_series(lu, M, Phi, F, [lam[i] - sigma], max_terms=1, strict=False)
         dlam[r] = dl
-        dphi[:, r, :] = _modal_part(modes, i, F, mjj) + Q[0]
+        dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[0]
     return dlam, dphi
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import InputError
-from ..modal import _factor, _nearly_singular
+from ..modal import factorize, nearly_singular
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 
 
-def _modal_part(modes, i, F, mjj):
+def modal_part(modes, i, F, mjj):
     """Σ_{r≠i} φ_r φ_rᵀ f / (λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i over the available modes."""
     lam = modes.eigenvalues
     Phi = modes.shapes
@@ -42,7 +42,7 @@ def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarra
         phi = modes.shapes[:, i]
         dl, F, mjj = mode_rhs(model, params, modes.eigenvalues[i], phi, M @ phi)
         dlam[r] = dl
-        dphi[:, r, :] = _modal_part(modes, i, F, mjj)
+        dphi[:, r, :] = modal_part(modes, i, F, mjj)
     return dlam, dphi
 
 
@@ -76,7 +76,7 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
         static = lu.solve(F - MPhi @ (Phi.T @ F))
         static -= Phi @ (MPhi.T @ static)
         dlam[r] = dl
-        dphi[:, r, :] = _modal_part(modes, i, F, mjj) + static
+        dphi[:, r, :] = modal_part(modes, i, F, mjj) + static
     return dlam, dphi
 
 
@@ -84,8 +84,8 @@ def shifted_factor(K, M, sigma=None):
     """LU of K − σM (σ = 0 unless K is singular; then a small negative shift)."""
     if sigma is None:
         try:
-            lu = _factor(K)
-            if not _nearly_singular(lu):
+            lu = factorize(K)
+            if not nearly_singular(lu):
                 return lu, 0.0
         except RuntimeError:
             pass
@@ -94,7 +94,7 @@ def shifted_factor(K, M, sigma=None):
             raise InputError("the stiffness matrix has no positive diagonal entry")
         sigma = -1e-6 * float(np.median(d[d > 0] / M.diagonal()[d > 0]))
     try:
-        return _factor(K - sigma * M), float(sigma)
+        return factorize(K - sigma * M), float(sigma)
     except RuntimeError as exc:
         raise InputError(f"K - sigma M is singular at sigma = {sigma:g}: {exc}") from None
 

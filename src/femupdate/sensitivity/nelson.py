@@ -7,7 +7,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .._errors import NumericalError
-from ..modal import _factor
+from ..modal import factorize
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 
 DENSE_LIMIT = 1500
@@ -58,7 +58,7 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
             Z = sp.diags_array(keep)
             A = Z @ (K - lam * M) @ Z + sp.coo_array(([1.0], ([k], [k])), shape=(n, n))
             try:
-                lu = _factor(A)
+                lu = factorize(A)
             except RuntimeError as exc:
                 raise NumericalError(f"Nelson's method: the modified matrix of mode {i + 1} is singular ({exc})") from None
             V = lu.solve(F)

@@ -56,7 +56,7 @@ import numpy as np
 
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 from .factor import check_modes, prepare_factor, single_thread_blas, solve
-from .modal import _modal_part
+from .modal import modal_part
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
 
@@ -90,7 +90,7 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
         Q, n_terms[r] = omitted_modes_series(lu, M, Phi, F, [lam[i] - sigma], tol=tol, max_terms=max_terms,
                                              labels=[str(i + 1)], series=series)
         dlam[r] = dl
-        dphi[:, r, :] = _modal_part(modes, i, F, mjj) + Q[0]
+        dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[0]
     return dlam, dphi, n_terms
 
 
