@@ -9,6 +9,7 @@ the key dropped as volatile, and why ARPACK's start vector is pinned in both pla
 import importlib.util
 import json
 import math
+import os
 from pathlib import Path
 
 import pytest
@@ -25,6 +26,14 @@ _spec.loader.exec_module(record)
 
 REL = ABS = 1e-12
 MAX_REPORTED = 20
+
+#: With NUMBA_DISABLE_JIT=1 the compiled route runs as Python and its inner products are NumPy's
+#: (BLAS summation order) instead of the compiled sequential sums, so its results differ at
+#: round-off.  Multi-start studies whose starts end in local minima of flat valleys follow that
+#: round-off (a minimum moves by ~1e-9, two clusters of equal count swap places), so these parts
+#: are compared in compiled runs only.
+ROUND_OFF_DRIVEN = {"paper.json": ("sections.six_dof_uniqueness",), "uniqueness_figure2_noise.json": ("cases",)}
+NO_JIT = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
 
 
 def _run(args, capsys) -> tuple[int, str]:
@@ -94,6 +103,8 @@ def test_command_reproduces_recorded_json(fname, ex, tmp_path, capsys, monkeypat
     expected = json.loads((RECORDED / fname).read_text())
     diffs: list[str] = []
     compare(expected, actual, "", diffs)
+    if NO_JIT:
+        diffs = [d for d in diffs if not d.startswith(ROUND_OFF_DRIVEN.get(fname, ()))]
     if diffs:
         shown = "\n".join(f"{fname}: {d}" for d in diffs[:MAX_REPORTED])
         more = f"\n... and {len(diffs) - MAX_REPORTED} more" if len(diffs) > MAX_REPORTED else ""
