@@ -233,7 +233,8 @@ class Structure:
         nodes : (int, int) or array_like of shape ``(n_el, 2)``
             End nodes of each member.
         E, A, rho : float, str or sequence
-            Young's modulus, cross-section area and density, each a number, parameter name, or a sequence of either with one entry per element.
+            Young's modulus, cross-section area and density, each a number, parameter name, or a
+            sequence of either with one entry per element.
         dim : int, default 3
             2 (dofs x, y) or 3 (dofs x, y, z).
         mass : str, default ``"consistent"``
@@ -260,7 +261,8 @@ class Structure:
         nodes : (int, int) or array_like of shape ``(n_el, 2)``
             End nodes of each beam.
         E, A, I, rho : float, str or sequence
-            Young's modulus, area, second moment of area and density, each a number, parameter name, or a sequence of either with one entry per element.
+            Young's modulus, area, second moment of area and density, each a number, parameter
+            name, or a sequence of either with one entry per element.
         mass : str, default ``"consistent"``
             ``"consistent"`` or ``"lumped"``.
         where : str, default ``"beam2d"``
@@ -281,7 +283,8 @@ class Structure:
         nodes : (int, int) or array_like of shape ``(n_el, 2)``
             End nodes of each beam.
         EA_l, k12, k6, k2 : float, str or sequence
-            The stiffness terms EA/l, 12EI/l³, 6EI/l², 2EI/l, each a number, parameter name, or a sequence of either with one entry per element.
+            The stiffness terms EA/l, 12EI/l³, 6EI/l², 2EI/l, each a number, parameter name, or a
+            sequence of either with one entry per element.
         rho, A : float, str or sequence
             Density and area, for the mass matrix as :meth:`beam2d`.
         mass : str, default ``"consistent"``
@@ -306,7 +309,8 @@ class Structure:
             End nodes of each member.
         E, G, A, Iy, Iz, J, rho : float, str or sequence
             Young's and shear moduli, area, second moments of area about local y and z,
-            torsion constant and density, each a number, parameter name, or a sequence of either with one entry per element.
+            torsion constant and density, each a number, parameter name, or a sequence of either
+            with one entry per element.
         orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
             A vector in each member's local x-y plane (global components), finite.
         mass : str, default ``"consistent"``
