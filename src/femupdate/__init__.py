@@ -4,7 +4,7 @@ The verbs a user reaches for are here, at the top level::
 
     import femupdate as fu
 
-    model = fu.load_model("structure.toml")        # or fu.Structure(...).model(), fu.from_matrices(...)
+    model = fu.load_model("structure.toml")        # or fu.Structure(...).build(), fu.from_matrices(...)
     data = fu.load_test_data("test.json")          # JSON or universal file (.uff/.unv)
     modes = fu.model_modes(model)
     print(fu.correlate(data, modes).pairs)

@@ -21,7 +21,24 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     .. math:: \mathrm{MAC}_{rs} = |a_r^H b_s|^2 / ((a_r^H a_r)(b_s^H b_s))
 
-    Real or complex; independent of each column's scaling.  Returns (ma, mb).
+    Real or complex; independent of each column's scaling.
+
+    Parameters
+    ----------
+    A : array_like, shape ``(n_dofs, ma)`` or ``(n_dofs,)``
+        First set of shapes, one per column (a vector is one shape).
+    B : array_like, shape ``(n_dofs, mb)`` or ``(n_dofs,)``
+        Second set, on the same dofs in the same order.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(ma, mb)``
+        MAC values in [0, 1]; 0 where either shape is zero.
+
+    Raises
+    ------
+    InputError
+        ``A`` and ``B`` have different numbers of rows.
     """
     A = np.asarray(A)
     B = np.asarray(B)
@@ -39,7 +56,27 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 def common_dofs(dofs_a: Sequence[str], dofs_b: Sequence[str]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """Positions in ``a`` and ``b`` of their common labels (in ``a``'s order)."""
+    """Positions in ``a`` and ``b`` of their common labels (in ``a``'s order).
+
+    Parameters
+    ----------
+    dofs_a, dofs_b : sequence of str
+        Dof labels ``"node:dir"`` (compared in canonical form).
+
+    Returns
+    -------
+    ia : numpy.ndarray of int, shape ``(n_common,)``
+        Positions of the common labels in ``dofs_a``.
+    ib : numpy.ndarray of int, shape ``(n_common,)``
+        Positions of the same labels in ``dofs_b``.
+    common : tuple of str
+        The common labels, canonical, in ``dofs_a``'s order.
+
+    Raises
+    ------
+    InputError
+        No label in common (or an invalid label).
+    """
     a = canonical_all(dofs_a)
     pos_b = {d: i for i, d in enumerate(canonical_all(dofs_b))}
     ia = [i for i, d in enumerate(a) if d in pos_b]
@@ -54,7 +91,19 @@ def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, 
 
     An optimal assignment (Hungarian algorithm, :func:`scipy.optimize.linear_sum_assignment`)
     maximises the total MAC, so one model mode is never paired twice; pairs whose MAC is below
-    ``min_mac`` are dropped.  Returns ``[(test, model, mac)]`` sorted by test mode.
+    ``min_mac`` are dropped.
+
+    Parameters
+    ----------
+    mac_matrix : array_like, shape ``(n_test, n_model)``
+        MAC of each test mode (row) with each model mode (column), as :func:`mac` gives it.
+    min_mac : float, default 0.5
+        Smallest MAC of a kept pair.
+
+    Returns
+    -------
+    list of (int, int, float)
+        ``[(test, model, mac)]`` with 0-based mode indices, sorted by test mode.
     """
     mm = np.asarray(mac_matrix, dtype=float)
     rows, cols = linear_sum_assignment(mm, maximize=True)
@@ -63,7 +112,18 @@ def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, 
 
 
 def modal_scale_factor(test: np.ndarray, model: np.ndarray) -> np.ndarray:
-    """Per-column factor ``s`` minimising ``||test - s * model||`` (the modal scale factor)."""
+    """Per-column factor ``s`` minimising ``||test - s * model||`` (the modal scale factor).
+
+    Parameters
+    ----------
+    test, model : numpy.ndarray, shape ``(n_dofs, n_modes)``
+        Paired shapes, column by column, on the same dofs (real or complex).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_modes,)``
+        ``s_r = model_rᴴ test_r / model_rᴴ model_r``.
+    """
     num = np.sum(np.conj(model) * test, axis=0)
     den = np.sum(np.abs(model) ** 2, axis=0)
     return num / den
@@ -81,6 +141,16 @@ def comac(test: np.ndarray, model: np.ndarray) -> np.ndarray:
     A low value marks a dof whose measured motion does not follow the model across the modes
     (a bad sensor, a wrong label, local modelling error).  A factor common to all modes at a
     dof (a calibration error, even a reversed sensor) is invisible to it.
+
+    Parameters
+    ----------
+    test, model : array_like, shape ``(n_dofs, n_pairs)``
+        Test shapes and the model shapes paired with them, column by column, on the same dofs.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_dofs,)``
+        COMAC per dof, in [0, 1]; 1 at a dof where both are zero in every mode.
     """
     test = np.asarray(test)
     model = np.asarray(model) * modal_scale_factor(test, np.asarray(model))
@@ -98,6 +168,26 @@ class Correlation:
 
     ``mac`` (n_test, n_model) on the common ``dofs``; ``pairs`` [(test, model, mac)];
     ``frequency_error`` relative (model - test) / test per pair; ``comac`` per common dof.
+
+    Parameters
+    ----------
+    dofs : tuple of str
+        Dof labels common to the test and model shapes (empty when no test mode has a shape).
+    mac : numpy.ndarray, shape ``(n_test, n_model)``
+        MAC on ``dofs``; rows of test modes without a shape are 0.
+    pairs : list of (int, int, float)
+        ``(test mode, model mode, MAC)``, 0-based, sorted by test mode (MAC NaN when paired by
+        frequency order).
+    test_frequencies_hz : numpy.ndarray, shape ``(n_test,)``
+        Measured natural frequencies, Hz.
+    model_frequencies_hz : numpy.ndarray, shape ``(n_model,)``
+        Model natural frequencies, Hz.
+    frequency_error : numpy.ndarray, shape ``(n_pairs,)``
+        Relative error (f_model − f_test) / f_test per pair (dimensionless).
+    comac : numpy.ndarray, shape ``(len(dofs),)``
+        COMAC per common dof over the pairs (NaN if no pair; empty without shapes).
+    unpaired_test : list of int
+        Test modes left without a model mode.
     """
 
     dofs: tuple[str, ...]
@@ -114,7 +204,26 @@ def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
     """Correlate :class:`~femupdate.TestData` modes with :class:`~femupdate.Modes`.
 
     Test modes without a shape are paired in frequency order with the remaining model modes
-    only if *no* test mode has a shape; otherwise they are left unpaired.
+    only if *no* test mode has a shape; otherwise they are left unpaired.  Shapes are compared
+    on their common dofs (by label) with :func:`mac` and paired by :func:`pair_modes`.
+
+    Parameters
+    ----------
+    test : TestData
+        The measured modes (frequencies in Hz, shapes at labelled dofs).
+    model_modes : Modes
+        Model modes, e.g. from :func:`femupdate.model_modes`.
+    min_mac : float, default 0.5
+        Smallest MAC of a pair.
+
+    Returns
+    -------
+    Correlation
+
+    Raises
+    ------
+    InputError
+        The test and model shapes have no dof in common.
     """
     tdofs, Phi_t = test.shape_matrix()
     f_t = test.frequencies_hz

@@ -36,7 +36,24 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True, eq=False)
 class LinearSystem:
-    """Stacked direct-updating equations ``A p_free = b`` with a label per row block."""
+    """Stacked direct-updating equations ``A p_free = b`` with a label per row block.
+
+    Built by :func:`build_system` (:meth:`EquationBuilder.system`); each parameter is stored as
+    the attribute of the same name.
+
+    Parameters
+    ----------
+    A : numpy.ndarray or scipy.sparse.csr_array, shape ``(n_equations, n_unknowns)``
+        Coefficients of the unknown parameters (complex equations split into real and
+        imaginary rows).
+    b : numpy.ndarray, shape ``(n_equations,)``
+        Right-hand side (the known part of the model and the applied forces).
+    unknowns : tuple of str
+        Names of the unknown parameters, one per column of ``A``.
+    blocks : list of (str, int)
+        Description and number of rows of each block (a mode, an FRF line, a static case), in
+        row order.
+    """
 
     A: np.ndarray | sp.csr_array
     b: np.ndarray
@@ -45,14 +62,17 @@ class LinearSystem:
 
     @property
     def n_equations(self) -> int:
+        """Number of rows of ``A``."""
         return self.b.size
 
 
 @dataclass(frozen=True, eq=False)
 class DirectResult:
-    """Solution of a direct update.
+    """Solution of a direct update (built by :func:`solve_system`).
 
-    Attributes
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     parameters : dict
         Every parameter's value: identified for the unknowns, given for the fixed ones.
@@ -70,6 +90,8 @@ class DirectResult:
         ``rank == number of unknowns``.
     null_space : ndarray (n_unknowns, n_unknowns - rank)
         Parameter combinations the data cannot determine (empty when unique).
+    singular_values : ndarray (n_unknowns,)
+        Singular values of ``A`` as stacked (unscaled), descending.
     system : LinearSystem
     standard_error : ndarray
         Standard error of each unknown from the least-squares residual,
@@ -77,7 +99,10 @@ class DirectResult:
         system is square or rank deficient.  It assumes errors in ``b`` only: noise in the
         measured shapes also biases the estimate (errors in variables), so treat it as a
         lower bound on the uncertainty.
+    bounded : bool
+        Whether the parameters' bounds were enforced (bounded least squares).
     notes : list of str
+        Remarks: modes without a shape left out, the undetermined combinations when not unique.
     """
 
     parameters: dict[str, float]
@@ -131,7 +156,26 @@ def _fro(A) -> float:
 
 
 class EquationBuilder:
-    """Accumulates column blocks ``[(K_j - s M_j) x]_j`` and right-hand sides."""
+    """Accumulates column blocks ``[(K_j - s M_j) x]_j`` and right-hand sides.
+
+    The known part of the model, ``K_f`` and ``M_f`` (``K0``, ``M0`` and the known
+    parameters), goes to the right-hand side.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values as :meth:`Model.resolve` reads them; those of the known parameters are
+        used (default nominal).
+    unknowns : sequence of str, optional
+        Names of the parameters to identify (default: every parameter not ``fixed``).
+
+    Raises
+    ------
+    InputError
+        No unknown parameter; an unknown parameter name; and as :meth:`Model.resolve`.
+    """
 
     def __init__(self, model, values=None, unknowns: Sequence[str] | None = None):
         self.model = model
@@ -155,7 +199,21 @@ class EquationBuilder:
         self.info = np.zeros(len(self.free))
 
     def add(self, x: np.ndarray, s: float, f: np.ndarray | None, desc: str) -> None:
-        """Equations (K(p) - s M(p)) x = f, linear in the unknown p."""
+        """Equations (K(p) - s M(p)) x = f, linear in the unknown p.
+
+        Adds one block of n_dofs rows (2 n_dofs when complex: real and imaginary parts).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape ``(n_dofs,)``
+            A complete vector on the model's dofs (mode shape, response or displacement).
+        s : float
+            λ (rad²/s²) for a mode, ω² for an FRF line, 0 for a static case.
+        f : numpy.ndarray, shape ``(n_dofs,)``, or None
+            Applied force (N), or ``None`` (a mode: no force).
+        desc : str
+            Description of the block.
+        """
         m = self.model
         cols = []
         for j in self.free:
@@ -178,6 +236,18 @@ class EquationBuilder:
         self.blocks.append((desc, C.shape[0]))
 
     def system(self) -> LinearSystem:
+        """The stacked :class:`LinearSystem` of every block added.
+
+        Returns
+        -------
+        LinearSystem
+
+        Raises
+        ------
+        InputError
+            No block added; an unknown parameter on which the data carry no information (its
+            column is round-off compared with ‖K_j‖ ‖x‖).
+        """
         if not self.cols:
             raise InputError("no complete data to build direct equations from (need mode shapes, FRFs or static deflections at every model dof)")
         A = np.vstack(self.cols)
@@ -194,7 +264,25 @@ class EquationBuilder:
 
 
 def modal_equations(builder: EquationBuilder, modes: Sequence[MeasuredMode], notes: list[str]) -> None:
-    """Eqs. (4)-(9): one block of n rows per complete mode (shape normalised to unit length)."""
+    """Eqs. (4)-(9): one block of n rows per complete mode (shape normalised to unit length).
+
+    Complex shapes are rotated to the real axis (by the phase of their largest entry) and
+    their real part used.
+
+    Parameters
+    ----------
+    builder : EquationBuilder
+        Receives the equations.
+    modes : sequence of MeasuredMode
+        Measured modes; each with a shape must be measured at every model dof.
+    notes : list of str
+        Receives a note per mode without a shape (skipped).
+
+    Raises
+    ------
+    InputError
+        A shape missing model dofs or at dofs not in the model.
+    """
     for k, mode in enumerate(modes, start=1):
         name = mode.label or f"mode {k}"
         if not mode.has_shape:
@@ -209,7 +297,21 @@ def modal_equations(builder: EquationBuilder, modes: Sequence[MeasuredMode], not
 
 
 def frf_equations(builder: EquationBuilder, frf: FRFData) -> None:
-    """Eqs. (24)-(28): one block per spectral line; complex data give real and imaginary rows."""
+    """Eqs. (24)-(28): one block per spectral line; complex data give real and imaginary rows.
+
+    Parameters
+    ----------
+    builder : EquationBuilder
+        Receives the equations (Z(ω) x = f with Z = K − ω²M, ω in rad/s).
+    frf : FRFData
+        Responses measured at every model dof, with the applied force.
+
+    Raises
+    ------
+    InputError
+        Responses missing model dofs or at dofs not in the model; a force at a dof not in the
+        model.
+    """
     x = _complete(builder.model, frf.dofs, frf.response.T, "frf response")  # (n, n_freq)
     f = _force(builder.model, dict(frf.force), "frf")
     for i, w in enumerate(frf.omega):
@@ -217,7 +319,21 @@ def frf_equations(builder: EquationBuilder, frf: FRFData) -> None:
 
 
 def static_equations(builder: EquationBuilder, cases: Sequence[StaticData]) -> None:
-    """Static equilibrium K(p) u = f for each load case (Lallement et al. 1992)."""
+    """Static equilibrium K(p) u = f for each load case (Lallement et al. 1992).
+
+    Parameters
+    ----------
+    builder : EquationBuilder
+        Receives the equations.
+    cases : sequence of StaticData
+        Load cases with displacements at every model dof.
+
+    Raises
+    ------
+    InputError
+        Displacements missing model dofs or at dofs not in the model; a force at a dof not in
+        the model.
+    """
     for k, case in enumerate(cases, start=1):
         u = _complete(builder.model, case.dofs, case.displacement, f"static case {k} displacement")
         f = _force(builder.model, dict(case.force), f"static case {k}")
@@ -226,7 +342,33 @@ def static_equations(builder: EquationBuilder, cases: Sequence[StaticData]) -> N
 
 def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "static"),
                  values=None, unknowns=None, notes: list[str] | None = None) -> LinearSystem:
-    """Stack the direct equations of the chosen kinds of data."""
+    """Stack the direct equations of the chosen kinds of data.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : TestData
+        Complete test data (every model dof measured).
+    use : sequence of str, default ``("modes", "frf", "static")``
+        Kinds of data to use, among those present.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the known parameters (default nominal).
+    unknowns : sequence of str, optional
+        Parameters to identify (default: every parameter not ``fixed``).
+    notes : list of str, optional
+        Receives remarks (modes without a shape).
+
+    Returns
+    -------
+    LinearSystem
+
+    Raises
+    ------
+    InputError
+        An unknown data kind, and as :class:`EquationBuilder`, :func:`modal_equations`,
+        :func:`frf_equations`, :func:`static_equations`.
+    """
     notes = [] if notes is None else notes
     b = EquationBuilder(model, values, unknowns)
     unknown_kinds = set(use) - {"modes", "frf", "static"}
@@ -243,7 +385,36 @@ def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "s
 
 def solve_system(model, system: LinearSystem, values=None, bounded: bool = False,
                  notes: list[str] | None = None) -> DirectResult:
-    """Least-squares solution of ``A p = b`` (eq. 10 / eq. 29) with diagnostics."""
+    """Least-squares solution of ``A p = b`` (eq. 10 / eq. 29) with diagnostics.
+
+    The columns of ``A`` are scaled to unit length; without bounds the solution is the
+    minimum-norm pseudo-inverse one (singular values below ``max(A.shape) · eps · s_max`` of the
+    scaled matrix dropped), with bounds SciPy's ``lsq_linear`` (BVLS).
+
+    Parameters
+    ----------
+    model : Model
+        The model the system was built from.
+    system : LinearSystem
+        The stacked equations.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the known parameters, reported in ``parameters`` (default nominal).
+    bounded : bool, default False
+        Enforce the unknown parameters' bounds.
+    notes : list of str, optional
+        Remarks so far; a note on the undetermined combinations is appended when not unique.
+
+    Returns
+    -------
+    DirectResult
+
+    Raises
+    ------
+    InputError
+        Fewer equations than unknowns; a homogeneous system (b = 0: the scale is undetermined).
+    NumericalError
+        The bounded solve failed.
+    """
     notes = [] if notes is None else notes
     A, b = system.A, system.b
     L = A.shape[1]

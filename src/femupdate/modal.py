@@ -31,13 +31,17 @@ NORMALISATIONS = ("mass", "unit", "max")
 class Modes:
     """Modes with labelled dofs.
 
-    Attributes
+    Built by :func:`solve_modes` / :func:`model_modes`; each parameter is stored as the
+    attribute of the same name.
+
+    Parameters
     ----------
-    eigenvalues : ndarray (m,)
+    eigenvalues : ndarray, shape ``(n_modes,)``
         :math:`\\lambda = \\omega^2` in rad^2/s^2, ascending.
-    shapes : ndarray (n, m)
+    shapes : ndarray, shape ``(n_dofs, n_modes)``
         Column r is mode r on ``dofs``.
     dofs : tuple of str
+        Dof labels ``"node:dir"`` of the rows of ``shapes``.
     normalisation : str
         ``"mass"``, ``"unit"``, ``"max"`` or ``"ref:<dof>"``.
     n_rigid : int
@@ -57,18 +61,54 @@ class Modes:
 
     @property
     def frequencies_hz(self) -> np.ndarray:
+        """Natural frequencies √λ / 2π in Hz, shape ``(n_modes,)`` (negative λ read as 0)."""
         return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2 * np.pi)
 
     @property
     def n_modes(self) -> int:
+        """Number of modes held."""
         return self.eigenvalues.size
 
     def at(self, dofs: Sequence[str]) -> np.ndarray:
-        """Shape components at the given dof labels, ``(len(dofs), m)``."""
+        """Shape components at the given dof labels.
+
+        Parameters
+        ----------
+        dofs : sequence of str
+            Dof labels ``"node:dir"``, each one of :attr:`dofs`.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(len(dofs), n_modes)``
+            The rows of :attr:`shapes` at those dofs, in the order given.
+
+        Raises
+        ------
+        InputError
+            A label that is not one of :attr:`dofs`.
+        """
         return self.shapes[index_of(self.dofs, dofs, "mode shapes"), :]
 
     def normalised(self, how: str, M=None) -> Modes:
-        """Copy renormalised (``M`` is needed for ``"mass"``)."""
+        """Copy renormalised (``M`` is needed for ``"mass"``).
+
+        Parameters
+        ----------
+        how : str
+            ``"mass"``, ``"unit"``, ``"max"`` or ``"ref:<dof>"``, as :func:`normalise`.
+        M : array_like or sparse matrix, shape ``(n_dofs, n_dofs)``, optional
+            Mass matrix (kg), required for ``"mass"``.
+
+        Returns
+        -------
+        Modes
+            Same eigenvalues and dofs, rescaled shapes, ``normalisation=how``.
+
+        Raises
+        ------
+        InputError, NumericalError
+            As :func:`normalise`.
+        """
         return replace(self, shapes=normalise(self.shapes, how, M=M, dofs=self.dofs), normalisation=how)
 
 
@@ -91,6 +131,31 @@ def normalise(Phi: np.ndarray, how: str = "mass", M=None, dofs: Sequence[str] | 
     ``"mass"``: :math:`\\phi^T M \\phi = 1`; ``"unit"``: :math:`\\|\\phi\\| = 1`; ``"max"``:
     largest-magnitude entry = +1; ``"ref:<dof>"``: entry at that dof = 1 (the paper's eq. 33
     scaling, "the amplitude of the first freedom being one").  Signs are made deterministic.
+
+    Parameters
+    ----------
+    Phi : array_like, shape ``(n_dofs, n_modes)``
+        Mode shapes, one per column (not modified; a scaled copy is returned).
+    how : str, default ``"mass"``
+        ``"mass"``, ``"unit"``, ``"max"`` or ``"ref:<dof>"``.
+    M : array_like or sparse matrix, shape ``(n_dofs, n_dofs)``, optional
+        Mass matrix (kg); required for ``"mass"``.
+    dofs : sequence of str, optional
+        Labels ``"node:dir"`` of the rows of ``Phi``; required for ``"ref:<dof>"``.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_dofs, n_modes)``
+        The scaled shapes.  With ``"mass"`` and M in kg, the entries are in kg^-1/2.
+
+    Raises
+    ------
+    InputError
+        Unknown ``how``; ``"mass"`` without ``M``; ``"ref:<dof>"`` without ``dofs`` or with a
+        dof not among them.
+    NumericalError
+        A non-positive modal mass φᵀMφ (``"mass"``), or a mode with a zero at the reference dof
+        (``"ref:<dof>"``).
     """
     Phi = np.array(Phi, dtype=float, copy=True)
     if how == "mass":
@@ -144,21 +209,41 @@ def solve_modes(
 
     Parameters
     ----------
-    K, M : (n, n) dense or sparse, symmetric; M positive definite.
+    K, M : array_like or sparse matrix, shape ``(n_dofs, n_dofs)``
+        Stiffness (N/m) and mass (kg) matrices, symmetric; M positive definite.
     n_modes : int, optional
-        Number of modes (default: all for dense, 10 for sparse).
+        Number of modes, between 1 and n_dofs (default: all for dense, ``min(10, n_dofs - 1)``
+        for sparse).
     dofs : sequence of str, optional
-        Labels of the matrix rows (required for ``ref:<dof>`` normalisation).
-    normalisation : ``"mass"`` | ``"unit"`` | ``"max"`` | ``"ref:<dof>"``
-    method : ``"auto"`` | ``"dense"`` | ``"sparse"``
-        ``auto`` is dense up to :data:`DENSE_LIMIT` dofs.
+        Labels ``"node:dir"`` of the matrix rows (required for ``ref:<dof>`` normalisation;
+        default ``"1:x"``, ``"2:x"``, ...).
+    normalisation : str, default ``"mass"``
+        ``"mass"`` | ``"unit"`` | ``"max"`` | ``"ref:<dof>"``, as :func:`normalise`.
+    method : str, default ``"auto"``
+        ``"auto"`` | ``"dense"`` | ``"sparse"``.  ``auto`` is dense up to :data:`DENSE_LIMIT`
+        dofs (or when at least n_dofs − 1 modes are asked for), sparse above.
     sigma : float, optional
-        Shift for shift-invert (sparse).  Default 0, or a small negative shift when K is
-        singular (rigid-body modes).
+        Shift for shift-invert (sparse), rad²/s².  Default 0, or a small negative shift when K
+        is singular (rigid-body modes).
+    tol : float, default 0.0
+        ARPACK's relative accuracy of the eigenvalues (sparse only; 0 means machine precision).
 
     Returns
     -------
     Modes
+        Eigenvalues λ = ω² (rad²/s²) ascending, with rigid-body ones set to exactly 0 and
+        counted in ``n_rigid``; shapes normalised as asked; on the sparse path, the
+        factorisation in ``factor``.
+
+    Raises
+    ------
+    InputError
+        K and M not square or of different sizes; a zero or negative diagonal mass entry, or a
+        failed Cholesky factorisation of M (dense); ``n_modes`` out of range; an unknown
+        ``method``; ``method="sparse"`` with ``n_modes >= n_dofs - 1``; a negative eigenvalue
+        (K not positive semi-definite); and as :func:`normalise`.
+    NumericalError
+        The sparse eigensolver failed or did not converge; and as :func:`normalise`.
     """
     n = K.shape[0]
     if K.shape != (n, n) or M.shape != (n, n):
@@ -279,6 +364,31 @@ def _sparse(K, M, n_modes, sigma, tol):
 
 
 def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:
-    """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal)."""
+    """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal).
+
+    :func:`solve_modes` on the model's K(p) and M(p), with the model's dof labels.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``
+        Parameter values as :meth:`Model.resolve` reads them (default: nominal).
+    n_modes : int, optional
+        Number of modes (default as :func:`solve_modes`).
+    normalisation : str, default ``"mass"``
+        ``"mass"`` | ``"unit"`` | ``"max"`` | ``"ref:<dof>"``.
+    **kw
+        Further options of :func:`solve_modes`: ``method``, ``sigma``, ``tol``.
+
+    Returns
+    -------
+    Modes
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :meth:`Model.resolve` and :func:`solve_modes`.
+    """
     return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
                        normalisation=normalisation, **kw)

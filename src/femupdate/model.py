@@ -90,19 +90,47 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """Affine parametrised model with labelled dofs.
+    """Affine parametrised model with labelled dofs: K(p) = K0 + Σ_j p_j dK[j], M(p) = M0 + Σ_j p_j dM[j].
+
+    Every argument is validated once, on construction; the stored matrices are CSR arrays with
+    duplicates summed and explicit zeros removed.
+
+    Parameters
+    ----------
+    dofs : sequence of str
+        Labels ``"node:dir"`` of the model's (free) dofs, in matrix order (stored canonical, as a
+        tuple).
+    K0, M0 : array_like or scipy sparse matrix, shape ``(n_dofs, n_dofs)``
+        Parameter-independent parts of the stiffness (N/m) and mass (kg) matrices; symmetric,
+        finite.
+    parameters : sequence of Parameter, default ``()``
+        The model parameters p, in declaration order.
+    dK, dM : sequence of (array_like, sparse matrix or None), default ``()``
+        ``dK[j] = ∂K/∂p_j`` (``None`` where parameter j does not enter K), likewise ``dM``; each
+        ``(n_dofs, n_dofs)`` and symmetric.  Empty: no parameter enters that matrix.
+    name : str, default ``"model"``
+        Name used in messages and results.
+    nodes : mapping of int to (float, float, float), optional
+        Node id -> coordinates (x, y, z), for geometry-aware output such as UFF.
 
     Attributes
     ----------
     dofs : tuple of str
         Labels of the model's (free) dofs, in matrix order.
     K0, M0 : scipy.sparse.csr_array
-        Parameter-independent parts, shape ``(n, n)``.
+        Parameter-independent parts, shape ``(n_dofs, n_dofs)``.
     parameters : tuple of Parameter
     dK, dM : tuple of csr_array or None
         ``dK[j] = dK/dp_j`` (``None`` where parameter j does not enter K); likewise ``dM``.
     name : str
-    nodes : mapping node id -> (x, y, z), optional (for geometry-aware output such as UFF).
+    nodes : dict of int to (x, y, z)
+
+    Raises
+    ------
+    InputError
+        No dofs; invalid or duplicate dof labels; a matrix not square, of the wrong size, not
+        finite or not symmetric; a parameter declared twice; ``dK``/``dM`` not one entry per
+        parameter; a parameter that enters neither K nor M.
     """
 
     dofs: tuple[str, ...]
@@ -144,10 +172,12 @@ class Model:
     # ------------------------------------------------------------------ basic properties
     @property
     def n_dofs(self) -> int:
+        """Number of (free) dofs, the size of every matrix."""
         return len(self.dofs)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
+        """Parameter names, in declaration order."""
         return tuple(p.name for p in self.parameters)
 
     @property
@@ -162,11 +192,29 @@ class Model:
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of every parameter, two arrays of shape ``(n_parameters,)``."""
         lo = np.array([p.bounds[0] for p in self.parameters])
         hi = np.array([p.bounds[1] for p in self.parameters])
         return lo, hi
 
     def parameter_index(self, name: str) -> int:
+        """Position of a parameter in declaration order.
+
+        Parameters
+        ----------
+        name : str
+            Parameter name.
+
+        Returns
+        -------
+        int
+            Its index j in :attr:`parameters` (and in ``dK``, ``dM``, :attr:`values`).
+
+        Raises
+        ------
+        InputError
+            ``name`` is not a parameter of the model.
+        """
         try:
             return self.parameter_names.index(name)
         except ValueError:
@@ -176,12 +224,47 @@ class Model:
             ) from None
 
     def dof_index(self, labels: Sequence[str], what: str = "data") -> np.ndarray:
-        """Matrix positions of dof labels; one error naming every unknown label."""
+        """Matrix positions of dof labels; one error naming every unknown label.
+
+        Parameters
+        ----------
+        labels : sequence of str
+            Dof labels ``"node:dir"``.
+        what : str, default ``"data"``
+            What the labels belong to, for the error message.
+
+        Returns
+        -------
+        numpy.ndarray of int, shape ``(len(labels),)``
+            Row/column index of each label in the model matrices.
+
+        Raises
+        ------
+        InputError
+            A label is not a model dof (every unknown label is named).
+        """
         return index_of(self.dofs, labels, what)
 
     # ------------------------------------------------------------------ evaluation
     def resolve(self, values=None) -> np.ndarray:
-        """Full parameter vector from ``None`` (nominal), a mapping {name: value} or an array."""
+        """Full parameter vector from ``None`` (nominal), a mapping {name: value} or an array.
+
+        Parameters
+        ----------
+        values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``
+            ``None``: the nominal values; a mapping: the nominal values with the named ones
+            replaced; an array: every value, in declaration order.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_parameters,)``
+            The parameter values p (a new array).
+
+        Raises
+        ------
+        InputError
+            An unknown parameter name, an array of the wrong shape, or a non-finite value.
+        """
         p = self.values
         if values is None:
             return p
@@ -229,26 +312,83 @@ class Model:
         return sp.csr_array((data, union.indices.copy(), union.indptr.copy()), shape=union.shape)
 
     def K(self, values=None) -> sp.csr_array:
-        """Stiffness matrix K(p) (sparse, ``(n, n)``)."""
+        """Stiffness matrix K(p) = K0 + Σ_j p_j dK[j] (N/m).
+
+        Parameters
+        ----------
+        values : None, mapping of str to float, or array_like, optional
+            Parameter values as :meth:`resolve` reads them (default: nominal).
+
+        Returns
+        -------
+        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
+        """
         return self._assemble("K", self.resolve(values))
 
     def M(self, values=None) -> sp.csr_array:
-        """Mass matrix M(p) (sparse, ``(n, n)``)."""
+        """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg).
+
+        Parameters
+        ----------
+        values : None, mapping of str to float, or array_like, optional
+            Parameter values as :meth:`resolve` reads them (default: nominal).
+
+        Returns
+        -------
+        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
+        """
         return self._assemble("M", self.resolve(values))
 
     def dK_dp(self, j: int) -> sp.csr_array:
-        """Exact dK/dp_j (a zero matrix if parameter j does not enter K)."""
+        """Exact dK/dp_j (a zero matrix if parameter j does not enter K).
+
+        Parameters
+        ----------
+        j : int
+            Parameter index (declaration order).
+
+        Returns
+        -------
+        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
+        """
         d = self.dK[j]
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
     def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M)."""
+        """Exact dM/dp_j (a zero matrix if parameter j does not enter M).
+
+        Parameters
+        ----------
+        j : int
+            Parameter index (declaration order).
+
+        Returns
+        -------
+        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
+        """
         d = self.dM[j]
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
     # ------------------------------------------------------------------ transforms
     def with_values(self, values) -> Model:
-        """Copy whose nominal parameter values are ``values`` (mapping or array)."""
+        """Copy whose nominal parameter values are ``values`` (mapping or array).
+
+        A parameter's bounds are widened, where needed, to contain its new value.
+
+        Parameters
+        ----------
+        values : mapping of str to float, or array_like of shape ``(n_parameters,)``
+            As :meth:`resolve` reads them (a mapping changes only the named parameters).
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        InputError
+            As :meth:`resolve`.
+        """
         p = self.resolve(values)
         params = tuple(
             replace(par, value=v, bounds=(min(par.bounds[0], v), max(par.bounds[1], v)))
@@ -257,7 +397,24 @@ class Model:
         return replace(self, parameters=params)
 
     def with_fixed(self, names: Sequence[str], fixed: bool = True) -> Model:
-        """Copy with the named parameters marked known (or unknown with ``fixed=False``)."""
+        """Copy with the named parameters marked known (or unknown with ``fixed=False``).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Parameter names.
+        fixed : bool, default True
+            The new ``fixed`` flag of those parameters.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        InputError
+            An unknown parameter name.
+        """
         idx = {self.parameter_index(n) for n in names}
         params = tuple(replace(p, fixed=fixed) if j in idx else p for j, p in enumerate(self.parameters))
         return replace(self, parameters=params)
@@ -269,6 +426,7 @@ class Model:
         )
 
     def describe_dofs(self, limit: int = 8) -> str:
+        """Short text listing the model dofs, at most ``limit`` labels (for messages)."""
         return describe(self.dofs, limit)
 
 
@@ -285,6 +443,30 @@ def from_matrices(
 
     This is how models exported from a commercial FE code come in: ``K0``, ``M0`` and one
     (sparse) matrix per parameter, all on the same dof set.
+
+    Parameters
+    ----------
+    dofs : sequence of str
+        Dof labels ``"node:dir"`` in matrix order.
+    K0, M0 : array_like or scipy sparse matrix, shape ``(n_dofs, n_dofs)``
+        Parameter-independent stiffness (N/m) and mass (kg) matrices.
+    parameters : sequence of Parameter, default ``()``
+        The parameters p_j.
+    dK, dM : sequence of (matrix or None), optional
+        One ``(n_dofs, n_dofs)`` matrix (or ``None``) per parameter: ∂K/∂p_j and ∂M/∂p_j.
+        Omitted: that matrix depends on no parameter.
+    name : str, default ``"matrices"``
+        Model name.
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    InputError
+        As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
+        match, unused or duplicate parameters).
     """
     return Model(
         dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters),

@@ -31,6 +31,24 @@ class MeasuredMode:
 
     ``shape`` values are in any scaling; real or complex (complex modes from a damped
     structure are accepted and compared through their real-normalised form where needed).
+
+    Parameters
+    ----------
+    eigenvalue : float
+        Measured eigenvalue λ = ω² in rad²/s², finite and ≥ 0 (see :meth:`from_frequency` to give
+        a frequency in Hz).
+    dofs : sequence of str, default ``()``
+        Labels ``"node:dir"`` of the measured shape entries (empty: no shape measured).
+    shape : array_like, shape ``(len(dofs),)``
+        Shape values at ``dofs``, real or complex, finite, not all zero.
+    label : str, default ``""``
+        Name of the mode, used in messages.
+
+    Raises
+    ------
+    InputError
+        Negative or non-finite eigenvalue; invalid dof labels; a shape of the wrong length,
+        non-finite, or zero at every measured dof.
     """
 
     eigenvalue: float
@@ -56,10 +74,29 @@ class MeasuredMode:
 
     @property
     def frequency_hz(self) -> float:
+        """Natural frequency √λ / 2π, Hz."""
         return math.sqrt(self.eigenvalue) / (2 * math.pi)
 
     @classmethod
     def from_frequency(cls, frequency_hz: float, dofs=(), shape=(), label: str = "") -> MeasuredMode:
+        """Measured mode from its natural frequency in Hz (λ = (2π f)²).
+
+        Parameters
+        ----------
+        frequency_hz : float
+            Natural frequency, Hz, finite and ≥ 0.
+        dofs, shape, label
+            As :class:`MeasuredMode`.
+
+        Returns
+        -------
+        MeasuredMode
+
+        Raises
+        ------
+        InputError
+            A negative or non-finite frequency, and as :class:`MeasuredMode`.
+        """
         f = float(frequency_hz)
         if not math.isfinite(f) or f < 0:
             raise InputError(f"mode {label}: frequency_hz {frequency_hz!r} must be finite and >= 0")
@@ -67,6 +104,7 @@ class MeasuredMode:
 
     @property
     def has_shape(self) -> bool:
+        """Whether a shape was measured (at least one dof)."""
         return len(self.dofs) > 0
 
 
@@ -75,6 +113,23 @@ class FRFData:
     """Receptance measurements: response ``x(omega)`` at ``dofs`` for force amplitudes ``force``.
 
     ``response`` has shape ``(n_freq, n_dofs)`` (complex or real); ``omega`` in rad/s.
+
+    Parameters
+    ----------
+    omega : array_like, shape ``(n_freq,)``
+        Excitation frequencies ω, rad/s, finite and ≥ 0 (flattened; not empty).
+    force : mapping of str to float or complex
+        Force amplitude (N) at each excited dof ``"node:dir"``; not all zero.
+    dofs : sequence of str
+        Labels of the measured response dofs.
+    response : array_like, shape ``(n_freq, n_dofs)``
+        Measured response x(ω) at ``dofs`` (real or complex; m for a force in N).
+
+    Raises
+    ------
+    InputError
+        Empty, negative or non-finite ``omega``; a response of the wrong shape or not finite;
+        invalid dof labels; a non-finite, empty or zero force.
     """
 
     omega: np.ndarray
@@ -112,7 +167,23 @@ class FRFData:
 
 @dataclass(frozen=True)
 class StaticData:
-    """A static load case: applied forces and the measured displacements."""
+    """A static load case: applied forces and the measured displacements.
+
+    Parameters
+    ----------
+    force : mapping of str to float
+        Applied force (N) at each loaded dof ``"node:dir"``; finite, not all zero.
+    dofs : sequence of str
+        Labels of the measured displacements.
+    displacement : array_like, shape ``(len(dofs),)``
+        Measured displacements at ``dofs`` (m for forces in N), finite.
+
+    Raises
+    ------
+    InputError
+        A displacement of the wrong length or not finite; invalid dof labels; a non-finite,
+        empty or zero force.
+    """
 
     force: Mapping[str, float]
     dofs: tuple[str, ...]
@@ -139,7 +210,21 @@ class StaticData:
 
 @dataclass(frozen=True)
 class TestData:
-    """All test data of one configuration: measured modes, FRFs and static load cases."""
+    """All test data of one configuration: measured modes, FRFs and static load cases.
+
+    Parameters
+    ----------
+    modes : tuple of MeasuredMode, default ``()``
+        The measured modes (their order is the test-mode numbering used in pairs).
+    frf : FRFData, optional
+        Measured receptances.
+    static : tuple of StaticData, default ``()``
+        Static load cases.
+    units : mapping, optional
+        Unit information carried from the file (e.g. a universal file's dataset 164).
+    nodes : mapping of int to (float, float, float), optional
+        Node id -> coordinates (x, y, z), when the file gives them.
+    """
 
     __test__ = False  # not a pytest test class
 
@@ -151,10 +236,12 @@ class TestData:
 
     @property
     def eigenvalues(self) -> np.ndarray:
+        """Measured eigenvalues λ (rad²/s²), shape ``(n_modes,)``."""
         return np.array([m.eigenvalue for m in self.modes])
 
     @property
     def frequencies_hz(self) -> np.ndarray:
+        """Measured natural frequencies (Hz), shape ``(n_modes,)``."""
         return np.sqrt(self.eigenvalues) / (2 * np.pi)
 
     def shape_matrix(self, dofs: Sequence[str] | None = None) -> tuple[tuple[str, ...], np.ndarray]:
@@ -162,6 +249,19 @@ class TestData:
 
         ``dofs`` defaults to the union of every mode's measured dofs; a mode not measured at a
         dof has NaN there.
+
+        Parameters
+        ----------
+        dofs : sequence of str, optional
+            Dof labels of the rows (default: the union of the measured dofs, in first-seen
+            order).  Measured entries at other dofs are left out.
+
+        Returns
+        -------
+        dofs : tuple of str
+            The row labels.
+        Phi : numpy.ndarray, shape ``(n_dofs, n_modes)``
+            Shapes (complex if any mode is complex), NaN where a mode was not measured.
         """
         if dofs is None:
             seen: dict[str, None] = {}

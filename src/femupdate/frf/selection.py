@@ -61,7 +61,33 @@ def direct_blocks(model, omega, force: Mapping, values=None, unknowns=None, damp
     r"""The eq. 25 block :math:`X_\omega = [(K_j - \omega^2 M_j)\,x(\omega)]_j` of every line,
     ``(n_lines, rows, L)`` with ``x`` the simulated complete response to ``force`` (real rows;
     complex responses give real and imaginary rows).  An undamped line exactly on a resonance
-    gives a block of ``inf``."""
+    gives a block of ``inf``.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    force : mapping of str to float or complex
+        Force amplitude (N) per loaded dof.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the simulated response (default nominal).
+    unknowns : sequence of str, optional
+        Parameters of the columns (default: the free ones).
+    damping : Damping or mapping, optional
+        Default undamped.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_lines, rows, L)``
+        rows = n_dofs for real responses, 2 n_dofs (real, then imaginary) for complex ones.
+
+    Raises
+    ------
+    InputError
+        No unknown parameter; bad frequencies; a malformed force; and as :meth:`Model.resolve`.
+    """
     w = check_omega(omega)
     damping = as_damping(damping)
     p = model.resolve(values)

@@ -192,6 +192,37 @@ def receptance_fd(model, omega, response: Sequence[str] | None, excitation: Sequ
     ``(n_lines, n_response, n_excitation, L)``, step ``rel_step * max(|p_j|, 1)``.
 
     Two factorisations per parameter and line: what Brandon's expression avoids.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    response : sequence of str or None
+        Response dofs (``None``: every model dof).
+    excitation : sequence of str
+        Excitation dofs.
+    params : sequence of str, optional
+        Parameters differentiated (default as :func:`receptance_sensitivity`).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    rel_step : float, default 1e-6
+        Relative step.
+    method : str, default ``"auto"``
+        Line solver: ``"auto"``, ``"dense"`` or ``"sparse"``.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_lines, n_response, n_excitation, L)``
+        ∂α/∂p_j (receptance per unit of p_j).
+
+    Raises
+    ------
+    InputError
+        Unknown dofs or parameters; bad frequencies.
     """
     w = check_omega(omega)
     damping = as_damping(damping)
@@ -235,7 +266,36 @@ class FirstOrderCheck:
 def first_order_check(model, omega, force: Mapping, param: str, delta: float, response: Sequence[str] | None = None,
                       values=None, damping=None) -> FirstOrderCheck:
     """How well eq. 32 predicts the response change for a finite relative change ``delta`` of
-    ``param``: the loss of accuracy near resonances, measured (He 1993)."""
+    ``param``: the loss of accuracy near resonances, measured (He 1993).
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    force : mapping of str to float or complex
+        Force amplitude (N) per loaded dof.
+    param : str
+        The parameter changed.
+    delta : float
+        Relative change: p → p (1 + delta).
+    response : sequence of str, optional
+        Response dofs (default every model dof).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the reference model (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+
+    Returns
+    -------
+    FirstOrderCheck
+
+    Raises
+    ------
+    InputError
+        An unknown parameter or dof; a malformed force; bad frequencies.
+    """
     p = model.resolve(values)
     j = model.parameter_index(param)
     f = force_vector(model, force)

@@ -41,7 +41,27 @@ SINGULAR_TOL = 1e-10
 
 def convert(h: np.ndarray, omega: np.ndarray, to: str = "receptance", frm: str = "receptance") -> np.ndarray:
     r"""Convert FRFs between receptance, mobility (:math:`i\omega\alpha`) and accelerance
-    (:math:`-\omega^2\alpha`); the first axis of ``h`` runs over the lines ``omega``."""
+    (:math:`-\omega^2\alpha`); the first axis of ``h`` runs over the lines ``omega``.
+
+    Parameters
+    ----------
+    h : array_like, shape ``(n_lines, ...)``
+        FRFs of kind ``frm``.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    to, frm : str, default ``"receptance"``
+        Target and source kinds: ``"receptance"``, ``"mobility"`` or ``"accelerance"``.
+
+    Returns
+    -------
+    numpy.ndarray, same shape as ``h``
+        The converted FRFs (``h`` itself, as an array, when ``to == frm``; complex otherwise).
+
+    Raises
+    ------
+    InputError
+        An unknown kind; converting from mobility or accelerance at a zero frequency.
+    """
     for k in (to, frm):
         if k not in KINDS:
             raise InputError(f"unknown FRF kind {k!r}: use {', '.join(KINDS)}")
@@ -55,7 +75,29 @@ def convert(h: np.ndarray, omega: np.ndarray, to: str = "receptance", frm: str =
 
 
 def response_dofs(model, response: Sequence[str] | None, what: str = "response") -> tuple[tuple[str, ...], np.ndarray]:
-    """Labels and model positions of the response dofs (default every model dof)."""
+    """Labels and model positions of the response dofs (default every model dof).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    response : sequence of str, optional
+        Dof labels ``"node:dir"`` (default: every model dof).
+    what : str, default ``"response"``
+        What the dofs are, for messages.
+
+    Returns
+    -------
+    labels : tuple of str
+        Canonical labels.
+    index : numpy.ndarray of int, shape ``(len(labels),)``
+        Their positions in the model matrices.
+
+    Raises
+    ------
+    InputError
+        No dofs given, or a label that is not a model dof.
+    """
     labels = model.dofs if response is None else canonical_all(response, what)
     if not labels:
         raise InputError(f"{what}: no dofs given")
@@ -67,7 +109,31 @@ def check_lines(model, omega, values=None, damping: Damping | None = None, tol: 
 
     Checked against every eigenvalue for models up to :data:`femupdate.modal.DENSE_LIMIT` dofs;
     larger models rely on the sparse factorisation, which reports an exactly singular line
-    (:class:`NumericalError`, naming it).
+    (:class:`NumericalError`, naming it).  Damped models are not checked.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    omega : numpy.ndarray, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    tol : float, default :data:`SINGULAR_TOL`
+        Relative eigenvalue distance below which a line counts as on a resonance.
+
+    Returns
+    -------
+    Resonances or None
+        The model's resonances relative to the lines (undamped models up to the dense limit),
+        else ``None``.
+
+    Raises
+    ------
+    InputError
+        A line on an undamped resonance (named).
     """
     from ..modal import DENSE_LIMIT as MODAL_DENSE
 
@@ -86,6 +152,8 @@ def receptance(model, omega, excitation: Sequence[str], response: Sequence[str] 
                damping=None, method: str = "auto") -> np.ndarray:
     r"""Receptances :math:`\alpha_{ab}(\omega)`, shape ``(n_lines, n_response, n_excitation)``.
 
+    Paper eq. 23: α = Z⁻¹, Z = K − ω²M (undamped), only the columns at ``excitation``.
+
     Parameters
     ----------
     model : Model
@@ -97,6 +165,11 @@ def receptance(model, omega, excitation: Sequence[str], response: Sequence[str] 
     damping : :class:`Damping` or {alpha, beta, eta}; default undamped (real receptances).
     method : ``"auto"`` (stacked dense solves up to ``DENSE_LIMIT`` dofs, sparse LU above),
         ``"dense"`` or ``"sparse"``.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_lines, n_response, n_excitation)``
+        Receptances (m/N for SI models); real when undamped, complex otherwise.
 
     Raises
     ------
@@ -123,6 +196,38 @@ def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, val
 
     One solve per line whatever the number of loaded dofs.  Real when undamped, real force and
     receptance; complex otherwise.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines ω, rad/s (finite, ≥ 0).
+    force : mapping of str to float or complex
+        Force amplitude (N) at each loaded dof ``"node:dir"``, {dof: amplitude}.
+    response : sequence of str, optional
+        Dof labels of the responses kept (default every model dof).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values as :meth:`Model.resolve` reads them (default nominal).
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` or {alpha, beta, eta}; default undamped.
+    kind : str, default ``"receptance"``
+        ``"receptance"``, ``"mobility"`` or ``"accelerance"``.
+    method : str, default ``"auto"``
+        ``"auto"``, ``"dense"`` or ``"sparse"``, as :func:`receptance`.
+
+    Returns
+    -------
+    dofs : tuple of str
+        The response dof labels.
+    H : numpy.ndarray, shape ``(n_lines, n_response)``
+        The responses (receptance: displacement per the given force, m for N).
+
+    Raises
+    ------
+    InputError
+        An unknown kind or method; bad frequencies; a malformed force or a force/response dof
+        the model lacks; an undamped line on a resonance; and as :meth:`Model.resolve`.
     """
     if kind not in KINDS:
         raise InputError(f"unknown FRF kind {kind!r}: use {', '.join(KINDS)}")
@@ -139,7 +244,45 @@ def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, val
 def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
              noise: float = 0.0, noise_kind: str = "relative", seed: int | None = None,
              method: str = "auto") -> FRFData:
-    """Simulated FRF test data (receptances, :class:`~femupdate.FRFData`), optionally noisy."""
+    """Simulated FRF test data (receptances, :class:`~femupdate.FRFData`), optionally noisy.
+
+    :func:`frf` (paper eq. 23) at the given lines, then :func:`add_noise` when ``noise`` is
+    non-zero.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines ω, rad/s (finite, ≥ 0).
+    force : mapping of str to float or complex
+        Force amplitude (N) at each loaded dof ``"node:dir"``, {dof: amplitude}.
+    response : sequence of str, optional
+        Dof labels of the responses kept (default every model dof).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values as :meth:`Model.resolve` reads them (default nominal).
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` or {alpha, beta, eta}; default undamped.
+    noise : float, default 0.0
+        Noise standard deviation (relative for ``"relative"``/``"coherent"``, in the response's
+        units for ``"absolute"``); 0: exact data.
+    noise_kind : str, default ``"relative"``
+        ``"relative"``, ``"absolute"`` or ``"coherent"`` (see the module notes).
+    seed : int, optional
+        Seed of the noise generator.
+    method : str, default ``"auto"``
+        ``"auto"``, ``"dense"`` or ``"sparse"``, as :func:`receptance`.
+
+    Returns
+    -------
+    FRFData
+        ``omega``, ``force``, the response dofs and receptances ``(n_lines, n_response)``.
+
+    Raises
+    ------
+    InputError
+        As :func:`frf` and :func:`add_noise`.
+    """
     labels, X = frf(model, omega, force, response, values, damping, method=method)
     data = FRFData(check_omega(omega), dict(force), labels, X)
     return add_noise(data, noise, noise_kind, seed) if noise else data
@@ -149,6 +292,28 @@ def add_noise(data: FRFData, level: float, kind: str = "relative", seed: int | N
     """Copy of ``data`` with measurement noise of standard deviation ``level`` (see module doc).
 
     Real data stay real (real noise); complex data get circular complex noise.
+
+    Parameters
+    ----------
+    data : FRFData
+        The data to perturb (not modified).
+    level : float
+        Standard deviation σ ≥ 0: relative for ``"relative"`` and ``"coherent"``, in the
+        response's units for ``"absolute"``.
+    kind : str, default ``"relative"``
+        ``"relative"`` (each value times 1 + σε), ``"absolute"`` (+ σε) or ``"coherent"`` (one
+        relative error per spectral line, shared by every channel).
+    seed : int, optional
+        Seed of :func:`numpy.random.default_rng`.
+
+    Returns
+    -------
+    FRFData
+
+    Raises
+    ------
+    InputError
+        An unknown kind, or a negative or non-finite level.
     """
     if kind not in NOISE_KINDS:
         raise InputError(f"unknown noise kind {kind!r}: use {', '.join(NOISE_KINDS)}")
@@ -176,6 +341,28 @@ def from_channels(force: Mapping, channels: Mapping[str, tuple], rtol: float = 1
 
     Every channel must share one frequency axis: a channel whose axis differs (length or
     values, beyond ``rtol``) is refused with a message naming it and the first channel.
+
+    Parameters
+    ----------
+    force : mapping of str to float or complex
+        Force amplitude (N) at each excited dof.
+    channels : mapping of str to (array_like, array_like)
+        Per response dof, its frequency axis ω (rad/s, shape ``(n_lines,)``) and its values
+        (same shape).
+    rtol : float, default 1e-9
+        Relative tolerance of the comparison of the frequency axes.
+
+    Returns
+    -------
+    FRFData
+        Responses ``(n_lines, n_channels)`` in the order of ``channels`` (complex if any channel
+        is).
+
+    Raises
+    ------
+    InputError
+        No channels; a channel that is not a pair, has bad frequencies, a length mismatch, or
+        an axis different from the first channel's; and as :class:`FRFData`.
     """
     if not channels:
         raise InputError("frf channels: none given")
@@ -217,6 +404,24 @@ def check_data_against_model(model, data: FRFData, damping: Damping, residual: s
       (undamped, real force) — unless the residual compares magnitudes (``"log"``);
     * real data where the model's responses are complex (damping, or a complex force): the
       phase is missing — unless ``"log"``.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    data : FRFData
+        Measured FRFs.
+    damping : Damping
+        The model's damping.
+    residual : str
+        The FRF residual in use; ``"log"`` skips the real/complex checks.
+    imag_tol : float, default 1e-6
+        Largest |Im x| / |x| accepted as real.
+
+    Raises
+    ------
+    InputError
+        In the cases listed above (and a malformed force, as :func:`force_vector`).
     """
     f = force_vector(model, data.force, "frf force")
     missing = [d for d in data.dofs if d not in set(model.dofs)]

@@ -47,7 +47,9 @@ SURFACE_DENSE_LIMIT = DENSE_LIMIT  # the dense stacked evaluation: the same limi
 class Surface:
     """A residual over a grid of two parameters.
 
-    Attributes
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     names : (str, str)
     x, y : ndarray
@@ -58,6 +60,9 @@ class Surface:
         ``"modal (eq. 33)"`` or ``"frf (eq. 34)"`` (+ residual form).
     truth : (float, float) or None
         The true solution, when known (marked on plots).
+    info : dict
+        What the surface was computed from (lines, dofs and force, or eigenvalues and
+        reference dof).
     """
 
     names: tuple[str, str]
@@ -83,6 +88,8 @@ class Surface:
         return sorted(out, key=lambda m: m["value"])
 
     def summary(self) -> dict:
+        """Grid size, the lowest point, counts of interior and edge minima (the first 20 listed)
+        and the number of non-finite points, as a JSON-ready dict."""
         mins = self.minima()
         return {"grid": [len(self.x), len(self.y)], "minimum": self.minimum,
                 "local_minima": sum(not m["edge"] for m in mins), "edge_minima": sum(m["edge"] for m in mins),
@@ -95,6 +102,16 @@ def local_minima(values: np.ndarray) -> list[tuple[int, int, bool]]:
     Vectorised: the array is padded with +inf and compared with its 8 shifted copies.
     ``inf`` / NaN points are never minima.  Points on the grid's border are flagged
     ``on_edge``: the residual may simply keep falling beyond the window there.
+
+    Parameters
+    ----------
+    values : numpy.ndarray, shape ``(n1, n2)``
+        Grid values.
+
+    Returns
+    -------
+    list of (int, int, bool)
+        Row index, column index and ``on_edge`` of each minimum.
     """
     v = np.where(np.isfinite(values), values, np.inf)
     P = np.pad(v, 1, constant_values=np.inf)
@@ -124,7 +141,22 @@ def _grid(model, names: Sequence[str], x, y):
 
 class AffineStack:
     r"""Dense K and M of many parameter points of a small affine model at once:
-    :math:`K(P_g) = K_b + \sum_j P_{gj} K_j` for the parameters ``names`` (the others at ``values``)."""
+    :math:`K(P_g) = K_b + \sum_j P_{gj} K_j` for the parameters ``names`` (the others at ``values``).
+
+    Parameters
+    ----------
+    model : Model
+        At most :data:`SURFACE_DENSE_LIMIT` dofs.
+    names : sequence of str
+        The parameters that vary.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the other parameters (default nominal).
+
+    Raises
+    ------
+    InputError
+        A model above the dense limit; an unknown parameter name; and as :meth:`Model.resolve`.
+    """
 
     def __init__(self, model, names: Sequence[str], values=None):
         if model.n_dofs > SURFACE_DENSE_LIMIT:
@@ -140,9 +172,11 @@ class AffineStack:
         self.n = model.n_dofs
 
     def K(self, P: np.ndarray) -> np.ndarray:
+        """Stiffness matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``."""
         return self.K0[None] + np.einsum("gj,jab->gab", P, self.dK)
 
     def M(self, P: np.ndarray) -> np.ndarray:
+        """Mass matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``."""
         return self.M0[None] + np.einsum("gj,jab->gab", P, self.dM)
 
 
@@ -156,7 +190,41 @@ def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, val
                   residual: str = "linear", weights=None, stack: AffineStack | None = None) -> np.ndarray:
     r"""FRF residual vectors at many parameter points ``P`` ``(G, len(names))`` at once, ``(G, m)``:
     stacked dense solves of every point and line (rows of ``inf`` where a line lies exactly on a
-    resonance).  Larger models: one sparse solve per point and line."""
+    resonance).  Larger models: one sparse solve per point and line.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : FRFData
+        Measured lines (ω in rad/s), force and responses (any subset of dofs).
+    names : sequence of str
+        The parameters varied (the columns of ``P``).
+    P : array_like, shape ``(G, len(names))``
+        Parameter points.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the other parameters (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    residual : str, default ``"linear"``
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf._residuals`).
+    weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
+        Non-negative weights (default 1).
+    stack : AffineStack, optional
+        Reuse the dense stacked matrices (small models).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(G, m)``
+        Residuals per point (complex data: real and imaginary parts as separate residuals);
+        rows with any non-finite value set to ``inf``.
+
+    Raises
+    ------
+    InputError
+        An unknown residual kind; bad weights; a malformed force; response dofs not in the model;
+        zero measured values with ``"log"``.
+    """
     R.check_kind(residual)
     damping = as_damping(damping)
     P = np.atleast_2d(np.asarray(P, float))
@@ -192,7 +260,39 @@ def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, val
 def frf_r2(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=None, damping=None,
            residual: str = "linear", weights=None, stack: AffineStack | None = None) -> np.ndarray:
     r"""Eq. 34's :math:`r^2` (sum of squared FRF residuals) at many points ``P`` at once (``inf``
-    where a line lies exactly on a resonance)."""
+    where a line lies exactly on a resonance).
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : FRFData
+        Measured lines (ω in rad/s), force and responses (any subset of dofs).
+    names : sequence of str
+        The parameters varied (the columns of ``P``).
+    P : array_like, shape ``(G, len(names))``
+        Parameter points.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the other parameters (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    residual : str, default ``"linear"``
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf._residuals`).
+    weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
+        Non-negative weights (default 1).
+    stack : AffineStack, optional
+        Reuse the dense stacked matrices (small models).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(G,)``
+        Sum of squared residuals per point.
+
+    Raises
+    ------
+    InputError
+        As :func:`frf_residuals`.
+    """
     with np.errstate(over="ignore", invalid="ignore"):
         r2 = np.sum(frf_residuals(model, data, names, P, values, damping, residual, weights, stack) ** 2, axis=1)
     return np.where(np.isfinite(r2), r2, np.inf)
@@ -204,6 +304,30 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
 
     ``data`` gives the lines, the force and the measured responses (any subset of dofs).
     Returns a :class:`Surface` of :math:`r^2` (the sum of squared residuals).
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : FRFData
+        Measured lines, force and responses.
+    names : (str, str)
+        The two parameters of the grid (different).
+    x, y : array_like
+        Grid values of the first and second parameter (at least two finite values each).
+    values, damping, residual, weights
+        As :func:`frf_residuals`.
+    truth : (float, float), optional
+        The true solution, recorded for plots.
+
+    Returns
+    -------
+    Surface
+
+    Raises
+    ------
+    InputError
+        Not exactly two different parameters; a bad grid; and as :func:`frf_residuals`.
     """
     gx, gy, P = _grid(model, names, x, y)
     out = frf_r2(model, data, names, P, values, damping, residual, weights)
@@ -217,7 +341,39 @@ def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, 
                     ref_dof: str | None = None, stack: AffineStack | None = None) -> np.ndarray:
     r"""Eq. 33's residual vectors at many parameter points ``P`` ``(G, len(names))`` at once
     (batched Cholesky and ``eigh`` of every point's pencil), ``(G, m)``: relative eigenvalue
-    errors, then the scaled shape differences."""
+    errors, then the scaled shape differences.
+
+    The eigenvalue errors are (λ_E − λ_A)/λ_A (divided by the analytical eigenvalue, as eq. 33
+    is printed); modes with fewer than two measured dofs contribute no shape rows.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model (at most :data:`SURFACE_DENSE_LIMIT` dofs).
+    data : TestData
+        Measured modes; test mode i is compared with model mode i.
+    names : sequence of str
+        The parameters varied (the columns of ``P``).
+    P : array_like, shape ``(G, len(names))``
+        Parameter points.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the other parameters (default nominal).
+    ref_dof : str, optional
+        Dof at which shapes are scaled to 1 (default: each mode's first measured dof).
+    stack : AffineStack, optional
+        Reuse the dense stacked matrices.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(G, m)``
+        Residuals per point; rows with any non-finite value set to ``inf``.
+
+    Raises
+    ------
+    InputError
+        No measured modes; more test modes than model dofs; a reference dof not measured; shape
+        dofs not in the model; and as :class:`AffineStack`.
+    """
     if not data.modes:
         raise InputError("a modal residual needs measured modes")
     P = np.atleast_2d(np.asarray(P, float))
@@ -255,7 +411,35 @@ def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, 
 
 def modal_r2(model, data: TestData, names: Sequence[str], P: np.ndarray, values=None, ref_dof: str | None = None,
              stack: AffineStack | None = None) -> np.ndarray:
-    r"""Eq. 33's :math:`r_2` at many parameter points at once."""
+    r"""Eq. 33's :math:`r_2` at many parameter points at once.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model (at most :data:`SURFACE_DENSE_LIMIT` dofs).
+    data : TestData
+        Measured modes; test mode i is compared with model mode i.
+    names : sequence of str
+        The parameters varied (the columns of ``P``).
+    P : array_like, shape ``(G, len(names))``
+        Parameter points.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the other parameters (default nominal).
+    ref_dof : str, optional
+        Dof at which shapes are scaled to 1 (default: each mode's first measured dof).
+    stack : AffineStack, optional
+        Reuse the dense stacked matrices.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(G,)``
+        Sum of squared residuals per point (``inf`` where not finite).
+
+    Raises
+    ------
+    InputError
+        As :func:`modal_residuals`.
+    """
     with np.errstate(over="ignore", invalid="ignore"):
         r2 = np.sum(modal_residuals(model, data, names, P, values, ref_dof, stack) ** 2, axis=1)
     return np.where(np.isfinite(r2), r2, np.inf)
@@ -265,7 +449,32 @@ def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None
                   truth=None) -> Surface:
     r"""Eq. 33 over the grid: relative eigenvalue errors (divided by the analytical eigenvalue, as
     printed) plus differences of the shapes scaled to 1 at ``ref_dof`` (default: the first
-    measured dof of each mode), test mode i against model mode i."""
+    measured dof of each mode), test mode i against model mode i.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model (dense limit as :class:`AffineStack`).
+    data : TestData
+        Measured modes.
+    names : (str, str)
+        The two parameters of the grid.
+    x, y : array_like
+        Grid values (at least two finite values each).
+    values, ref_dof
+        As :func:`modal_residuals`.
+    truth : (float, float), optional
+        The true solution, recorded for plots.
+
+    Returns
+    -------
+    Surface
+
+    Raises
+    ------
+    InputError
+        Not exactly two different parameters; a bad grid; and as :func:`modal_residuals`.
+    """
     gx, gy, P = _grid(model, names, x, y)
     out = modal_r2(model, data, names, P, values, ref_dof)
     return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size), "modal (eq. 33)",
@@ -280,6 +489,23 @@ def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1
     each.  Grid minima along a narrow curved valley are artefacts of the grid; they polish into
     one minimum.  ``on_boundary``: the search ran into the window's edge (the residual keeps
     falling outside it).
+
+    Parameters
+    ----------
+    surface : Surface
+        The grid whose interior minima are polished.
+    residuals : callable
+        Points ``(G, 2)`` -> residual vectors ``(G, m)``.
+    bounds : (array_like, array_like), optional
+        Lower and upper bounds of the search (default: the grid's window).
+    rel_tol : float, default 1e-3
+        Relative distance under which two polished minima are one.
+
+    Returns
+    -------
+    list of dict
+        ``{name1, name2, value (r²), grid_minima, on_boundary}`` per distinct minimum, lowest
+        first (empty if no interior grid minimum).
     """
     from scipy.optimize import least_squares
 

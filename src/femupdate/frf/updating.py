@@ -63,6 +63,22 @@ class FRFUpdateResult(UpdateResult):
 
 
 def frf_data(data) -> FRFData:
+    """The FRF data of ``data``.
+
+    Parameters
+    ----------
+    data : FRFData or TestData
+        FRF data, or test data holding them.
+
+    Returns
+    -------
+    FRFData
+
+    Raises
+    ------
+    InputError
+        No FRF data.
+    """
     if isinstance(data, FRFData):
         return data
     if isinstance(data, TestData) and data.frf is not None:
@@ -71,7 +87,18 @@ def frf_data(data) -> FRFData:
 
 
 def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
-    """Frequency response assurance criterion per dof (columns): |x_Eᴴ x_A|² / (|x_E|² |x_A|²)."""
+    """Frequency response assurance criterion per dof (columns): |x_Eᴴ x_A|² / (|x_E|² |x_A|²).
+
+    Parameters
+    ----------
+    xe, xa : numpy.ndarray, shape ``(n_lines, n_dofs)``
+        Measured and model responses, column by column on the same dofs and lines.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_dofs,)``
+        FRAC per dof in [0, 1]; NaN where either response is zero.
+    """
     num = np.abs(np.sum(np.conj(xe) * xa, axis=0)) ** 2
     den = np.sum(np.abs(xe) ** 2, axis=0) * np.sum(np.abs(xa) ** 2, axis=0)
     return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
@@ -293,7 +320,46 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
                    log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
     """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
     as :func:`femupdate.updating.multistart`), locally or on Dask; a
-    :class:`~femupdate.updating.MultiStartResult` in the same format."""
+    :class:`~femupdate.updating.MultiStartResult` in the same format.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : FRFData or TestData
+        The measured FRFs.
+    starts : int, default 20
+        Number of random starts, drawn within the parameters' bounds.
+    seed : int or None, default 0
+        Seed of the starts.
+    params : sequence of str, optional
+        Parameters to update (default: the free ones).
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:port``); local runs otherwise.
+    rel_tol : float, default 1e-4
+        Relative distance under which two solutions are the same.
+    cost_tol : float, optional
+        A run counts as converged when it reports success and its cost is below this (default:
+        no limit).
+    log_uniform : bool, default False
+        Draw the starts log-uniformly instead of uniformly.
+    progress : callable ``(done, total)``, optional
+        Called after each start (local runs).
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler.
+    **kwargs
+        Options of :func:`frf_update`.
+
+    Returns
+    -------
+    MultiStartResult
+        Runs, distinct solutions, and the best run (a :class:`FRFUpdateResult`).
+
+    Raises
+    ------
+    InputError
+        Fewer than one start; an unreachable scheduler; and as :func:`frf_update`.
+    """
     from ..updating.starts import draw_starts, run_starts, run_with
 
     if starts < 1:

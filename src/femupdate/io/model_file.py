@@ -36,6 +36,23 @@ from ..structure import Structure
 
 
 def read_toml(path) -> dict:
+    """Parse a TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    dict
+        The parsed tables.
+
+    Raises
+    ------
+    InputError
+        The file is missing, a directory, not UTF-8 text, or not valid TOML.
+    """
     path = Path(path)
     try:
         with open(path, "rb") as fh:
@@ -51,7 +68,27 @@ def read_toml(path) -> dict:
 
 
 def load_model(path) -> Model:
-    """Read a model file (TOML structure or TOML ``[matrices]`` model) into a :class:`Model`."""
+    """Read a model file (TOML structure or TOML ``[matrices]`` model) into a :class:`Model`.
+
+    The schema is in docs/file-formats.md: a physical-parameter structure (``[[node]]``,
+    ``[[element]]``, ``[[support]]``) is built by :meth:`Structure.build`; a ``[matrices]`` table
+    names matrix files, read by :func:`load_matrix`, relative to the TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.toml`` model file.
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    InputError
+        A suffix other than ``.toml``; an unreadable or malformed file; anything the structure,
+        the matrix files or :class:`Model` reject (the message names the file).
+    """
     path = Path(path)
     if path.suffix.lower() != ".toml":
         raise InputError(f"{path}: model files are TOML (.toml); for plain matrices write a small TOML with a [matrices] table")
@@ -66,7 +103,30 @@ def load_model(path) -> Model:
 
 
 def load_matrix(spec: str, base: Path, what: str):
-    """Load one matrix: ``.mtx`` (Matrix Market), ``.npz``, ``.npy`` or ``file.mat:VAR``."""
+    """Load one matrix: ``.mtx`` (Matrix Market), ``.npz``, ``.npy`` or ``file.mat:VAR``.
+
+    Parameters
+    ----------
+    spec : str
+        File name, relative to ``base`` unless absolute; for MATLAB files optionally
+        ``"file.mat:VARIABLE"`` (needed when the file holds more than one variable).  A ``.npz``
+        is read as a SciPy sparse matrix, else as the single array it holds.
+    base : pathlib.Path
+        Folder that relative names are resolved against.
+    what : str
+        What the matrix is, for error messages.
+
+    Returns
+    -------
+    numpy.ndarray or scipy sparse matrix
+        The matrix as stored (real, numeric).
+
+    Raises
+    ------
+    InputError
+        File not found; unsupported suffix; unreadable file; a ``.npz`` with several arrays or
+        a ``.mat`` whose variable is ambiguous or missing; non-numeric or complex contents.
+    """
     name, _, var = str(spec).partition(":") if ".mat:" in str(spec) else (str(spec), "", "")
     p = (base / name) if not Path(name).is_absolute() else Path(name)
     if not p.exists():

@@ -13,7 +13,20 @@ import numpy as np
 
 
 def to_jsonable(obj):
-    """Convert numpy scalars/arrays, tuples and non-finite floats (-> None) recursively."""
+    """Convert numpy scalars/arrays, tuples and non-finite floats (-> None) recursively.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, NumPy arrays and scalars, numbers.
+
+    Returns
+    -------
+    object
+        The same structure with dict keys as str, tuples and arrays as lists, NumPy scalars as
+        Python ones, NaN/inf as ``None`` and complex numbers as ``[re, im]``; other objects are
+        returned unchanged.
+    """
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -45,7 +58,18 @@ def _mode_for(path: Path) -> int:
 
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: a temporary file in the same folder, flushed to
-    disk, then renamed over ``path`` (readers see the old file or the new one, never a part)."""
+    disk, then renamed over ``path`` (readers see the old file or the new one, never a part).
+
+    The parent folders are created; the file keeps the permissions of the one it replaces (a
+    new file gets 0o666 less the umask).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination file.
+    data : bytes
+        Contents.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -65,12 +89,34 @@ def atomic_write_bytes(path, data: bytes) -> None:
 
 
 def atomic_write_text(path, text: str) -> None:
-    """Text (UTF-8) counterpart of :func:`atomic_write_bytes`."""
+    """Text (UTF-8) counterpart of :func:`atomic_write_bytes`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination file.
+    text : str
+        Contents, written as UTF-8.
+    """
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def write_json(path, obj) -> None:
-    """Write ``obj`` as JSON to ``path`` (``"-"`` = standard output), atomically."""
+    """Write ``obj`` as JSON to ``path`` (``"-"`` = standard output), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination file, or ``"-"`` for standard output.
+    obj : object
+        Converted by :func:`to_jsonable` (NaN/inf become ``null``), then written indented by 2
+        with a final newline.
+
+    Raises
+    ------
+    ValueError, TypeError
+        From :func:`json.dumps`, for objects that :func:`to_jsonable` leaves unconvertible.
+    """
     text = json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n"
     if str(path) == "-":
         sys.stdout.write(text)

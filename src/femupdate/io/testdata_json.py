@@ -19,6 +19,24 @@ def load_testdata(path, model=None) -> TestData:
     """Read test data from JSON or a universal file (``.uff``/``.unv``).
 
     With ``model``, every dof in the data must be a model dof (the message names the others).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A JSON file (format in docs/file-formats.md), or a universal file by its suffix
+        ``.uff``/``.unv`` (read by :func:`femupdate.io.uff.read_uff`).
+    model : Model, optional
+        Model whose dofs the data must use.
+
+    Returns
+    -------
+    TestData
+
+    Raises
+    ------
+    InputError
+        A missing, unreadable or malformed file; data that :func:`parse_testdata` or the
+        universal-file reader reject; with ``model``, a dof not in the model.
     """
     path = Path(path)
     if path.suffix.lower() in UFF_SUFFIXES:
@@ -46,6 +64,23 @@ def load_testdata(path, model=None) -> TestData:
 
 
 def check_dofs(data: TestData, model, source: str) -> None:
+    """Check that every dof of the data (mode shapes, FRF response and force, static
+    displacements and forces) is a model dof.
+
+    Parameters
+    ----------
+    data : TestData
+        The test data.
+    model : Model
+        The model.
+    source : str
+        Where the data came from, for the message.
+
+    Raises
+    ------
+    InputError
+        Naming the dofs that are not in the model.
+    """
     known = set(model.dofs)
     bad: dict[str, None] = {}
     for m in data.modes:
@@ -83,7 +118,27 @@ def _complex(v, what):
 
 
 def parse_testdata(raw) -> TestData:
-    """Build :class:`TestData` from the parsed JSON object."""
+    """Build :class:`TestData` from the parsed JSON object.
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed JSON: ``"modes"`` (list of objects with exactly one of ``frequency_hz`` (Hz)
+        or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value} and ``label``),
+        ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
+        frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
+        with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).
+
+    Returns
+    -------
+    TestData
+
+    Raises
+    ------
+    InputError
+        Not an object; unknown keys; missing or malformed entries; no modes, FRF or static
+        data at all; and as the :class:`TestData` value classes.
+    """
     if not isinstance(raw, Mapping):
         raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
     unknown = sorted(set(raw) - {"modes", "frf", "static", "units"})

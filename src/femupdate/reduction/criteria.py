@@ -39,9 +39,11 @@ class ReductionCriteriaWarning(UserWarning):
 
 @dataclass(frozen=True, eq=False)
 class ReductionCriteria:
-    """Gordis and Larsson & Sas figures of one keep-set.
+    """Gordis and Larsson & Sas figures of one keep-set (built by :func:`reduction_criteria`).
 
-    Attributes
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     keep : tuple of str
     retained_eigenvalues : ndarray (a,)
@@ -76,11 +78,33 @@ class ReductionCriteria:
 
     @property
     def retained_frequencies_hz(self) -> np.ndarray:
+        """Frequencies of the Guyan-reduced model, Hz, shape ``(a,)``."""
         return np.sqrt(np.clip(self.retained_eigenvalues, 0, None)) / (2 * np.pi)
 
 
 def omitted_eigenvalues(red: Reducer, k: int = 6) -> np.ndarray:
-    """Lowest ``k`` eigenvalues of :math:`(K_{oo}, M_{oo})` reusing the reducer's factor of K_oo."""
+    """Lowest ``k`` eigenvalues of :math:`(K_{oo}, M_{oo})` reusing the reducer's factor of K_oo.
+
+    Parameters
+    ----------
+    red : Reducer
+        The partition (retained dofs grounded).
+    k : int, default 6
+        Number of eigenvalues (clipped to 1..number of omitted dofs).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(k,)``
+        Eigenvalues, rad²/s², ascending; ``inf`` where the omitted dofs carry no mass (dense
+        path); ``[inf]`` when nothing is omitted.
+
+    Raises
+    ------
+    InputError
+        A singular omitted partition (named mechanism).
+    NumericalError
+        The sparse eigensolver failed.
+    """
     o = red.io.size
     if o == 0:
         return np.full(1, np.inf)
@@ -119,6 +143,18 @@ def reduction_criteria(model, keep, values=None, n_interest: int | None = None, 
         How many omitted eigenvalues to compute.
     warn : bool
         Issue :class:`ReductionCriteriaWarning` for each violated criterion.
+    reducer : Reducer, optional
+        Reuse this partition (and its factor) instead of building one from ``model``, ``keep``,
+        ``values``.
+
+    Returns
+    -------
+    ReductionCriteria
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :class:`Reducer` and :func:`omitted_eigenvalues`.
     """
     red = reducer if reducer is not None else Reducer(model, keep, values)
     lam_o = omitted_eigenvalues(red, k_omitted)

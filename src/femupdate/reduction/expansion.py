@@ -41,9 +41,11 @@ class ExpansionBiasWarning(UserWarning):
 
 @dataclass(frozen=True, eq=False)
 class ExpandedShapes:
-    r"""Mode shapes expanded to every model dof.
+    r"""Mode shapes expanded to every model dof (built by :func:`expand`).
 
-    Attributes
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     dofs : tuple of str
         All model dofs (the rows of ``shapes``), in model order.
@@ -69,7 +71,22 @@ class ExpandedShapes:
     n_modes: int | None = None
 
     def at(self, dofs: Sequence[str]) -> np.ndarray:
-        """Rows of the expanded shapes at the given dof labels."""
+        """Rows of the expanded shapes at the given dof labels.
+
+        Parameters
+        ----------
+        dofs : sequence of str
+            Dof labels, each a model dof.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(len(dofs), n_modes)``
+
+        Raises
+        ------
+        InputError
+            A label that is not among :attr:`dofs`.
+        """
         from ..dofs import index_of
 
         return self.shapes[index_of(self.dofs, dofs, "expanded shapes")]

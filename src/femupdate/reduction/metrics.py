@@ -25,7 +25,22 @@ from .projection import Transformation, reduced_matrices, reduced_modes
 
 
 def orthogonality(A: np.ndarray, B: np.ndarray, M: np.ndarray) -> np.ndarray:
-    r"""Normalised orthogonality :math:`a_i^T M b_j / \sqrt{(a_i^T M a_i)(b_j^T M b_j)}`, (ma, mb)."""
+    r"""Normalised orthogonality :math:`a_i^T M b_j / \sqrt{(a_i^T M a_i)(b_j^T M b_j)}`, (ma, mb).
+
+    Parameters
+    ----------
+    A : array_like, shape ``(n, ma)``
+        First set of shapes (complex parts dropped when negligible).
+    B : array_like, shape ``(n, mb)``
+        Second set, on the same dofs.
+    M : array_like or sparse matrix, shape ``(n, n)``
+        Mass matrix (kg) on those dofs.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(ma, mb)``
+        Normalised products; 0 where a norm is zero.
+    """
     A = np.real_if_close(np.asarray(A))
     B = np.real_if_close(np.asarray(B))
     num = A.T @ M @ B

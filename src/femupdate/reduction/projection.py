@@ -28,7 +28,9 @@ __all__ = ["Transformation", "project", "reduce", "reduced_matrices", "reduced_m
 class Transformation:
     """A reduction transformation :math:`x = T x_a` (eq. 36) with its dof labels.
 
-    Attributes
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     T : ndarray (n, a)
         Rows follow ``dofs`` (all model dofs), columns follow ``keep``.
@@ -53,11 +55,22 @@ class Transformation:
 
     @property
     def keep_index(self) -> np.ndarray:
+        """Positions of the retained dofs among ``dofs``, shape ``(a,)``."""
         pos = {d: i for i, d in enumerate(self.dofs)}
         return np.array([pos[d] for d in self.keep], dtype=np.intp)
 
     def expand(self, x_a: np.ndarray) -> np.ndarray:
-        """Full-dof vectors from retained-dof vectors, ``T @ x_a`` ((a,) or (a, k))."""
+        """Full-dof vectors from retained-dof vectors, ``T @ x_a`` ((a,) or (a, k)).
+
+        Parameters
+        ----------
+        x_a : numpy.ndarray, shape ``(a,)`` or ``(a, k)``
+            Values at the retained dofs, in the order of ``keep``.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_dofs,)`` or ``(n_dofs, k)``
+        """
         return self.T @ x_a
 
 
@@ -67,6 +80,18 @@ def project(A, T: np.ndarray) -> np.ndarray:
 
     Only the rows of ``T`` where ``A`` has entries take part, so a parameter matrix that
     touches a few elements costs O(its size * a^2), not O(n a^2).
+
+    Parameters
+    ----------
+    A : array_like or sparse matrix, shape ``(n, n)``
+        Symmetric matrix.
+    T : numpy.ndarray, shape ``(n, a)``
+        Transformation.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(a, a)``
+        Tᵀ A T, symmetrised.
     """
     A = sp.csr_array(A)
     a = T.shape[1]
@@ -154,7 +179,20 @@ def _clean(A: np.ndarray) -> sp.csr_array:
     return sp.csr_array(A)
 
 def reduced_matrices(model: Model, t: Transformation) -> tuple[np.ndarray, np.ndarray]:
-    """Dense reduced ``(K_r, M_r)`` at the values ``t`` was built at."""
+    """Dense reduced ``(K_r, M_r)`` at the values ``t`` was built at.
+
+    Parameters
+    ----------
+    model : Model
+        The full model ``t`` was built on.
+    t : Transformation
+        The transformation (its ``values`` are used).
+
+    Returns
+    -------
+    K_r, M_r : numpy.ndarray, shape ``(a, a)``
+        Tᵀ K(p) T and Tᵀ M(p) T.
+    """
     return project(model.K(t.values), t.T), project(model.M(t.values), t.T)
 
 
@@ -163,6 +201,26 @@ def reduced_modes(K_r: np.ndarray, M_r: np.ndarray, rtol: float = 1e-10) -> tupl
 
     A rank-deficient ``M_r`` (SEREP with fewer modes than retained dofs) gives only the
     eigenpairs on the range of ``M_r``: ``rank(M_r)`` of them.
+
+    Parameters
+    ----------
+    K_r, M_r : numpy.ndarray, shape ``(a, a)``
+        Reduced stiffness and mass matrices (symmetrised here).
+    rtol : float, default 1e-10
+        Eigenvalues of ``M_r`` below ``rtol`` times its largest count as zero (rank test).
+
+    Returns
+    -------
+    lam : numpy.ndarray, shape ``(r,)``
+        Eigenvalues, rad²/s², ascending (those within 1e-12 of the largest magnitude set to 0);
+        r = a, or rank(M_r) when M_r is singular.
+    V : numpy.ndarray, shape ``(a, r)``
+        Mass-normalised eigenvectors on the retained dofs.
+
+    Raises
+    ------
+    InputError
+        The reduced mass matrix is zero.
     """
     K_r = 0.5 * (K_r + K_r.T)
     M_r = 0.5 * (M_r + M_r.T)
@@ -182,5 +240,23 @@ def reduced_modes(K_r: np.ndarray, M_r: np.ndarray, rtol: float = 1e-10) -> tupl
 
 
 def reduced_eigenvalues(K_r: np.ndarray, M_r: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
-    """Eigenvalues of a reduced pencil (see :func:`reduced_modes`)."""
+    """Eigenvalues of a reduced pencil (see :func:`reduced_modes`).
+
+    Parameters
+    ----------
+    K_r, M_r : numpy.ndarray, shape ``(a, a)``
+        Reduced matrices.
+    rtol : float, default 1e-10
+        Rank tolerance on ``M_r``.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(r,)``
+        Eigenvalues, rad²/s², ascending.
+
+    Raises
+    ------
+    InputError
+        The reduced mass matrix is zero.
+    """
     return reduced_modes(K_r, M_r, rtol)[0]

@@ -34,6 +34,25 @@ def mass_fraction(model, keep: Sequence[str], values=None) -> float:
     inertias have other units and are left out (if the model has no translational dof, all dofs
     count).  With a lumped mass matrix this is exactly the retained share of the mass; with a
     consistent one it is the share of its diagonal.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    keep : sequence of str
+        Retained dof labels.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of M (default nominal).
+
+    Returns
+    -------
+    float
+        The fraction, in [0, 1] for a mass matrix with a non-negative diagonal.
+
+    Raises
+    ------
+    InputError
+        Unknown dof labels, or no mass on the counted dofs.
     """
     keep = canonical_all(keep, "keep")
     ia = model.dof_index(keep, "keep")

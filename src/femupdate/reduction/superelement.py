@@ -44,6 +44,23 @@ def split_structure(structure: Structure, key: Callable[[list[str], tuple | None
     ``key(labels, nodes)`` is called for every element with its dof labels and, for line elements,
     its node pair; elements with the same key form one group.  Each group's Structure declares only
     the parameters its elements use, shares the node table, and keeps the supports that touch it.
+
+    Parameters
+    ----------
+    structure : Structure
+        The structure to cut (not modified).
+    key : callable ``(labels: list of str, nodes: (int, int) or None) -> hashable``
+        Group of each element; ``None`` is refused.
+
+    Returns
+    -------
+    dict
+        ``{key: Structure}``, one structure per group.
+
+    Raises
+    ------
+    InputError
+        ``key`` returned ``None`` for an element.
     """
     parts: dict = {}
     for g in structure.groups:
@@ -83,6 +100,26 @@ def assemble(models: Sequence[Model], dofs: Sequence[str] | None = None, name: s
     A parameter that appears in several models must be declared identically (value, bounds,
     fixed).  ``dofs`` fixes the order of the result (it must be exactly the union of the models'
     dofs); by default node-then-direction order.
+
+    Parameters
+    ----------
+    models : sequence of Model
+        The parts, each with its own dof labels (shared labels are summed).
+    dofs : sequence of str, optional
+        Dof order of the result: exactly the union of the parts' dofs.
+    name : str, default ``"assembled"``
+        Name of the result.
+
+    Returns
+    -------
+    Model
+        The union of the parts' dofs; parameters merged by name; node tables merged.
+
+    Raises
+    ------
+    InputError
+        No models; a ``dofs`` order that is not exactly the union; a parameter declared
+        differently in two parts; and as :class:`Model`.
     """
     if not models:
         raise InputError("assemble: no models")
@@ -140,6 +177,29 @@ def condense(model: Model, keep: Sequence[str], method: str = "guyan", values=No
 
     Dofs of ``keep`` that the model lacks are ignored; a model with no omitted dof is returned
     unchanged.  See :func:`~femupdate.reduction.transforms.reduce` for what the reduced model is.
+
+    Parameters
+    ----------
+    model : Model
+        The super-element's model.
+    keep : sequence of str
+        Retained dofs (of the whole structure; only the model's own count).
+    method : str, default ``"guyan"``
+        ``"guyan"``, ``"irs"``, ``"modal"``, ``"hybrid"`` or ``"serep"``.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values the transformation is built at (default nominal).
+    n_modes : int, optional
+        Modes used by the modal methods.
+
+    Returns
+    -------
+    Model
+        The condensed super-element (or ``model`` itself when nothing is omitted).
+
+    Raises
+    ------
+    InputError
+        None of the model's dofs retained; and as the reduction builders.
     """
     keep_set = set(canonical_all(keep, "keep"))
     boundary = [d for d in model.dofs if d in keep_set]

@@ -47,30 +47,165 @@ __all__ = [
 
 # ---------------------------------------------------------------------------------- functions
 def guyan(model: Model, keep: Sequence[str], values=None) -> Transformation:
-    """Guyan / static condensation transformation (eqs. 37-40); see :meth:`Reducer.guyan`."""
+    """Guyan / static condensation transformation (eqs. 37-40); see :meth:`Reducer.guyan`.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition).
+    """
     return Reducer(model, keep, values).guyan()
 
 
 def irs(model: Model, keep: Sequence[str], values=None) -> Transformation:
-    """Improved Reduced System transformation (eqs. 41-42, corrected); see :meth:`Reducer.irs`."""
+    """Improved Reduced System transformation (eqs. 41-42, corrected); see :meth:`Reducer.irs`.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition); a Guyan-reduced mass
+        matrix that is not positive definite.
+    """
     return Reducer(model, keep, values).irs()
 
 
 def kammer_modal(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
-    """Kammer's modal TAM (eq. 43); see :meth:`Reducer.kammer_modal`."""
+    """Kammer's modal TAM (eq. 43); see :meth:`Reducer.kammer_modal`.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    n_modes : int, optional
+        Number of full-model modes used (default: as many as retained dofs; at most a).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
+        modes the retained dofs cannot tell apart.
+    """
     return Reducer(model, keep, values).kammer_modal(n_modes)
 
 
 def kammer_hybrid(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
-    """Kammer's hybrid TAM (eq. 44, corrected); see :meth:`Reducer.kammer_hybrid`."""
+    """Kammer's hybrid TAM (eq. 44, corrected); see :meth:`Reducer.kammer_hybrid`.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    n_modes : int, optional
+        Number of full-model modes used (default: as many as retained dofs; at most a).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
+        modes the retained dofs cannot tell apart.
+    """
     return Reducer(model, keep, values).kammer_hybrid(n_modes)
 
 
 def serep(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
-    """SEREP transformation :math:`\\Phi\\Phi_a^+`; see :meth:`Reducer.serep`."""
+    """SEREP transformation :math:`\\Phi\\Phi_a^+`; see :meth:`Reducer.serep`.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    n_modes : int, optional
+        Number of full-model modes used (default: as many as retained dofs; at most a).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
+        modes the retained dofs cannot tell apart.
+    """
     return Reducer(model, keep, values).serep(n_modes)
 
 
 def transformation(model: Model, keep: Sequence[str], method: str, n_modes: int | None = None, values=None) -> Transformation:
-    """Transformation by method name (``guyan``, ``irs``, ``modal``, ``hybrid``, ``serep``)."""
+    """Transformation by method name (``guyan``, ``irs``, ``modal``, ``hybrid``, ``serep``).
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+    keep : sequence of str
+        Retained dof labels (the a-set), in the order of the reduced model.
+    method : str
+        ``"guyan"``, ``"irs"``, ``"modal"``, ``"hybrid"`` or ``"serep"``.
+    n_modes : int, optional
+        Number of full-model modes used (modal, hybrid, serep; default: as many as retained dofs; at most a).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values T is built at (default nominal).
+
+    Returns
+    -------
+    Transformation
+        T of shape ``(n_dofs, a)``.
+
+    Raises
+    ------
+    InputError
+        As :class:`Reducer` (bad keep-set, singular omitted partition); an unknown method; and
+        as the builder of that method.
+    """
     return Reducer(model, keep, values).transformation(method, n_modes)

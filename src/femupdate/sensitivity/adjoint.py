@@ -47,6 +47,24 @@ def resolve_sensors(model, sensors) -> np.ndarray:
 
     Unknown labels raise :class:`InputError` naming every one of them; indices must lie in
     ``0 .. n_dofs - 1``; a sensor may not be listed twice.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    sensors : str, sequence of str, or sequence of int
+        Dof labels ``"node:dir"`` or integer dof indices (not a mixture).
+
+    Returns
+    -------
+    numpy.ndarray of int, shape ``(n_s,)``
+        Matrix positions of the sensors, in the order given.
+
+    Raises
+    ------
+    InputError
+        ``None`` or empty; unknown labels; indices out of range; a mixture of labels and
+        indices; a sensor listed twice.
     """
     if sensors is None:
         raise InputError("sensors: give the measured dofs (labels such as '12:x', or dof indices)")
@@ -76,7 +94,31 @@ def resolve_sensors(model, sensors) -> np.ndarray:
 
 def adjoint_details(model, modes, which=None, params=None, sensors=None, values=None, sigma=None,
                     tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov"):
-    """:func:`adjoint`, also returning the number of series terms (one sweep serves all modes)."""
+    """:func:`adjoint`, also returning the number of series terms (one sweep serves all modes).
+
+    Parameters
+    ----------
+    model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series
+        As :func:`adjoint`.
+
+    Returns
+    -------
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives ∂λ_i/∂p_j (paper eq. 21), rad²/s² per unit of p_j.
+    dphi_s : numpy.ndarray, shape ``(n_s, len(which), L)``
+        Derivatives of the mass-normalised shapes at the sensors.
+    n_terms : int
+        Number of series terms used.
+
+    Raises
+    ------
+    InputError
+        Modes that are not mass-normalised or do not belong to the model, indices out of range,
+        bad sensors (:func:`resolve_sensors`).
+    NumericalError
+        A rigid-body or repeated mode among ``which``; and as
+        :func:`~femupdate.sensitivity.series.omitted_modes_series`.
+    """
     check_modes(model, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)

@@ -89,7 +89,22 @@ def single_thread_blas():
 
 
 def solve(lu, B: np.ndarray) -> np.ndarray:
-    """S B with the factorisation ``lu`` (an object with ``.solve``, or a callable)."""
+    """S B with the factorisation ``lu`` (an object with ``.solve``, or a callable).
+
+    Run under :func:`single_thread_blas`.
+
+    Parameters
+    ----------
+    lu : object with ``.solve`` (e.g. SuperLU), or callable
+        The factorisation S = (K − σM)⁻¹ (or any operator applied the same way).
+    B : numpy.ndarray, shape ``(n_dofs,)`` or ``(n_dofs, k)``
+        Right-hand sides.
+
+    Returns
+    -------
+    numpy.ndarray, shape of ``B``
+        S B.
+    """
     with single_thread_blas():
         return lu.solve(B) if hasattr(lu, "solve") else np.asarray(lu(B))
 
@@ -98,7 +113,20 @@ def solve(lu, B: np.ndarray) -> np.ndarray:
 # the shift and the factorisation
 # ---------------------------------------------------------------------------------------------
 def check_modes(model, modes) -> None:
-    """The modes must live on the model's dofs."""
+    """The modes must live on the model's dofs.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    modes : Modes
+        Its modes.
+
+    Raises
+    ------
+    InputError
+        The modes have another number of dofs or other dof labels than the model.
+    """
     if modes.shapes.shape[0] != model.n_dofs or tuple(modes.dofs) != tuple(model.dofs):
         raise InputError(
             f"the modes have {modes.shapes.shape[0]} dofs but model {model.name!r} has {model.n_dofs} "
@@ -113,6 +141,30 @@ def prepare_factor(K, M, modes, sigma=None, lu=None):
     small negative shift (:func:`~femupdate.sensitivity.modal.shifted_factor`).  A supplied
     ``lu`` must factorise K − σM for the given ``sigma`` (default 0).  Without ``lu`` and
     ``sigma``, the factorisation the sparse eigensolver left in ``modes.factor`` is reused.
+
+    Parameters
+    ----------
+    K, M : scipy sparse matrix, shape ``(n_dofs, n_dofs)``
+        Stiffness and mass matrices at the modes' parameter values.
+    modes : Modes
+        The computed modes (their lowest eigenvalue bounds the shift).
+    sigma : float, optional
+        Shift, rad²/s², below the lowest computed eigenvalue.
+    lu : factorisation of K − σM, optional
+        Reused as given (with ``sigma``, default 0).
+
+    Returns
+    -------
+    lu : factorisation
+        SuperLU object (or the ``lu`` given).
+    sigma : float
+        The shift, rad²/s².
+
+    Raises
+    ------
+    InputError
+        A shift that is not finite or not below the lowest computed eigenvalue; and as
+        :func:`~femupdate.sensitivity.modal.shifted_factor`.
     """
     lam_min = float(np.min(modes.eigenvalues))
     if lu is None and sigma is None and getattr(modes, "factor", None) is not None:

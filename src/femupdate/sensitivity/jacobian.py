@@ -45,7 +45,9 @@ SCALINGS = ("ref", "max", "unit", "mass")
 class JacobianResult:
     """Sensitivities of the paired quantities, as sensitivity-based updating consumes them.
 
-    Attributes
+    Built by :func:`jacobian`; each parameter is stored as the attribute of the same name.
+
+    Parameters
     ----------
     dlam : ndarray (m_d, L)
         ∂λ_i/∂p_j, divided by λ_i when ``relative_eigenvalues`` (the paper's eq. 19).
@@ -87,7 +89,12 @@ class JacobianResult:
 
     def matrix(self) -> np.ndarray:
         """Stacked Jacobian ``[dlam; dpsi of mode 1; dpsi of mode 2; ...]``, shape
-        ``(m_d (1 + n_s), L)``: eigenvalue rows first, then each mode's shape rows."""
+        ``(m_d (1 + n_s), L)``: eigenvalue rows first, then each mode's shape rows.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m_d (1 + n_s), L)``
+        """
         return np.vstack([self.dlam] + [self.dpsi[:, r, :] for r in range(self.dlam.shape[0])])
 
 
@@ -121,7 +128,23 @@ def _resolve_ref(model, s: np.ndarray, ref, how: str, n_modes: int) -> tuple[int
 
 
 def choose_method(n_dofs: int, n_sensors: int, n_params: int) -> str:
-    """The route ``method="auto"`` takes (module docstring)."""
+    """The route ``method="auto"`` takes (module docstring).
+
+    Parameters
+    ----------
+    n_dofs : int
+        Model size.
+    n_sensors : int
+        Number of measured dofs.
+    n_params : int
+        Number of parameters differentiated.
+
+    Returns
+    -------
+    str
+        ``"nelson"`` up to :data:`femupdate.modal.DENSE_LIMIT` dofs; above, ``"adjoint"`` when
+        there are fewer sensors than parameters, else ``"subspace"``.
+    """
     if n_dofs <= DENSE_LIMIT:
         return "nelson"
     return "adjoint" if n_sensors < n_params else "subspace"

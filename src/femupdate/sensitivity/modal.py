@@ -81,7 +81,30 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
 
 
 def shifted_factor(K, M, sigma=None):
-    """LU of K − σM (σ = 0 unless K is singular; then a small negative shift)."""
+    """LU of K − σM (σ = 0 unless K is singular; then a small negative shift).
+
+    The default negative shift is −1e-6 times the median of K_ii / M_ii over the dofs with
+    K_ii > 0.
+
+    Parameters
+    ----------
+    K, M : scipy sparse matrix, shape ``(n_dofs, n_dofs)``
+        Stiffness and mass matrices.
+    sigma : float, optional
+        Shift, rad²/s² (default: chosen as above).
+
+    Returns
+    -------
+    lu : scipy.sparse.linalg.SuperLU
+        Factorisation of K − σM.
+    sigma : float
+        The shift used.
+
+    Raises
+    ------
+    InputError
+        K has no positive diagonal entry (default shift), or K − σM is singular.
+    """
     if sigma is None:
         try:
             lu = factorize(K)

@@ -62,7 +62,19 @@ from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
 def buffered_modes(n_differentiated: int, n_dofs: int | None = None) -> int:
     """Number of modes to compute to differentiate the lowest ``n_differentiated`` by the
-    series routes: ``max(2 m_d, m_d + 6)``, capped at ``n_dofs`` when given."""
+    series routes: ``max(2 m_d, m_d + 6)``, capped at ``n_dofs`` when given.
+
+    Parameters
+    ----------
+    n_differentiated : int
+        Number m_d of modes to differentiate.
+    n_dofs : int, optional
+        Model size (the cap).
+
+    Returns
+    -------
+    int
+    """
     m = max(2 * int(n_differentiated), int(n_differentiated) + 6)
     return m if n_dofs is None else min(m, int(n_dofs))
 
@@ -72,7 +84,31 @@ def buffered_modes(n_differentiated: int, n_dofs: int | None = None) -> int:
 # ---------------------------------------------------------------------------------------------
 def subspace_details(model, modes, which=None, params=None, values=None, sigma=None, tol: float = DEFAULT_TOL,
                      lu=None, max_terms: int = MAX_TERMS, series: str = "neumann"):
-    """:func:`subspace`, also returning the number of series terms used for each mode ``(m_d,)``."""
+    """:func:`subspace`, also returning the number of series terms used for each mode ``(m_d,)``.
+
+    Parameters
+    ----------
+    model, modes, which, params, values, sigma, tol, lu, max_terms, series
+        As :func:`subspace`.
+
+    Returns
+    -------
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives (paper eq. 21).
+    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
+        Derivatives of the mass-normalised shapes.
+    n_terms : numpy.ndarray of int, shape ``(len(which),)``
+        Series terms used per mode.
+
+    Raises
+    ------
+    InputError
+        Modes not mass-normalised or not on the model's dofs, indices out of range, a bad
+        shift.
+    NumericalError
+        A rigid-body or repeated mode among ``which``, or a series that does not converge in
+        ``max_terms``.
+    """
     check_modes(model, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)

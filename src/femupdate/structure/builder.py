@@ -18,7 +18,18 @@ from .tables import structure_from_dict
 
 
 class Structure:
-    """Editable description of a physical-parameter structure; :meth:`build` makes the Model."""
+    """Editable description of a physical-parameter structure; :meth:`build` makes the Model.
+
+    Declare parameters, nodes, elements and supports with the methods below (or read them from
+    a model file's tables with :meth:`from_dict`), then call :meth:`build`.  Element properties
+    are numbers or the names of declared parameters; the model must stay affine in its
+    parameters, so at most one factor of each stiffness or mass term may be a parameter.
+
+    Parameters
+    ----------
+    name : str, default ``"model"``
+        Name of the structure, passed on to the built :class:`~femupdate.model.Model`.
+    """
 
     def __init__(self, name: str = "model"):
         self.name = name
@@ -30,7 +41,25 @@ class Structure:
 
     # ------------------------------------------------------------------ declarations
     def parameter(self, name: str, value: float, bounds=None, fixed: bool = False) -> None:
-        """Declare a parameter (see :class:`femupdate.Parameter`)."""
+        """Declare a parameter (see :class:`femupdate.Parameter`).
+
+        Parameters
+        ----------
+        name : str
+            Identifier, referred to by element properties.
+        value : float
+            Nominal / starting value, in the units of the property it stands for.
+        bounds : (float, float), optional
+            Lower and upper bound (default: unbounded).
+        fixed : bool, default False
+            A known parameter, never updated.
+
+        Raises
+        ------
+        InputError
+            A name declared twice, ``fixed`` not a bool, bounds not a pair, and as
+            :class:`~femupdate.model.Parameter`.
+        """
         if name in self.parameters:
             raise InputError(f"parameter {name!r} declared twice")
         if not isinstance(fixed, (bool, np.bool_)):
@@ -44,11 +73,37 @@ class Structure:
         self.parameters[name] = Parameter(name, value, b, fixed)
 
     def node(self, node_id: int, xyz: Sequence[float]) -> None:
-        """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0)."""
+        """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0).
+
+        Parameters
+        ----------
+        node_id : int
+            Node number, used in dof labels ``"node:dir"``.
+        xyz : sequence of float, length 2 or 3
+            Coordinates (x, y[, z]), in the length unit of the element properties.
+
+        Raises
+        ------
+        InputError
+            As :meth:`add_nodes`.
+        """
         self.add_nodes([node_id], [xyz])
 
     def add_nodes(self, ids: Sequence[int] | np.ndarray, xyz) -> None:
-        """Add many nodes at once: ``ids`` (n,), ``xyz`` (n, 2 | 3)."""
+        """Add many nodes at once: ``ids`` (n,), ``xyz`` (n, 2 | 3).
+
+        Parameters
+        ----------
+        ids : sequence of int or numpy.ndarray, shape ``(n,)``
+            Node numbers.
+        xyz : array_like, shape ``(n, 2)`` or ``(n, 3)``
+            Coordinates; z = 0 when only two columns are given.
+
+        Raises
+        ------
+        InputError
+            Coordinates of the wrong shape or not finite; a node defined twice.
+        """
         xyz = np.asarray(xyz, dtype=float)
         if xyz.ndim != 2 or xyz.shape[1] not in (2, 3) or xyz.shape[0] != len(ids):
             raise InputError(f"nodes: coordinates must have shape ({len(ids)}, 2 or 3), got {xyz.shape}")
@@ -63,11 +118,23 @@ class Structure:
             self.nodes[i] = (float(x[0]), float(x[1]), float(x[2]))
 
     def support(self, dofs: Sequence[str]) -> None:
-        """Fix dofs (they are removed from the model)."""
+        """Fix dofs (they are removed from the model).
+
+        Parameters
+        ----------
+        dofs : str or sequence of str
+            Dof label(s) ``"node:dir"``; :meth:`build` checks that each is used by an element.
+        """
         self.supports.extend(canonical(d) for d in ([dofs] if isinstance(dofs, str) else dofs))
 
     def support_node(self, nodes: Sequence[int]) -> None:
-        """Fix every dof that exists at the given nodes."""
+        """Fix every dof that exists at the given nodes.
+
+        Parameters
+        ----------
+        nodes : sequence of int
+            Node numbers; :meth:`build` checks that each is used by an element.
+        """
         self.support_nodes.extend(int(n) for n in nodes)
 
     # ------------------------------------------------------------------ elements
@@ -85,19 +152,54 @@ class Structure:
         self.groups.append(ElementGroup(type_, per, labels, where=[where if n == 1 else f"{where} [{i}]" for i in range(n)], **kw))
 
     def spring(self, dofs: Sequence[str], k, where: str = "spring") -> None:
-        """Spring of stiffness ``k`` to ground (one dof) or between two dofs."""
+        """Spring of stiffness ``k`` to ground (one dof) or between two dofs.
+
+        Parameters
+        ----------
+        dofs : str or sequence of str
+            One dof label (spring to ground) or two (spring between them).
+        k : float or str
+            Stiffness (N/m, or N·m/rad on rotations), or the name of a declared parameter.
+        where : str, default ``"spring"``
+            Name of the element in messages.
+
+        Raises
+        ------
+        InputError
+            Not one or two dofs; invalid labels; ``k`` missing.
+        """
         dofs = canonical_all([dofs] if isinstance(dofs, str) else dofs, where)
         if len(dofs) not in (1, 2):
             raise InputError(f"{where}: a spring takes one dof (to ground) or two, got {len(dofs)}")
         self._add("spring", [list(dofs)], {"k": k}, where)
 
     def springs(self, dofs, k, where: str = "springs") -> None:
-        """Vectorised springs: ``dofs`` is (n_el, 2) or (n_el, 1) labels."""
+        """Vectorised springs: ``dofs`` is (n_el, 2) or (n_el, 1) labels.
+
+        Parameters
+        ----------
+        dofs : sequence of sequences of str, shape ``(n_el, 1)`` or ``(n_el, 2)``
+            One row of dof labels per spring.
+        k : float, str or sequence
+            Stiffness (N/m): a number, parameter name, or a sequence of either with one entry per element.
+        where : str, default ``"springs"``
+            Name of the elements in messages.
+        """
         labels = [list(canonical_all(row, where)) for row in dofs]
         self._add("spring", labels, {"k": k}, where)
 
     def mass(self, dofs: Sequence[str], m, where: str = "mass") -> None:
-        """Lumped mass ``m`` on each of the given dofs."""
+        """Lumped mass ``m`` on each of the given dofs.
+
+        Parameters
+        ----------
+        dofs : str or sequence of str
+            Dof label(s) carrying the mass.
+        m : float or str
+            Mass (kg; a rotary inertia, kg·m², on rotation dofs), or a parameter name.
+        where : str, default ``"mass"``
+            Name of the element in messages.
+        """
         dofs = canonical_all([dofs] if isinstance(dofs, str) else dofs, where)
         self._add("mass", [list(dofs)], {"m": m}, where)
 
@@ -124,23 +226,103 @@ class Structure:
         self._add(type_, labels, props, where, nodes=pairs, **kw)
 
     def rod(self, nodes, E, A, rho, dim: int = 3, mass: str = "consistent", where: str = "rod") -> None:
-        """Truss member(s) between node pairs; ``dim`` 2 (x, y) or 3 (x, y, z)."""
+        """Truss member(s) between node pairs; ``dim`` 2 (x, y) or 3 (x, y, z).
+
+        Parameters
+        ----------
+        nodes : (int, int) or array_like of shape ``(n_el, 2)``
+            End nodes of each member.
+        E, A, rho : float, str or sequence
+            Young's modulus, cross-section area and density, each a number, parameter name, or a
+            sequence of either with one entry per element.
+        dim : int, default 3
+            2 (dofs x, y) or 3 (dofs x, y, z).
+        mass : str, default ``"consistent"``
+            ``"consistent"`` or ``"lumped"`` mass matrix.
+        where : str, default ``"rod"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            A bad ``dim`` or ``mass``; node pairs that are not integer pairs or join a node to
+            itself; a missing property, or the wrong number of per-element values.
+        """
         if dim not in (2, 3):
             raise InputError(f"{where}: dim must be 2 or 3, got {dim!r}")
         dirs = ("x", "y") if dim == 2 else ("x", "y", "z")
         self._line("rod", nodes, {"E": E, "A": A, "rho": rho}, where, dirs, mass=mass_kind(mass, where), dim=dim)
 
     def beam2d(self, nodes, E, A, I, rho, mass: str = "consistent", where: str = "beam2d") -> None:
-        """Euler-Bernoulli beam(s) in the x-y plane (dofs x, y, rz)."""
+        """Euler-Bernoulli beam(s) in the x-y plane (dofs x, y, rz).
+
+        Parameters
+        ----------
+        nodes : (int, int) or array_like of shape ``(n_el, 2)``
+            End nodes of each beam.
+        E, A, I, rho : float, str or sequence
+            Young's modulus, area, second moment of area and density, each a number, parameter
+            name, or a sequence of either with one entry per element.
+        mass : str, default ``"consistent"``
+            ``"consistent"`` or ``"lumped"``.
+        where : str, default ``"beam2d"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            As :meth:`rod`.
+        """
         self._line("beam2d", nodes, {"E": E, "A": A, "I": I, "rho": rho}, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def beam2d_terms(self, nodes, EA_l, k12, k6, k2, rho, A, mass: str = "consistent", where: str = "beam2d_terms") -> None:
-        """Beam2d with the Appendix's independent stiffness terms EA/l, 12EI/l^3, 6EI/l^2, 2EI/l."""
+        """Beam2d with the Appendix's independent stiffness terms EA/l, 12EI/l^3, 6EI/l^2, 2EI/l.
+
+        Parameters
+        ----------
+        nodes : (int, int) or array_like of shape ``(n_el, 2)``
+            End nodes of each beam.
+        EA_l, k12, k6, k2 : float, str or sequence
+            The stiffness terms EA/l, 12EI/l³, 6EI/l², 2EI/l, each a number, parameter name, or a
+            sequence of either with one entry per element.
+        rho, A : float, str or sequence
+            Density and area, for the mass matrix as :meth:`beam2d`.
+        mass : str, default ``"consistent"``
+            ``"consistent"`` or ``"lumped"``.
+        where : str, default ``"beam2d_terms"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            As :meth:`rod`.
+        """
         props = {"EA_l": EA_l, "k12": k12, "k6": k6, "k2": k2, "rho": rho, "A": A}
         self._line("beam2d_terms", nodes, props, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d") -> None:
-        """12-dof space frame member(s); ``orientation`` lies in the local x-y plane."""
+        """12-dof space frame member(s); ``orientation`` lies in the local x-y plane.
+
+        Parameters
+        ----------
+        nodes : (int, int) or array_like of shape ``(n_el, 2)``
+            End nodes of each member.
+        E, G, A, Iy, Iz, J, rho : float, str or sequence
+            Young's and shear moduli, area, second moments of area about local y and z,
+            torsion constant and density, each a number, parameter name, or a sequence of either
+            with one entry per element.
+        orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
+            A vector in each member's local x-y plane (global components), finite.
+        mass : str, default ``"consistent"``
+            ``"consistent"`` or ``"lumped"``.
+        where : str, default ``"frame3d"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            A missing or malformed ``orientation``, and as :meth:`rod`.
+        """
         props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
         self._frame("frame3d", nodes, props, orientation, mass, where)
 
@@ -151,6 +333,32 @@ class Structure:
 
         Give ``k12, k6, k2`` (shared by both bending planes: Iy = Iz, the Appendix's five
         unknowns EA/l, 12EI/l^3, 6EI/l^2, GJ/l, 2EI/l) or the per-plane ``*_y`` and ``*_z``.
+
+        Parameters
+        ----------
+        nodes : (int, int) or array_like of shape ``(n_el, 2)``
+            End nodes of each member.
+        EA_l, GJ_l : float, str or sequence
+            Axial and torsional stiffness terms EA/l and GJ/l.
+        rho, A, Ip : float, str or sequence
+            Density, area and polar moment of area, for the mass matrix.
+        orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
+            A vector in each member's local x-y plane.
+        k12, k6, k2 : float, str or sequence, optional
+            Bending terms 12EI/l³, 6EI/l², 2EI/l shared by both planes.
+        k12_y, k6_y, k2_y, k12_z, k6_z, k2_z : float, str or sequence, optional
+            The same terms per bending plane (instead of ``k12, k6, k2``).
+        mass : str, default ``"consistent"``
+            ``"consistent"`` or ``"lumped"``.
+        where : str, default ``"frame3d_terms"``
+            Name of the element(s) in messages.
+
+        Every property is a number, parameter name, or a sequence of either with one entry per element.
+
+        Raises
+        ------
+        InputError
+            A bending term given both shared and per plane, or neither; and as :meth:`frame3d`.
         """
         props = {"EA_l": EA_l, "GJ_l": GJ_l, "rho": rho, "A": A, "Ip": Ip}
         given = {"k12": k12, "k6": k6, "k2": k2, "k12_y": k12_y, "k6_y": k6_y, "k2_y": k2_y,
@@ -181,12 +389,48 @@ class Structure:
     # ------------------------------------------------------------------ dict / TOML form
     @classmethod
     def from_dict(cls, data: Mapping, source: str = "model") -> Structure:
-        """Structure from the parsed TOML model file (schema in docs/interfaces.md)."""
+        """Structure from the parsed TOML model file (schema in docs/file-formats.md).
+
+        Parameters
+        ----------
+        data : mapping
+            The parsed model file (``[model]``, ``[parameters.NAME]``, ``[[node]]``,
+            ``[[element]]``, ``[[support]]`` tables).
+        source : str, default ``"model"``
+            Name of the source (e.g. the file path), used in messages.
+
+        Returns
+        -------
+        Structure
+
+        Raises
+        ------
+        InputError
+            A malformed table, as described in the messages.
+        """
         return structure_from_dict(cls, data, source)
 
     # ------------------------------------------------------------------ assembly
     def build(self) -> Model:
-        """Assemble the affine sparse model (no dense global matrix is formed)."""
+        """Assemble the affine sparse model (no dense global matrix is formed).
+
+        Dofs are the labels used by the elements, sorted by node and direction, minus the
+        supported ones.
+
+        Returns
+        -------
+        Model
+            K0, M0 from the numeric properties, one dK/dM per declared parameter; the nodes
+            used by elements.
+
+        Raises
+        ------
+        InputError
+            No elements; a support dof or node used by no element; every dof supported; an
+            undefined node; an undeclared parameter name; a non-finite or non-positive property;
+            a term that multiplies two parameters (the model would not be affine); and as
+            :class:`~femupdate.model.Model`.
+        """
         if not self.groups:
             raise InputError(f"structure {self.name!r} has no elements")
         groups = merge_groups(self.groups)

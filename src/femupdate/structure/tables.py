@@ -1,4 +1,4 @@
-"""The dict / TOML form of a structure (schema in docs/interfaces.md): parameters, nodes,
+"""The dict / TOML form of a structure (schema in docs/file-formats.md): parameters, nodes,
 elements and supports read into a :class:`~femupdate.structure.Structure`."""
 
 from __future__ import annotations

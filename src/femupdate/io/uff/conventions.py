@@ -33,7 +33,29 @@ AXIS_RTOL = 1e-5  # UFF abscissas are single precision (E13.5): equal axes agree
 
 
 def direction_of_code(code, where: str, node) -> tuple[str, float]:
-    """UFF direction code -> (direction name, sign of the transducer)."""
+    """UFF direction code -> (direction name, sign of the transducer).
+
+    Parameters
+    ----------
+    code : int or str
+        Direction code ±1..±6 (x, y, z, rx, ry, rz; negative: transducer reversed).
+    where : str
+        Location (file, dataset) for the message.
+    node : int
+        Node number, for the message.
+
+    Returns
+    -------
+    direction : str
+        ``"x"``, ``"y"``, ``"z"``, ``"rx"``, ``"ry"`` or ``"rz"``.
+    sign : float
+        +1.0 or −1.0.
+
+    Raises
+    ------
+    InputError
+        Code 0 (scalar), a code beyond ±6, or not an integer.
+    """
     try:
         c = int(code)
     except (TypeError, ValueError):
@@ -47,7 +69,22 @@ def direction_of_code(code, where: str, node) -> tuple[str, float]:
 
 
 def code_of_direction(direction: str) -> int:
-    """Direction name (x .. rz) -> UFF direction code 1..6."""
+    """Direction name (x .. rz) -> UFF direction code 1..6.
+
+    Parameters
+    ----------
+    direction : str
+        ``"x"``, ``"y"``, ``"z"``, ``"rx"``, ``"ry"`` or ``"rz"``.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ValueError
+        Another name (from :meth:`tuple.index`).
+    """
     return DIRECTIONS.index(direction) + 1
 
 

@@ -30,9 +30,13 @@ from ...testdata import MeasuredMode, TestData
 class Modification:
     """Known changes that turn the baseline structure into one test configuration.
 
-    Attributes
+    Each parameter is stored, validated and with canonical dof labels, as the attribute of the
+    same name.
+
+    Parameters
     ----------
-    name : str
+    name : str, default ``"baseline"``
+        Name of the configuration.
     masses : tuple of (dof, mass)
         Lumped masses added at dofs (kg, or kg m^2 on rotations); negative removes known mass.
     springs : tuple of ((dof,) or (dof_a, dof_b), k)
@@ -43,6 +47,12 @@ class Modification:
         Nodes all of whose dofs are fixed.
     values : mapping {parameter: value}
         Known (fixed) parameters that take other values in this configuration.
+
+    Raises
+    ------
+    InputError
+        Invalid dof labels; a zero or non-finite mass or spring; a spring on neither one nor two
+        dofs; a non-numeric or non-finite value.
     """
 
     name: str = "baseline"
@@ -75,9 +85,11 @@ class Modification:
 
     @property
     def is_baseline(self) -> bool:
+        """Whether the modification changes nothing."""
         return not (self.masses or self.springs or self.supports or self.support_nodes or self.values)
 
     def describe(self) -> str:
+        """One line listing the changes (``"unmodified"`` for none)."""
         parts = [f"+{m:g} mass at {d}" for d, m in self.masses]
         parts += [f"+{k:g} spring {'-'.join(d)}" for d, k in self.springs]
         if self.supports or self.support_nodes:
@@ -107,7 +119,17 @@ def _finite_nonzero(v, what) -> float:
 
 @dataclass(frozen=True)
 class Configuration:
-    """One tested configuration: its test data and the known modification that defines it."""
+    """One tested configuration: its test data and the known modification that defines it.
+
+    Parameters
+    ----------
+    data : TestData
+        The data measured on this configuration (dofs of the configured model).
+    modification : Modification, default unmodified
+        The known changes from the baseline.
+    name : str, default ``""``
+        Label (default: the modification's name, see :attr:`label`).
+    """
 
     data: TestData
     modification: Modification = field(default_factory=Modification)
@@ -115,12 +137,23 @@ class Configuration:
 
     @property
     def label(self) -> str:
+        """``name``, or the modification's name when empty."""
         return self.name or self.modification.name
 
 
 @dataclass(frozen=True, eq=False)
 class ConfiguredModel:
-    """The model of one configuration and the baseline parameters it does not depend on."""
+    """The model of one configuration and the baseline parameters it does not depend on.
+
+    Parameters
+    ----------
+    model : Model
+        The configured model.
+    dropped : tuple of str
+        Baseline parameters that no longer enter it.
+    removed_dofs : tuple of str
+        Baseline dofs supported in this configuration.
+    """
 
     model: Model
     dropped: tuple[str, ...]
@@ -134,11 +167,23 @@ def configure(model: Model, modification: Modification) -> ConfiguredModel:
     ``values`` become the nominal values of those parameters.  A parameter that no longer enters
     the model (every dof of its elements supported) is dropped from it and listed in ``dropped``.
 
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    modification : Modification
+        The known changes.
+
+    Returns
+    -------
+    ConfiguredModel
+
     Raises
     ------
     InputError
         A dof, node or parameter that the model lacks (the message names the modification and the
-        culprit), a mass or spring on a dof the same modification supports.
+        culprit), a mass or spring on a dof the same modification supports, every dof supported,
+        a value set for a parameter that no longer enters the model.
     """
     mod = modification
     where = f"modification {mod.name!r}"
@@ -211,6 +256,29 @@ def simulate(model: Model, modification: Modification | None = None, measured_do
 
     Shapes are taken at ``measured_dofs`` (default every dof of the configuration; dofs the
     configuration supports are left out).  ``values``: parameter values (default nominal).
+
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    modification : Modification, optional
+        The configuration (default: the baseline itself).
+    measured_dofs : sequence of str, optional
+        Dofs of the shapes (default every dof of the configured model).
+    n_modes : int, default 3
+        Number of elastic (non-zero eigenvalue) modes.
+    values : None, mapping of str to float, or array_like, optional
+        Baseline parameter values (default nominal); the modification's values override them.
+
+    Returns
+    -------
+    TestData
+        ``n_modes`` measured modes (eigenvalues in rad²/s², mass-normalised shapes).
+
+    Raises
+    ------
+    InputError
+        Fewer elastic modes than asked; measured dofs not in the model; and as :func:`configure`.
     """
     mod = modification or Modification()
     cm = configure(model, mod).model
@@ -235,13 +303,47 @@ def simulate(model: Model, modification: Modification | None = None, measured_do
 
 def config_values(model: Model, cm: Model, mod: Modification, values=None) -> np.ndarray:
     """Parameter vector of the configured model: the base model's values (or ``values``) by name,
-    with the modification's known values."""
+    with the modification's known values.
+
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    cm : Model
+        The configured model (:func:`configure`).
+    mod : Modification
+        The configuration's modification.
+    values : None, mapping of str to float, or array_like, optional
+        Baseline values (default nominal).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(len(cm.parameters),)``
+    """
     base = dict(zip(model.parameter_names, model.resolve(values)))
     base.update(mod.values)
     return np.array([base[n] for n in cm.parameter_names], dtype=float)
 
 
 def check_unknowns(model: Model, names) -> list[str]:
+    """The unknown parameters, checked.
+
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    names : sequence of str or None
+        Parameter names (``None``: every parameter not ``fixed``).
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    InputError
+        An unknown name; no unknowns; a name listed twice.
+    """
     all_names = model.parameter_names
     names = list(names) if names is not None else [all_names[j] for j in model.free]
     for n in names:
@@ -254,7 +356,29 @@ def check_unknowns(model: Model, names) -> list[str]:
 
 
 def prepare(model: Model, configurations: Sequence[Configuration], names: Sequence[str]):
-    """Configured models, checked against the unknowns and the data."""
+    """Configured models, checked against the unknowns and the data.
+
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    configurations : sequence of Configuration
+        The tested configurations (distinct labels).
+    names : sequence of str
+        The unknown parameters.
+
+    Returns
+    -------
+    list of ConfiguredModel
+        One per configuration, in order.
+
+    Raises
+    ------
+    InputError
+        No configurations; a label used twice; a configuration that sets an unknown parameter;
+        data at dofs not in a configured model; an unknown that enters no configuration; and as
+        :func:`configure`.
+    """
     if not configurations:
         raise InputError("no configurations given")
     labels = [c.label for c in configurations]
@@ -297,7 +421,21 @@ def _check_data_dofs(c: Configuration, cm: ConfiguredModel) -> None:
 
 
 def is_complete(c: Configuration, cm: Model) -> bool:
-    """Whether the data of a configuration allow the direct solution (shapes at every dof)."""
+    """Whether the data of a configuration allow the direct solution (shapes at every dof).
+
+    Parameters
+    ----------
+    c : Configuration
+        The configuration and its data.
+    cm : Model
+        Its configured model.
+
+    Returns
+    -------
+    bool
+        True when there is at least one shape, FRF or static case and each covers as many dofs as
+        the model has (the dofs themselves are checked by :func:`prepare`).
+    """
     n = cm.n_dofs
     d = c.data
     items = [len(m.dofs) for m in d.modes if m.has_shape]

@@ -33,7 +33,27 @@ _MOD_KEYS = {"name", "mass", "spring", "support", "values"}
 
 
 def modification_from_dict(raw, source: str = "modification", default_name: str = "modified") -> Modification:
-    """A :class:`Modification` from the parsed file (schema in the module docstring)."""
+    """A :class:`Modification` from the parsed file (schema in the module docstring).
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed table: ``name``, ``mass`` (``dofs``, ``m`` in kg), ``spring`` (``dofs``, ``k``
+        in N/m), ``support`` (``dofs`` and/or ``nodes``) and ``values`` {parameter: value}.
+    source : str, default ``"modification"``
+        Where it came from, for messages.
+    default_name : str, default ``"modified"``
+        Name when ``raw`` gives none.
+
+    Returns
+    -------
+    Modification
+
+    Raises
+    ------
+    InputError
+        Not a table; unknown keys; malformed entries; and as :class:`Modification`.
+    """
     if not isinstance(raw, Mapping):
         raise InputError(f"{source}: expected a table / object")
     extra = sorted(set(raw) - _MOD_KEYS)
@@ -76,13 +96,44 @@ def modification_from_dict(raw, source: str = "modification", default_name: str 
 
 
 def load_modification(path) -> Modification:
-    """Read one configuration's modification (TOML or JSON)."""
+    """Read one configuration's modification (TOML or JSON).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.toml`` or ``.json`` file; its stem is the default name.
+
+    Returns
+    -------
+    Modification
+
+    Raises
+    ------
+    InputError
+        As :func:`~femupdate.io.tables.read_table_file` and :func:`modification_from_dict`.
+    """
     path = Path(path)
     return modification_from_dict(read_table_file(path), str(path), default_name=path.stem)
 
 
 def load_candidates(path) -> list[Modification]:
-    """Read candidate modifications for :func:`~femupdate.updating.multiconfig.rank_modifications`."""
+    """Read candidate modifications for :func:`~femupdate.updating.multiconfig.rank_modifications`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A TOML file of ``[[candidate]]`` tables, or a JSON object ``{"candidates": [...]}``.
+
+    Returns
+    -------
+    list of Modification
+        In file order (default names ``"candidate i"``).
+
+    Raises
+    ------
+    InputError
+        Other top-level keys; no candidates; and as :func:`modification_from_dict`.
+    """
     path = Path(path)
     raw = read_table_file(path)
     key = "candidate" if "candidate" in raw else "candidates"
@@ -96,7 +147,20 @@ def load_candidates(path) -> list[Modification]:
 
 
 def split_config_spec(spec: str) -> tuple[Path, Path | None]:
-    """``"DATA"`` or ``"DATA:MODIFICATION.toml"`` (the modification ends in .toml or .json)."""
+    """``"DATA"`` or ``"DATA:MODIFICATION.toml"`` (the modification ends in .toml or .json).
+
+    Parameters
+    ----------
+    spec : str
+        The command-line specification of one configuration.
+
+    Returns
+    -------
+    data : pathlib.Path
+        The test-data file.
+    modification : pathlib.Path or None
+        The modification file, if given.
+    """
     head, sep, tail = spec.rpartition(":")
     if sep and Path(tail).suffix.lower() in (".toml", ".json") and head:
         return Path(head), Path(tail)
