@@ -189,7 +189,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
             for i in range(b - a):
                 for j in range(nm):
                     B[i, j] = Phi[pos[i], j]
-            MAC[k, :nm] = rules.mac_vector(np.ascontiguousarray(d.psi_e[a:b]), B)
+            MAC[k, :nm] = rules.mac_vector(d.psi_e[a:b], B)
     code, i0 = rules.pair_by_mac(MAC, shaped, nm, sp_.min_mac, pairs, err_modes)
     if code != rules.OK:
         err_i[0] = i0
@@ -207,7 +207,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
         if b > a:
             ns = rules.n_shape_residuals(b - a, d.ref[q])
             node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j),
-                                         np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], d.w_psi[q],
+                                         d.psi_e[a:b], d.ref[q], d.w_psi[q],
                                          fout[row:row + ns])
             if node >= 0:
                 err_i[0] = node
@@ -282,7 +282,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         if ns:
             nr = rules.n_shape_residuals(ns, d.ref[q])
             rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t), dphs,
-                                 np.ascontiguousarray(d.psi_e[a:b]), d.ref[q], d.w_psi[q], dpdx,
+                                 d.psi_e[a:b], d.ref[q], d.w_psi[q], dpdx,
                                  Jout[row0:row0 + nr])
             row0 += nr
     for i in range(row0):
