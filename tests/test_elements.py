@@ -882,3 +882,17 @@ def test_model_modes_rigid_modes_alone(method):
     model = beam2d_line(40, clamp=False)
     modes = model_modes(model, n_modes=3, method=method)
     assert modes.n_rigid == 3
+
+
+def test_vanishing_element_length_is_input_error():
+    """An element so short that its bending terms (1/l^3) overflow is refused by name, not turned
+    into NaN (found by the random corruption test: a node at 2e-105)."""
+    from femupdate import InputError, Structure
+
+    s = Structure("vanishing beam")
+    s.parameter("E", 2.0e11)
+    s.node(1, [0.0, 0.0, 0.0])
+    s.node(2, [2e-105, 0.0, 0.0])
+    s.beam2d([1, 2], E="E", A=1e-3, I=1e-8, rho=7850.0)
+    with pytest.raises(InputError, match="vanishing"):
+        s.build()

@@ -71,11 +71,13 @@ def _check_mass_kind(mass: str) -> None:
 def _lengths(xa: np.ndarray, xb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.asarray(xb, float) - np.asarray(xa, float)
     length = np.linalg.norm(d, axis=1)
-    bad = np.flatnonzero(~(length > 0))
+    with np.errstate(over="ignore", divide="ignore", under="ignore"):
+        vanishing = ~np.isfinite(12.0 / length**3)  # bending terms go as 1/l^3: they must stay finite
+    bad = np.flatnonzero(~(length > 0) | vanishing)
     if bad.size:
         raise _group_error(
-            f"element(s) of zero (or undefined) length at position(s) {bad[:8].tolist()} of the group: "
-            "both end nodes at the same point (or a coordinate that is not finite)", bad)
+            f"element(s) of zero, vanishing or undefined length at position(s) {bad[:8].tolist()} of the group: "
+            "both end nodes at (nearly) the same point, or a coordinate that is not finite", bad)
     return d, length
 
 
