@@ -31,7 +31,8 @@ failure is an error code (:data:`ERRORS`, turned into a message by :func:`messag
 written in the subset of Python that numba compiles, and marked with :func:`rule`; the compiled
 backend registers every rule with numba (``numba.extending.register_jitable``) when it is
 imported, so that its kernels call these very functions.  Inner products go through
-:func:`dot`, the one primitive with a compiled implementation of its own (a sequential sum, so
+:func:`dot` (and :func:`dot_col`, :func:`sumsq_col` for matrix columns), the primitives with a
+compiled implementation of their own (a sequential sum, so
 that compiled results do not depend on a BLAS's summation order).  This module does not import
 numba.
 """
@@ -56,6 +57,17 @@ def dot(a, b) -> float:
     """The inner product of two vectors.  Here NumPy's; the compiled backend gives compiled code
     its own implementation, a plain sequential sum (``numba.extending.overload``)."""
     return float(np.dot(a, b))
+
+
+def dot_col(a, B, j) -> float:
+    """The inner product of the vector ``a`` with column ``j`` of the matrix ``B`` (compiled: a
+    sequential sum that makes no view of the column)."""
+    return float(np.dot(a, B[:, j]))
+
+
+def sumsq_col(B, j) -> float:
+    """The squared norm of column ``j`` of ``B`` (compiled: a sequential sum, no view)."""
+    return float(np.dot(B[:, j], B[:, j]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -175,17 +187,15 @@ def check_distinct(lam, nm, t):
 # pairing
 # ---------------------------------------------------------------------------------------------
 @rule
-def mac_vector(psi, B):
-    """MAC (nm,) of the shape ``psi`` (n_s,) against the columns of ``B`` (n_s, nm), in [0, 1]
-    (0 where a column is zero)."""
+def mac_vector(psi, B, out):
+    """MAC of the shape ``psi`` (n_s,) against the columns of ``B`` (n_s, nm) into ``out`` (nm,),
+    each in [0, 1] (0 where a column is zero)."""
     ee = dot(psi, psi)
-    out = np.zeros(B.shape[1])
-    for j in range(out.size):
-        num = dot(psi, B[:, j])
-        den = ee * dot(B[:, j], B[:, j])
+    for j in range(B.shape[1]):
+        num = dot_col(psi, B, j)
+        den = ee * sumsq_col(B, j)
         v = num * num / den if den > 0 else 0.0
         out[j] = min(max(v, 0.0), 1.0)
-    return out
 
 
 @rule
@@ -397,7 +407,7 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
     sign = unit_sign(scaling, phs, s, psi_e)
     fct = w * sign / s
     for j in range(dphs.shape[1]):
-        ds = dot(phs, dphs[:, j]) / s if scaling == UNIT else dphs[k, j]
+        ds = dot_col(phs, dphs, j) / s if scaling == UNIT else dphs[k, j]
         o = 0
         for i in range(phs.size):
             if i != ref:
@@ -406,7 +416,7 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
 
 
 __all__ = [
-    "RULES", "rule", "dot", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
+    "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
     "to_p", "dp_dx", "check_spectrum", "check_distinct", "mac_vector", "assign", "pair_by_mac", "shape_scale",
     "unit_sign", "n_shape_residuals", "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals",
     "shape_jacobian",

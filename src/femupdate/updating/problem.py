@@ -321,7 +321,7 @@ class Problem(Parametrisation):
         MAC = np.zeros((T, max(nm, 1)))
         for k in map(int, np.flatnonzero(shaped)):
             sl = tg.measured(k)
-            MAC[k, :nm] = rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm])
+            rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k, :nm])
         pairs = np.zeros(T, np.int64)
         bad = np.zeros(T, np.bool_)
         code, i = rules.pair_by_mac(MAC, shaped, nm, self.min_mac, pairs, bad)
@@ -394,7 +394,9 @@ class Problem(Parametrisation):
         sl = tg.measured(k)
         if sl.stop == sl.start:
             return math.nan
-        return float(rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], j:j + 1])[0])
+        out = np.zeros(1)
+        rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], j:j + 1], out)
+        return float(out[0])
 
 
 __all__ = ["Problem", "Parametrisation", "Targets", "modal_weights", "build_targets", "PARAMETRISATIONS",

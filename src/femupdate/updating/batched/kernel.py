@@ -41,17 +41,39 @@ from .jit import inner, jit
 
 log = logging.getLogger(__name__)
 
-for _rule in rules.RULES:  # the rules, callable from the kernels below
-    register_jitable(_rule)
+for _rule in rules.RULES:  # the rules, callable from the kernels below, with the kernels' error model
+    register_jitable(error_model="numpy")(_rule)
 
 
-@overload(rules.dot)
+@overload(rules.dot, jit_options={"error_model": "numpy"})
 def _dot(a, b):
     """:func:`femupdate.rules.dot` in compiled code: a sequential sum, any array layout."""
     def impl(a, b):
         s = 0.0
         for i in range(a.size):
             s += a[i] * b[i]
+        return s
+    return impl
+
+
+@overload(rules.dot_col, jit_options={"error_model": "numpy"})
+def _dot_col(a, B, j):
+    """:func:`femupdate.rules.dot_col` in compiled code: the same sum, reading the column in place."""
+    def impl(a, B, j):
+        s = 0.0
+        for i in range(a.size):
+            s += a[i] * B[i, j]
+        return s
+    return impl
+
+
+@overload(rules.sumsq_col, jit_options={"error_model": "numpy"})
+def _sumsq_col(B, j):
+    """:func:`femupdate.rules.sumsq_col` in compiled code: the same sum, reading the column in place."""
+    def impl(B, j):
+        s = 0.0
+        for i in range(B.shape[0]):
+            s += B[i, j] * B[i, j]
         return s
     return impl
 
@@ -120,6 +142,15 @@ def _shaped(d, t0, T):
 
 
 @inner
+def _widest(d, t0, T):
+    """The most measured dofs of any of the T test modes from ``t0``."""
+    w = 0
+    for k in range(T):
+        w = max(w, d.pptr[t0 + k + 1] - d.pptr[t0 + k])
+    return w
+
+
+@inner
 def _measured(Phi, pos, j):
     """Mode j at the dofs ``pos`` (contiguous)."""
     out = np.empty(pos.size)
@@ -181,15 +212,14 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     # pairing
     shaped = _shaped(d, t0, T)
     MAC = np.zeros((T, max(nm, 1)))
+    B = np.empty((_widest(d, t0, T), nm))  # one work array for every mode's measured rows
     for k in range(T):
         if shaped[k]:
             a, b = d.pptr[t0 + k], d.pptr[t0 + k + 1]
-            pos = d.pos[a:b]
-            B = np.empty((b - a, nm))
             for i in range(b - a):
                 for j in range(nm):
-                    B[i, j] = Phi[pos[i], j]
-            MAC[k, :nm] = rules.mac_vector(d.psi_e[a:b], B)
+                    B[i, j] = Phi[d.pos[a + i], j]
+            rules.mac_vector(d.psi_e[a:b], B[:b - a], MAC[k, :nm])
     code, i0 = rules.pair_by_mac(MAC, shaped, nm, sp_.min_mac, pairs, err_modes)
     if code != rules.OK:
         err_i[0] = i0
@@ -239,6 +269,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
     G = np.zeros(n)
     coef = np.empty(n)
     dlam = np.empty(L)
+    dbuf = np.zeros((_widest(d, t0, T), L))  # one work array for every mode's shape derivatives
     row0 = 0
     for k in range(T):
         q = t0 + k
@@ -246,7 +277,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         lt = lam[t]
         a, b = d.pptr[q], d.pptr[q + 1]
         ns = b - a
-        dphs = np.zeros((ns, L))
+        dphs = dbuf[:ns]
         for j in range(L):
             for e in range(md.sptr[j], md.sptr[j + 1]):
                 G[md.sidx[e]] = 0.0
