@@ -72,7 +72,8 @@ def paired_modes(model, data: TestData, values, min_pair: float):
     Returns
     -------
     modes : Modes
-        The model modes: all of them up to 1500 dofs, else ``min(n_dofs - 2, 2 n_test + 12)``.
+        The model modes: :func:`~femupdate.modal.model_modes`'s default number up to 1500 dofs,
+        else ``min(n_dofs - 2, 2 n_test + 12)``.
     mac : ndarray, shape ``(n_test_modes, n_model_modes)``
         MAC of each test mode with each model mode, zero for model modes with eigenvalue <= 0
         (rigid-body modes are never paired).

@@ -23,8 +23,8 @@ def segmented_cantilever(n_el: int = 12, E: Sequence[float] = (2.1e11,) * 4, len
     """Plane cantilever of ``n_el`` beam2d elements along x, Young's modulus unknown per segment.
 
     Nodes 0..n_el equally spaced on ``[0, length]`` at y = 0, node 0 clamped.  The elements are split
-    into ``len(E)`` consecutive segments (element i in segment ``i * len(E) // n_el``), segment k
-    with the parameter ``"E<k>"`` (k from 1).
+    into ``len(E)`` consecutive segments: element i (0-based) takes the parameter
+    ``"E<k>"``, ``k = i * len(E) // n_el + 1``.
 
     Parameters
     ----------
