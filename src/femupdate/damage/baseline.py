@@ -17,7 +17,28 @@ from ..testdata import TestData
 
 @dataclass(frozen=True, eq=False)
 class BaselineCheck:
-    """Correlation of the baseline model with the undamaged structure's test data."""
+    """Correlation of the baseline model with the undamaged structure's test data.
+
+    Returned by :func:`check_baseline`; each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    ok : bool
+        True when no mode is beyond the limits (``reasons`` empty).
+    frequency_error : ndarray, shape ``(n_test_modes,)``
+        Relative frequency error ``(f_model - f_test) / f_test`` of each undamaged test mode with its
+        paired model mode; NaN for a mode without a shape (at two or more dofs) or left unpaired.
+    mac : ndarray, shape ``(n_test_modes,)``
+        MAC of each test mode with its paired model mode; NaN where ``frequency_error`` is.
+    pairs : list of (int, int, float)
+        (test mode, model mode, MAC) pairs, 0-based, as :func:`femupdate.correlation.pair_modes`.
+    reasons : list of str
+        One message per mode and limit exceeded.
+    max_frequency_error : float
+        The relative frequency-error limit that was applied.
+    min_mac : float
+        The MAC limit that was applied.
+    """
 
     ok: bool
     frequency_error: np.ndarray
@@ -34,7 +55,36 @@ class BaselineCheck:
 
 
 def paired_modes(model, data: TestData, values, min_pair: float):
-    """Model modes (enough of them) and the MAC pairing of the test modes with shapes."""
+    """Model modes (enough of them) and the MAC pairing of the test modes with shapes.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : TestData
+        Test modes; those with a shape at two or more dofs are correlated, the others get a row of
+        zeros (never paired).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``
+        Parameter values as :func:`femupdate.modal.model_modes` reads them (None: nominal).
+    min_pair : float
+        Smallest MAC of a kept pair.
+
+    Returns
+    -------
+    modes : Modes
+        The model modes: :func:`~femupdate.modal.model_modes`'s default number up to 1500 dofs,
+        else ``min(n_dofs - 2, 2 n_test + 12)``.
+    mac : ndarray, shape ``(n_test_modes, n_model_modes)``
+        MAC of each test mode with each model mode, zero for model modes with eigenvalue <= 0
+        (rigid-body modes are never paired).
+    pairs : list of (int, int, float)
+        (test mode, model mode, MAC), as :func:`femupdate.correlation.pair_modes`.
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :func:`femupdate.modal.model_modes` (e.g. an unknown test dof).
+    """
     n = len(data.modes)
     modes = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else min(model.n_dofs - 2, 2 * n + 12))
     rows = []
@@ -55,10 +105,30 @@ def check_baseline(model: Model, undamaged: TestData, values=None, *, max_freque
     Every undamaged test mode with a shape must pair (MAC) with a model mode with
     ``MAC >= min_mac`` and ``|f_model - f_test| / f_test <= max_frequency_error``.
 
+    Parameters
+    ----------
+    model : Model
+        The baseline model.
+    undamaged : TestData
+        Modes of the undamaged structure; those with a shape at two or more dofs are checked.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Parameter values of the baseline (default: nominal).
+    max_frequency_error : float, default 0.02
+        Largest relative frequency error (0.02: 2 %).
+    min_mac : float, default 0.9
+        Smallest MAC of a test mode with its paired model mode.
+    raise_on_failure : bool, default True
+        Raise when a mode is beyond the limits; otherwise return the check with ``ok`` False.
+
+    Returns
+    -------
+    BaselineCheck
+
     Raises
     ------
     InputError
-        (with ``raise_on_failure``) naming every mode beyond the limits: localising damage from a
+        When the undamaged data hold no mode shape (at two or more dofs); and (with
+        ``raise_on_failure``) naming every mode beyond the limits: localising damage from a
         baseline that does not match the undamaged structure would report its modelling errors
         as damage.
     """

@@ -31,10 +31,41 @@ def concentrated_mass_truss(support: str = "cantilever", n_bays: int = 8, bay: f
     """Plane aluminium truss with instrument packages on flexible mounts.
 
     Bottom-chord nodes 1..n+1 at y = 0, top-chord nodes 101..101+n at y = ``bay``; chords, posts
-    and one diagonal per bay (rods, lumped mass) and a lumped ``joint_mass`` at every joint.
-    Package i (node 200+i, dof ``y`` only) of mass ``package_mass`` hangs on a spring from top
-    node 101+bay_i, tuned to its mount frequency: a local mode.  ``support``: ``"cantilever"``
-    (both nodes of the left end fixed) or ``"free"`` (three rigid-body modes).
+    and one diagonal per bay (rods, lumped mass) and a lumped ``joint_mass`` on the x and y dofs of
+    every joint.  Package i (node 200+i, dof ``y`` only) of mass ``package_mass`` hangs on a spring
+    from top node 101+bay_i, of stiffness ``package_mass (2π f_i)^2`` (tuned to its mount frequency
+    f_i): a local mode.
+
+    Parameters
+    ----------
+    support : {"cantilever", "free"}, default ``"cantilever"``
+        ``"cantilever"``: both nodes of the left end fixed; ``"free"``: unsupported (three
+        rigid-body modes).
+    n_bays : int, default 8
+        Number of bays.
+    bay : float, default 1.0
+        Bay length and truss height (m).
+    A : float, default 4e-4
+        Cross-section area of every member (m^2).
+    E : float, default 7.0e10
+        Young's modulus (N/m^2).
+    rho : float, default 2700.0
+        Density (kg/m^3).
+    joint_mass : float, default 2.0
+        Lumped mass at each joint (kg).
+    package_mass : float, default 15.0
+        Mass of each package (kg).
+    packages : sequence of (int, float), default ``PACKAGES``
+        (top-chord bay index, mount frequency in Hz) of each package.
+
+    Returns
+    -------
+    Structure
+
+    Raises
+    ------
+    ValueError
+        An unknown ``support``.
     """
     if support not in ("cantilever", "free"):
         raise ValueError(f"support must be 'cantilever' or 'free', got {support!r}")
@@ -58,7 +89,40 @@ def concentrated_mass_truss(support: str = "cantilever", n_bays: int = 8, bay: f
 
 def noisy_modes(model, dofs: Sequence[str], n_modes: int, values=None, frequency_noise: float = 0.0,
                 shape_noise: float = 0.0, seed: int = 0) -> TestData:
-    """The lowest ``n_modes`` elastic modes at ``dofs`` (values: parameter values), with noise."""
+    """Simulated measured modes: the lowest elastic modes of a model at chosen dofs, with noise.
+
+    The modes with eigenvalue > 0 are taken in order; each shape is restricted to ``dofs`` and
+    scaled to 1 at its largest-magnitude entry, then Gaussian noise is added.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    dofs : sequence of str
+        Measured dofs, ``"node:dir"`` labels.
+    n_modes : int
+        Number of elastic modes.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Parameter values (default: nominal).
+    frequency_noise : float, default 0.0
+        Standard deviation of the relative frequency noise (the eigenvalue is multiplied by
+        ``(1 + frequency_noise z)^2``, z standard normal).
+    shape_noise : float, default 0.0
+        Standard deviation of the noise added to each shape entry (relative to the unit largest
+        entry).
+    seed : int, default 0
+        Seed of the random generator.
+
+    Returns
+    -------
+    TestData
+        Modes named ``"mode 1"``, ``"mode 2"``, ...
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :func:`femupdate.modal.model_modes` and :meth:`Model.dof_index` (an unknown dof).
+    """
     modes = model_modes(model, values)
     rng = np.random.default_rng(seed)
     pos = model.dof_index(dofs)

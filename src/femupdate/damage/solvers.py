@@ -17,11 +17,34 @@ N_PATH = 20
 
 
 def l1_solve(A, r, alpha: float, lower: float = -1.0, upper: float = 0.0, x0=None, tol: float = 1e-14) -> np.ndarray:
-    r"""Bounded L1-regularised least squares:
-    :math:`\min_\delta \tfrac12\|A\delta - r\|^2 + \alpha\|\delta\|_1`, ``lower <= δ <= upper``.
+    r"""Bounded L1-regularised least squares.
 
-    Solved with L-BFGS-B (:func:`scipy.optimize.minimize`) on ``δ = v - u``, ``u, v >= 0``, where the
-    objective is smooth: :math:`\tfrac12\|A(v-u) - r\|^2 + \alpha\,1^T(u + v)`.  ``A`` dense or sparse.
+    :math:`\min_\delta \tfrac12\|A\delta - r\|^2 + \alpha\|\delta\|_1`, ``lower <= δ <= upper``,
+    solved with L-BFGS-B (:func:`scipy.optimize.minimize`) on ``δ = v - u``, ``u, v >= 0``, where the
+    objective is smooth: :math:`\tfrac12\|A(v-u) - r\|^2 + \alpha\,1^T(u + v)`.  When
+    ``upper <= 0`` only ``u`` is a variable (δ <= 0).  The objective is scaled by ``r^T r``.
+
+    Parameters
+    ----------
+    A : ndarray or sparse matrix, shape ``(n_equations, n_unknowns)``
+        Coefficient matrix, dense or sparse.
+    r : ndarray, shape ``(n_equations,)``
+        Right-hand side.
+    alpha : float
+        L1 penalty factor (absolute, same units as ``A^T r``).
+    lower : float, default -1.0
+        Lower bound of every δ.
+    upper : float, default 0.0
+        Upper bound of every δ.
+    x0 : ndarray, shape ``(n_unknowns,)``, optional
+        Starting point, clipped to the bounds (default zeros).
+    tol : float, default 1e-14
+        ``ftol`` of L-BFGS-B.
+
+    Returns
+    -------
+    ndarray, shape ``(n_unknowns,)``
+        The solution δ.
     """
     L = A.shape[1]
     both = upper > 0
@@ -48,7 +71,25 @@ def l1_solve(A, r, alpha: float, lower: float = -1.0, upper: float = 0.0, x0=Non
 
 
 def debias(A, r, support: np.ndarray, lower: float, upper: float) -> np.ndarray:
-    """Bounded least squares on the located elements only (removes the L1 shrinkage)."""
+    """Bounded least squares on the located elements only (removes the L1 shrinkage).
+
+    Parameters
+    ----------
+    A : ndarray or sparse matrix, shape ``(n_equations, n_unknowns)``
+        Coefficient matrix.
+    r : ndarray, shape ``(n_equations,)``
+        Right-hand side.
+    support : ndarray of int, shape ``(n_located,)``
+        Columns of ``A`` (located elements) that may be non-zero.
+    lower, upper : float
+        Bounds of every δ (``upper <= lower`` is widened to ``lower + 1e-12``).
+
+    Returns
+    -------
+    ndarray, shape ``(n_unknowns,)``
+        δ: the bounded least-squares fit (:func:`scipy.optimize.lsq_linear`, BVLS) on ``support``,
+        zero elsewhere.
+    """
     x = np.zeros(A.shape[1])
     if support.size:
         res = lsq_linear(A[:, support], r, bounds=(lower, upper if upper > lower else lower + 1e-12), method="bvls")
@@ -57,11 +98,42 @@ def debias(A, r, support: np.ndarray, lower: float, upper: float) -> np.ndarray:
 
 
 def support_of(x: np.ndarray, threshold: float) -> np.ndarray:
+    """Indices of the entries of ``x`` whose magnitude is at least ``threshold``.
+
+    Parameters
+    ----------
+    x : ndarray, shape ``(n,)``
+        Values (element changes δ).
+    threshold : float
+        Smallest magnitude counted.
+
+    Returns
+    -------
+    ndarray of int
+        The positions ``i`` with ``|x[i]| >= threshold``.
+    """
     return np.flatnonzero(np.abs(x) >= threshold)
 
 
 @dataclass(frozen=True, eq=False)
 class L1Fit:
+    """An L1 solution chosen on the path by :func:`l1_path`.
+
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    l1 : ndarray, shape ``(n_unknowns,)``
+        The L1 solution at the chosen α.
+    debiased : ndarray, shape ``(n_unknowns,)``
+        Its debiased refit on the located support (:func:`debias`).
+    alpha : float
+        The chosen α (absolute).
+    alpha_max : float
+        α_max, the factor above which δ = 0.
+    path : list of dict
+        One entry per α tried: ``alpha``, ``alpha_fraction``, ``n_located``, ``rss``, ``bic``.
+    """
     l1: np.ndarray
     debiased: np.ndarray
     alpha: float
@@ -70,9 +142,32 @@ class L1Fit:
 
 
 def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
-    r"""L1 solutions from α_max down; α chosen by the Bayesian information criterion of the
-    debiased support, :math:`\|A\delta_S - r\|^2 + |S|\ln n` (rows whitened: unit noise variance),
-    or ``alpha`` (a fraction of α_max)."""
+    r"""L1 solutions from α_max down, α chosen by the Bayesian information criterion.
+
+    The criterion is that of the debiased support, :math:`\|A\delta_S - r\|^2 + |S|\ln n` (rows
+    whitened: unit noise variance), on a geometric path of ``N_PATH`` fractions of α_max from 1 to
+    1e-3, stopped once it has risen by more than ``ln n`` above its best three times running; or
+    ``alpha`` (a fraction of α_max) alone.  α_max is :math:`\|A^T r\|_\infty` (with ``upper <= 0``,
+    the largest entry of :math:`\max(-A^T r, 0)`).
+
+    Parameters
+    ----------
+    A : ndarray or sparse matrix, shape ``(n, n_unknowns)``
+        Coefficient matrix (whitened rows).
+    r : ndarray, shape ``(n,)``
+        Right-hand side.
+    lower, upper : float
+        Bounds of every δ.
+    threshold : float
+        Smallest |δ| counted as located (:func:`support_of`).
+    alpha : float, optional
+        α as a fraction of α_max (default: chosen on the path).
+
+    Returns
+    -------
+    L1Fit
+        All zeros with ``alpha = alpha_max = 0`` when α_max <= 0.
+    """
     c = A.T @ r
     g = np.abs(c) if upper > 0 else np.maximum(-c, 0.0)
     amax = float(np.max(g)) if g.size else 0.0
@@ -103,7 +198,29 @@ def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
 
 
 def tikhonov(A, r, rule="gcv") -> tuple[np.ndarray, float]:
-    """Tikhonov solution of A δ = r, the factor by GCV (or given), for comparison with L1."""
+    """Tikhonov solution of A δ = r, for comparison with L1.
+
+    Parameters
+    ----------
+    A : ndarray, shape ``(n_equations, n_unknowns)``
+        Coefficient matrix.
+    r : ndarray, shape ``(n_equations,)``
+        Right-hand side.
+    rule : {"gcv", "lcurve"} or float, default ``"gcv"``
+        How the factor is chosen, as :func:`femupdate.regularization.choose_alpha` (a number: that α).
+
+    Returns
+    -------
+    delta : ndarray, shape ``(n_unknowns,)``
+        The Tikhonov solution.
+    alpha : float
+        The factor used.
+
+    Raises
+    ------
+    InputError
+        As :func:`femupdate.regularization.choose_alpha` (an unknown rule, a negative α).
+    """
     from ..regularization import choose_alpha, tikhonov_step
 
     choice = choose_alpha(A, -r, rule=rule)

@@ -27,7 +27,23 @@ def project_system(system: LinearSystem, vectors: np.ndarray) -> LinearSystem:
     is amplified and the least-squares estimate shrinks towards zero (errors in variables), while
     the projected rows integrate it.
 
-    ``vectors``: (n, w) real, columns of unit length.
+    Parameters
+    ----------
+    system : LinearSystem
+        Pointwise equations (:func:`femupdate.direct.build_system`): every block a whole number of
+        n-row parts, one row per dof.
+    vectors : ndarray, shape ``(n_dofs, w)``
+        Real projection vectors, columns of unit length (:func:`measured_vectors`).
+
+    Returns
+    -------
+    LinearSystem
+        ``w`` rows per n-row part of each block, blocks labelled ``"... (projected)"``; same unknowns.
+
+    Raises
+    ------
+    InputError
+        A block whose row count is not a multiple of ``n_dofs``.
     """
     n = vectors.shape[0]
     A, b = np.asarray(system.A), system.b
@@ -46,7 +62,19 @@ def project_system(system: LinearSystem, vectors: np.ndarray) -> LinearSystem:
 
 
 def measured_vectors(data: TestData) -> np.ndarray:
-    """Unit-length real vectors of the complete test data (mode shapes, FRF real and imaginary parts)."""
+    """Unit-length real vectors of the complete test data.
+
+    Parameters
+    ----------
+    data : TestData
+        Complete test data: mode shapes and/or FRF responses at every model dof.
+
+    Returns
+    -------
+    ndarray, shape ``(n_dofs, w)``
+        One column per mode with a shape (its real part), then per FRF response row its real part
+        and, when non-zero, its imaginary part; each column scaled to unit length.
+    """
     cols = [np.real(m.shape) for m in data.modes if m.has_shape]
     if data.frf is not None:
         for x in np.atleast_2d(data.frf.response):
@@ -59,8 +87,36 @@ def measured_vectors(data: TestData) -> np.ndarray:
 
 def complete_direct(model, data: TestData, *, form: str = "projected", use=("modes", "frf", "static"), values=None,
                     unknowns=None, bounded: bool = False) -> DirectResult:
-    """Direct solution from complete data, pointwise (paper eqs. 4-10, 24-29) or projected
-    (:func:`project_system`)."""
+    """Direct solution from complete data, pointwise or projected.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : TestData
+        Test data at every model dof (e.g. ``FullFieldMapping.data``).
+    form : {"projected", "pointwise"}, default ``"projected"``
+        ``"pointwise"``: :func:`femupdate.direct.direct_update` (paper eqs. 4-10, 24-29);
+        ``"projected"``: those equations projected onto the measured vectors
+        (:func:`project_system`, :func:`measured_vectors`).
+    use : sequence of str, default ``("modes", "frf", "static")``
+        Kinds of data to stack; ``"static"`` is dropped by the projected form.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the known (fixed) parameters (default nominal).
+    unknowns : sequence of str, optional
+        Parameters to identify (default: every parameter not fixed).
+    bounded : bool, default False
+        Honour the parameters' bounds with a bounded least-squares solve.
+
+    Returns
+    -------
+    DirectResult
+
+    Raises
+    ------
+    InputError
+        An unknown ``form``; otherwise as :func:`femupdate.direct.direct_update`.
+    """
     if form not in FORMS:
         raise InputError(f"unknown form {form!r}: use {', '.join(FORMS)}")
     if form == "pointwise":
@@ -75,9 +131,32 @@ def full_field_direct(model, scan: ScanData, *, form: str = "projected", use=("m
                       bounded: bool = False, **mapping) -> tuple[DirectResult, FullFieldMapping]:
     """Map the scan onto the model's dofs (:func:`map_scan`) and solve directly.
 
-    ``form``: ``"projected"`` (default: the pointwise equations projected onto the measured
-    vectors, :func:`project_system`) or ``"pointwise"`` (the paper's eqs. 4-10 and 24-29 as
-    printed).  Other keyword arguments go to :func:`map_scan`.
+    Parameters
+    ----------
+    model : Model
+        The parametrised model, with node coordinates.
+    scan : ScanData
+        The full-field scan.
+    form : {"projected", "pointwise"}, default ``"projected"``
+        ``"projected"``: the pointwise equations projected onto the measured vectors
+        (:func:`project_system`); ``"pointwise"``: the paper's eqs. 4-10 and 24-29 as printed.
+    use : sequence of str, default ``("modes", "frf")``
+        Kinds of data to use; those the mapped scan does not hold are skipped.
+    values, unknowns, bounded
+        As :func:`complete_direct`.
+    **mapping
+        Keyword arguments of :func:`map_scan` (``method``, ``smoothing``, ...).
+
+    Returns
+    -------
+    result : DirectResult
+    mapping : FullFieldMapping
+
+    Raises
+    ------
+    InputError
+        The scan holds none of the kinds in ``use``; otherwise as :func:`map_scan` and
+        :func:`complete_direct`.
     """
     m = map_scan(model, scan, **mapping)
     kinds = [u for u in use if (u == "modes" and m.data.modes) or (u == "frf" and m.data.frf is not None)]

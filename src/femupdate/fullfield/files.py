@@ -37,7 +37,30 @@ def _complex_rows(v, n: int, where: str) -> np.ndarray:
 
 
 def scan_from_dict(raw, source: str = "scan"):
-    """A :class:`~femupdate.fullfield.ScanData` from the parsed JSON (module docstring)."""
+    """A :class:`~femupdate.fullfield.ScanData` from the parsed JSON (schema in the module docstring).
+
+    A mode gives exactly one of ``frequency_hz`` (Hz) or ``eigenvalue`` (λ = ω², rad²/s²); values
+    are real or ``[re, im]`` pairs, one per point; FRF ``values`` have one row per ``omega_rad_s``
+    (rad/s) entry.
+
+    Parameters
+    ----------
+    raw : mapping
+        The parsed JSON object.
+    source : str, default ``"scan"``
+        Name used in error messages (e.g. the file name).
+
+    Returns
+    -------
+    ScanData
+
+    Raises
+    ------
+    InputError
+        Not an object, an unknown key, malformed or non-finite points or values, a mode with both or
+        neither of ``frequency_hz`` and ``eigenvalue``, a direction other than x, y, z, or neither modes
+        nor frf; and as :class:`~femupdate.fullfield.ScanData`.
+    """
     if not isinstance(raw, Mapping):
         raise InputError(f"{source}: expected a JSON object with 'points' and 'modes' and/or 'frf'")
     extra = sorted(set(raw) - {"points", "modes", "frf", "zero", "max_distance", "units"})
@@ -105,7 +128,23 @@ def _values(v, n, where, parse) -> dict:
 
 
 def load_scan(path):
-    """Read a full-field scan (JSON, schema in the module docstring)."""
+    """Read a full-field scan file (JSON, schema in the module docstring).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Path of the ``.json`` file.
+
+    Returns
+    -------
+    ScanData
+
+    Raises
+    ------
+    InputError
+        Not a ``.json`` file, unreadable, or invalid as :func:`scan_from_dict` (the message starts
+        with the path).
+    """
     path = Path(path)
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: a scan file is JSON (.json)")

@@ -19,9 +19,24 @@ from .scan import AXES
 class Geometry:
     """Nodes, element segments and intrinsic coordinates of a model.
 
-    ``segments`` (s, 2) are pairs of node ids (the line elements); ``basis`` (3, d) spans the
-    structure's ``dim`` intrinsic directions (1 line, 2 surface, 3 solid) around ``centre``;
-    ``length`` is its largest extent (the unit of the normalised intrinsic coordinates).
+    Built by :func:`model_geometry`; each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    node_ids : ndarray of int, shape ``(n_nodes,)``
+        Node ids, sorted.
+    xyz : ndarray, shape ``(n_nodes, 3)``
+        Node coordinates, in the order of ``node_ids``.
+    segments : ndarray of int, shape ``(s, 2)``
+        Pairs of node ids (the line elements).
+    centre : ndarray, shape ``(3,)``
+        Mean of the node coordinates.
+    basis : ndarray, shape ``(3, d)``
+        Orthonormal directions spanning the structure's ``dim = d`` intrinsic directions (1 line,
+        2 surface, 3 solid) around ``centre``.
+    length : float
+        Largest extent of the nodes along a global axis (the unit of the normalised intrinsic
+        coordinates).
     """
 
     node_ids: np.ndarray
@@ -53,7 +68,18 @@ class Geometry:
 
 
 def structure_segments(structure) -> np.ndarray:
-    """Node pairs of every line element of a :class:`~femupdate.Structure`, supported ends included."""
+    """Node pairs of every line element of a :class:`~femupdate.Structure`, supported ends included.
+
+    Parameters
+    ----------
+    structure : Structure
+        The structure; groups without node pairs (``nodes`` None) are skipped.
+
+    Returns
+    -------
+    ndarray of int, shape ``(s, 2)``
+        Unique pairs, each sorted (smaller id first).
+    """
     pairs = [np.asarray(g.nodes, dtype=np.int64) for g in structure.groups if g.nodes is not None]
     return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
 
@@ -61,9 +87,24 @@ def structure_segments(structure) -> np.ndarray:
 def model_geometry(model, segments=None) -> Geometry:
     """The model's nodes with coordinates and its element segments.
 
-    ``segments``: node-id pairs of the line elements (:func:`structure_segments`); by default the
-    pairs of nodes the stiffness couples (elements with a fully supported end are then missing:
-    give ``segments`` for them).
+    Parameters
+    ----------
+    model : Model
+        With node coordinates (``model.nodes``) for every node that has dofs.
+    segments : array_like of int, shape ``(s, 2)``, optional
+        Node-id pairs of the line elements (:func:`structure_segments`); by default the pairs of
+        nodes the stiffness (K0 and every dK) couples (elements with a fully supported end are then
+        missing: give ``segments`` for them).
+
+    Returns
+    -------
+    Geometry
+
+    Raises
+    ------
+    InputError
+        The model has no node coordinates, nodes with dofs lack coordinates, ``segments`` names a node
+        without coordinates, or the nodes do not span a line, surface or volume.
     """
     if not model.nodes:
         raise InputError(f"model {model.name!r} has no node coordinates: full-field data need the geometry")
@@ -97,8 +138,26 @@ def model_geometry(model, segments=None) -> Geometry:
 
 
 def distance_to_geometry(geom: Geometry, points: np.ndarray, chunk: int = 2048):
-    """Per point: distance to the geometry (nearest node or segment), the nearest segment (-1 if
-    none), and the position along it ``s`` in [0, 1]."""
+    """Distance of points to the geometry (nearest node or segment), nearest segment and position on it.
+
+    Parameters
+    ----------
+    geom : Geometry
+        The model's geometry.
+    points : array_like, shape ``(n_points, 3)``
+        Point coordinates (same frame and units as the nodes).
+    chunk : int, default 2048
+        Points processed at a time (memory ``chunk * s * 3``).
+
+    Returns
+    -------
+    distance : ndarray, shape ``(n_points,)``
+        Distance to the nearest node or segment.
+    segment : ndarray of int, shape ``(n_points,)``
+        Index of the nearest segment (-1 if the geometry has none).
+    along : ndarray, shape ``(n_points,)``
+        Position on that segment, in [0, 1] from its first node.
+    """
     pts = np.asarray(points, float)
     best, _ = cKDTree(geom.xyz).query(pts)
     which = np.full(len(pts), -1, dtype=np.int64)
@@ -126,8 +185,25 @@ def _cross_matrix(e: np.ndarray) -> np.ndarray:
 
 
 def rotation_operators(geom: Geometry, components) -> dict[str, np.ndarray]:
-    r"""Per measured component c, the 3x3 matrix G_c with :math:`\theta = \sum_c G_c \nabla u_c`
-    (gradients in global coordinates, within the structure's tangent space; module docstring)."""
+    r"""Per measured component c, the 3x3 matrix G_c with :math:`\theta = \sum_c G_c \nabla u_c`.
+
+    Gradients in global coordinates, within the structure's tangent space (module docstring of
+    :mod:`femupdate.fullfield.mapping`, step 3): on a line :math:`\nabla u_c \times e_c`; on a surface
+    with normal n the normal part :math:`(e_c\cdot n)\,\nabla u_c\times n` plus half the drilling
+    rotation from the in-plane part; in a solid half the curl.
+
+    Parameters
+    ----------
+    geom : Geometry
+        The geometry (its ``dim`` and, on a surface, its ``basis``).
+    components : iterable of {"x", "y", "z"}
+        The measured translation components.
+
+    Returns
+    -------
+    dict of str to ndarray, shape ``(3, 3)``
+        G_c per component.
+    """
     out = {}
     if geom.dim == 1:
         for c in components:
@@ -148,7 +224,23 @@ def rotation_operators(geom: Geometry, components) -> dict[str, np.ndarray]:
 
 
 def inferable_rotations(geom: Geometry, components) -> list[str]:
-    """Rotation directions (``rx``, ``ry``, ``rz``) the measured components determine."""
+    """Rotation directions (``rx``, ``ry``, ``rz``) the measured components determine.
+
+    A direction counts when its global axis lies in the span of ``G_c T`` (:func:`rotation_operators`,
+    T the projector onto the tangent space).
+
+    Parameters
+    ----------
+    geom : Geometry
+        The geometry.
+    components : sequence of {"x", "y", "z"}
+        The measured translation components.
+
+    Returns
+    -------
+    list of str
+        Subset of ``["rx", "ry", "rz"]``, in that order.
+    """
     G = rotation_operators(geom, components)
     T = geom.basis @ geom.basis.T  # gradients lie in the tangent space
     span = np.hstack([G[c] @ T for c in components]) if components else np.zeros((3, 0))

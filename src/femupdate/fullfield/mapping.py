@@ -133,8 +133,31 @@ def element_design(model, geom: Geometry, points, seg, along, comps, zero) -> tu
     :math:`a = t\times\hat e` (:math:`\theta\cdot a = \partial_x(u\cdot\hat e)`) — the element's own
     displacement field — or linearly where neither end node has rotation dofs (rods).
     Rows are point-major within each component block (component blocks in ``comps`` order).
+    Terms on dofs the model lacks, or in a direction in ``zero``, are left out.
 
-    Returns ``N`` (n_points * n_comps, n_dofs) and the mask of the dofs some row involves.
+    Parameters
+    ----------
+    model : Model
+        The model (its dof labels).
+    geom : Geometry
+        Its geometry (:func:`~femupdate.fullfield.geometry.model_geometry`).
+    points : array_like, shape ``(n_points, 3)``
+        Scan points (only their number is used).
+    seg : ndarray of int, shape ``(n_points,)``
+        Segment of ``geom`` each point lies on (:func:`~femupdate.fullfield.geometry.distance_to_geometry`).
+    along : ndarray, shape ``(n_points,)``
+        Position ``s`` of each point on its segment, in [0, 1].
+    comps : sequence of {"x", "y", "z"}
+        Measured translation components.
+    zero : collection of str
+        Directions (``"x"`` ... ``"rz"``) declared zero: their dofs get no terms.
+
+    Returns
+    -------
+    N : scipy.sparse.csr_array, shape ``(n_points * n_comps, n_dofs)``
+        The design matrix.
+    seen : ndarray of bool, shape ``(n_dofs,)``
+        The dofs some row involves.
     """
     index = {d: i for i, d in enumerate(model.dofs)}
     has_rot = {parse_dof(d)[0] for d in model.dofs if parse_dof(d)[1].startswith("r")}

@@ -19,7 +19,20 @@ AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.
 
 @dataclass(frozen=True)
 class ScanMode:
-    """One mode measured by scanning: eigenvalue and the values per direction ``{"y": (n,)}``."""
+    """One mode measured by scanning.
+
+    Each parameter is stored as the attribute of the same name; checked by :class:`ScanData`.
+
+    Parameters
+    ----------
+    eigenvalue : float
+        λ = ω² (rad²/s²).
+    values : dict of str to array_like, shape ``(n_points,)``
+        Measured values per translation direction (``"x"``, ``"y"``, ``"z"``), real or complex, one
+        per scan point.
+    label : str, default ``""``
+        Name of the mode (``"mode k"`` is used where empty).
+    """
 
     eigenvalue: float
     values: dict
@@ -28,7 +41,20 @@ class ScanMode:
 
 @dataclass(frozen=True)
 class ScanFRF:
-    """Operating deflection shapes at known forcing: ``values`` ``{"y": (n_freq, n_points)}``."""
+    """Operating deflection shapes at known forcing.
+
+    Each parameter is stored as the attribute of the same name; checked by :class:`ScanData`.
+
+    Parameters
+    ----------
+    omega : ndarray, shape ``(n_freq,)``
+        Excitation frequencies (rad/s).
+    force : dict of str to float
+        Applied force per dof label ``"node:dir"``.
+    values : dict of str to array_like, shape ``(n_freq, n_points)``
+        Measured response per translation direction (``"x"``, ``"y"``, ``"z"``), one row per frequency,
+        real or complex.
+    """
 
     omega: np.ndarray
     force: dict
@@ -37,20 +63,33 @@ class ScanFRF:
 
 @dataclass(frozen=True)
 class ScanData:
-    """A full-field scan.
+    """A full-field scan: points by coordinates and the measured components at every point.
 
-    Attributes
+    Each parameter is stored as the attribute of the same name (points as a float array with
+    shape ``(n, 3)``, ``zero`` as a tuple).
+
+    Parameters
     ----------
-    points : ndarray (n, 3)
-        Coordinates of the scan points (same frame and units as the model's nodes).
-    modes : tuple of ScanMode
-    frf : ScanFRF or None
-    zero : tuple of str
+    points : array_like, shape ``(n, 3)`` or ``(n, 2)``
+        Coordinates of the scan points (same frame and units as the model's nodes; a missing z
+        is 0).
+    modes : tuple of ScanMode, default ``()``
+        Scanned modes, each with values of shape ``(n,)``.
+    frf : ScanFRF or None, default None
+        Scanned FRF lines, values of shape ``(n_freq, n)``.
+    zero : tuple of str, default ``()``
         Directions (``x`` ... ``rz``) known to be zero at every node (e.g. the axial motion and
         the torsion of a beam's bending modes); they complete the data.
-    max_distance : float or None
+    max_distance : float or None, default None
         Largest allowed distance of a point from the model's geometry (default
         ``TOLERANCE_FACTOR`` times the longest element).
+
+    Raises
+    ------
+    InputError
+        Points of the wrong shape or not finite; no modes and no frf; values of the wrong shape,
+        not finite, or in a direction other than x, y, z; modes and frf measuring different
+        directions; an unknown ``zero`` direction or one also measured; ``max_distance`` <= 0.
     """
 
     points: np.ndarray

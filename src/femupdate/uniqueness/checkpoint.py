@@ -21,7 +21,27 @@ VERSION = 1
 
 
 class Checkpoint:
-    """Finished units of one study at ``path`` (``None``: keep them in memory only)."""
+    """Finished work units of one study, kept in a JSON file (module docstring) or in memory.
+
+    An existing file at ``path`` is loaded on construction; :meth:`add` records a unit and rewrites
+    the file atomically.
+
+    Parameters
+    ----------
+    path : str, os.PathLike or None
+        The checkpoint file (created on the first :meth:`add`, resumed when it exists); ``None``:
+        keep the units in memory only.
+    key : str
+        The study's key (:meth:`~femupdate.uniqueness.study.Study.key`); an existing file must hold it.
+    description : dict
+        Short description of the study written into the file.
+
+    Raises
+    ------
+    InputError
+        An existing file that is unreadable, not a femupdate uniqueness checkpoint, of another
+        format version, of a different study (another key), or with malformed units.
+    """
 
     def __init__(self, path, key: str, description: dict):
         self.path = Path(path) if path is not None else None

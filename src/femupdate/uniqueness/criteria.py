@@ -44,7 +44,25 @@ CRITERIA = {
 
 @dataclass(frozen=True)
 class CriterionCount:
-    """One criterion for one plan: the counted quantity, the threshold and the verdict."""
+    """One criterion for one plan: the counted quantity, the threshold and the verdict.
+
+    Built by :func:`counting_criteria`; each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    name : str
+        Criterion name, a key of :data:`CRITERIA`.
+    equation : str
+        The paper's equation number (``"13"``, ``"14 and 15"``, ``"Summary"``, ...).
+    formula : str
+        The criterion, e.g. ``"mn >= L"``.
+    count : float
+        The counted quantity (for ``botto``, the smaller of the two counts).
+    threshold : int
+        L, the number of unknown parameters.
+    satisfied : bool
+        The criterion predicts a unique solution.
+    """
 
     name: str
     equation: str
@@ -55,12 +73,28 @@ class CriterionCount:
 
 
 def counting_criteria(n: int, m: int, L: int, N: int) -> dict[str, CriterionCount]:
-    """Every criterion of :data:`CRITERIA` for ``n`` measured dofs, ``m`` modes, ``L`` unknowns,
-    ``N`` model dofs.
+    """Every criterion of :data:`CRITERIA` for one measurement plan (paper eqs. 13-15, 18, Summary).
+
+    Parameters
+    ----------
+    n : int
+        Number of measured dofs (>= 1, at most ``N``).
+    m : int
+        Number of measured modes (>= 1, at most ``N``).
+    L : int
+        Number of unknown parameters (>= 1).
+    N : int
+        Number of model dofs (>= 1).
 
     Returns
     -------
-    dict name -> :class:`CriterionCount` (``satisfied``: the criterion predicts a unique solution).
+    dict of str to CriterionCount
+        Per criterion name; ``satisfied``: the criterion predicts a unique solution.
+
+    Raises
+    ------
+    InputError
+        An argument that is not an integer >= 1, or ``n`` or ``m`` above ``N``.
     """
     for what, v, lo in (("n (measured dofs)", n, 1), ("m (measured modes)", m, 1), ("L (unknown parameters)", L, 1),
                         ("N (model dofs)", N, 1)):
@@ -81,7 +115,23 @@ def counting_criteria(n: int, m: int, L: int, N: int) -> dict[str, CriterionCoun
 
 
 def criteria_verdicts(n: int, m: int, L: int, N: int) -> dict[str, bool]:
-    """{criterion name: predicts a unique solution} (the ``criteria`` of ``femupdate uniqueness``)."""
+    """Verdict of every counting criterion (the ``criteria`` of ``femupdate uniqueness``).
+
+    Parameters
+    ----------
+    n, m, L, N : int
+        Measured dofs, measured modes, unknown parameters and model dofs, as :func:`counting_criteria`.
+
+    Returns
+    -------
+    dict of str to bool
+        {criterion name: predicts a unique solution}.
+
+    Raises
+    ------
+    InputError
+        As :func:`counting_criteria`.
+    """
     return {k: c.satisfied for k, c in counting_criteria(n, m, L, N).items()}
 
 

@@ -55,10 +55,26 @@ EIG_RTOL = 1e-8  #: relative agreement of a solution's eigenvalues with the meas
 class ExactSolution:
     """One real parameter set reproducing the measured eigenvalues.
 
-    ``parameters`` {name: float}; ``exact`` {name: str} (a rational such as ``"16/3"``, or an
-    algebraic number to 30 digits); ``eigenvalues`` of the model at the solution (numerical
-    check); ``within_bounds``; ``lowest_modes``: the measured eigenvalues are the model's lowest
-    ones at this solution; ``physical``: K positive semi-definite and M positive definite.
+    Built by :func:`exact_solutions`; each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    parameters : dict of str to float
+        The unknowns' values.
+    exact : dict of str to str
+        The same exactly: a rational such as ``"16/3"``, or an algebraic number to 30 digits.
+    rational : bool
+        Every value is rational.
+    within_bounds : bool
+        Within the parameters' bounds (always True when :func:`exact_solutions` ignores bounds).
+    physical : bool
+        M positive definite and K positive semi-definite (no negative eigenvalue) at the solution.
+    lowest_modes : bool
+        The measured eigenvalues are the model's lowest ones at this solution (relative
+        tolerance ``EIG_RTOL``).
+    eigenvalues : ndarray, shape ``(N,)``
+        Every eigenvalue of the model at the solution (rad²/s², numerical check); NaN when M is not
+        positive definite.
     """
 
     parameters: dict[str, float]
@@ -79,11 +95,30 @@ class ExactSolution:
 class ExactSolutionSet:
     """Result of :func:`exact_solutions`.
 
-    ``solutions``: the valid real solutions (:attr:`ExactSolution.valid`), sorted; ``rejected``:
-    real solutions outside the bounds, unphysical, or placing a measured eigenvalue above an
-    unmeasured one; ``n_complex``: number of distinct complex solutions (None when infinite);
-    ``zero_dimensional``: False when the data leave a continuum of (complex) solutions;
-    ``exact_data``: the data were rational, so the solutions are exact.
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The unknown parameters.
+    measured_eigenvalues : ndarray, shape ``(m,)``
+        The measured eigenvalues (rad²/s²), ascending.
+    solutions : list of ExactSolution
+        The valid real solutions (:attr:`ExactSolution.valid`), sorted.
+    rejected : list of ExactSolution
+        Real solutions outside the bounds, unphysical, or placing a measured eigenvalue above an
+        unmeasured one.
+    n_complex : int or None
+        Number of distinct complex solutions (None when infinite).
+    zero_dimensional : bool
+        False when the data leave a continuum of (complex) solutions.
+    exact_data : bool
+        The data were rational, so the solutions are exact.
+    equations : list of str
+        The polynomial equations solved, in the parameters' names.
+    method : str
+        Which system was solved and how.
+    notes : list of str, default ``[]``
     """
 
     names: tuple[str, ...]

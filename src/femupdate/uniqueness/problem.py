@@ -28,10 +28,24 @@ from ..updating.problem import Targets
 
 @dataclass(frozen=True, eq=False)
 class RowData:
-    """Per-row test data, padded: ``lam_e`` (B, T) measured eigenvalues (1 where padded);
-    ``psi_e`` (B, u, T) unit-length test shapes on the sensor union (0 where not measured);
-    ``smask`` (B, u) the row's measured dofs among the sensors; ``n_test`` (B,) the row's
-    number of test modes; ``sensors`` (u,) model dof indices, ascending."""
+    """Per-row test data of a study's rows, padded to common sizes.
+
+    Built by :func:`femupdate.uniqueness.study.units.row_data`; each parameter is stored as the
+    attribute of the same name.  B rows, T the largest number of test modes, u sensors.
+
+    Parameters
+    ----------
+    lam_e : ndarray, shape ``(B, T)``
+        Measured eigenvalues (rad²/s²), 1 where padded.
+    psi_e : ndarray, shape ``(B, u, T)``
+        Unit-length test shapes on the sensor union, 0 where not measured.
+    smask : ndarray of bool, shape ``(B, u)``
+        The row's measured dofs among the sensors.
+    n_test : ndarray of int, shape ``(B,)``
+        The row's number of test modes.
+    sensors : ndarray of int, shape ``(u,)``
+        Model dof indices of the sensors, ascending.
+    """
 
     lam_e: np.ndarray
     psi_e: np.ndarray
@@ -41,9 +55,26 @@ class RowData:
 
 
 def study_data(rows: RowData, n_dofs: int) -> tuple[DataSets, Targets]:
-    """Each row's own data set, concatenated (one data set per row), built without a loop over
-    rows: unit-length test shapes at the row's measured dofs in ascending dof order, none for
-    rows with fewer than two sensors, weights 1, no reference dof."""
+    """Each row's own data set, concatenated (one data set per row), built without a loop over rows.
+
+    Unit-length test shapes at the row's measured dofs in ascending dof order, none for rows with
+    fewer than two sensors (frequencies only), weights 1, no reference dof; each row pairs among its
+    ``min(n_dofs, buffered_modes(T_row))`` lowest modes.
+
+    Parameters
+    ----------
+    rows : RowData
+        The rows' padded test data.
+    n_dofs : int
+        Number of model dofs.
+
+    Returns
+    -------
+    sets : DataSets
+        Per row: first test mode, number of test modes, model modes, residual count ``T (1 + n_s)``.
+    targets : Targets
+        The concatenated test modes of every row.
+    """
     B, T = rows.lam_e.shape
     U = np.asarray(rows.sensors, dtype=np.int64)
     nt = np.asarray(rows.n_test, dtype=np.int64)
@@ -67,8 +98,33 @@ def study_data(rows: RowData, n_dofs: int) -> tuple[DataSets, Targets]:
 
 def study_problem(model, names, rows: RowData, starts, *, values=None, min_mac: float = 0.5, max_nfev: int = 200,
                   ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10) -> BatchedProblem:
-    """The rows of a study as one :class:`~femupdate.updating.batched.BatchedProblem`: row b
-    starts from ``starts[b]`` (physical values of ``names``) on its own data set."""
+    """The rows of a study as one :class:`~femupdate.updating.batched.BatchedProblem`.
+
+    Row b starts from ``starts[b]`` on its own data set (:func:`study_data`).
+
+    Parameters
+    ----------
+    model : Model
+        The shared model.
+    names : sequence of str
+        The unknown parameters.
+    rows : RowData
+        The rows' test data.
+    starts : ndarray, shape ``(B, L)``
+        Start of each row: physical values of ``names``.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the other (known) parameters.
+    min_mac : float, default 0.5
+        Smallest MAC of a mode pair.
+    max_nfev : int, default 200
+        Most residual evaluations per row.
+    ftol, xtol, gtol : float, default 1e-10
+        Stopping tolerances of the least-squares solver.
+
+    Returns
+    -------
+    BatchedProblem
+    """
     return BatchedProblem(model, names, starts, study_data(rows, model.n_dofs), values=values, min_mac=min_mac,
                           max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
 

@@ -21,7 +21,17 @@ DEFAULT_UNIT_ROWS = 4096
 # ====================================================================== definition
 @dataclass(frozen=True)
 class Case:
-    """One measurement plan: the measured dofs and the number of measured (lowest) modes."""
+    """One measurement plan: the measured dofs and the number of measured (lowest) modes.
+
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    measured_dofs : tuple of str
+        Measured dofs, ``"node:dir"`` labels (canonical when built by :func:`define_study`).
+    n_modes : int
+        Number of measured modes: the lowest ``n_modes`` of the truth.
+    """
 
     measured_dofs: tuple[str, ...]
     n_modes: int
@@ -32,7 +42,23 @@ class Case:
 
 
 def parse_measured_dofs(text: str) -> list[tuple[str, ...]]:
-    """``"1:x,2:x;1:x"`` -> [("1:x", "2:x"), ("1:x",)]: dof sets separated by ``;``."""
+    """Dof sets separated by ``;``: ``"1:x,2:x;1:x"`` -> ``[("1:x", "2:x"), ("1:x",)]``.
+
+    Parameters
+    ----------
+    text : str
+        Sets separated by ``;``, labels within a set by ``,`` (the ``--measured-dofs`` option).
+
+    Returns
+    -------
+    list of tuple of str
+        Canonical ``"node:dir"`` labels per set.
+
+    Raises
+    ------
+    InputError
+        An empty set or an invalid dof label.
+    """
     sets = []
     for k, part in enumerate(str(text).split(";"), start=1):
         labels = [d.strip() for d in part.split(",") if d.strip()]
@@ -43,7 +69,23 @@ def parse_measured_dofs(text: str) -> list[tuple[str, ...]]:
 
 
 def parse_modes(text: str) -> list[int]:
-    """``"1,2,3"`` or ``"1-6"`` (or a mix, ``"1-3,6"``) -> sorted distinct mode counts."""
+    """Mode counts ``"1,2,3"`` or ``"1-6"`` (or a mix, ``"1-3,6"``), sorted and distinct.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated positive integers or ranges ``low-high`` (the ``--modes`` option).
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    InputError
+        An item that is not a number or range, a count below 1, a range with ``high < low``, or no
+        count at all.
+    """
     out: set[int] = set()
     for item in str(text).split(","):
         item = item.strip()
@@ -64,14 +106,55 @@ def parse_modes(text: str) -> list[int]:
 
 
 def nested_dof_sets(model, n_max: int | None = None) -> list[tuple[str, ...]]:
-    """The paper's 6-dof simulation plans: the first n model dofs, n = 1 .. n_max (default N)."""
+    """The paper's 6-dof simulation plans: the first n model dofs, n = 1 .. n_max.
+
+    Parameters
+    ----------
+    model : Model
+        The model (its dof order).
+    n_max : int, optional
+        Largest set (default, and at most, the number of model dofs N).
+
+    Returns
+    -------
+    list of tuple of str
+        ``model.dofs[:1]``, ``model.dofs[:2]``, ..., ``model.dofs[:n_max]``.
+    """
     N = model.n_dofs if n_max is None else min(int(n_max), model.n_dofs)
     return [tuple(model.dofs[:n]) for n in range(1, N + 1)]
 
 
 @dataclass(frozen=True, eq=False)
 class Study:
-    """A uniqueness study, fully determined (see :func:`define_study`)."""
+    """A uniqueness study, fully determined (built and checked by :func:`define_study`).
+
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    names : tuple of str
+        The unknown parameters (L of them).
+    truth : ndarray, shape ``(n_parameters,)``
+        Full parameter vector the test data are simulated from (the model's values, or ``values``).
+    cases : tuple of Case
+        The measurement plans.
+    starts : ndarray, shape ``(R, L)``
+        The random starts (physical values of ``names``), shared by every case and noise level.
+    seed : int
+        Seed of the starts and of the noise.
+    noise : tuple of float, default ``()``
+        Relative noise levels besides the noise-free study.
+    min_mac : float, default 0.5
+        Smallest MAC of a mode pair.
+    max_nfev : int, default 200
+        Most residual evaluations per start.
+    tol : float, default 1e-10
+        ``ftol = xtol = gtol`` of the least-squares solver (:func:`femupdate.update`'s defaults).
+    unit_rows : int, default ``DEFAULT_UNIT_ROWS``
+        Rows (case x level x start) per work unit.
+    """
 
     model: Model
     names: tuple[str, ...]

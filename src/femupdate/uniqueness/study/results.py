@@ -21,8 +21,26 @@ from .units import row_data
 
 @dataclass(frozen=True, eq=False)
 class Solution(_MultiStartSolution):
-    """A distinct solution of a case (:class:`femupdate.updating.Solution`: the representative's
-    values, its cost, how many starts and which) and its distance from the truth."""
+    """A distinct solution of a case and its distance from the truth.
+
+    Each parameter is stored as the attribute of the same name; the first four are those of
+    :class:`femupdate.updating.Solution`.
+
+    Parameters
+    ----------
+    parameters : dict of str to float
+        The representative's (lowest-cost member's) values of the unknowns.
+    cost : float
+        Its cost ½‖r‖².
+    count : int
+        How many starts reached this solution.
+    starts : list of int
+        Which starts (0-based), ascending.
+    max_rel_error : float, default NaN
+        Largest ``|p / p_true - 1|`` over the unknowns (``|p - p_true|`` where ``p_true`` is 0).
+    is_truth : bool, default False
+        ``max_rel_error`` within the study's ``rel_tol``.
+    """
 
     max_rel_error: float = math.nan  #: largest |p / p_true − 1| over the unknowns
     is_truth: bool = False
@@ -30,7 +48,27 @@ class Solution(_MultiStartSolution):
 
 @dataclass(frozen=True, eq=False)
 class NoiseResult:
-    """One noise level of a case: scatter of the converged solutions around the truth."""
+    """One noise level of a case: scatter of the converged solutions around the truth.
+
+    Built by :func:`summarise`; each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    level : float
+        Relative noise level σ.
+    starts : int
+        Starts with a result at this level.
+    converged : int
+        Starts with solver success and a cost within twice the noise floor ½ m σ² (m residuals),
+        i.e. ``cost <= cost_tol + m σ²``.
+    rms_rel_error : dict of str to float
+        Per unknown, RMS of ``p / p_true - 1`` over the converged starts (NaN when none).
+    median_max_rel_error : float
+        Median over the converged starts of the largest relative error (NaN when none).
+    predicted_std : dict of str to float
+        σ √diag((SᵀS)⁻¹), the linearised scatter of ``p / p_true`` (inf if S is rank-deficient or has
+        fewer residuals than unknowns).
+    """
 
     level: float
     starts: int
@@ -42,7 +80,42 @@ class NoiseResult:
 
 @dataclass(frozen=True, eq=False)
 class CaseResult:
-    """Outcome of one case (see :mod:`femupdate.uniqueness.study` for the classification of starts)."""
+    """Outcome of one case (see :mod:`femupdate.uniqueness.study` for the classification of starts).
+
+    Built by :func:`summarise`; each parameter is stored as the attribute of the same name.  The
+    counts refer to the noise-free data.
+
+    Parameters
+    ----------
+    case : Case
+        The measurement plan.
+    criteria : dict of str to CriterionCount
+        The counting criteria (:func:`~femupdate.uniqueness.counting_criteria`) for this plan.
+    starts : int
+        Starts with a result.
+    converged : int
+        Starts with solver success and cost <= ``cost_tol``.
+    local_minima : int
+        Starts with solver success and a larger cost.
+    not_converged : int
+        Starts stopped by the evaluation limit (status 0).
+    failed : int
+        Starts whose evaluation failed (status ``FAILED``).
+    solutions : list of Solution
+        The converged starts clustered (``rel_tol``), most frequent first.
+    condition_number : float
+        Of the normalised sensitivity matrix at the truth (:func:`conditioning`).
+    singular_values : ndarray, shape ``(min(m, L),)``
+        Its singular values, descending.
+    rank : int
+        Its numerical rank.
+    n_residuals : int
+        Its number of rows m.
+    noise : list of NoiseResult, default ``[]``
+        One per noise level.
+    failure_examples : list of str, default ``[]``
+        Up to three distinct messages of failed starts.
+    """
 
     case: Case
     criteria: dict
@@ -99,7 +172,31 @@ class CaseResult:
 
 @dataclass(frozen=True, eq=False)
 class StudyResult:
-    """Result of :func:`run_study`: one :class:`CaseResult` per case, in the study's order."""
+    """Result of :func:`run_study`: one :class:`CaseResult` per case, in the study's order.
+
+    Each parameter is stored as the attribute of the same name.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    cases : list of CaseResult
+        One per case.
+    seconds : float
+        Wall-clock time of the run (s).
+    units_computed : int
+        Work units computed by this run.
+    units_resumed : int
+        Work units taken from the checkpoint.
+    route : str
+        ``"local"``, or ``"dask:<scheduler>"`` / ``"dask:local cluster of <n> workers"``.
+    rel_tol : float
+        Relative tolerance of two starts reaching the same solution.
+    cost_tol : float
+        Largest cost of a converged start.
+    raw : list of dict, default ``[]``
+        Per-start results of every piece (see :func:`~femupdate.uniqueness.study.units.solve_unit`).
+    """
 
     study: Study
     cases: list[CaseResult]
@@ -112,7 +209,7 @@ class StudyResult:
     raw: list = field(default_factory=list)  #: per-start results of every piece (see :func:`solve_unit`)
 
     def to_dict(self) -> dict:
-        """The JSON result of ``femupdate uniqueness`` (docs/interfaces.md, plus extras)."""
+        """The JSON result of ``femupdate uniqueness`` (docs/file-formats.md, plus extras)."""
         st = self.study
         return {
             "model": st.model.name, "parameters": list(st.names),
@@ -127,8 +224,23 @@ class StudyResult:
 
 
 def truth_sensitivities(study: Study) -> list[tuple[np.ndarray, int]]:
-    """Per case the normalised sensitivity matrix S = ∂r/∂(p/p_true) at the truth, noise-free
-    (its own rows only), and its number of residuals."""
+    """Per case the normalised sensitivity matrix at the truth, noise-free, and its number of residuals.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+
+    Returns
+    -------
+    list of (ndarray, int)
+        Per case ``S = ∂r/∂(p/p_true)`` of shape ``(m, L)`` (the case's own residual rows only) and m.
+
+    Raises
+    ------
+    InputError
+        A case whose model cannot be differentiated at the truth.
+    """
     from ..problem import study_problem
 
     C = len(study.cases)
@@ -148,8 +260,25 @@ def truth_sensitivities(study: Study) -> list[tuple[np.ndarray, int]]:
 
 
 def conditioning(S: np.ndarray, m: int):
-    """Condition number (inf when numerically rank-deficient), singular values and numerical
-    rank of a sensitivity matrix S with m residuals."""
+    """Condition number, singular values and numerical rank of a sensitivity matrix.
+
+    Parameters
+    ----------
+    S : ndarray, shape ``(m_rows, L)``
+        Sensitivity matrix.
+    m : int
+        Its number of residuals.
+
+    Returns
+    -------
+    cond : float
+        ``s_max / s_min``; inf when S is numerically rank-deficient, has fewer singular values than
+        columns, or ``m < L``.
+    singular_values : ndarray, shape ``(min(m_rows, L),)``
+        Descending.
+    rank : int
+        Singular values above ``max(S.shape) * eps * s_max``.
+    """
     s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
     L = S.shape[1]
     rank = int(np.sum(s > max(S.shape) * np.finfo(float).eps * s[0])) if s.size else 0
@@ -161,7 +290,34 @@ def conditioning(S: np.ndarray, m: int):
 
 def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_tol: float = 1e-12,
               sensitivities=None) -> list[CaseResult]:
-    """Case results from raw unit results (any split, any order)."""
+    """Case results from raw unit results (any split, any order).
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    raw : sequence of dict
+        Raw piece results (:func:`~femupdate.uniqueness.study.units.solve_unit`,
+        :func:`~femupdate.uniqueness.study.units.reference_unit`); starts missing from them count as
+        absent.
+    rel_tol : float, default 1e-4
+        Two converged starts are the same solution when every unknown agrees within this (relative);
+        a solution is the truth when within this of it.
+    cost_tol : float, default 1e-12
+        A start with solver success converges when its cost ½‖r‖² is at most this.
+    sensitivities : list of (ndarray, int), optional
+        :func:`truth_sensitivities` of the study, if at hand.
+
+    Returns
+    -------
+    list of CaseResult
+        One per case, in the study's order.
+
+    Raises
+    ------
+    InputError
+        As :func:`truth_sensitivities`.
+    """
     C, R, L = len(study.cases), study.n_starts, len(study.names)
     x = np.full((C, len(study.levels), R, L), np.nan)
     cost = np.full((C, len(study.levels), R), np.nan)

@@ -24,8 +24,29 @@ def _unit(shape):
 def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=None):
     """Test data of case ``c`` for the starts ``starts`` at noise level ``level``.
 
-    Returns ``lam`` (R', m) eigenvalues and ``psi`` (R', n, m) unit-length shapes at the case's
-    measured dofs (identical rows when noise-free).  ``modes``: the truth's modes, if at hand.
+    The truth's lowest ``n_modes`` eigenvalues and its shapes at the case's measured dofs (unit
+    length, largest entry positive).  With noise σ, eigenvalues × (1 + σε) and shapes + σε (ε standard
+    normal, drawn per start from the seed ``[study.seed, c, level]``), then rescaled to unit length.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    c : int
+        Case index (0-based).
+    level : int, default 0
+        Index into ``study.levels`` (0: noise-free).
+    starts : slice or array_like of int, default ``slice(None)``
+        Which starts (rows of the result).
+    modes : Modes, optional
+        The truth's modes, if at hand (default: computed).
+
+    Returns
+    -------
+    lam : ndarray, shape ``(R', m)``
+        Eigenvalues (rad²/s²), R' the number of selected starts.
+    psi : ndarray, shape ``(R', n, m)``
+        Unit-length shapes at the case's n measured dofs (identical rows when noise-free).
     """
     from ...modal import model_modes
 
@@ -48,8 +69,26 @@ def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=No
 
 
 def case_testdata(study: Study, c: int, level: int = 0, start: int = 0, modes=None):
-    """The :class:`~femupdate.testdata.TestData` of case ``c`` as seen by start ``start``
-    (``modes``: the truth's modes, if at hand)."""
+    """The :class:`~femupdate.testdata.TestData` of case ``c`` as seen by start ``start``.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    c : int
+        Case index (0-based).
+    level : int, default 0
+        Index into ``study.levels`` (0: noise-free).
+    start : int, default 0
+        The start whose noise realisation is taken.
+    modes : Modes, optional
+        The truth's modes, if at hand.
+
+    Returns
+    -------
+    TestData
+        The case's modes (:func:`case_data`) at its measured dofs.
+    """
     from ...testdata import MeasuredMode, TestData
 
     lam, psi = case_data(study, c, level, slice(start, start + 1), modes)
@@ -58,7 +97,23 @@ def case_testdata(study: Study, c: int, level: int = 0, start: int = 0, modes=No
 
 
 def row_data(study: Study, pieces):
-    """RowData and starts (B, L) of the rows of ``pieces``."""
+    """Padded test data and starts of the rows of ``pieces``.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    pieces : sequence of (int, int, int, int)
+        (case, level, first start, end start) pieces (:meth:`Study.pieces`), rows in this order.
+
+    Returns
+    -------
+    rows : RowData
+        Sensors: the union of the pieces' measured dofs; shapes only for cases with two or more
+        measured dofs.
+    starts : ndarray, shape ``(B, L)``
+        Start of each row.
+    """
     from ...modal import model_modes
     from ..problem import RowData
 
@@ -92,9 +147,21 @@ def row_data(study: Study, pieces):
 def solve_unit(study: Study, unit: int, progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Solve work unit ``unit`` of ``study`` as one batch: a pure function of its arguments.
 
-    Returns one dict per piece: ``case``, ``level``, ``start`` (first start), and per start
-    ``x`` (final values of the unknowns), ``cost``, ``status`` (SciPy's codes, or -3 failed),
-    ``nfev``, and ``messages`` {start: message} of the failed ones.
+    Parameters
+    ----------
+    study : Study
+        The study.
+    unit : int
+        Index into ``study.units()``.
+    progress : callable, optional
+        Passed to the batch solver: ``progress(rows_done, rows_total)`` within the unit.
+
+    Returns
+    -------
+    list of dict
+        One per piece: ``case``, ``level``, ``start`` (first start), and per start ``x`` (final
+        values of the unknowns), ``cost``, ``status`` (SciPy's codes, or -3 failed), ``nfev``, and
+        ``messages`` {start: message} of the failed ones.
     """
     from ..problem import study_problem
 
@@ -115,11 +182,30 @@ def solve_unit(study: Study, unit: int, progress: Callable[[int, int], None] | N
 
 
 def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] | None = None) -> dict:
-    """The per-start route: one :func:`femupdate.updating.update` (SciPy least squares, exact
-    Nelson Jacobian) per start of case ``c``, in the raw format of :func:`solve_unit`.
+    """The per-start route: one :func:`femupdate.updating.update` per start of case ``c``.
 
-    A case with fewer independent data than unknowns is solved with ``regularization=0`` (the
-    same unregularised problem; ``update`` otherwise refuses it as underdetermined).
+    SciPy least squares with the exact Nelson Jacobian, in the raw format of :func:`solve_unit`
+    (plus ``starts``).  A case with fewer independent data than unknowns is solved with
+    ``regularization=0`` (the same unregularised problem; ``update`` otherwise refuses it as
+    underdetermined).  A start whose update raises a femupdate error is recorded as failed (NaN
+    values, status -3) with its message.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    c : int
+        Case index (0-based).
+    level : int, default 0
+        Index into ``study.levels`` (0: noise-free).
+    starts : sequence of int, optional
+        Which starts (default all).
+
+    Returns
+    -------
+    dict
+        ``case``, ``level``, ``start`` (the first), ``starts``, and per start ``x``, ``cost``,
+        ``status``, ``nfev``; ``messages`` {start: message} of the failed ones.
     """
     from ...modal import model_modes
     from ...updating import update

@@ -25,7 +25,33 @@ class Stacked(Parametrisation):
 
     Each configuration is a :class:`femupdate.updating.Problem` on its own model in absolute
     parameters; this class maps the common scaled unknowns ``x`` (:class:`Parametrisation`) to
-    them, and offers what :func:`femupdate.updating.solve` and ``diagnostics`` need.
+    them, and offers what :func:`femupdate.updating.solve` and ``diagnostics`` need.  A
+    configuration's problem uses only the unknowns its model has.
+
+    Parameters
+    ----------
+    model : Model
+        The base model.
+    configurations : sequence of Configuration
+        The configurations and their test data.
+    cms : sequence of ConfiguredModel
+        Their models (:func:`~femupdate.updating.multiconfig.configurations.prepare`), same order.
+    names : sequence of str
+        The unknown parameters.
+    parametrisation : {"relative", "log", "absolute"}
+        Scaling of the unknowns, as :func:`femupdate.updating.update`.
+    p_base : ndarray, shape ``(n_parameters,)``
+        Parameter values of the base model (the start; the known values of each configuration are
+        taken from it and its modification, :func:`~.configurations.config_values`).
+    shape_scaling, ref_dof, weights, measurement_std, min_mac, n_modes, use_shapes, sensitivity
+        Options of each configuration's :class:`femupdate.updating.Problem` (defaults ``"unit"``,
+        None, None, None, 0.5, None, True, ``"auto"``).
+
+    Raises
+    ------
+    InputError
+        An unknown ``parametrisation``; a configuration's problem refused (the message names the
+        configuration).
     """
 
     def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, shape_scaling="unit",
@@ -93,17 +119,58 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     """Iterative joint updating of several configurations from (incomplete) modal data.
 
     The residuals of every configuration (relative eigenvalue errors and scaled shape
-    differences at its measured dofs, as in :func:`femupdate.updating.update`) are stacked,
-    with the Jacobian of each configuration's model, and minimised over the one set of unknowns
-    by :func:`scipy.optimize.least_squares`.  The options mean what they mean in
-    :func:`~femupdate.updating.update` (``regularization``: a Tikhonov factor, or ``"gcv"`` /
-    ``"lcurve"``, pulling the scaled parameters toward the start).
+    differences at its measured dofs, paper eq. 19, as in :func:`femupdate.updating.update`) are
+    stacked, with the Jacobian of each configuration's model, and minimised over the one set of
+    unknowns by :func:`scipy.optimize.least_squares` (eq. 20).
+
+    Parameters
+    ----------
+    model : Model
+        The base model.
+    configurations : sequence of Configuration
+        The configurations and their test data (modes; shapes may be partial).
+    params : sequence of str, optional
+        The unknown parameters (default: every parameter not fixed).
+    x0 : mapping of str to float, optional
+        Starting values (default: ``values``, else nominal).
+    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
+        Scaling of the shapes; ``ref_dof`` (``"node:dir"``) for ``"ref"``.
+    ref_dof : str, optional
+    weights : mapping, optional
+        ``{"eigenvalue": w or per-mode array, "shape": w}``.
+    measurement_std : mapping, optional
+        ``{"eigenvalue": relative std of λ, "shape": std of scaled shape entries}``.
+    min_mac : float, default 0.5
+        Pairing threshold.
+    n_modes : int, optional
+        Model modes computed per configuration (as :class:`femupdate.updating.Problem`).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+    max_nfev : int, default 200
+    ftol, xtol, gtol : float, default 1e-10
+        Options of :func:`scipy.optimize.least_squares`.
+    use_shapes : bool, default True
+        Include the shape residuals.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the known parameters (default nominal).
+    sensitivity : str, default ``"auto"``
+        Derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`).
+    regularization : float, {"gcv", "lcurve"} or None, default None
+        Tikhonov factor, or the rule choosing it, pulling the scaled parameters toward the start.
 
     Returns
     -------
     MultiConfigResult
         ``conditioning`` holds each configuration's normalised sensitivity matrix alone and the
         configurations stacked one after another, at the solution.
+
+    Raises
+    ------
+    InputError
+        An unknown method or parametrisation, invalid unknowns or configurations, or fewer
+        independent data over all configurations than unknowns without ``regularization``.
+    NumericalError
+        As :func:`femupdate.updating.update`.
     """
     names = check_unknowns(model, params)
     if method not in ("trf", "dogbox", "lm"):
@@ -153,9 +220,34 @@ def solve_configurations(model: Model, configurations: Sequence[Configuration], 
                          bounded: bool = False, **iterative) -> MultiConfigResult:
     """Joint update, direct when every configuration's data are complete, iterative otherwise.
 
-    ``method``: ``"auto"`` | ``"direct"`` | ``"iterative"``.  ``unknowns`` and ``values`` serve
-    both; ``use`` and ``bounded`` the direct solution (:func:`direct_configurations`); the other
-    keyword arguments the iterative one (:func:`update_configurations`).
+    Parameters
+    ----------
+    model : Model
+        The base model.
+    configurations : sequence of Configuration
+        The configurations and their test data.
+    method : {"auto", "direct", "iterative"}, default ``"auto"``
+        ``"auto"``: direct when every configuration's data are complete (:func:`~.configurations.is_complete`).
+    unknowns : sequence of str, optional
+        The unknown parameters (default: every parameter not fixed); both solutions.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the known parameters; both solutions.
+    use : sequence of str, default ``("modes", "frf", "static")``
+        Direct solution only (:func:`direct_configurations`).
+    bounded : bool, default False
+        Direct solution only.
+    **iterative
+        Further keyword arguments of :func:`update_configurations` (iterative solution only).
+
+    Returns
+    -------
+    MultiConfigResult
+
+    Raises
+    ------
+    InputError
+        An unknown ``method``; otherwise as :func:`direct_configurations` or
+        :func:`update_configurations`.
     """
     if method not in ("auto", "direct", "iterative"):
         raise InputError(f"unknown method {method!r}: use auto, direct or iterative")

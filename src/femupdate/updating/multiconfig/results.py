@@ -65,7 +65,20 @@ class MultiConfigResult:
 
 
 def svd_summary(S: np.ndarray) -> dict:
-    """Rank, condition number and smallest singular value of ``S`` (columns already scaled)."""
+    """Rank, condition number and smallest singular value of ``S`` (columns already scaled).
+
+    Parameters
+    ----------
+    S : ndarray, shape ``(n_rows, L)``
+        Column-scaled matrix.
+
+    Returns
+    -------
+    dict
+        ``rank`` (singular values above ``max(S.shape) * eps * s_max``), ``n_rows``,
+        ``min_singular`` (0 unless full column rank with ``n_rows >= L``), ``condition_number``
+        (inf in that case), ``singular_values`` (ndarray, descending).
+    """
     L = S.shape[1]
     s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
     tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
@@ -77,7 +90,24 @@ def svd_summary(S: np.ndarray) -> dict:
 
 
 def conditioning(blocks: Sequence[np.ndarray], names: Sequence[str], labels: Sequence[str]) -> dict:
-    """Conditioning of each block alone and of the blocks stacked one after another."""
+    """Conditioning of each block alone and of the blocks stacked one after another.
+
+    Parameters
+    ----------
+    blocks : sequence of ndarray, shape ``(n_rows_c, L)``
+        One column-scaled matrix per configuration, same columns.
+    names : sequence of str
+        The unknowns (the L columns).
+    labels : sequence of str
+        Configuration names, one per block.
+
+    Returns
+    -------
+    dict
+        ``unknowns``; ``each``: per block ``{"configuration": label, **svd_summary}``;
+        ``cumulative``: the first k blocks stacked, k = 1 .. n, ``{"configurations": [...], **svd_summary}``;
+        ``stacked``: the last of ``cumulative`` (all blocks).
+    """
     each = [{"configuration": lab, **svd_summary(B)} for lab, B in zip(labels, blocks)]
     cumulative = []
     for k in range(1, len(blocks) + 1):
