@@ -162,3 +162,16 @@ def test_terminal_output_keeps_dof_labels_literal(capsys):
     ctx = Ctx(None)
     ctx.console.print("pairs 1:x:2:x and 3:cross_mark:")
     assert "pairs 1:x:2:x and 3:cross_mark:" in capsys.readouterr().out
+
+
+def test_modes_table_shows_the_units_of_every_column(tmp_path, capsys):
+    """Units in brackets are text, not terminal markup: the eigenvalue column keeps [rad²/s²]."""
+    from femupdate.examples import two_dof_model_toml
+
+    model = tmp_path / "m.toml"
+    model.write_text(two_dof_model_toml())
+    with pytest.raises(SystemExit) as info:
+        main(["modes", str(model)])
+    assert info.value.code in (0, None)
+    out = capsys.readouterr().out
+    assert "frequency [Hz]" in out and "eigenvalue [rad²/s²]" in out

@@ -36,7 +36,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
     t = Table(title=f"{model.name}: {model.n_dofs} dofs, {res.n_modes} modes")
     t.add_column("mode", justify="right")
     t.add_column("frequency [Hz]", justify="right")
-    t.add_column("eigenvalue [rad²/s²]", justify="right")
+    t.add_column("eigenvalue \\[rad²/s²]", justify="right")  # \\[: a bracket, not rich markup
     for r in range(res.n_modes):
         t.add_row(str(r + 1), fmt(res.frequencies_hz[r]), fmt(res.eigenvalues[r]))
     ctx.console.print(t)

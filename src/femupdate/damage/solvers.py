@@ -192,7 +192,7 @@ def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
             best = (bic, fr, x.copy(), xd)
         worse = worse + 1 if bic > best[0] + math.log(n) else 0
     if best is None:  # set on the first step of the path
-        raise TypeError("cannot unpack non-iterable NoneType object")
+        raise RuntimeError("internal error: an empty regularisation path")
     _, fr, x, xd = best
     return L1Fit(x, xd, float(fr * amax), amax, path)
 

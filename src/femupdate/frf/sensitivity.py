@@ -165,7 +165,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
             block(i, lu_apply(lu, B))
             if check and not small:
                 if Phi is None:  # allocated whenever check is set
-                    raise TypeError("'NoneType' object does not support item assignment")
+                    raise RuntimeError("internal error: the resonance check's mode array was not allocated")
                 where = line_name(i, w[i])
                 real_lu = lu if damping.undamped else factor(sp.csc_array(sys_.K - w[i] ** 2 * sys_.M), where)
                 nearest[i], Phi[:, i] = nearest_mode(sys_.K, sys_.M, w[i] ** 2, real_lu, where)
@@ -174,7 +174,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
     near = res.near(resonance_tol) if res is not None else np.zeros(0, dtype=np.intp)
     if near.size:
         if res is None:  # near is empty without resonances
-            raise AttributeError("'NoneType' object has no attribute 'describe'")
+            raise RuntimeError("internal error: lines near resonance without a resonance check")
         log.warning("receptance sensitivities near resonance (first-order predictions hold only for small changes): %s",
                     res.describe(near))
     return ReceptanceSensitivity(w, r_labels, e_labels, tuple(model.parameter_names[j] for j in idx), p,
@@ -312,6 +312,7 @@ def first_order_check(model, omega, force: Mapping, param: str, delta: float, re
     err = np.linalg.norm(pred - exact, axis=1) / np.maximum(np.linalg.norm(exact, axis=1), np.finfo(float).tiny)
     res = sens.resonances
     if res is None:  # no resonance check (damped model above modal.DENSE_LIMIT dofs)
-        raise AttributeError("'NoneType' object has no attribute 'first_order_error'")
+        raise InputError("first_order_check needs the resonance check, which is not run for damped models above "
+                         f"{modal.DENSE_LIMIT} dofs; check the first-order error on an undamped or smaller model")
     est = res.first_order_error(delta)[:, 0]
     return FirstOrderCheck(sens.omega, param, float(delta), exact, pred, err, est, res.distance)

@@ -392,7 +392,7 @@ def from_channels(force: Mapping, channels: Mapping[str, tuple], rtol: float = 1
     kinds = {np.iscomplexobj(c) for c in cols}
     resp = np.column_stack([c.astype(complex) if True in kinds else c for c in cols])
     if first is None:  # set by the first of the (non-empty) channels
-        raise TypeError("'NoneType' object is not subscriptable")
+        raise RuntimeError("internal error: channels without a first channel")
     return FRFData(first[1], dict(force), tuple(dofs), resp)
 
 

@@ -149,5 +149,5 @@ class ScanData:
         elif self.frf is not None:
             src = self.frf.values
         else:  # refused by __post_init__
-            raise AttributeError("'NoneType' object has no attribute 'values'")
+            raise RuntimeError("internal error: a scan with neither modes nor FRFs")
         return tuple(sorted(src))

@@ -128,7 +128,7 @@ def eq32_receptance_sensitivity(out_dir, figures=True) -> dict:
     delta = 0.01
     chk = first_order_check(model, omega, force, "k1", delta)
     if sens.resonances is None:  # the resonance check runs on a small model
-        raise AttributeError("'NoneType' object has no attribute 'distance'")
+        raise RuntimeError("internal error: the paper's small FRF model ran without its resonance check")
     d = sens.resonances.distance
     far, near = d > 0.2, d < 0.02
     ratio = chk.error[near] / chk.estimate[near]

@@ -53,7 +53,7 @@ class Checkpoint:
 
     def _load(self) -> None:
         if self.path is None:  # only called with a path (see __init__)
-            raise AttributeError("'NoneType' object has no attribute 'read_text'")
+            raise RuntimeError("internal error: a checkpoint without a path was loaded")
         try:
             doc = json.loads(self.path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

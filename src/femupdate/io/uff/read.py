@@ -363,7 +363,7 @@ def read_uff(
                     "one file must hold the FRFs of one excitation dof"
                 )
             elif frf_axis is None:  # set together with frf_ref
-                raise AttributeError("'NoneType' object has no attribute 'shape'")
+                raise RuntimeError("internal error: an FRF reference without its frequency axis")
             elif not _same_axis(frf_axis, x):
                 raise InputError(
                     f"{where}: frequency axis ({x.size} points, {x[0]:g} .. {x[-1]:g}) differs from that of "

@@ -26,7 +26,7 @@ def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
     except ImportError:
         raise InputError("--scheduler / --workers need dask.distributed: pip install 'femupdate[dask]'") from None
     if workers is None:  # run_study starts a local cluster only when workers is given
-        raise TypeError("int() argument must be a string, a bytes-like object or a real number, not 'NoneType'")
+        raise RuntimeError("internal error: a local Dask cluster was asked for without a number of workers")
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None)
     return Client(cluster), cluster
