@@ -70,21 +70,54 @@ class Parametrisation:
     def from_p(self, p_sel) -> np.ndarray:
         """The variables x (L,) of the updated parameters' values ``p_sel``."""
         p_sel = np.asarray(p_sel, float)
-        if self.param == "relative":
-            return p_sel / self.scale
-        if self.param == "log":
-            if np.any(p_sel <= 0):
-                raise InputError("log parametrisation needs positive parameter values and bounds")
-            return np.log(p_sel)
-        return p_sel.copy()
+        if self.param == "log" and np.any(p_sel <= 0):
+            raise InputError("log parametrisation needs positive parameter values and bounds")
+        return x_of_p(self.param, p_sel, self.scale)
 
     def bounds_x(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of x from the updated parameters' bounds ``lo``, ``hi`` (L,)."""
-        if self.param == "log":
-            with np.errstate(divide="ignore"):
-                return np.log(np.maximum(lo, 0)), np.log(hi)
-        xl, xh = self.from_p(lo), self.from_p(hi)
-        return np.minimum(xl, xh), np.maximum(xl, xh)
+        return x_bounds(self.param, lo, hi, self.scale)
+
+
+def x_of_p(kind: str, p, scale) -> np.ndarray:
+    """The optimiser's variables of the values ``p`` of the updated parameters, for any shape
+    that broadcasts with ``scale`` (|start| of each parameter; one row per start if 2-D)."""
+    if kind == "relative":
+        return np.asarray(p, float) / scale
+    if kind == "log":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.log(np.asarray(p, float))
+    return np.array(p, float)
+
+
+def x_bounds(kind: str, lo, hi, scale) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the optimiser's variables from the parameters' bounds ``lo``, ``hi``."""
+    if kind == "log":
+        with np.errstate(divide="ignore"):
+            return np.log(np.maximum(lo, 0)), np.log(hi)
+    xl, xh = x_of_p(kind, lo, scale), x_of_p(kind, hi, scale)
+    return np.minimum(xl, xh), np.maximum(xl, xh)  # a negative start flips the relative ones
+
+
+def start_error(names: Sequence[str], start, lo, hi, kind: str) -> str | None:
+    """Why the start ``start`` (L,) of ``names`` cannot be solved from (None when it can)."""
+    outside = [n for n, v, a, b in zip(names, start, lo, hi) if not a <= v <= b]
+    if outside:
+        return f"starting value(s) outside the bounds for: {', '.join(outside)}"
+    if kind == "log" and (np.any(np.asarray(start) <= 0) or np.any(np.asarray(lo) < 0)):
+        return "log parametrisation needs positive starting values and non-negative lower bounds"
+    return None
+
+
+def check_determined(problem: Problem) -> None:
+    """Refuse a problem with fewer independent data than updated parameters."""
+    n_data = problem.targets.n_independent
+    if n_data < len(problem.names):
+        raise InputError(
+            f"{len(problem.names)} parameters but only {n_data} independent data (eigenvalues and scaled shape "
+            "entries): the problem is underdetermined; add data, fix parameters, or use regularization "
+            "(e.g. --regularization gcv)"
+        )
 
 
 class Targets(NamedTuple):
@@ -298,9 +331,6 @@ class Problem(Parametrisation):
     def x_start(self) -> np.ndarray:
         return self.from_p(self.start)
 
-    def n_shape_entries(self, k: int) -> int:
-        return int(self.targets.pptr[k + 1] - self.targets.pptr[k])
-
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
         """Parameters, model modes and pairs ``[(test mode, model mode, MAC)]`` at x (cached)."""
@@ -399,5 +429,5 @@ class Problem(Parametrisation):
         return float(out[0])
 
 
-__all__ = ["Problem", "Parametrisation", "Targets", "modal_weights", "build_targets", "PARAMETRISATIONS",
+__all__ = ["Problem", "Parametrisation", "Targets", "x_of_p", "x_bounds", "start_error", "check_determined", "modal_weights", "build_targets", "PARAMETRISATIONS",
            "SHAPE_SCALINGS", "SENSITIVITY_CHOICES"]

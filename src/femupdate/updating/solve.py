@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 
 from .._errors import InputError, NumericalError
 from ..testdata import TestData
-from .problem import Problem
+from .problem import Problem, check_determined, start_error, x_bounds
 from .results import Diagnostics, UpdateResult
 
 log = logging.getLogger(__name__)
@@ -63,23 +63,18 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
     model's full ``(lo, hi)``) mapped to the optimiser's variables, Tikhonov augmentation
     α (x − x_start) with α fixed or chosen by ``"gcv"`` / ``"lcurve"`` at the start, and the
     iteration history.  ``prob`` provides ``residuals(x)``, ``jacobian(x)`` and the
-    :class:`_Parametrised` maps.  Returns ``(sol, history, regularization)``.
+    :class:`~femupdate.updating.problem.Parametrisation` maps.  Returns ``(sol, history, regularization)``.
     """
     names = prob.names
     parametrisation = prob.param
     lo, hi = bounds
     lo, hi = lo[prob.idx], hi[prob.idx]
     p_start = prob.p_base[prob.idx]
-    outside = [n for n, v, a, b in zip(names, p_start, lo, hi) if not a <= v <= b]
-    if outside:
-        raise InputError(f"starting value(s) outside the bounds for: {', '.join(outside)}")
-    if parametrisation == "log" and (np.any(p_start <= 0) or np.any(lo < 0)):
-        raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
+    refused = start_error(names, p_start, lo, hi, parametrisation)
+    if refused:
+        raise InputError(refused)
     x_start = prob.from_p(p_start)
-    with np.errstate(divide="ignore"):
-        xl, xh = prob.from_p(lo) if parametrisation != "log" else np.log(np.maximum(lo, 0)), prob.from_p(hi) if parametrisation != "log" else np.log(hi)
-    if parametrisation == "relative" and np.any(p_start < 0):
-        xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
+    xl, xh = x_bounds(parametrisation, lo, hi, prob.scale)
     history: list[dict] = []
 
     # regularisation
@@ -180,13 +175,9 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
                   xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None) -> UpdateResult:
     """Solve the modal updating problem ``prob`` from its starting point (:func:`update` on a
     :class:`Problem` already built); options as :func:`update`."""
-    model, names = prob.model, prob.names
-    n_data = prob.targets.n_independent
-    if n_data < len(names) and regularization is None:
-        raise InputError(
-            f"{len(names)} parameters but only {n_data} independent data (eigenvalues and scaled shape entries): "
-            "the problem is underdetermined; add data, fix parameters, or use regularization (e.g. --regularization gcv)"
-        )
+    model = prob.model
+    if regularization is None:
+        check_determined(prob)
     sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
     return result_at(prob, sol.x, sol, history, reg)

@@ -33,7 +33,7 @@ import scipy.sparse as sp
 
 from ..._errors import InputError
 from ...modal import DENSE_LIMIT
-from ..problem import Parametrisation, Problem
+from ..problem import Parametrisation, Problem, check_determined, start_error, x_bounds, x_of_p
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
 from .spec import DataSets, ModelArrays, Spec, concatenate, error_message, new_report
 
@@ -147,22 +147,13 @@ class BatchedProblem:
         lo, hi = lo[self.idx], hi[self.idx]
         if parametrisation == "log" and np.any(lo < 0):
             raise InputError("log parametrisation needs positive starting values and non-negative lower bounds")
-        errors: list[str | None] = [None] * R
-        for r in range(R):
-            outside = [nm for nm, v, a, b in zip(names, starts[r], lo, hi) if not a <= v <= b]
-            if outside:
-                errors[r] = f"InputError: starting value(s) outside the bounds for: {', '.join(outside)}"
-            elif parametrisation == "log" and np.any(starts[r] <= 0):
-                errors[r] = "InputError: log parametrisation needs positive starting values and non-negative lower bounds"
-        self.start_errors = errors
-        self.x_start = self._from_p(np.where(starts > 0, starts, 1.0) if parametrisation == "log" else starts)
-        if parametrisation == "log":
-            with np.errstate(divide="ignore"):
-                xl = np.broadcast_to(np.log(np.maximum(lo, 0)), starts.shape)
-                xh = np.broadcast_to(np.log(hi), starts.shape)
-        else:
-            xl, xh = self._from_p(np.broadcast_to(lo, starts.shape)), self._from_p(np.broadcast_to(hi, starts.shape))
-            xl, xh = np.minimum(xl, xh), np.maximum(xl, xh)
+        self.start_errors = [None if (e := start_error(names, starts[r], lo, hi, parametrisation)) is None
+                             else f"InputError: {e}" for r in range(R)]
+        # (a refused start keeps a harmless placeholder; it fails at its first evaluation)
+        self.x_start = x_of_p(parametrisation, np.where(starts > 0, starts, 1.0) if parametrisation == "log"
+                              else starts, self.scale)
+        xl, xh = x_bounds(parametrisation, np.broadcast_to(lo, starts.shape), np.broadcast_to(hi, starts.shape),
+                          self.scale)
         self.lb, self.ub = np.array(xl, float), np.array(xh, float)
         if isinstance(data, tuple) and len(data) == 2 and isinstance(data[0], DataSets):
             self.sets, self.targets = data
@@ -175,31 +166,11 @@ class BatchedProblem:
     def from_problem(cls, problem: Problem, starts, **solver_options) -> BatchedProblem:
         """The starts ``starts`` (R, L) of ``problem``: each row is the problem that
         :func:`femupdate.update` solves from that start."""
-        n_data = problem.targets.n_independent
-        if n_data < len(problem.names):
-            raise InputError(
-                f"{len(problem.names)} parameters but only {n_data} independent data (eigenvalues and scaled shape "
-                "entries): the problem is underdetermined; add data, fix parameters, or use regularization "
-                "(e.g. --regularization gcv)"
-            )
+        check_determined(problem)
         p_fixed = problem.p_base.copy()
         return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
                    parametrisation=problem.param, shape_scaling=problem.scaling,
                    min_mac=problem.min_mac, **solver_options)
-
-    def _p_base(self, start):
-        p = self.p_fixed.copy()
-        p[[self.model.parameter_index(n) for n in self.names]] = start
-        return p
-
-    # ------------------------------------------------------------------ parameters
-    def _from_p(self, p):
-        if self.param == "relative":
-            return p / self.scale
-        if self.param == "log":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                return np.log(p)
-        return np.array(p, float)
 
     def to_p(self, X, rows) -> np.ndarray:
         """Updated parameters' values (S, L) at solver variables X (S, L) of the starts ``rows``."""

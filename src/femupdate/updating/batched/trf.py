@@ -84,8 +84,6 @@ class State(NamedTuple):
     hist_x: np.ndarray  #: (R, H, n) x after each iteration
 
 
-#: names of the state arrays, in order
-STATE = State._fields
 
 
 
