@@ -50,7 +50,7 @@ from _probes import Phase, write_results  # noqa: E402
 from femupdate import model_modes  # noqa: E402
 from femupdate.examples import two_dof  # noqa: E402
 from femupdate.frf import receptance_sensitivity, resonances, simulate  # noqa: E402
-from femupdate.frf._lines import LineSystems  # noqa: E402
+from femupdate.frf.lines import LineSystems  # noqa: E402
 from femupdate.frf.surfaces import frf_surface  # noqa: E402
 from femupdate.generators import frame_lattice, truss_lattice  # noqa: E402
 

@@ -161,7 +161,7 @@ def test_brandon_equals_central_differences(method, damping):
 
 
 def test_parameter_forms_equal_dense_products():
-    from femupdate.frf._lines import ParameterForms
+    from femupdate.frf.lines import ParameterForms
 
     m = with_mass_parameter()  # k1..k5 enter K only, m2 enters M only: empty segments on both sides
     rng = np.random.default_rng(0)

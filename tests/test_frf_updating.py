@@ -8,8 +8,8 @@ import pytest
 from femupdate import InputError, MeasuredMode, NumericalError, TestData, model_modes
 from femupdate.examples import chain, three_dof, two_dof
 from femupdate.frf import Damping, simulate
-from femupdate.frf.search import GlobalSearchResult, global_search
-from femupdate.frf.updating import FRFUpdateResult, _FRFProblem, frf_multistart, frf_update
+from femupdate.updating import GlobalSearchResult, global_search
+from femupdate.updating import FRFProblem, FRFUpdateResult, frf_multistart, frf_update
 from femupdate.updating import MultiStartResult, UpdateResult, draw_starts
 
 K6 = np.array([120.0, 90.0, 150.0, 80.0, 110.0, 100.0])
@@ -68,7 +68,7 @@ def test_jacobian_equals_finite_differences(residual, solver):
     damping = Damping(beta=1e-3, eta=0.02)
     w = np.linspace(2, 14, 9)
     data = simulate(m, w, {"6:x": 1.0, "2:x": 0.5j}, response=["1:x", "5:x"], damping=damping)
-    prob = _FRFProblem(m, data, ["k1", "k3", "k6"], "log", m.values * 1.1, residual, None, np.arange(9), damping, solver)
+    prob = FRFProblem(m, data, ["k1", "k3", "k6"], "log", m.values * 1.1, residual, None, np.arange(9), damping, solver)
     x = np.log(m.values[[0, 2, 5]] * 1.2)
     J = prob.jacobian(x)
     h = 1e-6
@@ -182,7 +182,7 @@ def test_singular_evaluation_is_a_numerical_error():
     s.mass(["1:x"], m=1.0)
     m = s.build()
     data = simulate(m, [1.0, 3.0], {"1:x": 1.0})
-    prob = _FRFProblem(m, data, ["k"], "absolute", m.values, "linear", None, np.arange(2), Damping(), "auto")
+    prob = FRFProblem(m, data, ["k"], "absolute", m.values, "linear", None, np.arange(2), Damping(), "auto")
     with pytest.raises(NumericalError, match=r"line 1 \(omega = 1 rad/s\)"):
         prob.residuals(np.array([1.0]))  # k = 1: the line at 1 rad/s is exactly on the resonance
 
@@ -190,7 +190,8 @@ def test_singular_evaluation_is_a_numerical_error():
 def test_readme_example():
     """The Python example of the README's FRF section, as printed there."""
     from femupdate.examples import two_dof
-    from femupdate.frf import global_search, receptance_sensitivity, simulate, frf_update
+    from femupdate.frf import receptance_sensitivity, simulate
+    from femupdate.updating import frf_update, global_search
 
     model = two_dof()                                    # the paper's Figure 3 system: k1 = 8, k2 = 6 N/m
     lines = 0.4 * np.arange(1, 8)                        # Figure 7's seven lines, 0.4 rad/s apart

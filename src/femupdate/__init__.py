@@ -46,7 +46,7 @@ _LAZY = {
     "direct_update": "direct", "DirectResult": "direct",
     "Problem": "updating", "update": "updating", "UpdateResult": "updating", "Diagnostics": "updating",
     "multistart": "updating", "MultiStartResult": "updating",
-    "frf_update": "frf", "simulate_frf": "frf", "update_configurations": "updating.multiconfig",
+    "frf_update": "updating", "frf_multistart": "updating", "global_search": "updating", "simulate_frf": "frf", "update_configurations": "updating.multiconfig",
     # identifiability, reduction, damage
     "counting_criteria": "uniqueness", "exact_solutions": "uniqueness", "define_study": "uniqueness",
     "run_study": "uniqueness", "reduce": "reduction", "expand": "reduction", "detect_damage": "damage",
@@ -73,7 +73,6 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .correlation import Correlation, correlate, mac
     from .damage import detect_damage
     from .direct import DirectResult, direct_update
-    from .frf import frf_update
     from .frf import simulate as simulate_frf  # type: ignore[no-redef]  # frf.simulate is also a module
     from .io.model_file import load_model
     from .io.results import write_json
@@ -86,5 +85,6 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .structure import Structure
     from .testdata import FRFData, MeasuredMode, StaticData, TestData
     from .uniqueness import counting_criteria, define_study, exact_solutions, run_study
-    from .updating import Diagnostics, MultiStartResult, Problem, UpdateResult, multistart, update
+    from .updating import (Diagnostics, MultiStartResult, Problem, UpdateResult, frf_multistart, frf_update,
+                           global_search, multistart, update)
     from .updating.multiconfig import update_configurations

@@ -50,7 +50,20 @@ AMENDMENTS = {
                  and abs(float(rec) - float(now)) <= 1e-3 * abs(float(rec)) if _is_number(rec) and _is_number(now)
                  else False)),
     ),
+    "update results carry notes": (
+        "`femupdate update` now takes FRFs and static deflections as well as modes, and its JSON carries "
+        "the run's `notes` (how data blocks were weighted, FRF lines skipped), as `frf-update`'s always "
+        "did.  A modal update has none: the key is new and holds an empty list; nothing else changes.",
+        lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"notes"}
+        and set(rec) <= set(now) and now["notes"] == [] and _same(rec, {k: now[k] for k in rec}),
+    ),
 }
+
+
+def _same(expected, actual) -> bool:
+    out: list = []
+    _diffs(expected, actual, "", out)
+    return not out
 
 
 def _is_number(text) -> bool:
@@ -116,7 +129,10 @@ def main(names):
             for path, rec, now in diffs:
                 ok = [k for k, (_, accepts) in AMENDMENTS.items() if accepts(path, rec, now)]
                 used.update(ok)
-                _set(expected, path, now)
+                if path:
+                    _set(expected, path, now)
+                else:  # keys added at the top: add them, keep every recorded value as it was
+                    expected.update({k: v for k, v in now.items() if k not in expected})
             (recorded_dir / name).write_text(json.dumps(expected, indent=1, allow_nan=True) + "\n")
             for k in used:
                 entry = manifest.setdefault("amendments", {}).setdefault(k, {"reason": AMENDMENTS[k][0], "files": []})

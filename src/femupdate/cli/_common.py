@@ -141,12 +141,15 @@ def update_payload(model, data, res, ms=None):
         "history": res.history,
         "regularization": res.regularization,
         "sensitivity": res.sensitivity,
+        "notes": list(res.notes),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
             "covariance": d.covariance, "n_residuals": d.n_residuals, "n_parameters": d.n_parameters,
         },
     }
+    if res.blocks:
+        out["blocks"] = res.blocks
     if ms is not None:
         out["starts"] = {
             "total": ms.total, "converged": ms.converged, "seed": ms.seed,

@@ -58,7 +58,7 @@ def parse_force(text: str) -> dict:
 
 def parse_damping(text: str | None):
     from ..frf import Damping
-    from ..frf._lines import as_damping
+    from ..frf.lines import as_damping
 
     if not text:
         return Damping()
@@ -79,6 +79,43 @@ def _pairs(h: np.ndarray) -> list:
 
 damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E",
                               help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped.")
+
+
+
+
+def frf_line_options(command):
+    """The options of the FRF residuals (``--residual``, ``--lines``, ``--select``, ``--resonance``,
+    ``--resonance-tol``, ``--damping``), shared by ``frf-update`` and ``update``."""
+    for option in reversed((
+        click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear",
+                     show_default=True, help="FRF residual: linear (eq. 34), relative, or log-magnitude."),
+        click.option("--lines", "lines_text", default=None, help="FRF lines to use, 1-based (e.g. 1,2,5); default all."),
+        click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many FRF lines by conditioning."),
+        click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,
+                     help="FRF lines within --resonance-tol of a resonance of the starting model."),
+        click.option("--resonance-tol", type=click.FloatRange(min=0), default=1e-3, show_default=True),
+        damping_option,
+    )):
+        command = option(command)
+    return command
+
+
+def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text) -> dict:
+    """The FRF options of :func:`femupdate.updating.frf_update` from the command line's."""
+    lines = None
+    if lines_text:
+        try:
+            lines = [int(v) - 1 for v in lines_text.split(",") if v.strip()]
+        except ValueError:
+            raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
+    return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
+                damping=parse_damping(damping_text))
+
+
+def frf_fields(res) -> dict:
+    """The FRF part of a result's JSON (lines used and skipped, residual, FRAC, natural frequencies)."""
+    return {"omega_rad_s": res.omega, "skipped": res.skipped, "residual": res.residual, "frac": res.frac,
+            "natural_frequencies_hz": res.natural_frequencies_hz}
 
 
 # ---------------------------------------------------------------------------------- frf
@@ -155,12 +192,8 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
 
 # ---------------------------------------------------------------------------------- frf-update
 def _frf_payload(model, data, res, ms, extra=None):
-
     out = update_payload(model, data, res, ms)
-    out.update({
-        "omega_rad_s": res.omega, "skipped": res.skipped, "residual": res.residual, "frac": res.frac,
-        "natural_frequencies_hz": res.natural_frequencies_hz, "notes": res.notes,
-    })
+    out.update(frf_fields(res))
     out.update(extra or {})
     return out
 
@@ -178,13 +211,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--runs", type=click.IntRange(min=1), default=1, show_default=True, help="Independent global runs.")
 @click.option("--global-residual", type=click.Choice(["linear", "relative", "log"]), default="log", show_default=True,
               help="Residual of the global stage (the polish uses --residual).")
-@click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear", show_default=True)
-@click.option("--lines", "lines_text", default=None, help="Lines to use, 1-based (e.g. 1,2,5); default all.")
-@click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many lines by conditioning.")
-@click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,
-              help="Lines within --resonance-tol of a resonance of the starting model.")
-@click.option("--resonance-tol", type=click.FloatRange(min=0), default=1e-3, show_default=True)
-@damping_option
+@frf_line_options
 @click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
@@ -198,7 +225,8 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
                        reg_text, max_nfev, std, plot_dir, set_text, json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
-    from ..frf.updating import frf_data, frf_multistart, frf_update
+    from ..updating import frf_multistart, frf_update
+    from ..updating.frf import frf_data
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 
@@ -208,19 +236,12 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     data = load_testdata(data_path, model)
     frf = frf_data(data)
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
-    lines = None
-    if lines_text:
-        try:
-            lines = [int(v) - 1 for v in lines_text.split(",") if v.strip()]
-        except ValueError:
-            raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
-    kw = dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
-              damping=parse_damping(damping_text), parametrisation=parametrisation, method=method,
-              regularization=parse_regularization(reg_text), max_nfev=max_nfev, values=values,
-              measurement_std=std)
+    kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text),
+              parametrisation=parametrisation, method=method, regularization=parse_regularization(reg_text),
+              max_nfev=max_nfev, values=values, measurement_std=std)
     ms, extra = None, {}
     if global_method:
-        from ..frf.search import global_search
+        from ..updating import global_search
 
         # every local option reaches the polish except --method (global_search's method is the global one)
         glob = {k: v for k, v in kw.items() if k != "method"}
@@ -336,7 +357,7 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
                     truth_text, plot_path, set_text, json_path):
     """Residual surface over two parameters (paper Figures 5-7): grid minimum and local minima."""
     from ..frf.surfaces import frf_surface, modal_surface
-    from ..frf.updating import frf_data
+    from ..updating.frf import frf_data
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
 

@@ -1,4 +1,5 @@
-"""``femupdate update``: iterative (multi-start) updating from measured modes at any dofs."""
+"""``femupdate update``: iterative (multi-start) updating from whatever the test data hold —
+measured modes, FRFs and static deflections at any dofs, alone or mixed."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from rich.table import Table
 from .._errors import NumericalError
 from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
+from .frf import frf_fields, frf_line_options, frf_options
 
 
 @click.command()
@@ -32,19 +34,27 @@ from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regulariz
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
               default="auto", show_default=True,
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
+@click.option("--use", "use_text", default=None, metavar="KINDS",
+              help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold).")
 @click.option("--std-eigenvalue", type=float, default=None, help="Relative std of measured eigenvalues (for the covariance).")
 @click.option("--std-shape", type=float, default=None, help="Std of scaled shape entries (for the covariance).")
+@click.option("--std-frf", type=float, default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
+@click.option("--std-static", type=float, default=None, help="Std of measured static deflections, m (weights them).")
+@frf_line_options
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write convergence and MAC figures to this folder.")
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, std_eigenvalue, std_shape, plot_dir,
+           method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
+           std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
            set_text, json_path):
-    """Update MODEL's parameters iteratively from measured modes in DATA (any measured dofs)."""
+    """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
+    static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
     from ..updating import multistart
+    from ..updating import data_kinds
     from ..updating import update as _update
 
     ctx = Ctx(json_path)
@@ -52,10 +62,16 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
     values = model_values(model, set_text)
     data = load_testdata(data_path, model)
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
-    std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape)) if v is not None} or None
+    std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", std_frf),
+                             ("static", std_static)) if v is not None} or None
+    use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
+    kinds = data_kinds(data, use)
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
               regularization=parse_regularization(reg_text), min_mac=min_mac, max_nfev=max_nfev,
-              use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity)
+              use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity,
+              use=kinds)
+    if "frf" in kinds:
+        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text)
     ms = None
     if starts == 1 and not scheduler:
         res = _update(model, data, params=params, **kw)
@@ -72,13 +88,28 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
             raise NumericalError(f"none of the {starts} starts converged")
         res = ms.best
     c = ctx.console
-    c.print(update_parameter_table(res, f"{model.name}: iterative update ({res.iterations} iterations, {res.nfev} evaluations)"))
-    t2 = Table(title="paired modes")
-    for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
-        t2.add_column(col, justify="right")
-    for (k, j, m), ft, fm in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz):
-        t2.add_row(str(k + 1), str(j + 1), fmt(ft), fmt(fm), f"{(fm - ft) / ft * 100:+.3f} %", "-" if not np.isfinite(m) else f"{m:.4f}")
-    c.print(t2)
+    c.print(update_parameter_table(res, f"{model.name}: iterative update from {', '.join(kinds)} "
+                                        f"({res.iterations} iterations, {res.nfev} evaluations)"))
+    if res.pairs:
+        t2 = Table(title="paired modes")
+        for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
+            t2.add_column(col, justify="right")
+        for (k, j, m), ft, fm in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz):
+            t2.add_row(str(k + 1), str(j + 1), fmt(ft), fmt(fm), f"{(fm - ft) / ft * 100:+.3f} %",
+                       "-" if not np.isfinite(m) else f"{m:.4f}")
+        c.print(t2)
+    if res.blocks:
+        t3 = Table(title="data blocks")
+        for col in ("block", "residuals", "scale", "cost", "weighting"):
+            t3.add_column(col, justify="left" if col in ("block", "weighting") else "right")
+        for b in res.blocks:
+            t3.add_row(b["label"], str(b["n_residuals"]), fmt(b["scale"]), f"{b['cost']:.4g}", b["weighting"])
+        c.print(t3)
+    is_frf = hasattr(res, "frac")
+    if is_frf:
+        c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
+        for s in res.skipped:
+            c.print(f"skipped FRF line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     d = res.diagnostics
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
             f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
@@ -90,14 +121,30 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
         c.print(f"{ms.converged}/{ms.total} starts converged to {len(ms.solutions)} distinct solution(s):")
         for s in ms.solutions[:10]:
             c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+    for note in res.notes:
+        c.print(f"note: {note}")
     if plot_dir is not None:
-        from ..correlation import correlate as _correlate
-        from ..modal import model_modes
-        from ..plot.updating import save_update_figures
+        names = []
+        if "modes" in kinds:
+            from ..correlation import correlate as _correlate
+            from ..modal import model_modes
+            from ..plot.updating import save_update_figures
 
-        corr = _correlate(data, model_modes(model, res.parameters, n_modes=min(model.n_dofs, 2 * len(data.modes) + 4)))
-        names = save_update_figures(plot_dir, res.history, corr.mac)
+            corr = _correlate(data, model_modes(model, res.parameters, n_modes=min(model.n_dofs, 2 * len(data.modes) + 4)))
+            names += save_update_figures(plot_dir, res.history, corr.mac)
+        if is_frf and data.frf is not None:
+            from ..frf import frf as model_frf
+            from ..plot.frf import save_frf_update_figures
+
+            frf = data.frf
+            used = np.isin(frf.omega, res.omega)
+            _, xa = model_frf(model, frf.omega[used], frf.force, frf.dofs, res.parameters, kw["frf_options"]["damping"])
+            names += [n for n in save_frf_update_figures(plot_dir, res.history, frf.omega[used], frf.dofs,
+                                                         frf.response[used], xa) if n not in names]
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    emit(ctx, update_payload(model, data, res, ms))
+    payload = update_payload(model, data, res, ms)
+    if is_frf:
+        payload.update(frf_fields(res))
+    emit(ctx, payload)
     if not res.success:
         raise NumericalError(f"the update did not converge: {res.message}")

@@ -1,4 +1,8 @@
-"""FRF-based updating (the reference paper's "Frequency Response Functions" section, eqs. 23-34).
+"""Frequency response functions (the reference paper's "Frequency Response Functions" section,
+eqs. 23-34): simulation, line selection, Brandon's sensitivity and the residual surfaces.
+Updating from FRFs — alone or together with modes and static deflections — is part of the updating
+core: :func:`femupdate.update` (or :func:`femupdate.updating.frf_update` for FRFs alone),
+:func:`femupdate.updating.frf_multistart` and :func:`femupdate.updating.global_search`.
 
 ==========================================  ===================================================
 :func:`receptance`, :func:`frf`,            receptance / mobility / accelerance of the model
@@ -10,27 +14,31 @@
                                             (He 1993; Ren & Beards 1993)
 :func:`receptance_sensitivity` (=           Brandon's eq. 32, one factorisation per line for
 :func:`brandon`), :func:`receptance_fd`     every parameter; central differences (test oracle)
-:func:`frf_update`, :func:`frf_multistart`  iterative updating from incomplete FRFs (eqs. 30-31)
 :func:`modal_surface`, :func:`frf_surface`  residual surfaces of eqs. 33 and 34 (Figures 5-7)
-:func:`global_search`                       differential evolution / basin hopping / dual
-                                            annealing, local or on Dask
 ==========================================  ===================================================
 """
 
-from ._lines import Damping, Resonances, resonances
-from .search import GlobalSearchResult, global_search
+from .lines import Damping, Resonances, resonances
 from .selection import ConditionStudy, Selection, condition_study, select_frequencies
 from .sensitivity import ReceptanceSensitivity, brandon, first_order_check, receptance_fd, receptance_sensitivity
 from .simulate import add_noise, convert, frf, from_channels, receptance, simulate
 from .surfaces import Surface, distinct_minima, frf_surface, local_minima, modal_surface
-from .updating import FRFUpdateResult, frf_multistart, frf_update
 
 __all__ = [
     "Damping", "Resonances", "resonances",
     "receptance", "frf", "simulate", "convert", "add_noise", "from_channels",
     "receptance_sensitivity", "brandon", "receptance_fd", "first_order_check", "ReceptanceSensitivity",
     "condition_study", "ConditionStudy", "select_frequencies", "Selection",
-    "frf_update", "frf_multistart", "FRFUpdateResult",
     "frf_surface", "modal_surface", "local_minima", "distinct_minima", "Surface",
-    "global_search", "GlobalSearchResult",
 ]
+
+#: names that moved to the updating core (femupdate.updating), and where they are now
+MOVED = {name: "femupdate.updating" for name in
+         ("frf_update", "frf_multistart", "FRFUpdateResult", "global_search", "GlobalSearchResult")}
+
+
+def __getattr__(name: str):
+    if name in MOVED:
+        raise AttributeError(f"femupdate.frf.{name} moved to {MOVED[name]}.{name} (FRF updating is part of the "
+                             "updating core; femupdate.update takes FRF data too)")
+    raise AttributeError(f"module 'femupdate.frf' has no attribute {name!r}")

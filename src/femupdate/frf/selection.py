@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import InputError
-from ._lines import LineSystems, as_damping, check_omega, derivative_stack, force_vector, resonances
+from .lines import LineSystems, as_damping, check_omega, derivative_stack, force_vector, resonances
 from .sensitivity import receptance_sensitivity
 
 log = logging.getLogger(__name__)

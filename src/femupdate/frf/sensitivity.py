@@ -14,7 +14,7 @@ symmetric, so :math:`\alpha_{R,:} = (\alpha_{:,R})^T` and
 
 ONE factorisation per line and ``|R| + |E|`` solves with it serve every parameter; the
 parameters then cost only the bilinear forms above, all of them at once from the stored
-entries of the :math:`K_j` (:class:`~femupdate.frf._lines.ParameterForms`).  Perturbation
+entries of the :math:`K_j` (:class:`~femupdate.frf.lines.ParameterForms`).  Perturbation
 would need two factorisations per parameter and line.
 
 Near a resonance the derivative is still exact, but it describes the receptance only over a
@@ -38,7 +38,7 @@ import scipy.sparse as sp
 from .. import modal
 from .._errors import InputError
 from ..dofs import canonical_all
-from ._lines import (LineSystems, ParameterForms, Resonances, line_name, as_damping, check_omega,
+from .lines import (LineSystems, ParameterForms, Resonances, line_name, as_damping, check_omega,
                      collect_resonances, factor, force_vector, lu_apply, nearest_mode, resonances)
 from .simulate import response_dofs
 

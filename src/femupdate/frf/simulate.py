@@ -29,7 +29,7 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import canonical_all, describe
 from ..testdata import FRFData
-from ._lines import Damping, LineSystems, as_damping, check_omega, force_vector, nonnegative, resonances
+from .lines import Damping, LineSystems, as_damping, check_omega, force_vector, nonnegative, resonances
 
 log = logging.getLogger(__name__)
 

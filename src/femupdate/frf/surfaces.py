@@ -10,7 +10,7 @@ r"""Residual surfaces over two parameters (paper Figures 5-7), vectorised over t
   denominator is the *analytical* eigenvalue, literally as printed.
 * :func:`frf_surface` — eq. 34: :math:`r^2 = \sum_j \sum_i |x_{Ei,j} - x_{Ai,j}|^2` over the
   measured lines j and dofs i (or the relative / log-magnitude residuals of
-  :mod:`femupdate.frf._residuals`).
+  :mod:`femupdate.frf.residuals`).
 
 Every grid point's matrices are formed at once from the affine model,
 :math:`K(p) = K_b + p_1 K_1 + p_2 K_2`, as stacked dense arrays ``(G, n, n)``; eigenvalue
@@ -35,8 +35,8 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import canonical
 from ..testdata import FRFData, TestData
-from . import _residuals as R
-from ._lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
+from . import residuals as R
+from .lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
 
 log = logging.getLogger(__name__)
 
@@ -207,7 +207,7 @@ def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, val
     damping : Damping or mapping, optional
         Default undamped.
     residual : str, default ``"linear"``
-        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf._residuals`).
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf.residuals`).
     weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
         Non-negative weights (default 1).
     stack : AffineStack, optional
@@ -277,7 +277,7 @@ def frf_r2(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=Non
     damping : Damping or mapping, optional
         Default undamped.
     residual : str, default ``"linear"``
-        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf._residuals`).
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf.residuals`).
     weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
         Non-negative weights (default 1).
     stack : AffineStack, optional
@@ -509,7 +509,7 @@ def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1
     """
     from scipy.optimize import least_squares
 
-    from ..updating import cluster
+    from ..distinct import cluster
 
     lo = np.array([surface.x.min(), surface.y.min()]) if bounds is None else np.asarray(bounds[0], float)
     hi = np.array([surface.x.max(), surface.y.max()]) if bounds is None else np.asarray(bounds[1], float)

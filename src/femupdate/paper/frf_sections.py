@@ -19,10 +19,10 @@ import numpy as np
 
 from ..examples import two_dof
 from ..frf import first_order_check, receptance_fd, receptance_sensitivity, simulate
-from ..frf.search import global_search
+from ..updating import global_search
 from ..frf.selection import condition_study, select_frequencies
 from ..frf.surfaces import AffineStack, distinct_minima, frf_residuals, frf_surface, modal_residuals, modal_surface
-from ..frf.updating import frf_multistart
+from ..updating import frf_multistart
 from ..modal import model_modes
 from ..updating import multistart
 from ..testdata import MeasuredMode, TestData

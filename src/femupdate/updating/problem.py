@@ -74,6 +74,16 @@ class Parametrisation:
             raise InputError("log parametrisation needs positive parameter values and bounds")
         return x_of_p(self.param, p_sel, self.scale)
 
+    @property
+    def start(self) -> np.ndarray:
+        """Starting values of the updated parameters (L,)."""
+        return self.p_base[self.idx].copy()
+
+    @property
+    def x_start(self) -> np.ndarray:
+        """The variables x (L,) at the start."""
+        return self.from_p(self.start)
+
     def bounds_x(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of x from the updated parameters' bounds ``lo``, ``hi`` (L,)."""
         return x_bounds(self.param, lo, hi, self.scale)
@@ -320,16 +330,6 @@ class Problem(Parametrisation):
         self._pairs_seen: dict[int, int] = {}
         self.swaps: list[dict] = []
         self.nfev = 0
-
-    # ------------------------------------------------------------------ conveniences
-    @property
-    def start(self) -> np.ndarray:
-        """Starting values of the updated parameters (L,)."""
-        return self.p_base[self.idx].copy()
-
-    @property
-    def x_start(self) -> np.ndarray:
-        return self.from_p(self.start)
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:

@@ -91,6 +91,11 @@ class UpdateResult(RunResult):
     regularization : {``rule``, ``alpha``} when Tikhonov regularisation was used.
     start : the starting values {name: value}.
     sensitivity : the derivative route used at the solution.
+    blocks : the data blocks of a problem with more than one kind of data (modes, FRFs, static
+        cases): per block {``kind``, ``label``, ``n_residuals``, ``scale`` (the factor applied
+        to its residuals), ``weighting`` (how that factor was chosen), ``cost`` (½‖r‖² of its
+        residuals at the solution)}; empty for a single kind.
+    notes : what the run wants the user to know (lines skipped, weighting chosen, ...).
     """
 
     history: list[dict]
@@ -102,6 +107,8 @@ class UpdateResult(RunResult):
     regularization: dict = field(default_factory=dict)
     start: dict[str, float] = field(default_factory=dict)
     sensitivity: str = ""  # the derivative route used at the solution (``"auto"`` resolved)
+    blocks: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))

@@ -1,4 +1,4 @@
-r"""Local solution of an updating problem, and :func:`update`, the modal updating verb.
+r"""Local solution of an updating problem, and :func:`update_modal`, modal updating alone.
 
 :func:`solve` minimises any problem that offers ``residuals(x)``, ``jacobian(x)`` and the maps of
 :class:`~femupdate.updating.problem.Parametrisation` (modal, FRF, multi-configuration) with
@@ -123,13 +123,14 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
     return sol, history, reg
 
 
-def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
+def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
            shape_scaling: str = "unit", ref_dof: str | None = None, weights: Mapping | None = None,
            measurement_std: Mapping | None = None, min_mac: float = 0.5, n_modes: int | None = None,
            parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto") -> UpdateResult:
-    """Update the model's parameters so that its modes match the measured ones.
+    """Update the model's parameters so that its modes match the measured ones (the modal case of
+    :func:`femupdate.update`, which takes FRFs and static deflections too).
 
     Parameters
     ----------
@@ -173,7 +174,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
 
 def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
                   xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None) -> UpdateResult:
-    """Solve the modal updating problem ``prob`` from its starting point (:func:`update` on a
+    """Solve the modal updating problem ``prob`` from its starting point (:func:`update_modal` on a
     :class:`Problem` already built); options as :func:`update`."""
     model = prob.model
     if regularization is None:
@@ -208,4 +209,4 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResul
     )
 
 
-__all__ = ["update", "solve", "solve_problem", "result_at", "diagnostics"]
+__all__ = ["update_modal", "solve", "solve_problem", "result_at", "diagnostics"]

@@ -9,13 +9,15 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
+from functools import partial
 
 import numpy as np
 
 from .._errors import FemupdateError, InputError
 from .clustering import converged_solutions
 from .results import MultiStartResult, UpdateResult
-from .solve import update
+from .combined import DATA_KINDS, data_kinds, update
+from .frf import frf_update
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +54,8 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
                scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
                log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
                connect_timeout: float = 10.0, batched: bool | None = None, **kwargs) -> MultiStartResult:
-    """Run :func:`femupdate.update` from ``starts`` random starting points.
+    """Run :func:`femupdate.update` from ``starts`` random starting points (any data it takes;
+    modal data of small models on the compiled route).
 
     Parameters
     ----------
@@ -73,7 +76,17 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
         raise InputError("the number of starts must be at least 1")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, starts, seed, log_uniform)
-    # ---- batched path (femupdate.batch): all starts at once for small dense models -------------
+    kinds = data_kinds(data, kwargs.get("use", DATA_KINDS))
+    if kinds == ("modes",):
+        if kwargs.get("frf_options"):
+            raise InputError(f"FRF options ({', '.join(sorted(kwargs['frf_options']))}) given, but no FRF data are used")
+        kwargs.pop("use", None)  # modes only: the modal problem, whatever route
+        kwargs.pop("frf_options", None)
+    elif batched:
+        raise InputError(f"batched=True takes modal data only; these data use {', '.join(kinds)}: use batched=False")
+    else:
+        batched = False
+    # ---- batched path: all starts at once for small dense models ----------------------------------
     if batched is None:
         from .batched import supports
 
@@ -141,3 +154,57 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
         return runs
     finally:
         client.close()
+
+
+def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
+                   scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
+                   log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
+    """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
+    as :func:`femupdate.updating.multistart`), locally or on Dask; a
+    :class:`~femupdate.updating.MultiStartResult` in the same format.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data : FRFData or TestData
+        The measured FRFs.
+    starts : int, default 20
+        Number of random starts, drawn within the parameters' bounds.
+    seed : int or None, default 0
+        Seed of the starts.
+    params : sequence of str, optional
+        Parameters to update (default: the free ones).
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:port``); local runs otherwise.
+    rel_tol : float, default 1e-4
+        Relative distance under which two solutions are the same.
+    cost_tol : float, optional
+        A run counts as converged when it reports success and its cost is below this (default:
+        no limit).
+    log_uniform : bool, default False
+        Draw the starts log-uniformly instead of uniformly.
+    progress : callable ``(done, total)``, optional
+        Called after each start (local runs).
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler.
+    **kwargs
+        Options of :func:`frf_update`.
+
+    Returns
+    -------
+    MultiStartResult
+        Runs, distinct solutions, and the best run (a :class:`FRFUpdateResult`).
+
+    Raises
+    ------
+    InputError
+        Fewer than one start; an unreachable scheduler; and as :func:`frf_update`.
+    """
+    if starts < 1:
+        raise InputError("the number of starts must be at least 1")
+    names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    X0 = draw_starts(model, names, starts, seed, log_uniform)
+    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
+                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout,
+                      runner=partial(run_with, frf_update))

@@ -14,7 +14,7 @@ from ..._errors import FemupdateError, InputError
 from ..clustering import converged_solutions
 from ..problem import Problem
 from ..results import MultiStartResult, RunResult, UpdateResult
-from ..solve import result_at, update
+from ..solve import result_at, update_modal
 from .driver import PROBLEM_OPTIONS, SOLVER_OPTIONS, BatchedProblem, unsupported
 from .lsq import FAILED
 
@@ -128,7 +128,7 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
 def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
     """One full :func:`update` from a batched solution: diagnostics, swaps and a final check."""
     try:
-        res = update(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), **options)
+        res = update_modal(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), **options)
     except FemupdateError as exc:
         log.warning("polishing the best batched solution failed: %s", exc)
         return None

@@ -3,7 +3,7 @@ r"""Global search for the rough FRF residual surfaces of the paper's Figures 6 a
 The paper concludes that on such surfaces "other non-linear approaches such as random walks or
 genetic algorithms (Larson and Zimmerman 1993) would have to be applied".  Here SciPy's
 well-kept global optimisers minimise the FRF cost :math:`\tfrac12\|r\|^2` of
-:func:`femupdate.frf.updating.frf_update` (same weights and lines; log-magnitude residuals by
+:func:`femupdate.updating.frf.frf_update` (same weights and lines; log-magnitude residuals by
 default, ``global_residual``) within the parameters' bounds, and the best point of each run is
 polished by the local least-squares FRF update with the chosen residual:
 
@@ -30,9 +30,11 @@ import numpy as np
 from scipy import optimize
 
 from .._errors import FemupdateError, InputError
-from ..updating import MultiStartResult, cluster, run_starts
-from .surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
-from .updating import FRFUpdateResult, frf_data, frf_update, prepare_problem
+from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
+from .clustering import cluster, converged_solutions
+from .frf import FRFUpdateResult, frf_data, frf_update, prepare_problem
+from .results import MultiStartResult, UpdateResult
+from .starts import run_starts
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +46,7 @@ _LOCAL_KEYS = ("residual", "weights", "measurement_std", "lines", "select", "res
 @dataclass(frozen=True, eq=False)
 class GlobalSearchResult(MultiStartResult):
     """A :class:`~femupdate.updating.MultiStartResult` (``runs`` are the polished
-    :class:`~femupdate.frf.updating.FRFUpdateResult` of each run, ``starts`` the global optimiser's
+    :class:`~femupdate.updating.frf.FRFUpdateResult` of each run, ``starts`` the global optimiser's
     best point of each run, from which the polish started) plus ``method`` and ``optimizer``:
     per run {seed, x, cost, nfev, nit, message, minima} (``minima``: the distinct local minima
     basin hopping visited, clustered, with counts)."""
@@ -201,7 +203,7 @@ def global_search(model, data, *, method: str = "differential_evolution", params
 
     Parameters
     ----------
-    model, data : as for :func:`femupdate.frf.updating.frf_update` (finite bounds needed).
+    model, data : as for :func:`femupdate.updating.frf.frf_update` (finite bounds needed).
     method : ``"differential_evolution"`` (default), ``"basinhopping"`` or ``"dual_annealing"``.
     params : names of the parameters searched (default every parameter not ``fixed``).
     runs : independent runs with seeds ``seed .. seed + runs - 1``.
@@ -229,7 +231,6 @@ def global_search(model, data, *, method: str = "differential_evolution", params
                        cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout, runner=_runner).runs
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
-    from ..updating import UpdateResult, converged_solutions
 
     ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol)
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None

@@ -1,7 +1,7 @@
 r"""Iterative updating from incomplete FRF measurements (paper eqs. 30-31, with eq. 32).
 
 The residual stacks, for every used line :math:`\omega_l` and measured dof s, the difference of
-the model's and the measured response to the test's force (:mod:`femupdate.frf._residuals`:
+the model's and the measured response to the test's force (:mod:`femupdate.frf.residuals`:
 ``"linear"`` = eq. 34, ``"relative"``, or ``"log"``-magnitude), optionally weighted.  Its
 Jacobian is eq. 31's sensitivity matrix, built from Brandon's expression (eq. 32) for the
 force vector: per line ONE factorisation of Z and the solves
@@ -26,17 +26,18 @@ import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 
 from .._errors import InputError, NumericalError
+from ..frf import residuals as R
+from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
+from ..frf.sensitivity import RESONANCE_TOL
+from ..frf.simulate import check_data_against_model
 from ..testdata import FRFData, TestData
-from ..updating import PARAMETRISATIONS, Parametrisation, UpdateResult, diagnostics, solve
-from . import _residuals as R
-from ._lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
-from .sensitivity import RESONANCE_TOL
-from .simulate import check_data_against_model
+from .problem import PARAMETRISATIONS, Parametrisation
+from .results import UpdateResult
+from .solve import diagnostics, solve
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +52,7 @@ class FRFUpdateResult(UpdateResult):
 
     ``omega`` (the lines used, rad/s), ``skipped`` ([{line, omega_rad_s, reason}]), ``residual``
     (its form), ``frac`` ({dof: FRAC of test vs updated model}), ``natural_frequencies_hz`` of the
-    updated model (lowest ten) and ``notes``.
+    updated model (lowest ten).
     """
 
     omega: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -59,7 +60,6 @@ class FRFUpdateResult(UpdateResult):
     residual: str = "linear"
     frac: dict = field(default_factory=dict)
     natural_frequencies_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    notes: list = field(default_factory=list)
 
 
 def frf_data(data) -> FRFData:
@@ -104,8 +104,17 @@ def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
     return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
-class _FRFProblem(Parametrisation):
-    """Residuals and Jacobian of one FRF updating problem (cached per parameter vector)."""
+class FRFProblem(Parametrisation):
+    """Residuals and Jacobian of one FRF updating problem (cached per parameter vector).
+
+    The residuals compare the model's responses at the measured dofs ``frf.dofs`` to the force
+    ``frf.force`` with the measured ones, line by line (``lines``: indices into ``frf.omega``), in
+    the form ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), times ``weights``
+    (broadcastable to ``frf.response``); the Jacobian is eq. 31's sensitivity matrix from
+    Brandon's eq. 32.  A static load case is the same problem at ω = 0 (undamped: Z = K).
+    Built by :func:`prepare_problem` (FRF data, with the checks and the choice of lines) or
+    directly (static cases, :mod:`femupdate.updating.combined`).
+    """
 
     def __init__(self, model, frf: FRFData, names, parametrisation, p_base, residual, weights, lines, damping, solver):
         super().__init__(model, names, parametrisation, p_base)
@@ -128,6 +137,7 @@ class _FRFProblem(Parametrisation):
         self.B[self.S, 1 + np.arange(self.S.size)] = 1.0
         self.cache_key = None
         self.nfev = 0
+        self.skipped: list[dict] = []  # lines left out (set by the caller that chose them)
 
     def _evaluate(self, x):
         key = x.tobytes()
@@ -194,7 +204,7 @@ def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_to
             notes.append(f"skipped near resonance: {where}")
             use = np.delete(use, near)
     if select is not None:
-        from .selection import select_frequencies
+        from ..frf.selection import select_frequencies
 
         sel = select_frequencies(model, frf.omega[use], int(select), dict(frf.force), kind="sensitivity",
                                  response=frf.dofs, unknowns=names, values=p, damping=damping, margin=0.0)
@@ -250,7 +260,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     J = prob.jacobian(sol.x)
     diag = diagnostics(prob, sol.x, r, J, sigma)
     xa = prob.responses(sol.x)
-    pairs, f_test, f_model, natural = _modal_report(model, data, p_final)
+    pairs, f_test, f_model, natural = modal_report(model, data, p_final)
     return FRFUpdateResult(
         parameters=dict(zip(model.parameter_names, map(float, p_final))),
         names=tuple(names), x=p_final[prob.idx], success=bool(sol.success), status=int(sol.status),
@@ -265,7 +275,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
 
 def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
              damping, parametrisation, values, solver, regularized, method="trf"):
-    """Checks, line choice and the :class:`_FRFProblem` (shared by local and global FRF updating)."""
+    """Checks, line choice and the :class:`FRFProblem` (shared by local and global FRF updating)."""
     frf = frf_data(data)
     if parametrisation not in PARAMETRISATIONS:
         raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
@@ -290,7 +300,7 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
         w = np.asarray(1.0 if weights is None else weights, float) / sigma
     notes: list[str] = []
     use, skipped = _select_lines(model, frf, p_nominal, lines, select, resonance, resonance_tol, names, damping, notes)
-    prob = _FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
+    prob = FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
     n_res = prob.xe.size * (2 if np.iscomplexobj(prob.xe) and residual != "log" else 1)
     if n_res < len(names) and not regularized:
         raise InputError(f"{len(names)} parameters but only {n_res} residuals from {use.size} line(s) at "
@@ -298,9 +308,10 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
     return prob, sigma, skipped, notes
 
 
-def _modal_report(model, data, p):
-    """Natural frequencies of the updated model, and its MAC pairing with measured modes if the
-    test data also hold modes (the same pairing report as modal updating)."""
+def modal_report(model, data, p):
+    """Natural frequencies of the model at the parameters p, and its MAC pairing with the measured
+    modes if the test data hold modes (the pairing of :func:`femupdate.correlate`):
+    ``(pairs, test frequencies (Hz), paired model frequencies (Hz), lowest ten natural frequencies (Hz))``."""
     from ..modal import DENSE_LIMIT, model_modes
 
     n_modes = None if model.n_dofs <= DENSE_LIMIT else min(10, model.n_dofs - 2)
@@ -313,59 +324,3 @@ def _modal_report(model, data, p):
         pairs = [(int(i), int(j), float(m)) for i, j, m in corr.pairs]
         return pairs, data.frequencies_hz, np.array([modes.frequencies_hz[j] for _, j, _ in corr.pairs]), natural
     return [], np.zeros(0), np.zeros(0), natural
-
-
-def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
-                   scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
-                   log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
-    """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
-    as :func:`femupdate.updating.multistart`), locally or on Dask; a
-    :class:`~femupdate.updating.MultiStartResult` in the same format.
-
-    Parameters
-    ----------
-    model : Model
-        The parametrised model.
-    data : FRFData or TestData
-        The measured FRFs.
-    starts : int, default 20
-        Number of random starts, drawn within the parameters' bounds.
-    seed : int or None, default 0
-        Seed of the starts.
-    params : sequence of str, optional
-        Parameters to update (default: the free ones).
-    scheduler : str, optional
-        Address of a Dask scheduler (``tcp://host:port``); local runs otherwise.
-    rel_tol : float, default 1e-4
-        Relative distance under which two solutions are the same.
-    cost_tol : float, optional
-        A run counts as converged when it reports success and its cost is below this (default:
-        no limit).
-    log_uniform : bool, default False
-        Draw the starts log-uniformly instead of uniformly.
-    progress : callable ``(done, total)``, optional
-        Called after each start (local runs).
-    connect_timeout : float, default 10.0
-        Seconds to wait for the scheduler.
-    **kwargs
-        Options of :func:`frf_update`.
-
-    Returns
-    -------
-    MultiStartResult
-        Runs, distinct solutions, and the best run (a :class:`FRFUpdateResult`).
-
-    Raises
-    ------
-    InputError
-        Fewer than one start; an unreachable scheduler; and as :func:`frf_update`.
-    """
-    from ..updating.starts import draw_starts, run_starts, run_with
-
-    if starts < 1:
-        raise InputError("the number of starts must be at least 1")
-    names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
-    X0 = draw_starts(model, names, starts, seed, log_uniform)
-    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
-                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout,
-                      runner=partial(run_with, frf_update))

@@ -1,0 +1,34 @@
+"""Distinct points: solutions (or minima) that agree within a relative tolerance are one.
+
+Used by every driver that counts solutions — multi-start updating, global search, uniqueness
+studies — and by the residual surfaces' local minima; it depends on NumPy only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> list[list[int]]:
+    """Group solutions whose parameters agree within ``rel_tol`` (relative, per parameter).
+
+    Greedy in order of increasing cost: each point joins the first cluster (in order of creation)
+    whose representative — its lowest-cost member — it is within ``rel_tol`` of, else founds a
+    new one.  One NumPy pass per cluster: the lowest-cost unclaimed point founds the next
+    cluster and claims every unclaimed point near it.  Members are listed in increasing cost.
+    """
+    order = np.argsort(costs)
+    P = np.asarray(points, float)[order]
+    free = np.ones(len(order), bool)
+    groups: list[list[int]] = []
+    while free.any():
+        i = int(np.argmax(free))
+        scale = np.maximum(np.abs(P[i]), 1e-300)
+        near = free & np.all(np.abs(P - P[i]) <= rel_tol * scale, axis=1)
+        near[i] = True
+        groups.append([int(order[j]) for j in np.flatnonzero(near)])
+        free &= ~near
+    return groups
+
+
+__all__ = ["cluster"]
