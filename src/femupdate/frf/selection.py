@@ -126,8 +126,26 @@ class ConditionStudy:
     """cond(X) (eq. 28) for ``n_lines`` lines ``start + k spacing``, k = 0 .. n_lines-1.
 
     ``condition`` and ``condition_scaled`` (columns of X scaled to unit length) have shape
-    ``(len(starts), len(spacings))``; ``diagonal`` is the paper's Figure 4 reading, lowest
-    line = spacing (``None`` unless asked for with ``starts=None``).
+    ``(len(starts), len(spacings))``.  The paper's Figure 4 reading, lowest line = spacing, is what
+    :func:`condition_study` gives with ``starts=None``: then ``starts`` is ``[nan]`` and the
+    arrays have one row.
+
+    Parameters
+    ----------
+    starts : numpy.ndarray, shape ``(n_starts,)``
+        Lowest lines ω_1, rad/s (``[nan]`` when the lowest line equals the spacing).
+    spacings : numpy.ndarray, shape ``(n_spacings,)``
+        Spacings Δ, rad/s.
+    n_lines : int
+        Lines per combination.
+    force : dict of str to float or complex
+        The simulated test's force, N per dof.
+    unknowns : tuple of str
+        Parameters of the columns of X.
+    condition : numpy.ndarray, shape ``(n_starts, n_spacings)``
+        cond(X) (2-norm; inf where X is rank deficient or a line falls on an undamped resonance).
+    condition_scaled : numpy.ndarray, shape ``(n_starts, n_spacings)``
+        The same with the columns of X scaled to unit length.
     """
 
     starts: np.ndarray
@@ -145,12 +163,34 @@ def condition_study(model, force: Mapping, spacings, starts=None, n_lines: int =
 
     Parameters
     ----------
-    force : {dof: amplitude} of the simulated test (complete response at every model dof).
-    spacings : array_like, rad/s.
-    starts : array_like of lowest frequencies (rad/s); ``None``: the lowest line equals the
-        spacing (the paper's Figure 4, ``starts`` then holds the spacings and the result one
-        column per spacing on the diagonal: ``condition`` has shape (1, len(spacings))).
-    n_lines : lines per combination (the paper: 5).
+    model : Model
+        The parametrised model.
+    force : mapping of str to float or complex
+        Force amplitude (N) per dof of the simulated test (complete response at every model dof).
+    spacings : array_like, shape ``(n_spacings,)``
+        Line spacings Δ, rad/s, positive.
+    starts : array_like, shape ``(n_starts,)``, optional
+        Lowest lines ω_1, rad/s.  ``None``: the lowest line equals the spacing (the paper's
+        Figure 4); the result then has one row, ``condition`` of shape ``(1, len(spacings))``, and
+        its ``starts`` is ``[nan]``.
+    n_lines : int, default 5
+        Lines per combination (the paper: 5).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the simulated response (default nominal).
+    unknowns : sequence of str, optional
+        Parameters of the columns of X (default: the free ones).
+    damping : Damping or mapping, optional
+        Default undamped.
+
+    Returns
+    -------
+    ConditionStudy
+
+    Raises
+    ------
+    InputError
+        Spacings not positive; ``n_lines`` below 1; frequencies not finite or negative; no unknown
+        parameter or an unknown name; a malformed force; and as :meth:`Model.resolve`.
     """
     sp_ = check_omega(spacings, "spacings")
     if np.any(sp_ <= 0):

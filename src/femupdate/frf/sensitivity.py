@@ -81,7 +81,25 @@ class ReceptanceSensitivity:
 
     def for_force(self, force: Mapping) -> tuple[np.ndarray, np.ndarray]:
         """Response ``x = α f`` ``(n_lines, n_response)`` and ``∂x/∂p`` ``(n_lines, n_response, L)``
-        for a force acting on (some of) the excitation dofs."""
+        for a force acting on (some of) the excitation dofs.
+
+        Parameters
+        ----------
+        force : mapping of str to float or complex
+            Force amplitude (N) per loaded dof; excitation dofs not listed carry no force.
+
+        Returns
+        -------
+        x : numpy.ndarray, shape ``(n_lines, n_response)``
+            Response amplitudes, m (rad at rotations).
+        dx : numpy.ndarray, shape ``(n_lines, n_response, L)``
+            Their derivatives with respect to ``params``.
+
+        Raises
+        ------
+        InputError
+            A malformed or repeated dof label, or a dof that is not an excitation dof.
+        """
         labels = canonical_all(force, "force")
         extra = [d for d in labels if d not in self.excitation]
         if extra:
@@ -251,6 +269,25 @@ class FirstOrderCheck:
     ``exact`` and ``predicted`` ``(n_lines, n_response)`` are the changes of the response to a
     relative parameter change ``delta``; ``error`` their relative difference per line;
     ``estimate`` the a-priori indicator δ|s|/d of :meth:`Resonances.first_order_error`.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    param : str
+        The parameter changed.
+    delta : float
+        Relative change: p → p (1 + delta).
+    exact : numpy.ndarray, shape ``(n_lines, n_response)``
+        Exact change of the response, m.
+    predicted : numpy.ndarray, shape ``(n_lines, n_response)``
+        First-order (eq. 32) prediction of that change, m.
+    error : numpy.ndarray, shape ``(n_lines,)``
+        ‖predicted − exact‖ / ‖exact‖ per line (norms over the response dofs).
+    estimate : numpy.ndarray, shape ``(n_lines,)``
+        A-priori estimate δ|s|/d of that error.
+    distance : numpy.ndarray, shape ``(n_lines,)``
+        Relative distance d = |ω² − λ| / max(λ, ω²) of each line to the nearest resonance.
     """
 
     omega: np.ndarray
@@ -294,7 +331,8 @@ def first_order_check(model, omega, force: Mapping, param: str, delta: float, re
     Raises
     ------
     InputError
-        An unknown parameter or dof; a malformed force; bad frequencies.
+        An unknown parameter or dof; a malformed force; bad frequencies; a damped model above
+        ``modal.DENSE_LIMIT`` dofs (the resonance check the estimate needs is not run there).
     """
     p = model.resolve(values)
     j = model.parameter_index(param)
