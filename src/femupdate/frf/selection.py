@@ -224,11 +224,16 @@ class Selection:
 
     Attributes
     ----------
-    omega : ndarray
-        The chosen lines (rad/s), ascending; ``index`` their positions among ``candidates``.
+    omega : ndarray, shape ``(n_lines,)``
+        The chosen lines (rad/s), ascending.
+    index : ndarray of int, shape ``(n_lines,)``
+        Their 0-based positions among ``candidates``.
     condition_number : float
         cond of the stacked matrix of the chosen lines (columns scaled when ``scaled``).
-    kind : ``"direct"`` or ``"sensitivity"``.
+    kind : {"direct", "sensitivity"}
+        The equations judged.
+    candidates : ndarray, shape ``(n_candidates,)``
+        The candidate lines, rad/s, as given.
     excluded : list of dict
         Candidates left out and why ({line, omega_rad_s, reason}).
     uniform : dict
@@ -264,23 +269,49 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
 
     Parameters
     ----------
-    candidates : array_like, rad/s (e.g. the measured frequency axis).
-    n_lines : number of lines to choose.
-    force : {dof: amplitude} of the test.
-    kind : ``"direct"`` (complete data, eq. 28) or ``"sensitivity"`` (incomplete data measured at
-        ``response``, eqs. 31-32).
-    response : measured dofs (``kind="sensitivity"``; default every dof).
-    unknowns : parameters to identify (default every parameter not ``fixed``).
-    margin : candidates whose relative eigenvalue distance to a resonance of the model (at
-        ``values``) is below this are excluded (0.05 ≈ 2.5 % in frequency).
-    scaled : judge the condition number with the columns scaled to unit length (unit-free).
-    exhaustive_limit : up to this many subsets, every one is evaluated (exact optimum); above,
-        greedy + exchange from the greedy set and ``restarts`` random sets (``seed``).
+    model : Model
+        The parametrised model.
+    candidates : array_like, shape ``(n_candidates,)``
+        Candidate lines, rad/s (e.g. the measured frequency axis), each once.
+    n_lines : int
+        Number of lines to choose.
+    force : mapping of str to float or complex
+        Force amplitude (N) per loaded dof of the test.
+    kind : {"direct", "sensitivity"}, default "direct"
+        Complete data (eq. 28), or incomplete data measured at ``response`` (eqs. 31-32).
+    response : sequence of str, optional
+        Measured dofs (``kind="sensitivity"``; default every dof).
+    unknowns : sequence of str, optional
+        Parameters to identify (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the model (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    margin : float, default 0.05
+        Candidates whose relative eigenvalue distance to a resonance of the model (at ``values``)
+        is below this are excluded (0.05 ≈ 2.5 % in frequency); 0 excludes none.
+    scaled : bool, default True
+        Judge the condition number with the columns scaled to unit length (unit-free).
+    max_passes : int, default 20
+        Exchange passes per start (greedy + exchange only).
+    exhaustive_limit : int, default 200000
+        Up to this many subsets, every one is evaluated (exact optimum); above, greedy + exchange
+        from the greedy set and ``restarts`` random sets.
+    restarts : int, default 10
+        Random starting sets of the exchange.
+    seed : int, default 0
+        Seed of the random starting sets.
+
+    Returns
+    -------
+    Selection
 
     Raises
     ------
     InputError
-        Fewer admissible candidates than lines, or too few equations for the unknowns.
+        An unknown ``kind``; candidates not finite, negative or repeated; fewer admissible
+        candidates than lines, or too few equations for the unknowns; no unknown parameter or an
+        unknown name; a malformed force.
     """
     if kind not in KINDS:
         raise InputError(f"unknown selection kind {kind!r}: use {', '.join(KINDS)}")

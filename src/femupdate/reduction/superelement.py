@@ -224,7 +224,10 @@ def superelement_model(structure: Structure, key: Callable[[list[str], tuple | N
     keep : sequence of str
         Retained dofs; the reduced model's dofs in this order.  Every dof shared by two groups must
         be retained (a super-element may only condense dofs interior to it).
-    method : reduction of each super-element (default ``"guyan"``).
+    method : str, default "guyan"
+        Reduction of each super-element (a method of :meth:`Reducer.transformation`).
+    name : str, optional
+        Name of the assembled model (default ``"<structure name> (<n> super-elements, <method>)"``).
 
     Returns
     -------
