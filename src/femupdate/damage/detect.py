@@ -161,22 +161,31 @@ class DamageResult:
     localised : bool
         False when the damage could not be localised (``reason`` says why).
     reason : str
+        Why localisation was refused (empty when ``localised``).
     detected : bool
         Whether the data differ from the baseline beyond the noise (frequency shifts).
-    method, alpha, alpha_max : the regulariser and its factor.
+    method : str
+        The regulariser, ``"l1"`` or ``"tikhonov"``.
+    alpha : float
+        Its factor, absolute (NaN when localisation was refused).
+    alpha_max : float
+        The L1 α_max above which nothing changes (NaN for Tikhonov or when localisation was refused).
     tikhonov : dict
         For comparison: ``changes`` and ``alpha`` of the Tikhonov (GCV) solution, and
         ``n_above_threshold`` (how many elements it changes by more than ``min_change``).
     expansion : dict
-        ``method``, ``n_basis``, ``error`` (per mode misfit), ``measured_dofs`` count.
+        ``method``, ``n_basis``, ``error`` (per mode misfit), ``n_measured_dofs`` and
+        ``n_rigid_modes``; only ``method`` when localisation was refused.
     pairs : list
         (test mode, baseline mode, MAC) at the measured dofs.
     frequency_change : ndarray
         Relative frequency change of each measured mode from its baseline mode.
     baseline_check : dict or None
+        :func:`check_baseline` against ``undamaged`` as a dict (None without ``undamaged``).
     path : list of dict
         The L1 path (α, located count, RSS, BIC).
     notes : list of str
+        Remarks (e.g. no element changed by more than ``min_change``).
     """
 
     parameters: dict[str, float]

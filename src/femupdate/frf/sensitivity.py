@@ -124,23 +124,41 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
     Parameters
     ----------
     model : Model
-    omega : array_like (n_lines,), rad/s
-    response : dof labels of the rows (None: every model dof — only sensible for small models).
-    excitation : dof labels of the columns.
-    params : parameter names (default every parameter not ``fixed``).
-    values : parameter values (default nominal).
-    damping : optional :class:`~femupdate.frf.Damping`.
-    method : ``"auto"`` | ``"dense"`` | ``"sparse"``: stacked dense solves of all lines for
-        small models; one sparse LU per line, reused for every right-hand side and parameter.
-    resonance_check : True, False or ``"auto"`` (all but large damped models, which would need
-        a second, real, factorisation per line): compute each line's distance to resonance.
-        Large undamped models reuse the line's factor for a k = 1 shift-invert Lanczos search.
-    resonance_tol : lines closer than this (relative eigenvalue distance) are reported in
-        ``near_resonance`` and logged as a warning.
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    response : sequence of str or None
+        Dof labels of the rows (None: every model dof — only sensible for small models).
+    excitation : sequence of str
+        Dof labels of the columns.
+    params : sequence of str, optional
+        Parameter names (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` or ``{alpha, beta, eta}`` (default undamped).
+    method : {"auto", "dense", "sparse"}, default "auto"
+        Stacked dense solves of all lines for small models (``"auto"``: up to ``DENSE_LIMIT`` dofs);
+        one sparse LU per line, reused for every right-hand side and parameter.
+    resonance_check : bool or "auto", default "auto"
+        Compute each line's distance to resonance (``"auto"``: all but large damped models, which
+        would need a second, real, factorisation per line).  Large undamped models reuse the
+        line's factor for a k = 1 shift-invert Lanczos search.
+    resonance_tol : float, default ``RESONANCE_TOL``
+        Lines closer than this (relative eigenvalue distance) are reported in ``near_resonance``
+        and logged as a warning.
 
     Returns
     -------
     ReceptanceSensitivity
+
+    Raises
+    ------
+    InputError
+        Bad frequencies; unknown dofs or parameters, or no parameter to differentiate; bad
+        damping; an unknown ``method``.
+    NumericalError
+        A line lies exactly on a resonance of an undamped model (singular dynamic stiffness).
     """
     w = check_omega(omega)
     damping = as_damping(damping)

@@ -111,7 +111,8 @@ def effective_independence(model, n_sensors: int, n_modes: int, candidates: Sequ
         Target modes (the model's lowest, or the columns of ``shapes``).
     candidates : sequence of str, optional
         Candidate dofs (default: every translational dof of the model).
-    values : parameter values (default nominal).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
     shapes : ndarray (len(candidates), n_modes), optional
         Target mode shapes at the candidates (default: the model's lowest ``n_modes`` modes).
 
