@@ -487,12 +487,17 @@ def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "
     Parameters
     ----------
     model : Model
+        The parametrised model.
     data : TestData
         Modes with shapes, FRFs and/or static deflections at *every* model dof.
-    use : which kinds of data to stack (default all present).
-    values : parameter values for the known (fixed) parameters (default nominal).
-    unknowns : names of the parameters to identify (default: every parameter not ``fixed``).
-    bounded : honour the parameters' bounds (e.g. non-negative stiffness) with a bounded
+    use : sequence of str, default ``("modes", "frf", "static")``
+        Kinds of data to stack, among those present in ``data``.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values for the known (fixed) parameters (default nominal).
+    unknowns : sequence of str, optional
+        Names of the parameters to identify (default: every parameter not ``fixed``).
+    bounded : bool, default False
+        Honour the parameters' bounds (e.g. non-negative stiffness) with a bounded
         least-squares solve instead of the pseudo-inverse.
 
     Returns
@@ -503,7 +508,10 @@ def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "
     ------
     InputError
         Data missing at model dofs (the message names them), fewer equations than unknowns
-        (it says how many are needed), NaN, unknown dofs.
+        (it says how many are needed), NaN, unknown dofs, an unknown data kind in ``use``, a
+        homogeneous system (the scale is undetermined).
+    NumericalError
+        The bounded solve failed.
     """
     notes: list[str] = []
     system = build_system(model, data, use, values, unknowns, notes)

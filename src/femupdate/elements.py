@@ -43,7 +43,16 @@ MASS_KINDS = ("consistent", "lumped")
 
 @dataclass(frozen=True)
 class ElementTerms:
-    """Unit matrices of one element group: ``K`` and ``M`` lists of ``(factors, stack)``."""
+    """Unit matrices of one element group: ``K`` and ``M`` lists of ``(factors, stack)``.
+
+    Parameters
+    ----------
+    K : list of (tuple of str, numpy.ndarray)
+        Stiffness terms: the names of the properties whose product multiplies the term, and the
+        unit matrices, shape ``(n_el, n_e, n_e)``, in global coordinates.
+    M : list of (tuple of str, numpy.ndarray)
+        Mass terms, likewise (empty for a spring).
+    """
 
     K: Terms
     M: Terms
@@ -148,13 +157,41 @@ def _bending_stiffness_unit(length: np.ndarray) -> np.ndarray:
 # element types
 # --------------------------------------------------------------------------------------
 def spring_terms(n_el: int, grounded: bool) -> ElementTerms:
-    """Spring k between two dofs (``[[1, -1], [-1, 1]]``) or from one dof to ground (``[[1]]``)."""
+    """Spring k between two dofs (``[[1, -1], [-1, 1]]``) or from one dof to ground (``[[1]]``).
+
+    Parameters
+    ----------
+    n_el : int
+        Number of springs.
+    grounded : bool
+        True for springs from one dof to ground.
+
+    Returns
+    -------
+    ElementTerms
+        One stiffness term with factor ``("k",)`` (k in N/m, or N·m/rad on a rotation), stack of shape
+        ``(n_el, 1, 1)`` or ``(n_el, 2, 2)``; no mass terms.
+    """
     unit = np.ones((1, 1)) if grounded else _AX
     return ElementTerms(K=[(("k",), np.broadcast_to(unit, (n_el, *unit.shape)).copy())], M=[])
 
 
 def mass_terms(n_el: int, n_dofs: int) -> ElementTerms:
-    """Lumped mass m on each of ``n_dofs`` dofs."""
+    """Lumped mass m on each of ``n_dofs`` dofs.
+
+    Parameters
+    ----------
+    n_el : int
+        Number of mass elements.
+    n_dofs : int
+        Dofs each mass acts on (the same m on each).
+
+    Returns
+    -------
+    ElementTerms
+        One mass term with factor ``("m",)`` (kg), identity stack of shape ``(n_el, n_dofs, n_dofs)``; no
+        stiffness terms.
+    """
     return ElementTerms(K=[], M=[(("m",), np.broadcast_to(np.eye(n_dofs), (n_el, n_dofs, n_dofs)).copy())])
 
 
@@ -163,6 +200,28 @@ def rod_terms(xa, xb, dim: int = 3, mass: str = "consistent") -> ElementTerms:
 
     Mass: consistent ``rho A l / 6 [2I, I; I, 2I]`` or lumped ``rho A l / 2 I`` (all
     translations, as is usual for trusses).  ``dim=2`` uses the x-y components only.
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(n_el, 3)``
+        Coordinates of each element's end nodes a and b, m.
+    dim : {2, 3}, default 3
+        Plane truss (dofs ``x, y`` per node; every element must have the same z at both ends) or
+        space truss (``x, y, z`` per node).
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix.
+
+    Returns
+    -------
+    ElementTerms
+        Stiffness term ``("E", "A")`` and mass term ``("rho", "A")``, stacks of shape
+        ``(n_el, 2 dim, 2 dim)``.
+
+    Raises
+    ------
+    InputError
+        ``mass`` or ``dim`` unknown, an element of zero (or non-finite) length, or, with ``dim=2``,
+        an element whose ends differ in z (``positions`` names the elements).
     """
     _check_mass_kind(mass)
     xa, xb = np.asarray(xa, float), np.asarray(xb, float)
@@ -218,6 +277,25 @@ def beam2d_terms(xa, xb, mass: str = "consistent") -> ElementTerms:
     K = (E A) K_axial + (E I) K_bending; M = (rho A) M (consistent: the usual cubic-Hermite
     matrix, no rotary inertia; lumped: rho A l / 2 on translations and rho A l^3 / 24 on the
     rotation, the inertia of half the member about its end node).
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(n_el, 3)``
+        Coordinates of each element's end nodes a and b, m.
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix.
+
+    Returns
+    -------
+    ElementTerms
+        Stiffness terms ``("E", "A")`` and ``("E", "I")``, mass term ``("rho", "A")``; stacks of
+        shape ``(n_el, 6, 6)``.
+
+    Raises
+    ------
+    InputError
+        An element leaves the x-y plane (its ends differ in z) or has zero length (``positions``
+        names the elements), or ``mass`` is unknown.
     """
     T, length = _beam2d_T(xa, xb)
     n = len(length)
@@ -233,6 +311,24 @@ def beam2d_physical_terms(xa, xb, mass: str = "consistent") -> ElementTerms:
 
     Properties: ``EA_l`` (EA/l), ``k12`` (12EI/l^3), ``k6`` (6EI/l^2), ``k2`` (2EI/l); mass from
     ``rho`` and ``A`` as for :func:`beam2d_terms`.
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(n_el, 3)``
+        Coordinates of each element's end nodes a and b, m.
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix.
+
+    Returns
+    -------
+    ElementTerms
+        Stiffness terms ``("EA_l",)`` (N/m), ``("k12",)`` (N/m), ``("k6",)`` (N), ``("k2",)`` (N·m),
+        mass term ``("rho", "A")``; stacks of shape ``(n_el, 6, 6)``.
+
+    Raises
+    ------
+    InputError
+        As for :func:`beam2d_terms`.
     """
     T, length = _beam2d_T(xa, xb)
     n = len(length)
@@ -286,6 +382,28 @@ def frame3d_terms(xa, xb, orientation, mass: str = "consistent") -> ElementTerms
     K = (E A) K_axial + (G J) K_torsion + (E Iz) K_xy + (E Iy) K_xz.
     M = (rho A) M_translation + rho (Iy + Iz) M_torsion: the torsional inertia uses the polar
     moment Ip = Iy + Iz.  Lumped mass as in :func:`beam2d_terms`, with rho Ip l / 2 on twist.
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(n_el, 3)``
+        Coordinates of each element's end nodes a and b, m.
+    orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
+        A vector in each element's local x-y plane, not along its axis (see the module docstring).
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix.
+
+    Returns
+    -------
+    ElementTerms
+        Stiffness terms ``("E", "A")``, ``("G", "J")``, ``("E", "Iz")``, ``("E", "Iy")``; mass
+        terms ``("rho", "A")``, ``("rho", "Iy")``, ``("rho", "Iz")``; stacks of shape
+        ``(n_el, 12, 12)``.
+
+    Raises
+    ------
+    InputError
+        An element of zero length, an orientation parallel to an element's axis or zero
+        (``positions`` names the elements), or ``mass`` unknown.
     """
     T, length = _frame_T(xa, xb, orientation)
     n = len(length)
@@ -316,6 +434,31 @@ def frame3d_physical_terms(xa, xb, orientation, mass: str = "consistent") -> Ele
     Iy = Iz the element may give ``k12``, ``k6``, ``k2`` instead, shared by both planes: the
     Appendix's reduced set of five unknowns.  Mass from ``rho``, ``A`` and ``Ip`` (polar
     moment for the torsional inertia).
+
+    The shared names are resolved by the builder
+    (:meth:`femupdate.structure.Structure.frame3d_terms`); the terms returned here always carry the
+    per-plane names.
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(n_el, 3)``
+        Coordinates of each element's end nodes a and b, m.
+    orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
+        A vector in each element's local x-y plane, not along its axis.
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix.
+
+    Returns
+    -------
+    ElementTerms
+        Stiffness terms ``("EA_l",)``, ``("GJ_l",)``, then ``("k12_z",)``, ``("k12_y",)``,
+        ``("k6_z",)``, ``("k6_y",)``, ``("k2_z",)``, ``("k2_y",)``; mass terms ``("rho", "A")`` and
+        ``("rho", "Ip")``; stacks of shape ``(n_el, 12, 12)``.
+
+    Raises
+    ------
+    InputError
+        As for :func:`frame3d_terms`.
     """
     T, length = _frame_T(xa, xb, orientation)
     n = len(length)
@@ -330,7 +473,25 @@ def frame3d_physical_terms(xa, xb, orientation, mass: str = "consistent") -> Ele
 
 
 def combine(terms: Terms, props: dict[str, np.ndarray]) -> np.ndarray:
-    """Numeric stack ``sum_t prod_f props[f] * unit_t`` for numeric properties (one per element)."""
+    """Numeric stack ``sum_t prod_f props[f] * unit_t`` for numeric properties (one per element).
+
+    Parameters
+    ----------
+    terms : list of (tuple of str, numpy.ndarray)
+        Terms as in :class:`ElementTerms`, stacks of shape ``(n_el, n_e, n_e)``.
+    props : dict of str to array_like
+        Value of each property named by a factor: a scalar or one value per element, shape ``(n_el,)``.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_el, n_e, n_e)``
+        The element matrices (``None`` if ``terms`` is empty).
+
+    Raises
+    ------
+    KeyError
+        A factor has no entry in ``props``.
+    """
     out = None
     for factors, unit in terms:
         coef = np.ones(unit.shape[0])
@@ -342,7 +503,27 @@ def combine(terms: Terms, props: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def physical_terms_of_frame(E, G, A, Iy, Iz, J, length) -> dict[str, np.ndarray]:
-    """The Appendix's physical terms of a frame member from its section properties."""
+    """The Appendix's physical terms of a frame member from its section properties.
+
+    Parameters
+    ----------
+    E, G : array_like
+        Young's and shear moduli, Pa.
+    A : array_like
+        Cross-section area, m².
+    Iy, Iz : array_like
+        Second moments of area for bending in the local x-z and x-y planes, m⁴.
+    J : array_like
+        Torsion constant, m⁴.
+    length : array_like
+        Member length, m.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``EA_l``, ``GJ_l`` (N/m and N·m), and per plane ``k12_z``/``k12_y`` (12EI/l³, N/m), ``k6_z``/``k6_y``
+        (6EI/l², N) and ``k2_z``/``k2_y`` (2EI/l, N·m), broadcast over the inputs.
+    """
     E, G, A, Iy, Iz, J, length = (np.asarray(v, float) for v in (E, G, A, Iy, Iz, J, length))
     return {
         "EA_l": E * A / length,

@@ -16,7 +16,28 @@ from .structure import Structure
 
 def two_dof(k1: float = 8.0, k2: float = 6.0, m1: float = 2.0, m2: float = 4.0,
             bounds: tuple[float, float] = (0.0, 100.0)) -> Model:
-    """Figure 3: ground -k1- m1 -k2- m2.  K = [[k1+k2, -k2], [-k2, k2]], M = diag(m1, m2)."""
+    """Figure 3: ground -k1- m1 -k2- m2.  K = [[k1+k2, -k2], [-k2, k2]], M = diag(m1, m2).
+
+    Parameters
+    ----------
+    k1, k2 : float, default 8.0 and 6.0
+        Spring stiffnesses (N/m in SI; the paper gives bare numbers): the model's parameters
+        ``k1`` and ``k2``.
+    m1, m2 : float, default 2.0 and 4.0
+        Masses at dofs ``1:x`` and ``2:x`` (kg), fixed.
+    bounds : (float, float), default (0.0, 100.0)
+        Bounds of both parameters.
+
+    Returns
+    -------
+    Model
+        Dofs ``1:x``, ``2:x``.
+
+    Raises
+    ------
+    InputError
+        A stiffness outside ``bounds`` or not finite, or as :meth:`femupdate.Structure.build`.
+    """
     s = Structure("two-dof chain (paper Figure 3)")
     s.parameter("k1", k1, bounds)
     s.parameter("k2", k2, bounds)
@@ -39,6 +60,29 @@ def three_dof(k: Sequence[float] = FIGURE1_STIFFNESS, m: Sequence[float] = FIGUR
 
     K (Figure 1) = [[k1+k2, -k2, 0], [-k2, k2+k3, -k3], [0, -k3, k3]]; Figure 2 adds k4 to
     K11, K33 and -k4 to K13, K31.
+
+    Parameters
+    ----------
+    k : sequence of 3 float, default ``FIGURE1_STIFFNESS`` = (1000, 2000, 1500)
+        k1, k2, k3, N/m: the parameters ``k1``, ``k2``, ``k3``.
+    m : sequence of 3 float, default ``FIGURE1_MASS`` = (1.0, 1.5, 2.0)
+        Masses at dofs ``1:x``, ``2:x``, ``3:x``, kg.
+    k4 : float, optional
+        Stiffness of the spring between dofs 1 and 3 (N/m), the parameter ``k4`` of Figure 2; no
+        such spring when omitted (Figure 1).
+    bounds : (float, float), default (0.0, 1e5)
+        Bounds of every parameter.
+
+    Returns
+    -------
+    Model
+        Dofs ``1:x``, ``2:x``, ``3:x``.
+
+    Raises
+    ------
+    InputError
+        A stiffness outside ``bounds`` or not finite, ``k`` with fewer than 3 values, or as
+        :meth:`femupdate.Structure.build`.
     """
     s = Structure("three-dof chain (paper Figure 2)" if k4 is not None else "three-dof chain (paper Figure 1)")
     for i, v in enumerate(k, start=1):
@@ -56,7 +100,31 @@ def three_dof(k: Sequence[float] = FIGURE1_STIFFNESS, m: Sequence[float] = FIGUR
 
 def chain(stiffness: Sequence[float], mass: Sequence[float], name: str = "spring-mass chain",
           bounds: tuple[float, float] = (0.0, float("inf"))) -> Model:
-    """Grounded chain of N masses and N springs (k_i between dof i-1 and i, dof 0 = ground)."""
+    """Grounded chain of N masses and N springs (k_i between dof i-1 and i, dof 0 = ground).
+
+    Parameters
+    ----------
+    stiffness : sequence of float, length N
+        Spring stiffnesses k_1 .. k_N, N/m: the parameters ``k1`` .. ``kN``.
+    mass : sequence of float, length N
+        Masses at dofs ``1:x`` .. ``N:x``, kg (fixed).
+    name : str, default "spring-mass chain"
+        Model name.
+    bounds : (float, float), default (0, inf)
+        Bounds of every parameter.
+
+    Returns
+    -------
+    Model
+        Dofs ``1:x`` .. ``N:x``.
+
+    Raises
+    ------
+    ValueError
+        ``stiffness`` and ``mass`` differ in length (a plain ValueError, not an InputError).
+    InputError
+        A stiffness outside ``bounds`` or not finite, or as :meth:`femupdate.Structure.build`.
+    """
     if len(stiffness) != len(mass):
         raise ValueError("chain: one stiffness per mass")
     s = Structure(name)
@@ -72,6 +140,26 @@ def portal_frame(E_columns: float = 2.1e11, E_beam: float = 2.1e11, n_per_member
 
     Parameters ``E_col`` (both columns, grouped) and ``E_beam``; steel box section
     A = 4e-3 m^2, I = 1.2e-5 m^4, rho = 7850 kg/m^3; consistent mass.
+
+    Parameters
+    ----------
+    E_columns : float, default 2.1e11
+        Young's modulus of the columns, Pa (parameter ``E_col``, bounds 1e10 .. 5e11).
+    E_beam : float, default 2.1e11
+        Young's modulus of the beam, Pa (parameter ``E_beam``, bounds 1e10 .. 5e11).
+    n_per_member : int, default 4
+        Elements per member; nodes are numbered 1 .. 3 n + 1 from the left foot, over the beam, to
+        the right foot, and both feet are fixed.
+
+    Returns
+    -------
+    Model
+        Dofs ``x, y, rz`` at the 3 n − 1 free nodes.
+
+    Raises
+    ------
+    InputError
+        A modulus outside its bounds, or as :meth:`femupdate.Structure.build`.
     """
     import numpy as np
 
@@ -107,6 +195,19 @@ def figure2_test_data(noise: float = 0.01, seed: int = 1993) -> dict:
     All three modes at every dof; shapes scaled to 1 at their largest entry and perturbed by
     Gaussian noise of standard deviation ``noise`` (relative to that entry); frequencies
     perturbed by ``noise / 10`` (relative).  Returns the test-data JSON object (docs/file-formats.md).
+
+    Parameters
+    ----------
+    noise : float, default 0.01
+        Relative standard deviation of the shape noise (one tenth of it on the frequencies).
+    seed : int, default 1993
+        Seed of :func:`numpy.random.default_rng`.
+
+    Returns
+    -------
+    dict
+        ``{"modes": [{"frequency_hz": f, "shape": {dof: value}}, ...]}``: three modes, frequencies in
+        Hz, shapes at ``1:x``, ``2:x``, ``3:x``, values rounded to 6 decimals.
     """
     import numpy as np
 
@@ -144,7 +245,23 @@ TRUSS_LOSS = 0.4
 
 
 def two_dof_model_toml(values=TWO_DOF_START) -> str:
-    """TOML of the Figure 3 system at ``values``, bounds of the paper's surfaces (k1 3..13, k2 1..11)."""
+    """TOML of the Figure 3 system at ``values``, bounds of the paper's surfaces (k1 3..13, k2 1..11).
+
+    Parameters
+    ----------
+    values : mapping, default ``TWO_DOF_START`` = {"k1": 7.0, "k2": 6.5}
+        Values of ``k1`` and ``k2`` (N/m); masses are 2 and 4 kg as in :func:`two_dof`.
+
+    Returns
+    -------
+    str
+        The model file's text (docs/file-formats.md).
+
+    Raises
+    ------
+    KeyError
+        ``values`` lacks ``k1`` or ``k2``.
+    """
     lines = ['[model]', 'name = "two-dof chain (paper Figure 3)"', ""]
     for name, b in (("k1", "[3.0, 13.0]"), ("k2", "[1.0, 11.0]")):
         lines += [f"[parameters.{name}]", f"value = {values[name]}", f"bounds = {b}", ""]
@@ -232,7 +349,23 @@ def example_files() -> dict[str, str]:
 
 
 def write_example_files(directory) -> list[str]:
-    """Write :func:`example_files` into ``directory`` (atomically, one file at a time); their names."""
+    """Write :func:`example_files` into ``directory`` (atomically, one file at a time); their names.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        Destination directory (created if absent); existing files of the same names are replaced.
+
+    Returns
+    -------
+    list of str
+        Names of the files written, relative to ``directory``.
+
+    Raises
+    ------
+    OSError
+        A file cannot be written.
+    """
     from pathlib import Path
 
     from .io.results import atomic_write_text

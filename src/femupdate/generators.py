@@ -127,6 +127,7 @@ def frame_lattice(
     bounds : (float, float)
         Parameter bounds relative to the nominal value, ``0 <= lower < 1 < upper``.
     mass : ``"consistent"`` | ``"lumped"``
+        Mass matrix of the members.
     name : str, optional
         Structure name (default ``"frame lattice NXxNYxNZ"``).
 
@@ -239,10 +240,13 @@ def truss_lattice(
         ``"storey"``: one ``E_s`` per storey, ``L = ny - 1``; ``"storey_mass"``: ``E_s`` and
         ``rho_s``, ``L = 2 (ny - 1)`` in the order ``E_1, rho_1, ...``; ``"none"``: ``L = 0``.
     support : ``"base"`` | ``"none"``
+        Pin both dofs of the nodes at y = 0, or leave the lattice free–free.
     bounds : (float, float)
         Parameter bounds relative to the nominal value.
     mass : ``"consistent"`` | ``"lumped"``
+        Mass matrix of the rods.
     name : str, optional
+        Structure name (default ``"truss lattice NXxNY"``).
 
     Returns
     -------
@@ -327,11 +331,13 @@ def shear_building(
     m : float or sequence of n floats
         Floor masses (kg).
     parameters : ``"storey"`` | ``"storey_mass"`` | ``"none"``
+        Which of k and m become parameters (see Sizes above).
     height : float
         Storey height (m), for node coordinates only.
     bounds : (float, float)
         Parameter bounds relative to the nominal value.
     name : str, optional
+        Structure name (default ``"shear building, N storeys"``).
 
     Returns
     -------

@@ -426,7 +426,17 @@ class Model:
         )
 
     def describe_dofs(self, limit: int = 8) -> str:
-        """Short text listing the model dofs, at most ``limit`` labels (for messages)."""
+        """Short text listing the model dofs, at most ``limit`` labels (for messages).
+
+        Parameters
+        ----------
+        limit : int, default 8
+            Most labels shown; more are summarised as `` … (<n> in all)``.
+
+        Returns
+        -------
+        str
+        """
         return describe(self.dofs, limit)
 
 

@@ -161,22 +161,31 @@ class DamageResult:
     localised : bool
         False when the damage could not be localised (``reason`` says why).
     reason : str
+        Why localisation was refused (empty when ``localised``).
     detected : bool
         Whether the data differ from the baseline beyond the noise (frequency shifts).
-    method, alpha, alpha_max : the regulariser and its factor.
+    method : str
+        The regulariser, ``"l1"`` or ``"tikhonov"``.
+    alpha : float
+        Its factor, absolute (NaN when localisation was refused).
+    alpha_max : float
+        The L1 α_max above which nothing changes (NaN for Tikhonov or when localisation was refused).
     tikhonov : dict
         For comparison: ``changes`` and ``alpha`` of the Tikhonov (GCV) solution, and
         ``n_above_threshold`` (how many elements it changes by more than ``min_change``).
     expansion : dict
-        ``method``, ``n_basis``, ``error`` (per mode misfit), ``measured_dofs`` count.
+        ``method``, ``n_basis``, ``error`` (per mode misfit), ``n_measured_dofs`` and
+        ``n_rigid_modes``; only ``method`` when localisation was refused.
     pairs : list
         (test mode, baseline mode, MAC) at the measured dofs.
     frequency_change : ndarray
         Relative frequency change of each measured mode from its baseline mode.
     baseline_check : dict or None
+        :func:`check_baseline` against ``undamaged`` as a dict (None without ``undamaged``).
     path : list of dict
         The L1 path (α, located count, RSS, BIC).
     notes : list of str
+        Remarks (e.g. no element changed by more than ``min_change``).
     """
 
     parameters: dict[str, float]
@@ -246,32 +255,57 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     undamaged : TestData, optional
         Modes of the undamaged structure: the baseline is checked against them first
         (``max_frequency_error``, ``min_mac``) and localisation refused if it does not match.
-    elements : the element parameters that may change (default every parameter not fixed).
-    method : ``"l1"`` (default, sparse) or ``"tikhonov"`` (GCV).
-    alpha : L1 factor as a fraction of α_max (default: chosen by BIC on a path).
-    expansion : ``"serep"`` | ``"irs"`` | ``"guyan"`` (unused when every dof is measured).
-    n_basis : SEREP modes (default: the model modes up to the highest one a measured mode pairs
+    elements : sequence of str, optional
+        The element parameters that may change (default every parameter not fixed).
+    method : {"l1", "tikhonov"}, default "l1"
+        L1 (sparse) or Tikhonov with the factor chosen by GCV.
+    alpha : float, optional
+        L1 factor as a fraction of α_max, in (0, 1] (default: chosen by BIC on a path).
+    expansion : {"serep", "irs", "guyan"}, default "serep"
+        Expansion of the measured shapes to every dof (unused when every dof is measured).
+    n_basis : int, optional
+        SEREP modes (default: the model modes up to the highest one a measured mode pairs
         with, plus as many again, at most the number of measured dofs).
-    allow_increase : let stiffness increase too (default: loss only, -1 <= change <= 0).
-    min_change : a change smaller than this is not reported as damage.
-    iterations : expansions, the first with the baseline, the next ones with the damaged estimate
-        (default 3); the elements are located after the first, the later ones re-estimate their
-        loss.  Expanding with the baseline biases the estimated loss (the expanded shapes are
-        pulled toward the undamaged model); re-expanding removes it: a true 40 % loss in one member of an
-        8 x 8-node lattice truss (203 elements) came out 53 %, 39.4 %, 40.0 % after 1, 2, 4 expansions.
-    bootstrap : noise replicates of the whole chain for the confidence (0: none).
-    noise : {"frequency": relative std (default 0.001), "shape": std relative to each shape's
-        largest measured value (default: from the SEREP misfit, else 0.005)}.  The equations are
-        weighted by the inverse square root of their covariance under this noise (estimated
-        from ``n_noise`` replicates, default four per equation, 60 to 400).
-    seed : of the replicates.
-    localise_min_mac : a measured mode pairing with no baseline mode at least this well (default
-        0.8, the usual threshold for "the same mode") stops the localisation (``localised``
-        False, ``reason``).
+    allow_increase : bool, default False
+        Let stiffness increase too (default: loss only, -1 <= change <= 0; with it, up to +1).
+    min_change : float, default 0.05
+        A relative change smaller than this is not reported as damage; in (0, 1).
+    iterations : int, default 3
+        Expansions, the first with the baseline, the next ones with the damaged estimate; the
+        elements are located after the first, the later ones re-estimate their loss.  Expanding
+        with the baseline biases the estimated loss (the expanded shapes are pulled toward the
+        undamaged model); re-expanding removes it: a true 40 % loss in one member of an 8 x 8-node
+        lattice truss (203 elements) came out 53 %, 39.4 %, 40.0 % after 1, 2, 4 expansions.
+    bootstrap : int, default 20
+        Noise replicates of the whole chain for the confidence (0: none).
+    noise : mapping, optional
+        ``{"frequency": relative std (default 0.001), "shape": std relative to each shape's
+        largest measured value (default: from the SEREP misfit, else 0.005)}``.  The equations are
+        weighted by the inverse square root of their covariance under this noise.
+    seed : int, default 0
+        Seed of the replicates (noise weights and bootstrap).
+    localise_min_mac : float, default 0.8
+        A measured mode pairing with no baseline mode at least this well (0.8 is the usual
+        threshold for "the same mode") stops the localisation (``localised`` False, ``reason``).
+    max_frequency_error : float, default 0.02
+        Largest relative frequency error of the baseline against ``undamaged``
+        (:func:`check_baseline`; unused without ``undamaged``).
+    min_mac : float, default 0.9
+        Smallest MAC of the baseline against ``undamaged`` (likewise).
+    n_noise : int, optional
+        Replicates estimating the equations' covariance (default four per equation, 60 to 400).
 
     Returns
     -------
     DamageResult
+
+    Raises
+    ------
+    InputError
+        An unknown ``method``; ``min_change``, ``alpha``, ``iterations``, ``bootstrap``, ``n_basis``
+        or a noise level out of range, or an unknown noise key; no free element parameter or an
+        unknown name; measured modes without shapes at two or more common dofs; a baseline that
+        does not match ``undamaged`` (:func:`check_baseline`).
     """
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}: use {', '.join(METHODS)}")

@@ -41,10 +41,13 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
     Parameters
     ----------
     structure : Structure
-    values : {parameter: value}, optional
-    bounds : (lower, upper)
-        The new parameters' bounds relative to their values.
+        The validated baseline (not modified).
+    values : mapping of str to float, optional
+        ``{parameter: value}`` overriding the structure's parameter values.
+    bounds : (float, float), default (0.0, 2.0)
+        The new parameters' bounds relative to their values, ``0 <= lower < 1 < upper``.
     name : str, optional
+        Name of the new structure (default ``"<name> (element stiffnesses)"``).
 
     Returns
     -------
@@ -55,7 +58,8 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
     ------
     InputError
         Physical-term elements (``beam2d_terms``, ``frame3d_terms``): they have several stiffness
-        terms, so one parameter cannot scale the element; an unknown parameter in ``values``.
+        terms, so one parameter cannot scale the element; an unknown parameter in ``values``;
+        ``bounds`` outside ``0 <= lower < 1 < upper``.
     """
     values = dict(values or {})
     for k in values:

@@ -126,8 +126,26 @@ class ConditionStudy:
     """cond(X) (eq. 28) for ``n_lines`` lines ``start + k spacing``, k = 0 .. n_lines-1.
 
     ``condition`` and ``condition_scaled`` (columns of X scaled to unit length) have shape
-    ``(len(starts), len(spacings))``; ``diagonal`` is the paper's Figure 4 reading, lowest
-    line = spacing (``None`` unless asked for with ``starts=None``).
+    ``(len(starts), len(spacings))``.  The paper's Figure 4 reading, lowest line = spacing, is what
+    :func:`condition_study` gives with ``starts=None``: then ``starts`` is ``[nan]`` and the
+    arrays have one row.
+
+    Parameters
+    ----------
+    starts : numpy.ndarray, shape ``(n_starts,)``
+        Lowest lines ω_1, rad/s (``[nan]`` when the lowest line equals the spacing).
+    spacings : numpy.ndarray, shape ``(n_spacings,)``
+        Spacings Δ, rad/s.
+    n_lines : int
+        Lines per combination.
+    force : dict of str to float or complex
+        The simulated test's force, N per dof.
+    unknowns : tuple of str
+        Parameters of the columns of X.
+    condition : numpy.ndarray, shape ``(n_starts, n_spacings)``
+        cond(X) (2-norm; inf where X is rank deficient or a line falls on an undamped resonance).
+    condition_scaled : numpy.ndarray, shape ``(n_starts, n_spacings)``
+        The same with the columns of X scaled to unit length.
     """
 
     starts: np.ndarray
@@ -145,12 +163,34 @@ def condition_study(model, force: Mapping, spacings, starts=None, n_lines: int =
 
     Parameters
     ----------
-    force : {dof: amplitude} of the simulated test (complete response at every model dof).
-    spacings : array_like, rad/s.
-    starts : array_like of lowest frequencies (rad/s); ``None``: the lowest line equals the
-        spacing (the paper's Figure 4, ``starts`` then holds the spacings and the result one
-        column per spacing on the diagonal: ``condition`` has shape (1, len(spacings))).
-    n_lines : lines per combination (the paper: 5).
+    model : Model
+        The parametrised model.
+    force : mapping of str to float or complex
+        Force amplitude (N) per dof of the simulated test (complete response at every model dof).
+    spacings : array_like, shape ``(n_spacings,)``
+        Line spacings Δ, rad/s, positive.
+    starts : array_like, shape ``(n_starts,)``, optional
+        Lowest lines ω_1, rad/s.  ``None``: the lowest line equals the spacing (the paper's
+        Figure 4); the result then has one row, ``condition`` of shape ``(1, len(spacings))``, and
+        its ``starts`` is ``[nan]``.
+    n_lines : int, default 5
+        Lines per combination (the paper: 5).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the simulated response (default nominal).
+    unknowns : sequence of str, optional
+        Parameters of the columns of X (default: the free ones).
+    damping : Damping or mapping, optional
+        Default undamped.
+
+    Returns
+    -------
+    ConditionStudy
+
+    Raises
+    ------
+    InputError
+        Spacings not positive; ``n_lines`` below 1; frequencies not finite or negative; no unknown
+        parameter or an unknown name; a malformed force; and as :meth:`Model.resolve`.
     """
     sp_ = check_omega(spacings, "spacings")
     if np.any(sp_ <= 0):
@@ -184,11 +224,16 @@ class Selection:
 
     Attributes
     ----------
-    omega : ndarray
-        The chosen lines (rad/s), ascending; ``index`` their positions among ``candidates``.
+    omega : ndarray, shape ``(n_lines,)``
+        The chosen lines (rad/s), ascending.
+    index : ndarray of int, shape ``(n_lines,)``
+        Their 0-based positions among ``candidates``.
     condition_number : float
         cond of the stacked matrix of the chosen lines (columns scaled when ``scaled``).
-    kind : ``"direct"`` or ``"sensitivity"``.
+    kind : {"direct", "sensitivity"}
+        The equations judged.
+    candidates : ndarray, shape ``(n_candidates,)``
+        The candidate lines, rad/s, as given.
     excluded : list of dict
         Candidates left out and why ({line, omega_rad_s, reason}).
     uniform : dict
@@ -224,23 +269,49 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
 
     Parameters
     ----------
-    candidates : array_like, rad/s (e.g. the measured frequency axis).
-    n_lines : number of lines to choose.
-    force : {dof: amplitude} of the test.
-    kind : ``"direct"`` (complete data, eq. 28) or ``"sensitivity"`` (incomplete data measured at
-        ``response``, eqs. 31-32).
-    response : measured dofs (``kind="sensitivity"``; default every dof).
-    unknowns : parameters to identify (default every parameter not ``fixed``).
-    margin : candidates whose relative eigenvalue distance to a resonance of the model (at
-        ``values``) is below this are excluded (0.05 ≈ 2.5 % in frequency).
-    scaled : judge the condition number with the columns scaled to unit length (unit-free).
-    exhaustive_limit : up to this many subsets, every one is evaluated (exact optimum); above,
-        greedy + exchange from the greedy set and ``restarts`` random sets (``seed``).
+    model : Model
+        The parametrised model.
+    candidates : array_like, shape ``(n_candidates,)``
+        Candidate lines, rad/s (e.g. the measured frequency axis), each once.
+    n_lines : int
+        Number of lines to choose.
+    force : mapping of str to float or complex
+        Force amplitude (N) per loaded dof of the test.
+    kind : {"direct", "sensitivity"}, default "direct"
+        Complete data (eq. 28), or incomplete data measured at ``response`` (eqs. 31-32).
+    response : sequence of str, optional
+        Measured dofs (``kind="sensitivity"``; default every dof).
+    unknowns : sequence of str, optional
+        Parameters to identify (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the model (default nominal).
+    damping : Damping or mapping, optional
+        Default undamped.
+    margin : float, default 0.05
+        Candidates whose relative eigenvalue distance to a resonance of the model (at ``values``)
+        is below this are excluded (0.05 ≈ 2.5 % in frequency); 0 excludes none.
+    scaled : bool, default True
+        Judge the condition number with the columns scaled to unit length (unit-free).
+    max_passes : int, default 20
+        Exchange passes per start (greedy + exchange only).
+    exhaustive_limit : int, default 200000
+        Up to this many subsets, every one is evaluated (exact optimum); above, greedy + exchange
+        from the greedy set and ``restarts`` random sets.
+    restarts : int, default 10
+        Random starting sets of the exchange.
+    seed : int, default 0
+        Seed of the random starting sets.
+
+    Returns
+    -------
+    Selection
 
     Raises
     ------
     InputError
-        Fewer admissible candidates than lines, or too few equations for the unknowns.
+        An unknown ``kind``; candidates not finite, negative or repeated; fewer admissible
+        candidates than lines, or too few equations for the unknowns; no unknown parameter or an
+        unknown name; a malformed force.
     """
     if kind not in KINDS:
         raise InputError(f"unknown selection kind {kind!r}: use {', '.join(KINDS)}")

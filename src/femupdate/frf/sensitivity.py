@@ -81,7 +81,25 @@ class ReceptanceSensitivity:
 
     def for_force(self, force: Mapping) -> tuple[np.ndarray, np.ndarray]:
         """Response ``x = α f`` ``(n_lines, n_response)`` and ``∂x/∂p`` ``(n_lines, n_response, L)``
-        for a force acting on (some of) the excitation dofs."""
+        for a force acting on (some of) the excitation dofs.
+
+        Parameters
+        ----------
+        force : mapping of str to float or complex
+            Force amplitude (N) per loaded dof; excitation dofs not listed carry no force.
+
+        Returns
+        -------
+        x : numpy.ndarray, shape ``(n_lines, n_response)``
+            Response amplitudes, m (rad at rotations).
+        dx : numpy.ndarray, shape ``(n_lines, n_response, L)``
+            Their derivatives with respect to ``params``.
+
+        Raises
+        ------
+        InputError
+            A malformed or repeated dof label, or a dof that is not an excitation dof.
+        """
         labels = canonical_all(force, "force")
         extra = [d for d in labels if d not in self.excitation]
         if extra:
@@ -106,23 +124,41 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
     Parameters
     ----------
     model : Model
-    omega : array_like (n_lines,), rad/s
-    response : dof labels of the rows (None: every model dof — only sensible for small models).
-    excitation : dof labels of the columns.
-    params : parameter names (default every parameter not ``fixed``).
-    values : parameter values (default nominal).
-    damping : optional :class:`~femupdate.frf.Damping`.
-    method : ``"auto"`` | ``"dense"`` | ``"sparse"``: stacked dense solves of all lines for
-        small models; one sparse LU per line, reused for every right-hand side and parameter.
-    resonance_check : True, False or ``"auto"`` (all but large damped models, which would need
-        a second, real, factorisation per line): compute each line's distance to resonance.
-        Large undamped models reuse the line's factor for a k = 1 shift-invert Lanczos search.
-    resonance_tol : lines closer than this (relative eigenvalue distance) are reported in
-        ``near_resonance`` and logged as a warning.
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    response : sequence of str or None
+        Dof labels of the rows (None: every model dof — only sensible for small models).
+    excitation : sequence of str
+        Dof labels of the columns.
+    params : sequence of str, optional
+        Parameter names (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` or ``{alpha, beta, eta}`` (default undamped).
+    method : {"auto", "dense", "sparse"}, default "auto"
+        Stacked dense solves of all lines for small models (``"auto"``: up to ``DENSE_LIMIT`` dofs);
+        one sparse LU per line, reused for every right-hand side and parameter.
+    resonance_check : bool or "auto", default "auto"
+        Compute each line's distance to resonance (``"auto"``: all but large damped models, which
+        would need a second, real, factorisation per line).  Large undamped models reuse the
+        line's factor for a k = 1 shift-invert Lanczos search.
+    resonance_tol : float, default ``RESONANCE_TOL``
+        Lines closer than this (relative eigenvalue distance) are reported in ``near_resonance``
+        and logged as a warning.
 
     Returns
     -------
     ReceptanceSensitivity
+
+    Raises
+    ------
+    InputError
+        Bad frequencies; unknown dofs or parameters, or no parameter to differentiate; bad
+        damping; an unknown ``method``.
+    NumericalError
+        A line lies exactly on a resonance of an undamped model (singular dynamic stiffness).
     """
     w = check_omega(omega)
     damping = as_damping(damping)
@@ -251,6 +287,25 @@ class FirstOrderCheck:
     ``exact`` and ``predicted`` ``(n_lines, n_response)`` are the changes of the response to a
     relative parameter change ``delta``; ``error`` their relative difference per line;
     ``estimate`` the a-priori indicator δ|s|/d of :meth:`Resonances.first_order_error`.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    param : str
+        The parameter changed.
+    delta : float
+        Relative change: p → p (1 + delta).
+    exact : numpy.ndarray, shape ``(n_lines, n_response)``
+        Exact change of the response, m.
+    predicted : numpy.ndarray, shape ``(n_lines, n_response)``
+        First-order (eq. 32) prediction of that change, m.
+    error : numpy.ndarray, shape ``(n_lines,)``
+        ‖predicted − exact‖ / ‖exact‖ per line (norms over the response dofs).
+    estimate : numpy.ndarray, shape ``(n_lines,)``
+        A-priori estimate δ|s|/d of that error.
+    distance : numpy.ndarray, shape ``(n_lines,)``
+        Relative distance d = |ω² − λ| / max(λ, ω²) of each line to the nearest resonance.
     """
 
     omega: np.ndarray
@@ -294,7 +349,8 @@ def first_order_check(model, omega, force: Mapping, param: str, delta: float, re
     Raises
     ------
     InputError
-        An unknown parameter or dof; a malformed force; bad frequencies.
+        An unknown parameter or dof; a malformed force; bad frequencies; a damped model above
+        ``modal.DENSE_LIMIT`` dofs (the resonance check the estimate needs is not run there).
     """
     p = model.resolve(values)
     j = model.parameter_index(param)

@@ -157,14 +157,19 @@ def receptance(model, omega, excitation: Sequence[str], response: Sequence[str] 
     Parameters
     ----------
     model : Model
-    omega : array_like (n_lines,)
+        The parametrised model.
+    omega : array_like, shape ``(n_lines,)``
         Frequencies in rad/s.
-    excitation : sequence of dof labels (the columns of α solved for: one solve per dof and line).
-    response : dof labels of the rows kept (default every model dof).
-    values : parameter values (default nominal).
-    damping : :class:`Damping` or {alpha, beta, eta}; default undamped (real receptances).
-    method : ``"auto"`` (stacked dense solves up to ``DENSE_LIMIT`` dofs, sparse LU above),
-        ``"dense"`` or ``"sparse"``.
+    excitation : sequence of str
+        Dof labels of the columns of α solved for (one solve per dof and line).
+    response : sequence of str, optional
+        Dof labels of the rows kept (default every model dof).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
+    damping : Damping or mapping, optional
+        :class:`Damping` or ``{alpha, beta, eta}``; default undamped (real receptances).
+    method : {"auto", "dense", "sparse"}, default "auto"
+        ``"auto"``: stacked dense solves up to ``DENSE_LIMIT`` dofs, sparse LU above.
 
     Returns
     -------

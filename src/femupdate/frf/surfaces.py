@@ -172,11 +172,33 @@ class AffineStack:
         self.n = model.n_dofs
 
     def K(self, P: np.ndarray) -> np.ndarray:
-        """Stiffness matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``."""
+        """Stiffness matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``.
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape ``(G, L)``
+            Values of the parameters ``names`` (in that order) at G points.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(G, n_dofs, n_dofs)``
+            Dense K at each point, N/m.
+        """
         return self.K0[None] + np.einsum("gj,jab->gab", P, self.dK)
 
     def M(self, P: np.ndarray) -> np.ndarray:
-        """Mass matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``."""
+        """Mass matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``.
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape ``(G, L)``
+            Values of the parameters ``names`` (in that order) at G points.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(G, n_dofs, n_dofs)``
+            Dense M at each point, kg.
+        """
         return self.M0[None] + np.einsum("gj,jab->gab", P, self.dM)
 
 

@@ -51,6 +51,18 @@ class Geometry:
         return self.basis.shape[1]
 
     def intrinsic(self, x: np.ndarray) -> np.ndarray:
+        """Normalised intrinsic coordinates of points: ``(x − centre) @ basis / length``.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(..., 3)``
+            Global coordinates, in the model's length unit.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(..., dim)``
+            Coordinates along the ``basis`` directions, divided by ``length`` (dimensionless).
+        """
         return (np.asarray(x, float) - self.centre) @ self.basis / self.length
 
     def ends(self) -> tuple[np.ndarray, np.ndarray]:

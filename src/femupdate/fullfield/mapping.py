@@ -317,16 +317,25 @@ def map_scan(model, scan: ScanData, *, method: str = "elements", smoothing="cv",
     model : Model
         With node coordinates (``model.nodes``).
     scan : ScanData
-    method : ``"elements"`` (default: least-squares fit of the elements' own shape functions,
-        nodal rotations included), ``"rbf"`` (smoothing polyharmonic spline over the structure,
-        rotations from its slopes) or ``"local"`` (quadratic through the nearest scan points of
-        each node: the data at the points of interest only).
-    smoothing : ``"cv"`` (K-fold cross-validation, default) or a number (RBF only).
-    folds, seed : cross-validation folds and their random split.
-    neighbors : RBF with this many nearest points (default: global up to 1,500 points, 64 above).
-    kernel : RBF kernel (default the polyharmonic spline of the structure's dimension).
-    segments : node-id pairs of the line elements (default: from the stiffness pattern; give them,
-        e.g. :func:`structure_segments`, when elements end at fully supported nodes).
+        The scan: points by coordinates and their measured components.
+    method : {"elements", "rbf", "local"}, default "elements"
+        ``"elements"``: least-squares fit of the elements' own shape functions, nodal rotations
+        included; ``"rbf"``: smoothing polyharmonic spline over the structure, rotations from its
+        slopes; ``"local"``: quadratic through the nearest scan points of each node (the data at
+        the points of interest only).
+    smoothing : "cv" or float, default "cv"
+        ``"cv"`` (K-fold cross-validation) or a non-negative smoothing factor (RBF only).
+    folds : int, default 5
+        Cross-validation folds (the RBF smoothing choice; the held-out error of the elements fit).
+    seed : int, default 0
+        Seed of the folds' random split.
+    neighbors : int, optional
+        RBF with this many nearest points (default: global up to 1,500 points, 64 above).
+    kernel : str, optional
+        RBF kernel (default the polyharmonic spline of the structure's dimension).
+    segments : array_like of int, shape ``(s, 2)``, optional
+        Node-id pairs of the line elements (default: from the stiffness pattern; give them, e.g.
+        :func:`structure_segments`, when elements end at fully supported nodes).
 
     Returns
     -------
@@ -337,7 +346,8 @@ def map_scan(model, scan: ScanData, *, method: str = "elements", smoothing="cv",
     InputError
         A scan point farther from the geometry than the tolerance (the message gives its index,
         coordinates and distance), model dofs the scan cannot give and that are not declared zero
-        (named), a model without node coordinates.
+        (named), a model without node coordinates, an unknown ``method``, a ``smoothing`` that is
+        neither "cv" nor a non-negative number.
     """
     if method not in METHODS:
         raise InputError(f"unknown mapping method {method!r}: use {', '.join(METHODS)}")

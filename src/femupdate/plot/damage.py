@@ -13,7 +13,25 @@ from .paper_figures import save_figure  # noqa: E402
 
 def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
     """Left: solutions from random starts, baseline alone vs with the added configuration.
-    Right: candidates' stacked condition number against the Monte Carlo identification error."""
+    Right: candidates' stacked condition number against the Monte Carlo identification error.
+
+    Parameters
+    ----------
+    alone, joint : iterable of (float, float, int)
+        Solutions (k1, k2) in N/m and the number of starts reaching each, from the baseline alone
+        and with the added configuration (marker size grows with the count).
+    ranking : Ranking
+        Result of :func:`~femupdate.updating.multiconfig.rank_modifications`; its ``candidates``
+        (dicts with ``name`` and ``condition_number``) are plotted.
+    mc : dict of str to float
+        RMS relative identification error per candidate name.
+    axes : sequence of 2 matplotlib.axes.Axes, optional
+        Default: a new figure.
+
+    Returns
+    -------
+    sequence of matplotlib.axes.Axes
+    """
     if axes is None:
         _, axes = plt.subplots(1, 2, figsize=(10, 4))
     ax = axes[0]
@@ -34,6 +52,20 @@ def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
 
 
 def perturbed_boundary_figure(path, alone, joint, ranking, mc) -> str:
+    """Save :func:`perturbed_boundary_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    alone, joint, ranking, mc
+        As :func:`perturbed_boundary_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     perturbed_boundary_axes(alone, joint, ranking, mc, axes)
     fig.tight_layout()
@@ -41,7 +73,30 @@ def perturbed_boundary_figure(path, alone, joint, ranking, mc) -> str:
 
 
 def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None):
-    """Scan points, the shape mapped onto the model's nodes (translation and inferred rotation)."""
+    """Scan points, the shape mapped onto the model's nodes (translation and inferred rotation).
+
+    For a beam along x: the top panel shows the scan's ``y`` values and the mapped ``y`` dofs,
+    the bottom one the mapped ``rz`` dofs, against x.
+
+    Parameters
+    ----------
+    model : Model
+        Model with ``nodes`` coordinates and ``y``/``rz`` dofs.
+    scan : ScanData
+        The scan (its ``points`` and ``modes``).
+    mapping : FullFieldMapping
+        Result of :func:`~femupdate.fullfield.map_scan` for ``scan`` on ``model``.
+    truth_modes : Modes
+        Not used by the plot.
+    mode : int, default 1
+        0-based index of the mode shown (the title numbers it from 1).
+    axes : sequence of 2 matplotlib.axes.Axes, optional
+        Default: a new figure.
+
+    Returns
+    -------
+    sequence of matplotlib.axes.Axes
+    """
     if axes is None:
         _, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
     x = scan.points[:, 0]
@@ -65,6 +120,20 @@ def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None)
 
 
 def full_field_figure(path, model, scan, mapping, truth_modes) -> str:
+    """Save :func:`full_field_axes` of mode index 1 (the second mode) to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    model, scan, mapping, truth_modes
+        As :func:`full_field_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
     full_field_axes(model, scan, mapping, truth_modes, 1, axes)
     fig.tight_layout()
@@ -75,7 +144,28 @@ _COLOURS = {"exact": "#2a9d2a", "found first": "#9acd32", "found": "#f0c040", "m
 
 
 def damage_study_axes(study, cases, ax=None):
-    """Outcome per damaged member (rows) and configuration (columns), one cell per noise draw."""
+    """Outcome per damaged member (rows) and configuration (columns), one cell per noise draw.
+
+    Parameters
+    ----------
+    study : dict
+        Per configuration (support) name: ``band_hz``, ``global_modes``, ``n_modes`` and ``runs``, a
+        list of dicts with ``damaged`` (member) and ``outcome`` (``"exact"``, ``"found first"``,
+        ``"found"``, ``"missed"`` or ``"not localisable"``).
+    cases : sequence of str
+        Damaged members, one row each.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Raises
+    ------
+    KeyError
+        An outcome not among the five above.
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(7, 4.5))
     supports = list(study)
@@ -98,6 +188,20 @@ def damage_study_axes(study, cases, ax=None):
 
 
 def damage_study_figure(path, study, cases) -> str:
+    """Save :func:`damage_study_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    study, cases
+        As :func:`damage_study_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5))
     damage_study_axes(study, cases, ax)
     fig.tight_layout()

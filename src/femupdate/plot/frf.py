@@ -23,7 +23,21 @@ def _log10(values):
 
 
 def condition_axes(spacings, curves: dict, ax=None):
-    """cond(X) against the spacing, lowest line = spacing (Figure 4); one curve per label."""
+    """cond(X) against the spacing, lowest line = spacing (Figure 4); one curve per label.
+
+    Parameters
+    ----------
+    spacings : array_like, shape ``(n_spacings,)``
+        Spacings, rad/s.
+    curves : dict of str to array_like
+        Legend label -> cond(X) per spacing (log scale).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4))
     for label, c in curves.items():
@@ -35,7 +49,27 @@ def condition_axes(spacings, curves: dict, ax=None):
 
 
 def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
-    """log10 cond(X) over lowest frequency × spacing."""
+    """log10 cond(X) over lowest frequency × spacing.
+
+    Non-finite values are drawn at the largest finite one; the line lowest = spacing is dashed.
+
+    Parameters
+    ----------
+    starts : array_like, shape ``(n_starts,)``
+        Lowest lines, rad/s (rows of ``cond``).
+    spacings : array_like, shape ``(n_spacings,)``
+        Spacings, rad/s (columns of ``cond``).
+    cond : array_like, shape ``(n_starts, n_spacings)``
+        cond(X), e.g. :attr:`femupdate.frf.ConditionStudy.condition`.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+    title : str, default "log10 cond(X)"
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4))
     im = ax.pcolormesh(spacings, starts, _log10(cond), shading="auto", cmap="viridis")
@@ -47,6 +81,22 @@ def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
 
 
 def save_condition_figure(path, spacings, curves, starts, map_spacings, cond_map) -> str:
+    """Save :func:`condition_axes` and :func:`condition_map_axes` side by side.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    spacings, curves
+        As :func:`condition_axes`.
+    starts, map_spacings, cond_map
+        ``starts``, ``spacings`` and ``cond`` of :func:`condition_map_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     condition_axes(spacings, curves, axes[0])
     condition_map_axes(starts, map_spacings, cond_map, axes[1])
@@ -67,7 +117,22 @@ def _clipped_log10(surface):
 
 
 def surface_axes(surface, ax=None):
-    """3-D surface of log10 of the residual (the paper's plots; spikes clipped for display)."""
+    """3-D surface of log10 of the residual (the paper's plots; spikes clipped for display).
+
+    Values are clipped to [max(min, 1e-10 · median), min(max, 1e3 · 99th percentile)] of the
+    positive finite ones; the truth, when known, is marked in red.
+
+    Parameters
+    ----------
+    surface : Surface
+        A residual over a grid of two parameters (:class:`femupdate.frf.surfaces.Surface`).
+    ax : mpl_toolkits.mplot3d.Axes3D, optional
+        3-D axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    mpl_toolkits.mplot3d.Axes3D
+    """
     if ax is None:
         fig = plt.figure(figsize=(6, 4.5))
         ax = fig.add_subplot(projection="3d")
@@ -81,7 +146,21 @@ def surface_axes(surface, ax=None):
 
 
 def contour_axes(surface, ax=None, minima=None):
-    """Filled contours of log10 residual, the true solution (red star) and grid local minima (white)."""
+    """Filled contours of log10 residual, the true solution (red star) and grid local minima (white).
+
+    Parameters
+    ----------
+    surface : Surface
+        A residual over a grid of two parameters (:class:`femupdate.frf.surfaces.Surface`).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+    minima : list of dict, optional
+        Points to circle, keyed by the parameter names (default ``surface.minima()``).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
     Z = _clipped_log10(surface)
@@ -97,6 +176,22 @@ def contour_axes(surface, ax=None, minima=None):
 
 
 def save_surface_figure(path, surface, title: str) -> str:
+    """Save :func:`surface_axes` and :func:`contour_axes` side by side.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    surface : Surface
+        A residual over a grid of two parameters (:class:`femupdate.frf.surfaces.Surface`).
+    title : str
+        Title of the 3-D panel.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig = plt.figure(figsize=(12, 4.8))
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     surface_axes(surface, ax3)
@@ -109,7 +204,23 @@ def save_surface_figure(path, surface, title: str) -> str:
 
 
 def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
-    """Relative errors against frequency (log scale), model resonances as dotted lines."""
+    """Relative errors against frequency (log scale), model resonances as dotted lines.
+
+    Parameters
+    ----------
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    curves : dict of str to array_like
+        Legend label -> relative error per line (values below 1e-17 drawn at 1e-17).
+    resonances_rad_s : iterable of float, default ()
+        Model natural frequencies, rad/s.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
     for label, e in curves.items():
@@ -123,13 +234,45 @@ def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
 
 
 def save_accuracy_figure(path, omega, curves, resonances_rad_s) -> str:
+    """Save :func:`accuracy_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    omega, curves, resonances_rad_s
+        As :func:`accuracy_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     accuracy_axes(omega, curves, resonances_rad_s, ax)
     return save_figure(fig, path)
 
 
 def starts_axes(starts, reached, title, truth=None, ax=None):
-    """Random starts: green if the local update from there reached the truth, red otherwise."""
+    """Random starts: green if the local update from there reached the truth, red otherwise.
+
+    Parameters
+    ----------
+    starts : array_like, shape ``(n_starts, 2)``
+        Starting (k1, k2), N/m (the axes are labelled k1 and k2).
+    reached : array_like of bool, shape ``(n_starts,)``
+        Whether each start reached the truth.
+    title : str
+        Axes title.
+    truth : (float, float), optional
+        Marked with a black star.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(4.5, 4))
     starts = np.asarray(starts)
@@ -144,7 +287,20 @@ def starts_axes(starts, reached, title, truth=None, ax=None):
 
 
 def save_starts_figure(path, panels) -> str:
-    """``panels``: list of (starts, reached, title, truth)."""
+    """``panels``: list of (starts, reached, title, truth).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    panels : list of tuple
+        ``(starts, reached, title, truth)`` per panel, as :func:`starts_axes`; panels side by side.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 4), squeeze=False)
     for ax, (starts, reached, title, truth) in zip(axes[0], panels):
         starts_axes(starts, reached, title, truth, ax)
@@ -153,7 +309,23 @@ def save_starts_figure(path, panels) -> str:
 
 
 def frf_axes(omega, dofs, measured, model, ax=None):
-    """Magnitude of measured (dots) and model (lines) FRFs, log scale."""
+    """Magnitude of measured (dots) and model (lines) FRFs, log scale.
+
+    Parameters
+    ----------
+    omega : array_like, shape ``(n_lines,)``
+        Spectral lines, rad/s.
+    dofs : sequence of str
+        Response dofs (columns of ``measured`` and ``model``).
+    measured, model : numpy.ndarray, shape ``(n_lines, len(dofs))``
+        Measured and model receptances, m/N (real or complex).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -168,7 +340,22 @@ def frf_axes(omega, dofs, measured, model, ax=None):
 
 
 def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> list[str]:
-    """``frf.png`` (test vs updated model) and ``convergence.png`` (cost per iteration)."""
+    """``frf.png`` (test vs updated model) and ``convergence.png`` (cost per iteration).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Directory to write into (created if absent).
+    history : list of dict
+        Iteration history with a ``"cost"`` per entry (:func:`~femupdate.plot.updating.convergence_axes`).
+    omega, dofs, measured, model
+        As :func:`frf_axes`.
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
     from .updating import convergence_axes
 
     out_dir = Path(out_dir)

@@ -14,6 +14,27 @@ from ..io.results import atomic_write_bytes  # noqa: E402
 
 
 def save_figure(fig, path) -> str:
+    """Write ``fig`` to ``path`` atomically (120 dpi, tight bounding box) and close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; closed afterwards.
+    path : str or os.PathLike
+        Image file; its suffix selects the format (png when there is none).
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+
+    Raises
+    ------
+    ValueError
+        Matplotlib does not know the format.
+    OSError
+        The file cannot be written.
+    """
     import io
 
     buf = io.BytesIO()
@@ -25,7 +46,25 @@ def save_figure(fig, path) -> str:
 
 def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
     """Curves a1(k1, k2) = a1 and a0(k1, k2) = a0 in the (k1, k2) plane: their crossings are
-    every stiffness pair with the measured eigenvalues (eqs. 11-12)."""
+    every stiffness pair with the measured eigenvalues (eqs. 11-12).
+
+    The axes span the paper's range, k1 = 3 .. 13 and k2 = 1 .. 11 N/m.
+
+    Parameters
+    ----------
+    a1, a0 : float
+        Right-hand sides of m2 k1 + (m1 + m2) k2 = a1 and k1 k2 = a0 (eqs. 11-12).
+    m1, m2 : float
+        Masses, kg.
+    solutions : iterable of (float, float)
+        The crossings (k1, k2), N/m, marked and labelled.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
     k1 = np.linspace(3, 13, 400)
@@ -41,13 +80,41 @@ def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
 
 
 def characteristic_curves(path, a1, a0, m1, m2, solutions) -> str:
+    """Save :func:`characteristic_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (see :func:`save_figure`).
+    a1, a0, m1, m2, solutions
+        As :func:`characteristic_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     characteristic_axes(a1, a0, m1, m2, solutions, ax=ax)
     return save_figure(fig, path)
 
 
 def multistart_axes(ms, ax=None):
-    """Random starts (grey) joined to where they converged (coloured by solution)."""
+    """Random starts (grey) joined to where they converged (coloured by solution).
+
+    The first two parameters are plotted.
+
+    Parameters
+    ----------
+    ms : MultiStartResult
+        Result of :func:`femupdate.multistart` (``starts``, ``runs``, ``solutions``, ``names``).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -70,6 +137,20 @@ def multistart_axes(ms, ax=None):
 
 
 def multistart_scatter(path, ms) -> str:
+    """Save :func:`multistart_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (see :func:`save_figure`).
+    ms : MultiStartResult
+        As :func:`multistart_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     multistart_axes(ms, ax)
     return save_figure(fig, path)

@@ -12,7 +12,22 @@ from .paper_figures import save_figure  # noqa: E402
 
 
 def truss_metrics_axes(table: dict, methods, axes=None):
-    """Accuracy (max frequency error) and robustness (self-orthogonality) per method and scenario."""
+    """Accuracy (max frequency error) and robustness (self-orthogonality) per method and scenario.
+
+    Parameters
+    ----------
+    table : dict of str to dict
+        Scenario -> method -> dict like :meth:`femupdate.reduction.metrics.TamMetrics.summary`, with
+        ``max_frequency_error`` and ``self_orthogonality_max_offdiag``; one bar colour per scenario.
+    methods : sequence of str
+        Methods, in the order of the bar groups.
+    axes : sequence of 2 matplotlib.axes.Axes, optional
+        Default: a new figure.
+
+    Returns
+    -------
+    sequence of matplotlib.axes.Axes
+    """
     if axes is None:
         _, axes = plt.subplots(1, 2, figsize=(10, 4))
     x = np.arange(len(methods))
@@ -30,13 +45,44 @@ def truss_metrics_axes(table: dict, methods, axes=None):
 
 
 def truss_metrics_figure(path, table, methods) -> str:
+    """Save :func:`truss_metrics_axes` to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    table, methods
+        As :func:`truss_metrics_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     truss_metrics_axes(table, methods, axes)
     return save_figure(fig, path)
 
 
 def superelement_figure(path, true, updated, direct, K) -> str:
-    """Updated super-element moduli against the truth, and the banded reduced stiffness."""
+    """Updated super-element moduli against the truth, and the banded reduced stiffness.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    true : array_like, shape ``(n_groups,)``
+        True modulus of each super-element, Pa.
+    updated, direct : array_like, shape ``(n_groups,)``
+        Moduli from the iterative and the direct update, Pa (plotted as % error).
+    K : array_like or sparse matrix
+        Reduced stiffness, whose sparsity pattern is drawn.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, (a0, a1) = plt.subplots(1, 2, figsize=(10, 4))
     k = np.arange(1, len(true) + 1)
     a0.plot(k, (np.asarray(updated) / true - 1) * 100, "o-", label="iterative, 10 modes")

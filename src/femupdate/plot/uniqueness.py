@@ -26,7 +26,27 @@ def uniqueness_axes(cases, ax=None, title: str | None = None):
     """The (dof set, m) table of a study's ``cases`` (the JSON ``cases`` of ``femupdate
     uniqueness``): colour = verdict; text = distinct solutions found and log10 of the condition
     number at the truth; hatched where the paper's criterion (mn >= L and n > 1) predicts a unique
-    solution."""
+    solution.
+
+    Parameters
+    ----------
+    cases : list of dict
+        Each with ``measured_dofs``, ``n_modes``, ``verdict`` (one of ``VERDICTS``), ``solutions``,
+        ``criteria`` (with ``paper``) and optionally ``condition_number`` (None or inf shown as ∞).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+    title : str, optional
+        Axes title (default "uniqueness: solutions found / log10 cond(S)").
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Raises
+    ------
+    ValueError
+        A verdict not in ``VERDICTS``.
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(6.5, 5))
     sets = list(dict.fromkeys(tuple(c["measured_dofs"]) for c in cases))
@@ -55,7 +75,20 @@ def uniqueness_axes(cases, ax=None, title: str | None = None):
 
 
 def save_uniqueness_figure(path, cases, title: str | None = None) -> str:
-    """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name."""
+    """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    cases, title
+        As :func:`uniqueness_axes`.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5))
     uniqueness_axes(cases, ax, title)
     return save_figure(fig, path)

@@ -12,7 +12,19 @@ from .paper_figures import save_figure  # noqa: E402
 
 
 def convergence_axes(history, ax=None):
-    """Cost (log scale) against iteration."""
+    """Cost (log scale) against iteration.
+
+    Parameters
+    ----------
+    history : list of dict
+        One entry per iteration with its ``"cost"`` ½‖r‖² (e.g. ``UpdateResult.history``).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 3.5))
     cost = np.array([h["cost"] for h in history], float)
@@ -23,7 +35,21 @@ def convergence_axes(history, ax=None):
 
 
 def mac_axes(mac_matrix, ax=None, title="MAC"):
-    """MAC matrix as an image with its values."""
+    """MAC matrix as an image with its values.
+
+    Parameters
+    ----------
+    mac_matrix : array_like, shape ``(n_test, n_model)``
+        MAC of test modes (rows) with model modes (columns), in [0, 1].
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on (default: a new figure).
+    title : str, default "MAC"
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     if ax is None:
         _, ax = plt.subplots(figsize=(4.5, 4))
     m = np.asarray(mac_matrix)
@@ -38,6 +64,22 @@ def mac_axes(mac_matrix, ax=None, title="MAC"):
 
 
 def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
+    """``convergence.png`` (:func:`convergence_axes`) and ``mac.png`` (:func:`mac_axes`).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Directory to write into (created if absent).
+    history : list of dict
+        As :func:`convergence_axes`.
+    mac_matrix : array_like, shape ``(n_test, n_model)``
+        As :func:`mac_axes`.
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
     from pathlib import Path
 
     out_dir = Path(out_dir)

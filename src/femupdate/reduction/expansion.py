@@ -105,7 +105,10 @@ def expand(model: Model, measured_dofs: Sequence[str], shapes: np.ndarray, metho
     shapes : ndarray (n_measured, n_modes) or (n_measured,)
         Measured shapes, any scaling, real or complex.
     method : ``"serep"`` (default) | ``"guyan"`` | ``"irs"``
-    values : parameter values of the model (default nominal).
+        Expansion: SEREP (a least-squares fit by the model's lowest modes) or the static
+        (Guyan) or IRS transformation onto the measured dofs.
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of the model (default nominal).
     n_modes : int, optional
         SEREP: number of model modes in the basis, ``1 <= n_modes <= n_measured`` (default
         ``min(n_measured, number of measured shapes)``).  Ignored by Guyan and IRS.

@@ -70,6 +70,28 @@ class TamMetrics:
     ``self_orthogonality`` (test vs test), ``cross_orthogonality`` (test vs full-model modes,
     rows and columns paired by MAC).  The ``*_max_offdiag`` and ``cross_min_diag`` numbers
     summarise them.
+
+    Parameters
+    ----------
+    method : str
+        The transformation's method (:attr:`Transformation.method`).
+    keep : tuple of str
+        Retained dof labels.
+    full_frequencies_hz : numpy.ndarray, shape ``(m,)``
+        The full model's lowest m natural frequencies, Hz.
+    reduced_frequencies_hz : numpy.ndarray, shape ``(m,)``
+        The reduced model's frequency paired with each, Hz (NaN if unpaired).
+    frequency_error : numpy.ndarray, shape ``(m,)``
+        (reduced − full) / full (the absolute difference where the full frequency is 0; ``inf``
+        where unpaired).
+    mac : numpy.ndarray, shape ``(m,)``
+        MAC of each pair (0 if unpaired).
+    pseudo_orthogonality : numpy.ndarray, shape ``(m, m)``
+        :func:`orthogonality` of the full modes at ``keep`` with the reduced mass.
+    self_orthogonality : numpy.ndarray, shape ``(m_t, m_t)``, optional
+        Of the test shapes with themselves (None without test shapes).
+    cross_orthogonality : numpy.ndarray, optional
+        Of the test shapes (rows) with the full modes paired to them by MAC (columns).
     """
 
     method: str
@@ -84,31 +106,38 @@ class TamMetrics:
 
     @property
     def max_frequency_error(self) -> float:
+        """Largest |frequency_error|."""
         return float(np.max(np.abs(self.frequency_error)))
 
     @property
     def min_mac(self) -> float:
+        """Smallest MAC of a pair."""
         return float(np.min(self.mac))
 
     @property
     def pseudo_max_offdiag(self) -> float:
+        """Largest |off-diagonal| of the pseudo-orthogonality (0 for a 1 × 1 matrix)."""
         return _offdiag_max(self.pseudo_orthogonality)
 
     @property
     def self_max_offdiag(self) -> float | None:
+        """Largest |off-diagonal| of the self-orthogonality (None without test shapes)."""
         return None if self.self_orthogonality is None else _offdiag_max(self.self_orthogonality)
 
     @property
     def cross_max_offdiag(self) -> float | None:
+        """Largest |off-diagonal| of the cross-orthogonality (None without test shapes)."""
         return None if self.cross_orthogonality is None else _offdiag_max(self.cross_orthogonality)
 
     @property
     def cross_min_diag(self) -> float | None:
+        """Smallest |diagonal| of the cross-orthogonality (None without test shapes)."""
         if self.cross_orthogonality is None:
             return None
         return float(np.min(np.abs(np.diag(self.cross_orthogonality))))
 
     def summary(self) -> dict:
+        """The method and the summary numbers as a dict (None for the robustness ones without test shapes)."""
         return {
             "method": self.method,
             "max_frequency_error": self.max_frequency_error, "min_mac": self.min_mac,
@@ -134,6 +163,16 @@ def tam_metrics(model, t: Transformation, n_modes: int | None = None, test_shape
         Measured shapes at ``t.keep`` (rows in that order) — from the real, different structure.
     full_modes : Modes, optional
         The full model's modes at ``t.values`` (computed when not given).
+
+    Returns
+    -------
+    TamMetrics
+
+    Raises
+    ------
+    InputError
+        ``n_modes`` not between 1 and ``len(t.keep)``, fewer ``full_modes`` than ``n_modes``, or
+        test shapes not of shape ``(len(t.keep), m_t)``.
     """
     from ..modal import model_modes
 

@@ -112,11 +112,13 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
     Parameters
     ----------
     model : Model
+        The full model, on the rows of ``T``.
     T : Transformation or array (n, a)
         The transformation; a plain array needs ``keep`` (labels of its columns).
     keep : sequence of str, optional
         Dof labels of the reduced model (default ``T.keep``).
     name : str, optional
+        Name of the reduced model (default ``"<model name> (<method>, <a> dofs)"``).
 
     Returns
     -------

@@ -38,9 +38,10 @@ class Reducer:
     Parameters
     ----------
     model : Model
-    keep : sequence of str
-        Retained dofs (labels; their order is the reduced model's).
-    values : parameter values (mapping or array; default nominal).
+    keep : sequence of str or str
+        Retained dofs (labels, or one comma-separated string; their order is the reduced model's).
+    values : mapping or array_like, optional
+        Parameter values (default nominal).
 
     Raises
     ------
@@ -70,18 +71,22 @@ class Reducer:
     # -------------------------------------------------------------- matrices
     @cached_property
     def K(self) -> sp.csr_array:
+        """Stiffness matrix at :attr:`values` (N/m), ``(n_dofs, n_dofs)``."""
         return sp.csr_array(self.model.K(self.values))
 
     @cached_property
     def M(self) -> sp.csr_array:
+        """Mass matrix at :attr:`values` (kg), ``(n_dofs, n_dofs)``."""
         return sp.csr_array(self.model.M(self.values))
 
     @property
     def n_keep(self) -> int:
+        """Number a of retained dofs."""
         return self.ia.size
 
     @property
     def omitted(self) -> tuple[str, ...]:
+        """Labels of the omitted dofs, in model order."""
         return tuple(self.model.dofs[i] for i in self.io)
 
     def _block(self, A, rows, cols) -> sp.csr_array:
@@ -110,7 +115,22 @@ class Reducer:
         return lu
 
     def solve_oo(self, B: np.ndarray) -> np.ndarray:
-        """:math:`K_{oo}^{-1} B` with the one factorisation (B dense, (o, k))."""
+        """:math:`K_{oo}^{-1} B` with the one factorisation (B dense, (o, k)).
+
+        Parameters
+        ----------
+        B : numpy.ndarray, shape ``(n_omitted, k)``
+            Right-hand sides on the omitted dofs.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_omitted, k)``
+
+        Raises
+        ------
+        InputError
+            K_oo is singular (the message names the mechanism's dofs).
+        """
         return self.lu.solve(np.asfortranarray(B))
 
     def _mechanism_message(self) -> str:
@@ -123,7 +143,24 @@ class Reducer:
 
     # -------------------------------------------------------------- modes
     def modes(self, n_modes: int):
-        """Lowest ``n_modes`` mass-normalised modes of the full model at :attr:`values` (cached)."""
+        """Lowest ``n_modes`` mass-normalised modes of the full model at :attr:`values` (cached).
+
+        A request for fewer modes than an earlier one slices the cached solution.
+
+        Parameters
+        ----------
+        n_modes : int
+            Number of modes.
+
+        Returns
+        -------
+        Modes
+
+        Raises
+        ------
+        NumericalError
+            The eigen-solution fails.
+        """
         n_modes = int(n_modes)
         if n_modes not in self._modes:
             have = [m for m in self._modes if m >= n_modes]
@@ -223,6 +260,25 @@ class Reducer:
         modes (default: as many as retained dofs).  Needs ``n_modes <= a`` and modes that the
         retained dofs tell apart (:math:`\phi_a` of full column rank).  The reduced model
         reproduces those modes and their frequencies exactly.
+
+        Parameters
+        ----------
+        n_modes : int, optional
+            Number m of the full model's lowest modes (default: as many as retained dofs);
+            ``1 <= m <= len(keep)``.
+
+        Returns
+        -------
+        Transformation
+            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
+
+        Raises
+        ------
+        InputError
+            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
+            that do not tell the m modes apart (:math:`\phi_a` rank-deficient).
+        NumericalError
+            The eigen-solution fails.
         """
         m = self._n_modes(n_modes, "modal")
         phi = self.modes(m).shapes
@@ -239,6 +295,26 @@ class Reducer:
         rest of the retained space like Guyan.  With ``n_modes = a`` it equals the modal TAM.
         The paper's ``[phi][phi]^T`` with "the full order eigenvector matrix" is dimensionally
         impossible; it is :math:`\phi_a\phi_a^T` (a x a).
+
+        Parameters
+        ----------
+        n_modes : int, optional
+            Number m of the full model's lowest modes (default: as many as retained dofs);
+            ``1 <= m <= len(keep)``.
+
+        Returns
+        -------
+        Transformation
+            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
+
+        Raises
+        ------
+        InputError
+            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
+            that do not tell the m modes apart (:math:`\phi_a` rank-deficient), or a singular
+            K_oo (Guyan part; the message names the mechanism's dofs).
+        NumericalError
+            The eigen-solution fails.
         """
         m = self._n_modes(n_modes, "hybrid")
         Tm = self.kammer_modal(m).T
@@ -253,6 +329,25 @@ class Reducer:
         Reproduces the ``n_modes`` modes exactly.  With ``n_modes = a`` (default) it is Kammer's
         modal TAM; with fewer modes its reduced matrices have rank ``n_modes`` only (fine for
         expansion, where :math:`\Phi_a^+` is a least-squares fit of the measured shape).
+
+        Parameters
+        ----------
+        n_modes : int, optional
+            Number m of the full model's lowest modes (default: as many as retained dofs);
+            ``1 <= m <= len(keep)``.
+
+        Returns
+        -------
+        Transformation
+            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
+
+        Raises
+        ------
+        InputError
+            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
+            that do not tell the m modes apart (:math:`\phi_a` rank-deficient).
+        NumericalError
+            The eigen-solution fails.
         """
         m = self._n_modes(n_modes, "serep")
         phi = self.modes(m).shapes
@@ -260,7 +355,26 @@ class Reducer:
         return self._make(phi @ pinv, "serep", m)
 
     def transformation(self, method: str, n_modes: int | None = None) -> Transformation:
-        """Builder by name: ``guyan``, ``irs``, ``modal``, ``hybrid`` or ``serep``."""
+        """Builder by name: ``guyan``, ``irs``, ``modal``, ``hybrid`` or ``serep``.
+
+        Parameters
+        ----------
+        method : str
+            Method name, in any case; ``kammer_modal`` and ``kammer_hybrid`` are accepted too.
+        n_modes : int, optional
+            For ``modal``, ``hybrid`` and ``serep`` (ignored by ``guyan`` and ``irs``).
+
+        Returns
+        -------
+        Transformation
+
+        Raises
+        ------
+        InputError
+            An unknown method, and as the builder.
+        NumericalError
+            As the builder.
+        """
         method = str(method).lower()
         if method == "guyan":
             return self.guyan()
@@ -292,6 +406,29 @@ def mechanism_dofs(K_oo, labels: Sequence[str], tol: float = 1e-9) -> tuple[list
     threshold is scale-free): dense eigen-solution up to :data:`DENSE_NULL_LIMIT` dofs, sparse
     shift-invert Lanczos above.  Dofs with no stiffness at all are named directly.
     Returns ``(labels, number of zero-energy modes)``.
+
+    Parameters
+    ----------
+    K_oo : sparse matrix or array_like, shape ``(o, o)``
+        The omitted partition of the stiffness matrix.
+    labels : sequence of str
+        Labels of its rows.
+    tol : float, default 1e-9
+        Eigenvalue of the scaled matrix below which a mode counts as zero-energy.
+
+    Returns
+    -------
+    labels : list of str
+        Dofs whose amplitude in a zero-energy mode is at least 0.1 of that mode's largest (or, if
+        some dofs have a zero diagonal, exactly those dofs).
+    count : int
+        Number of zero-energy modes found (the number of zero-diagonal dofs in the second case;
+        at most 8 are searched by the sparse route).
+
+    Raises
+    ------
+    NumericalError
+        The sparse search for the null space fails.
     """
     K = sp.csc_array(K_oo)
     d = np.abs(K.diagonal())

@@ -76,6 +76,19 @@ class EfiResult:
     dropped (least informative first); ``determinant`` the Fisher determinant
     :math:`\\det(\\Phi_s^T\\Phi_s)` after each removal (relative to the full candidate set);
     ``efi`` the final effective-independence value of each selected dof.
+
+    Parameters
+    ----------
+    selected : tuple of str
+        The ``n_sensors`` chosen dofs, in candidate order.
+    removed : tuple of str
+        The dropped dofs, least informative first.
+    determinant : numpy.ndarray, shape ``(len(removed),)``
+        det(Φ_sᵀΦ_s) after each removal, relative to the full candidate set.
+    efi : numpy.ndarray, shape ``(n_sensors,)``
+        Effective independence E_i of each selected dof (in [0, 1]).
+    n_modes : int
+        Number of target modes.
     """
 
     selected: tuple[str, ...]
@@ -98,13 +111,23 @@ def effective_independence(model, n_sensors: int, n_modes: int, candidates: Sequ
         Target modes (the model's lowest, or the columns of ``shapes``).
     candidates : sequence of str, optional
         Candidate dofs (default: every translational dof of the model).
-    values : parameter values (default nominal).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values (default nominal).
     shapes : ndarray (len(candidates), n_modes), optional
         Target mode shapes at the candidates (default: the model's lowest ``n_modes`` modes).
 
     Returns
     -------
     EfiResult
+
+    Raises
+    ------
+    InputError
+        Unknown or repeated candidates, ``n_modes < 1``, ``n_sensors`` outside
+        ``[n_modes, len(candidates)]``, ``shapes`` of the wrong shape, or a singular Fisher
+        information (the candidates cannot tell the modes apart).
+    NumericalError
+        Every remaining candidate is essential (E = 1) before ``n_sensors`` is reached.
     """
     from ..modal import model_modes
 

@@ -224,7 +224,10 @@ def superelement_model(structure: Structure, key: Callable[[list[str], tuple | N
     keep : sequence of str
         Retained dofs; the reduced model's dofs in this order.  Every dof shared by two groups must
         be retained (a super-element may only condense dofs interior to it).
-    method : reduction of each super-element (default ``"guyan"``).
+    method : str, default "guyan"
+        Reduction of each super-element (a method of :meth:`Reducer.transformation`).
+    name : str, optional
+        Name of the assembled model (default ``"<structure name> (<n> super-elements, <method>)"``).
 
     Returns
     -------
@@ -264,11 +267,34 @@ def lin_beam(n_elements: int = 50, length: float = 2.0, E: float = 70e9, width: 
     The retained dofs are the nodes at group ends: 26 nodes, **52 dofs**, so each super-element
     condenses its interior node.
 
+    Parameters
+    ----------
+    n_elements : int, default 50
+        Number of beam elements (a positive multiple of ``per_group``).
+    length : float, default 2.0
+        Beam length, m.
+    E : float, default 70e9
+        Nominal Young's modulus of every group, Pa.
+    width, height : float, default 0.05 and 0.01
+        Rectangular section, m (bending about the 0.05 m side: I = width · height³ / 12).
+    rho : float, default 2700.0
+        Density, kg/m³.
+    per_group : int, default 2
+        Elements per group (super-element).
+    support : {"free", "cantilever"}, default "free"
+        Free-free, or clamped at node 1 (its ``y`` and ``rz`` supported and left out of ``keep``).
+
     Returns
     -------
     (Structure, key, keep)
         The structure, the element -> group function for :func:`superelement_model`, and the
         retained dof labels.
+
+    Raises
+    ------
+    InputError
+        ``n_elements`` or ``per_group`` below 1, ``n_elements`` not a multiple of ``per_group``, or
+        an unknown ``support``.
     """
     if n_elements < 1 or per_group < 1 or n_elements % per_group:
         raise InputError(f"lin_beam: n_elements ({n_elements}) must be a positive multiple of per_group ({per_group})")

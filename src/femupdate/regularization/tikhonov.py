@@ -38,6 +38,34 @@ def _finite_real(a, what: str, name: str) -> np.ndarray:
 
 
 def check_problem(J, r, gamma, offset):
+    """Check and normalise the inputs of problem (1) of the package notes.
+
+    Parameters
+    ----------
+    J : array_like or sparse matrix, shape ``(m, L)``
+        Sensitivity matrix (a sparse one is made dense).
+    r : array_like, shape ``(m,)``
+        Residuals.
+    gamma : None, float, array_like of shape ``(L,)`` or ``(k, L)``
+        Regularisation matrix Γ (see :func:`tikhonov_step`).
+    offset : array_like, shape ``(L,)``, or None
+        p − p_ref (None: zeros).
+
+    Returns
+    -------
+    J : numpy.ndarray, shape ``(m, L)``
+    r : numpy.ndarray, shape ``(m,)``
+    gamma : None or numpy.ndarray of shape ``(L,)`` or ``(k, L)``
+        A scalar becomes the constant diagonal of length L.
+    offset : numpy.ndarray, shape ``(L,)``
+        All as float.
+
+    Raises
+    ------
+    InputError
+        Wrong dimensions or inconsistent shapes, an empty J, or a complex, non-numeric or non-finite
+        entry in any input.
+    """
     J = np.asarray(J) if not hasattr(J, "toarray") else J.toarray()
     r = np.asarray(r)
     if J.ndim != 2:
@@ -71,6 +99,22 @@ def check_problem(J, r, gamma, offset):
 
 
 def check_alpha(alpha) -> float:
+    """Check one Tikhonov factor.
+
+    Parameters
+    ----------
+    alpha : float
+        A real number (not a bool).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        ``alpha`` is not a real number, not finite, or negative.
+    """
     if isinstance(alpha, (bool, np.bool_)) or not isinstance(alpha, numbers.Real):
         raise InputError(f"the regularisation factor alpha must be a real number, got {alpha!r}")
     alpha = float(alpha)
@@ -80,6 +124,23 @@ def check_alpha(alpha) -> float:
 
 
 def check_alphas(alphas) -> np.ndarray:
+    """Check a grid of Tikhonov factors.
+
+    Parameters
+    ----------
+    alphas : array_like, shape ``(n_alpha,)``
+        Positive, finite values.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_alpha,)``
+        The grid sorted ascending, as float.
+
+    Raises
+    ------
+    InputError
+        Not real and finite, not a non-empty 1-D array, or a value <= 0.
+    """
     a = _finite_real(alphas, "alpha grid", "alphas")
     if a.ndim != 1 or a.size == 0:
         raise InputError(f"alphas must be a non-empty 1-D array, got shape {a.shape}")
@@ -94,6 +155,27 @@ class StandardForm:
     """Problem (1) in standard form: SVD of ``Ā`` and the map back to ``Δp``.
 
     ``Δp(α) = TV @ (s β / (s² + α²)) + x0 - offset``.
+
+    Parameters
+    ----------
+    m : int
+        Rows of J.
+    n : int
+        Columns L of J (parameters).
+    n_null : int
+        L − k: dimension of the null space of Γ (unregularised directions).
+    s : numpy.ndarray, shape ``(q,)``
+        Nonzero singular values of Ā, descending (q its numerical rank).
+    beta : numpy.ndarray, shape ``(q,)``
+        β_i = u_iᵀ b̄.
+    delta0_sq : float
+        δ₀² = ‖b̄ − U Uᵀ b̄‖², the part of b̄ outside the range of Ā (and of J W).
+    TV : numpy.ndarray, shape ``(L, q)``
+        G_J^† V (V when Γ is the identity).
+    x0 : numpy.ndarray, shape ``(L,)``
+        Unregularised component of z.
+    offset : numpy.ndarray, shape ``(L,)``
+        p − p_ref.
     """
 
     m: int
@@ -107,12 +189,40 @@ class StandardForm:
     offset: np.ndarray   # (L,)
 
     def step(self, alpha: float) -> np.ndarray:
+        """The step Δp(α).
+
+        Parameters
+        ----------
+        alpha : float
+            Tikhonov factor α >= 0 (not checked; see :func:`check_alpha`).
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(L,)``
+        """
         s = self.s
         coef = s * self.beta / (s * s + alpha * alpha)
         return self.TV @ coef + self.x0 - self.offset
 
     def norms(self, alphas: np.ndarray):
-        """ρ², η², dη²/dα and Σ(1 - f) on a grid of α (vectorised: arrays (n_alpha, q))."""
+        """ρ², η², dη²/dα and Σ(1 - f) on a grid of α (vectorised: arrays (n_alpha, q)).
+
+        Parameters
+        ----------
+        alphas : numpy.ndarray, shape ``(n_alpha,)``
+            Tikhonov factors α > 0.
+
+        Returns
+        -------
+        rho2 : numpy.ndarray, shape ``(n_alpha,)``
+            ρ²(α) = ‖J Δp_α + r‖².
+        eta2 : numpy.ndarray, shape ``(n_alpha,)``
+            η²(α) = ‖Γ(p + Δp_α − p_ref)‖².
+        deta2 : numpy.ndarray, shape ``(n_alpha,)``
+            dη²/dα.
+        sum_1mf : numpy.ndarray, shape ``(n_alpha,)``
+            Σ_i (1 − f_i).
+        """
         a2 = (alphas * alphas)[:, None]                  # (na, 1)
         s2 = (self.s * self.s)[None, :]                  # (1, q)
         b2 = (self.beta * self.beta)[None, :]
@@ -125,6 +235,20 @@ class StandardForm:
         return rho2, eta2, deta2, sum_1mf
 
     def gcv_function(self, alphas: np.ndarray):
+        """The GCV function G(α) = ρ²(α) / trace(I − A(α))² of the package notes.
+
+        Parameters
+        ----------
+        alphas : numpy.ndarray, shape ``(n_alpha,)``
+            Tikhonov factors α > 0.
+
+        Returns
+        -------
+        g : numpy.ndarray, shape ``(n_alpha,)``
+            G(α); NaN where the trace is not positive.
+        rho2, eta2 : numpy.ndarray, shape ``(n_alpha,)``
+            As :meth:`norms`.
+        """
         rho2, eta2, _, sum_1mf = self.norms(alphas)
         # trace(I - A(α)) = m - (L - k) - Σ f_i = (m - (L - k) - q) + Σ (1 - f_i)
         trace = (self.m - self.n_null - self.s.size) + sum_1mf
@@ -133,6 +257,20 @@ class StandardForm:
         return g, rho2, eta2
 
     def curvature(self, alphas: np.ndarray):
+        """Curvature κ(α) of the L-curve (ln ρ, ln η), in the closed form of the package notes.
+
+        Parameters
+        ----------
+        alphas : numpy.ndarray, shape ``(n_alpha,)``
+            Tikhonov factors α > 0.
+
+        Returns
+        -------
+        kappa : numpy.ndarray, shape ``(n_alpha,)``
+            κ(α); NaN where ρ² or η² is 0, dη²/dα is not negative or κ is not finite.
+        rho2, eta2 : numpy.ndarray, shape ``(n_alpha,)``
+            As :meth:`norms`.
+        """
         rho2, eta2, deta2, _ = self.norms(alphas)
         a = alphas
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -143,6 +281,7 @@ class StandardForm:
         return np.where(ok, kappa, np.nan), rho2, eta2
 
     def default_alphas(self) -> np.ndarray:
+        """``N_ALPHA`` factors spaced geometrically from s_min / 10 to 10 s_max."""
         return np.geomspace(self.s[-1] / 10.0, self.s[0] * 10.0, N_ALPHA)
 
 
@@ -151,6 +290,29 @@ def _rank_tol(sv: np.ndarray, shape) -> float:
 
 
 def standard_form(J, r, gamma, offset) -> StandardForm:
+    """Bring problem (1) of the package notes to standard form and take the SVD of Ā.
+
+    Γ is replaced by a full-row-rank G (its nonzero diagonal, or from its SVD); a Γ with a null
+    space is handled by Eldén's transformation.  Singular values below ``max(shape) · eps · s_max``
+    count as zero.
+
+    Parameters
+    ----------
+    J, r, gamma, offset
+        As :func:`check_problem` returns them.
+
+    Returns
+    -------
+    StandardForm
+
+    Raises
+    ------
+    InputError
+        Γ is zero; Γ leaves more directions unregularised than J has rows; or J and Γ share a null
+        space (the regularised problem has no unique solution).
+    NumericalError
+        The SVD does not converge (with either LAPACK driver).
+    """
     m, n = J.shape
     b = J @ offset - r
     # G (k, L) of full row rank with ||Γ z|| = ||G z||: its pseudo-inverse Gp (L, k), null basis W (L, L-k)

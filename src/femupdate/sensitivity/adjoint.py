@@ -175,6 +175,7 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
     Parameters
     ----------
     model : Model
+        The parametrised model.
     modes : Modes
         The lowest m modes of ``model`` at ``values``, mass-normalised; differentiate the lowest
         m_d < m of them (a buffer above, see
@@ -183,12 +184,14 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
         Modes to differentiate (default all).
     params : sequence of int or str, optional
         Parameters (default the free ones).
-    sensors : sequence of dof labels or of dof indices
-        The measured dofs (unknown labels raise :class:`InputError` naming them).
-    values : parameter values of ``modes`` (default nominal).
-    sigma, tol, lu, max_terms :
+    sensors : sequence of str or of int
+        The measured dofs, required (the default None is refused; unknown labels raise
+        :class:`InputError` naming them).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of ``modes`` (default nominal).
+    sigma, tol, lu, max_terms
         As for :func:`~femupdate.sensitivity.subspace`.
-    series : ``"krylov"`` (default) | ``"neumann"``
+    series : {"krylov", "neumann"}, default "krylov"
         Galerkin (block Lanczos) acceleration of the series over the same mode-independent
         Krylov space, or its plain partial sums (:func:`~femupdate.sensitivity.series.omitted_modes_series`).
         The Krylov basis holds (terms × n_s) vectors; the acceleration about halves the solves.
@@ -196,8 +199,14 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
     Returns
     -------
     dlam : ndarray (len(which), L)
+        Eigenvalue derivatives (paper eq. 21).
     dphi_s : ndarray (n_s, len(which), L)
         Derivatives of the mass-normalised shapes at the sensors, in the order given.
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :func:`adjoint_details`.
     """
     dlam, dphi_s, _ = adjoint_details(model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series)
     return dlam, dphi_s

@@ -18,7 +18,39 @@ def finite_difference(model, values=None, which=None, params=None, n_modes=None,
     peers use).  Perturbed modes are paired to the base modes by MAC and their signs aligned.
     The truncation error is O(h²), the round-off error O(ε/h): ``rel_step`` ≈ ε^(1/3).
 
-    Returns ``(dlam (len(which), L), dphi (n, len(which), L))`` in the given normalisation.
+    Unlike the analytical routes it does not refuse repeated or rigid-body modes: there the
+    differences follow whatever the pairing gives.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    values : array_like, shape ``(n_parameters,)``, optional
+        Parameter values to differentiate at (default nominal).
+    which : int or sequence of int, optional
+        Indices of the base modes to differentiate (default all computed).
+    params : sequence of int or str, optional
+        Parameters, by index or name (default the free ones); L = ``len(params)``.
+    n_modes : int, optional
+        Modes computed per eigensolution (default as :func:`femupdate.model_modes`).
+    rel_step : float, default 1e-5
+        Step relative to max(|p_j|, 1e-12).
+    normalisation : {"mass", "unit", "max"}, default "mass"
+        Normalisation of the shapes whose derivatives are taken.
+
+    Returns
+    -------
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives, rad²/s² per unit of the parameter.
+    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
+        Shape derivatives in the given normalisation.
+
+    Raises
+    ------
+    InputError
+        Bad ``values``, or a mode or parameter index out of range.
+    NumericalError
+        An eigensolution fails.
     """
     p0 = model.resolve(values)
     base = model_modes(model, p0, n_modes=n_modes, normalisation=normalisation)

@@ -158,6 +158,7 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     Parameters
     ----------
     model : Model
+        The parametrised model.
     modes : Modes
         Mass-normalised modes of ``model`` at ``values`` (:func:`femupdate.model_modes`).  For
         ``subspace`` / ``adjoint`` they must be the lowest m modes, with a buffer above the
@@ -165,26 +166,32 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     which : sequence of int
         Modes to differentiate (indices into ``modes``); rigid-body and repeated modes are
         refused with :class:`NumericalError`.
-    sensors : sequence of dof labels (or dof indices)
+    sensors : sequence of str (or of int)
         The measured dofs; unknown labels raise :class:`InputError` naming them.
     params : sequence of int or str, optional
         Parameters (default the free ones).
-    values : parameter values of ``modes`` (default nominal).
-    method : ``"auto"`` | ``"nelson"`` | ``"modal"`` | ``"static"`` | ``"subspace"`` | ``"adjoint"`` | ``"fd"``
-        See the module docstring.
-    shape_scaling : ``"ref"`` | ``"max"`` | ``"unit"`` | ``"mass"``
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of ``modes`` (default nominal).
+    method : {"auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"}, default "auto"
+        See the module docstring (``"auto"``: :func:`choose_method` from the model size, the
+        number of sensors and of parameters).
+    shape_scaling : {"ref", "max", "unit", "mass"}, default "ref"
         How the measured shapes are scaled (:func:`~femupdate.sensitivity.scaled_shape`):
         1 at the reference sensor (the paper's eq. 33), 1 at the largest measured component,
         unit length over the sensors, or unchanged (mass-normalised).
-    ref : sensor dof label or position, or a sequence of them (one per mode), optional
+    ref : str or int, or a sequence of them (one per mode), optional
+        A sensor dof label or position.
         Reference dof of ``"ref"`` scaling (default the first sensor).  A mode with a node
         there cannot be scaled to it (:class:`NumericalError`): give a reference per mode.
-    relative_eigenvalues : bool
+    relative_eigenvalues : bool, default True
         Divide ∂λ_i/∂p_j by λ_i (paper eq. 19).
-    lu, sigma, tol :
-        Factorisation of K − σM to reuse, its shift, and the series tolerance (``subspace``,
-        ``adjoint``; ``static`` uses ``lu``/``sigma`` too).
-    series : ``"neumann"`` | ``"krylov"``, optional
+    lu : scipy.sparse.linalg.SuperLU or callable, optional
+        Factorisation of K − σM to reuse (``subspace``, ``adjoint``, ``static``).
+    sigma : float, optional
+        Its shift σ, rad²/s² (default 0, or a small negative shift for singular K).
+    tol : float, default ``DEFAULT_TOL``
+        Relative tolerance of the omitted modes' series (``subspace``, ``adjoint``).
+    series : {"neumann", "krylov"}, optional
         Summation of the omitted modes' series (default ``"krylov"`` for ``adjoint``,
         ``"neumann"`` for ``subspace``; see
         :func:`~femupdate.sensitivity.series.omitted_modes_series`).
@@ -192,6 +199,16 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     Returns
     -------
     JacobianResult
+
+    Raises
+    ------
+    InputError
+        An unknown ``method`` or ``shape_scaling``; ``which`` not given; modes not on the model's
+        dofs or not mass-normalised; unknown sensors, parameters or reference; indices out of
+        range.
+    NumericalError
+        A rigid-body or repeated mode among ``which``; a mode with a node at its reference dof;
+        a series that does not converge.
     """
     if method not in METHODS:
         raise InputError(f"unknown sensitivity method {method!r}: use {', '.join(METHODS)}")

@@ -30,7 +30,33 @@ def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarra
     truncated approximation that Fox & Kapoor postulated — use
     :func:`modal_static_correction` for that case.
 
-    Returns ``(dlam (len(which), L), dphi (n, len(which), L))``.
+    Parameters
+    ----------
+    model : Model
+        The model (affine in its parameters).
+    modes : Modes
+        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
+    which : int or sequence of int, optional
+        Indices into ``modes`` of the modes to differentiate (default all).
+    params : sequence of int or str, optional
+        Parameters, by index or name (default the free ones); L = ``len(params)``.
+    values : array_like, shape ``(n_parameters,)``, optional
+        Parameter values of ``modes`` (default nominal).
+
+    Returns
+    -------
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
+    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
+        Derivatives of the mass-normalised shapes.
+
+    Raises
+    ------
+    InputError
+        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
+        parameter name).
+    NumericalError
+        A rigid-body or repeated mode among ``which`` (not differentiable as such).
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
@@ -55,7 +81,36 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     with σ = 0 (Wang's static mode) unless K is singular (free-free structures), where a small
     negative shift is used.  One factorisation serves every mode and parameter.
 
-    Returns ``(dlam (len(which), L), dphi (n, len(which), L))``.
+    Parameters
+    ----------
+    model : Model
+        The model (affine in its parameters).
+    modes : Modes
+        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
+    which : int or sequence of int, optional
+        Indices into ``modes`` of the modes to differentiate (default all).
+    params : sequence of int or str, optional
+        Parameters, by index or name (default the free ones); L = ``len(params)``.
+    values : array_like, shape ``(n_parameters,)``, optional
+        Parameter values of ``modes`` (default nominal).
+    sigma : float, optional
+        Shift σ, rad²/s² (default 0, or −1e-6 times the median K_ii / M_ii when K is singular:
+        :func:`shifted_factor`).
+
+    Returns
+    -------
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
+    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
+        Derivatives of the mass-normalised shapes.
+
+    Raises
+    ------
+    InputError
+        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
+        parameter name); K − σM singular, or K singular with no positive diagonal entry.
+    NumericalError
+        A rigid-body or repeated mode among ``which`` (not differentiable as such).
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)

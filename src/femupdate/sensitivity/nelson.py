@@ -21,11 +21,37 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
     vector); then φ' = v + c φ with c = −½ φᵀM'φ − φᵀ M v restores mass normalisation.
     The modified matrix keeps A's sparsity (banded stays banded) and is factorised once per
     mode, for every parameter (Nelson 1976, AIAA J. 14(9); the paper's "direct method").
+    Models of at most ``DENSE_LIMIT`` (1500) dofs are solved dense, larger ones by sparse LU.
+
+    Parameters
+    ----------
+    model : Model
+        The model (affine in its parameters).
+    modes : Modes
+        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
+    which : int or sequence of int, optional
+        Indices into ``modes`` of the modes to differentiate (default all).
+    params : sequence of int or str, optional
+        Parameters, by index or name (default the free ones); L = ``len(params)``.
+    values : array_like, shape ``(n_parameters,)``, optional
+        Parameter values of ``modes`` (default nominal).
 
     Returns
     -------
-    dlam : ndarray (len(which), L)
-    dphi : ndarray (n_dofs, len(which), L)
+    dlam : numpy.ndarray, shape ``(len(which), L)``
+        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
+    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
+        Derivatives of the mass-normalised shapes.
+
+    Raises
+    ------
+    InputError
+        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
+        parameter name).
+    NumericalError
+        A rigid-body or repeated mode among ``which`` (not differentiable as such).
+    NumericalError
+        The modified matrix of a mode is singular, or a derivative is not finite.
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)

@@ -19,15 +19,30 @@ def scaled_shape(phi_s: np.ndarray, dphi_s: np.ndarray | None, how: str, ref: in
 
     Parameters
     ----------
-    phi_s : (n_s,) mass-normalised mode at the measured dofs.
-    dphi_s : (n_s, L) its derivatives, or None.
-    how : ``"ref"`` (1 at position ``ref`` of the measured dofs), ``"max"`` (1 at the
+    phi_s : array_like, shape ``(n_s,)``
+        Mass-normalised mode at the measured dofs.
+    dphi_s : array_like, shape ``(n_s, L)``, or None
+        Its derivatives with respect to the L parameters.
+    how : {"ref", "max", "unit", "mass"}
+        ``"ref"`` (1 at position ``ref`` of the measured dofs), ``"max"`` (1 at the
         largest-magnitude measured component), ``"unit"`` (unit length, sign so that the
         largest component is positive) or ``"mass"`` (unchanged).
+    ref : int, optional
+        0-based position among the measured dofs of the reference (needed by ``"ref"``).
 
     Returns
     -------
-    psi : (n_s,), dpsi : (n_s, L) or None
+    psi : numpy.ndarray, shape ``(n_s,)``
+        The scaled shape.
+    dpsi : numpy.ndarray, shape ``(n_s, L)``, or None
+        Its derivatives (None when ``dphi_s`` is None).
+
+    Raises
+    ------
+    InputError
+        An unknown ``how``, or ``"ref"`` without ``ref``.
+    NumericalError
+        The shape is (nearly) zero at the reference (a node of the mode).
     """
     phi_s = np.asarray(phi_s, float)
     if how == "mass":

@@ -50,11 +50,16 @@ def omitted_modes_series(lu, M, Phi, R, shifts, *, tol: float = DEFAULT_TOL, max
 
     Parameters
     ----------
-    lu : factorisation of K − σM (``.solve`` or callable).
-    M : (n, n) mass matrix.
-    Phi : (n, m) the computed, mass-normalised modes (the lowest m of the model).
-    R : (n, k) right-hand sides.
-    shifts : (T,) c_t = λ_t − σ > 0, one per mode.
+    lu : object with ``.solve`` (e.g. SuperLU), or callable
+        Factorisation of K − σM.
+    M : sparse matrix or numpy.ndarray, shape ``(n, n)``
+        Mass matrix.
+    Phi : numpy.ndarray, shape ``(n, m)``
+        The computed, mass-normalised modes (the lowest m of the model).
+    R : numpy.ndarray, shape ``(n, k)``
+        Right-hand sides.
+    shifts : array_like, shape ``(T,)``
+        c_t = λ_t − σ > 0, one per mode, rad²/s².
     tol : float
         Column-wise relative tolerance: the sweep stops when, for every column and shift, the
         estimated remainder (last increment / (1 − ρ), ρ the observed ratio of successive
@@ -63,16 +68,24 @@ def omitted_modes_series(lu, M, Phi, R, shifts, *, tol: float = DEFAULT_TOL, max
         Cap on the number of terms (each one solve with ``k`` right-hand sides).
     labels : sequence of str, optional
         Names of the modes, for the error message.
-    strict : bool
+    strict : bool, default True
         Raise :class:`NumericalError` when not converged (else return what was summed).
-    series : ``"neumann"`` | ``"krylov"``
+    series : {"neumann", "krylov"}, default "neumann"
+        Partial sums, or the Galerkin (block Lanczos) acceleration described above.
 
     Returns
     -------
-    Q : (T, n, k)
-        ``Q[t] ≈ G_t R``.
+    Q : numpy.ndarray, shape ``(T, n, k)``
+        ``Q[t] ≈ G_t R`` (``(T, n)`` for a 1-D ``R``).
     n_terms : int
         Number of terms (= solves with the factorisation) used.
+
+    Raises
+    ------
+    InputError
+        An unknown ``series``, or a shift c_t that is not positive.
+    NumericalError
+        With ``strict``, the series did not converge within ``max_terms`` (``partial`` holds Q).
 
     Notes
     -----

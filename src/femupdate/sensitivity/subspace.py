@@ -143,6 +143,7 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
     Parameters
     ----------
     model : Model
+        The parametrised model.
     modes : Modes
         The lowest m modes of ``model`` at ``values``, mass-normalised.
     which : sequence of int, optional
@@ -150,17 +151,18 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
         :func:`buffered_modes`).
     params : sequence of int or str, optional
         Parameters (default the free ones).
-    values : parameter values of ``modes`` (default nominal).
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values of ``modes`` (default nominal).
     sigma : float, optional
         Shift of the factorisation, below every computed eigenvalue (default 0, or a small
         negative shift when there are rigid-body modes).
-    tol : float
+    tol : float, default ``DEFAULT_TOL``
         Relative accuracy of the omitted modes' part (see :func:`omitted_modes_series`).
-    lu : factorisation of K − σM, optional
-        Reuse one; ``sigma`` must then be its shift (default 0).
-    max_terms : int
+    lu : object with ``.solve`` (e.g. SuperLU), or callable, optional
+        Factorisation of K − σM to reuse; ``sigma`` must then be its shift (default 0).
+    max_terms : int, default ``MAX_TERMS``
         Cap on the series; :class:`NumericalError` names the mode when it is not enough.
-    series : ``"neumann"`` | ``"krylov"``
+    series : {"neumann", "krylov"}, default "neumann"
         Partial sums, or the Galerkin (block Lanczos) acceleration of
         :func:`omitted_modes_series`; the latter stores (terms × L) vectors per mode, so use it
         with few parameters.
@@ -170,6 +172,11 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
     dlam : ndarray (len(which), L)
     dphi : ndarray (n_dofs, len(which), L)
         Derivatives of the mass-normalised shapes.
+
+    Raises
+    ------
+    InputError, NumericalError
+        As :func:`subspace_details`.
     """
     dlam, dphi, _ = subspace_details(model, modes, which, params, values, sigma, tol, lu, max_terms, series)
     return dlam, dphi

@@ -34,6 +34,28 @@ ELEMENT_TYPES = tuple(PROPS)
 
 @dataclass
 class ElementGroup:
+    """Like elements added together: one type, mass kind and number of dofs per element.
+
+    Parameters
+    ----------
+    type : str
+        Element type, one of ``ELEMENT_TYPES``.
+    props : dict of str to list
+        Property name -> one value per element: a number or the name of a declared parameter.
+    labels : list of list of str
+        Each element's dof labels, in the element's dof order (:mod:`femupdate.elements`).
+    nodes : numpy.ndarray of int, shape ``(n_el, 2)``, optional
+        End node ids of line elements (None for springs and masses).
+    mass : {"consistent", "lumped"}, default "consistent"
+        Mass matrix of line elements.
+    dim : {2, 3}, default 3
+        Dimension of a rod group.
+    orientation : numpy.ndarray, shape ``(n_el, 3)``, optional
+        Orientation vectors of frame elements.
+    where : list of str
+        Per-element description for messages.
+    """
+
     type: str
     props: dict[str, list]  # property -> per-element list of float | str
     labels: list[list[str]]  # per-element dof labels
@@ -45,10 +67,33 @@ class ElementGroup:
 
     @property
     def key(self):
+        """``(type, mass, dim, dofs per element, sorted property names)``: groups with equal keys merge."""
         return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)))
 
 
 def per_element(value, n: int, what: str) -> list:
+    """One value per element: a scalar (number or parameter name) repeated, or a sequence of ``n``.
+
+    Parameters
+    ----------
+    value : float, str, numpy scalar or sequence
+        The property as given.
+    n : int
+        Number of elements.
+    what : str
+        The property and element, for the error messages.
+
+    Returns
+    -------
+    list
+        ``n`` values (numbers or parameter names, unchecked).
+
+    Raises
+    ------
+    InputError
+        ``value`` is neither a scalar nor iterable (a bool counts as neither), or a sequence whose
+        length is not ``n``.
+    """
     if isinstance(value, (str, int, float, np.number)) and not isinstance(value, bool):
         return [value] * n
     if isinstance(value, np.ndarray) and value.ndim == 0:
@@ -62,12 +107,43 @@ def per_element(value, n: int, what: str) -> list:
     return seq
 
 def mass_kind(mass, where):
+    """Check a mass-matrix kind.
+
+    Parameters
+    ----------
+    mass : str
+        ``"consistent"`` or ``"lumped"``.
+    where : str
+        The element, for the error message.
+
+    Returns
+    -------
+    str
+        ``mass`` unchanged.
+
+    Raises
+    ------
+    InputError
+        ``mass`` is not one of ``MASS_KINDS``.
+    """
     if mass not in MASS_KINDS:
         raise InputError(f"{where}: mass must be one of {', '.join(MASS_KINDS)}, got {mass!r}")
     return mass
 
 def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
-    """Concatenate groups of the same type and options so that element matrices are vectorised."""
+    """Concatenate groups of the same type and options so that element matrices are vectorised.
+
+    Parameters
+    ----------
+    groups : list of ElementGroup
+        Groups in the order they were added.
+
+    Returns
+    -------
+    list of ElementGroup
+        One group per distinct :attr:`ElementGroup.key`, in order of first appearance; a group
+        without a partner is returned as is, not copied.
+    """
     by_key: dict = {}
     for g in groups:
         by_key.setdefault(g.key, []).append(g)
@@ -89,7 +165,26 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
 
 
 def triplets(trip, target, unit, idx, coef, pid) -> None:
-    """COO triplets of ``coef * unit`` scattered to ``idx``, split by parameter id."""
+    """COO triplets of ``coef * unit`` scattered to ``idx``, split by parameter id.
+
+    Entries at a dof index below 0 (a supported dof) and zero entries are dropped.
+
+    Parameters
+    ----------
+    trip : dict of (str, int) to list
+        Collector, updated in place: ``trip[(target, parameter id)]`` receives one
+        ``(rows, cols, values)`` tuple of 1-D arrays per call and parameter id present.
+    target : {"K", "M"}
+        Matrix the term belongs to.
+    unit : numpy.ndarray, shape ``(n_el, n_e, n_e)``
+        Unit element matrices of the term.
+    idx : numpy.ndarray of int, shape ``(n_el, n_e)``
+        Model dof index of each element dof (-1 for a supported dof).
+    coef : numpy.ndarray, shape ``(n_el,)``
+        Numeric factor of each element's term.
+    pid : numpy.ndarray of int, shape ``(n_el,)``
+        Parameter multiplying each element's term (-1: none, the constant part).
+    """
     ne = idx.shape[1]
     rows = np.broadcast_to(idx[:, :, None], (len(idx), ne, ne))
     cols = np.broadcast_to(idx[:, None, :], (len(idx), ne, ne))

@@ -10,7 +10,29 @@ from .groups import BENDING, ELEMENT_TYPES, PROPS
 
 
 def structure_from_dict(cls, data: Mapping, source: str = "model"):
-    """An instance of ``cls`` (:class:`~femupdate.structure.Structure`) from the parsed TOML model file."""
+    """An instance of ``cls`` (:class:`~femupdate.structure.Structure`) from the parsed TOML model file.
+
+    Parameters
+    ----------
+    cls : type
+        :class:`~femupdate.structure.Structure` or a subclass; called with the model name.
+    data : mapping
+        The parsed file: top-level keys ``model``, ``parameters``, ``node``, ``element``, ``support``
+        (docs/file-formats.md).
+    source : str, default "model"
+        Name of the file, prefixed to error messages.
+
+    Returns
+    -------
+    Structure
+        Not yet built.
+
+    Raises
+    ------
+    InputError
+        An unknown key, a missing or mistyped entry, or anything the Structure methods refuse; the
+        message names the table (e.g. ``element #3 (rod)``).
+    """
     if not isinstance(data, Mapping):
         raise InputError(f"{source}: expected a table at the top level")
     known = {"model", "parameters", "node", "element", "support"}
@@ -69,7 +91,27 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
 
 
 def list_of_tables(data, key, source):
-    """The array of tables ``data[key]`` (a single table counts as an array of one)."""
+    """The array of tables ``data[key]`` (a single table counts as an array of one).
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed file.
+    key : str
+        Key of the array of tables (``"node"``, ``"element"``, ``"support"``).
+    source : str
+        Name of the file, for the error message.
+
+    Returns
+    -------
+    list of mapping
+        Empty when ``key`` is absent.
+
+    Raises
+    ------
+    InputError
+        ``data[key]`` is neither a table nor a list of tables.
+    """
     items = data.get(key, [])
     if isinstance(items, Mapping):
         items = [items]
@@ -89,7 +131,23 @@ TYPE_KEYS = {  # non-property keys that apply to each line-element type
 
 
 def element_from_dict(s, e: Mapping, where: str) -> None:
-    """Add one [[element]] table to the structure ``s``."""
+    """Add one [[element]] table to the structure ``s``.
+
+    Parameters
+    ----------
+    s : Structure
+        Structure to add to.
+    e : mapping
+        The table: ``type`` and the keys of that type (docs/file-formats.md).
+    where : str
+        The table's position, prefixed to error messages.
+
+    Raises
+    ------
+    InputError
+        An unknown type or key, a property that is neither a number nor a name, a missing
+        required key, or anything the Structure method refuses.
+    """
     t = e.get("type")
     if not isinstance(t, str) or t not in PROPS:
         raise InputError(f"{where}: unknown element type {t!r} (known: {', '.join(ELEMENT_TYPES)})")

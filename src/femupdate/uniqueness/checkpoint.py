@@ -75,7 +75,23 @@ class Checkpoint:
             raise InputError(f"checkpoint {self.path}: unit ids must be integers") from None
 
     def add(self, unit: int, result: list) -> None:
-        """Record a finished unit and rewrite the file atomically."""
+        """Record a finished unit and rewrite the file atomically.
+
+        Parameters
+        ----------
+        unit : int
+            Id of the unit (replaces an earlier record of the same id).
+        result : list
+            Its result, stored as :func:`~femupdate.io.results.to_jsonable` makes it (NaN/inf as None);
+            the file, when the checkpoint has one, holds every unit so far.
+
+        Raises
+        ------
+        TypeError
+            The result holds an object JSON cannot represent (written to file only).
+        OSError
+            The file cannot be written.
+        """
         self.units[int(unit)] = to_jsonable(result)
         if self.path is not None:
             doc = {"format": FORMAT, "version": VERSION, "study": self.key, "description": self.description,

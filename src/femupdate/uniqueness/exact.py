@@ -245,19 +245,32 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
     ----------
     model : Model
         At most :data:`MAX_DOFS` dofs.
-    eigenvalues : measured eigenvalues (rad²/s²) of the lowest modes, as numbers, rationals
+    eigenvalues : sequence of float, str or sympy.Rational, optional
+        Measured eigenvalues (rad²/s²) of the lowest modes, ascending, as numbers or rationals
         (``sympy.Rational`` or strings such as ``"16/3"``); default: those of the model at
         ``values`` — then with all N modes the data are the characteristic polynomial's rational
         coefficients and the solutions are exact (eq. 11: a1 = 68, a0 = 48 for the paper's example).
-    values : parameter values: the truth when ``eigenvalues`` is None, and the values of the
+    values : None, mapping of str to float, or array_like, optional
+        Parameter values: the truth when ``eigenvalues`` is None, and the values of the
         parameters that are not unknowns (default: the model's).
-    n_modes : with ``eigenvalues`` None, the number of lowest modes measured (default all N).
-    params : unknown parameters (default: every parameter not fixed); at most :data:`MAX_PARAMETERS`.
-    bounds : keep only solutions within the parameters' bounds (others go to ``rejected``).
+    n_modes : int, optional
+        With ``eigenvalues`` None, the number of lowest modes measured (default all N).
+    params : sequence of str, optional
+        Unknown parameters (default: every parameter not fixed); at most :data:`MAX_PARAMETERS`.
+    bounds : bool, default True
+        Keep only solutions within the parameters' bounds (others go to ``rejected``).
 
     Returns
     -------
     ExactSolutionSet
+
+    Raises
+    ------
+    InputError
+        No unknown parameter or an unknown name; more than ``MAX_PARAMETERS`` unknowns or
+        ``MAX_DOFS`` dofs; ``n_modes`` or the number of eigenvalues not between 1 and N; an
+        eigenvalue that is not a (positive) number, or eigenvalues not ascending; with fewer than
+        N eigenvalues, repeated ones.
     """
     import sympy as sp
     from scipy.linalg import eigh

@@ -244,15 +244,44 @@ def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, va
 
     Parameters
     ----------
-    model : Model (small: at most :data:`femupdate.modal.DENSE_LIMIT` dofs, solved densely).
-    cases : :class:`Case` objects or ``(measured_dofs, n_modes)`` pairs.
-    starts, seed : R random starts within the bounds, drawn once by
-        :func:`femupdate.updating.draw_starts` (uniform, or log-uniform).
-    values : the truth, as {name: value} (default: the model's values).
-    params : the unknown parameters (default: every parameter not fixed).
-    noise : relative noise levels (> 0): eigenvalues × (1 + σε), unit-length shapes + σε.
-    min_mac, max_nfev, tol : solver options, as :func:`femupdate.updating.update`.
-    unit_rows : rows (case × level × start) per work unit.
+    model : Model
+        Small: at most :data:`femupdate.modal.DENSE_LIMIT` dofs, solved densely.
+    cases : sequence of Case or of (sequence of str, int)
+        :class:`Case` objects or ``(measured_dofs, n_modes)`` pairs.
+    starts : int, default 100
+        Number R of random starts within the bounds, drawn once by
+        :func:`femupdate.updating.draw_starts`.
+    seed : int, default 0
+        Seed of the starts (a non-negative integer).
+    values : None, mapping of str to float, or array_like, optional
+        The truth (default: the model's values); within the bounds.
+    params : sequence of str, optional
+        The unknown parameters (default: every parameter not fixed).
+    noise : sequence of float, default ()
+        Relative noise levels (> 0): eigenvalues × (1 + σε), unit-length shapes + σε.
+    min_mac : float, default 0.5
+        Solver option, as :func:`femupdate.updating.update`; in [0, 1].
+    max_nfev : int, default 200
+        Solver option, as :func:`femupdate.updating.update`; at least 1.
+    tol : float, default 1e-10
+        Solver tolerance, as :func:`femupdate.updating.update`; positive.
+    unit_rows : int, default ``DEFAULT_UNIT_ROWS``
+        Rows (case × level × start) per work unit.
+    log_uniform : bool, default False
+        Draw the starts log-uniformly (needs positive lower bounds) instead of uniformly.
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    InputError
+        No unknown parameter or an unknown name; a model the batched solver does not support; a
+        true value outside its bounds; ``starts``, ``seed``, ``unit_rows``, ``max_nfev``, ``tol``,
+        ``min_mac`` or a noise level out of range; no cases, a case listed twice, a case with no or
+        unknown dofs, or with more modes than dofs or with rigid-body modes; bounds that are not
+        finite (or not positive for ``log_uniform``).
     """
     from ...updating.batched import unsupported
     from ...modal import model_modes

@@ -149,6 +149,19 @@ class CaseResult:
         return {True: "unique", False: "non-unique", None: "not converging"}[self.unique]
 
     def to_dict(self, names) -> dict:
+        """This case's entry of the JSON result (``cases`` of :meth:`StudyResult.to_dict`).
+
+        Parameters
+        ----------
+        names : sequence of str
+            The study's parameter names (only their number is used, for ``n_parameters``).
+
+        Returns
+        -------
+        dict
+            May hold NumPy arrays and scalars (convert with :func:`~femupdate.io.results.to_jsonable`
+            before writing JSON).
+        """
         return {
             "measured_dofs": list(self.case.measured_dofs), "n_measured": self.case.n_measured,
             "n_modes": self.case.n_modes,

@@ -39,14 +39,34 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
 
     Parameters
     ----------
-    scheduler : address of an existing Dask scheduler (``tcp://host:port``): units run there.
-    workers : without ``scheduler``, start a local Dask cluster of this many worker processes;
+    study : Study
+        From :func:`define_study`.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:port``): units run there.
+    workers : int, optional
+        Without ``scheduler``, start a local Dask cluster of this many worker processes;
         neither: everything runs in this process.
-    checkpoint : path of the checkpoint file (created, or resumed when it holds this study).
-    progress : ``progress(rows_done, rows_total)``.
-    rel_tol : two solutions are the same when every unknown agrees within this (relative).
-    cost_tol : a converged start reproduces the data when its cost ½‖r‖² is at most this.
-    connect_timeout : seconds to wait for the scheduler (then an InputError).
+    checkpoint : str or os.PathLike, optional
+        Path of the checkpoint file (created, or resumed when it holds this study); default none
+        (kept in memory).
+    progress : callable, optional
+        ``progress(rows_done, rows_total)``, called as rows finish.
+    rel_tol : float, default 1e-4
+        Two solutions are the same when every unknown agrees within this (relative).
+    cost_tol : float, default 1e-12
+        A converged start reproduces the data when its cost ½‖r‖² is at most this.
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler (then an InputError).
+
+    Returns
+    -------
+    StudyResult
+
+    Raises
+    ------
+    InputError
+        A checkpoint that is unreadable or belongs to another study; the scheduler not reached in
+        time; Dask needed but not installed.
     """
     t0 = time.perf_counter()
     units = study.units()
