@@ -39,11 +39,34 @@ class Parametrisation:
     Parameters
     ----------
     model : Model
-    names : the updated parameters, in the order of x.
-    kind : ``"relative"`` (x = p / |p_start|, the default of every driver), ``"log"`` (x = ln p)
+        The model whose parameters are updated (names are looked up in it).
+    names : sequence of str
+        The updated parameters, in the order of x (L of them).
+    kind : {"relative", "log", "absolute"}
+        ``"relative"`` (x = p / |p_start|, the default of every driver), ``"log"`` (x = ln p)
         or ``"absolute"`` (x = p).
-    p_base : (n_parameters,) full parameter vector: the starting values of ``names`` and the
-        values of every other parameter, which stay fixed.
+    p_base : array_like, shape ``(n_parameters,)``
+        Full parameter vector: the starting values of ``names`` and the values of every other
+        parameter, which stay fixed.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The updated parameters.
+    idx : numpy.ndarray of intp, shape ``(L,)``
+        Their positions in the model's parameter vector.
+    param : str
+        The parametrisation ``kind``.
+    p_base : numpy.ndarray, shape ``(n_parameters,)``
+        The full parameter vector at the start (float copy).
+    scale : numpy.ndarray, shape ``(L,)``
+        |p_start| of each updated parameter (1 where the start is 0): the divisor of the
+        ``"relative"`` parametrisation.
+
+    Raises
+    ------
+    InputError
+        An unknown ``kind``, or a name that is not a parameter of ``model``.
     """
 
     def __init__(self, model, names: Sequence[str], kind: str, p_base: np.ndarray):
@@ -58,17 +81,54 @@ class Parametrisation:
         self.scale = np.where(start != 0, np.abs(start), 1.0)
 
     def to_p(self, x: np.ndarray) -> np.ndarray:
-        """Full parameter vector (n_parameters,) at the variables x (L,)."""
+        """Full parameter vector at the variables x.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_parameters,)``
+            ``p_base`` with the updated parameters' values at x (physical units); a new array.
+        """
         p = self.p_base.copy()
         p[self.idx] = rules.to_p(self.code, np.asarray(x, float), self.scale)
         return p
 
     def dp_dx(self, x: np.ndarray) -> np.ndarray:
-        """∂p/∂x (L,) of the updated parameters."""
+        """∂p/∂x of the updated parameters, the diagonal of the parametrisation's Jacobian.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(L,)``
+            ``scale`` (relative), exp(x) = p (log) or 1 (absolute).
+        """
         return rules.dp_dx(self.code, np.asarray(x, float), self.scale)
 
     def from_p(self, p_sel) -> np.ndarray:
-        """The variables x (L,) of the updated parameters' values ``p_sel``."""
+        """The variables x of the updated parameters' values ``p_sel``.
+
+        Parameters
+        ----------
+        p_sel : array_like, shape ``(L,)``
+            Values of the updated parameters (physical units), in the order of ``names``.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(L,)``
+
+        Raises
+        ------
+        InputError
+            A value that is not positive under the ``"log"`` parametrisation.
+        """
         p_sel = np.asarray(p_sel, float)
         if self.param == "log" and np.any(p_sel <= 0):
             raise InputError("log parametrisation needs positive parameter values and bounds")
@@ -85,13 +145,40 @@ class Parametrisation:
         return self.from_p(self.start)
 
     def bounds_x(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds of x from the updated parameters' bounds ``lo``, ``hi`` (L,)."""
+        """Bounds of x from the updated parameters' bounds (:func:`x_bounds`).
+
+        Parameters
+        ----------
+        lo, hi : array_like, shape ``(L,)``
+            Lower and upper bounds of the updated parameters (physical units; may be infinite).
+
+        Returns
+        -------
+        xl, xh : numpy.ndarray, shape ``(L,)``
+            Lower and upper bounds of x.
+        """
         return x_bounds(self.param, lo, hi, self.scale)
 
 
 def x_of_p(kind: str, p, scale) -> np.ndarray:
     """The optimiser's variables of the values ``p`` of the updated parameters, for any shape
-    that broadcasts with ``scale`` (|start| of each parameter; one row per start if 2-D)."""
+    that broadcasts with ``scale`` (|start| of each parameter; one row per start if 2-D).
+
+    Parameters
+    ----------
+    kind : {"relative", "log", "absolute"}
+        The parametrisation.
+    p : array_like, shape ``(L,)`` or ``(n_starts, L)``
+        Parameter values (physical units).
+    scale : array_like, shape ``(L,)``
+        |p_start| of each parameter (used by ``"relative"`` only).
+
+    Returns
+    -------
+    numpy.ndarray, shape of ``p``
+        p / scale (relative), ln p (log; −inf or NaN for p <= 0, without a warning) or a copy
+        of p (absolute).
+    """
     if kind == "relative":
         return np.asarray(p, float) / scale
     if kind == "log":
@@ -101,7 +188,24 @@ def x_of_p(kind: str, p, scale) -> np.ndarray:
 
 
 def x_bounds(kind: str, lo, hi, scale) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the optimiser's variables from the parameters' bounds ``lo``, ``hi``."""
+    """Bounds of the optimiser's variables from the parameters' bounds ``lo``, ``hi``.
+
+    Parameters
+    ----------
+    kind : {"relative", "log", "absolute"}
+        The parametrisation.
+    lo, hi : array_like, shape ``(L,)``
+        Lower and upper bounds of the parameters (physical units; may be infinite).
+    scale : array_like, shape ``(L,)``
+        |p_start| of each parameter (used by ``"relative"`` only).
+
+    Returns
+    -------
+    xl, xh : numpy.ndarray, shape ``(L,)``
+        Lower and upper bounds of the variables: ln(max(lo, 0)) and ln(hi) for ``"log"`` (−inf
+        for a lower bound of 0); otherwise the mapped bounds, ordered element-wise (a negative
+        start flips the relative ones).
+    """
     if kind == "log":
         with np.errstate(divide="ignore"):
             return np.log(np.maximum(lo, 0)), np.log(hi)
@@ -110,7 +214,25 @@ def x_bounds(kind: str, lo, hi, scale) -> tuple[np.ndarray, np.ndarray]:
 
 
 def start_error(names: Sequence[str], start, lo, hi, kind: str) -> str | None:
-    """Why the start ``start`` (L,) of ``names`` cannot be solved from (None when it can)."""
+    """Why the start ``start`` of ``names`` cannot be solved from (None when it can).
+
+    Parameters
+    ----------
+    names : sequence of str
+        The updated parameters.
+    start : array_like, shape ``(L,)``
+        Their starting values (physical units).
+    lo, hi : array_like, shape ``(L,)``
+        Their bounds.
+    kind : {"relative", "log", "absolute"}
+        The parametrisation.
+
+    Returns
+    -------
+    str or None
+        The reason — starting values outside the bounds (named), or, for ``"log"``, a
+        starting value <= 0 or a negative lower bound — or None.
+    """
     outside = [n for n, v, a, b in zip(names, start, lo, hi) if not a <= v <= b]
     if outside:
         return f"starting value(s) outside the bounds for: {', '.join(outside)}"
@@ -120,7 +242,18 @@ def start_error(names: Sequence[str], start, lo, hi, kind: str) -> str | None:
 
 
 def check_determined(problem: Problem) -> None:
-    """Refuse a problem with fewer independent data than updated parameters."""
+    """Refuse a problem with fewer independent data than updated parameters.
+
+    Parameters
+    ----------
+    problem : Problem
+        The modal problem; its ``targets.n_independent`` is compared with ``len(problem.names)``.
+
+    Raises
+    ------
+    InputError
+        Fewer independent data (eigenvalues and scaled shape entries) than parameters.
+    """
     n_data = problem.targets.n_independent
     if n_data < len(problem.names):
         raise InputError(
@@ -134,16 +267,29 @@ class Targets(NamedTuple):
     """The measured data of a modal updating problem in flat arrays — the one layout that every
     route reads (the compiled kernels too).
 
-    ``lam_e`` (T,) measured eigenvalues (rad²/s²); ``w_lam`` (T,) their weights; ``w_psi`` (T,)
-    the weight of each mode's shape residuals; test mode k's measured dofs are
-    ``pos[pptr[k]:pptr[k + 1]]`` (model dof indices; none: frequency only) with the scaled test
-    shape ``psi_e`` at the same positions; ``ref`` (T,) the position of the reference dof within
-    the mode's measured dofs for ``"ref"`` scaling (−1: none); ``nm`` the number of lowest model
-    modes the test modes are paired among.
-
     The compiled route hands its kernels the same ``Targets`` (every data set's concatenated,
     field by field: :data:`TARGETS_PER_MODE`, :data:`TARGETS_PER_POSITION`): a new per-mode datum
     is a new field here, filled by :func:`build_targets` and read by the rules.
+
+    Attributes
+    ----------
+    lam_e : numpy.ndarray, shape ``(T,)``
+        Measured eigenvalues λ = ω² (rad²/s²) of the T test modes.
+    w_lam : numpy.ndarray, shape ``(T,)``
+        Weights of their eigenvalue residuals.
+    w_psi : numpy.ndarray, shape ``(T,)``
+        Weight of each mode's shape residuals.
+    pptr : numpy.ndarray of int64, shape ``(T + 1,)``
+        Test mode k's measured dofs are ``pos[pptr[k]:pptr[k + 1]]`` (none: frequency only).
+    pos : numpy.ndarray of int64, shape ``(n_positions,)``
+        Model dof indices of the measured shape entries, mode after mode.
+    psi_e : numpy.ndarray, shape ``(n_positions,)``
+        The scaled (real) test shapes at the same positions.
+    ref : numpy.ndarray of int64, shape ``(T,)``
+        Position of the reference dof within the mode's measured dofs for ``"ref"`` scaling
+        (−1: none).
+    nm : int
+        The number of lowest model modes the test modes are paired among.
     """
 
     lam_e: np.ndarray
@@ -157,6 +303,7 @@ class Targets(NamedTuple):
 
     @property
     def n_test(self) -> int:
+        """T, the number of test modes."""
         return int(self.lam_e.size)
 
     @property
@@ -165,11 +312,24 @@ class Targets(NamedTuple):
         return np.diff(self.pptr) > 0
 
     def measured(self, k: int) -> slice:
-        """Positions of test mode k's measured dofs in ``pos`` and ``psi_e``."""
+        """Positions of test mode k's measured dofs in ``pos`` and ``psi_e``.
+
+        Parameters
+        ----------
+        k : int
+            Test mode (0-based).
+
+        Returns
+        -------
+        slice
+            ``slice(pptr[k], pptr[k + 1])`` (empty for a mode without shape).
+        """
         return slice(int(self.pptr[k]), int(self.pptr[k + 1]))
 
     @property
     def n_residuals(self) -> int:
+        """m, the length of the residual vector: one eigenvalue residual per test mode plus its
+        shape entries, less the reference entry of each shape scaled by ``"ref"``."""
         ns = np.diff(self.pptr)
         return int(self.n_test + np.sum(ns) - np.sum((self.ref >= 0) & (ns > 0)))
 
@@ -191,9 +351,27 @@ def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
     """User weights of the modal residuals divided by the measurement standard deviations where
     given: ``(weights, sigma)`` with ``sigma`` the checked ``measurement_std`` (or None).
 
-    ``weights`` / ``measurement_std``: ``{"eigenvalue": ..., "shape": ...}``, each a scalar or
-    one value per test mode; the eigenvalue's standard deviation is relative (of λ), the shape's
-    absolute (of the scaled shape entries).
+    Parameters
+    ----------
+    weights : mapping or None
+        ``{"eigenvalue": w, "shape": w}``, each a scalar or one value per test mode (a missing
+        key: 1).
+    measurement_std : mapping or None
+        ``{"eigenvalue": std, "shape": std}``, each a scalar or one value per test mode; the
+        eigenvalue's standard deviation is relative (of λ), the shape's absolute (of the
+        scaled shape entries).  Other keys are kept in ``sigma`` but not applied.
+
+    Returns
+    -------
+    weights : dict
+        The weights, with each key that has a standard deviation divided by it (w / std).
+    sigma : dict or None
+        ``measurement_std`` as a dict, or None when it is empty or None.
+
+    Raises
+    ------
+    InputError
+        An unknown key in ``weights``; a standard deviation that is not positive.
     """
     w = dict(weights or {})
     unknown = sorted(set(w) - {"eigenvalue", "shape"})
@@ -213,7 +391,39 @@ def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
 def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None, w_eigenvalue, w_shape,
                   use_shapes: bool, n_modes: int | None) -> Targets:
     """The :class:`Targets` of ``data`` for ``model``: test shapes scaled as the residuals
-    compare them (complex shapes rotated to their largest entry and made real)."""
+    compare them (complex shapes rotated to their largest entry and made real).
+
+    Parameters
+    ----------
+    model : Model
+        The model; the measured dofs are looked up in it.
+    data : TestData
+        The measured modes.
+    shape_scaling : {"unit", "ref", "max"}
+        Scaling of the shapes (:data:`SHAPE_SCALINGS`).
+    ref_dof : str or None
+        Reference dof of ``"ref"`` scaling (default: each mode's first measured dof).
+    w_eigenvalue, w_shape : float or array_like, shape ``(T,)``
+        Weights of the eigenvalue and of the shape residuals, one value or one per test mode.
+    use_shapes : bool
+        False: frequencies only (every mode's shape is ignored).
+    n_modes : int or None
+        Model modes to pair among (default ``max(2T, T + 6)``); capped at the model's dofs.
+
+    Returns
+    -------
+    Targets
+        Only shapes measured at two dofs or more are compared.
+
+    Raises
+    ------
+    InputError
+        No measured modes; a mode with zero (or negative) eigenvalue; weights neither one value
+        nor one per test mode, negative or not finite; a measured dof not in the model; a
+        reference dof the mode does not measure.
+    NumericalError
+        A test shape whose scaling entry is zero (a node of the mode).
+    """
     if not data.modes:
         raise InputError("iterative modal updating needs measured modes (frequencies and optionally shapes)")
     lam_e = np.asarray(data.eigenvalues, float)
@@ -260,32 +470,71 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
 class Problem(Parametrisation):
     """The modal updating problem of ``model`` against the measured modes of ``data``.
 
+    The residual vector stacks, per test mode, its relative eigenvalue error and its scaled
+    shape differences (paper eqs. 16–21, :mod:`femupdate.rules`).
+
     Parameters
     ----------
     model : Model
+        The model to update.
     data : TestData
         Measured modes; a shape may be partial (any subset of the model's dofs, any scaling).
-    params : names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : starting values ``{name: value}`` (default: the model's nominal values).
-    values : values of the parameters that are not updated (default: nominal).
-    shape_scaling : ``"unit"`` (unit length over the measured dofs, default), ``"ref"`` (1 at
-        ``ref_dof``, default the first measured dof of each mode: the paper's eq. 33) or
-        ``"max"`` (1 at the largest entry).
-    weights, measurement_std : see :func:`modal_weights`; each a single value or one per test mode.
-    min_mac : pairing threshold; a test mode with a shape must reach it with its model mode.
-    n_modes : model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
-    parametrisation : ``"relative"`` | ``"log"`` | ``"absolute"`` (see :class:`Parametrisation`).
-    use_shapes : False: frequencies only.
-    sensitivity : the derivative route of the local Jacobian
-        (:func:`femupdate.sensitivity.jacobian`; the compiled route always uses the exact
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : mapping of str to float, optional
+        Starting values ``{name: value}`` (default: the model's nominal values, or ``values``).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the parameters that are not updated (default: nominal).
+    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
+        ``"unit"`` (unit length over the measured dofs), ``"ref"`` (1 at ``ref_dof``: the
+        paper's eq. 33) or ``"max"`` (1 at the largest entry).
+    ref_dof : str, optional
+        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode).
+    weights, measurement_std : mapping, optional
+        See :func:`modal_weights`; each entry a single value or one per test mode.
+    min_mac : float, default 0.5
+        Pairing threshold in [0, 1]; a test mode with a shape must reach it with its model mode.
+    n_modes : int, optional
+        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes,
+        capped at the model's dofs).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+        See :class:`Parametrisation`.
+    use_shapes : bool, default True
+        False: frequencies only.
+    sensitivity : str, default ``"auto"``
+        The derivative route of the local Jacobian (:data:`SENSITIVITY_CHOICES`,
+        :func:`femupdate.sensitivity.jacobian`; the compiled route always uses the exact
         complete modal method).
 
     Attributes
     ----------
+    model : Model
+    data : TestData
     targets : Targets
+        The measured data in flat arrays (:func:`build_targets`).
     n_residuals : int
-    swaps : list of dict — mode swaps seen while evaluating (``evaluation``, ``test_mode``,
-        ``from_model_mode``, ``to_model_mode``).
+        m, the length of the residual vector.
+    n_modes : int
+        Model modes computed and paired among.
+    sigma : dict or None
+        The stated ``measurement_std`` (the covariance of the diagnostics is then absolute).
+    sensitivity_used : str
+        The derivative route of the last Jacobian (``"auto"`` resolved; ``"fox-kapoor"`` when no
+        shape is compared).
+    swaps : list of dict
+        Mode swaps seen while evaluating (``evaluation``, ``test_mode``, ``from_model_mode``,
+        ``to_model_mode``; 0-based modes).
+    nfev : int
+        Residual evaluations so far.
+
+    Raises
+    ------
+    InputError
+        An unknown ``shape_scaling``, ``sensitivity`` or ``parametrisation``; ``min_mac`` not a
+        number in [0, 1]; no parameters to update; bad weights, standard deviations or data (as
+        :func:`modal_weights`, :func:`build_targets`).
+    NumericalError
+        A test shape whose scaling entry is zero.
     """
 
     def __init__(self, model, data: TestData, params: Sequence[str] | None = None, *,
@@ -333,7 +582,27 @@ class Problem(Parametrisation):
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
-        """Parameters, model modes and pairs ``[(test mode, model mode, MAC)]`` at x (cached)."""
+        """Parameters, model modes and pairs at x (cached: the last x is not recomputed).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        p : numpy.ndarray, shape ``(n_parameters,)``
+            The full parameter vector.
+        modes : Modes
+            The lowest ``n_modes`` model modes (eigenvalues in rad²/s², mass-normalised shapes).
+        pairs : list of (int, int, float)
+            ``(test mode, model mode, MAC)`` per test mode, 0-based; MAC NaN without shape.
+
+        Raises
+        ------
+        NumericalError
+            A test mode cannot be paired (MAC below ``min_mac``, or no model mode left).
+        """
         x = np.asarray(x, float)
         key = x.tobytes()
         if key == self._cache_key:
@@ -366,8 +635,25 @@ class Problem(Parametrisation):
         return out
 
     def residuals(self, x) -> np.ndarray:
-        """The residual vector (m,) at x: per test mode its eigenvalue residual, then its shape
-        residuals (:mod:`femupdate.rules`)."""
+        """The residual vector at x: per test mode its eigenvalue residual
+        w (λ_A − λ_E) / λ_E, then its shape residuals w (ψ_A − ψ_E) (paper eq. 19,
+        :mod:`femupdate.rules`).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m,)``
+            Dimensionless residuals (``m = n_residuals``).
+
+        Raises
+        ------
+        NumericalError
+            Unpaired test modes; a model shape whose scaling entry is zero; non-finite residuals.
+        """
         self.nfev += 1
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
@@ -389,7 +675,24 @@ class Problem(Parametrisation):
         return r
 
     def jacobian(self, x) -> np.ndarray:
-        """The exact Jacobian ∂r/∂x (m, L) at x, the derivatives by the route ``sensitivity``."""
+        """The exact Jacobian ∂r/∂x at x, the derivatives by the route ``sensitivity``
+        (eigenvalue derivatives only when no shape is compared).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m, L)``
+            Rows in the order of :meth:`residuals`; sets ``sensitivity_used``.
+
+        Raises
+        ------
+        NumericalError
+            Unpaired test modes (as :meth:`evaluate`).
+        """
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         which = [j for _, j, _ in pairs]
@@ -419,7 +722,22 @@ class Problem(Parametrisation):
         return J
 
     def mac_of_pair(self, modes: Modes, k: int, j: int) -> float:
-        """MAC of test mode k with model mode j (NaN for a test mode without shape)."""
+        """MAC of test mode k with model mode j (NaN for a test mode without shape).
+
+        Parameters
+        ----------
+        modes : Modes
+            Model modes (as :meth:`evaluate` returns them).
+        k : int
+            Test mode (0-based).
+        j : int
+            Model mode (0-based column of ``modes.shapes``).
+
+        Returns
+        -------
+        float
+            MAC in [0, 1] over the test mode's measured dofs.
+        """
         tg = self.targets
         sl = tg.measured(k)
         if sl.stop == sl.start:
