@@ -26,9 +26,33 @@ log = logging.getLogger(__name__)
 
 
 def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
-    """Identifiability figures (:class:`Diagnostics`) of ``prob`` at x from its residuals r (m,)
-    and Jacobian J (m, L); ``sigma``: the measurement standard deviations when the residuals are
-    already divided by them (the covariance is then absolute), else None."""
+    """Identifiability figures (:class:`Diagnostics`) of ``prob`` at x.
+
+    The Jacobian is taken to the parameters (∂r/∂p) and its columns scaled by |p| (1 for a zero
+    value): the normalised sensitivity matrix S = ∂r/∂(p/|p|), whose singular values, rank
+    (above 1e-6 σ_max) and condition number are reported; parameters with an entry of at least
+    0.3 times the largest in a right singular vector of the null space are poorly determined.
+
+    Parameters
+    ----------
+    prob : Parametrisation
+        The problem (its ``to_p``, ``dp_dx``, ``idx`` and ``names``).
+    x : numpy.ndarray, shape ``(L,)``
+        The optimiser's variables.
+    r : numpy.ndarray, shape ``(m,)``
+        The residuals at x.
+    J : numpy.ndarray, shape ``(m, L)``
+        The Jacobian ∂r/∂x at x.
+    sigma : object or None
+        Not None when the residuals are already divided by the measurement standard deviations:
+        the covariance is then (JᵀJ)⁻¹ in parameter units (absolute); None: it is scaled by the
+        residual variance ‖r‖² / (m − L) (NaN unless m > L).
+
+    Returns
+    -------
+    Diagnostics
+        Covariance and standard deviations NaN unless S has full column rank.
+    """
     p = prob.to_p(x)[prob.idx]
     dxdp = 1.0 / prob.dp_dx(x)
     Jp = J * dxdp[None, :]  # ∂r/∂p
@@ -57,13 +81,48 @@ def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
 
 def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,
            max_nfev: int):
-    """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base``.
+    """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base`` (paper eq. 20).
 
-    Shared by every iterative updating problem (modal, FRF): the parameters' ``bounds`` (the
-    model's full ``(lo, hi)``) mapped to the optimiser's variables, Tikhonov augmentation
+    Shared by every iterative updating problem (modal, FRF, combined, multi-configuration): the
+    parameters' ``bounds`` mapped to the optimiser's variables, Tikhonov augmentation
     α (x − x_start) with α fixed or chosen by ``"gcv"`` / ``"lcurve"`` at the start, and the
-    iteration history.  ``prob`` provides ``residuals(x)``, ``jacobian(x)`` and the
-    :class:`~femupdate.updating.problem.Parametrisation` maps.  Returns ``(sol, history, regularization)``.
+    iteration history.
+
+    Parameters
+    ----------
+    prob : Parametrisation
+        Provides ``residuals(x)``, ``jacobian(x)`` and the
+        :class:`~femupdate.updating.problem.Parametrisation` maps.
+    bounds : tuple of numpy.ndarray, each shape ``(n_parameters,)``
+        The model's full ``(lo, hi)`` (physical units); ignored by ``"lm"``.
+    regularization : float, {"gcv", "lcurve"} or None
+        Tikhonov factor α >= 0, or the rule choosing it from the residuals and Jacobian at the
+        start (:func:`femupdate.regularization.choose_alpha`); None: no regularisation.
+    method : {"trf", "dogbox", "lm"}
+        Method of :func:`scipy.optimize.least_squares` (``x_scale="jac"`` except for ``"lm"``).
+    ftol, xtol, gtol : float
+        Tolerances of :func:`scipy.optimize.least_squares`.
+    max_nfev : int
+        Largest number of residual evaluations.
+
+    Returns
+    -------
+    sol : scipy.optimize.OptimizeResult
+        The solver's result, ``sol.x`` in the optimiser's variables (its ``cost`` and ``fun``
+        include the regularisation rows).
+    history : list of dict
+        ``{"iteration", "cost", "parameters": {name: value}}``: the start (iteration 0), then one
+        entry per iteration (``"lm"``: the start only).
+    regularization : dict
+        ``{"rule": "fixed" | "gcv" | "lcurve", "alpha": α}``, or empty without regularisation.
+
+    Raises
+    ------
+    InputError
+        A start outside the bounds (or not positive under ``"log"``); a negative α or an unknown
+        rule.
+    NumericalError
+        The problem cannot be evaluated, or the solver failed.
     """
     names = prob.names
     parametrisation = prob.param
@@ -135,33 +194,63 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
     Parameters
     ----------
     model : Model
+        The model to update.
     data : TestData
         Measured modes; shapes may be partial (any subset of model dofs, any scaling).
-    params : names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : starting values {name: value} (default: the model's nominal values).
-    shape_scaling : ``"unit"`` | ``"ref"`` | ``"max"``; ``ref_dof`` for ``"ref"`` (default: the
-        first measured dof of each mode, the paper's eq. 33 convention).
-    weights : {"eigenvalue": w or per-mode array, "shape": w}.
-    measurement_std : {"eigenvalue": relative std of λ, "shape": std of scaled shape entries};
-        when given the residuals are divided by them (weights = 1/std) and the covariance is
-        absolute, not scaled by the residual.
-    min_mac : pairing threshold.
-    parametrisation : ``"relative"`` (x = p / p_start, default), ``"log"`` (x = log p) or ``"absolute"``.
-    method : ``"trf"`` | ``"dogbox"`` | ``"lm"`` (Levenberg–Marquardt; no bounds).
-    sensitivity : derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`):
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : mapping of str to float, optional
+        Starting values {name: value} (default: the model's nominal values).
+    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
+        Scaling of the shapes compared (:class:`~femupdate.updating.Problem`).
+    ref_dof : str, optional
+        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode, the
+        paper's eq. 33 convention).
+    weights : mapping, optional
+        ``{"eigenvalue": w or per-mode array, "shape": w or per-mode array}``.
+    measurement_std : mapping, optional
+        ``{"eigenvalue": relative std of λ, "shape": std of scaled shape entries}``; when given
+        the residuals are divided by them (weights = 1/std) and the covariance is absolute, not
+        scaled by the residual.
+    min_mac : float, default 0.5
+        Pairing threshold.
+    n_modes : int, optional
+        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+        ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
+    max_nfev : int, default 200
+        Largest number of residual evaluations.
+    ftol, xtol, gtol : float, default 1e-10
+        Tolerances of :func:`scipy.optimize.least_squares`.
+    use_shapes : bool, default True
+        False: frequencies only.
+    regularization : float, {"gcv", "lcurve"} or None, default None
+        A Tikhonov factor α, or the rule choosing it at the start; the residual is augmented
+        with α (x − x_start), pulling the scaled parameters toward the starting model.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the fixed parameters (default nominal).
+    sensitivity : str, default ``"auto"``
+        Derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`):
         ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint series when there are fewer
         measured dofs than parameters, else the subspace series), ``"nelson"``, ``"modal"``,
         ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
-    regularization : None, a Tikhonov factor α, or ``"gcv"`` / ``"lcurve"`` to choose it at the
-        start; the residual is augmented with α (x − x_start), pulling the scaled parameters
-        toward the starting model.
-    values : values of the fixed parameters (default nominal).
 
     Returns
     -------
     UpdateResult
         ``success``/``status``/``message`` report convergence (non-convergence is a status,
         not an exception); ``diagnostics`` holds the identifiability figures.
+
+    Raises
+    ------
+    InputError
+        An unknown method or option, bad weights or data (as :class:`~femupdate.updating.Problem`),
+        a start outside the bounds, or fewer independent data than parameters without
+        ``regularization``.
+    NumericalError
+        The model cannot be evaluated (unpaired modes, non-finite residuals) or the solver failed.
     """
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
@@ -175,7 +264,35 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
 def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
                   xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None) -> UpdateResult:
     """Solve the modal updating problem ``prob`` from its starting point (:func:`update_modal` on a
-    :class:`Problem` already built); options as :func:`update`."""
+    :class:`Problem` already built); options as :func:`update`.
+
+    Parameters
+    ----------
+    prob : Problem
+        The modal problem (its start, bounds from ``prob.model.bounds``).
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+        Method of :func:`scipy.optimize.least_squares` (not checked here: SciPy refuses an unknown
+        one, reported as a :class:`~femupdate.NumericalError`).
+    max_nfev : int, default 200
+        Largest number of residual evaluations.
+    ftol, xtol, gtol : float, default 1e-10
+        Tolerances of :func:`scipy.optimize.least_squares`.
+    regularization : float, {"gcv", "lcurve"} or None, default None
+        Tikhonov factor α or the rule choosing it (:func:`solve`); None: the problem must be
+        determined.
+
+    Returns
+    -------
+    UpdateResult
+        As :func:`result_at` at the solution.
+
+    Raises
+    ------
+    InputError
+        Fewer independent data than parameters without ``regularization``; and as :func:`solve`.
+    NumericalError
+        As :func:`solve`.
+    """
     model = prob.model
     if regularization is None:
         check_determined(prob)
@@ -187,7 +304,34 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
 def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResult:
     """The :class:`UpdateResult` of ``prob`` at the variables x: residuals, Jacobian, pairs and
     diagnostics there; ``sol`` (a SciPy ``OptimizeResult`` or an object with its fields) gives
-    the convergence figures (none: a plain evaluation, 0 iterations)."""
+    the convergence figures (none: a plain evaluation, 0 iterations).
+
+    Parameters
+    ----------
+    prob : Problem
+        The modal problem.
+    x : array_like, shape ``(L,)``
+        The optimiser's variables.
+    sol : scipy.optimize.OptimizeResult, optional
+        Gives ``success``, ``status``, ``message``, ``nfev``, ``njev``; None: ``success`` False,
+        status 0, message ``"evaluated, not solved"``, one evaluation.
+    history : list of dict, optional
+        The iteration history (:func:`solve`; default empty).
+    reg : dict, optional
+        The regularisation used (:func:`solve`; default empty).
+
+    Returns
+    -------
+    UpdateResult
+        ``cost`` ½‖r‖² of the problem's own residuals (without regularisation rows),
+        ``iterations`` the larger of the history's iterations and ``njev``, ``sensitivity`` the
+        route of the Jacobian at x.
+
+    Raises
+    ------
+    NumericalError
+        The problem cannot be evaluated at x.
+    """
     p_final = prob.to_p(x)
     _, modes, pairs = prob.evaluate(x)
     r = prob.residuals(x)
