@@ -14,17 +14,26 @@ class Diagnostics:
 
     Attributes
     ----------
-    singular_values : (L,) of the normalised sensitivity matrix S = ∂r/∂(p/|p|) (columns scaled
-        by the parameter values, so units do not matter).
-    condition_number : σ_max / σ_min of S (inf when rank-deficient or with fewer data than
-        parameters).
-    rank : numerical rank of S (singular values above 1e-6 σ_max).
-    poorly_determined : parameters dominating the right singular vectors of the singular values
-        below 1e-6 σ_max (the combinations the data cannot determine).
-    covariance : (L, L) in parameter units — from the stated measurement standard deviations
-        when given, else from the residual variance; NaN when not estimable.
-    std : (L,) standard deviations, the square roots of the covariance's diagonal.
-    n_residuals, n_parameters : m and L.
+    singular_values : numpy.ndarray, shape ``(min(m, L),)``
+        Singular values, descending, of the normalised sensitivity matrix S = ∂r/∂(p/|p|)
+        (columns scaled by the parameter values, so units do not matter).
+    condition_number : float
+        σ_max / σ_min of S (inf when σ_min is zero or with fewer data than parameters; merely
+        very large when S is numerically rank-deficient).
+    rank : int
+        Numerical rank of S (singular values above 1e-6 σ_max).
+    poorly_determined : list of str
+        Parameters dominating the right singular vectors of the singular values below
+        1e-6 σ_max (the combinations the data cannot determine), sorted by name.
+    covariance : numpy.ndarray, shape ``(L, L)``
+        In parameter units (squared) — from the stated measurement standard deviations when
+        given, else from the residual variance; NaN when not estimable.
+    std : numpy.ndarray, shape ``(L,)``
+        Standard deviations (parameter units), the square roots of the covariance's diagonal.
+    n_residuals : int
+        m, the number of residuals.
+    n_parameters : int
+        L, the number of updated parameters.
     """
 
     singular_values: np.ndarray
@@ -49,17 +58,31 @@ class RunResult:
 
     Attributes
     ----------
-    parameters : every model parameter's value {name: value} at the solution (physical units).
-    names : the updated parameters; ``x`` (L,) their values, in that order.
-    success, status, message : convergence as :func:`scipy.optimize.least_squares` reports it
-        (status 1 gtol, 2 ftol, 3 xtol, 4 ftol and xtol, 0 evaluations exhausted).
-    cost : ½‖r‖² at the solution; ``fun`` (m,) the residuals r (dimensionless: relative
-        eigenvalue errors and scaled shape differences, times their weights).
-    jac : (m, L) ∂r/∂x, the Jacobian in the optimiser's variables x — with the default
-        ``"relative"`` parametrisation x = p / |p_start|, so column j is the change of the
-        residuals per unit relative change of parameter j (∂r/∂p_j · |p_start,j|); with ``"log"``
-        per unit change of ln p_j; with ``"absolute"`` per unit of p_j.
-    nfev, njev, iterations : counts of the solver.
+    parameters : dict of str to float
+        Every model parameter's value {name: value} at the solution (physical units).
+    names : tuple of str
+        The updated parameters.
+    x : numpy.ndarray, shape ``(L,)``
+        Their values at the solution (physical units), in the order of ``names``.
+    success : bool
+        Whether the solver converged.
+    status : int
+        As :func:`scipy.optimize.least_squares` reports it (1 gtol, 2 ftol, 3 xtol, 4 ftol and
+        xtol, 0 evaluations exhausted).
+    message : str
+        The solver's message.
+    cost : float
+        ½‖r‖² at the solution.
+    fun : numpy.ndarray, shape ``(m,)``
+        The residuals r (modal ones dimensionless: relative eigenvalue errors and scaled shape
+        differences, times their weights).
+    jac : numpy.ndarray, shape ``(m, L)``
+        ∂r/∂x, the Jacobian in the optimiser's variables x — with the default ``"relative"``
+        parametrisation x = p / |p_start|, so column j is the change of the residuals per unit
+        relative change of parameter j (∂r/∂p_j · |p_start,j|); with ``"log"`` per unit change
+        of ln p_j; with ``"absolute"`` per unit of p_j.
+    nfev, njev, iterations : int
+        Counts of the solver: residual evaluations, Jacobian evaluations, iterations.
     """
 
     parameters: dict[str, float]
@@ -83,19 +106,33 @@ class UpdateResult(RunResult):
 
     Attributes
     ----------
-    history : per iteration {``iteration``, ``cost``, ``parameters`` {name: value}}.
-    pairs : [(test mode, model mode, MAC)] at the solution (0-based; MAC NaN without shape).
-    test_frequencies_hz, model_frequencies_hz : of the pairs, in test-mode order.
-    swaps : mode swaps seen during the iteration.
-    diagnostics : :class:`Diagnostics` at the solution.
-    regularization : {``rule``, ``alpha``} when Tikhonov regularisation was used.
-    start : the starting values {name: value}.
-    sensitivity : the derivative route used at the solution.
-    blocks : the data blocks of a problem with more than one kind of data (modes, FRFs, static
+    parameters, names, x, success, status, message, cost, fun, jac, nfev, njev, iterations
+        As :class:`RunResult`.
+    history : list of dict
+        Per iteration {``iteration``, ``cost``, ``parameters`` {name: value}}, the start first
+        (``cost`` includes the regularisation rows).
+    pairs : list of (int, int, float)
+        ``(test mode, model mode, MAC)`` at the solution (0-based; MAC NaN without shape).
+    test_frequencies_hz, model_frequencies_hz : numpy.ndarray, shape ``(T,)``
+        Frequencies (Hz) of the test modes and of their paired model modes, in test-mode order.
+    swaps : list of dict
+        Mode swaps seen during the iteration (``evaluation``, ``test_mode``,
+        ``from_model_mode``, ``to_model_mode``).
+    diagnostics : Diagnostics or None
+        Identifiability at the solution.
+    regularization : dict
+        {``rule``, ``alpha``} when Tikhonov regularisation was used, else empty.
+    start : dict of str to float
+        The starting values {name: value}.
+    sensitivity : str
+        The derivative route used at the solution (``"auto"`` resolved; ``"brandon"`` for FRFs).
+    blocks : list of dict
+        The data blocks of a problem with more than one kind of data (modes, FRFs, static
         cases): per block {``kind``, ``label``, ``n_residuals``, ``scale`` (the factor applied
         to its residuals), ``weighting`` (how that factor was chosen), ``cost`` (½‖r‖² of its
         residuals at the solution)}; empty for a single kind.
-    notes : what the run wants the user to know (lines skipped, weighting chosen, ...).
+    notes : list of str
+        What the run wants the user to know (lines skipped, weighting chosen, ...).
     """
 
     history: list[dict]
@@ -118,7 +155,15 @@ class UpdateResult(RunResult):
 
     def summary(self) -> str:
         """A few lines for a terminal or a log: convergence, parameters with their change and
-        standard deviation, the paired modes."""
+        standard deviation, the paired modes.
+
+        Returns
+        -------
+        str
+            Newline-separated lines: convergence, cost, a table of the parameters (start,
+            updated, change in %, standard deviation), a table of the pairs (frequencies in Hz,
+            error in %, MAC), the diagnostics and the number of mode swaps, if any.
+        """
         d = self.diagnostics
         lines = [f"{'converged' if self.success else 'NOT converged'}: {self.message}",
                  f"cost {self.cost:.6g} after {self.iterations} iterations ({self.nfev} evaluations)"]
@@ -141,6 +186,22 @@ class UpdateResult(RunResult):
 
 @dataclass(frozen=True, eq=False)
 class Solution:
+    """One distinct solution of a multi-start study or global search: a cluster of converged runs
+    (:func:`~femupdate.updating.converged_solutions`).
+
+    Attributes
+    ----------
+    parameters : dict of str to float
+        The updated parameters' values {name: value} (physical units) of the cluster's
+        lowest-cost run.
+    cost : float
+        ½‖r‖² of that run.
+    count : int
+        The number of runs in the cluster.
+    starts : list of int
+        Their indices in the study's ``runs``, in increasing cost.
+    """
+
     parameters: dict[str, float]
     cost: float
     count: int
@@ -149,8 +210,29 @@ class Solution:
 
 @dataclass(frozen=True, eq=False)
 class MultiStartResult:
-    """``best`` (lowest-cost converged run), ``solutions`` (clusters, most frequent first),
-    ``runs`` (every start's result or error message), ``starts`` (the drawn starting values)."""
+    """The result of a multi-start study (:func:`~femupdate.updating.multistart`).
+
+    Attributes
+    ----------
+    best : UpdateResult or None
+        The lowest-cost converged run (within ``cost_tol`` when given); None when none converged.
+    solutions : list of Solution
+        The converged runs clustered, most frequent first (ties: lowest cost first).
+    runs : list
+        Every start's result, in start order — an :class:`UpdateResult` (or a
+        :class:`~femupdate.updating.batched.BatchRun` on the compiled route) — or, for a start
+        that failed, the message ``"ErrorType: message"``.
+    starts : numpy.ndarray, shape ``(n_starts, L)``
+        The drawn starting values (physical units), in the order of ``names``.
+    names : tuple of str
+        The updated parameters.
+    total : int
+        The number of starts.
+    converged : int
+        The number of runs that converged (and fit within ``cost_tol``).
+    seed : int or None
+        The seed of the random starts.
+    """
 
     best: UpdateResult | None
     solutions: list[Solution]
