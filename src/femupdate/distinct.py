@@ -16,6 +16,22 @@ def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4) -> lis
     whose representative — its lowest-cost member — it is within ``rel_tol`` of, else founds a
     new one.  One NumPy pass per cluster: the lowest-cost unclaimed point founds the next
     cluster and claims every unclaimed point near it.  Members are listed in increasing cost.
+
+    Parameters
+    ----------
+    points : array_like, shape ``(n_points, L)``
+        The solutions' parameter values.
+    costs : array_like, shape ``(n_points,)``
+        Their costs (the order in which they are taken).
+    rel_tol : float, default 1e-4
+        Point q is near representative p when |q_j − p_j| <= rel_tol |p_j| for every j (a zero
+        entry of p needs an exact match).
+
+    Returns
+    -------
+    list of list of int
+        Indices into ``points``, one list per cluster in order of creation (the first is that of
+        the lowest cost), each led by its representative; empty for no points.
     """
     order = np.argsort(costs)
     P = np.asarray(points, float)[order]
