@@ -56,9 +56,18 @@ FRF_OPTIONS = ("residual", "weights", "lines", "select", "resonance", "resonance
 class Block:
     """One kind of data in a :class:`CombinedProblem`.
 
-    ``kind``: ``"modes"``, ``"frf"`` or ``"static"``; ``label``: how messages name it
-    (``"modes"``, ``"frf"``, ``"static case 2"``); ``problem``: its residuals and Jacobian;
-    ``scale``: the factor its residuals are multiplied by; ``weighting``: why that factor.
+    Attributes
+    ----------
+    kind : {"modes", "frf", "static"}
+        The kind of data.
+    label : str
+        How messages name it (``"modes"``, ``"frf"``, ``"static case 2"``).
+    problem : Problem or FRFProblem
+        Its residuals and Jacobian (a static case: an :class:`FRFProblem` at ω = 0).
+    scale : float
+        The factor its residuals are multiplied by (1, or 1 / RMS of the measured values).
+    weighting : str
+        Why that factor (``"stated std"``, ``"as given"``, ``"divided by the RMS measured ..."``).
     """
 
     kind: str
@@ -70,6 +79,18 @@ class Block:
 
 def data_kinds(data: TestData, use: Sequence[str] = DATA_KINDS) -> tuple[str, ...]:
     """The kinds of data in ``data`` that ``use`` asks for, in :data:`DATA_KINDS` order.
+
+    Parameters
+    ----------
+    data : TestData
+        The test data.
+    use : sequence of str, default :data:`DATA_KINDS`
+        The kinds asked for (``"modes"``, ``"frf"``, ``"static"``).
+
+    Returns
+    -------
+    tuple of str
+        The kinds both asked for and held (modes, FRFs, static cases), never empty.
 
     Raises
     ------
@@ -128,12 +149,29 @@ class CombinedProblem(Parametrisation):
     need: the :class:`~femupdate.updating.Parametrisation` maps, ``residuals(x)`` (the blocks'
     residuals times their scales, stacked in block order) and ``jacobian(x)``.
 
+    Parameters
+    ----------
+    model : Model
+        The model updated.
+    blocks : sequence of Block
+        At least one; the first block's problem gives the updated parameters, parametrisation
+        and start (every block's must be the same).
+    sigma : True or None
+        True when every block's residuals are divided by stated standard deviations (the
+        covariance is then absolute), else None.
+    notes : sequence of str, default ()
+        What the user should know about the weighting and the lines used.
+
     Attributes
     ----------
+    model : Model
     blocks : list of Block
-    sigma : True-ish when every block's residuals are divided by stated standard deviations
-        (the covariance is then absolute), else None.
-    notes : what the user should know about the weighting and the lines used.
+    sigma : True or None
+    notes : list of str
+    rows : numpy.ndarray of int, shape ``(n_blocks + 1,)``
+        Block b's residuals are rows ``rows[b]:rows[b + 1]``.
+    nfev : int
+        Residual evaluations so far.
     """
 
     def __init__(self, model, blocks: Sequence[Block], sigma, notes: Sequence[str] = ()):
@@ -155,6 +193,7 @@ class CombinedProblem(Parametrisation):
 
     @property
     def n_residuals(self) -> int:
+        """m, the length of the stacked residual vector."""
         return int(self.rows[-1])
 
     @property
@@ -172,16 +211,58 @@ class CombinedProblem(Parametrisation):
                 raise NumericalError(f"{b.label}: {exc}") from None
 
     def residuals(self, x) -> np.ndarray:
-        """The stacked residuals (m,) at the variables x."""
+        """The stacked residuals at the variables x: each block's, times its scale.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m,)``
+
+        Raises
+        ------
+        NumericalError
+            A block cannot be evaluated (the message names a non-modal block).
+        """
         self.nfev += 1
         return np.concatenate([b.scale * r for b, r in self._each(x, "residuals")])
 
     def jacobian(self, x) -> np.ndarray:
-        """The stacked exact Jacobian ∂r/∂x (m, L) at x."""
+        """The stacked exact Jacobian ∂r/∂x at x, each block's rows times its scale.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m, L)``
+
+        Raises
+        ------
+        NumericalError
+            As :meth:`residuals`.
+        """
         return np.vstack([b.scale * J for b, J in self._each(x, "jacobian")])
 
     def block_costs(self, r: np.ndarray) -> list[dict]:
-        """Per block {kind, label, n_residuals, scale, weighting, cost} of the residuals r."""
+        """Each block's share of the residuals r.
+
+        Parameters
+        ----------
+        r : numpy.ndarray, shape ``(m,)``
+            Stacked residuals (as :meth:`residuals` returns them).
+
+        Returns
+        -------
+        list of dict
+            Per block, in order: ``kind``, ``label``, ``n_residuals``, ``scale``, ``weighting``
+            and ``cost`` (½‖r_b‖² of its scaled residuals).
+        """
         out = []
         for b, a, z in zip(self.blocks, self.rows[:-1], self.rows[1:]):
             rb = r[a:z]
@@ -200,25 +281,50 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     Parameters
     ----------
     model : Model
+        The model to update.
     data : TestData
-    params, x0, values, parametrisation : as :func:`update`.
-    use : kinds of data to use (:data:`DATA_KINDS`; default all that the data hold).
-    measurement_std : {"eigenvalue": relative std of λ, "shape": std of scaled shape entries,
-        "frf": std of the FRF residual entries (scalar or broadcastable to the response),
-        "static": std of the measured deflections (m; scalar, or one per measured dof of a case
-        when there is one case)}; a block with its standard deviation stated is divided by it.
-    frf_options : options of the FRF block (:data:`FRF_OPTIONS`).
-    regularized : a regularisation will be added (the count of data is not checked).
-    method : the least-squares method (``"trf"``, ``"dogbox"``, ``"lm"``).
-    **modal_options : options of the modal block (:class:`~femupdate.updating.Problem`:
-        ``shape_scaling``, ``ref_dof``, ``weights``, ``min_mac``, ``n_modes``, ``use_shapes``,
-        ``sensitivity``).
+        The test data.
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    use : sequence of str, default :data:`DATA_KINDS`
+        Kinds of data to use (those the data hold; :func:`data_kinds`).
+    x0 : mapping of str to float, optional
+        Starting values {name: value} (default: nominal, or ``values``).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the fixed parameters (default nominal).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+        As :func:`update`.
+    measurement_std : mapping, optional
+        {"eigenvalue": relative std of λ, "shape": std of scaled shape entries, "frf": std of
+        the FRF residual entries (scalar or broadcastable to the response), "static": std of the
+        measured deflections (m; scalar, or an array broadcastable to each case's measured
+        dofs)}; a block with its standard deviation stated is divided by it.
+    frf_options : mapping, optional
+        Options of the FRF block (keys :data:`FRF_OPTIONS`, as :func:`~.frf.frf_update`).
+    regularized : bool, default False
+        A regularisation will be added (the count of data is not checked).
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+        The least-squares method (checked with the FRF block).
+    **modal_options
+        Options of the modal block (:class:`~femupdate.updating.Problem`: ``shape_scaling``,
+        ``ref_dof``, ``weights``, ``min_mac``, ``n_modes``, ``use_shapes``, ``sensitivity``).
+
+    Returns
+    -------
+    CombinedProblem
+        Blocks in :data:`DATA_KINDS` order (one per static case).  In a mix of kinds, a block
+        without a stated standard deviation whose residuals carry units (linear FRF residuals,
+        static deflections) is divided by the RMS of its measured values, with a note.  ``sigma``
+        is True when every block's standard deviation is stated (for modes with shapes: both
+        ``"eigenvalue"`` and ``"shape"`` in a mix).
 
     Raises
     ------
     InputError
-        Unknown kinds, keys or options; data the model cannot be compared with; fewer
-        independent data than parameters (unless ``regularized``).
+        Unknown kinds, keys or options; FRF options without FRF data; data the model cannot be
+        compared with; fewer independent data than parameters (unless ``regularized``).
+    NumericalError
+        As :class:`~femupdate.updating.Problem` (a test shape with a zero scaling entry).
     """
     kinds = data_kinds(data, use)
     std = _split_std(measurement_std)
@@ -315,34 +421,56 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     Parameters
     ----------
     model : Model
+        The model to update.
     data : TestData
         Measured modes (shapes may be partial: any subset of model dofs, any scaling), FRFs at
         any dofs, static load cases with deflections at any dofs.
-    params : names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : starting values {name: value} (default: the model's nominal values).
-    use : the kinds of data to use (default ``("modes", "frf", "static")``: all the data hold).
-    shape_scaling : ``"unit"`` | ``"ref"`` | ``"max"``; ``ref_dof`` for ``"ref"`` (default: the
-        first measured dof of each mode, the paper's eq. 33 convention).
-    weights : modal weights {"eigenvalue": w or per-mode array, "shape": w}.
-    measurement_std : standard deviations by kind (:func:`combined_problem`): {"eigenvalue":
-        relative std of λ, "shape": std of scaled shape entries, "frf": std of the FRF residual
-        entries, "static": std of the deflections (m)}; the residuals are divided by them, and
-        when every kind used has one the covariance is absolute, not scaled by the residual.
-    min_mac : pairing threshold of the modes.
-    n_modes : model modes computed and paired among (default ``max(2T, T + 6)``).
-    parametrisation : ``"relative"`` (x = p / p_start, default), ``"log"`` (x = log p) or ``"absolute"``.
-    method : ``"trf"`` | ``"dogbox"`` | ``"lm"`` (Levenberg–Marquardt; no bounds).
-    max_nfev, ftol, xtol, gtol : limits and tolerances of :func:`scipy.optimize.least_squares`.
-    use_shapes : False: frequencies only.
-    regularization : None, a Tikhonov factor α, or ``"gcv"`` / ``"lcurve"`` to choose it at the
-        start; the residual is augmented with α (x − x_start).
-    values : values of the fixed parameters (default nominal).
-    sensitivity : derivative route of the modal Jacobian (:func:`femupdate.sensitivity.jacobian`):
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : mapping of str to float, optional
+        Starting values {name: value} (default: the model's nominal values).
+    use : sequence of str, default ``("modes", "frf", "static")``
+        The kinds of data to use (of those the data hold).
+    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
+        Scaling of the compared shapes (:class:`~femupdate.updating.Problem`).
+    ref_dof : str, optional
+        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode, the
+        paper's eq. 33 convention).
+    weights : mapping, optional
+        Modal weights {"eigenvalue": w or per-mode array, "shape": w or per-mode array}.
+    measurement_std : mapping, optional
+        Standard deviations by kind (:func:`combined_problem`): {"eigenvalue": relative std of
+        λ, "shape": std of scaled shape entries, "frf": std of the FRF residual entries,
+        "static": std of the deflections (m)}; the residuals are divided by them, and the
+        covariance is absolute, not scaled by the residual, when every kind used has one (modes
+        alone: any stated key; modes with shapes in a mix: both ``"eigenvalue"`` and ``"shape"``).
+    min_mac : float, default 0.5
+        Pairing threshold of the modes.
+    n_modes : int, optional
+        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+        ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
+    max_nfev : int, default 200
+        Largest number of residual evaluations of :func:`scipy.optimize.least_squares`.
+    ftol, xtol, gtol : float, default 1e-10
+        Tolerances of :func:`scipy.optimize.least_squares`.
+    use_shapes : bool, default True
+        False: frequencies only.
+    regularization : float, {"gcv", "lcurve"} or None, default None
+        A Tikhonov factor α, or the rule choosing it at the start; the residual is augmented
+        with α (x − x_start).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the fixed parameters (default nominal).
+    sensitivity : str, default ``"auto"``
+        Derivative route of the modal Jacobian (:func:`femupdate.sensitivity.jacobian`):
         ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint or subspace series), ``"nelson"``,
         ``"modal"``, ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
-    frf_options : options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update`
-        takes them: ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``,
-        ``lines``, ``select``, ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
+    frf_options : mapping, optional
+        Options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update` takes them:
+        ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``,
+        ``select``, ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
 
     Returns
     -------
@@ -357,8 +485,10 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     Raises
     ------
     InputError
-        Bad options or data (named); :class:`~femupdate.NumericalError` when the model cannot
-        be evaluated (unpaired modes, a singular stiffness for static data, ...).
+        Bad options or data (named).
+    NumericalError
+        The model cannot be evaluated (unpaired modes, a singular stiffness for static data,
+        ...) or the solver failed.
     """
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
@@ -389,7 +519,36 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
 
 def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=None, reg=None) -> UpdateResult:
     """The result of ``prob`` at the variables x (:func:`~femupdate.updating.result_at` for a
-    :class:`CombinedProblem`)."""
+    :class:`CombinedProblem`).
+
+    Parameters
+    ----------
+    prob : CombinedProblem
+        The problem.
+    data : TestData
+        Its test data (the FRF data for ``frac``; the modes for the pairing when there is no
+        modal block).
+    x : array_like, shape ``(L,)``
+        The optimiser's variables.
+    sol : scipy.optimize.OptimizeResult, optional
+        Convergence figures; None: a plain evaluation (``success`` False, one evaluation).
+    history : list of dict, optional
+        The iteration history (:func:`~femupdate.updating.solve`).
+    reg : dict, optional
+        The regularisation used.
+
+    Returns
+    -------
+    UpdateResult
+        An :class:`~femupdate.updating.frf.FRFUpdateResult` when an FRF block is used (its FRF
+        fields from that block); ``blocks`` and ``notes`` filled; ``sensitivity`` the routes of
+        the blocks joined by ``" + "``.
+
+    Raises
+    ------
+    NumericalError
+        A block cannot be evaluated at x.
+    """
     model = prob.model
     r = prob.residuals(x)
     J = prob.jacobian(x)
