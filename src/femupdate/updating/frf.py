@@ -16,8 +16,8 @@ regularisation and :class:`~femupdate.updating.UpdateResult` / diagnostics as mo
 
 Lines are chosen with ``lines`` (indices) or ``select`` (the best-conditioned N lines,
 :func:`femupdate.frf.selection.select_frequencies`); lines within ``resonance_tol`` of a
-resonance of the starting model are skipped (``resonance="skip"``, named in ``notes``),
-refused (``"error"``) or kept (``"keep"``).
+resonance of the nominal model (at ``values``, not ``x0``: the same lines for every start) are
+skipped (``resonance="skip"``, named in ``notes``), refused (``"error"``) or kept (``"keep"``).
 """
 
 from __future__ import annotations
@@ -48,11 +48,21 @@ RESONANCE_POLICIES = ("skip", "error", "keep")
 
 @dataclass(frozen=True, eq=False)
 class FRFUpdateResult(UpdateResult):
-    """:class:`~femupdate.updating.UpdateResult` of an FRF update, plus
+    """:class:`~femupdate.updating.UpdateResult` of an FRF update, plus the FRF fields.
 
-    ``omega`` (the lines used, rad/s), ``skipped`` ([{line, omega_rad_s, reason}]), ``residual``
-    (its form), ``frac`` ({dof: FRAC of test vs updated model}), ``natural_frequencies_hz`` of the
-    updated model (lowest ten).
+    Attributes
+    ----------
+    omega : numpy.ndarray, shape ``(n_lines_used,)``
+        The lines used (rad/s).
+    skipped : list of dict
+        Lines left out near a resonance: ``{"line" (1-based), "omega_rad_s", "reason"}``.
+    residual : str
+        The residual's form (``"linear"``, ``"relative"``, ``"log"``).
+    frac : dict of str to float
+        {dof: FRAC of the test vs the updated model's responses over the lines used}, in [0, 1]
+        (NaN where a response is zero).
+    natural_frequencies_hz : numpy.ndarray, shape ``(<= 10,)``
+        The lowest natural frequencies of the updated model (Hz), at most ten.
     """
 
     omega: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -114,6 +124,52 @@ class FRFProblem(Parametrisation):
     Brandon's eq. 32.  A static load case is the same problem at ω = 0 (undamped: Z = K).
     Built by :func:`prepare_problem` (FRF data, with the checks and the choice of lines) or
     directly (static cases, :mod:`femupdate.updating.combined`).
+
+    Parameters
+    ----------
+    model : Model
+        The model updated.
+    frf : FRFData
+        Measured responses ``response`` (n_lines, n_dofs) at ``dofs`` to the force vector
+        ``force`` {dof: amplitude} at the lines ``omega`` (rad/s).
+    names : sequence of str
+        The updated parameters.
+    parametrisation : {"relative", "log", "absolute"}
+        See :class:`~femupdate.updating.Parametrisation`.
+    p_base : array_like, shape ``(n_parameters,)``
+        The full parameter vector at the start.
+    residual : {"linear", "relative", "log"}
+        Form of the residuals (:mod:`femupdate.frf.residuals`).
+    weights : None or array_like
+        Broadcastable to ``frf.response`` (all its lines); None: 1.
+    lines : array_like of int
+        Indices into ``frf.omega`` of the lines used.
+    damping : Damping
+        Damping of the model (undamped with a real force: real responses and residuals).
+    solver : {"auto", "dense", "sparse"}
+        Solver of the line systems.
+
+    Attributes
+    ----------
+    kind : str
+        The residual form.
+    omega : numpy.ndarray, shape ``(n_l,)``
+        The lines used (rad/s).
+    S : numpy.ndarray of int, shape ``(n_s,)``
+        Model indices of the measured dofs.
+    f : numpy.ndarray, shape ``(n_dofs,)``
+        The force vector.
+    xe : numpy.ndarray, shape ``(n_l, n_s)``
+        The measured responses at the lines used (real parts when the model's are real).
+    skipped : list of dict
+        Lines left out (set by the caller that chose them).
+    nfev : int
+        Residual evaluations so far.
+
+    Raises
+    ------
+    InputError
+        An unknown residual form or parametrisation; force or response dofs the model lacks.
     """
 
     def __init__(self, model, frf: FRFData, names, parametrisation, p_base, residual, weights, lines, damping, solver):
@@ -149,10 +205,48 @@ class FRFProblem(Parametrisation):
         return self.cache
 
     def responses(self, x) -> np.ndarray:
+        """The model's responses to the force at the measured dofs, x = Z(ω)⁻¹ f (paper eq. 32).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_l, n_s)``
+            Real when undamped with a real force, else complex; the units of the measured
+            responses.
+
+        Raises
+        ------
+        NumericalError
+            A line at which the dynamic stiffness is singular.
+        """
         _, _, X = self._evaluate(x)
         return X[:, self.S, 0]
 
     def residuals(self, x):
+        """The residuals at x (``"linear"`` eq. 34, ``"relative"`` or ``"log"``), times the weights.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m,)``
+            Line-major over (line, dof): m = n_l n_s when real (and always for ``"log"``); for
+            complex responses m = 2 n_l n_s, the real parts of every line first, then the
+            imaginary parts.
+
+        Raises
+        ------
+        NumericalError
+            Non-finite residuals (a line on a resonance of the model at x), or a singular
+            dynamic stiffness.
+        """
         self.nfev += 1
         r = R.values(self.responses(x), self.target, self.w, self.kind).ravel()
         if not np.all(np.isfinite(r)):
@@ -160,6 +254,24 @@ class FRFProblem(Parametrisation):
         return r
 
     def jacobian(self, x):
+        """The exact Jacobian ∂r/∂x at x: eq. 31's sensitivity matrix from Brandon's eq. 32,
+        ∂x_S/∂p_j = −Y_Sᵀ (c_K K_j + c_M M_j) x for every parameter at once.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The optimiser's variables.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m, L)``
+            Rows in the order of :meth:`residuals`.
+
+        Raises
+        ------
+        NumericalError
+            A singular dynamic stiffness at a line.
+        """
         _, sys_, X = self._evaluate(x)
         L = self.idx.size
         # eq. 32 for the force vector: dx_S/dp_j = -Y_S^T (c_K K_j + c_M M_j) x, every j at once
@@ -227,26 +339,48 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     Parameters
     ----------
     model : Model
-    data : TestData with ``frf``, or FRFData: responses at any subset of dofs to one force vector.
-    params : names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : starting values {name: value} (default: the model's values).
-    residual : ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (log-magnitude).
-    weights : array broadcastable to (n_lines, n_dofs) of the data, multiplying the residuals.
-    measurement_std : standard deviation of the residual entries (scalar or broadcastable array);
-        the residuals are divided by it and the covariance is absolute.
-    lines : indices (0-based) or a boolean mask of the data's lines to use (default all).
-    select : choose this many of the lines by conditioning of the sensitivity matrix.
-    resonance : ``"skip"`` | ``"error"`` | ``"keep"`` for lines within ``resonance_tol`` (relative
-        eigenvalue distance) of a resonance of the model at ``values`` (the nominal model: the
-        same lines for every start of a multi-start study).
-    damping : :class:`~femupdate.frf.Damping` of the model (default undamped: real responses).
-    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values :
-        as in :func:`femupdate.updating.update`.
-    solver : ``"auto"`` | ``"dense"`` | ``"sparse"`` for the line solves.
+        The model to update.
+    data : TestData or FRFData
+        Test data with ``frf``, or FRF data: responses at any subset of dofs to one force vector.
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : mapping of str to float, optional
+        Starting values {name: value} (default: the model's values, or ``values``).
+    residual : {"linear", "relative", "log"}, default ``"linear"``
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (log-magnitude).
+    weights : array_like, optional
+        Broadcastable to the data's (n_lines, n_dofs), multiplying the residuals.
+    measurement_std : float or array_like, optional
+        Standard deviation of the residual entries (scalar or broadcastable array); the
+        residuals are divided by it and the covariance is absolute.
+    lines : array_like of int or bool, optional
+        Indices (0-based) or a boolean mask of the data's lines to use (default all).
+    select : int, optional
+        Choose this many of the lines by conditioning of the sensitivity matrix.
+    resonance : {"skip", "error", "keep"}, default ``"skip"``
+        What to do with lines within ``resonance_tol`` of a resonance of the model at ``values``
+        (the nominal model: the same lines for every start of a multi-start study).
+    resonance_tol : float, default 1e-3
+        Relative eigenvalue distance within which a line is near a resonance.
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` of the model, or ``{alpha, beta, eta}`` (default
+        undamped: real responses).
+    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values
+        As in :func:`femupdate.updating.update`.
+    solver : {"auto", "dense", "sparse"}, default ``"auto"``
+        Solver of the line systems.
 
     Returns
     -------
     FRFUpdateResult
+        ``pairs`` and the frequencies of the pairs only when the test data hold modes too.
+
+    Raises
+    ------
+    InputError
+        As :func:`prepare_problem`, or a start outside the bounds.
+    NumericalError
+        A line on a resonance of the model during the iteration, or the solver failed.
     """
     prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
                                            resonance, resonance_tol, damping, parametrisation, values, solver,
@@ -275,7 +409,50 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
 
 def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
              damping, parametrisation, values, solver, regularized, method="trf"):
-    """Checks, line choice and the :class:`FRFProblem` (shared by local and global FRF updating)."""
+    """Checks, line choice and the :class:`FRFProblem` (shared by local and global FRF updating).
+
+    Parameters
+    ----------
+    model : Model
+        The model to update.
+    data : TestData or FRFData
+        The FRF data (:func:`frf_data`).
+    params : sequence of str or None
+        The updated parameters (None: every parameter not ``fixed``).
+    x0 : mapping of str to float or None
+        Starting values.
+    residual, weights, measurement_std, lines, select, resonance, resonance_tol, damping
+        As :func:`frf_update`.
+    parametrisation : {"relative", "log", "absolute"}
+        The parametrisation.
+    values : None, mapping of str to float, or array_like
+        Values of the fixed parameters; the nominal model for the resonance check and ``select``.
+    solver : {"auto", "dense", "sparse"}
+        Solver of the line systems.
+    regularized : bool
+        A regularisation will be added: fewer residuals than parameters are allowed.
+    method : {"trf", "dogbox", "lm"}, default ``"trf"``
+        Only checked.
+
+    Returns
+    -------
+    prob : FRFProblem
+        The problem on the chosen lines.
+    sigma : numpy.ndarray or None
+        ``measurement_std`` as an array (the weights are divided by it), or None.
+    skipped : list of dict
+        Lines left out near a resonance (``line`` 1-based, ``omega_rad_s``, ``reason``).
+    notes : list of str
+        Lines skipped or selected.
+
+    Raises
+    ------
+    InputError
+        No FRF data; an unknown parametrisation, method, residual form, damping or resonance
+        policy; data the model cannot be compared with; no parameters; a standard deviation
+        not positive and finite; bad ``lines``; a line on a resonance with ``"error"``; no line
+        left; fewer residuals than parameters unless ``regularized``.
+    """
     frf = frf_data(data)
     if parametrisation not in PARAMETRISATIONS:
         raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
@@ -310,8 +487,28 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
 
 def modal_report(model, data, p):
     """Natural frequencies of the model at the parameters p, and its MAC pairing with the measured
-    modes if the test data hold modes (the pairing of :func:`femupdate.correlate`):
-    ``(pairs, test frequencies (Hz), paired model frequencies (Hz), lowest ten natural frequencies (Hz))``."""
+    modes if the test data hold modes (the pairing of :func:`femupdate.correlate`).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    data : TestData or FRFData
+        The test data (pairing only for a TestData with modes).
+    p : array_like, shape ``(n_parameters,)``
+        The full parameter vector.
+
+    Returns
+    -------
+    pairs : list of (int, int, float)
+        ``(test mode, model mode, MAC)``, 0-based; empty without measured modes.
+    test_frequencies_hz : numpy.ndarray
+        The measured modes' frequencies (Hz); empty without modes.
+    model_frequencies_hz : numpy.ndarray
+        The paired model modes' frequencies (Hz), in the order of ``pairs``.
+    natural_frequencies_hz : numpy.ndarray, shape ``(<= 10,)``
+        The model's lowest natural frequencies (Hz), at most ten.
+    """
     from ..modal import DENSE_LIMIT, model_modes
 
     n_modes = None if model.n_dofs <= DENSE_LIMIT else min(10, model.n_dofs - 2)
