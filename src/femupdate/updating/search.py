@@ -45,11 +45,29 @@ _LOCAL_KEYS = ("residual", "weights", "measurement_std", "lines", "select", "res
 
 @dataclass(frozen=True, eq=False)
 class GlobalSearchResult(MultiStartResult):
-    """A :class:`~femupdate.updating.MultiStartResult` (``runs`` are the polished
-    :class:`~femupdate.updating.frf.FRFUpdateResult` of each run, ``starts`` the global optimiser's
-    best point of each run, from which the polish started) plus ``method`` and ``optimizer``:
-    per run {seed, x, cost, nfev, nit, message, minima} (``minima``: the distinct local minima
-    basin hopping visited, clustered, with counts)."""
+    """A :class:`~femupdate.updating.MultiStartResult` of a global search.
+
+    Attributes
+    ----------
+    best, solutions, names, converged
+        As :class:`~femupdate.updating.MultiStartResult` (of the polished runs).
+    runs : list
+        Per run, the polished :class:`~femupdate.updating.frf.FRFUpdateResult`, or the message
+        ``"ErrorType: message"`` of a run that failed.
+    starts : numpy.ndarray, shape ``(runs, L)``
+        The global optimiser's best point of each run (physical units; NaN for a run whose
+        cost could not be set up), from which the polish started (clipped to the bounds).
+    total : int
+        The number of runs.
+    seed : int
+        The first run's seed.
+    method : str
+        The global optimiser.
+    optimizer : list of dict
+        Per run ``{seed, x {name: value}, cost, nfev, nit, message}``, and for basin hopping
+        ``minima``: the distinct local minima it visited, clustered, each
+        ``{parameters, cost, count}`` (only ``{seed}`` for a run that failed to start).
+    """
 
     method: str = ""
     optimizer: list = field(default_factory=list)
@@ -203,19 +221,50 @@ def global_search(model, data, *, method: str = "differential_evolution", params
 
     Parameters
     ----------
-    model, data : as for :func:`femupdate.updating.frf.frf_update` (finite bounds needed).
-    method : ``"differential_evolution"`` (default), ``"basinhopping"`` or ``"dual_annealing"``.
-    params : names of the parameters searched (default every parameter not ``fixed``).
-    runs : independent runs with seeds ``seed .. seed + runs - 1``.
-    scheduler : address of an existing Dask scheduler: the runs go to the cluster.
-    options : passed to the SciPy optimiser (e.g. ``{"popsize": 30, "maxiter": 500}``).
-    global_residual : residual form of the global stage (default ``"log"``: log-magnitudes; the
-        polish uses ``residual``).  On the linear scale the spikes of lines near resonances span
-        tens of decades and mislead population methods; logarithms compress them, with the same
+    model, data
+        As for :func:`femupdate.updating.frf.frf_update` (finite bounds needed).
+    method : {"differential_evolution", "basinhopping", "dual_annealing"}, default ``"differential_evolution"``
+        The SciPy global optimiser (module docstring).
+    params : sequence of str, optional
+        Names of the parameters searched (default every parameter not ``fixed``).
+    runs : int, default 1
+        Independent runs with seeds ``seed .. seed + runs - 1``.
+    seed : int, default 0
+        Seed of the first run.
+    scheduler : str, optional
+        Address of an existing Dask scheduler: the runs go to the cluster (default: locally, one
+        after another).
+    rel_tol : float, default 1e-4
+        Relative tolerance of the clustering of the polished solutions, as in multi-start studies.
+    cost_tol : float, optional
+        Largest cost of a polished solution counted (default: any converged one).
+    options : dict, optional
+        Passed to the SciPy optimiser (e.g. ``{"popsize": 30, "maxiter": 500}``; defaults
+        popsize 50, maxiter 300, tol 1e-10 for differential evolution, niter 60 and stepsize
+        0.25 of the bound widths for basin hopping, maxiter 500 for dual annealing).
+    global_residual : {"log", "linear", "relative"} or None, default ``"log"``
+        Residual form of the global stage (``"log"``: log-magnitudes; the polish uses
+        ``residual``).  On the linear scale the spikes of lines near resonances span tens of
+        decades and mislead population methods; logarithms compress them, with the same
         minimiser for noise-free data.  ``None``: the polish's residual throughout.
-    rel_tol, cost_tol : clustering of the polished solutions, as in multi-start studies.
-    **kwargs : passed to :func:`frf_update` (residual, weights, lines, damping, ...), for the
-        cost and for the polish.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each run.
+    connect_timeout : float, default 10.0
+        Seconds to wait for the Dask scheduler.
+    **kwargs
+        Passed to :func:`~femupdate.updating.frf.frf_update` (``residual``, ``weights``,
+        ``lines``, ``damping``, ...), for the cost and for the polish.
+
+    Returns
+    -------
+    GlobalSearchResult
+
+    Raises
+    ------
+    InputError
+        An unknown method; fewer than one run; no parameters; a searched parameter without
+        finite bounds; an unreachable scheduler.  A run that fails is recorded in ``runs`` as
+        a message, not raised.
     """
     if method not in METHODS:
         raise InputError(f"unknown global method {method!r}: use {', '.join(METHODS)}")
