@@ -34,15 +34,32 @@ def direct_configurations(model: Model, configurations: Sequence[Configuration],
         The baseline (unmodified) model; its values give the known parameters.
     configurations : sequence of Configuration
         Data at *every* dof of each configuration's model.
-    unknowns : names to identify (default every parameter not ``fixed``).
-    values : parameter values of the known parameters (default nominal).
-    use : kinds of data to stack.
-    bounded : honour the parameters' bounds.
+    unknowns : sequence of str, optional
+        Names to identify (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Parameter values of the known parameters (default nominal); each configuration's
+        modification overrides its own.
+    use : sequence of str, default ``("modes", "frf", "static")``
+        Kinds of data to stack.
+    bounded : bool, default False
+        Honour the parameters' bounds (bounded least squares instead of the pseudo-inverse).
 
     Returns
     -------
     MultiConfigResult
-        ``conditioning`` compares each configuration alone with the configurations stacked.
+        ``method`` ``"direct"``; ``success`` whether the least-squares solution is unique;
+        ``conditioning`` compares each configuration alone with the configurations stacked
+        (columns scaled by their norms over all configurations); ``direct`` the
+        :class:`~femupdate.direct.DirectResult`.
+
+    Raises
+    ------
+    InputError
+        Invalid unknowns or configurations (:func:`~.configurations.prepare`); an unknown data
+        kind; a configuration without complete data; an unknown no configuration's data carry
+        information on; fewer equations than unknowns or homogeneous equations.
+    NumericalError
+        The bounded solve failed.
     """
     names = check_unknowns(model, unknowns)
     kinds = set(use)

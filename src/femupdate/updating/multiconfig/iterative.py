@@ -76,11 +76,39 @@ class Stacked(Parametrisation):
             self.subs.append((c.label, prob, cols))
 
     def residual_blocks(self, x):
+        """Per configuration, its residuals r_c at x (each configuration's own unknowns).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The common scaled unknowns.
+
+        Returns
+        -------
+        list of numpy.ndarray, each shape ``(m_c,)``
+            In configuration order (relative eigenvalue errors and scaled shape differences).
+
+        Raises
+        ------
+        NumericalError
+            A configuration's modes cannot be paired, or non-finite residuals.
+        """
         q = self.to_p(x)[self.idx]
         return [prob.residuals(q[cols]) for _, prob, cols in self.subs]
 
     def jacobian_blocks(self, x):
-        """Per configuration, ∂r_c/∂x (rows of configuration c, all unknowns)."""
+        """Per configuration, ∂r_c/∂x (rows of configuration c, all unknowns).
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The common scaled unknowns.
+
+        Returns
+        -------
+        list of numpy.ndarray, each shape ``(m_c, L)``
+            Zero columns for the unknowns a configuration's model lacks.
+        """
         q = self.to_p(x)[self.idx]
         d = self.dp_dx(x)
         out = []
@@ -92,17 +120,54 @@ class Stacked(Parametrisation):
         return out
 
     def residuals(self, x):
+        """The stacked residuals at x.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The common scaled unknowns.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m,)``
+            :meth:`residual_blocks` concatenated, m = Σ m_c.
+        """
         return np.concatenate(self.residual_blocks(x))
 
     def jacobian(self, x):
+        """The stacked Jacobian ∂r/∂x at x.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The common scaled unknowns.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(m, L)``
+            :meth:`jacobian_blocks` stacked.
+        """
         return np.vstack(self.jacobian_blocks(x))
 
     def n_data(self) -> int:
+        """Independent data over all configurations (eigenvalues and scaled shape entries)."""
         return sum(prob.targets.n_independent for _, prob, _ in self.subs)
 
     def normalised_blocks(self, x, blocks=None):
-        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks (``blocks``: the
-        :meth:`jacobian_blocks` at ``x``, if at hand)."""
+        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks.
+
+        Parameters
+        ----------
+        x : array_like, shape ``(L,)``
+            The common scaled unknowns.
+        blocks : list of numpy.ndarray, optional
+            The :meth:`jacobian_blocks` at ``x``, if at hand (else computed).
+
+        Returns
+        -------
+        list of numpy.ndarray, each shape ``(m_c, L)``
+            Column j scaled by |p_j| (1 for a zero value) / (∂p_j/∂x_j).
+        """
         p = self.to_p(x)[self.idx]
         d = self.dp_dx(x)
         w = np.where(p != 0, np.abs(p), 1.0) / d

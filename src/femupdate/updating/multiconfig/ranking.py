@@ -1,8 +1,9 @@
 r"""Pre-test ranking of candidate modifications by the new information they would bring.
 
 Before testing, :func:`rank_modifications` ranks candidate modifications by the new, independent
-information they would bring, from simulated data at the nominal parameters — "pre-test finite-element analysis would be of the utmost value when
-determining optimum structural changes" (the paper).  Its criteria, for the normalised
+information they would bring, from simulated data at the nominal parameters — "pre-test
+finite-element analysis would be of the utmost value when determining optimum structural
+changes" (the paper).  Its criteria, for the normalised
 sensitivity matrices :math:`S_0` (the baseline configuration) and :math:`S_c` (a candidate):
 
 * ``"condition"`` (default): the condition number of :math:`[S_0; S_c]`, the paper's own measure
@@ -44,6 +45,7 @@ class Ranking:
     Attributes
     ----------
     criterion : str
+        The criterion of the ranking (:data:`CRITERIA`).
     baseline : dict
         ``rank``, ``condition_number``, ``min_singular``, ``logdet`` of the baseline alone.
     candidates : list of dict
@@ -51,10 +53,12 @@ class Ranking:
         increase of the smallest singular value, or the factor by which the condition number
         falls), ``rank``, ``condition_number``, ``min_singular``, ``logdet`` of baseline +
         candidate, ``frequency_shift`` (largest relative change of the simulated frequencies
-        from the baseline's) and ``min_mac`` (lowest MAC of a candidate mode with its baseline mode).
+        from the baseline's) and ``min_mac`` (lowest MAC of a candidate mode with the baseline
+        mode of the same order, over the dofs both measure).
     selected : list of str
         With ``select=k``: the k candidates chosen greedily, each the best given the ones before.
     unknowns : tuple of str
+        The unknown parameters.
     """
 
     criterion: str
@@ -100,7 +104,7 @@ def rank_modifications(model: Model, candidates: Sequence[Modification], measure
     """Rank candidate modifications by the new, independent information they would bring.
 
     For the baseline configuration and each candidate, the test is simulated at the nominal
-    parameters (the lowest ``n_modes`` elastic modes at ``measured_dofs``; dofs a candidate
+    parameters (``values``; the lowest ``n_modes`` elastic modes at ``measured_dofs``; dofs a candidate
     supports are left out) and its normalised sensitivity matrix ``S = ∂r/∂(p/|p|)`` is computed
     with the residuals of :func:`update_configurations`.  Each candidate is scored by the
     baseline and the candidate stacked, under ``criterion`` (module docstring).
@@ -108,16 +112,41 @@ def rank_modifications(model: Model, candidates: Sequence[Modification], measure
     Parameters
     ----------
     model : Model
+        The baseline model.
     candidates : sequence of Modification
-    measured_dofs : the planned sensors; n_modes : the modes to be measured in every configuration.
-    baseline : the configuration that will be tested in any case (default the unmodified structure).
-    params : the unknowns (default every parameter not fixed); values : nominal values.
-    criterion : ``"condition"`` | ``"logdet"`` | ``"min_singular"``.
-    select : choose this many candidates greedily (sequential design).
+        The candidate modifications (distinct names, none named as the baseline).
+    measured_dofs : sequence of str
+        The planned sensors.
+    n_modes : int
+        The modes to be measured in every configuration.
+    baseline : Modification, optional
+        The configuration that will be tested in any case (default the unmodified structure).
+    params : sequence of str, optional
+        The unknowns (default every parameter not fixed).
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Nominal values (default the model's).
+    criterion : {"condition", "logdet", "min_singular"}, default ``"condition"``
+        The score (module docstring).
+    select : int, optional
+        Choose this many candidates greedily (sequential design), 1 .. ``len(candidates)``.
+    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
+        Scaling of the shape residuals (:class:`femupdate.updating.Problem`).
+    use_shapes : bool, default True
+        False: frequencies only.
+    sensitivity : str, default ``"auto"``
+        Derivative route of the sensitivities (:func:`femupdate.sensitivity.jacobian`).
 
     Returns
     -------
     Ranking
+        Candidates best first (full rank first, then the criterion).
+
+    Raises
+    ------
+    InputError
+        An unknown criterion; no candidates; a name used twice; ``select`` out of range; and as
+        :func:`~.configurations.check_unknowns`, :func:`~.configurations.simulate` and
+        :func:`~.configurations.prepare`.
     """
     if criterion not in CRITERIA:
         raise InputError(f"unknown criterion {criterion!r}: use {', '.join(CRITERIA)}")

@@ -18,18 +18,23 @@ class MultiConfigResult:
 
     Attributes
     ----------
-    method : ``"direct"`` | ``"iterative"``
+    method : {"direct", "iterative"}
+        The solution used.
     parameters : dict
         Every parameter of the base model: identified for the unknowns, given for the others.
     names : tuple of str
         The unknowns.
-    x : ndarray
-        Their identified values.
+    x : ndarray, shape ``(L,)``
+        Their identified values (physical units).
     success : bool
+        Direct: the least-squares solution is unique; iterative: the solver converged.
     message : str
+        The solver's message (direct: uniqueness, or why not).
     configurations : list of dict
-        Per configuration: ``name``, ``modification`` (text), ``n_data``; direct: ``n_equations``;
-        iterative: ``pairs`` [(test, model, mac)], ``frequencies_hz`` {``test``, ``model``}, ``cost``.
+        Per configuration: ``name``, ``modification`` (text), ``n_data``; direct:
+        ``n_equations``, ``unknowns_seen``, ``dropped`` (parameters its model lost); iterative:
+        ``pairs`` [(test, model, mac)], ``frequencies_hz`` {``test``, ``model``}, ``cost``,
+        ``swaps``.
     conditioning : dict
         ``each``: per configuration alone, ``cumulative``: the configurations added in order, each
         with ``rank``, ``condition_number`` and ``min_singular`` of the column-scaled direct
@@ -37,11 +42,18 @@ class MultiConfigResult:
     standard_error : ndarray
         Of ``x`` (NaN where not estimable).
     direct : DirectResult or None
+        The direct solution (None for the iterative one).
     diagnostics : Diagnostics or None
         Of the iterative solution (the stacked normalised sensitivity matrix).
-    cost, nfev, iterations, history :
-        Of the iterative solution (0 / [] for the direct one).
+    cost, nfev, iterations, history
+        Of the iterative solution: ½‖r‖², residual evaluations, iterations, per iteration
+        {``iteration``, ``cost``, ``parameters``} (0 / [] for the direct one).
     notes : list of str
+        Notes of the direct solution.
+    regularization : dict
+        {``rule``, ``alpha``} when the iterative solution was regularised, else empty.
+    start : dict of str to float
+        The unknowns' starting values of the iterative solution (empty for the direct one).
     """
 
     method: str
