@@ -52,6 +52,13 @@ class FRFUpdateResult(UpdateResult):
 
     Attributes
     ----------
+    parameters, names, x, success, status, message, cost, fun, jac, nfev, njev, iterations
+        As :class:`~femupdate.updating.RunResult` (``fun`` in the layout of :meth:`FRFProblem.residuals`).
+    history, pairs, test_frequencies_hz, model_frequencies_hz, swaps, diagnostics, regularization
+        As :class:`~femupdate.updating.UpdateResult` (``swaps`` empty from :func:`frf_update`).
+    start, sensitivity, blocks, notes
+        As :class:`~femupdate.updating.UpdateResult` (``sensitivity`` ``"brandon"`` from
+        :func:`frf_update`; ``notes``: lines skipped or selected).
     omega : numpy.ndarray, shape ``(n_lines_used,)``
         The lines used (rad/s).
     skipped : list of dict
