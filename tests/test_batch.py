@@ -321,8 +321,8 @@ def test_dispatch_and_options():
     assert all(isinstance(r, UpdateResult) for r in auto.runs)
     with pytest.raises(InputError, match="trf only"):
         multistart(model, data, starts=3, seed=1, method="dogbox", batched=True)
-    with pytest.raises(InputError, match="locally"):
-        multistart(model, data, starts=3, seed=1, batched=True, scheduler="tcp://127.0.0.1:9")
+    with pytest.raises(InputError, match="cannot reach"):  # batched with a scheduler: chunks on its workers
+        multistart(model, data, starts=3, seed=1, batched=True, scheduler="tcp://127.0.0.1:9", connect_timeout=0.5)
     # update() would refuse every start alike (underdetermined): every run carries the message
     ms = multistart(chain(K6, M6, bounds=(100.0, 5000.0)), measured(chain(K6, M6), ["1:x"], 3), starts=2, seed=0)
     assert ms.best is None and all(isinstance(r, str) and "underdetermined" in r for r in ms.runs)

@@ -95,7 +95,7 @@ def test_direct_from_files(tmp_path, capsys):
     (["direct", "{model}", "{dir}/short.json"], 2, "no complete data"),
     (["paper", "--out", "{dir}/p", "--section", "nope"], 2, "unknown section"),
     (["frobnicate"], 2, "No such command"),
-    (["modes", "{model}", "--json", "{model}/cannot/write.json"], 2, "Not a directory"),
+    (["modes", "{model}", "--json", "{model}/cannot/write.json"], 2, "is a file, not a folder"),
 ])
 def test_bad_input_exit_2_without_traceback(tmp_path, two_dof_file, capsys, args, code, fragment):
     (tmp_path / "partial.json").write_text(json.dumps({"modes": [{"eigenvalue": 1.0, "shape": {"1:x": 1.0}}]}))

@@ -312,6 +312,55 @@ def test_checkpoint_resume_after_interruption(small_study, small_result, tmp_pat
         run_study(st, checkpoint=ck)
 
 
+def _tamper(doc, unit, edit, redigest):
+    from femupdate.uniqueness.checkpoint import digest
+
+    edit(doc["units"][unit])
+    if redigest:  # an edit that also fixes the digest: only the layout check can catch it
+        doc["digests"][unit] = digest(doc["units"][unit])
+    return doc
+
+
+@pytest.mark.parametrize("edit, redigest, match", [
+    (lambda u: u[0]["cost"].__setitem__(0, 123.0), False, "does not match its digest"),
+    (lambda u: u[0].pop("status"), True, "lacks status"),
+    (lambda u: u[0].__setitem__("nfev", ["7"] * len(u[0]["nfev"])), True, "must be integers"),
+    (lambda u: u[0]["x"].__setitem__(0, [1.0]), True, "numbers per start"),
+    (lambda u: u[0].__setitem__("case", 99), True, "the study's is case"),
+    (lambda u: u[0]["cost"].pop(), True, "one per start"),
+    (lambda u: u.clear(), True, "pieces recorded"),
+])
+def test_checkpoint_units_are_checked_one_by_one(small_study, tmp_path, edit, redigest, match):
+    st = define_study(small_study.model, small_study.cases, starts=16, seed=7, unit_rows=32)
+    ck = tmp_path / "study.checkpoint.json"
+    run_study(st, checkpoint=ck)
+    doc = json.loads(ck.read_text())
+    assert doc["version"] == 2 and sorted(doc["digests"]) == sorted(doc["units"])
+    ck.write_text(json.dumps(_tamper(doc, "0", edit, redigest)))
+    with pytest.raises(InputError, match=f"unit 0: .*{match}"):
+        run_study(st, checkpoint=ck)
+
+
+def test_checkpoint_unknown_unit_and_version_1_files(small_study, small_result, tmp_path):
+    st = define_study(small_study.model, small_study.cases, starts=16, seed=7, unit_rows=32)
+    ck = tmp_path / "study.checkpoint.json"
+    reference = run_study(st, checkpoint=ck)
+    doc = json.loads(ck.read_text())
+    extra = dict(doc, units=dict(doc["units"], **{"999": doc["units"]["0"]}),
+                 digests=dict(doc["digests"], **{"999": doc["digests"]["0"]}))
+    ck.write_text(json.dumps(extra))
+    with pytest.raises(InputError, match="unit 999: the study has"):
+        run_study(st, checkpoint=ck)
+    v1 = {k: v for k, v in doc.items() if k != "digests"} | {"version": 1}  # written by the previous version
+    ck.write_text(json.dumps(v1))
+    resumed = run_study(st, checkpoint=ck)
+    assert resumed.units_computed == 0
+    assert json.dumps(resumed.to_dict()["cases"], default=str) == json.dumps(reference.to_dict()["cases"], default=str)
+    ck.write_text(json.dumps(dict(doc, version=3)))
+    with pytest.raises(InputError, match="format version 3"):
+        run_study(st, checkpoint=ck)
+
+
 @pytest.mark.parametrize("kwargs, match", [
     (dict(cases=[(("9:x",), 1)]), "9:x"),
     (dict(cases=[(first(2), 7)]), "7 modes"),

@@ -213,9 +213,51 @@ def test_multistart_on_a_dask_cluster_matches_local():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
         remote = multistart(model, data, starts=12, seed=11, scheduler=cluster.scheduler_address)
-    assert [(s.count, round(s.parameters["k1"], 8)) for s in remote.solutions] == \
-        [(s.count, round(s.parameters["k1"], 8)) for s in local.solutions]
+    # the same route (compiled, in chunks on the workers): bit for bit the same runs and best result
+    assert [(s.count, s.parameters, s.cost) for s in remote.solutions] == \
+        [(s.count, s.parameters, s.cost) for s in local.solutions]
     np.testing.assert_array_equal(remote.starts, local.starts)
+    for a, b in zip(remote.runs, local.runs):
+        assert type(a) is type(b) and (isinstance(a, str) and a == b or (np.array_equal(a.x, b.x) and a.nfev == b.nfev))
+    np.testing.assert_array_equal(remote.best.x, local.best.x)
+    assert remote.best.cost == local.best.cost
+
+
+def test_a_scheduler_without_workers_is_refused_in_bounded_time():
+    distributed = pytest.importorskip("distributed")
+    import time
+
+    model = two_dof()
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        t0 = time.monotonic()
+        with pytest.raises(InputError, match="has no workers"):
+            multistart(model, measured(model, ["1:x"], 2), starts=4, scheduler=cluster.scheduler_address,
+                       connect_timeout=1.0)
+        assert time.monotonic() - t0 < 30
+
+
+def test_a_scheduler_lost_mid_run_ends_with_one_message():
+    distributed = pytest.importorskip("distributed")
+    from femupdate.dask_cluster import ClusterError
+
+    model = two_dof()
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        def progress(done, total):
+            if done == 1:
+                cluster.close()  # the scheduler goes away with the first result back
+
+        with pytest.raises(ClusterError, match="lost the Dask scheduler at tcp://127.0.0.1.*1 of 6 tasks"):
+            multistart(model, measured(model, ["1:x"], 2), starts=6, scheduler=cluster.scheduler_address,
+                       batched=False, progress=progress)
+
+
+def test_a_scheduler_address_with_an_unknown_scheme_is_input_error():
+    pytest.importorskip("distributed")
+    model = two_dof()
+    with pytest.raises(InputError, match="not a scheduler address"):
+        multistart(model, measured(model, ["1:x"], 2), starts=2, scheduler="foo://127.0.0.1:1", connect_timeout=1.0)
 
 
 def test_unreachable_scheduler_is_input_error():

@@ -39,7 +39,7 @@ _LAZY = {
     "FRFData": "testdata", "MeasuredMode": "testdata", "StaticData": "testdata", "TestData": "testdata",
     # files
     "load_model": "io.model_file", "load_test_data": "io.testdata_json", "read_uff": "io.uff",
-    "write_json": "io.results",
+    "write_json": "io.results", "ClusterError": "dask_cluster",
     # sensitivities
     "jacobian": "sensitivity.jacobian",
     # updating
@@ -71,6 +71,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .correlation import Correlation, correlate, mac
+    from .dask_cluster import ClusterError
     from .damage import detect_damage
     from .direct import DirectResult, direct_update
     from .frf import simulate as simulate_frf  # type: ignore[no-redef]  # frf.simulate is also a module

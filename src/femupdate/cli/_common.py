@@ -10,6 +10,7 @@ inside the functions that need them.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import click
 import numpy as np
@@ -82,8 +83,47 @@ def fmt(v: float) -> str:
     return f"{v:.6g}"
 
 
-json_option = click.option("--json", "json_path", metavar="PATH", default=None,
+class OutputPath(click.ParamType):
+    """A path the command will write — a file (``"-"``: standard output where ``dash``) or a
+    folder — checked when the command line is read, before any computation
+    (:func:`femupdate.io.results.check_output`): a folder given for a file, a file for a folder, or
+    a place that cannot be written is refused at once, naming the option."""
+
+    name = "path"
+
+    def __init__(self, kind: str = "file", dash: bool = False):
+        self.kind = kind
+        self.dash = dash
+
+    def convert(self, value, param, ctx):
+        from ..io.results import check_output
+
+        if value is None or isinstance(value, Path):
+            text = value
+        else:
+            text = str(value)
+        if text is None:
+            return None
+        if str(text) == "-":
+            if self.dash:
+                return "-"
+            self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
+        what = param.opts[0] if param is not None and param.opts else "output"
+        try:
+            check_output(text, what, self.kind)
+        except FemupdateError as exc:
+            self.fail(str(exc).removeprefix(f"{what} "), param, ctx)
+        return Path(text)
+
+
+OUTPUT_FILE = OutputPath("file")
+OUTPUT_DIR = OutputPath("dir")
+
+json_option = click.option("--json", "json_path", metavar="PATH", default=None, type=OutputPath("file", dash=True),
                            help="Write the machine-readable result to PATH ('-' = stdout).")
+connect_timeout_option = click.option(
+    "--connect-timeout", type=click.FloatRange(min=0, min_open=True, max=1e6), default=10.0, show_default=True,
+    help="Seconds to wait for the Dask scheduler and its first worker (and how long a run may go without workers).")
 set_option = click.option("--set", "set_text", metavar="NAME=VALUE,...", default=None,
                           help="Evaluate the model at other parameter values.")
 
@@ -178,6 +218,9 @@ def update_parameter_table(res, title: str) -> Table:
 # ---------------------------------------------------------------------------------- entry point
 def run(group: click.Group, argv=None) -> None:
     """Run ``group``, turning femupdate errors into one message and an exit code."""
+    from .. import dask_cluster
+
+    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
     try:
         rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
     except click.exceptions.Abort:

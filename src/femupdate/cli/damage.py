@@ -18,7 +18,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
+from ._common import OUTPUT_FILE, Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -272,7 +272,7 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
               help="Direct equations projected onto the measured shapes, or pointwise (paper eqs. 4-10).")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds.")
-@click.option("--write-data", "data_out", type=_path, default=None, help="Also write the completed test data (JSON).")
+@click.option("--write-data", "data_out", type=OUTPUT_FILE, default=None, help="Also write the completed test data (JSON).")
 @set_option
 @json_option
 def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, set_text, json_path):

@@ -9,11 +9,11 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import Ctx, correlation_table, direct_payload, emit, fmt, json_option
+from ._common import OUTPUT_DIR, Ctx, correlation_table, direct_payload, emit, fmt, json_option
 
 
 @click.command()
-@click.option("--write-files", "write_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--write-files", "write_dir", type=OUTPUT_DIR, default=None,
               help="Also write the example models and test data of every command to this folder (see README).")
 @json_option
 def demo(write_dir, json_path):

@@ -9,7 +9,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values, set_option
+from ._common import OUTPUT_FILE, Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values, set_option
 
 
 def _correlation_rows(data, model, values):
@@ -28,7 +28,7 @@ def _correlation_rows(data, model, values):
 @click.option("--use", default="modes,frf,static", show_default=True, help="Kinds of data to use.")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (bounded least squares).")
-@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Write the updated model's modes as universal file datasets 55.")
 @set_option
 @json_option

@@ -11,7 +11,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+from ._common import (OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
                       update_parameter_table, update_payload)
 
 
@@ -129,9 +129,9 @@ def frf_fields(res) -> dict:
 @click.option("--noise", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
 @click.option("--noise-kind", type=click.Choice(["relative", "absolute", "coherent"]), default="relative", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
-@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Also write the receptances as universal file datasets 58.")
-@click.option("--test-data", "data_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--test-data", "data_path", type=OUTPUT_FILE, default=None,
               help="Also write them as test-data JSON (the 'frf' object), ready for frf-update.")
 @set_option
 @json_option
@@ -206,6 +206,7 @@ def _frf_payload(model, data, res, ms, extra=None):
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
+@connect_timeout_option
 @click.option("--global", "global_method", type=click.Choice(["differential_evolution", "basinhopping", "dual_annealing"]),
               default=None, help="Global search within the bounds, then a local polish.")
 @click.option("--runs", type=click.IntRange(min=1), default=1, show_default=True, help="Independent global runs.")
@@ -217,11 +218,11 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--std", type=click.FloatRange(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
-@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
 @set_option
 @json_option
-def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, global_method, runs, global_residual,
+def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, connect_timeout, global_method, runs, global_residual,
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
                        reg_text, max_nfev, std, plot_dir, set_text, json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
@@ -247,7 +248,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         glob = {k: v for k, v in kw.items() if k != "method"}
         with ctx.console.status("global search", spinner="dots") if ctx.console.is_terminal else nullcontext():
             ms = global_search(model, data, method=global_method, params=params, runs=runs, seed=seed,
-                               scheduler=scheduler, global_residual=global_residual, **glob)
+                               scheduler=scheduler, connect_timeout=connect_timeout, global_residual=global_residual, **glob)
         extra["global"] = {"method": global_method, "runs": runs, "residual": global_residual, "optimizer": ms.optimizer}
     elif starts > 1 or scheduler:
         from rich.progress import Progress
@@ -255,6 +256,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         with Progress(console=ctx.console, transient=True, disable=json_path == "-" or not ctx.console.is_terminal) as bar:
             task = bar.add_task("starts", total=starts)
             ms = frf_multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
+                                connect_timeout=connect_timeout,
                                 progress=lambda done, total: bar.update(task, completed=done), **kw)
     if ms is not None and ms.best is None:
         emit(ctx, {"model": model.name, "success": False, "starts": {
@@ -349,7 +351,7 @@ def _range(text: str, what: str) -> np.ndarray:
 @click.option("--ref-dof", default=None, help="Modal: scale shapes to 1 here (default first measured dof).")
 @damping_option
 @click.option("--truth", "truth_text", default=None, metavar="P1=V1,P2=V2", help="Mark the true solution.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--plot", "plot_path", type=OUTPUT_FILE, default=None,
               help="Write the surface and contour figure (PNG).")
 @set_option
 @json_option

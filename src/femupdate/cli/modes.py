@@ -8,7 +8,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import Ctx, correlation_table, emit, fmt, json_option, model_values, set_option
+from ._common import OUTPUT_FILE, Ctx, correlation_table, emit, fmt, json_option, model_values, set_option
 
 
 # ---------------------------------------------------------------------------------- modes
@@ -18,7 +18,7 @@ from ._common import Ctx, correlation_table, emit, fmt, json_option, model_value
 @click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
               help="mass | unit | max | ref:<dof>")
 @click.option("--method", type=click.Choice(["auto", "dense", "sparse"]), default="auto", show_default=True)
-@click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Also write the modes as universal file datasets 55 (with nodes 2411).")
 @set_option
 @json_option

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import Ctx, emit, json_option
+from ._common import OUTPUT_DIR, Ctx, emit, json_option
 
 
 @click.command()
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
+@click.option("--out", "out_dir", required=True, type=OUTPUT_DIR,
               help="Folder for paper.json and the figures.")
 @click.option("--section", "sections", multiple=True, help="Only these sections (repeatable).")
 @click.option("--no-figures", is_flag=True, help="Skip the figures.")

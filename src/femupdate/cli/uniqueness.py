@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import Ctx, emit, json_option, model_values, set_option
+from ._common import OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, emit, json_option, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -53,14 +53,13 @@ def _exact_for(model, names, case, truth):
 @click.option("--starts", type=click.IntRange(min=1), default=100, show_default=True, help="Random starts per case.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random starts (and noise).")
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run on an existing Dask cluster (tcp://host:port).")
-@click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
-              help="Seconds to wait for the Dask scheduler.")
+@connect_timeout_option
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Start a local Dask cluster of N worker processes (default: run in this process).")
 @click.option("--params", "params_text", default=None, help="Unknown parameters (default: all not fixed).")
 @click.option("--noise", "noise_text", default=None, metavar="LIST",
               help="Relative noise levels to study as well, e.g. 0.001,0.01.")
-@click.option("--checkpoint", "checkpoint_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--checkpoint", "checkpoint_path", type=OUTPUT_FILE, default=None,
               help="Checkpoint file (default: next to the --json output; none with --json - or without --json).")
 @click.option("--unit-rows", type=click.IntRange(min=1), default=4096, show_default=True,
               help="Rows (case x start) solved together per work unit: one checkpoint step, one Dask task "
@@ -73,7 +72,7 @@ def _exact_for(model, names, case, truth):
               help="A converged start reproduces the data when its cost is at most this.")
 @click.option("--log-uniform", is_flag=True, help="Draw the starts log-uniformly within the bounds.")
 @click.option("--exact", is_flag=True, help="Also solve single-sensor cases exactly (frequencies only; small models).")
-@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the heat map of the (dof set, modes) table to this folder.")
 @set_option
 @json_option

@@ -10,7 +10,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+from ._common import (OUTPUT_DIR, Ctx, connect_timeout_option, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -22,6 +22,7 @@ from .frf import frf_fields, frf_line_options, frf_options
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random starts.")
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
+@connect_timeout_option
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
 @click.option("--ref-dof", default=None, help="Reference dof for --shape-scaling ref (default: first measured dof).")
@@ -41,11 +42,11 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.option("--std-frf", type=float, default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
 @click.option("--std-static", type=float, default=None, help="Std of measured static deflections, m (weights them).")
 @frf_line_options
-@click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write convergence and MAC figures to this folder.")
 @set_option
 @json_option
-def update(model_path, data_path, starts, seed, scheduler, params_text, shape_scaling, ref_dof, parametrisation,
+def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
            set_text, json_path):
@@ -81,6 +82,7 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
         with Progress(console=ctx.console, transient=True, disable=json_path == "-" or not ctx.console.is_terminal) as bar:
             task = bar.add_task("starts", total=starts)
             ms = multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
+                            connect_timeout=connect_timeout,
                             progress=lambda done, total: bar.update(task, completed=done), **kw)
         if ms.best is None:
             emit(ctx, {"model": model.name, "success": False, "starts": {"total": ms.total, "converged": 0, "solutions": [],

@@ -72,7 +72,8 @@ def atomic_write_bytes(path, data: bytes) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    remove_stale_temporaries(path)
+    fd, tmp = tempfile.mkstemp(prefix=f"{_temp_prefix(path)}{os.getpid()}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -86,6 +87,105 @@ def atomic_write_bytes(path, data: bytes) -> None:
         except FileNotFoundError:
             pass
         raise
+
+
+def _temp_prefix(path: Path) -> str:
+    return f".{path.name}.femupdate-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    except OSError:
+        return True
+    return True
+
+
+def remove_stale_temporaries(path) -> list[Path]:
+    """Remove the temporary files that killed writers of ``path`` left behind.
+
+    :func:`atomic_write_bytes` writes ``.NAME.femupdate-PID.XXXX.tmp`` beside ``NAME`` and renames
+    it over ``NAME``; a process killed between the two leaves it behind.  Such a file whose
+    writer (PID) is no longer running is removed; the temporary file of a live writer — a
+    concurrent run writing the same file — is left alone.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The destination file whose temporaries are looked for.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files removed.
+    """
+    path = Path(path)
+    prefix = _temp_prefix(path)
+    removed: list[Path] = []
+    try:
+        candidates = [c for c in path.parent.iterdir() if c.name.startswith(prefix) and c.name.endswith(".tmp")]
+    except OSError:
+        return removed
+    for c in candidates:
+        pid_text = c.name[len(prefix):].split(".", 1)[0]
+        if not pid_text.isdigit() or int(pid_text) == os.getpid() or _alive(int(pid_text)):
+            continue  # not ours to judge, this process's own, or a live writer's
+        try:
+            c.unlink()
+            removed.append(c)
+        except OSError:
+            pass
+    return removed
+
+
+def check_output(path, what: str, kind: str = "file") -> Path | None:
+    """Check, before any computation, that an output can be written at ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file (``kind="file"``; ``"-"`` is standard output and always accepted) or a folder
+        (``kind="dir"``, created later if missing).
+    what : str
+        How the user named it (an option such as ``--json``), for the message.
+    kind : ``"file"`` or ``"dir"``
+
+    Returns
+    -------
+    pathlib.Path or None
+        The path (None for ``"-"``).
+
+    Raises
+    ------
+    InputError
+        A file path that is a folder, a folder path that is a file, a parent that is a file, or a
+        place the process may not write in — named, with the option.
+    """
+    from .._errors import InputError
+
+    if kind == "file" and str(path) == "-":
+        return None
+    p = Path(path)
+    if kind == "file" and p.is_dir():
+        raise InputError(f"{what} {p}: is a folder; give a file name")
+    if kind == "dir" and p.exists() and not p.is_dir():
+        raise InputError(f"{what} {p}: is a file; give a folder")
+    if kind == "file" and p.exists() and not os.access(p, os.W_OK):
+        raise InputError(f"{what} {p}: the file is not writable")
+    here = p if kind == "dir" else p.parent
+    while not here.exists():  # the nearest existing folder, where the missing ones would be created
+        if here.parent == here:
+            break
+        here = here.parent
+    if here.exists() and not here.is_dir():
+        raise InputError(f"{what} {p}: {here} is a file, not a folder")
+    if not os.access(here, os.W_OK | os.X_OK):
+        raise InputError(f"{what} {p}: cannot write in {here} (permission denied)")
+    return p
 
 
 def atomic_write_text(path, text: str) -> None:

@@ -6,18 +6,28 @@ the split into work units), a short description, and the raw results of every fi
 is rewritten atomically (:func:`femupdate.io.results.atomic_write_text`) after each unit, so an
 interrupted study — Ctrl-C, a killed process — leaves the last complete version behind.  Floats
 are written with ``repr`` precision, so resumed results are bit-identical to computed ones.
+
+Every unit is checked when the file is read: its SHA-256 digest (written beside it since
+version 2) and its layout — the pieces the study assigns to it (case, noise level, first start),
+one value per start in each list, L values per start in ``x``, numbers where numbers belong.  A
+unit that fails is refused by name: a checkpoint never silently changes a verdict.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
+from collections.abc import Sequence
 from pathlib import Path
 
 from .._errors import InputError
 from ..io.results import atomic_write_text, to_jsonable
 
 FORMAT = "femupdate-uniqueness-checkpoint"
-VERSION = 1
+VERSION = 2
+#: versions this femupdate reads (1: without per-unit digests)
+READABLE = (1, 2)
 
 
 class Checkpoint:
@@ -35,18 +45,27 @@ class Checkpoint:
         The study's key (:meth:`~femupdate.uniqueness.study.Study.key`); an existing file must hold it.
     description : dict
         Short description of the study written into the file.
+    layout : sequence, optional
+        The study's work units (:meth:`~femupdate.uniqueness.study.Study.units`: per unit its
+        pieces ``(case, level, first start, end start)``) and ``n_unknowns`` the number of
+        unknowns: with them every unit read from the file is checked against what the study
+        would compute.
 
     Raises
     ------
     InputError
         An existing file that is unreadable, not a femupdate uniqueness checkpoint, of another
-        format version, of a different study (another key), or with malformed units.
+        format version, of a different study (another key), or with a unit that is malformed,
+        unknown to the study or whose digest does not match its content (named).
     """
 
-    def __init__(self, path, key: str, description: dict):
+    def __init__(self, path, key: str, description: dict, layout: Sequence | None = None,
+                 n_unknowns: int | None = None):
         self.path = Path(path) if path is not None else None
         self.key = key
         self.description = description
+        self.layout = layout
+        self.n_unknowns = n_unknowns
         self.units: dict[int, list] = {}
         if self.path is not None and self.path.exists():
             self._load()
@@ -60,8 +79,10 @@ class Checkpoint:
             raise InputError(f"checkpoint {self.path}: not a readable femupdate checkpoint ({exc})") from None
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise InputError(f"checkpoint {self.path}: not a femupdate uniqueness checkpoint")
-        if doc.get("version") != VERSION:
-            raise InputError(f"checkpoint {self.path}: version {doc.get('version')!r}, this femupdate writes {VERSION}")
+        version = doc.get("version")
+        if version not in READABLE:
+            raise InputError(f"checkpoint {self.path}: format version {version!r}; this femupdate reads "
+                             f"{', '.join(map(str, READABLE))}")
         if doc.get("study") != self.key:
             raise InputError(
                 f"checkpoint {self.path} belongs to a different study (the model, cases, starts, seed, noise levels or "
@@ -69,10 +90,61 @@ class Checkpoint:
         units = doc.get("units")
         if not isinstance(units, dict):
             raise InputError(f"checkpoint {self.path}: 'units' must be an object")
-        try:
-            self.units = {int(k): v for k, v in units.items()}
-        except ValueError:
-            raise InputError(f"checkpoint {self.path}: unit ids must be integers") from None
+        digests = doc.get("digests", {}) if version >= 2 else None
+        if digests is not None and not isinstance(digests, dict):
+            raise InputError(f"checkpoint {self.path}: 'digests' must be an object")
+        for k, v in units.items():
+            if not (isinstance(k, str) and k.isdigit()):
+                raise InputError(f"checkpoint {self.path}: unit id {k!r} is not a non-negative integer")
+            unit = int(k)
+            where = f"checkpoint {self.path}: unit {unit}"
+            if digests is not None and digests.get(k) != digest(v):
+                raise InputError(f"{where}: its content does not match its digest (the file was edited or damaged); "
+                                 "delete the checkpoint, or give another --checkpoint path")
+            problem = self._check_unit(unit, v)
+            if problem:
+                raise InputError(f"{where}: {problem}; delete the checkpoint, or give another --checkpoint path")
+            self.units[unit] = v
+
+    def _check_unit(self, unit: int, value) -> str | None:
+        """Why the recorded ``value`` of ``unit`` cannot be the study's (None when it can)."""
+        if not isinstance(value, list):
+            return "not a list of pieces"
+        if self.layout is None:
+            return None
+        if unit >= len(self.layout):
+            return f"the study has {len(self.layout)} units (0 to {len(self.layout) - 1})"
+        pieces = self.layout[unit]
+        if len(value) != len(pieces):
+            return f"{len(value)} pieces recorded, the study's unit has {len(pieces)}"
+        for j, (rec, (c, lv, a, b)) in enumerate(zip(value, pieces)):
+            where = f"piece {j}"
+            if not isinstance(rec, dict):
+                return f"{where} is not an object"
+            missing = sorted({"case", "level", "start", "x", "cost", "status", "nfev", "messages"} - set(rec))
+            if missing:
+                return f"{where} lacks {', '.join(missing)}"
+            if (rec["case"], rec["level"], rec["start"]) != (c, lv, a) or not all(
+                    type(rec[f]) is int for f in ("case", "level", "start")):
+                return (f"{where} is case {rec['case']!r}, level {rec['level']!r}, start {rec['start']!r}; the study's is "
+                        f"case {c}, level {lv}, start {a}")
+            n = b - a
+            for f in ("x", "cost", "status", "nfev"):
+                if not isinstance(rec[f], list) or len(rec[f]) != n:
+                    return f"{where}: {f!r} must hold {n} values (one per start)"
+            if not all(type(v) is int for f in ("status", "nfev") for v in rec[f]):
+                return f"{where}: 'status' and 'nfev' must be integers"
+            if not all(v is None or (type(v) in (int, float) and math.isfinite(v)) for v in rec["cost"]):
+                return f"{where}: 'cost' must hold numbers (or null)"
+            L = self.n_unknowns
+            for x in rec["x"]:
+                if not isinstance(x, list) or (L is not None and len(x) != L) or not all(
+                        v is None or (type(v) in (int, float) and math.isfinite(v)) for v in x):
+                    return f"{where}: 'x' must hold {L if L is not None else 'L'} numbers per start"
+            if not isinstance(rec["messages"], dict) or not all(
+                    isinstance(k, str) and isinstance(m, str) for k, m in rec["messages"].items()):
+                return f"{where}: 'messages' must map start numbers to text"
+        return None
 
     def add(self, unit: int, result: list) -> None:
         """Record a finished unit and rewrite the file atomically.
@@ -95,11 +167,28 @@ class Checkpoint:
         self.units[int(unit)] = to_jsonable(result)
         if self.path is not None:
             doc = {"format": FORMAT, "version": VERSION, "study": self.key, "description": self.description,
-                   "units": {str(k): self.units[k] for k in sorted(self.units)}}
+                   "units": {str(k): self.units[k] for k in sorted(self.units)},
+                   "digests": {str(k): digest(self.units[k]) for k in sorted(self.units)}}
             atomic_write_text(self.path, json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n")
 
     def __contains__(self, unit: int) -> bool:
         return int(unit) in self.units
 
 
-__all__ = ["Checkpoint", "FORMAT", "VERSION"]
+def digest(unit) -> str:
+    """SHA-256 of a unit's content as JSON (keys sorted, no spaces, floats as ``repr``).
+
+    Parameters
+    ----------
+    unit : object
+        A unit's recorded (JSON-compatible) result.
+
+    Returns
+    -------
+    str
+        The hexadecimal digest.
+    """
+    return hashlib.sha256(json.dumps(unit, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()).hexdigest()
+
+
+__all__ = ["Checkpoint", "FORMAT", "VERSION", "READABLE", "digest"]

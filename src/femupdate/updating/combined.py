@@ -176,6 +176,10 @@ class CombinedProblem(Parametrisation):
 
     def __init__(self, model, blocks: Sequence[Block], sigma, notes: Sequence[str] = ()):
         first = blocks[0].problem
+        for b in blocks[1:]:
+            q = b.problem
+            if q.names != first.names or q.param != first.param or not np.array_equal(q.p_base, first.p_base):
+                raise RuntimeError(f"internal error: block {b.label} has another parametrisation than {blocks[0].label}")
         super().__init__(model, first.names, first.param, first.p_base)
         self.model = model
         self.blocks = list(blocks)

@@ -573,6 +573,10 @@ class Problem(Parametrisation):
         self.n_residuals = self.targets.n_residuals
         tg = self.targets
         self.any_shape = bool(tg.shaped.any())
+        if self.sigma is not None and "eigenvalue" not in self.sigma or (
+                self.sigma is not None and self.any_shape and "shape" not in self.sigma):
+            # the covariance is absolute only when every residual is divided by its stated std
+            self.sigma = None
         self.sensors = np.unique(tg.pos) if tg.pos.size else np.zeros(0, np.int64)  # where shape derivatives are needed
         self._cache_key: bytes | None = None
         self._cache: tuple = ()

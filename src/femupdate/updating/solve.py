@@ -124,6 +124,8 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
     NumericalError
         The problem cannot be evaluated, or the solver failed.
     """
+    if method not in ("trf", "dogbox", "lm"):
+        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     names = prob.names
     parametrisation = prob.param
     lo, hi = bounds
@@ -149,9 +151,12 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
             alpha = float(choice.alpha)
             reg = {"rule": regularization, "alpha": alpha}
         else:
-            alpha = float(regularization)
-            if not alpha >= 0:
-                raise InputError("the regularization factor must be >= 0")
+            try:
+                alpha = float(regularization)
+            except (TypeError, ValueError):
+                raise InputError(f"regularization must be a number >= 0, 'gcv' or 'lcurve', got {regularization!r}") from None
+            if not (alpha >= 0 and np.isfinite(alpha)):
+                raise InputError("the regularization factor must be finite and >= 0")
             reg = {"rule": "fixed", "alpha": alpha}
 
     def fun(x):

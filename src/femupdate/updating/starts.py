@@ -14,6 +14,7 @@ from functools import partial
 import numpy as np
 
 from .._errors import FemupdateError, InputError
+from ..dask_cluster import collect, connect
 from .clustering import converged_solutions
 from .results import MultiStartResult, UpdateResult
 from .combined import DATA_KINDS, data_kinds, update
@@ -67,8 +68,9 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     cost_tol : a run counts as converged when the solver reports success and its cost is below
         this (default: no cost limit, i.e. local minima count as converged solutions too).
     batched : advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
-        ``None`` (default): batched when no scheduler is given, the model has at most
-        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported; ``False``: one
+        ``None`` (default): batched when the data are modal, the model has at most
+        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported — locally,
+        or in chunks on the Dask cluster at ``scheduler``, with the same results; ``False``: one
         :func:`update` per start.
     **kwargs : passed to :func:`update`.
     """
@@ -90,17 +92,15 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     if batched is None:
         from .batched import supports
 
-        batched = scheduler is None and supports(model, kwargs)
+        batched = supports(model, kwargs)
     if batched:
         from .batched import multistart_batched, unsupported
 
-        if scheduler:
-            raise InputError("batched=True runs the starts locally; give no scheduler, or batched=False")
         reason = unsupported(model, kwargs, explicit=True)
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
         return multistart_batched(model, data, names, X0, seed=seed, rel_tol=rel_tol, cost_tol=cost_tol,
-                                  progress=progress, **kwargs)
+                                  progress=progress, scheduler=scheduler, connect_timeout=connect_timeout, **kwargs)
     # ---- end of the batched path ----------------------------------------------------------------
     return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
                       cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout)
@@ -124,33 +124,21 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
     return MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed)
 
 
-def connect(address: str, timeout: float, what: str = "--scheduler"):
-    """A ``dask.distributed.Client`` of the scheduler at ``address``; a missing Dask or an
-    unreachable scheduler is an :class:`InputError` naming it."""
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise InputError(f"{what} needs dask.distributed: pip install 'femupdate[dask]'") from None
-    try:
-        return Client(address, timeout=timeout)
-    except (OSError, TimeoutError) as exc:
-        raise InputError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
-
-
 def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner):
     """``runner(model, data, names, X0[k], kwargs)`` for every k on the cluster at ``address``."""
     client = connect(address, timeout)
-    from dask.distributed import as_completed
-
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = [client.submit(runner, m_f, d_f, names, x, kwargs, pure=False) for x in X0]
-        index = {f.key: k for k, f in enumerate(futures)}
-        runs = [None] * len(futures)
-        for done, f in enumerate(as_completed(futures), start=1):
-            runs[index[f.key]] = f.result()
+        futures = {client.submit(runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
+                   for k, x in enumerate(X0)}
+        runs: list = [None] * len(futures)
+
+        def keep(k, result):
+            runs[k] = result
             if progress:
-                progress(done, len(futures))
+                progress(sum(r is not None for r in runs), len(runs))
+
+        collect(client, futures, address, timeout, keep)
         return runs
     finally:
         client.close()

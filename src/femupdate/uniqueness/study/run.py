@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import cast
 
 from ..._errors import InputError
-from ...updating.starts import connect
+from ...dask_cluster import collect, connect
 from ..checkpoint import Checkpoint
 from .definition import Study
 from .results import StudyResult, summarise
@@ -70,7 +70,7 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
     """
     t0 = time.perf_counter()
     units = study.units()
-    ck = Checkpoint(checkpoint, study.key(), study.describe())
+    ck = Checkpoint(checkpoint, study.key(), study.describe(), layout=units, n_unknowns=len(study.names))
     resumed = [i for i in range(len(units)) if i in ck]
     todo = [i for i in range(len(units)) if i not in ck]
     size = [sum(b - a for _, _, a, b in u) for u in units]
@@ -83,19 +83,20 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
         client, cluster = _dask_client(scheduler, workers, connect_timeout)
         route = f"dask:{scheduler}" if scheduler else f"dask:local cluster of {workers} workers"
         try:
-            from dask.distributed import as_completed
-
             # the study travels inside each task (not scattered): a task lost with its worker can
             # always be recomputed, even if every copy of a scattered object were lost with it
             key = study.key()[:16]
             futures = {client.submit(solve_unit, study, i, key=f"femupdate-uniqueness-{key}-unit-{i}", retries=2): i
                        for i in todo}
-            for fut in as_completed(list(futures)):
-                i = futures[fut]
-                ck.add(i, fut.result())
-                done += size[i]
+            finished = [done]
+
+            def keep(i, result):
+                ck.add(i, result)
+                finished[0] += size[i]
                 if progress:
-                    progress(done, total)
+                    progress(finished[0], total)
+
+            collect(client, futures, scheduler or "the local cluster", connect_timeout, keep)
         finally:
             client.close()
             if cluster is not None:

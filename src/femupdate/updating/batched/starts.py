@@ -48,45 +48,38 @@ class BatchRun(RunResult):
         return f"BatchRun({'converged' if self.success else 'NOT converged'}, cost {self.cost:.4g}: {values})"
 
 
-def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
-                       cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
-                       polish: bool = True, **options):
-    """Multi-start updating with every start run in compiled code; same result as the local route.
+def batched_runs(model, data, names: Sequence[str], starts, options: dict,
+                 progress: Callable[[int, int], None] | None = None) -> list:
+    """Every start of ``starts`` run to the end in compiled code: per start a :class:`BatchRun`,
+    or the message (str) of its failure, exactly as the local route reports it.
+
+    A pure function of its arguments, and each start's result depends on that start alone (not
+    on the other starts of the batch, their order or the number of threads): the starts may be
+    split into any chunks — one per Dask task — with bit-identical results.
 
     Parameters
     ----------
     model, data : as :func:`femupdate.update`.
     names : updated parameters.
-    starts : (R, L) starting values (e.g. from :func:`femupdate.updating.draw_starts`).
-    seed : recorded in the result.
-    rel_tol, cost_tol : clustering and acceptance, as :func:`femupdate.updating.multistart`.
+    starts : (R, L) starting values.
+    options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
     progress : ``progress(finished, R)``.
-    polish : re-run :func:`~femupdate.update` once from the best solution (a final check by the
-        local route); its ``start``, ``history``, ``nfev``, ``njev`` and ``iterations`` then
-        cover the batched run and the polish together.  Without it (or should the polish fail)
-        ``best`` is the full result at the batched solution itself.
-    **options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
 
     Returns
     -------
-    femupdate.updating.MultiStartResult
-        ``runs[k]`` is a :class:`BatchRun`, or the error message (str) of a start that failed,
-        exactly as the local route reports it.
+    list
+        R entries: :class:`BatchRun` or str.
     """
     names = tuple(names)
     X0 = np.array(starts, dtype=float, ndmin=2)
     R = X0.shape[0]
-    reason = unsupported(model, options, explicit=True)
-    if reason:
-        raise InputError(f"batched multi-start: {reason}")
     prob_kw = {k: options[k] for k in PROBLEM_OPTIONS if k in options}
     solver_kw = {k: options[k] for k in SOLVER_OPTIONS if k in options}
     try:
         problem = Problem(model, data, names, **prob_kw)
         bp = BatchedProblem.from_problem(problem, X0, **solver_kw)
     except FemupdateError as exc:  # update() would refuse every start alike
-        msg = f"{type(exc).__name__}: {exc}"
-        return MultiStartResult(None, [], [msg] * R, X0, names, R, 0, seed)
+        return [f"{type(exc).__name__}: {exc}"] * R
     res = bp.solve(progress=progress)
     alive = np.flatnonzero(res.status != FAILED)
     runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: {m}"
@@ -111,6 +104,73 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
             history_cost=res.history_cost[r, :n_hist].copy(),
             history_x=bp.to_p(res.history_x[r, :n_hist], np.full(n_hist, r)),
         )
+    return runs
+
+
+def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, progress) -> list:
+    """:func:`batched_runs` in chunks, one task each, on the Dask cluster at ``scheduler``."""
+    from ...dask_cluster import collect, connect
+
+    client = connect(scheduler, timeout)
+    try:
+        R = X0.shape[0]
+        n_chunks = max(1, min(R, 2 * sum(client.nthreads().values())))
+        chunks = [c for c in np.array_split(np.arange(R), n_chunks) if c.size]
+        m_f, d_f = client.scatter([model, data], broadcast=True)
+        futures = {client.submit(batched_runs, m_f, d_f, tuple(names), X0[c], options, pure=False, retries=2): k
+                   for k, c in enumerate(chunks)}
+        parts: list = [None] * len(chunks)
+
+        def keep(k, result):
+            parts[k] = result
+            if progress:
+                progress(sum(chunks[i].size for i, r in enumerate(parts) if r is not None), R)
+
+        collect(client, futures, scheduler, timeout, keep)
+    finally:
+        client.close()
+    return [run for part in parts for run in part]
+
+
+def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
+                       cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
+                       polish: bool = True, scheduler: str | None = None, connect_timeout: float = 10.0, **options):
+    """Multi-start updating with every start run in compiled code; same result as the local route.
+
+    Parameters
+    ----------
+    model, data : as :func:`femupdate.update`.
+    names : updated parameters.
+    starts : (R, L) starting values (e.g. from :func:`femupdate.updating.draw_starts`).
+    seed : recorded in the result.
+    rel_tol, cost_tol : clustering and acceptance, as :func:`femupdate.updating.multistart`.
+    progress : ``progress(finished, R)``.
+    polish : re-run :func:`~femupdate.update` once from the best solution (a final check by the
+        local route); its ``start``, ``history``, ``nfev``, ``njev`` and ``iterations`` then
+        cover the batched run and the polish together.  Without it (or should the polish fail)
+        ``best`` is the full result at the batched solution itself.
+    scheduler : address of a Dask scheduler: the starts run there in chunks, each chunk on the
+        compiled route (:func:`batched_runs`), with results bit-identical to a local run; the
+        clustering and the polish run here.
+    connect_timeout : seconds to wait for the scheduler and its first worker.
+    **options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
+
+    Returns
+    -------
+    femupdate.updating.MultiStartResult
+        ``runs[k]`` is a :class:`BatchRun`, or the error message (str) of a start that failed,
+        exactly as the local route reports it.
+    """
+    names = tuple(names)
+    X0 = np.array(starts, dtype=float, ndmin=2)
+    R = X0.shape[0]
+    reason = unsupported(model, options, explicit=True)
+    if reason:
+        raise InputError(f"batched multi-start: {reason}")
+    if scheduler:
+        runs = _dask_runs(model, data, names, X0, options, scheduler, connect_timeout, progress)
+    else:
+        runs = batched_runs(model, data, names, X0, options, progress=progress)
     ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol)
     best = None
     if ok:
@@ -118,10 +178,11 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
         best = _polish(model, data, names, runs[k_best], options) if polish else None
         if best is None:  # not asked for, or the polish failed: the full result at the batched solution
             run = runs[k_best]
+            prob_kw = {k: options[k] for k in PROBLEM_OPTIONS if k in options}
             at = Problem(model, data, names, **dict(prob_kw, x0=run.start))
             best = dataclasses.replace(result_at(at, at.from_p(run.x), sol=run, history=run.history), swaps=[])
     log.info("batched multi-start: %d starts, %d converged, %d solutions, %d evaluations in total",
-             R, len(ok), len(solutions), int(res.nfev.sum()))
+             R, len(ok), len(solutions), sum(r.nfev for r in runs if isinstance(r, BatchRun)))
     return MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed)
 
 
@@ -142,4 +203,4 @@ def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
     )
 
 
-__all__ = ["BatchRun", "multistart_batched"]
+__all__ = ["BatchRun", "multistart_batched", "batched_runs"]

@@ -1,0 +1,149 @@
+"""Tasks on an existing Dask cluster: connect, run, collect — and fail in bounded time, by name.
+
+Every driver that takes a ``scheduler`` address (multi-start updating, FRF global search,
+uniqueness studies) goes through :func:`connect` and :func:`collect`:
+
+* an address with an unknown scheme, or a scheduler that cannot be reached within the timeout, is
+  an :class:`~femupdate.InputError` naming the address;
+* a scheduler with no workers is refused after the same timeout (instead of waiting forever);
+* a scheduler lost during the run, or every worker gone for longer than the timeout, ends the
+  run with one :class:`ClusterError` (exit code 1) that names the scheduler and says how many
+  tasks had finished — the finished work is not lost where the driver keeps it (the uniqueness
+  checkpoints);
+* a worker lost while others remain costs nothing but time: its tasks run again elsewhere
+  (``retries``), with the same results, since every task is a pure function of its arguments.
+
+Dask is imported only here, and only when a scheduler is given.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Hashable, Mapping
+
+from ._errors import FemupdateError, InputError
+
+#: set by the command line: library log records of a lost connection are not shown (the run ends
+#: with one message of its own)
+QUIET_LIBRARY_LOGS = False
+_NOISY = ("distributed", "tornado", "asyncio")
+
+
+class ClusterError(FemupdateError):
+    """The Dask cluster failed during a run: the scheduler was lost, or every worker left."""
+
+    exit_code = 1
+
+
+def _quiet() -> None:
+    if QUIET_LIBRARY_LOGS:
+        for name in _NOISY:
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def connect(address: str, timeout: float, what: str = "--scheduler"):
+    """A ``dask.distributed.Client`` of the scheduler at ``address`` that has at least one worker.
+
+    Parameters
+    ----------
+    address : str
+        The scheduler's address (``tcp://host:port``, or another scheme Dask knows).
+    timeout : float
+        Seconds to wait for the scheduler, and then for its first worker.
+    what : str
+        How the user gave the address (an option), for messages.
+
+    Returns
+    -------
+    dask.distributed.Client
+
+    Raises
+    ------
+    InputError
+        Dask not installed; an address Dask cannot parse; a scheduler not reached, or without
+        workers, within ``timeout`` s.
+    """
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError(f"{what} needs dask.distributed: pip install 'femupdate[dask]'") from None
+    _quiet()
+    try:
+        client = Client(address, timeout=timeout)
+    except ValueError as exc:
+        raise InputError(f"{what} {address!r}: not a scheduler address ({exc}); give tcp://host:port") from None
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s: {exc}") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (OSError, TimeoutError):
+        client.close()
+        raise InputError(f"the Dask scheduler at {address} has no workers (waited {timeout:g} s): start workers "
+                         f"(dask worker {address}), or wait longer (--connect-timeout)") from None
+    return client
+
+
+def collect(client, futures: Mapping, address: str, timeout: float, on_result: Callable[[Hashable, object], None],
+            poll: float = 1.0) -> None:
+    """Wait for ``futures`` ({future: key}) and hand each result to ``on_result(key, result)`` as it
+    finishes.
+
+    Parameters
+    ----------
+    client : dask.distributed.Client
+    futures : mapping of dask futures to keys
+    address : str
+        The scheduler's address, for messages.
+    timeout : float
+        How long the cluster may be without workers before the run is given up.
+    on_result : callable
+        Called with each finished task's key and result, in order of completion.
+    poll : float
+        Seconds between checks of the cluster while nothing finishes.
+
+    Raises
+    ------
+    ClusterError
+        The scheduler was lost, or no worker was left for ``timeout`` s.
+    FemupdateError
+        Raised by a task, as the task raised it.
+    """
+    from concurrent.futures import CancelledError
+
+    from dask.distributed import wait
+
+    remaining = set(futures)
+    n = len(remaining)
+    no_workers_since: float | None = None
+    try:
+        while remaining:
+            try:
+                done, _ = wait(list(remaining), timeout=poll, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished within ``poll``
+                done = set()
+            for fut in done:
+                remaining.discard(fut)
+                on_result(futures[fut], fut.result())
+            if done:
+                no_workers_since = None
+                continue
+            if client.status not in ("running", "connecting"):
+                raise ClusterError(f"lost the Dask scheduler at {address}: {n - len(remaining)} of {n} tasks had "
+                                   "finished")
+            if not client.nthreads():  # asks the scheduler: raises if it is gone
+                now = time.monotonic()
+                no_workers_since = no_workers_since or now
+                if now - no_workers_since > timeout:
+                    raise ClusterError(f"the Dask scheduler at {address} has had no workers for {timeout:g} s: "
+                                       f"{n - len(remaining)} of {n} tasks had finished")
+            else:
+                no_workers_since = None
+    except (FemupdateError, KeyboardInterrupt):
+        raise
+    except (CancelledError, OSError, TimeoutError) as exc:
+        raise ClusterError(f"lost the Dask scheduler at {address} ({type(exc).__name__}: {str(exc).splitlines()[0]}): "
+                           f"{n - len(remaining)} of {n} tasks had finished") from None
+
+
+__all__ = ["connect", "collect", "ClusterError", "QUIET_LIBRARY_LOGS"]
