@@ -191,15 +191,60 @@ def update_payload(model, data, res, ms=None):
     if res.blocks:
         out["blocks"] = res.blocks
     if ms is not None:
-        out["starts"] = {
-            "total": ms.total, "converged": ms.converged, "seed": ms.seed,
-            "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count} for s in ms.solutions],
-            "failed": [r for r in ms.runs if isinstance(r, str)],
-        }
+        out["starts"] = starts_payload(ms)
     else:
         out["starts"] = {"total": 1, "converged": int(res.success),
                          "solutions": [{"parameters": {n: res.parameters[n] for n in res.names}, "cost": res.cost, "count": 1}] if res.success else []}
     return out
+
+
+def starts_payload(ms) -> dict:
+    """JSON of a multi-start study: counts, distinct solutions (marked ``fits``: they fit the data
+    as well as the best one), failures by reason and one record per start."""
+    return {
+        "total": ms.total, "converged": ms.converged, "seed": ms.seed,
+        "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits}
+                      for s in ms.solutions],
+        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost,
+        "failed": [r for r in ms.runs if isinstance(r, str)],
+        "failures": ms.failures,
+        "runs": ms.records(),
+    }
+
+
+def fitting_table(ms, what: str = "starts") -> Table:
+    """The solutions that fit the data, one column each (parameters, cost, how many starts)."""
+    t = Table(title=f"{len(ms.fitting)} distinct solutions fit the data equally well (as well as the best, within "
+                    "the fit's statistical spread): the data do not determine the parameters uniquely")
+    t.add_column("parameter")
+    for i, sol in enumerate(ms.fitting, start=1):
+        t.add_column(f"solution {i} ({sol.count} {what})", justify="right")
+    for n in ms.names:
+        t.add_row(n, *(fmt(sol.parameters[n]) for sol in ms.fitting))
+    t.add_row("cost", *(f"{sol.cost:.3g}" for sol in ms.fitting))
+    return t
+
+
+def print_starts(console, ms, what: str = "starts") -> None:
+    """The outcome of every start: solutions that fit, local minima, failures by reason."""
+    fit, local = ms.fitting, ms.local_minima
+    console.print(f"{ms.converged}/{ms.total} {what} converged: {len(fit)} distinct solution(s) fit as well as the "
+                  f"best (cost up to {ms.fit_cost:.3g})" + (f", {len(local)} local minima" if local else ""))
+    for sol in fit[:10]:
+        console.print(f"  {sol.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in sol.parameters.items())
+                      + f"  (cost {sol.cost:.3g})")
+    if local:
+        console.print("local minima (converged, but do not fit the data as well):")
+        for sol in local[:10]:
+            console.print(f"  {sol.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in sol.parameters.items())
+                          + f"  (cost {sol.cost:.3g})")
+        if len(local) > 10:
+            console.print(f"  ... and {len(local) - 10} more (see the JSON)")
+    failures = ms.failures
+    if failures:
+        console.print(f"{sum(failures.values())} {what} without a solution:")
+        for reason, count in list(failures.items())[:10]:
+            console.print(f"  {count:4d} x  {reason}")
 
 
 def update_parameter_table(res, title: str) -> Table:

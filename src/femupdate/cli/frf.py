@@ -11,7 +11,8 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+from ._common import (OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, fitting_table, print_starts,
+                      starts_payload, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
                       update_parameter_table, update_payload)
 
 
@@ -259,14 +260,18 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                                 connect_timeout=connect_timeout,
                                 progress=lambda done, total: bar.update(task, completed=done), **kw)
     if ms is not None and ms.best is None:
-        emit(ctx, {"model": model.name, "success": False, "starts": {
-            "total": ms.total, "converged": 0, "solutions": [], "failed": [r for r in ms.runs if isinstance(r, str)]},
-            **extra})
+        emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms), **extra})
+        print_starts(ctx.console, ms, f"{global_method} runs" if global_method else "starts")
         raise NumericalError(f"none of the {ms.total} {'runs' if global_method else 'starts'} converged")
     res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
     c = ctx.console
-    c.print(update_parameter_table(res, f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
-                                  f"{res.omega.size} lines x {len(frf.dofs)} dofs, {res.residual} residual)"))
+    what = f"{global_method} runs" if global_method else "starts"
+    title = (f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
+             f"{res.omega.size} lines x {len(frf.dofs)} dofs, {res.residual} residual)")
+    if ms is not None and len(ms.fitting) > 1:
+        c.print(fitting_table(ms, what))
+        title = f"the lowest-cost solution in detail — {title}"
+    c.print(update_parameter_table(res, title))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
     d = res.diagnostics
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; condition number "
@@ -276,10 +281,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     for note in res.notes:
         c.print(f"note: {note}")
     if ms is not None:
-        what = f"{global_method} runs" if global_method else "starts"
-        c.print(f"{ms.converged}/{ms.total} {what} converged to {len(ms.solutions)} distinct solution(s):")
-        for s in ms.solutions[:10]:
-            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+        print_starts(c, ms, what)
     if plot_dir is not None:
         from ..frf import frf as model_frf
         from ..plot.frf import save_frf_update_figures

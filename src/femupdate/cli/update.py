@@ -10,7 +10,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import (OUTPUT_DIR, Ctx, connect_timeout_option, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+from ._common import (OUTPUT_DIR, Ctx, connect_timeout_option, fitting_table, print_starts, starts_payload, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -85,13 +85,16 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
                             connect_timeout=connect_timeout,
                             progress=lambda done, total: bar.update(task, completed=done), **kw)
         if ms.best is None:
-            emit(ctx, {"model": model.name, "success": False, "starts": {"total": ms.total, "converged": 0, "solutions": [],
-                        "failed": [r for r in ms.runs if isinstance(r, str)]}})
+            emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms)})
+            print_starts(ctx.console, ms)
             raise NumericalError(f"none of the {starts} starts converged")
         res = ms.best
     c = ctx.console
-    c.print(update_parameter_table(res, f"{model.name}: iterative update from {', '.join(kinds)} "
-                                        f"({res.iterations} iterations, {res.nfev} evaluations)"))
+    title = f"{model.name}: iterative update from {', '.join(kinds)} ({res.iterations} iterations, {res.nfev} evaluations)"
+    if ms is not None and len(ms.fitting) > 1:
+        c.print(fitting_table(ms))
+        title = f"the lowest-cost solution in detail — {title}"
+    c.print(update_parameter_table(res, title))
     if res.pairs:
         t2 = Table(title="paired modes")
         for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
@@ -120,9 +123,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     for sw in res.swaps:
         c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to {sw['to_model_mode'] + 1}")
     if ms is not None:
-        c.print(f"{ms.converged}/{ms.total} starts converged to {len(ms.solutions)} distinct solution(s):")
-        for s in ms.solutions[:10]:
-            c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
+        print_starts(c, ms)
     for note in res.notes:
         c.print(f"note: {note}")
     if plot_dir is not None:

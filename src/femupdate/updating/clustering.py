@@ -1,5 +1,6 @@
 """Distinct solutions of a multi-start study: converged runs clustered by their parameters
-(:func:`femupdate.distinct.cluster`)."""
+(:func:`femupdate.distinct.cluster`), and told apart: those that fit the data as well as the best
+one (:func:`fit_threshold`), and local minima (:func:`classify`)."""
 
 from __future__ import annotations
 
@@ -7,12 +8,36 @@ from collections.abc import Sequence
 
 import numpy as np
 
+import dataclasses
+import math
+
 from ..distinct import cluster
-from .results import Solution
+from .results import MultiStartResult, Solution
+
+
+def parameter_scale(model, names: Sequence[str]) -> np.ndarray:
+    """A typical magnitude of each of the parameters ``names`` (L,): |nominal value|, or, for a
+    nominal value of zero, the width of the finite bounds (else 1) — below it, solutions are
+    compared by absolute distance (:func:`femupdate.distinct.cluster`).
+
+    Parameters
+    ----------
+    model : Model
+    names : sequence of str
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(L,)``
+    """
+    idx = [model.parameter_index(n) for n in names]
+    nominal = np.abs(np.asarray(model.resolve(None), float)[idx])
+    lo, hi = (np.asarray(b, float)[idx] for b in model.bounds)
+    width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, 1.0)
+    return np.where(nominal > 0, nominal, np.where(width > 0, width, 1.0))
 
 
 def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_tol: float | None,
-                        rel_tol: float) -> tuple[list[int], list[Solution]]:
+                        rel_tol: float, scale=None) -> tuple[list[int], list[Solution]]:
     """Indices of the runs of type ``kind`` that converged (and, with ``cost_tol``, fit), and their
     distinct solutions from :func:`cluster`, most frequent first (ties: lowest cost first).
 
@@ -29,6 +54,9 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
         Largest ``cost`` (½‖r‖²) of a counted run; None: any.
     rel_tol : float
         Relative tolerance of the clustering, per parameter.
+    scale : array_like, shape ``(L,)``, optional
+        Typical magnitudes of the parameters (:func:`parameter_scale`): below them the distance
+        is absolute.
 
     Returns
     -------
@@ -43,11 +71,63 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
     if ok:
         pts = np.array([runs[k].x for k in ok])
         costs = np.array([runs[k].cost for k in ok])
-        for g in cluster(pts, costs, rel_tol):
+        for g in cluster(pts, costs, rel_tol, scale):
             rep = runs[ok[g[0]]]
             solutions.append(Solution(dict(zip(names, map(float, rep.x))), rep.cost, len(g), [ok[i] for i in g]))
         solutions.sort(key=lambda s: (-s.count, s.cost))
     return ok, solutions
 
 
-__all__ = ["cluster", "converged_solutions"]
+def fit_threshold(best) -> float:
+    r"""The largest cost of a solution that fits the data as well as ``best`` does.
+
+    A likelihood-ratio test at 95 %: a solution whose cost exceeds the best one's by Δ fits as
+    well when :math:`2\Delta \le \chi^2_{0.95}(L)\,\hat\sigma^2`, with
+    :math:`\hat\sigma^2 = 1` when the residuals are divided by stated standard deviations, else
+    the residual variance of the best fit :math:`2\,c_{best}/(m - L)` (0 when m ≤ L). A floor of
+    1e-14 times the best run's starting cost stands for round-off: exact solutions of noise-free
+    data all fit, whatever their round-off costs.
+
+    Parameters
+    ----------
+    best : UpdateResult
+        The lowest-cost converged run (``fun``, ``names``, ``cost``, ``history``, ``diagnostics``).
+
+    Returns
+    -------
+    float
+        The threshold on ½‖r‖².
+    """
+    from scipy.stats import chi2
+
+    m, L = int(best.fun.size), len(best.names)
+    d = best.diagnostics
+    var = 1.0 if d is not None and d.absolute else (2.0 * best.cost / (m - L) if m > L else 0.0)
+    c0 = float(best.history[0]["cost"]) if best.history else best.cost
+    floor = 1e-14 * max(c0, best.cost)
+    return float(best.cost + 0.5 * chi2.ppf(0.95, L) * var + floor)
+
+
+def classify(ms: MultiStartResult) -> MultiStartResult:
+    """``ms`` with each solution marked as fitting the data (:func:`fit_threshold` of the best run)
+    or not, and ordered: the fitting ones first (most frequent first, then lowest cost), then the
+    local minima (lowest cost first).
+
+    Parameters
+    ----------
+    ms : MultiStartResult
+
+    Returns
+    -------
+    MultiStartResult
+        A copy with ``solutions`` marked and reordered and ``fit_cost`` set.
+    """
+    if ms.best is None or not ms.solutions:
+        return ms
+    limit = fit_threshold(ms.best)
+    marked = [dataclasses.replace(s, fits=bool(s.cost <= limit)) for s in ms.solutions]
+    marked.sort(key=lambda s: (not s.fits, -s.count if s.fits else 0, s.cost))
+    return dataclasses.replace(ms, solutions=marked, fit_cost=limit if math.isfinite(limit) else math.nan)
+
+
+__all__ = ["cluster", "converged_solutions", "fit_threshold", "classify", "parameter_scale"]

@@ -34,6 +34,9 @@ class Diagnostics:
         m, the number of residuals.
     n_parameters : int
         L, the number of updated parameters.
+    absolute : bool
+        The residuals are divided by stated measurement standard deviations: the covariance is
+        absolute (else scaled by the residual variance).
     """
 
     singular_values: np.ndarray
@@ -44,6 +47,7 @@ class Diagnostics:
     std: np.ndarray
     n_residuals: int
     n_parameters: int
+    absolute: bool = False
 
     def __repr__(self) -> str:
         poor = f", poorly determined: {', '.join(self.poorly_determined)}" if self.poorly_determined else ""
@@ -200,12 +204,17 @@ class Solution:
         The number of runs in the cluster.
     starts : list of int
         Their indices in the study's ``runs``, in increasing cost.
+    fits : bool
+        The solution fits the data as well as the best one: its cost exceeds the best by less
+        than the statistical fluctuation of the fit allows (:func:`~femupdate.updating.clustering.fit_threshold`).
+        Solutions that do not are local minima.
     """
 
     parameters: dict[str, float]
     cost: float
     count: int
     starts: list[int]
+    fits: bool = field(default=False, kw_only=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,6 +241,12 @@ class MultiStartResult:
         The number of runs that converged (and fit within ``cost_tol``).
     seed : int or None
         The seed of the random starts.
+    fit_cost : float
+        The largest cost of a solution that fits the data as well as the best
+        (:func:`~femupdate.updating.clustering.fit_threshold`); NaN when none converged.
+
+    The solutions are ordered: those that fit the data first (most frequent first), then the
+    local minima (lowest cost first).
     """
 
     best: UpdateResult | None
@@ -242,6 +257,63 @@ class MultiStartResult:
     total: int
     converged: int
     seed: int | None
+    fit_cost: float = field(default=math.nan, kw_only=True)
+
+    @property
+    def fitting(self) -> list[Solution]:
+        """The distinct solutions that fit the data as well as the best one (more than one: the
+        data do not determine the parameters uniquely)."""
+        return [s for s in self.solutions if s.fits]
+
+    @property
+    def local_minima(self) -> list[Solution]:
+        """The distinct solutions that converged without fitting the data."""
+        return [s for s in self.solutions if not s.fits]
+
+    @property
+    def failures(self) -> dict[str, int]:
+        """Starts that did not converge, counted by reason (numbers in the messages replaced by #)."""
+        out: dict[str, int] = {}
+        for run in self.runs:
+            if isinstance(run, str):
+                reason = failure_reason(run)
+            elif not getattr(run, "success", True):
+                reason = f"did not converge: {failure_reason(str(getattr(run, 'message', '')))}"
+            else:
+                continue
+            out[reason] = out.get(reason, 0) + 1
+        return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+
+    def records(self) -> list[dict]:
+        """One record per start, in start order: ``start`` {name: value}, ``outcome``
+        (``"fits"``, ``"local minimum"``, ``"not converged"``, ``"failed"``, or ``"rejected"``
+        when above ``cost_tol``), ``cost``, ``iterations``, ``nfev``, ``solution`` (index into
+        ``solutions``, or None) and ``message``."""
+        where = {k: i for i, s in enumerate(self.solutions) for k in s.starts}
+        out = []
+        for k, run in enumerate(self.runs):
+            rec: dict = {"start": dict(zip(self.names, map(float, self.starts[k]))), "solution": where.get(k)}
+            if isinstance(run, str):
+                rec.update(outcome="failed", cost=None, iterations=None, nfev=None, message=run)
+            else:
+                i = where.get(k)
+                outcome = ("not converged" if not run.success else "rejected" if i is None
+                           else "fits" if self.solutions[i].fits else "local minimum")
+                rec.update(outcome=outcome, cost=float(run.cost), iterations=int(run.iterations), nfev=int(run.nfev),
+                           message=str(run.message))
+            out.append(rec)
+        return out
 
 
-__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult"]
+def failure_reason(message: str) -> str:
+    """The head of a failure message with its numbers as ``#``, so that starts failing alike count
+    together: ``"NumericalError: test mode(s) [3] pair with no model mode (MAC below 0.5 ...): check
+    ..."`` → ``"test mode(s) [#] pair with no model mode (MAC below # ...)"``."""
+    import re
+
+    text = re.sub(r"^\w+Error: ", "", message.strip())
+    head = text.split(": ", 1)[0] if ": " in text else text
+    return re.sub(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", head)[:200]
+
+
+__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult", "failure_reason"]

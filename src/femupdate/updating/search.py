@@ -31,7 +31,7 @@ from scipy import optimize
 
 from .._errors import FemupdateError, InputError
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
-from .clustering import cluster, converged_solutions
+from .clustering import cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, frf_update, prepare_problem
 from .results import MultiStartResult, UpdateResult
 from .starts import run_starts
@@ -281,7 +281,7 @@ def global_search(model, data, *, method: str = "differential_evolution", params
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
 
-    ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol)
+    ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None
     starts = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
     return GlobalSearchResult(best, solutions, results, starts, names, runs, len(ok), seed, method, infos)

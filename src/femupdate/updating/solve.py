@@ -76,7 +76,7 @@ def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
         elif m > L:
             cov = JtJ_inv * float(r @ r) / (m - L)
     std = np.sqrt(np.clip(np.diag(cov), 0, None)) if np.all(np.isfinite(cov)) else np.full(L, np.nan)
-    return Diagnostics(s, cond, rank, sorted(poor), cov, std, m, L)
+    return Diagnostics(s, cond, rank, sorted(poor), cov, std, m, L, sigma is not None)
 
 
 def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,

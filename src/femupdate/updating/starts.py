@@ -15,7 +15,7 @@ import numpy as np
 
 from .._errors import FemupdateError, InputError
 from ..dask_cluster import collect, connect
-from .clustering import converged_solutions
+from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult
 from .combined import DATA_KINDS, data_kinds, update
 from .frf import frf_update
@@ -76,6 +76,8 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     """
     if starts < 1:
         raise InputError("the number of starts must be at least 1")
+    if "x0" in kwargs:
+        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, starts, seed, log_uniform)
     kinds = data_kinds(data, kwargs.get("use", DATA_KINDS))
@@ -110,6 +112,8 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
                connect_timeout=10.0, runner=None) -> MultiStartResult:
     """``runner(model, data, names, X0[k], kwargs)`` (default: :func:`update` from start k) for every
     start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions."""
+    if "x0" in kwargs or "params" in kwargs:
+        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
     runner = runner or _run_one
     if scheduler:
         runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
@@ -119,9 +123,9 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
             runs.append(runner(model, data, names, x, kwargs))
             if progress:
                 progress(k + 1, len(X0))
-    ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol)
+    ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
-    return MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed)
+    return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed))
 
 
 def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner):

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._errors import FemupdateError, InputError
-from ..clustering import converged_solutions
+from ..clustering import classify, converged_solutions, parameter_scale
 from ..problem import Problem
 from ..results import MultiStartResult, RunResult, UpdateResult
 from ..solve import result_at, update_modal
@@ -171,7 +171,7 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
         runs = _dask_runs(model, data, names, X0, options, scheduler, connect_timeout, progress)
     else:
         runs = batched_runs(model, data, names, X0, options, progress=progress)
-    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol)
+    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol, parameter_scale(model, names))
     best = None
     if ok:
         k_best = min(ok, key=lambda k: runs[k].cost)
@@ -183,7 +183,11 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
             best = dataclasses.replace(result_at(at, at.from_p(run.x), sol=run, history=run.history), swaps=[])
     log.info("batched multi-start: %d starts, %d converged, %d solutions, %d evaluations in total",
              R, len(ok), len(solutions), sum(r.nfev for r in runs if isinstance(r, BatchRun)))
-    return MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed)
+    if best is not None:  # the solution the polish refined shows the values and cost the headline shows
+        k_best = min(ok, key=lambda k: runs[k].cost)
+        solutions = [dataclasses.replace(sol, parameters=dict(zip(names, map(float, best.x))), cost=float(best.cost))
+                     if k_best in sol.starts else sol for sol in solutions]
+    return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed))
 
 
 def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
