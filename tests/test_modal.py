@@ -86,8 +86,12 @@ def test_reference_at_a_node_is_refused():
 
 def test_bad_input():
     K = np.array([[2.0, -1], [-1, 1]])
-    with pytest.raises(InputError, match="no mass at dof"):
-        solve_modes(K, np.diag([1.0, 0.0]), dofs=("1:x", "2:x"))
+    # a massless dof is condensed (it used to be refused): K~ = 2 - 1 = 1 with m = 1, φ = (1, 1)
+    massless = solve_modes(K, np.diag([1.0, 0.0]), dofs=("1:x", "2:x"))
+    np.testing.assert_allclose(massless.eigenvalues, [1.0], rtol=1e-14)
+    np.testing.assert_allclose(np.abs(massless.shapes[:, 0]), [1.0, 1.0], rtol=1e-14)
+    with pytest.raises(InputError, match="no positive mass at dof"):
+        solve_modes(K, np.array([[1.0, 0.2], [0.2, 0.0]]), dofs=("1:x", "2:x"))
     with pytest.raises(InputError, match="not positive semi-definite"):
         solve_modes(-K, np.eye(2))
     with pytest.raises(InputError, match="n_modes"):

@@ -184,15 +184,37 @@ def normalise(Phi: np.ndarray, how: str = "mass", M=None, dofs: Sequence[str] | 
     raise InputError(f"unknown normalisation {how!r}: use mass, unit, max or ref:<dof>")
 
 
-def _check_mass(M, dofs) -> None:
+def massless_dofs(M) -> np.ndarray:
+    """(n,) bool: the dofs whose row of M is zero (no mass and no mass coupling) — the massless
+    rotations of frame models as commercial codes export them.
+
+    Parameters
+    ----------
+    M : array_like or sparse matrix, shape ``(n, n)``
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape ``(n,)``
+    """
+    if sp.issparse(M):
+        return np.asarray(abs(sp.csr_array(M)).sum(axis=1)).ravel() == 0
+    return ~np.any(np.asarray(M, float) != 0, axis=1)
+
+
+def _check_mass(M, dofs) -> np.ndarray:
+    """The massless dofs (:func:`massless_dofs`); any other dof without positive mass is refused."""
     d = M.diagonal()
-    bad = np.flatnonzero(~(d > 0))
+    massless = massless_dofs(M)
+    bad = np.flatnonzero(~(d > 0) & ~massless)
     if bad.size:
         raise InputError(
-            "the mass matrix is not positive definite: no mass at dof(s) "
-            f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()} "
+            "the mass matrix is not positive semi-definite: no positive mass at dof(s) "
+            f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()}, which are coupled to others by M "
             "(add mass there, or remove/condense those dofs)"
         )
+    if massless.all():
+        raise InputError("the mass matrix is zero: no dof has mass")
+    return massless
 
 
 def solve_modes(
@@ -210,10 +232,12 @@ def solve_modes(
     Parameters
     ----------
     K, M : array_like or sparse matrix, shape ``(n_dofs, n_dofs)``
-        Stiffness (N/m) and mass (kg) matrices, symmetric; M positive definite.
+        Stiffness (N/m) and mass (kg) matrices, symmetric; M positive semi-definite: rows of M
+        that are zero (massless dofs) are condensed exactly (they follow the other dofs
+        quasi-statically), so there is one mode per dof with mass.
     n_modes : int, optional
-        Number of modes, between 1 and n_dofs (default: all for dense, ``min(10, n_dofs - 1)``
-        for sparse).
+        Number of modes, between 1 and n_dofs, at most the number of dofs with mass (default:
+        all for dense, ``min(10, n - 1)`` for sparse, n the dofs with mass).
     dofs : sequence of str, optional
         Labels ``"node:dir"`` of the matrix rows (required for ``ref:<dof>`` normalisation;
         default ``"1:x"``, ``"2:x"``, ...).
@@ -249,17 +273,19 @@ def solve_modes(
     if K.shape != (n, n) or M.shape != (n, n):
         raise InputError(f"K {K.shape} and M {M.shape} must be square and of the same size")
     dofs = tuple(dofs) if dofs is not None else tuple(f"{i + 1}:x" for i in range(n))
-    _check_mass(M, dofs if dofs else None)
+    massless = _check_mass(M, dofs if dofs else None)
+    n_finite = int(n - massless.sum())  # a massless dof adds an infinite eigenvalue, not a mode
     if n_modes is None:
-        n_modes = n if (method == "dense" or (method == "auto" and n <= DENSE_LIMIT)) else min(10, n - 1)
+        n_modes = n_finite if (method == "dense" or (method == "auto" and n <= DENSE_LIMIT)) else min(10, n_finite - 1)
     n_modes = int(n_modes)
     if not 1 <= n_modes <= n:
         raise InputError(f"n_modes must be between 1 and the number of dofs ({n}), got {n_modes}")
+    n_modes = min(n_modes, n_finite)
     if method == "auto":
-        method = "dense" if n <= DENSE_LIMIT or n_modes >= n - 1 else "sparse"
+        method = "dense" if n <= DENSE_LIMIT or n_modes >= n_finite - 1 else "sparse"
     factor = None
     if method == "dense":
-        lam, Phi = _dense(K, M, n_modes, dofs)
+        lam, Phi = _dense(K, M, n_modes, dofs, massless)
     elif method == "sparse":
         if n_modes >= n - 1:
             raise InputError(f"sparse solver: n_modes must be below n - 1 = {n - 1}; use method='dense'")
@@ -274,20 +300,57 @@ def solve_modes(
     kd = np.abs(K.diagonal() if sp.issparse(K) else np.diag(np.asarray(K, float)))
     md = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, float))
     lam = np.array(lam, float)
-    code, low = rules.check_spectrum(lam, lam.size, float(np.max(kd / md)))
+    computed = lam.copy()
+    code, low = rules.check_spectrum(lam, lam.size, float(np.max(kd[md > 0] / md[md > 0])))
     if code != rules.OK:
         raise InputError(
             "K is not positive semi-definite: negative eigenvalue "
             f"{low:.4g} (check for negative stiffness parameters)"
         )
+    for i in np.flatnonzero((lam == 0.0) & (computed != 0.0)):
+        # zero by the pencil's scale, which one penalty stiffness (a rigid link) can dominate:
+        # a rigid-body mode's strain energy is round-off of its terms, an elastic mode's is not
+        if strain_energy_ratio(K, Phi[:, i]) > RIGID_ENERGY_TOL:
+            lam[i] = computed[i]
     rigid = lam == 0.0
     Phi = normalise(Phi, normalisation, M=M, dofs=dofs)
     return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()), factor)
 
 
-def _dense(K, M, n_modes, dofs):
+#: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
+#: its eigenvalue is next to the pencil's largest single-dof quotient
+RIGID_ENERGY_TOL = 1e-11
+
+
+def strain_energy_ratio(K, phi) -> float:
+    """|φᵀKφ| / (|φ|ᵀ|K||φ|): round-off (about 1e-16 to 1e-14) for a rigid-body mode, whose
+    element energies cancel; far above for an elastic mode, even next to penalty stiffnesses.
+
+    Parameters
+    ----------
+    K : array_like or sparse matrix, shape ``(n, n)``
+    phi : numpy.ndarray, shape ``(n,)``
+
+    Returns
+    -------
+    float
+    """
+    a = np.abs(phi)
+    if sp.issparse(K):
+        total = float(a @ (abs(sp.csr_array(K)) @ a))
+        energy = float(phi @ (K @ phi))
+    else:
+        Kd = np.asarray(K, float)
+        total = float(a @ np.abs(Kd) @ a)
+        energy = float(phi @ Kd @ phi)
+    return abs(energy) / total if total > 0 else 0.0
+
+
+def _dense(K, M, n_modes, dofs, massless=None):
     Kd = K.toarray() if sp.issparse(K) else np.asarray(K, float)
     Md = M.toarray() if sp.issparse(M) else np.asarray(M, float)
+    if massless is not None and massless.any():
+        return _dense_condensed(Kd, Md, n_modes, dofs, massless)
     try:
         if n_modes < Kd.shape[0]:
             lam, Phi = sla.eigh(Kd, Md, subset_by_index=[0, n_modes - 1], driver="gvx")
@@ -295,6 +358,37 @@ def _dense(K, M, n_modes, dofs):
             lam, Phi = sla.eigh(Kd, Md, driver="gvd")
     except np.linalg.LinAlgError:
         raise InputError("the mass matrix is not positive definite (its Cholesky factorisation failed)") from None
+    return lam, Phi
+
+
+def _dense_condensed(Kd, Md, n_modes, dofs, massless):
+    """Modes of a pencil with massless dofs s: exact static condensation onto the others m,
+    K̃ = K_mm − K_ms K_ss⁻¹ K_sm with M_mm, and φ_s = −K_ss⁻¹ K_sm φ_m (the massless dofs follow
+    the others quasi-statically: that is what a zero mass means)."""
+    s, m = np.flatnonzero(massless), np.flatnonzero(~massless)
+    Kss, Ksm = Kd[np.ix_(s, s)], Kd[np.ix_(s, m)]
+    try:
+        c = sla.cho_factor(Kss)
+    except np.linalg.LinAlgError:
+        raise InputError(
+            f"massless dof(s) {describe([dofs[i] for i in s])} are not held by positive definite stiffness (their "
+            "block of K is singular or indefinite: a mechanism without mass); add stiffness or mass there"
+        ) from None
+    T = -sla.cho_solve(c, Ksm)
+    Kr = Kd[np.ix_(m, m)] + Ksm.T @ T
+    Kr = 0.5 * (Kr + Kr.T)
+    Mr = Md[np.ix_(m, m)]
+    try:
+        if n_modes < m.size:
+            lam, Pm = sla.eigh(Kr, Mr, subset_by_index=[0, n_modes - 1], driver="gvx")
+        else:
+            lam, Pm = sla.eigh(Kr, Mr, driver="gvd")
+    except np.linalg.LinAlgError:
+        raise InputError("the mass matrix is not positive definite on the dofs with mass (its Cholesky "
+                         "factorisation failed)") from None
+    Phi = np.zeros((Kd.shape[0], lam.size))
+    Phi[m] = Pm
+    Phi[s] = T @ Pm
     return lam, Phi
 
 
@@ -371,8 +465,9 @@ def _sparse(K, M, n_modes, sigma, tol):
         except RuntimeError:
             # rigid-body modes: shift just below zero, relative to the pencil's scale
             lu = None
-            d = K.diagonal()
-            s = float(np.median(d[d > 0] / M.diagonal()[d > 0])) if np.any(d > 0) else 1.0
+            d, md = K.diagonal(), M.diagonal()
+            both = (d > 0) & (md > 0)
+            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
             sigma = -1e-6 * s
             log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
     try:

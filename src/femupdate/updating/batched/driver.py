@@ -70,6 +70,10 @@ def unsupported(model, options: Mapping, explicit: bool = False) -> str | None:
     limit = DENSE_LIMIT if explicit else AUTO_MAX_DOFS
     if model.n_dofs > limit:
         return f"the model has {model.n_dofs} dofs; the batched (dense) route takes at most {limit}"
+    from ...modal import massless_dofs
+
+    if massless_dofs(model.M(model.values)).any():
+        return "the model has massless dofs (the batched route needs a positive definite mass matrix)"
     return None
 
 
