@@ -9,6 +9,7 @@ inside the functions that need them.
 
 from __future__ import annotations
 
+import math
 import sys
 
 import click
@@ -27,6 +28,23 @@ class Ctx:
         quiet = json_path == "-"
         self.console = Console(file=sys.stderr if quiet else sys.stdout, quiet=quiet, highlight=False, soft_wrap=True,
                                emoji=False)  # dof labels such as "1:x:" are not emoji codes
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option that must be finite (click's FloatRange lets ``nan`` and ``inf`` through),
+    optionally within bounds; click's message names the option as typed (e.g. ``--min-mac``)."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        rv = super().convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return rv
+
+
+#: ``--seed``: numpy's generators refuse negative seeds; 2**32 - 1 keeps every generator API usable
+SEED = click.IntRange(0, 2**32 - 1)
 
 
 def parse_set(text: str | None) -> dict[str, float]:
@@ -65,9 +83,12 @@ def parse_regularization(text):
     if text in ("gcv", "lcurve"):
         return text
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise InputError(f"--regularization must be gcv, lcurve or a number, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise InputError(f"--regularization: the Tikhonov factor must be a finite number >= 0, got {text!r}")
+    return value
 
 
 def emit(ctx: Ctx, payload: dict) -> None:

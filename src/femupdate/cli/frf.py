@@ -11,7 +11,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+from ._common import (SEED, Ctx, FiniteFloat, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
                       update_parameter_table, update_payload)
 
 
@@ -36,6 +36,8 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             out.append(float(item))
         except ValueError:
             raise InputError(f"{what}: {item!r} is not a number (give a list 0.5,1,1.5 or START:STOP:N)") from None
+        if not np.isfinite(out[-1]):
+            raise InputError(f"{what}: {item!r} is not a finite number")
     return np.array(out)
 
 
@@ -51,6 +53,8 @@ def parse_force(text: str) -> dict:
             out[dof.strip()] = float(amp) if eq else 1.0
         except ValueError:
             raise InputError(f"--force: amplitude of {dof.strip()!r} is not a number: {amp!r}") from None
+        if not np.isfinite(out[dof.strip()]):
+            raise InputError(f"--force: amplitude of {dof.strip()!r} is not finite: {amp.strip()!r}")
     if not out:
         raise InputError("--force: give a dof (e.g. 2:x) or dof=amplitude pairs")
     return out
@@ -93,7 +97,7 @@ def frf_line_options(command):
         click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many FRF lines by conditioning."),
         click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,
                      help="FRF lines within --resonance-tol of a resonance of the starting model."),
-        click.option("--resonance-tol", type=click.FloatRange(min=0), default=1e-3, show_default=True),
+        click.option("--resonance-tol", type=FiniteFloat(min=0), default=1e-3, show_default=True),
         damping_option,
     )):
         command = option(command)
@@ -126,9 +130,9 @@ def frf_fields(res) -> dict:
 @click.option("--dofs", "dofs_text", default=None, help="Response dofs (default every model dof).")
 @click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
 @damping_option
-@click.option("--noise", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
+@click.option("--noise", type=FiniteFloat(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
 @click.option("--noise-kind", type=click.Choice(["relative", "absolute", "coherent"]), default="relative", show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Also write the receptances as universal file datasets 58.")
 @click.option("--test-data", "data_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -204,7 +208,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=SEED, default=0, show_default=True)
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
 @click.option("--global", "global_method", type=click.Choice(["differential_evolution", "basinhopping", "dual_annealing"]),
               default=None, help="Global search within the bounds, then a local polish.")
@@ -216,7 +220,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--std", type=click.FloatRange(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
+@click.option("--std", type=FiniteFloat(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
 @set_option
@@ -301,7 +305,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
               help="direct: complete data (eq. 28); sensitivity: measured at --dofs (eqs. 31-32).")
 @click.option("--dofs", "dofs_text", default=None, help="Measured dofs (kind sensitivity; default all).")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
-@click.option("--margin", type=click.FloatRange(min=0), default=0.05, show_default=True,
+@click.option("--margin", type=FiniteFloat(min=0), default=0.05, show_default=True,
               help="Keep this relative eigenvalue distance from resonances.")
 @damping_option
 @set_option

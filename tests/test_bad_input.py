@@ -1,0 +1,111 @@
+"""Bad input gets one clear message naming the culprit, exit 2 (1 for numerical failure), never a
+traceback and never a silent wrong answer (the input-side part of issue 16)."""
+
+import json
+
+import pytest
+
+from femupdate.cli import main
+
+
+def run(args, capsys):
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+@pytest.fixture(scope="module")
+def ex(tmp_path_factory):
+    """The demo's example files (models .toml, test data .json)."""
+    d = tmp_path_factory.mktemp("ex")
+    with pytest.raises(SystemExit) as info:
+        main(["demo", "--write-files", str(d)])
+    assert info.value.code == 0
+    return d
+
+
+def check_refused(code, err, *fragments, exit_code=2):
+    assert code == exit_code, err
+    assert "Traceback" not in err
+    for f in fragments:
+        assert f in err, err
+
+
+# ---------------------------------------------------------------------------------- 1, 2: CLI options
+FLOAT_OPTIONS = [
+    (["uniqueness", "{two}", "--rel-tol", "{v}"], "--rel-tol"),
+    (["uniqueness", "{two}", "--cost-tol", "{v}"], "--cost-tol"),
+    (["uniqueness", "{two}", "--min-mac", "{v}"], "--min-mac"),
+    (["uniqueness", "{two}", "--connect-timeout", "{v}"], "--connect-timeout"),
+    (["update", "{two}", "{freq}", "--min-mac", "{v}"], "--min-mac"),
+    (["update", "{two}", "{freq}", "--std-eigenvalue", "{v}"], "--std-eigenvalue"),
+    (["update", "{two}", "{freq}", "--std-shape", "{v}"], "--std-shape"),
+    (["update", "{two}", "{freq}", "--std-frf", "{v}"], "--std-frf"),
+    (["update", "{two}", "{freq}", "--std-static", "{v}"], "--std-static"),
+    (["update", "{two}", "{freq}", "--resonance-tol", "{v}"], "--resonance-tol"),
+    (["correlate", "{two}", "{freq}", "--min-mac", "{v}"], "--min-mac"),
+    (["frf", "{two}", "--force", "1:x", "--omega", "1,2", "--noise", "{v}"], "--noise"),
+    (["frf-update", "{two}", "{frf}", "--std", "{v}"], "--std"),
+    (["frf-update", "{two}", "{frf}", "--resonance-tol", "{v}"], "--resonance-tol"),
+    (["frf-select", "{two}", "--force", "1:x", "--candidates", "1:3:5", "--lines", "2", "--margin", "{v}"], "--margin"),
+    (["update-multi", "{two}", "--config", "{freq}", "--min-mac", "{v}"], "--min-mac"),
+    (["damage", "{truss}", "{damaged}", "--alpha", "{v}"], "--alpha"),
+    (["damage", "{truss}", "{damaged}", "--min-change", "{v}"], "--min-change"),
+    (["damage", "{truss}", "{damaged}", "--noise-frequency", "{v}"], "--noise-frequency"),
+    (["damage", "{truss}", "{damaged}", "--noise-shape", "{v}"], "--noise-shape"),
+    (["damage", "{truss}", "{damaged}", "--max-frequency-error", "{v}"], "--max-frequency-error"),
+    (["damage", "{truss}", "{damaged}", "--min-mac", "{v}"], "--min-mac"),
+    (["damage", "{truss}", "{damaged}", "--localise-min-mac", "{v}"], "--localise-min-mac"),
+]
+
+
+def fill(args, ex, v=""):
+    files = {"two": ex / "two_dof.toml", "freq": ex / "two_dof_frequencies.json", "frf": ex / "two_dof_frf.json",
+             "truss": ex / "truss.toml", "damaged": ex / "truss_damaged.json"}
+    return [a.format(v=v, **files) for a in args]
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "NaN"])
+@pytest.mark.parametrize("args, option", FLOAT_OPTIONS, ids=[f"{a[0]} {o}" for a, o in FLOAT_OPTIONS])
+def test_float_options_refuse_nan_and_inf(ex, capsys, args, option, value):
+    code, _, err = run(fill(args, ex, value), capsys)
+    check_refused(code, err, option)
+
+
+def test_every_float_option_is_finite():
+    """No command has a float option that lets nan through (click's FloatRange does)."""
+    import click
+
+    from femupdate.cli import cli
+    from femupdate.cli._common import FiniteFloat
+
+    for name, cmd in cli.commands.items():
+        for p in cmd.params:
+            if isinstance(p.type, (click.types.FloatParamType, click.FloatRange)):
+                assert isinstance(p.type, FiniteFloat), f"{name} {p.opts}"
+
+
+@pytest.mark.parametrize("args", [
+    ["update", "{two}", "{freq}", "--starts", "3", "--seed", "-1"],
+    ["uniqueness", "{two}", "--seed", "-1"],
+    ["frf", "{two}", "--force", "1:x", "--omega", "1,2", "--noise", "0.01", "--seed", "-1"],
+    ["frf-update", "{two}", "{frf}", "--starts", "2", "--seed", "-5"],
+    ["damage", "{truss}", "{damaged}", "--seed", "-1"],
+])
+def test_negative_seed_is_refused(ex, capsys, args):
+    code, _, err = run(fill(args, ex), capsys)
+    check_refused(code, err, "--seed")
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["frf", "{two}", "--force", "1:x=nan", "--omega", "1,2"], "--force"),
+    (["frf", "{two}", "--force", "1:x", "--omega", "1,inf"], "--omega"),
+    (["uniqueness", "{two}", "--noise", "nan"], "--noise"),
+    (["uniqueness", "{two}", "--noise", "-0.1"], "--noise"),
+    (["update", "{two}", "{freq}", "--regularization", "nan"], "--regularization"),
+    (["update", "{two}", "{freq}", "--regularization", "-1"], "--regularization"),
+])
+def test_numbers_in_option_strings_must_be_finite(ex, capsys, args, fragment):
+    code, _, err = run(fill(args, ex), capsys)
+    check_refused(code, err, fragment)
