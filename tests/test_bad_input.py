@@ -109,3 +109,33 @@ def test_negative_seed_is_refused(ex, capsys, args):
 def test_numbers_in_option_strings_must_be_finite(ex, capsys, args, fragment):
     code, _, err = run(fill(args, ex), capsys)
     check_refused(code, err, fragment)
+
+
+# ---------------------------------------------------------------------------------- 3: --set as the file
+@pytest.fixture
+def wide_two_dof(ex, tmp_path):
+    """The two-dof example with bounds [0, 100]: 0 is within the bounds, but not a stiffness."""
+    p = tmp_path / "wide.toml"
+    p.write_text((ex / "two_dof.toml").read_text().replace("[3.0, 13.0]", "[0.0, 100.0]").replace("[1.0, 11.0]", "[0.0, 100.0]"))
+    return p
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "-0.0"])
+def test_set_refuses_a_non_positive_stiffness_like_the_file(wide_two_dof, tmp_path, capsys, value):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(wide_two_dof.read_text().replace("value = 7.0", f"value = {value}"))
+    code, _, err = run(["modes", bad], capsys)
+    check_refused(code, err, "k1")  # the file's check
+    code, _, err = run(["modes", wide_two_dof, "--set", f"k1={value}"], capsys)
+    check_refused(code, err, "--set", "'k1'")
+    assert "> 0" in err or "outside its bounds" in err
+
+
+@pytest.mark.parametrize("args", [
+    ["modes", "{two}", "--set", "k1=20"],
+    ["update", "{two}", "{freq}", "--set", "k2=0.5"],
+    ["damage", "{truss}", "{damaged}", "--set", "E=0"],
+])
+def test_set_refuses_values_outside_the_bounds_like_the_file(ex, capsys, args):
+    code, _, err = run(fill(args, ex), capsys)
+    check_refused(code, err, "--set", "outside its bounds")

@@ -112,6 +112,10 @@ class Model:
         Name used in messages and results.
     nodes : mapping of int to (float, float, float), optional
         Node id -> coordinates (x, y, z), for geometry-aware output such as UFF.
+    positive : collection of str, optional
+        Parameters that must stay > 0 (a structure's element properties: a stiffness, mass or
+        section value); checked where values come from the user (``--set``) and flagged in
+        results.
 
     Attributes
     ----------
@@ -124,6 +128,7 @@ class Model:
         ``dK[j] = dK/dp_j`` (``None`` where parameter j does not enter K); likewise ``dM``.
     name : str
     nodes : dict of int to (x, y, z)
+    positive : frozenset of str
 
     Raises
     ------
@@ -141,6 +146,7 @@ class Model:
     dM: tuple = ()
     name: str = "model"
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
+    positive: frozenset[str] = frozenset()
 
     def __post_init__(self):
         dofs = canonical_all(self.dofs, "model dofs")
@@ -168,6 +174,7 @@ class Model:
         object.__setattr__(self, "dK", dK)
         object.__setattr__(self, "dM", dM)
         object.__setattr__(self, "nodes", dict(self.nodes))
+        object.__setattr__(self, "positive", frozenset(self.positive) & frozenset(names))
 
     # ------------------------------------------------------------------ basic properties
     @property

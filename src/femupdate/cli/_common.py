@@ -68,11 +68,26 @@ def parse_set(text: str | None) -> dict[str, float]:
     return out
 
 
+def check_set(model, values: dict[str, float]) -> None:
+    """``--set`` values pass the model file's checks: a known parameter, within its bounds, and
+    > 0 where the parameter is an element property (a stiffness, mass or section value)."""
+    from ..model import Parameter
+
+    for name, v in values.items():
+        par = model.parameters[model.parameter_index(name)]  # names an unknown parameter clearly
+        try:
+            Parameter(name, v, par.bounds, par.fixed)
+        except InputError as exc:
+            raise InputError(f"--set: {exc}") from None
+        if name in model.positive and not v > 0:
+            raise InputError(f"--set: parameter {name!r} = {v:g} is an element property of {model.name!r} and must be > 0 "
+                             "(as in the model file)")
+
+
 def model_values(model, set_text):
     """The model's parameter vector with ``--set`` applied, or None without ``--set``."""
     values = parse_set(set_text)
-    for name in values:
-        model.parameter_index(name)  # names an unknown parameter clearly
+    check_set(model, values)
     return model.resolve(values) if values else None
 
 

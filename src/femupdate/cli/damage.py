@@ -18,7 +18,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import SEED, Ctx, FiniteFloat, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
+from ._common import SEED, Ctx, FiniteFloat, check_set, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -97,6 +97,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
     notes = []
     if structure is not None:
         values = parse_set(set_text)
+        check_set(model, values)
         em, _ = element_parameters(structure, values)
         model = em.build()
     else:

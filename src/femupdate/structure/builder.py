@@ -482,6 +482,7 @@ class Structure:
             parameters=tuple(self.parameters[p] for p in pnames),
             dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
             name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
+            positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
         )
 
     def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
