@@ -139,3 +139,81 @@ def test_set_refuses_a_non_positive_stiffness_like_the_file(wide_two_dof, tmp_pa
 def test_set_refuses_values_outside_the_bounds_like_the_file(ex, capsys, args):
     code, _, err = run(fill(args, ex), capsys)
     check_refused(code, err, "--set", "outside its bounds")
+
+
+# ---------------------------------------------------------------------------------- 4, 5: numbers, duplicate keys
+BIG = "9" * 400  # an integer too large for a float
+HUGE = "9" * 5000  # above Python's 4,300-digit limit for converting integer strings
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ("value = 7.0", f"value = {BIG}", "parameters.k1.value"),
+    ("value = 7.0", f"value = {HUGE}", "line 5"),
+    ("m = 2.0", f"m = {BIG}", "element[3].m"),
+    ("m = 2.0", "m = 1e300", "element[3].m"),
+    ("bounds = [3.0, 13.0]", "bounds = [3.0, 1e200]", "parameters.k1.bounds[2]"),
+])
+def test_model_file_refuses_numbers_too_large(ex, tmp_path, capsys, old, new, field):
+    p = tmp_path / "m.toml"
+    p.write_text((ex / "two_dof.toml").read_text().replace(old, new, 1))
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), field)
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ('"frequency_hz": 2.074222', f'"frequency_hz": {BIG}', "modes[1].frequency_hz"),
+    ('"frequency_hz": 2.074222', f'"frequency_hz": {HUGE}', "modes[1].frequency_hz"),
+    ('"frequency_hz": 2.074222', '"frequency_hz": 1e300', "modes[1].frequency_hz"),
+    ('"frequency_hz": 2.074222', '"frequency_hz": 1.7e308', "modes[1].frequency_hz"),
+    ('"1:x": 0.672532', '"1:x": 1e300', "modes[1].shape.1:x"),
+    ('"1:x": 0.672532', f'"1:x": -{BIG}', "modes[1].shape.1:x"),
+])
+def test_test_data_refuses_numbers_too_large(ex, tmp_path, capsys, old, new, field):
+    p = tmp_path / "d.json"
+    p.write_text((ex / "figure2_test.json").read_text().replace(old, new, 1))
+    for cmd in ("correlate", "update"):
+        code, _, err = run([cmd, ex / "figure2.toml", p], capsys)
+        check_refused(code, err, str(p), field, "1e+150")
+
+
+def test_frf_omega_too_large_is_refused(ex, tmp_path, capsys):
+    raw = json.loads((ex / "two_dof_frf.json").read_text())
+    raw["frf"]["omega_rad_s"][0] = 1e200
+    p = tmp_path / "f.json"
+    p.write_text(json.dumps(raw))
+    code, _, err = run(["frf-update", ex / "two_dof.toml", p], capsys)
+    check_refused(code, err, str(p), "frf.omega_rad_s[1]")
+
+
+def test_frequencies_within_the_limit_have_finite_eigenvalues():
+    from femupdate._limits import MAX_MAGNITUDE
+    from femupdate.testdata import MeasuredMode
+
+    import math
+    assert math.isfinite(MeasuredMode.from_frequency(MAX_MAGNITUDE).eigenvalue)
+
+
+@pytest.mark.parametrize("text, where, key", [
+    ('{"modes": [{"frequency_hz": 1.0, "shape": {"1:x": 1.0, "1:x": 2.0}}]}', "modes[1].shape", "'1:x'"),
+    ('{"modes": [{"frequency_hz": 1.0, "frequency_hz": 2.0}]}', "modes[1]", "'frequency_hz'"),
+    ('{"modes": [{"frequency_hz": 1.0}], "modes": [{"frequency_hz": 2.0}]}', "top-level", "'modes'"),
+])
+def test_json_duplicate_keys_are_refused(ex, tmp_path, capsys, text, where, key):
+    p = tmp_path / "dup.json"
+    p.write_text(text)
+    code, _, err = run(["correlate", ex / "two_dof.toml", p], capsys)
+    check_refused(code, err, str(p), where, "duplicate key", key)
+
+
+def test_toml_duplicate_keys_are_refused_by_the_parser(ex, tmp_path, capsys):
+    p = tmp_path / "dup.toml"
+    p.write_text((ex / "two_dof.toml").read_text().replace("value = 7.0", "value = 7.0\nvalue = 8.0", 1))
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), "malformed TOML")
+
+
+def test_duplicate_keys_in_other_json_inputs(ex, tmp_path, capsys):
+    p = tmp_path / "plus.json"
+    p.write_text('{"name": "a", "name": "b"}')
+    code, _, err = run(["update-multi", ex / "two_dof.toml", "--config", f"{ex / 'two_dof_frequencies.json'}:{p}"], capsys)
+    check_refused(code, err, str(p), "duplicate key 'name'")

@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._errors import InputError
+from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -74,6 +75,8 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
         raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
     if not np.all(np.isfinite(A.data)):
         raise InputError(f"{what} contains NaN or infinite entries")
+    if A.nnz and np.max(np.abs(A.data)) > MAX_MAGNITUDE:
+        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {np.max(np.abs(A.data)):.3g})")
     A.sum_duplicates()
     A.eliminate_zeros()
     asym = A - A.T

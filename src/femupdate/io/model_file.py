@@ -31,6 +31,8 @@ import scipy.io
 import scipy.sparse as sp
 
 from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
+from .numbers import check_magnitudes, long_integer_line
 from ..model import Model, Parameter
 from ..structure import Structure
 
@@ -51,12 +53,14 @@ def read_toml(path) -> dict:
     Raises
     ------
     InputError
-        The file is missing, a directory, not UTF-8 text, or not valid TOML.
+        The file is missing, a directory, not UTF-8 text, or not valid TOML; a number above
+        1e150 in magnitude (the field named).
     """
     path = Path(path)
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            text = fh.read().decode("utf-8")
+        data = tomllib.loads(text)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
@@ -65,6 +69,12 @@ def read_toml(path) -> dict:
         raise InputError(f"{path}: malformed TOML: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text (UTF-8) TOML file") from None
+    except ValueError:  # Python's limit of 4,300 digits for converting an integer string
+        line = long_integer_line(text)
+        raise InputError(f"{path}: line {line}: an integer too long to read (numbers must be at most "
+                         f"{MAX_MAGNITUDE:g} in magnitude)") from None
+    check_magnitudes(data, str(path))
+    return data
 
 
 def load_model(path) -> Model:
