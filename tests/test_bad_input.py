@@ -217,3 +217,54 @@ def test_duplicate_keys_in_other_json_inputs(ex, tmp_path, capsys):
     p.write_text('{"name": "a", "name": "b"}')
     code, _, err = run(["update-multi", ex / "two_dof.toml", "--config", f"{ex / 'two_dof_frequencies.json'}:{p}"], capsys)
     check_refused(code, err, str(p), "duplicate key 'name'")
+
+
+# ---------------------------------------------------------------------------------- 6: matrix models
+@pytest.fixture
+def matrix_dir(tmp_path):
+    import numpy as np
+
+    np.save(tmp_path / "K0.npy", np.diag([2.0, 1.0]))
+    np.save(tmp_path / "M0.npy", np.eye(2))
+    np.save(tmp_path / "dK.npy", np.diag([1.0, 0.0]))
+    np.save(tmp_path / "K3.npy", np.zeros((2, 2, 2)))
+    (tmp_path / "dofs.txt").write_text("1:x\n2:x\n")
+    (tmp_path / "latin1.txt").write_bytes(b"\xff\xfe1:x\n2:x\n")
+    return tmp_path
+
+
+MATRIX_TOML = '''[matrices]
+dofs = "dofs.txt"
+K0 = "K0.npy"
+M0 = "M0.npy"
+[parameters.k1]
+value = 1.0
+K = "dK.npy"
+'''
+
+
+@pytest.mark.parametrize("old, new, fragments", [
+    ('dofs = "dofs.txt"', "dofs = 5", ["dofs must be a file name or a list"]),
+    ('dofs = "dofs.txt"', "dofs = {a = 1}", ["dofs must be a file name or a list"]),
+    ('dofs = "dofs.txt"', 'dofs = "latin1.txt"', ["latin1.txt", "not UTF-8"]),
+    ('K0 = "K0.npy"', 'K0 = "K3.npy"', ["K0", "3-dimensional"]),
+    ('K0 = "K0.npy"', "K0 = [1]", ["K0", "matrix file name"]),
+    ("value = 1.0", "value = 1.0\nbounds = 3", ["[parameters.k1]", "bounds"]),
+    ("value = 1.0", "value = 1.0\nfixed = 3", ["[parameters.k1]", "fixed"]),
+    ("[matrices]", "model = 5\n[matrices]", ["[model]"]),
+])
+def test_matrix_model_malformed(matrix_dir, capsys, old, new, fragments):
+    p = matrix_dir / "m.toml"
+    p.write_text(MATRIX_TOML.replace(old, new, 1))
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), *fragments)
+
+
+def test_from_matrices_refuses_a_three_dimensional_array():
+    import numpy as np
+
+    from femupdate import InputError
+    from femupdate.model import from_matrices
+
+    with pytest.raises(InputError, match="K0 must be a square matrix"):
+        from_matrices(["1:x", "2:x"], np.zeros((2, 2, 2)), np.eye(2))

@@ -68,7 +68,14 @@ class Parameter:
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     if A is None:
         return None
-    A = sp.csr_array(A, dtype=float) if sp.issparse(A) else sp.csr_array(np.asarray(A, dtype=float))
+    if not sp.issparse(A):
+        try:
+            A = np.asarray(A, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{what} is not a numeric matrix") from None
+        if A.ndim != 2:
+            raise InputError(f"{what} must be a square matrix, got an array of shape {A.shape}")
+    A = sp.csr_array(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise InputError(f"{what} must be square, got shape {A.shape}")
     if n is not None and A.shape[0] != n:
