@@ -268,3 +268,15 @@ def test_from_matrices_refuses_a_three_dimensional_array():
 
     with pytest.raises(InputError, match="K0 must be a square matrix"):
         from_matrices(["1:x", "2:x"], np.zeros((2, 2, 2)), np.eye(2))
+
+
+# ---------------------------------------------------------------------------------- 7: damage, uneven dof sets
+def test_damage_with_a_mode_lacking_a_dof_uses_the_common_dofs_and_says_so(ex, tmp_path, capsys):
+    raw = json.loads((ex / "truss_damaged.json").read_text())
+    del raw["modes"][1]["shape"]["3:y"]
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps(raw))
+    code, out, err = run(["damage", ex / "truss.toml", p, "--bootstrap", "2", "--json", "-"], capsys)
+    assert code in (0, 1) and "Traceback" not in err, err
+    notes = json.loads(out)["notes"]
+    assert any("mode 2 lacks 3:y" in n and "3:y dropped" in n for n in notes), notes
