@@ -280,3 +280,20 @@ def test_damage_with_a_mode_lacking_a_dof_uses_the_common_dofs_and_says_so(ex, t
     assert code in (0, 1) and "Traceback" not in err, err
     notes = json.loads(out)["notes"]
     assert any("mode 2 lacks 3:y" in n and "3:y dropped" in n for n in notes), notes
+
+
+# ---------------------------------------------------------------------------------- 8: truncated universal file
+def test_uff_cut_inside_its_last_mode_record_is_refused(ex, tmp_path, capsys):
+    full = tmp_path / "m.uff"
+    code, _, err = run(["modes", ex / "figure2.toml", "--uff", full], capsys)
+    assert code == 0, err
+    lines = full.read_text().splitlines(keepends=True)
+    assert lines[-1].rstrip() == "    -1"
+    opening = max(i for i, ln in enumerate(lines[:-1]) if ln.rstrip() == "    -1")  # opens the last record
+    for n in range(opening + 1, len(lines)):  # every cut after the last record's opening line
+        cut = tmp_path / f"cut{n}.uff"
+        cut.write_text("".join(lines[:n]))
+        code, _, err = run(["correlate", ex / "figure2.toml", cut], capsys)
+        check_refused(code, err, str(cut), "truncated")
+        if n > opening + 1:
+            assert "dataset 55 record 3" in err, err
