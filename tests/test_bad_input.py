@@ -297,3 +297,29 @@ def test_uff_cut_inside_its_last_mode_record_is_refused(ex, tmp_path, capsys):
         check_refused(code, err, str(cut), "truncated")
         if n > opening + 1:
             assert "dataset 55 record 3" in err, err
+
+
+# ---------------------------------------------------------------------------------- found by tests/test_fuzz.py
+@pytest.mark.parametrize("eigenvalue", [0.0, 5e-324])
+def test_zero_or_subnormal_test_eigenvalue(ex, tmp_path, capsys, eigenvalue):
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps({"modes": [{"eigenvalue": eigenvalue}, {"eigenvalue": 7.72}]}))
+    code, out, err = run(["correlate", ex / "two_dof.toml", p], capsys)  # was a division by zero
+    assert code == 0 and "Traceback" not in err, err
+    code, _, err = run(["update", ex / "two_dof.toml", p], capsys)  # 5e-324 overflowed the residual
+    check_refused(code, err, "test mode(s) 1 have zero frequency")
+
+
+def test_damage_refuses_a_rigid_body_test_mode(ex, tmp_path, capsys):
+    raw = json.loads((ex / "truss_damaged.json").read_text())
+    raw["modes"][0]["eigenvalue"] = 0.0
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps(raw))
+    code, _, err = run(["damage", ex / "truss.toml", p, "--bootstrap", "0"], capsys)  # was a division by zero
+    check_refused(code, err, "mode 1", "zero frequency")
+
+
+@pytest.mark.parametrize("omega", ["1,1e308", "0:1e308:3"])
+def test_omega_above_the_magnitude_limit(ex, capsys, omega):
+    code, _, err = run(["frf", ex / "two_dof.toml", "--force", "1:x", "--omega", omega], capsys)  # overflowed in ω²
+    check_refused(code, err, "--omega")

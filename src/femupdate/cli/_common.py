@@ -132,7 +132,7 @@ def correlation_table(corr, title):
         t.add_column(col, justify="right")
     for (i, j, m), e in zip(corr.pairs, corr.frequency_error):
         t.add_row(str(i + 1), str(j + 1), fmt(corr.test_frequencies_hz[i]), fmt(corr.model_frequencies_hz[j]),
-                  f"{e * 100:+.2f} %", "-" if not np.isfinite(m) else f"{m:.4f}")
+                  f"{e * 100:+.2f} %" if np.isfinite(e) else "-", "-" if not np.isfinite(m) else f"{m:.4f}")
     for i in corr.unpaired_test:
         t.add_row(str(i + 1), "-", fmt(corr.test_frequencies_hz[i]), "-", "-", "unpaired")
     return t

@@ -11,6 +11,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
+from .._limits import MAX_MAGNITUDE
 from ._common import (SEED, Ctx, FiniteFloat, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
                       update_parameter_table, update_payload)
 
@@ -28,6 +29,8 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             raise InputError(f"{what}: {text!r} is not START:STOP:N (numbers, N an integer)") from None
         if n < 1 or not (np.isfinite(a) and np.isfinite(b)):
             raise InputError(f"{what}: {text!r}: need finite ends and N >= 1")
+        if max(abs(a), abs(b)) > MAX_MAGNITUDE:
+            raise InputError(f"{what}: {text!r}: values must be at most {MAX_MAGNITUDE:g} in magnitude")
         return np.linspace(a, b, n)
     out = []
     for item in text.split(","):
@@ -36,8 +39,8 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             out.append(float(item))
         except ValueError:
             raise InputError(f"{what}: {item!r} is not a number (give a list 0.5,1,1.5 or START:STOP:N)") from None
-        if not np.isfinite(out[-1]):
-            raise InputError(f"{what}: {item!r} is not a finite number")
+        if not np.isfinite(out[-1]) or abs(out[-1]) > MAX_MAGNITUDE:
+            raise InputError(f"{what}: {item!r} is not a finite number of at most {MAX_MAGNITUDE:g} in magnitude")
     return np.array(out)
 
 

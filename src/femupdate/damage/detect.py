@@ -64,6 +64,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
 from ..dofs import describe, sort_key
 from ..model import Model
 from ..sensitivity.factor import single_thread_blas
@@ -207,6 +208,9 @@ def _measured(data: TestData):
         raise InputError("damage detection needs measured mode shapes (at two or more dofs)")
     if len(modes) < len(data.modes):
         log.info("modes without shapes are ignored by damage detection")
+    rigid = [m.label or f"mode {k + 1}" for k, m in enumerate(modes) if not m.eigenvalue >= 1 / MAX_MAGNITUDE]
+    if rigid:
+        raise InputError(f"{', '.join(rigid)}: zero frequency; damage detection needs elastic (non-rigid-body) modes")
     others = [set(m.dofs) for m in modes[1:]]
     common = [d for d in modes[0].dofs if all(d in o for o in others)]
     if len(common) < 2:
