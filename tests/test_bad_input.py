@@ -323,3 +323,80 @@ def test_damage_refuses_a_rigid_body_test_mode(ex, tmp_path, capsys):
 def test_omega_above_the_magnitude_limit(ex, capsys, omega):
     code, _, err = run(["frf", ex / "two_dof.toml", "--force", "1:x", "--omega", omega], capsys)  # overflowed in ω²
     check_refused(code, err, "--omega")
+
+
+# ---------------------------------------------------------------------------------- 9-11, 13: flags on results
+def _eigen_data(tmp_path, k1, k2, name):
+    """Exact modes of the two-dof example (masses 2 and 4) at k1, k2."""
+    import numpy as np
+    import scipy.linalg as sl
+
+    lam, phi = sl.eigh(np.array([[k1 + k2, -k2], [-k2, k2]]), np.diag([2.0, 4.0]))
+    p = tmp_path / name
+    p.write_text(json.dumps({"modes": [{"eigenvalue": float(v), "shape": {"1:x": float(s[0]), "2:x": float(s[1])}}
+                                       for v, s in zip(lam, phi.T)]}))
+    return p
+
+
+def test_direct_flags_a_negative_stiffness(ex, tmp_path, capsys):
+    # one mode, eigenvalue 1, shape [1, -1]: exactly k1 = -2, k2 = 2 (bounds [3, 13] and [1, 11])
+    p = tmp_path / "neg.json"
+    p.write_text('{"modes": [{"eigenvalue": 1.0, "shape": {"1:x": 1.0, "2:x": -1.0}}]}')
+    code, out, err = run(["direct", ex / "two_dof.toml", p], capsys)
+    assert code == 0 and "Traceback" not in err, err
+    assert "warning: k1 = -2 is not > 0" in out
+    assert "at parameter value(s) k1 = -2 (bounds [3, 13])" in out  # item 13: K indefinite, the culprit named
+    code, out, err = run(["direct", ex / "two_dof.toml", p, "--json", "-"], capsys)
+    flags = json.loads(out)["flags"]
+    assert [(f["parameter"], f["kind"]) for f in flags] == [("k1", "not_positive")]
+
+
+def test_direct_bounded_flags_values_on_their_bounds(ex, tmp_path, capsys):
+    p = tmp_path / "neg.json"
+    p.write_text('{"modes": [{"eigenvalue": 1.0, "shape": {"1:x": 1.0, "2:x": -1.0}}]}')
+    code, out, err = run(["direct", ex / "two_dof.toml", p, "--bounded", "--json", "-"], capsys)
+    assert code == 0, err
+    assert {(f["parameter"], f["kind"]) for f in json.loads(out)["flags"]} == {("k1", "on_bound"), ("k2", "on_bound")}
+
+
+def test_direct_flags_a_value_outside_its_bounds(ex, tmp_path, capsys):
+    p = _eigen_data(tmp_path, 7.0, 20.0, "k2_20.json")  # k2 = 20 > 11, positive
+    code, out, err = run(["direct", ex / "two_dof.toml", p], capsys)
+    assert code == 0, err
+    assert "warning: k2 = 20 lies outside its bounds [1, 11]" in out
+
+
+def test_update_converged_on_a_bound_is_flagged(ex, tmp_path, capsys):
+    p = _eigen_data(tmp_path, 7.0, 0.3, "k2low.json")  # the truth k2 = 0.3 is below the bound 1
+    code, out, err = run(["update", ex / "two_dof.toml", p], capsys)
+    assert code == 0, err
+    assert "k2 = 1 sits on its lower bound [1, 11]" in out
+    code, out, err = run(["update", ex / "two_dof.toml", p, "--json", "-"], capsys)
+    assert ("k2", "on_bound") in {(f["parameter"], f["kind"]) for f in json.loads(out)["flags"]}
+
+
+def test_nominal_results_have_no_flags(ex, capsys):
+    code, out, err = run(["direct", ex / "figure2.toml", ex / "figure2_test.json", "--json", "-"], capsys)
+    assert code == 0 and json.loads(out)["flags"] == []
+
+
+@pytest.mark.parametrize("grid, option, value", [
+    (["--x", "-3:13:5", "--y", "1:11:5"], "--x", "-3"),
+    (["--x", "3:13:5", "--y", "0:11:5"], "--y", "0"),
+    (["--x", "3:13:5", "--y", "1,5,20"], "--y", "20"),
+])
+def test_surface_refuses_grids_outside_the_bounds(ex, capsys, grid, option, value):
+    code, _, err = run(["surface", ex / "two_dof.toml", ex / "two_dof_frf.json", "--params", "k1,k2", *grid], capsys)
+    check_refused(code, err, option, f"value {value} lies outside its bounds")
+
+
+def test_indefinite_stiffness_names_the_parameter_value():
+    import numpy as np
+
+    from femupdate import InputError
+    from femupdate.modal import model_modes
+    from femupdate.model import Parameter, from_matrices
+
+    m = from_matrices(["1:x", "2:x"], np.zeros((2, 2)), np.eye(2), [Parameter("a", 1.0, (0.0, 10.0))], [np.eye(2)])
+    with pytest.raises(InputError, match=r"at parameter value\(s\) a = -1 \(bounds \[0, 10\]\)"):
+        model_modes(m, {"a": -1.0})

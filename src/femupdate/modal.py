@@ -390,5 +390,13 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
-    return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
-                       normalisation=normalisation, **kw)
+    try:
+        return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
+                           normalisation=normalisation, **kw)
+    except InputError as exc:
+        from .flags import suspect_values
+
+        suspects = suspect_values(model, model.resolve(values))
+        if not suspects or "positive" not in str(exc):
+            raise
+        raise InputError(f"{exc}; at parameter value(s) {suspects}") from None

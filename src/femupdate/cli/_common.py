@@ -138,6 +138,20 @@ def correlation_table(corr, title):
     return t
 
 
+def flags(model, parameters, names) -> list[dict]:
+    """Flags on identified values: not > 0 where they must be, outside or on their bounds
+    (:func:`femupdate.flags.parameter_flags`); the results' JSON lists them under ``flags``."""
+    from ..flags import parameter_flags
+
+    return parameter_flags(model, parameters, names)
+
+
+def print_flags(ctx: Ctx, found: list[dict]) -> None:
+    """One ``warning:`` line per flag (printed with the result; the exit code is unchanged)."""
+    for f in found:
+        ctx.console.print(f"warning: {f['message']}", markup=False)
+
+
 def direct_payload(model, res, data, corr_before=None):
     """JSON of a direct update (``direct`` and ``demo``)."""
     return {
@@ -154,6 +168,7 @@ def direct_payload(model, res, data, corr_before=None):
         "n_equations": res.system.n_equations,
         "bounded": res.bounded,
         "notes": res.notes,
+        "flags": flags(model, res.parameters, res.unknowns),
     }
 
 
@@ -178,6 +193,7 @@ def update_payload(model, data, res, ms=None):
         "regularization": res.regularization,
         "sensitivity": res.sensitivity,
         "notes": list(res.notes),
+        "flags": flags(model, res.parameters, res.names),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),

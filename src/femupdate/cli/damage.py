@@ -18,7 +18,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import SEED, Ctx, FiniteFloat, check_set, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
+from ._common import SEED, Ctx, FiniteFloat, check_set, emit, flags, print_flags, fmt, json_option, model_values, parse_regularization, parse_set, set_option
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -161,6 +161,7 @@ def _multi_payload(model, res) -> dict:
         "nfev": res.nfev, "standard_error": dict(zip(res.names, res.standard_error)),
         "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
         "regularization": res.regularization, "notes": res.notes,
+        "flags": flags(model, res.parameters, res.names),
         "direct": None if res.direct is None else {
             "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
             "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,
@@ -219,7 +220,9 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
                   f"{row['min_singular']:.4g}")
     c.print(t)
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}")
-    emit(ctx, _multi_payload(model, res))
+    payload = _multi_payload(model, res)
+    print_flags(ctx, payload["flags"])
+    emit(ctx, payload)
     if not res.success:
         raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
 
@@ -295,6 +298,8 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
                              res.unknowns, res.x, res.standard_error))
     for n in mp.notes + res.notes:
         c.print(f"note: {n}")
+    found = flags(model, res.parameters, res.unknowns)
+    print_flags(ctx, found)
     if data_out is not None:
         from ..io.results import write_json
 
@@ -312,7 +317,7 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
         "mapping": {"method": mp.method, "interpolation_error": mp.interpolation_error, "max_distance": mp.max_distance,
                     "tolerance": mp.tolerance, "inferred": mp.inferred, "zero": mp.zero, "fields": mp.fields,
                     "node_gap": mp.node_gap, "notes": mp.notes},
-        "notes": res.notes,
+        "notes": res.notes, "flags": found,
     })
     if not res.unique:
         raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")

@@ -12,7 +12,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
-from ._common import (SEED, Ctx, FiniteFloat, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+from ._common import (SEED, Ctx, FiniteFloat, check_set, emit, print_flags, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
                       update_parameter_table, update_payload)
 
 
@@ -280,6 +280,8 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         c.print(f"skipped line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     for note in res.notes:
         c.print(f"note: {note}")
+    payload = _frf_payload(model, data, res, ms, extra)
+    print_flags(ctx, payload["flags"])
     if ms is not None:
         what = f"{global_method} runs" if global_method else "starts"
         c.print(f"{ms.converged}/{ms.total} {what} converged to {len(ms.solutions)} distinct solution(s):")
@@ -293,7 +295,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         _, xa = model_frf(model, frf.omega[use], frf.force, frf.dofs, res.parameters, kw["damping"])
         names = save_frf_update_figures(plot_dir, res.history, frf.omega[use], frf.dofs, frf.response[use], xa)
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    emit(ctx, _frf_payload(model, data, res, ms, extra))
+    emit(ctx, payload)
     if not res.success:
         raise NumericalError(f"the FRF update did not converge: {res.message}")
 
@@ -374,6 +376,13 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
     data = load_testdata(data_path, model)
     names = [p.strip() for p in params_text.split(",") if p.strip()]
     x, y = _range(x_text, "--x"), _range(y_text, "--y")
+    if len(names) == 2:
+        for opt, grid, name in (("--x", x, names[0]), ("--y", y, names[1])):
+            for v in (float(np.min(grid)), float(np.max(grid))):
+                try:
+                    check_set(model, {name: v})
+                except InputError as exc:
+                    raise InputError(str(exc).replace("--set:", f"{opt}: the grid of", 1)) from None
     truth = None
     if truth_text:
         t = parse_set(truth_text)

@@ -10,7 +10,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import (SEED, Ctx, FiniteFloat, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+from ._common import (SEED, Ctx, FiniteFloat, emit, print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -123,6 +123,8 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
             c.print(f"  {s.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in s.parameters.items()) + f"  (cost {s.cost:.3g})")
     for note in res.notes:
         c.print(f"note: {note}")
+    payload = update_payload(model, data, res, ms)
+    print_flags(ctx, payload["flags"])
     if plot_dir is not None:
         names = []
         if "modes" in kinds:
@@ -142,7 +144,6 @@ def update(model_path, data_path, starts, seed, scheduler, params_text, shape_sc
             names += [n for n in save_frf_update_figures(plot_dir, res.history, frf.omega[used], frf.dofs,
                                                          frf.response[used], xa) if n not in names]
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    payload = update_payload(model, data, res, ms)
     if is_frf:
         payload.update(frf_fields(res))
     emit(ctx, payload)
