@@ -400,3 +400,38 @@ def test_indefinite_stiffness_names_the_parameter_value():
     m = from_matrices(["1:x", "2:x"], np.zeros((2, 2)), np.eye(2), [Parameter("a", 1.0, (0.0, 10.0))], [np.eye(2)])
     with pytest.raises(InputError, match=r"at parameter value\(s\) a = -1 \(bounds \[0, 10\]\)"):
         model_modes(m, {"a": -1.0})
+
+
+# ---------------------------------------------------------------------------------- found by the offline fuzz profile
+def test_subnormal_mass_is_refused(ex, tmp_path, capsys):
+    p = tmp_path / "m.toml"
+    p.write_text((ex / "two_dof.toml").read_text().replace("m = 4.0", "m = 1e-320"))
+    code, _, err = run(["modes", p], capsys)  # overflowed in the stiffness/mass scale
+    check_refused(code, err, "element #4", "property m", "below 1e-150")
+
+
+def test_badly_scaled_matrix_model_names_the_dof(matrix_dir, capsys):
+    import numpy as np
+
+    np.save(matrix_dir / "M0.npy", np.diag([1.0, 1e-320]))
+    p = matrix_dir / "m.toml"
+    p.write_text(MATRIX_TOML)
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, "badly scaled", "2:x")
+
+
+def test_std_options_refuse_subnormal_values(ex, capsys):
+    code, _, err = run(["update", ex / "two_dof.toml", ex / "two_dof_frequencies.json", "--std-eigenvalue", "5e-324"], capsys)
+    check_refused(code, err, "--std-eigenvalue")
+
+
+def test_uff_node_number_too_large(ex, tmp_path, capsys):
+    full = tmp_path / "m.uff"
+    run(["modes", ex / "figure2.toml", "--uff", full], capsys)
+    lines = full.read_text().splitlines(keepends=True)
+    i = next(k for k, ln in enumerate(lines) if ln.split() == ["1"])  # the first node line of a mode record
+    lines[i] = "9" * 400 + "\n"
+    bad = tmp_path / "bad.uff"
+    bad.write_text("".join(lines))
+    code, _, err = run(["correlate", ex / "figure2.toml", bad], capsys)  # OverflowError in float()
+    check_refused(code, err, str(bad), "node number")

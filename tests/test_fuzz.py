@@ -12,6 +12,7 @@ reproducible.
 """
 
 import contextlib
+import copy
 import io
 import json
 import os
@@ -164,12 +165,12 @@ def mutate_json(draw, text):
             parent = parent[k]
         key = path[-1]
         op = draw(st.sampled_from(["replace", "replace", "delete", "unknown_key", "empty", "rename"]))
-        if op == "replace":
-            parent[key] = draw(JSON_VALUES)
+        if op == "replace":  # a copy: the strategy's lists and dicts must not be mutated in place
+            parent[key] = copy.deepcopy(draw(JSON_VALUES))
         elif op == "delete":
             del parent[key]
         elif op == "unknown_key" and isinstance(parent, dict):
-            parent[draw(st.sampled_from(["99:x", "1:q", "bogus", "1:x", "label"]))] = draw(JSON_VALUES)
+            parent[draw(st.sampled_from(["99:x", "1:q", "bogus", "1:x", "label"]))] = copy.deepcopy(draw(JSON_VALUES))
         elif op == "empty":
             parent[key] = [] if isinstance(parent[key], list) else {} if isinstance(parent[key], dict) else None
         elif op == "rename" and isinstance(parent, dict):

@@ -274,7 +274,14 @@ def solve_modes(
     kd = np.abs(K.diagonal() if sp.issparse(K) else np.diag(np.asarray(K, float)))
     md = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, float))
     lam = np.array(lam, float)
-    code, low = rules.check_spectrum(lam, lam.size, float(np.max(kd / md)))
+    with np.errstate(over="ignore"):
+        ratio = kd / md
+    if not np.all(np.isfinite(ratio)) or not np.all(np.isfinite(lam)):
+        where = np.flatnonzero(~np.isfinite(ratio))
+        at = f" at dof(s) {describe([dofs[i] for i in where]) if dofs else where[:8].tolist()}" if where.size else ""
+        raise InputError(f"the stiffness and mass matrices are too badly scaled for double precision{at} "
+                         "(stiffness over mass overflows: a mass too small or a stiffness too large)")
+    code, low = rules.check_spectrum(lam, lam.size, float(np.max(ratio)))
     if code != rules.OK:
         raise InputError(
             "K is not positive semi-definite: negative eigenvalue "

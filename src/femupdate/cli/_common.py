@@ -18,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .._errors import FemupdateError, InputError
+from .._limits import MAX_MAGNITUDE
 
 
 class Ctx:
@@ -79,9 +80,9 @@ def check_set(model, values: dict[str, float]) -> None:
             Parameter(name, v, par.bounds, par.fixed)
         except InputError as exc:
             raise InputError(f"--set: {exc}") from None
-        if name in model.positive and not v > 0:
+        if name in model.positive and not v >= 1 / MAX_MAGNITUDE:
             raise InputError(f"--set: parameter {name!r} = {v:g} is an element property of {model.name!r} and must be > 0 "
-                             "(as in the model file)")
+                             f"(at least {1 / MAX_MAGNITUDE:g}, as in the model file)")
 
 
 def model_values(model, set_text):

@@ -223,7 +223,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--std", type=FiniteFloat(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
+@click.option("--std", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the residual entries (covariance).")
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
 @set_option

@@ -10,6 +10,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
+from .._limits import MAX_MAGNITUDE
 from ._common import (SEED, Ctx, FiniteFloat, emit, print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
@@ -36,10 +37,10 @@ from .frf import frf_fields, frf_line_options, frf_options
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
 @click.option("--use", "use_text", default=None, metavar="KINDS",
               help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold).")
-@click.option("--std-eigenvalue", type=FiniteFloat(min=0, min_open=True), default=None, help="Relative std of measured eigenvalues (for the covariance).")
-@click.option("--std-shape", type=FiniteFloat(min=0, min_open=True), default=None, help="Std of scaled shape entries (for the covariance).")
-@click.option("--std-frf", type=FiniteFloat(min=0, min_open=True), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
-@click.option("--std-static", type=FiniteFloat(min=0, min_open=True), default=None, help="Std of measured static deflections, m (weights them).")
+@click.option("--std-eigenvalue", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Relative std of measured eigenvalues (for the covariance).")
+@click.option("--std-shape", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of scaled shape entries (for the covariance).")
+@click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
+@click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of measured static deflections, m (weights them).")
 @frf_line_options
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write convergence and MAC figures to this folder.")

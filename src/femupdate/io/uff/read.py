@@ -27,10 +27,10 @@ log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before t
 def _node_id(value, where: str) -> int:
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: node number {value!r} is not a number") from None
-    if not math.isfinite(v) or v != int(v):
-        raise InputError(f"{where}: node number {value!r} is not an integer")
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{where}: node number {str(value)[:20]!r} is not a number of at most 10 digits") from None
+    if not math.isfinite(v) or v != int(v) or abs(v) > 2**31:
+        raise InputError(f"{where}: node number {value!r} is not an integer (of at most 10 digits)")
     return int(v)
 
 def _known_dofs(model_dofs, model) -> frozenset[str] | None:
