@@ -435,3 +435,18 @@ def test_uff_node_number_too_large(ex, tmp_path, capsys):
     bad.write_text("".join(lines))
     code, _, err = run(["correlate", ex / "figure2.toml", bad], capsys)  # OverflowError in float()
     check_refused(code, err, str(bad), "node number")
+
+
+# ---------------------------------------------------------------------------------- 12: no numpy reprs in messages
+def test_messages_show_numbers_not_numpy_reprs():
+    import numpy as np
+
+    from femupdate import InputError
+    from femupdate.model import Parameter
+    from femupdate.testdata import MeasuredMode
+
+    for make in (lambda: MeasuredMode(np.float64(-1.0)), lambda: Parameter("a", np.float64(np.inf)),
+                 lambda: MeasuredMode.from_frequency(np.float64(-2.0))):
+        with pytest.raises(InputError) as info:
+            make()
+        assert "np." not in str(info.value), str(info.value)

@@ -57,6 +57,7 @@ def check(args):
     code, out, err = run_cli(args)
     assert code in (0, 1, 2), f"femupdate {' '.join(map(str, args))}: exit code {code!r}\n{err}"
     assert "Traceback" not in out + err, f"femupdate {' '.join(map(str, args))}:\n{err}"
+    assert not re.search(r"np\.\w+\(", err), f"a numpy repr in the message of femupdate {' '.join(map(str, args))}:\n{err}"
     if code != 0:
         assert err.strip(), f"femupdate {' '.join(map(str, args))}: exit {code} without a message"
     return code, out, err

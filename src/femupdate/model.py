@@ -55,7 +55,7 @@ class Parameter:
         except (TypeError, ValueError):
             raise InputError(f"parameter {self.name!r}: value and bounds must be numbers") from None
         if not math.isfinite(value):
-            raise InputError(f"parameter {self.name!r}: value {self.value!r} is not finite")
+            raise InputError(f"parameter {self.name!r}: value {value!r} is not finite")
         if math.isnan(lo) or math.isnan(hi) or not lo < hi:
             raise InputError(f"parameter {self.name!r}: bounds {list(self.bounds)} must satisfy lower < upper")
         if not lo <= value <= hi:

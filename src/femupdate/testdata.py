@@ -61,7 +61,7 @@ class MeasuredMode:
     def __post_init__(self):
         lam = float(self.eigenvalue)
         if not math.isfinite(lam) or lam < 0:
-            raise InputError(f"mode {self.label or ''}: eigenvalue {self.eigenvalue!r} must be finite and >= 0".replace("  ", " "))
+            raise InputError(f"mode {self.label or ''}: eigenvalue {lam!r} must be finite and >= 0".replace("  ", " "))
         dofs = canonical_all(self.dofs, f"mode {self.label} shape")
         shape = np.asarray(self.shape)
         shape = shape.astype(complex if np.iscomplexobj(shape) else float)
@@ -101,7 +101,7 @@ class MeasuredMode:
         """
         f = float(frequency_hz)
         if not math.isfinite(f) or f < 0:
-            raise InputError(f"mode {label}: frequency_hz {frequency_hz!r} must be finite and >= 0")
+            raise InputError(f"mode {label}: frequency_hz {f!r} must be finite and >= 0")
         if f > MAX_MAGNITUDE:
             raise InputError(f"mode {label}: frequency_hz {f:.3g} is above {MAX_MAGNITUDE:g}")
         return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label)
