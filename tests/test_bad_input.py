@@ -450,3 +450,13 @@ def test_messages_show_numbers_not_numpy_reprs():
         with pytest.raises(InputError) as info:
             make()
         assert "np." not in str(info.value), str(info.value)
+
+
+@pytest.mark.parametrize("args, option", [
+    (["uniqueness", "{two}", "--starts", "2", "--rel-tol", "1e308"], "--rel-tol"),  # overflowed in the clustering
+    (["frf-update", "{two}", "{frf}", "--lines", "9" * 100], "--lines"),  # OverflowError converting to a C long
+    (["frf-update", "{two}", "{frf}", "--lines", "0"], "--lines"),
+])
+def test_options_out_of_range_found_offline(ex, capsys, args, option):
+    code, _, err = run(fill(args, ex), capsys)
+    check_refused(code, err, option)

@@ -115,6 +115,8 @@ def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_
             lines = [int(v) - 1 for v in lines_text.split(",") if v.strip()]
         except ValueError:
             raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
+        if any(not 0 <= v < 2**31 for v in lines):
+            raise InputError(f"--lines: line numbers count from 1 and are at most {2**31}")
     return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
                 damping=parse_damping(damping_text))
 

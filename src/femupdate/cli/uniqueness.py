@@ -67,9 +67,9 @@ def _exact_for(model, names, case, truth):
                    "(lower it to spread a study over a cluster).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
-@click.option("--rel-tol", type=FiniteFloat(min=0, min_open=True), default=1e-4, show_default=True,
+@click.option("--rel-tol", type=FiniteFloat(min=0, max=1, min_open=True), default=1e-4, show_default=True,
               help="Two solutions are the same within this relative tolerance.")
-@click.option("--cost-tol", type=FiniteFloat(min=0, min_open=True), default=1e-12, show_default=True,
+@click.option("--cost-tol", type=FiniteFloat(min=0, max=1e150, min_open=True), default=1e-12, show_default=True,
               help="A converged start reproduces the data when its cost is at most this.")
 @click.option("--log-uniform", is_flag=True, help="Draw the starts log-uniformly within the bounds.")
 @click.option("--exact", is_flag=True, help="Also solve single-sensor cases exactly (frequencies only; small models).")
