@@ -460,3 +460,13 @@ def test_messages_show_numbers_not_numpy_reprs():
 def test_options_out_of_range_found_offline(ex, capsys, args, option):
     code, _, err = run(fill(args, ex), capsys)
     check_refused(code, err, option)
+
+
+@pytest.mark.parametrize("args, option", [
+    (["uniqueness", "{two}", "--starts", "2", "--noise", "1e308"], "--noise"),  # overflowed in the noise
+    (["frf-select", "{two}", "--force", "1:x", "--candidates", "1:3:5", "--lines", "2", "--margin", "1e308"], "--margin"),
+    (["frf-update", "{two}", "{frf}", "--resonance-tol", "1e200"], "--resonance-tol"),
+])
+def test_float_options_above_the_magnitude_limit(ex, capsys, args, option):
+    code, _, err = run(fill(args, ex), capsys)
+    check_refused(code, err, option)

@@ -32,8 +32,8 @@ class Ctx:
 
 
 class FiniteFloat(click.FloatRange):
-    """A float option that must be finite (click's FloatRange lets ``nan`` and ``inf`` through),
-    optionally within bounds; click's message names the option as typed (e.g. ``--min-mac``)."""
+    """A float option that must be finite (click's FloatRange lets ``nan`` and ``inf`` through) and
+    at most 1e150 in magnitude, optionally within bounds; click's message names the option as typed (e.g. ``--min-mac``)."""
 
     name = "finite float"
 
@@ -41,6 +41,8 @@ class FiniteFloat(click.FloatRange):
         rv = super().convert(value, param, ctx)
         if not math.isfinite(rv):
             self.fail(f"{value!r} is not a finite number.", param, ctx)
+        if abs(rv) > MAX_MAGNITUDE:  # as in input files (docs/file-formats.md, "Numbers")
+            self.fail(f"{value!r} is above {MAX_MAGNITUDE:g} in magnitude.", param, ctx)
         return rv
 
 

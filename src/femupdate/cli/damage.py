@@ -74,8 +74,8 @@ def _names(text):
 @click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
               help="Expansions (later ones with the damaged estimate).")
 @click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True, help="Noise replicates for the confidence.")
-@click.option("--noise-frequency", type=FiniteFloat(min=0), default=0.001, show_default=True, help="Relative frequency noise.")
-@click.option("--noise-shape", type=FiniteFloat(min=0), default=None,
+@click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True, help="Relative frequency noise.")
+@click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
               help="Shape noise relative to each shape's largest value (default: from the expansion misfit).")
 @click.option("--seed", type=SEED, default=0, show_default=True)
 @click.option("--max-frequency-error", type=FiniteFloat(min=0), default=0.02, show_default=True,

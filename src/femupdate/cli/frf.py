@@ -135,7 +135,7 @@ def frf_fields(res) -> dict:
 @click.option("--dofs", "dofs_text", default=None, help="Response dofs (default every model dof).")
 @click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
 @damping_option
-@click.option("--noise", type=FiniteFloat(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
+@click.option("--noise", type=FiniteFloat(min=0, max=1e150), default=0.0, show_default=True, help="Noise standard deviation.")
 @click.option("--noise-kind", type=click.Choice(["relative", "absolute", "coherent"]), default="relative", show_default=True)
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--uff", "uff_path", type=click.Path(dir_okay=False, path_type=Path), default=None,

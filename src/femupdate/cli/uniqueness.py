@@ -109,8 +109,8 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
                 noise.append(float(item))
             except ValueError:
                 raise InputError(f"--noise: {item.strip()!r} is not a number") from None
-            if not (math.isfinite(noise[-1]) and noise[-1] >= 0):
-                raise InputError(f"--noise: {item.strip()!r} is not a finite level >= 0")
+            if not (math.isfinite(noise[-1]) and 0 <= noise[-1] <= 1):
+                raise InputError(f"--noise: {item.strip()!r} is not a relative level from 0 to 1")
     study = define_study(model, [(s, m) for s in sets for m in modes], starts=starts, seed=seed, values=values,
                          params=params, noise=noise, min_mac=min_mac, max_nfev=max_nfev, unit_rows=unit_rows,
                          log_uniform=log_uniform)
