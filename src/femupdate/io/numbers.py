@@ -22,6 +22,8 @@ class _DuplicateKeys(dict):
 class _TooLong(float):
     """An integer literal too long to convert (the float it stands for is inf)."""
 
+    digits: int
+
     def __new__(cls, text):
         obj = super().__new__(cls, "inf")
         obj.digits = len(text.lstrip("-"))

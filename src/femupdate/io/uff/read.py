@@ -67,7 +67,8 @@ def _check_nodes(used: Iterable[int], nodes: Mapping[int, object], where: str) -
 # ---------------------------------------------------------------------------- reading
 def _delimiters(data: bytes) -> list[int]:
     """Offsets of the ``'    -1'`` lines that open and close datasets, found as pyuff finds them."""
-    out, ind = [], -1
+    out: list[int] = []
+    ind = -1
     while True:
         ind = data.find(b"    -1", ind + 1)
         if ind == -1:
