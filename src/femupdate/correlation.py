@@ -232,7 +232,7 @@ def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
         n = min(len(f_t), len(f_a))
         pairs = [(i, i, float("nan")) for i in range(n)]
         return Correlation((), np.zeros((len(f_t), len(f_a))), pairs, f_t, f_a,
-                           np.array([(f_a[j] - f_t[i]) / f_t[i] for i, j, _ in pairs]), np.zeros(0),
+                           np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs]), np.zeros(0),
                            list(range(n, len(f_t))))
     it, ia, common = common_dofs(tdofs, model_modes.dofs)
     Pt = Phi_t[it]

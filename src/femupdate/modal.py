@@ -301,7 +301,14 @@ def solve_modes(
     md = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M, float))
     lam = np.array(lam, float)
     computed = lam.copy()
-    code, low = rules.check_spectrum(lam, lam.size, float(np.max(kd[md > 0] / md[md > 0])))
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        ratio = kd[md > 0] / md[md > 0]
+    if not np.all(np.isfinite(ratio)) or not np.all(np.isfinite(lam)):
+        where = np.flatnonzero(md > 0)[~np.isfinite(ratio)]
+        at = f" at dof(s) {describe([dofs[i] for i in where]) if dofs else where[:8].tolist()}" if where.size else ""
+        raise InputError(f"the stiffness and mass matrices are too badly scaled for double precision{at} "
+                         "(stiffness over mass overflows: a mass too small or a stiffness too large)")
+    code, low = rules.check_spectrum(lam, lam.size, float(np.max(ratio)))
     if code != rules.OK:
         raise InputError(
             "K is not positive semi-definite: negative eigenvalue "
@@ -512,5 +519,13 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
-    return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
-                       normalisation=normalisation, **kw)
+    try:
+        return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
+                           normalisation=normalisation, **kw)
+    except InputError as exc:
+        from .flags import suspect_values
+
+        suspects = suspect_values(model, model.resolve(values))
+        if not suspects or "positive" not in str(exc):
+            raise
+        raise InputError(f"{exc}; at parameter value(s) {suspects}") from None

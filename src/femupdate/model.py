@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._errors import InputError
+from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -54,7 +55,7 @@ class Parameter:
         except (TypeError, ValueError):
             raise InputError(f"parameter {self.name!r}: value and bounds must be numbers") from None
         if not math.isfinite(value):
-            raise InputError(f"parameter {self.name!r}: value {self.value!r} is not finite")
+            raise InputError(f"parameter {self.name!r}: value {value!r} is not finite")
         if math.isnan(lo) or math.isnan(hi) or not lo < hi:
             raise InputError(f"parameter {self.name!r}: bounds {list(self.bounds)} must satisfy lower < upper")
         if not lo <= value <= hi:
@@ -67,13 +68,22 @@ class Parameter:
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     if A is None:
         return None
-    A = sp.csr_array(A, dtype=float) if sp.issparse(A) else sp.csr_array(np.asarray(A, dtype=float))
+    if not sp.issparse(A):
+        try:
+            A = np.asarray(A, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{what} is not a numeric matrix") from None
+        if A.ndim != 2:
+            raise InputError(f"{what} must be a square matrix, got an array of shape {A.shape}")
+    A = sp.csr_array(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise InputError(f"{what} must be square, got shape {A.shape}")
     if n is not None and A.shape[0] != n:
         raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
     if not np.all(np.isfinite(A.data)):
         raise InputError(f"{what} contains NaN or infinite entries")
+    if A.nnz and np.max(np.abs(A.data)) > MAX_MAGNITUDE:
+        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {np.max(np.abs(A.data)):.3g})")
     A.sum_duplicates()
     A.eliminate_zeros()
     asym = A - A.T
@@ -112,6 +122,10 @@ class Model:
         Name used in messages and results.
     nodes : mapping of int to (float, float, float), optional
         Node id -> coordinates (x, y, z), for geometry-aware output such as UFF.
+    positive : collection of str, optional
+        Parameters that must stay > 0 (a structure's element properties: a stiffness, mass or
+        section value); checked where values come from the user (``--set``) and flagged in
+        results.
 
     Attributes
     ----------
@@ -124,6 +138,7 @@ class Model:
         ``dK[j] = dK/dp_j`` (``None`` where parameter j does not enter K); likewise ``dM``.
     name : str
     nodes : dict of int to (x, y, z)
+    positive : frozenset of str
 
     Raises
     ------
@@ -141,6 +156,7 @@ class Model:
     dM: tuple = ()
     name: str = "model"
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
+    positive: frozenset[str] = frozenset()
 
     def __post_init__(self):
         dofs = canonical_all(self.dofs, "model dofs")
@@ -168,6 +184,7 @@ class Model:
         object.__setattr__(self, "dK", dK)
         object.__setattr__(self, "dM", dM)
         object.__setattr__(self, "nodes", dict(self.nodes))
+        object.__setattr__(self, "positive", frozenset(self.positive) & frozenset(names))
 
     # ------------------------------------------------------------------ basic properties
     @property

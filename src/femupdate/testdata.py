@@ -13,16 +13,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._errors import InputError
+from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe
 
 
 def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> None:
-    bad = ~np.isfinite(arr)
-    if np.any(bad):
-        if dofs is not None and arr.ndim >= 1 and arr.shape[-1] == len(dofs):
-            cols = np.flatnonzero(bad.reshape(-1, len(dofs)).any(axis=0))
-            raise InputError(f"{what}: NaN or infinite value(s) at dof(s) {describe([dofs[int(c)] for c in cols])}")
-        raise InputError(f"{what}: NaN or infinite value(s)")
+    for bad, kind in ((~np.isfinite(arr), "NaN or infinite value(s)"),
+                      (np.abs(arr) > MAX_MAGNITUDE, f"value(s) above {MAX_MAGNITUDE:g} in magnitude")):
+        if np.any(bad):
+            if dofs is not None and arr.ndim >= 1 and arr.shape[-1] == len(dofs):
+                cols = np.flatnonzero(bad.reshape(-1, len(dofs)).any(axis=0))
+                raise InputError(f"{what}: {kind} at dof(s) {describe([dofs[int(c)] for c in cols])}")
+            raise InputError(f"{what}: {kind}")
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,7 @@ class MeasuredMode:
     def __post_init__(self):
         lam = float(self.eigenvalue)
         if not math.isfinite(lam) or lam < 0:
-            raise InputError(f"mode {self.label or ''}: eigenvalue {self.eigenvalue!r} must be finite and >= 0".replace("  ", " "))
+            raise InputError(f"mode {self.label or ''}: eigenvalue {lam!r} must be finite and >= 0".replace("  ", " "))
         dofs = canonical_all(self.dofs, f"mode {self.label} shape")
         shape = np.asarray(self.shape)
         shape = shape.astype(complex if np.iscomplexobj(shape) else float)
@@ -99,7 +101,9 @@ class MeasuredMode:
         """
         f = float(frequency_hz)
         if not math.isfinite(f) or f < 0:
-            raise InputError(f"mode {label}: frequency_hz {frequency_hz!r} must be finite and >= 0")
+            raise InputError(f"mode {label}: frequency_hz {f!r} must be finite and >= 0")
+        if f > MAX_MAGNITUDE:
+            raise InputError(f"mode {label}: frequency_hz {f:.3g} is above {MAX_MAGNITUDE:g}")
         return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label)
 
     @property
@@ -154,8 +158,8 @@ class FRFData:
         for k, v in dict(self.force).items():
             (lab,) = canonical_all([k], "frf force")
             fv = complex(v) if isinstance(v, complex) else float(v)
-            if not np.isfinite(fv):
-                raise InputError(f"frf force at {lab} is not finite")
+            if not np.isfinite(fv) or abs(fv) > MAX_MAGNITUDE:
+                raise InputError(f"frf force at {lab} is not finite or above {MAX_MAGNITUDE:g} in magnitude")
             force[lab] = fv
         if not force or not any(v != 0 for v in force.values()):
             raise InputError("frf: the force vector is empty or zero")
@@ -198,8 +202,8 @@ class StaticData:
         force = {}
         for k, v in dict(self.force).items():
             (lab,) = canonical_all([k], "static force")
-            if not np.isfinite(float(v)):
-                raise InputError(f"static force at {lab} is not finite")
+            if not np.isfinite(float(v)) or abs(float(v)) > MAX_MAGNITUDE:
+                raise InputError(f"static force at {lab} is not finite or above {MAX_MAGNITUDE:g} in magnitude")
             force[lab] = float(v)
         if not any(v != 0 for v in force.values()):
             raise InputError("static: the force vector is empty or zero")

@@ -57,6 +57,15 @@ AMENDMENTS = {
         lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"notes"}
         and set(rec) <= set(now) and now["notes"] == [] and _same(rec, {k: now[k] for k in rec}),
     ),
+    "results carry flags": (
+        "The results of direct, update, frf-update, update-multi, fullfield and demo list `flags`: "
+        "identified values that are not > 0 where they must be, outside their bounds or on a bound "
+        "(issue 16).  The key is new; every recorded value is unchanged.",
+        lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"flags"}
+        and set(rec) <= set(now) and isinstance(now["flags"], list)
+        and all(set(x) == {"parameter", "value", "kind", "bounds", "message"} for x in now["flags"])
+        and _same(rec, {k: now[k] for k in rec}),
+    ),
 }
 
 

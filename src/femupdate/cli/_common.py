@@ -9,6 +9,7 @@ inside the functions that need them.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .._errors import FemupdateError, InputError
+from .._limits import MAX_MAGNITUDE
 
 
 class Ctx:
@@ -28,6 +30,25 @@ class Ctx:
         quiet = json_path == "-"
         self.console = Console(file=sys.stderr if quiet else sys.stdout, quiet=quiet, highlight=False, soft_wrap=True,
                                emoji=False)  # dof labels such as "1:x:" are not emoji codes
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option that must be finite (click's FloatRange lets ``nan`` and ``inf`` through) and
+    at most 1e150 in magnitude, optionally within bounds; click's message names the option as typed (e.g. ``--min-mac``)."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        rv = super().convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        if abs(rv) > MAX_MAGNITUDE:  # as in input files (docs/file-formats.md, "Numbers")
+            self.fail(f"{value!r} is above {MAX_MAGNITUDE:g} in magnitude.", param, ctx)
+        return rv
+
+
+#: ``--seed``: numpy's generators refuse negative seeds; 2**32 - 1 keeps every generator API usable
+SEED = click.IntRange(0, 2**32 - 1)
 
 
 def parse_set(text: str | None) -> dict[str, float]:
@@ -51,11 +72,26 @@ def parse_set(text: str | None) -> dict[str, float]:
     return out
 
 
+def check_set(model, values: dict[str, float]) -> None:
+    """``--set`` values pass the model file's checks: a known parameter, within its bounds, and
+    > 0 where the parameter is an element property (a stiffness, mass or section value)."""
+    from ..model import Parameter
+
+    for name, v in values.items():
+        par = model.parameters[model.parameter_index(name)]  # names an unknown parameter clearly
+        try:
+            Parameter(name, v, par.bounds, par.fixed)
+        except InputError as exc:
+            raise InputError(f"--set: {exc}") from None
+        if name in model.positive and not v >= 1 / MAX_MAGNITUDE:
+            raise InputError(f"--set: parameter {name!r} = {v:g} is an element property of {model.name!r} and must be > 0 "
+                             f"(at least {1 / MAX_MAGNITUDE:g}, as in the model file)")
+
+
 def model_values(model, set_text):
     """The model's parameter vector with ``--set`` applied, or None without ``--set``."""
     values = parse_set(set_text)
-    for name in values:
-        model.parameter_index(name)  # names an unknown parameter clearly
+    check_set(model, values)
     return model.resolve(values) if values else None
 
 
@@ -66,9 +102,12 @@ def parse_regularization(text):
     if text in ("gcv", "lcurve"):
         return text
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise InputError(f"--regularization must be gcv, lcurve or a number, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise InputError(f"--regularization: the Tikhonov factor must be a finite number >= 0, got {text!r}")
+    return value
 
 
 def emit(ctx: Ctx, payload: dict) -> None:
@@ -122,7 +161,7 @@ OUTPUT_DIR = OutputPath("dir")
 json_option = click.option("--json", "json_path", metavar="PATH", default=None, type=OutputPath("file", dash=True),
                            help="Write the machine-readable result to PATH ('-' = stdout).")
 connect_timeout_option = click.option(
-    "--connect-timeout", type=click.FloatRange(min=0, min_open=True, max=1e6), default=10.0, show_default=True,
+    "--connect-timeout", type=FiniteFloat(min=0, min_open=True, max=1e6), default=10.0, show_default=True,
     help="Seconds to wait for the Dask scheduler and its first worker (and how long a run may go without workers).")
 set_option = click.option("--set", "set_text", metavar="NAME=VALUE,...", default=None,
                           help="Evaluate the model at other parameter values.")
@@ -136,10 +175,24 @@ def correlation_table(corr, title):
         t.add_column(col, justify="right")
     for (i, j, m), e in zip(corr.pairs, corr.frequency_error):
         t.add_row(str(i + 1), str(j + 1), fmt(corr.test_frequencies_hz[i]), fmt(corr.model_frequencies_hz[j]),
-                  f"{e * 100:+.2f} %", "-" if not np.isfinite(m) else f"{m:.4f}")
+                  f"{e * 100:+.2f} %" if np.isfinite(e) else "-", "-" if not np.isfinite(m) else f"{m:.4f}")
     for i in corr.unpaired_test:
         t.add_row(str(i + 1), "-", fmt(corr.test_frequencies_hz[i]), "-", "-", "unpaired")
     return t
+
+
+def flags(model, parameters, names) -> list[dict]:
+    """Flags on identified values: not > 0 where they must be, outside or on their bounds
+    (:func:`femupdate.flags.parameter_flags`); the results' JSON lists them under ``flags``."""
+    from ..flags import parameter_flags
+
+    return parameter_flags(model, parameters, names)
+
+
+def print_flags(ctx: Ctx, found: list[dict]) -> None:
+    """One ``warning:`` line per flag (printed with the result; the exit code is unchanged)."""
+    for f in found:
+        ctx.console.print(f"warning: {f['message']}", markup=False)
 
 
 def direct_payload(model, res, data, corr_before=None):
@@ -158,6 +211,7 @@ def direct_payload(model, res, data, corr_before=None):
         "n_equations": res.system.n_equations,
         "bounded": res.bounded,
         "notes": res.notes,
+        "flags": flags(model, res.parameters, res.unknowns),
     }
 
 
@@ -182,6 +236,7 @@ def update_payload(model, data, res, ms=None):
         "regularization": res.regularization,
         "sensitivity": res.sensitivity,
         "notes": list(res.notes),
+        "flags": flags(model, res.parameters, res.names),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),

@@ -18,7 +18,8 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import OUTPUT_FILE, Ctx, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option
+from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, emit, flags, print_flags, fmt, json_option, model_values,
+                      parse_regularization, parse_set, set_option)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -64,24 +65,24 @@ def _names(text):
               help="Test data of the undamaged structure: the baseline must match them first.")
 @click.option("--elements", "elements_text", default=None, help="Element parameters that may change (default all).")
 @click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True)
-@click.option("--alpha", type=click.FloatRange(0, 1, min_open=True), default=None,
+@click.option("--alpha", type=FiniteFloat(0, 1, min_open=True), default=None,
               help="L1 factor as a fraction of alpha_max (default: chosen by BIC).")
 @click.option("--expansion", type=click.Choice(["serep", "irs", "guyan"]), default="serep", show_default=True)
 @click.option("--n-basis", type=click.IntRange(min=1), default=None, help="SEREP modes (default: twice the highest paired).")
 @click.option("--allow-increase", is_flag=True, help="Let element stiffness increase too.")
-@click.option("--min-change", type=click.FloatRange(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
+@click.option("--min-change", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
               help="Smallest relative change reported as damage.")
 @click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
               help="Expansions (later ones with the damaged estimate).")
 @click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True, help="Noise replicates for the confidence.")
-@click.option("--noise-frequency", type=click.FloatRange(min=0), default=0.001, show_default=True, help="Relative frequency noise.")
-@click.option("--noise-shape", type=click.FloatRange(min=0), default=None,
+@click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True, help="Relative frequency noise.")
+@click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
               help="Shape noise relative to each shape's largest value (default: from the expansion misfit).")
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--max-frequency-error", type=click.FloatRange(min=0), default=0.02, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True)
+@click.option("--max-frequency-error", type=FiniteFloat(min=0), default=0.02, show_default=True,
               help="Baseline check: largest frequency error against --undamaged.")
-@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.9, show_default=True, help="Baseline check: smallest MAC.")
-@click.option("--localise-min-mac", type=click.FloatRange(0, 1), default=0.8, show_default=True,
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True, help="Baseline check: smallest MAC.")
+@click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
               help="A damaged mode pairing with no baseline mode this well stops the localisation.")
 @set_option
 @json_option
@@ -97,6 +98,7 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
     notes = []
     if structure is not None:
         values = parse_set(set_text)
+        check_set(model, values)
         em, _ = element_parameters(structure, values)
         model = em.build()
     else:
@@ -160,6 +162,7 @@ def _multi_payload(model, res) -> dict:
         "nfev": res.nfev, "standard_error": dict(zip(res.names, res.standard_error)),
         "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
         "regularization": res.regularization, "notes": res.notes,
+        "flags": flags(model, res.parameters, res.names),
         "direct": None if res.direct is None else {
             "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
             "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,
@@ -179,7 +182,7 @@ def _multi_payload(model, res) -> dict:
               help="auto: direct when every configuration's data are complete.")
 @click.option("--params", "params_text", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
-@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative).")
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
@@ -218,7 +221,9 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
                   f"{row['min_singular']:.4g}")
     c.print(t)
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}")
-    emit(ctx, _multi_payload(model, res))
+    payload = _multi_payload(model, res)
+    print_flags(ctx, payload["flags"])
+    emit(ctx, payload)
     if not res.success:
         raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
 
@@ -294,6 +299,8 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
                              res.unknowns, res.x, res.standard_error))
     for n in mp.notes + res.notes:
         c.print(f"note: {n}")
+    found = flags(model, res.parameters, res.unknowns)
+    print_flags(ctx, found)
     if data_out is not None:
         from ..io.results import write_json
 
@@ -311,7 +318,7 @@ def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, 
         "mapping": {"method": mp.method, "interpolation_error": mp.interpolation_error, "max_distance": mp.max_distance,
                     "tolerance": mp.tolerance, "inferred": mp.inferred, "zero": mp.zero, "fields": mp.fields,
                     "node_gap": mp.node_gap, "notes": mp.notes},
-        "notes": res.notes,
+        "notes": res.notes, "flags": found,
     })
     if not res.unique:
         raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")

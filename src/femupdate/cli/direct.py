@@ -9,7 +9,9 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import OUTPUT_FILE, Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values, set_option
+from .._errors import InputError
+from ._common import (OUTPUT_FILE, Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values,
+                      print_flags, set_option)
 
 
 def _correlation_rows(data, model, values):
@@ -61,8 +63,15 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, js
     ctx.console.print(table)
     ctx.console.print(f"condition number {res.condition_number:.4g} (columns scaled: {res.condition_number_scaled:.4g}), "
                       f"residual {res.residual_norm:.4g} (relative {res.relative_residual:.3g}), rank {res.rank}/{len(res.unknowns)}")
-    if data.modes:
+    print_flags(ctx, payload["flags"])
+    try:
         mm, corr = _correlation_rows(data, model, res.parameters)
+    except InputError as exc:  # a negative stiffness, flagged above, can make K indefinite
+        if not payload["flags"]:
+            raise
+        mm = corr = None
+        payload["notes"] = [*res.notes, f"no correlation of the identified model with the test: {exc}"]
+    if corr is not None:
         payload["frequencies_hz"] = {"test": data.frequencies_hz, "model": [mm.frequencies_hz[j] for _, j, _ in corr.pairs]}
         payload["pairs"] = [[i, j, m] for i, j, m in corr.pairs]
         ctx.console.print(correlation_table(corr, "updated model vs test"))
@@ -70,7 +79,7 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, js
             from ..io.uff import write_uff_modes
 
             write_uff_modes(uff_path, mm, nodes=model.nodes, model_name=model.name)
-    for note in res.notes:
+    for note in payload["notes"]:
         ctx.console.print(f"note: {note}")
     emit(ctx, payload)
     if not res.unique:

@@ -11,8 +11,10 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, fitting_table, print_starts,
-                      starts_payload, emit, fmt, json_option, model_values, parse_regularization, parse_set, set_option,
+from .._limits import MAX_MAGNITUDE
+from ._common import (OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table,
+                      print_starts, starts_payload, emit, print_flags, fmt, json_option, model_values, parse_regularization,
+                      parse_set, set_option,
                       update_parameter_table, update_payload)
 
 
@@ -29,6 +31,8 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             raise InputError(f"{what}: {text!r} is not START:STOP:N (numbers, N an integer)") from None
         if n < 1 or not (np.isfinite(a) and np.isfinite(b)):
             raise InputError(f"{what}: {text!r}: need finite ends and N >= 1")
+        if max(abs(a), abs(b)) > MAX_MAGNITUDE:
+            raise InputError(f"{what}: {text!r}: values must be at most {MAX_MAGNITUDE:g} in magnitude")
         return np.linspace(a, b, n)
     out = []
     for item in text.split(","):
@@ -37,6 +41,8 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             out.append(float(item))
         except ValueError:
             raise InputError(f"{what}: {item!r} is not a number (give a list 0.5,1,1.5 or START:STOP:N)") from None
+        if not np.isfinite(out[-1]) or abs(out[-1]) > MAX_MAGNITUDE:
+            raise InputError(f"{what}: {item!r} is not a finite number of at most {MAX_MAGNITUDE:g} in magnitude")
     return np.array(out)
 
 
@@ -52,6 +58,8 @@ def parse_force(text: str) -> dict:
             out[dof.strip()] = float(amp) if eq else 1.0
         except ValueError:
             raise InputError(f"--force: amplitude of {dof.strip()!r} is not a number: {amp!r}") from None
+        if not np.isfinite(out[dof.strip()]):
+            raise InputError(f"--force: amplitude of {dof.strip()!r} is not finite: {amp.strip()!r}")
     if not out:
         raise InputError("--force: give a dof (e.g. 2:x) or dof=amplitude pairs")
     return out
@@ -94,7 +102,7 @@ def frf_line_options(command):
         click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many FRF lines by conditioning."),
         click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,
                      help="FRF lines within --resonance-tol of a resonance of the starting model."),
-        click.option("--resonance-tol", type=click.FloatRange(min=0), default=1e-3, show_default=True),
+        click.option("--resonance-tol", type=FiniteFloat(min=0), default=1e-3, show_default=True),
         damping_option,
     )):
         command = option(command)
@@ -109,6 +117,8 @@ def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_
             lines = [int(v) - 1 for v in lines_text.split(",") if v.strip()]
         except ValueError:
             raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
+        if any(not 0 <= v < 2**31 for v in lines):
+            raise InputError(f"--lines: line numbers count from 1 and are at most {2**31}")
     return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
                 damping=parse_damping(damping_text))
 
@@ -127,9 +137,9 @@ def frf_fields(res) -> dict:
 @click.option("--dofs", "dofs_text", default=None, help="Response dofs (default every model dof).")
 @click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
 @damping_option
-@click.option("--noise", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Noise standard deviation.")
+@click.option("--noise", type=FiniteFloat(min=0, max=1e150), default=0.0, show_default=True, help="Noise standard deviation.")
 @click.option("--noise-kind", type=click.Choice(["relative", "absolute", "coherent"]), default="relative", show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Also write the receptances as universal file datasets 58.")
 @click.option("--test-data", "data_path", type=OUTPUT_FILE, default=None,
@@ -205,7 +215,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--seed", type=SEED, default=0, show_default=True)
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
 @connect_timeout_option
 @click.option("--global", "global_method", type=click.Choice(["differential_evolution", "basinhopping", "dual_annealing"]),
@@ -218,7 +228,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--std", type=click.FloatRange(min=0, min_open=True), default=None, help="Std of the residual entries (covariance).")
+@click.option("--std", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the residual entries (covariance).")
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
 @set_option
@@ -280,6 +290,8 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         c.print(f"skipped line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     for note in res.notes:
         c.print(f"note: {note}")
+    payload = _frf_payload(model, data, res, ms, extra)
+    print_flags(ctx, payload["flags"])
     if ms is not None:
         print_starts(c, ms, what)
     if plot_dir is not None:
@@ -290,7 +302,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         _, xa = model_frf(model, frf.omega[use], frf.force, frf.dofs, res.parameters, kw["damping"])
         names = save_frf_update_figures(plot_dir, res.history, frf.omega[use], frf.dofs, frf.response[use], xa)
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    emit(ctx, _frf_payload(model, data, res, ms, extra))
+    emit(ctx, payload)
     if not res.success:
         raise NumericalError(f"the FRF update did not converge: {res.message}")
 
@@ -305,7 +317,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
               help="direct: complete data (eq. 28); sensitivity: measured at --dofs (eqs. 31-32).")
 @click.option("--dofs", "dofs_text", default=None, help="Measured dofs (kind sensitivity; default all).")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
-@click.option("--margin", type=click.FloatRange(min=0), default=0.05, show_default=True,
+@click.option("--margin", type=FiniteFloat(min=0), default=0.05, show_default=True,
               help="Keep this relative eigenvalue distance from resonances.")
 @damping_option
 @set_option
@@ -371,6 +383,13 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
     data = load_testdata(data_path, model)
     names = [p.strip() for p in params_text.split(",") if p.strip()]
     x, y = _range(x_text, "--x"), _range(y_text, "--y")
+    if len(names) == 2:
+        for opt, grid, name in (("--x", x, names[0]), ("--y", y, names[1])):
+            for v in (float(np.min(grid)), float(np.max(grid))):
+                try:
+                    check_set(model, {name: v})
+                except InputError as exc:
+                    raise InputError(str(exc).replace("--set:", f"{opt}: the grid of", 1)) from None
     truth = None
     if truth_text:
         t = parse_set(truth_text)

@@ -8,7 +8,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_FILE, Ctx, correlation_table, emit, fmt, json_option, model_values, set_option
+from ._common import OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, emit, fmt, json_option, model_values, set_option
 
 
 # ---------------------------------------------------------------------------------- modes
@@ -59,7 +59,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
 @click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
 @set_option
 @json_option
 def correlate(model_path, data_path, min_mac, set_text, json_path):

@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_DIR, OUTPUT_FILE, Ctx, connect_timeout_option, emit, json_option, model_values, set_option
+from ._common import OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -51,7 +51,7 @@ def _exact_for(model, names, case, truth):
 @click.option("--modes", "modes_text", default=None, metavar="LIST",
               help="Numbers of measured (lowest) modes: 1,2,3 or 1-6 (default 1..N).")
 @click.option("--starts", type=click.IntRange(min=1), default=100, show_default=True, help="Random starts per case.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random starts (and noise).")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts (and noise).")
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
 @click.option("--workers", type=click.IntRange(min=1), default=None,
@@ -65,10 +65,10 @@ def _exact_for(model, names, case, truth):
               help="Rows (case x start) solved together per work unit: one checkpoint step, one Dask task "
                    "(lower it to spread a study over a cluster).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
-@click.option("--rel-tol", type=click.FloatRange(min=0, min_open=True), default=1e-4, show_default=True,
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
+@click.option("--rel-tol", type=FiniteFloat(min=0, max=1, min_open=True), default=1e-4, show_default=True,
               help="Two solutions are the same within this relative tolerance.")
-@click.option("--cost-tol", type=click.FloatRange(min=0, min_open=True), default=1e-12, show_default=True,
+@click.option("--cost-tol", type=FiniteFloat(min=0, max=1e150, min_open=True), default=1e-12, show_default=True,
               help="A converged start reproduces the data when its cost is at most this.")
 @click.option("--log-uniform", is_flag=True, help="Draw the starts log-uniformly within the bounds.")
 @click.option("--exact", is_flag=True, help="Also solve single-sensor cases exactly (frequencies only; small models).")
@@ -108,6 +108,8 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
                 noise.append(float(item))
             except ValueError:
                 raise InputError(f"--noise: {item.strip()!r} is not a number") from None
+            if not (math.isfinite(noise[-1]) and 0 <= noise[-1] <= 1):
+                raise InputError(f"--noise: {item.strip()!r} is not a relative level from 0 to 1")
     study = define_study(model, [(s, m) for s in sets for m in modes], starts=starts, seed=seed, values=values,
                          params=params, noise=noise, min_mac=min_mac, max_nfev=max_nfev, unit_rows=unit_rows,
                          log_uniform=log_uniform)

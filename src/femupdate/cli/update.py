@@ -10,7 +10,9 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import NumericalError
-from ._common import (OUTPUT_DIR, Ctx, connect_timeout_option, fitting_table, print_starts, starts_payload, emit, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+from .._limits import MAX_MAGNITUDE
+from ._common import (OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
+                      print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -20,7 +22,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the random starts.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts.")
 @click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
@@ -29,7 +31,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
-@click.option("--min-mac", type=click.FloatRange(0, 1), default=0.5, show_default=True)
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
@@ -37,10 +39,10 @@ from .frf import frf_fields, frf_line_options, frf_options
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
 @click.option("--use", "use_text", default=None, metavar="KINDS",
               help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold).")
-@click.option("--std-eigenvalue", type=float, default=None, help="Relative std of measured eigenvalues (for the covariance).")
-@click.option("--std-shape", type=float, default=None, help="Std of scaled shape entries (for the covariance).")
-@click.option("--std-frf", type=float, default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
-@click.option("--std-static", type=float, default=None, help="Std of measured static deflections, m (weights them).")
+@click.option("--std-eigenvalue", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Relative std of measured eigenvalues (for the covariance).")
+@click.option("--std-shape", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of scaled shape entries (for the covariance).")
+@click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
+@click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of measured static deflections, m (weights them).")
 @frf_line_options
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write convergence and MAC figures to this folder.")
@@ -126,6 +128,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         print_starts(c, ms)
     for note in res.notes:
         c.print(f"note: {note}")
+    payload = update_payload(model, data, res, ms)
+    print_flags(ctx, payload["flags"])
     if plot_dir is not None:
         names = []
         if "modes" in kinds:
@@ -145,7 +149,6 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
             names += [n for n in save_frf_update_figures(plot_dir, res.history, frf.omega[used], frf.dofs,
                                                          frf.response[used], xa) if n not in names]
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    payload = update_payload(model, data, res, ms)
     if is_frf:
         payload.update(frf_fields(res))
     emit(ctx, payload)

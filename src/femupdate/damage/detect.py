@@ -64,6 +64,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
+from ..dofs import describe, sort_key
 from ..model import Model
 from ..sensitivity.factor import single_thread_blas
 from ..testdata import MeasuredMode, TestData
@@ -215,15 +217,25 @@ def _measured(data: TestData):
         raise InputError("damage detection needs measured mode shapes (at two or more dofs)")
     if len(modes) < len(data.modes):
         log.info("modes without shapes are ignored by damage detection")
+    rigid = [m.label or f"mode {k + 1}" for k, m in enumerate(modes) if not m.eigenvalue >= 1 / MAX_MAGNITUDE]
+    if rigid:
+        raise InputError(f"{', '.join(rigid)}: zero frequency; damage detection needs elastic (non-rigid-body) modes")
     others = [set(m.dofs) for m in modes[1:]]
     common = [d for d in modes[0].dofs if all(d in o for o in others)]
     if len(common) < 2:
         raise InputError("the measured modes share fewer than two dofs; damage detection needs one sensor set")
-    Phi = np.column_stack([np.real(m.shape * np.exp(-1j * np.angle(m.shape[np.argmax(np.abs(m.shape))])))
-                           if np.iscomplexobj(m.shape) else m.shape for m in modes])
+    shapes = [np.real(m.shape * np.exp(-1j * np.angle(m.shape[np.argmax(np.abs(m.shape))])))
+              if np.iscomplexobj(m.shape) else m.shape for m in modes]
     rows = [[list(m.dofs).index(d) for d in common] for m in modes]
-    Phi = np.column_stack([Phi[rows[k], k] for k in range(len(modes))])
-    return tuple(common), Phi, np.array([m.eigenvalue for m in modes])
+    Phi = np.column_stack([shapes[k][rows[k]] for k in range(len(modes))])
+    dropped = {d for m in modes for d in m.dofs} - set(common)
+    note = None
+    if dropped:
+        missing = "; ".join(f"{m.label or f'mode {k + 1}'} lacks {describe(sorted(dropped - set(m.dofs), key=sort_key))}"
+                            for k, m in enumerate(modes) if dropped - set(m.dofs))
+        note = (f"the modes were measured at different dofs ({missing}): only the {len(common)} dofs measured in "
+                f"every mode are used, {describe(sorted(dropped, key=sort_key))} dropped")
+    return tuple(common), Phi, np.array([m.eigenvalue for m in modes]), note
 
 
 def _expansion_matrix(model, theta, dofs, method, n_basis) -> np.ndarray:
@@ -323,7 +335,7 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     chk = None
     if undamaged is not None:
         chk = check_baseline(model, undamaged, max_frequency_error=max_frequency_error, min_mac=min_mac).as_dict()
-    dofs, Phi_a, lam = _measured(data)
+    dofs, Phi_a, lam, dropped_note = _measured(data)
     n_s, m = Phi_a.shape
     noise = dict(noise or {})
     unknown_noise = sorted(set(noise) - {"frequency", "shape"})
@@ -339,7 +351,7 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     best = {k: (j, mm) for k, j, mm in pairs}
     fchange = np.array([math.sqrt(lam[k] / base_modes.eigenvalues[best[k][0]]) - 1.0 for k in range(m)])
     detected = bool(np.any(np.abs(fchange) > 3 * sig_f))
-    notes: list[str] = []
+    notes: list[str] = [dropped_note] if dropped_note else []
     n_rigid = int(np.sum(base_modes.eigenvalues <= 0))
     idx = _indices(model, names)
     common: dict[str, Any] = dict(baseline=dict(zip(names, map(float, theta0[idx]))), detected=detected,

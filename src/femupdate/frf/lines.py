@@ -47,7 +47,7 @@ def nonnegative(value, what: str) -> float:
     except (TypeError, ValueError):
         raise InputError(f"{what} must be a number, got {value!r}") from None
     if not (math.isfinite(v) and v >= 0):
-        raise InputError(f"{what} = {value!r} must be finite and >= 0")
+        raise InputError(f"{what} = {v!r} must be finite and >= 0")
     return v
 
 

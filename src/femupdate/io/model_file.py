@@ -31,6 +31,8 @@ import scipy.io
 import scipy.sparse as sp
 
 from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
+from .numbers import check_magnitudes, long_integer_line
 from ..model import Model, Parameter
 from ..structure import Structure
 
@@ -51,12 +53,14 @@ def read_toml(path) -> dict:
     Raises
     ------
     InputError
-        The file is missing, a directory, not UTF-8 text, or not valid TOML.
+        The file is missing, a directory, not UTF-8 text, or not valid TOML; a number above
+        1e150 in magnitude (the field named).
     """
     path = Path(path)
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            text = fh.read().decode("utf-8")
+        data = tomllib.loads(text)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
@@ -65,6 +69,12 @@ def read_toml(path) -> dict:
         raise InputError(f"{path}: malformed TOML: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text (UTF-8) TOML file") from None
+    except ValueError:  # Python's limit of 4,300 digits for converting an integer string
+        line = long_integer_line(text)
+        raise InputError(f"{path}: line {line}: an integer too long to read (numbers must be at most "
+                         f"{MAX_MAGNITUDE:g} in magnitude)") from None
+    check_magnitudes(data, str(path))
+    return data
 
 
 def load_model(path) -> Model:
@@ -127,6 +137,8 @@ def load_matrix(spec: str, base: Path, what: str):
         File not found; unsupported suffix; unreadable file; a ``.npz`` with several arrays or
         a ``.mat`` whose variable is ambiguous or missing; non-numeric or complex contents.
     """
+    if not isinstance(spec, str):
+        raise InputError(f"{what}: expected a matrix file name, got {spec!r}")
     name, _, var = str(spec).partition(":") if ".mat:" in str(spec) else (str(spec), "", "")
     p = (base / name) if not Path(name).is_absolute() else Path(name)
     if not p.exists():
@@ -167,6 +179,8 @@ def load_matrix(spec: str, base: Path, what: str):
             raise InputError(f"{what}: {p} does not hold a numeric matrix")
         if np.iscomplexobj(A):
             raise InputError(f"{what}: {p} holds a complex matrix; K and M must be real")
+        if A.ndim != 2:
+            raise InputError(f"{what}: {p} holds a {A.ndim}-dimensional array of shape {A.shape}; expected a square matrix")
     return A
 
 
@@ -188,11 +202,22 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     dofs = mt["dofs"]
     if isinstance(dofs, str):
         p = base / dofs
-        if not p.exists():
+        if not p.is_file():
             raise InputError(f"{src}: dofs file {p} not found")
-        dofs = [ln.strip() for ln in p.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+        try:
+            text = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"{src}: dofs file {p} is not UTF-8 text (one dof label per line)") from None
+        dofs = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    elif not isinstance(dofs, list) or not all(isinstance(d, str) for d in dofs):
+        raise InputError(f"{src}: dofs must be a file name or a list of dof labels such as [\"1:x\", \"1:y\"], "
+                         f"got {dofs!r}")
     K0 = load_matrix(mt["K0"], base, f"{src} K0")
     M0 = load_matrix(mt["M0"], base, f"{src} M0")
+    if not isinstance(data.get("parameters", {}), Mapping):
+        raise InputError(f"{path}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
+    if not isinstance(data.get("model", {}), Mapping):
+        raise InputError(f"{path}: [model] must be a table (name = ...)")
     params, dK, dM = [], [], []
     for name, spec in data.get("parameters", {}).items():
         where = f"{path}: [parameters.{name}]"
@@ -203,8 +228,13 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, K, M)")
         if "K" not in spec and "M" not in spec:
             raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices)")
+        bounds = spec.get("bounds", [-np.inf, np.inf])
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise InputError(f"{where}: bounds must be [lower, upper], got {bounds!r}")
+        if not isinstance(spec.get("fixed", False), bool):
+            raise InputError(f"{where}: fixed must be true or false, got {spec['fixed']!r}")
         try:
-            params.append(Parameter(name, spec["value"], tuple(spec.get("bounds", (-np.inf, np.inf))), spec.get("fixed", False)))
+            params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False)))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
         dK.append(load_matrix(spec["K"], base, f"{where} K") if "K" in spec else None)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 from .._errors import InputError
 from ..structure.tables import list_of_tables
 from .model_file import read_toml
+from .numbers import loads_json
 
 
 def read_table_file(path) -> dict:
@@ -36,13 +36,12 @@ def read_table_file(path) -> dict:
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: expected a .toml or .json file")
     try:
-        return json.loads(path.read_text())
+        text = path.read_text()
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except (IsADirectoryError, UnicodeDecodeError):
         raise InputError(f"{path}: not a readable JSON text file") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON: {exc}") from None
+    return loads_json(text, str(path))
 
 
 def dof_labels(v, where: str) -> list[str]:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
+from .numbers import loads_json
 from ..testdata import FRFData, MeasuredMode, StaticData, TestData
 
 UFF_SUFFIXES = (".uff", ".unv")
@@ -50,10 +51,7 @@ def load_testdata(path, model=None) -> TestData:
             raise InputError(f"{path}: no such file") from None
         except (IsADirectoryError, UnicodeDecodeError):
             raise InputError(f"{path}: not a readable JSON text file") from None
-        try:
-            raw = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{path}: malformed JSON: {exc}") from None
+        raw = loads_json(text, str(path))
         try:
             data = parse_testdata(raw)
         except InputError as exc:

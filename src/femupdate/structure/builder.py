@@ -11,6 +11,7 @@ import scipy.sparse as sp
 
 from .. import elements as el
 from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
 from ..dofs import canonical, canonical_all, describe, dof, sort_key
 from ..model import Model, Parameter
 from .groups import BENDING, NODE_DIRS, PROPS, ElementGroup, mass_kind, merge_groups, per_element, triplets
@@ -482,6 +483,7 @@ class Structure:
             parameters=tuple(self.parameters[p] for p in pnames),
             dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
             name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
+            positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
         )
 
     def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
@@ -542,6 +544,9 @@ class Structure:
             if not value > 0:
                 kind = "mass" if prop in ("m", "rho") else "property"
                 raise InputError(f"{g.where[i]}: non-positive {kind} {prop} = {value:g}" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
+            if value < 1 / MAX_MAGNITUDE:
+                raise InputError(f"{g.where[i]}: property {prop} = {value:g} is below {1 / MAX_MAGNITUDE:g}, too small to "
+                                 "compute with" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
         return num, pid
 
     def _combine(self, g: ElementGroup, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:

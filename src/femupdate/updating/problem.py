@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import rules
 from .._errors import InputError, NumericalError
+from .._limits import MAX_MAGNITUDE
 from ..modal import Modes, model_modes
 from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
@@ -427,9 +428,10 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
     if not data.modes:
         raise InputError("iterative modal updating needs measured modes (frequencies and optionally shapes)")
     lam_e = np.asarray(data.eigenvalues, float)
-    if np.any(lam_e <= 0):
-        bad = [k + 1 for k in np.flatnonzero(lam_e <= 0)]
-        raise InputError(f"test mode(s) {bad} have zero frequency: rigid-body modes cannot be used as updating targets")
+    if np.any(lam_e < 1 / MAX_MAGNITUDE):  # the relative residual (λ - λ_E) / λ_E would overflow
+        bad = ", ".join(str(k + 1) for k in np.flatnonzero(lam_e < 1 / MAX_MAGNITUDE))
+        raise InputError(f"test mode(s) {bad} have zero frequency (eigenvalue below {1 / MAX_MAGNITUDE:g}): rigid-body "
+                         "modes cannot be used as updating targets")
     try:
         w_lam = np.broadcast_to(np.asarray(w_eigenvalue, float), lam_e.shape).copy()
         w_psi = np.broadcast_to(np.asarray(w_shape, float), lam_e.shape).copy()

@@ -27,10 +27,10 @@ log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before t
 def _node_id(value, where: str) -> int:
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: node number {value!r} is not a number") from None
-    if not math.isfinite(v) or v != int(v):
-        raise InputError(f"{where}: node number {value!r} is not an integer")
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{where}: node number {str(value)[:20]!r} is not a number of at most 10 digits") from None
+    if not math.isfinite(v) or v != int(v) or abs(v) > 2**31:
+        raise InputError(f"{where}: node number {value!r} is not an integer (of at most 10 digits)")
     return int(v)
 
 def _known_dofs(model_dofs, model) -> frozenset[str] | None:
@@ -65,6 +65,38 @@ def _check_nodes(used: Iterable[int], nodes: Mapping[int, object], where: str) -
 
 
 # ---------------------------------------------------------------------------- reading
+def _delimiters(data: bytes) -> list[int]:
+    """Offsets of the ``'    -1'`` lines that open and close datasets, found as pyuff finds them."""
+    out: list[int] = []
+    ind = -1
+    while True:
+        ind = data.find(b"    -1", ind + 1)
+        if ind == -1:
+            return out
+        end = data[ind + 6:ind + 80]
+        if ind + 6 == len(data) or end[:1] in (b"\n", b"\r") or (len(end) == 74 and not end.strip(b" ")):
+            out.append(ind)
+
+
+def _check_complete(name: str, types: list[int]) -> None:
+    """A file cut inside its last dataset: pyuff silently drops that dataset (an odd number of
+    delimiters), so the data would be read as if the record were not there."""
+    with open(name, "rb") as fh:
+        data = fh.read()
+    tags = _delimiters(data)
+    if len(tags) % 2 == 0:
+        return
+    head = data[tags[-1]:].splitlines()
+    try:
+        t = int(head[1][:6])
+    except (IndexError, ValueError):
+        raise InputError(f"{name}: truncated: the file ends inside its last dataset (block {len(types) + 1}), "
+                         "which has no closing '    -1' line") from None
+    k = sum(1 for x in types if x == t) + 1
+    raise InputError(f"{name}: dataset {t} record {k} (block {len(types) + 1} of the file) is truncated: the file ends "
+                     "inside it, with no closing '    -1' line")
+
+
 def _read_records(name: str) -> list[tuple[int, int, dict]]:
     """``(dataset type, record number within the type, pyuff dict)`` of the sets we read."""
     if not os.path.exists(name):
@@ -77,6 +109,7 @@ def _read_records(name: str) -> list[tuple[int, int, dict]]:
     except Exception as exc:  # pyuff raises bare Exception for unreadable files
         log.debug("pyuff failed to scan %s", name, exc_info=True)
         raise InputError(f"{name}: cannot be read as a universal file ({exc})") from None
+    _check_complete(name, types)
     if not types:
         raise InputError(f"{name}: not a universal file (UFF): no datasets delimited by '    -1' lines")
     counts: Counter[int] = Counter()
