@@ -265,3 +265,39 @@ def test_unreachable_scheduler_is_input_error():
     model = two_dof()
     with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
         multistart(model, measured(model, ["1:x"], 2), starts=2, scheduler="tcp://127.0.0.1:9", connect_timeout=1.0)
+
+
+def test_each_mode_may_name_its_own_reference_dof():
+    """Scaling mode k to 1 at its reference_dof equals giving that dof first (the default
+    reference is the first measured dof): the same residuals, entry for entry, reordered."""
+    model = chain(K6, M6, bounds=(100.0, 5000.0))
+    truth = model_modes(model, K6 * np.linspace(1.2, 0.8, 6))
+    dofs = ("1:x", "3:x", "5:x", "6:x")
+    at = [0, 2, 4, 5]
+    refs = ["5:x", "1:x", "6:x"]
+    named = TestData(modes=tuple(MeasuredMode(truth.eigenvalues[j], dofs, truth.shapes[at, j], f"m{j}", refs[j])
+                                 for j in range(3)))
+    first = []
+    for j in range(3):
+        order = [dofs.index(refs[j])] + [i for i in range(4) if dofs[i] != refs[j]]
+        first.append(MeasuredMode(truth.eigenvalues[j], tuple(dofs[i] for i in order), truth.shapes[at, j][order], f"m{j}"))
+    a = Problem(model, named, shape_scaling="ref")
+    b = Problem(model, TestData(modes=tuple(first)), shape_scaling="ref")
+    np.testing.assert_array_equal(a.targets.ref, [2, 0, 3])
+    ra, rb = a.residuals(a.x_start), b.residuals(b.x_start)
+    np.testing.assert_allclose(np.sort(ra), np.sort(rb), rtol=0, atol=1e-15)
+    res = update(model, named, shape_scaling="ref")
+    np.testing.assert_allclose(res.x, K6 * np.linspace(1.2, 0.8, 6), rtol=1e-8)
+    with pytest.raises(InputError, match="reference_dof 2:x is not among its measured dofs"):
+        MeasuredMode(1.0, dofs, truth.shapes[at, 0], "bad", "2:x")
+
+
+def test_reference_dof_is_read_from_test_data_json(tmp_path):
+    from femupdate.io.testdata_json import load_testdata
+
+    path = tmp_path / "d.json"
+    path.write_text('{"modes": [{"frequency_hz": 2.0, "shape": {"1:x": 0.5, "2:x": 1.0}, "reference_dof": "2:x"}]}')
+    assert load_testdata(path).modes[0].reference_dof == "2:x"
+    path.write_text('{"modes": [{"frequency_hz": 2.0, "shape": {"1:x": 0.5}, "reference_dof": "2:x"}]}')
+    with pytest.raises(InputError, match=r"modes\[1\]: .*reference_dof 2:x is not among its measured dofs"):
+        load_testdata(path)

@@ -45,18 +45,24 @@ class MeasuredMode:
         Shape values at ``dofs``, real or complex, finite, not all zero.
     label : str, default ``""``
         Name of the mode, used in messages.
+    reference_dof : str, optional
+        The measured dof at which this mode's shape is scaled to 1 when shapes are compared with
+        ``"ref"`` scaling (paper eq. 33); default: the updating option's ``ref_dof``, else the
+        first measured dof.
 
     Raises
     ------
     InputError
         Negative or non-finite eigenvalue; invalid dof labels; a shape of the wrong length,
-        non-finite, or zero at every measured dof.
+        non-finite, or zero at every measured dof; a ``reference_dof`` that is not measured or
+        where the shape is zero.
     """
 
     eigenvalue: float
     dofs: tuple[str, ...] = ()
     shape: np.ndarray = field(default_factory=lambda: np.zeros(0))
     label: str = ""
+    reference_dof: str | None = None
 
     def __post_init__(self):
         lam = float(self.eigenvalue)
@@ -70,6 +76,13 @@ class MeasuredMode:
         _finite(shape, f"mode {self.label} shape", dofs)
         if len(dofs) and not np.any(shape != 0):
             raise InputError(f"mode {self.label}: the shape is zero at every measured dof")
+        if self.reference_dof is not None:
+            (ref,) = canonical_all([self.reference_dof], f"mode {self.label} reference_dof")
+            if ref not in dofs:
+                raise InputError(f"mode {self.label}: reference_dof {ref} is not among its measured dofs")
+            if shape[dofs.index(ref)] == 0:
+                raise InputError(f"mode {self.label}: the shape is zero at its reference_dof {ref}")
+            object.__setattr__(self, "reference_dof", ref)
         object.__setattr__(self, "eigenvalue", lam)
         object.__setattr__(self, "dofs", dofs)
         object.__setattr__(self, "shape", shape)

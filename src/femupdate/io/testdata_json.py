@@ -122,7 +122,7 @@ def parse_testdata(raw) -> TestData:
     ----------
     raw : mapping
         The parsed JSON: ``"modes"`` (list of objects with exactly one of ``frequency_hz`` (Hz)
-        or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value} and ``label``),
+        or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value}, ``label`` and ``reference_dof``),
         ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
         frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
         with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).
@@ -150,7 +150,7 @@ def parse_testdata(raw) -> TestData:
         where = f"modes[{i}]"
         if not isinstance(m, Mapping):
             raise InputError(f"{where}: expected an object")
-        unknown = sorted(set(m) - {"frequency_hz", "eigenvalue", "shape", "label"})
+        unknown = sorted(set(m) - {"frequency_hz", "eigenvalue", "shape", "label", "reference_dof"})
         if unknown:
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}")
         if ("frequency_hz" in m) == ("eigenvalue" in m):
@@ -163,11 +163,15 @@ def parse_testdata(raw) -> TestData:
         label = str(m.get("label", f"mode {i}"))
         value = (_number(m["frequency_hz"], f"{where} frequency_hz") if "frequency_hz" in m
                  else _number(m["eigenvalue"], f"{where} eigenvalue"))  # these name the mode themselves
+        ref = m.get("reference_dof")
+        if ref is not None and not isinstance(ref, str):
+            raise InputError(f"{where}: reference_dof must be a dof label such as \"3:x\"")
         try:
             if "frequency_hz" in m:
-                modes.append(MeasuredMode.from_frequency(value, list(shape), arr, label))
+                mode = MeasuredMode.from_frequency(value, list(shape), arr, label)
+                modes.append(MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref) if ref else mode)
             else:
-                modes.append(MeasuredMode(value, tuple(shape), arr, label))
+                modes.append(MeasuredMode(value, tuple(shape), arr, label, ref))
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     frf = None

@@ -453,7 +453,7 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
                 phi = np.real(phi * np.exp(-1j * np.angle(phi[np.argmax(np.abs(phi))])))
             phi = np.asarray(phi, float)
             if shape_scaling == "ref":
-                label = ref_dof or m.dofs[0]
+                label = m.reference_dof or ref_dof or m.dofs[0]
                 if label not in m.dofs:
                     raise InputError(f"test mode {k + 1}: reference dof {label} is not measured")
                 r = list(m.dofs).index(label)
