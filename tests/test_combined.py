@@ -191,7 +191,7 @@ def test_static_data_on_a_model_with_a_rigid_body_mode_fail_by_name():
     s.mass(["2:x"], m=1.0)
     free = s.build()
     data = TestData(modes=(MeasuredMode(150.0),), static=(StaticData({"2:x": 1.0}, ("2:x",), [0.01]),))
-    with pytest.raises(NumericalError, match="static case 1"):
+    with pytest.raises(InputError, match="static case 1: the model has 1 rigid-body mode"):
         update(free, data)
 
 

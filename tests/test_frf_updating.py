@@ -110,7 +110,7 @@ def test_line_choice_selection_regularisation_and_modal_report():
     assert reg.regularization["rule"] == "gcv" and reg.regularization["alpha"] >= 0
     with pytest.raises(InputError, match="2 parameters but only 1 residuals"):
         frf_update(m, data, lines=[3])
-    with pytest.raises(InputError, match=r"index\(es\) \[12\] outside 0..11"):
+    with pytest.raises(InputError, match=r"line\(s\) 13 \(counted from 1; index\(es\) 12 from 0\) outside the data's 12 lines"):
         frf_update(m, data, lines=[12])
     with pytest.raises(InputError, match="unknown FRF residual"):
         frf_update(m, data, residual="cubic")

@@ -256,7 +256,7 @@ def test_a_scheduler_lost_mid_run_ends_with_one_message():
 def test_a_scheduler_address_with_an_unknown_scheme_is_input_error():
     pytest.importorskip("distributed")
     model = two_dof()
-    with pytest.raises(InputError, match="not a scheduler address"):
+    with pytest.raises(InputError, match="not a Dask scheduler address"):
         multistart(model, measured(model, ["1:x"], 2), starts=2, scheduler="foo://127.0.0.1:1", connect_timeout=1.0)
 
 

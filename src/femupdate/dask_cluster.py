@@ -42,6 +42,38 @@ def _quiet() -> None:
             logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
+def _client_within(Client, address: str, timeout: float, what: str):
+    """``Client(address)`` with a hard limit: a service that accepts the connection but is not a
+    Dask scheduler (a web server, say) can keep the handshake waiting past Dask's own timeout."""
+    import threading
+
+    box: dict = {}
+
+    def attempt():
+        try:
+            box["client"] = Client(address, timeout=timeout)
+        except BaseException as exc:  # handed to the caller below
+            box["error"] = exc
+
+    worker = threading.Thread(target=attempt, name="femupdate-dask-connect", daemon=True)
+    worker.start()
+    worker.join(timeout + 5.0)
+    if worker.is_alive():
+        raise InputError(f"no Dask scheduler answered at {address} within {timeout:g} s (is it a Dask scheduler?)")
+    exc = box.get("error")
+    if exc is None:
+        return box["client"]
+    if isinstance(exc, ValueError):
+        raise InputError(f"{what} {address!r}: not a Dask scheduler address ({str(exc).split(' (known')[0]}); give "
+                         "tcp://host:port") from None
+    if isinstance(exc, (OSError, TimeoutError)):
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s: {exc}") from None
+    if isinstance(exc, (MemoryError, RuntimeError, TypeError, EOFError)):
+        raise InputError(f"no Dask scheduler answered at {address}: the service there is not one "
+                         f"({type(exc).__name__})") from None
+    raise exc
+
+
 def connect(address: str, timeout: float, what: str = "--scheduler"):
     """A ``dask.distributed.Client`` of the scheduler at ``address`` that has at least one worker.
 
@@ -69,12 +101,9 @@ def connect(address: str, timeout: float, what: str = "--scheduler"):
     except ImportError:
         raise InputError(f"{what} needs dask.distributed: pip install 'femupdate[dask]'") from None
     _quiet()
-    try:
-        client = Client(address, timeout=timeout)
-    except ValueError as exc:
-        raise InputError(f"{what} {address!r}: not a scheduler address ({exc}); give tcp://host:port") from None
-    except (OSError, TimeoutError) as exc:
-        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s: {exc}") from None
+    if not isinstance(address, str) or not address.strip():
+        raise InputError(f"{what}: give the scheduler's address (tcp://host:port)")
+    client = _client_within(Client, address, timeout, what)
     try:
         client.wait_for_workers(1, timeout=timeout)
     except (OSError, TimeoutError):

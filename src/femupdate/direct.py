@@ -183,7 +183,7 @@ class EquationBuilder:
         if unknowns is None:
             self.free = [int(j) for j in model.free]
         else:
-            self.free = [model.parameter_index(n) for n in unknowns]
+            self.free = model.parameter_indices(unknowns, "unknowns (--unknowns)")
         if not self.free:
             raise InputError("no unknown parameters: every parameter is fixed")
         pk = self.p.copy()
@@ -332,11 +332,15 @@ def static_equations(builder: EquationBuilder, cases: Sequence[StaticData]) -> N
     ------
     InputError
         Displacements missing model dofs or at dofs not in the model; a force at a dof not in
-        the model.
+        the model; a load not in equilibrium on a model with rigid-body modes
+        (:func:`femupdate.modal.check_static_load`).
     """
+    from .modal import check_static_load
+
     for k, case in enumerate(cases, start=1):
         u = _complete(builder.model, case.dofs, case.displacement, f"static case {k} displacement")
         f = _force(builder.model, dict(case.force), f"static case {k}")
+        check_static_load(builder.model, builder.p, f, f"static case {k}")
         builder.add(u, 0.0, f, f"static case {k}")
 
 

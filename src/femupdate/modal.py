@@ -492,6 +492,60 @@ def _sparse(K, M, n_modes, sigma, tol):
     return lam, Phi, (lu, float(sigma))
 
 
+def check_static_load(model, values, force: np.ndarray, what: str, need_inverse: bool = False) -> None:
+    """Refuse a static load that a model with rigid-body modes cannot carry.
+
+    A free (or partly free) structure can only be loaded by forces in equilibrium: the force must
+    have no component along the rigid-body modes (the null space of K).  Otherwise K u = f has
+    no solution at any parameter values, and a fit to such data is a least-squares compromise
+    that means nothing.
+
+    Parameters
+    ----------
+    model : Model
+    values : parameter values at which K is judged (None: nominal).
+    force : numpy.ndarray, shape ``(n_dofs,)``
+        The load (N).
+    what : str
+        How the caller names the load case, for the message.
+    need_inverse : bool, default False
+        The caller computes u = K(p)⁻¹ f (iterative updating): any rigid-body mode is refused,
+        a self-equilibrated load too (u is then defined only up to rigid motion).
+
+    Raises
+    ------
+    InputError
+        The model has rigid-body modes and the load is not in equilibrium with respect to them
+        (or, with ``need_inverse``, the model has rigid-body modes at all).
+    """
+    p = model.resolve(values)
+    K = sp.csc_array(model.K(p))
+    try:
+        lu = factorize(K)
+        if not nearly_singular(lu):
+            return
+    except RuntimeError:  # exactly singular
+        pass
+    n = model.n_dofs
+    modes = solve_modes(model.K(p), model.M(p), n_modes=min(n, 12) if n > DENSE_LIMIT else None, dofs=model.dofs,
+                        method="dense" if n <= DENSE_LIMIT else "sparse")
+    rigid = modes.shapes[:, modes.eigenvalues == 0.0]
+    if rigid.shape[1] == 0:
+        return
+    if need_inverse:
+        raise InputError(
+            f"{what}: the model has {rigid.shape[1]} rigid-body mode(s): iterative updating computes u = K(p)^-1 f, "
+            "which needs a supported model; support it, or use direct updating with displacements at every dof")
+    f = np.real(np.asarray(force))
+    along = np.abs(rigid.T @ f)
+    scale = np.linalg.norm(f) * np.linalg.norm(rigid, axis=0)
+    if np.any(along > 1e-8 * np.maximum(scale, np.finfo(float).tiny)):
+        raise InputError(
+            f"{what}: the model has {rigid.shape[1]} rigid-body mode(s) and the load is not in equilibrium with "
+            "them (K u = f has no solution at any parameter values): support the model, or give a self-equilibrated "
+            "load")
+
+
 def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:
     """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal).
 

@@ -214,6 +214,32 @@ class Model:
         hi = np.array([p.bounds[1] for p in self.parameters])
         return lo, hi
 
+    def parameter_indices(self, names: Sequence[str], what: str = "parameters") -> list[int]:
+        """Positions of the parameters ``names``, each named once.
+
+        Parameters
+        ----------
+        names : sequence of str
+        what : str
+            How the caller names the list (an option such as ``--params``), for messages.
+
+        Returns
+        -------
+        list of int
+
+        Raises
+        ------
+        InputError
+            A name that is not a parameter, or one listed twice (a duplicate would make two
+            unknowns of one parameter: a singular problem reported as something else).
+        """
+        from collections import Counter
+
+        twice = sorted(n for n, c in Counter(names).items() if c > 1)
+        if twice:
+            raise InputError(f"{what}: parameter(s) listed twice: {', '.join(twice)}")
+        return [self.parameter_index(n) for n in names]
+
     def parameter_index(self, name: str) -> int:
         """Position of a parameter in declaration order.
 

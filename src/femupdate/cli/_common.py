@@ -130,9 +130,10 @@ class OutputPath(click.ParamType):
 
     name = "path"
 
-    def __init__(self, kind: str = "file", dash: bool = False):
+    def __init__(self, kind: str = "file", dash: bool = False, suffixes: tuple[str, ...] = ()):
         self.kind = kind
         self.dash = dash
+        self.suffixes = suffixes
 
     def convert(self, value, param, ctx):
         from ..io.results import check_output
@@ -148,6 +149,9 @@ class OutputPath(click.ParamType):
                 return "-"
             self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
         what = param.opts[0] if param is not None and param.opts else "output"
+        if self.suffixes and Path(text).suffix.lower() not in self.suffixes:
+            self.fail(f"{text}: the file name must end in one of {', '.join(self.suffixes)} (the figure's format)", param,
+                      ctx)
         try:
             check_output(text, what, self.kind)
         except FemupdateError as exc:
@@ -157,9 +161,28 @@ class OutputPath(click.ParamType):
 
 OUTPUT_FILE = OutputPath("file")
 OUTPUT_DIR = OutputPath("dir")
+#: a figure file: its suffix chooses the format (those matplotlib writes without extra packages)
+OUTPUT_FIGURE = OutputPath("file", suffixes=(".png", ".pdf", ".svg", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff",
+                                             ".webp"))
 
 json_option = click.option("--json", "json_path", metavar="PATH", default=None, type=OutputPath("file", dash=True),
                            help="Write the machine-readable result to PATH ('-' = stdout).")
+class SchedulerAddress(click.ParamType):
+    """A Dask scheduler's address: not empty (an empty ``--scheduler ''`` used to mean "run
+    locally" without a word)."""
+
+    name = "address"
+
+    def convert(self, value, param, ctx):
+        text = str(value).strip()
+        if not text:
+            self.fail("empty; give the scheduler's address (tcp://host:port), or leave the option out to run "
+                      "locally", param, ctx)
+        return text
+
+
+SCHEDULER = SchedulerAddress()
+
 connect_timeout_option = click.option(
     "--connect-timeout", type=FiniteFloat(min=0, min_open=True, max=1e6), default=10.0, show_default=True,
     help="Seconds to wait for the Dask scheduler and its first worker (and how long a run may go without workers).")

@@ -12,7 +12,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
-from ._common import (OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table,
+from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table,
                       print_starts, starts_payload, emit, print_flags, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
                       update_parameter_table, update_payload)
@@ -216,7 +216,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
 @click.option("--seed", type=SEED, default=0, show_default=True)
-@click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
+@click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help="Run the starts / runs on an existing Dask cluster.")
 @connect_timeout_option
 @click.option("--global", "global_method", type=click.Choice(["differential_evolution", "basinhopping", "dual_annealing"]),
               default=None, help="Global search within the bounds, then a local polish.")
@@ -365,7 +365,7 @@ def _range(text: str, what: str) -> np.ndarray:
 @click.option("--ref-dof", default=None, help="Modal: scale shapes to 1 here (default first measured dof).")
 @damping_option
 @click.option("--truth", "truth_text", default=None, metavar="P1=V1,P2=V2", help="Mark the true solution.")
-@click.option("--plot", "plot_path", type=OUTPUT_FILE, default=None,
+@click.option("--plot", "plot_path", type=OUTPUT_FIGURE, default=None,
               help="Write the surface and contour figure (PNG).")
 @set_option
 @json_option

@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, model_values, set_option
+from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -52,7 +52,7 @@ def _exact_for(model, names, case, truth):
               help="Numbers of measured (lowest) modes: 1,2,3 or 1-6 (default 1..N).")
 @click.option("--starts", type=click.IntRange(min=1), default=100, show_default=True, help="Random starts per case.")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts (and noise).")
-@click.option("--scheduler", default=None, metavar="ADDR", help="Run on an existing Dask cluster (tcp://host:port).")
+@click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help="Run on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Start a local Dask cluster of N worker processes (default: run in this process).")

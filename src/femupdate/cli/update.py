@@ -9,9 +9,9 @@ import click
 import numpy as np
 from rich.table import Table
 
-from .._errors import NumericalError
+from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
-from ._common import (OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
+from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
                       print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
@@ -23,7 +23,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts.")
-@click.option("--scheduler", default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
+@click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
@@ -75,6 +75,12 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
               use=kinds)
     if "frf" in kinds:
         kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text)
+    else:
+        given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
+                                    ("--select", select is not None), ("--resonance", resonance != "skip"),
+                                    ("--resonance-tol", resonance_tol != 1e-3), ("--damping", bool(damping_text))) if v]
+        if given:
+            raise InputError(f"{', '.join(given)}: FRF option(s) given, but no FRF data are used ({', '.join(kinds)})")
     ms = None
     if starts == 1 and not scheduler:
         res = _update(model, data, params=params, **kw)

@@ -73,7 +73,10 @@ def atomic_write_bytes(path, data: bytes) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(prefix=f"{_temp_prefix(path)}{os.getpid()}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f"{_temp_prefix(path)}{os.getpid()}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:  # name the file the user asked for, not the temporary one
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -81,16 +84,19 @@ def atomic_write_bytes(path, data: bytes) -> None:
             os.fsync(fh.fileno())
         os.chmod(tmp, _mode_for(path))
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError):
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
         raise
 
 
 def _temp_prefix(path: Path) -> str:
-    return f".{path.name}.femupdate-"
+    # a file name may have 255 bytes; the temporary's adds about 40 (its PID and random part)
+    return f".{path.name[:150]}.femupdate-"
 
 
 def _alive(pid: int) -> bool:
@@ -170,6 +176,8 @@ def check_output(path, what: str, kind: str = "file") -> Path | None:
     if kind == "file" and str(path) == "-":
         return None
     p = Path(path)
+    if any(len(part.encode()) > 255 for part in p.parts):
+        raise InputError(f"{what} {p}: a name in the path is longer than 255 bytes")
     if kind == "file" and p.is_dir():
         raise InputError(f"{what} {p}: is a folder; give a file name")
     if kind == "dir" and p.exists() and not p.is_dir():
@@ -185,6 +193,12 @@ def check_output(path, what: str, kind: str = "file") -> Path | None:
         raise InputError(f"{what} {p}: {here} is a file, not a folder")
     if not os.access(here, os.W_OK | os.X_OK):
         raise InputError(f"{what} {p}: cannot write in {here} (permission denied)")
+    try:  # a real probe: permissions do not stop root, but a read-only or virtual file system does
+        fd, probe = tempfile.mkstemp(prefix=".femupdate-probe-", dir=here)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{what} {p}: cannot write in {here} ({exc.strerror or exc})") from None
     return p
 
 

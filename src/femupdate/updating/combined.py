@@ -38,6 +38,7 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..frf.lines import UNDAMPED
+from ..modal import check_static_load
 from ..testdata import FRFData, TestData
 from .frf import FRFProblem, FRFUpdateResult, frac, modal_report, prepare_problem
 from .problem import Parametrisation, Problem
@@ -137,8 +138,8 @@ def _weighting(label: str, stated: bool, relative: bool, measured, what: str, qu
     v = np.abs(np.asarray(measured))
     rms = float(np.sqrt(np.mean(v ** 2))) if v.size else 0.0
     notes.append(f"{label}: no standard deviation stated; {what} are divided by the RMS measured {quantity} "
-                 f"({rms:.4g}{unit}) to weigh them against the other data; state measurement_std['{key}'] to weigh "
-                 "by uncertainty")
+                 f"({rms:.4g}{unit}) to weigh them against the other data; state it (--std-{key}, or "
+                 f"measurement_std['{key}'] in Python) to weigh by uncertainty")
     return (1.0 / rms if rms > 0 else 1.0), f"divided by the RMS measured {quantity} ({rms:.4g}{unit})"
 
 
@@ -212,6 +213,10 @@ class CombinedProblem(Parametrisation):
             except NumericalError as exc:
                 if b.kind == "modes":
                     raise
+                if b.kind == "static":
+                    raise NumericalError(f"{b.label}: the stiffness matrix is singular at these parameter values (a "
+                                         "mechanism, or rigid-body motion the load excites): K u = f has no solution"
+                                         ) from None
                 raise NumericalError(f"{b.label}: {exc}") from None
 
     def residuals(self, x) -> np.ndarray:
@@ -383,6 +388,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                                       weights, np.zeros(1, int), UNDAMPED, "auto")
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}") from None
+                check_static_load(model, values, prob.f, label, need_inverse=True)
                 n_data += case.displacement.size
                 scale, weighting = _weighting(label, given is not None, mixed, case.displacement, "its deflections",
                                               "deflection", " m", notes, key="static")
@@ -500,6 +506,10 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
                          n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity)
     solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
+    unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
+    if unused:
+        raise InputError(f"standard deviations given for {', '.join(unused)} data (--std-{unused[0]}), but the data "
+                         f"used are: {', '.join(kinds)}")
     if kinds == ("modes",) and not frf_options:
         return update_modal(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
                             measurement_std=measurement_std, regularization=regularization, **modal_options,
@@ -508,9 +518,6 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         from .frf import frf_update
 
         std = _split_std(measurement_std)
-        extra = sorted(set(std) - {"frf"})
-        if extra:
-            raise InputError(f"measurement_std for {', '.join(extra)} given, but only FRF data are used")
         return frf_update(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
                           measurement_std=std.get("frf", {}).get("frf"), regularization=regularization,
                           **dict(frf_options or {}), **solver_options)

@@ -301,7 +301,8 @@ def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_to
         use = use.astype(int)
         bad = use[(use < 0) | (use >= n_all)]
         if bad.size:
-            raise InputError(f"lines: index(es) {bad.tolist()} outside 0..{n_all - 1}")
+            raise InputError(f"lines: line(s) {', '.join(str(int(b) + 1) for b in bad)} (counted from 1; index(es) "
+                             f"{', '.join(str(int(b)) for b in bad)} from 0) outside the data's {n_all} lines")
         use = np.unique(use)
     skipped = []
     if resonance not in RESONANCE_POLICIES:

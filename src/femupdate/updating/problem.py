@@ -73,7 +73,7 @@ class Parametrisation:
     def __init__(self, model, names: Sequence[str], kind: str, p_base: np.ndarray):
         if kind not in rules.PARAMETRISATIONS:
             raise InputError(f"unknown parametrisation {kind!r}: use {', '.join(PARAMETRISATIONS)}")
-        self.idx = np.array([model.parameter_index(n) for n in names], dtype=np.intp)
+        self.idx = np.array(model.parameter_indices(names, "updated parameters (--params)"), dtype=np.intp)
         self.names = tuple(names)
         self.param = kind
         self.code = rules.PARAMETRISATIONS[kind]
@@ -464,6 +464,13 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
             psi.extend(map(float, phi / s))
         ref.append(r)
         pptr.append(len(pos))
+    plain = [k for k in range(lam_e.size) if pptr[k + 1] == pptr[k]]  # compared by frequency only
+    for a, b in zip(plain, plain[1:]):
+        if lam_e[b] < lam_e[a]:
+            fa, fb = (math.sqrt(lam_e[i]) / (2 * math.pi) for i in (a, b))
+            raise InputError(f"test modes without a shape are paired with the model's modes in order of frequency: list "
+                             f"them by increasing frequency (test mode {b + 1} at {fb:.6g} Hz comes after test mode "
+                             f"{a + 1} at {fa:.6g} Hz)")
     nm = min(model.n_dofs, n_modes or buffered_modes(lam_e.size))
     return Targets(lam_e, w_lam, w_psi, np.array(pptr, np.int64), np.array(pos, np.int64), np.array(psi, float),
                    np.array(ref, np.int64), int(nm))

@@ -288,6 +288,7 @@ def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, va
     from ...updating import draw_starts
 
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    model.parameter_indices(names, "unknown parameters (--params)")
     if not names:
         raise InputError("uniqueness study: no unknown parameters (every parameter is fixed)")
     idx = [model.parameter_index(n) for n in names]
