@@ -152,10 +152,10 @@ def cl_scaling(x, g, lb, ub, v, dv):
     for i in range(x.size):
         v[i] = 1.0
         dv[i] = 0.0
-        if g[i] < 0 and np.isfinite(ub[i]):
+        if g[i] < 0 and math.isfinite(ub[i]):
             v[i] = ub[i] - x[i]
             dv[i] = -1.0
-        if g[i] > 0 and np.isfinite(lb[i]):
+        if g[i] > 0 and math.isfinite(lb[i]):
             v[i] = x[i] - lb[i]
             dv[i] = 1.0
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 from numba import njit
 
 #: entry points, called from Python
-jit = njit(cache=True, error_model="numpy", nogil=True)
+jit = njit(cache=True, error_model="numpy", nogil=True, no_cfunc_wrapper=True)
 #: functions only compiled code calls: no wrapper for calls from Python (less to build; numba's
 #: type hints omit this option)
-inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True)  # type: ignore[call-overload]
+inner = njit(cache=True, error_model="numpy", nogil=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)  # type: ignore[call-overload]
 
 __all__ = ["jit", "inner"]

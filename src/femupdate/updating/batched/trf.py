@@ -205,7 +205,7 @@ def _top(st, r, gtol, max_nfev):
         A[k, n] = f[r, k]
     for k in range(mq + n):
         for i in range(n + 1):
-            if not np.isfinite(A[k, i]):
+            if not math.isfinite(A[k, i]):
                 return -1
     dense.householder_r(A, n)
     for i in range(n):
@@ -457,6 +457,32 @@ def accept(st, r):
     norms = _gradient(st, r)
     for i in range(norms.size):
         scale_inv[r, i] = max(norms[i], scale_inv[r, i])
+
+
+# ---------------------------------------------------------------------------------------------
+# compiled ahead of the first solve (see kernel.build)
+# ---------------------------------------------------------------------------------------------
+def row_signatures(state_type) -> list:
+    """The row functions that :func:`femupdate.updating.batched.kernel.solve_rows` calls, each
+    with the argument types of its call there (``state_type`` the numba type of the
+    :class:`State`)."""
+    from numba import types
+
+    i, f, v = types.int64, types.float64, types.float64[::1]
+    return [(init_row, (state_type, i)), (propose, (state_type, i, f, i)), (judge, (state_type, i, v, f, f, i)),
+            (accept, (state_type, i))]
+
+
+def compile_rows() -> None:
+    """Compile the functions of :func:`row_signatures` into numba's disk cache (run in a second
+    process while the first compiles the modal functions; the type of a state does not depend on
+    its size)."""
+    from numba import typeof
+
+    one = np.zeros((1, 1))
+    st = new_state(one, one, one, 1, np.ones(1, np.int64), np.ones(1, np.int64), 0)
+    for fn, sig in row_signatures(typeof(st)):
+        fn.compile(sig)
 
 
 # ---------------------------------------------------------------------------------------------
