@@ -430,15 +430,16 @@ def build(sp_, cores: int) -> None:
     process (one core, or it fails) :func:`solve_rows` compiles everything itself: the same code."""
     from numba import config
 
-    if config.DISABLE_JIT or cores < 2 or solve_rows.signatures or cached() or not sys.executable:
+    if getattr(config, "DISABLE_JIT", False) or cores < 2 or solve_rows.signatures or cached() or not sys.executable:
         return
     import femupdate
 
     env = dict(os.environ)
     root = str(Path(femupdate.__file__).resolve().parents[1])  # this femupdate, wherever installed
     env["PYTHONPATH"] = os.pathsep.join([root] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-    if config.CACHE_DIR:
-        env["NUMBA_CACHE_DIR"] = config.CACHE_DIR
+    cache_dir = getattr(config, "CACHE_DIR", "")
+    if cache_dir:  # the same cache as this process's, however it was set
+        env["NUMBA_CACHE_DIR"] = cache_dir
     try:
         child = subprocess.Popen([sys.executable, "-c", "from femupdate.updating.batched import trf; trf.compile_rows()"],
                                  env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
