@@ -154,9 +154,9 @@ def _widest(d, t0, T):
 
 
 @inner
-def _measured(Phi, pos, j):
-    """Mode j at the dofs ``pos`` (contiguous)."""
-    out = np.empty(pos.size)
+def _measured(Phi, pos, j, work):
+    """Mode j at the dofs ``pos``: the leading entries of the work array ``work``, filled."""
+    out = work[:pos.size]
     for i in range(pos.size):
         out[i] = Phi[pos[i], j]
     return out
@@ -219,6 +219,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     shaped = _shaped(d, t0, T)
     MAC = np.zeros((T, max(nm, 1)))
     B = np.empty((_widest(d, t0, T), nm))  # one work array for every mode's measured rows
+    phs = np.empty(B.shape[0])  # and one for a mode's measured shape
     for k in range(T):
         if shaped[k]:
             a, b = d.pptr[t0 + k], d.pptr[t0 + k + 1]
@@ -242,7 +243,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
         a, b = d.pptr[q], d.pptr[q + 1]
         if b > a:
             ns = rules.n_shape_residuals(b - a, d.ref[q])
-            node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j),
+            node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j, phs),
                                          d.psi_e[a:b], d.ref[q], d.w_psi[q],
                                          fout[row:row + ns])
             if node >= 0:
@@ -276,6 +277,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
     coef = np.empty(n)
     dlam = np.empty(L)
     dbuf = np.zeros((_widest(d, t0, T), L))  # one work array for every mode's shape derivatives
+    phs = np.empty(dbuf.shape[0])  # and one for its measured shape
     row0 = 0
     for k in range(T):
         q = t0 + k
@@ -318,7 +320,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         row0 += 1
         if ns:
             nr = rules.n_shape_residuals(ns, d.ref[q])
-            rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t), dphs,
+            rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t, phs), dphs,
                                  d.psi_e[a:b], d.ref[q], d.w_psi[q], dpdx,
                                  Jout[row0:row0 + nr])
             row0 += nr
