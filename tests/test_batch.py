@@ -7,6 +7,7 @@ against ``scipy.optimize.least_squares`` itself.
 """
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -347,6 +348,45 @@ def test_bench_multistart_quick_runs(tmp_path):
     assert size["ratio_a_over_f"] > 0 and size["seconds"]["f_batched"] > 0
     assert size["agreement_f_a"]["of"] == size["starts"] == 12
     assert size["outcomes"]["f_batched"]["truth"] >= 1
+
+
+# ------------------------------------------------------------------ the first compile
+FIRST_SOLVE = """
+import json, numpy as np
+from numba import typeof
+from femupdate import MeasuredMode, TestData, model_modes
+from femupdate.generators import shear_building
+from femupdate.updating import multistart
+from femupdate.updating.batched import kernel, trf
+
+model = shear_building(4, k=[2e7, 1.8e7, 1.6e7, 1.4e7], m=1e4, bounds=(0.5, 1.5)).build()
+mm = model_modes(model)
+pos = model.dof_index(["2:x", "4:x"])
+data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[r], ["2:x", "4:x"], mm.shapes[pos, r]) for r in range(3)))
+ms = multistart(model, data, starts=4, seed=0, batched=True)
+st = trf.new_state(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), 1, np.ones(1, np.int64), np.ones(1, np.int64), 0)
+ahead = [(fn, sig) for fn, sig in trf.row_signatures(typeof(st))]
+print(json.dumps({"converged": ms.converged,
+                  "ahead": {fn.__name__: [str(s) for s in fn.signatures] == [str(tuple(sig))] for fn, sig in ahead},
+                  "modal": {fn.__name__: len(fn.signatures) for fn in (kernel.evaluate_row, kernel.jacobian_row)}}))
+"""
+
+
+def test_first_solve_compiles_every_function_once(tmp_path):
+    """On an empty cache, the functions compiled ahead of solve_rows (kernel.build; trf's in a
+    second process) have the very types solve_rows calls them with: solve_rows loads trf's from
+    the cache, and every function has one specialisation in it."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), PYTHONPATH=str(ROOT / "src"))
+    env.pop("NUMBA_DISABLE_JIT", None)
+    proc = subprocess.run([sys.executable, "-c", FIRST_SOLVE], capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert res["converged"] >= 1
+    assert all(res["ahead"].values()), res  # loaded from the cache with the signature compiled ahead
+    assert res["modal"] == {"evaluate_row": 1, "jacobian_row": 1}
+    index = [f.name for f in tmp_path.rglob("*.nbi")]
+    assert any(n.startswith("trf.propose-") for n in index) and any(n.startswith("kernel.solve_rows-") for n in index)
+    assert not list(tmp_path.rglob("*.2.nbc")), sorted(f.name for f in tmp_path.rglob("*.nbc"))
 
 
 # ------------------------------------------------------------------ the two solve routes

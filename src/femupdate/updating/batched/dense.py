@@ -22,6 +22,43 @@ if not getattr(config, "DISABLE_JIT", False):
     except ImportError:  # pragma: no cover - a numba without the helper
         _sv_only = None
 
+# Elementwise operations written as loops: NumPy's array expressions and ``a[i] = b`` with an
+# array b each compile much more code (a ufunc kernel; a shape check whose error message needs
+# numba's string formatting) for the same arithmetic, operation for operation.
+@inner
+def copy_to(out, a):
+    """out[:] = a (same length)."""
+    for i in range(a.size):
+        out[i] = a[i]
+
+
+@inner
+def mul(a, b):
+    """a * b, elementwise, a new array."""
+    out = np.empty(a.size)
+    for i in range(a.size):
+        out[i] = a[i] * b[i]
+    return out
+
+
+@inner
+def scaled(a, t):
+    """a * t for a scalar t, a new array."""
+    out = np.empty(a.size)
+    for i in range(a.size):
+        out[i] = a[i] * t
+    return out
+
+
+@inner
+def add(a, b):
+    """a + b, elementwise, a new array."""
+    out = np.empty(a.size)
+    for i in range(a.size):
+        out[i] = a[i] + b[i]
+    return out
+
+
 @inner
 def dot(a, b):
     s = 0.0
@@ -115,10 +152,10 @@ def cl_scaling(x, g, lb, ub, v, dv):
     for i in range(x.size):
         v[i] = 1.0
         dv[i] = 0.0
-        if g[i] < 0 and np.isfinite(ub[i]):
+        if g[i] < 0 and math.isfinite(ub[i]):
             v[i] = ub[i] - x[i]
             dv[i] = -1.0
-        if g[i] > 0 and np.isfinite(lb[i]):
+        if g[i] > 0 and math.isfinite(lb[i]):
             v[i] = x[i] - lb[i]
             dv[i] = 1.0
 
@@ -161,4 +198,4 @@ def singular_values(A):
     return np.linalg.svd(A)[1]
 
 
-__all__ = ["dot", "norm", "half_sq", "quad_1d", "quad", "min_quad_1d", "step_to_bound", "cl_scaling", "householder_r", "singular_values"]
+__all__ = ["copy_to", "mul", "scaled", "add", "dot", "norm", "half_sq", "quad_1d", "quad", "min_quad_1d", "step_to_bound", "cl_scaling", "householder_r", "singular_values"]

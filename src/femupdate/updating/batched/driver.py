@@ -307,6 +307,7 @@ class BatchedProblem:
         if todo.size:
             _announce_first_use()
             spec = self.spec()
+            kernel.build(spec, _cores())
             threads = max(1, min(_cores(), todo.size))
             with ThreadPoolExecutor(threads) as pool:
                 for a in range(0, todo.size, chunk):
@@ -346,7 +347,7 @@ def _announce_first_use() -> None:
         log.info("loading the compiled batched solver from numba's cache")
     else:
         log.warning("femupdate: building the compiled batched solver with numba - once after installation, about "
-                    "half a minute on two cores; later runs load it from the cache")
+                    "15 s on two cores; later runs load it from the cache")
 
 
 __all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "PROBLEM_OPTIONS", "SOLVER_OPTIONS", "BatchedProblem",

@@ -30,6 +30,9 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -151,9 +154,9 @@ def _widest(d, t0, T):
 
 
 @inner
-def _measured(Phi, pos, j):
-    """Mode j at the dofs ``pos`` (contiguous)."""
-    out = np.empty(pos.size)
+def _measured(Phi, pos, j, work):
+    """Mode j at the dofs ``pos``: the leading entries of the work array ``work``, filled."""
+    out = work[:pos.size]
     for i in range(pos.size):
         out[i] = Phi[pos[i], j]
     return out
@@ -171,7 +174,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     t0, T, nm = sets.t0[ds], sets.T[ds], sets.nm[ds]
     p = rules.to_p(md.pcode, x, md.pscale[r])
     for j in range(L):
-        if not np.isfinite(p[j]):
+        if not math.isfinite(p[j]):
             return rules.E_NONFINITE
     K = md.K_const.copy()
     for j in range(L):
@@ -195,8 +198,11 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
         for i in range(n):
             mdiag[i] = md.M_const[i, i]
     A = Cinv @ K @ Cinv.T
-    A = 0.5 * (A + A.T)
-    w, Y = np.linalg.eigh(A)
+    As = np.empty((n, n))  # symmetrised (a loop: an array expression compiles a kernel of its own)
+    for i in range(n):
+        for k in range(n):
+            As[i, k] = 0.5 * (A[i, k] + A[k, i])
+    w, Y = np.linalg.eigh(As)
     Ph = Cinv.T @ Y
     for i in range(n):
         lam[i] = w[i]
@@ -213,6 +219,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     shaped = _shaped(d, t0, T)
     MAC = np.zeros((T, max(nm, 1)))
     B = np.empty((_widest(d, t0, T), nm))  # one work array for every mode's measured rows
+    phs = np.empty(B.shape[0])  # and one for a mode's measured shape
     for k in range(T):
         if shaped[k]:
             a, b = d.pptr[t0 + k], d.pptr[t0 + k + 1]
@@ -236,7 +243,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
         a, b = d.pptr[q], d.pptr[q + 1]
         if b > a:
             ns = rules.n_shape_residuals(b - a, d.ref[q])
-            node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j),
+            node = rules.shape_residuals(sp_.scaling, _measured(Phi, d.pos[a:b], j, phs),
                                          d.psi_e[a:b], d.ref[q], d.w_psi[q],
                                          fout[row:row + ns])
             if node >= 0:
@@ -244,7 +251,7 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
                 return rules.E_NODE
             row += ns
     for i in range(row):
-        if not np.isfinite(fout[i]):
+        if not math.isfinite(fout[i]):
             return rules.E_NONFINITE
     return rules.OK
 
@@ -270,6 +277,7 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
     coef = np.empty(n)
     dlam = np.empty(L)
     dbuf = np.zeros((_widest(d, t0, T), L))  # one work array for every mode's shape derivatives
+    phs = np.empty(dbuf.shape[0])  # and one for its measured shape
     row0 = 0
     for k in range(T):
         q = t0 + k
@@ -312,13 +320,13 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
         row0 += 1
         if ns:
             nr = rules.n_shape_residuals(ns, d.ref[q])
-            rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t), dphs,
+            rules.shape_jacobian(sp_.scaling, _measured(Phi, d.pos[a:b], t, phs), dphs,
                                  d.psi_e[a:b], d.ref[q], d.w_psi[q], dpdx,
                                  Jout[row0:row0 + nr])
             row0 += nr
     for i in range(row0):
         for j in range(L):
-            if not np.isfinite(Jout[i, j]):
+            if not math.isfinite(Jout[i, j]):
                 return rules.E_BAD_JACOBIAN
     return rules.OK
 
@@ -404,4 +412,56 @@ def cached() -> bool:
     cache_path = getattr(getattr(solve_rows, "_cache", None), "_cache_path", None)
     return cache_path is not None and any(Path(str(cache_path)).glob("kernel.solve_rows-*.nbi"))
 
-__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "cached"]
+
+def _row_signatures(sp_) -> list:
+    """:func:`evaluate_row` and :func:`jacobian_row` with the argument types of their calls in
+    :func:`solve_rows` (``sp_`` the spec)."""
+    from numba import typeof, types
+
+    S, i, v, m = typeof(sp_), types.int64, types.float64[::1], types.float64[:, ::1]
+    iv, bv = types.int64[::1], types.boolean[::1]
+    return [(evaluate_row, (S, i, v, v, v, m, iv, v, iv, v, bv)), (jacobian_row, (S, i, v, m, v, m, iv, iv, v))]
+
+
+def build(sp_, cores: int) -> None:
+    """Compile what :func:`solve_rows` needs for the spec ``sp_`` before its first call, when
+    numba's cache does not have it: with two cores or more, a second Python process compiles the
+    solver's row functions into the cache (:func:`.trf.compile_rows`) while this one compiles
+    the modal ones; :func:`solve_rows` then loads the former, compiles the latter into itself,
+    and the build takes about the time of the larger half plus solve_rows' own.  Without a second
+    process (one core, or it fails) :func:`solve_rows` compiles everything itself: the same code."""
+    from numba import config
+
+    if getattr(config, "DISABLE_JIT", False) or cores < 2 or solve_rows.signatures or cached() or not sys.executable:
+        return
+    import femupdate
+
+    env = dict(os.environ)
+    root = str(Path(femupdate.__file__).resolve().parents[1])  # this femupdate, wherever installed
+    env["PYTHONPATH"] = os.pathsep.join([root] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    cache_dir = getattr(config, "CACHE_DIR", "")
+    if cache_dir:  # the same cache as this process's, however it was set
+        env["NUMBA_CACHE_DIR"] = cache_dir
+    try:
+        child = subprocess.Popen([sys.executable, "-c", "from femupdate.updating.batched import trf; trf.compile_rows()"],
+                                 env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.PIPE)
+    except OSError as e:
+        log.debug("no second process to compile in: %s", e)
+        return
+    err = b""
+    try:
+        for fn, sig in _row_signatures(sp_):
+            fn.compile(sig)
+        _, err = child.communicate(timeout=600)
+    except subprocess.TimeoutExpired:
+        err = b"timed out"
+    finally:
+        if child.poll() is None:  # timed out, or this process was interrupted
+            child.kill()
+            child.communicate()
+    if child.returncode:
+        log.debug("the second compiling process failed (exit %s): %s", child.returncode, err[-2000:])
+
+
+__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "cached", "build"]

@@ -163,7 +163,7 @@ def record(st, r):
     k = iterations[r]
     if k < hist_cost.shape[1]:
         hist_cost[r, k] = cost[r]
-        hist_x[r, k] = x[r]
+        dense.copy_to(hist_x[r, k], x[r])
 
 
 @inner
@@ -205,7 +205,7 @@ def _top(st, r, gtol, max_nfev):
         A[k, n] = f[r, k]
     for k in range(mq + n):
         for i in range(n + 1):
-            if not np.isfinite(A[k, i]):
+            if not math.isfinite(A[k, i]):
                 return -1
     dense.householder_r(A, n)
     for i in range(n):
@@ -260,7 +260,7 @@ def _tr_subproblem(st, r, p_h):
         have_svd[r] = True
     s = sv[r]
     D = Delta[r]
-    suf = s * uf[r]
+    suf = dense.mul(s, uf[r])
     fr = full_rank[r]
 
     alpha_upper = dense.norm(suf) / D
@@ -318,15 +318,15 @@ def propose(st, r, gtol, max_nfev):
     else:
         _tr_subproblem(st, r, p_h)
     xr, lbr, ubr, dr, ghr, Rr, th = x[r], lb[r], ub[r], d[r], g_h[r], R11[r], theta[r]
-    p = dr * p_h
+    p = dense.mul(dr, p_h)
     inside = True
     for i in range(n):
         xp = xr[i] + p[i]
         if not (xp >= lbr[i] and xp <= ubr[i]):
             inside = False
     if inside:
-        step[r] = p
-        step_h[r] = p_h
+        dense.copy_to(step[r], p)
+        dense.copy_to(step_h[r], p_h)
         pred[r] = -dense.quad(Rr, ghr, p_h)
     else:  # SciPy's select_step: the step cut at the bound, its reflection, the anti-gradient
         hits = np.empty(n, np.bool_)
@@ -335,10 +335,10 @@ def propose(st, r, gtol, max_nfev):
         for i in range(n):
             if hits[i]:
                 r_h[i] = -r_h[i]
-        rr = dr * r_h
-        p = p * p_stride
-        p_h = p_h * p_stride
-        x_on_bound = xr + p
+        rr = dense.mul(dr, r_h)
+        p = dense.scaled(p, p_stride)
+        p_h = dense.scaled(p_h, p_stride)
+        x_on_bound = dense.add(xr, p)
         # intersect_trust_region(p_h, r_h, Delta)
         a2 = dense.dot(r_h, r_h)
         b2 = dense.dot(p_h, r_h)
@@ -359,30 +359,30 @@ def propose(st, r, gtol, max_nfev):
         if r_lo <= r_hi:
             qa, qb, qc = dense.quad_1d(Rr, ghr, r_h, p_h)
             r_t, r_value = dense.min_quad_1d(qa, qb, r_lo, r_hi, qc)
-            r_h = r_h * r_t + p_h
-            rr = r_h * dr
+            r_h = dense.add(dense.scaled(r_h, r_t), p_h)
+            rr = dense.mul(r_h, dr)
         else:
             r_value = np.inf
-        p = p * th
-        p_h = p_h * th
+        p = dense.scaled(p, th)
+        p_h = dense.scaled(p_h, th)
         p_value = dense.quad(Rr, ghr, p_h)
-        ag_h = -ghr
-        ag = dr * ag_h
+        ag_h = dense.scaled(ghr, -1.0)
+        ag = dense.mul(dr, ag_h)
         to_tr = D / dense.norm(ag_h)
         to_bound = dense.step_to_bound(xr, ag, lbr, ubr, hits)
         ag_stride = th * to_bound if to_bound < to_tr else to_tr
         ag_stride, ag_value = dense.min_quad_1d(dense.half_sq(Rr, ag_h), dense.dot(ghr, ag_h), 0.0, ag_stride, 0.0)
         if p_value < r_value and p_value < ag_value:
-            step[r] = p
-            step_h[r] = p_h
+            dense.copy_to(step[r], p)
+            dense.copy_to(step_h[r], p_h)
             pred[r] = -p_value
         elif r_value < p_value and r_value < ag_value:
-            step[r] = rr
-            step_h[r] = r_h
+            dense.copy_to(step[r], rr)
+            dense.copy_to(step_h[r], r_h)
             pred[r] = -r_value
         else:
-            step[r] = ag * ag_stride
-            step_h[r] = ag_h * ag_stride
+            dense.copy_to(step[r], dense.scaled(ag, ag_stride))
+            dense.copy_to(step_h[r], dense.scaled(ag_h, ag_stride))
             pred[r] = -ag_value
     for i in range(n):  # make_strictly_feasible(x + step, rstep=0)
         xi = xr[i] + step[r, i]
@@ -438,8 +438,8 @@ def judge(st, r, f_new, ftol, xtol, max_nfev):
         pending[r] = term
     accepted = actual > 0
     if accepted:
-        x[r] = x_new[r]
-        f[r] = f_new
+        dense.copy_to(x[r], x_new[r])
+        dense.copy_to(f[r], f_new)
         cost[r] = cost_new
     ended = accepted or term != RUNNING or nfev[r] >= max_nfev
     if ended:
@@ -457,6 +457,32 @@ def accept(st, r):
     norms = _gradient(st, r)
     for i in range(norms.size):
         scale_inv[r, i] = max(norms[i], scale_inv[r, i])
+
+
+# ---------------------------------------------------------------------------------------------
+# compiled ahead of the first solve (see kernel.build)
+# ---------------------------------------------------------------------------------------------
+def row_signatures(state_type) -> list:
+    """The row functions that :func:`femupdate.updating.batched.kernel.solve_rows` calls, each
+    with the argument types of its call there (``state_type`` the numba type of the
+    :class:`State`)."""
+    from numba import types
+
+    i, f, v = types.int64, types.float64, types.float64[::1]
+    return [(init_row, (state_type, i)), (propose, (state_type, i, f, i)), (judge, (state_type, i, v, f, f, i)),
+            (accept, (state_type, i))]
+
+
+def compile_rows() -> None:
+    """Compile the functions of :func:`row_signatures` into numba's disk cache (run in a second
+    process while the first compiles the modal functions; the type of a state does not depend on
+    its size)."""
+    from numba import typeof
+
+    one = np.zeros((1, 1))
+    st = new_state(one, one, one, 1, np.ones(1, np.int64), np.ones(1, np.int64), 0)
+    for fn, sig in row_signatures(typeof(st)):
+        fn.compile(sig)
 
 
 # ---------------------------------------------------------------------------------------------
