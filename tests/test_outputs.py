@@ -31,12 +31,12 @@ def files(tmp_path):
 @pytest.fixture
 def no_computation(monkeypatch):
     """Any update started fails the test: the refusal must come first."""
-    import femupdate.updating.combined as combined
+    import femupdate.updating.run as run
 
     def forbidden(*a, **k):
         raise AssertionError("the computation started before the output path was checked")
 
-    monkeypatch.setattr(combined, "update_modal", forbidden)
+    monkeypatch.setattr(run, "update_modal", forbidden)
 
 
 @pytest.mark.parametrize("option, target, message", [

@@ -23,7 +23,7 @@ import numpy as np
 from ..sensitivity.subspace import buffered_modes
 from ..updating.batched import BatchedProblem
 from ..updating.batched.spec import DataSets
-from ..updating.problem import Targets
+from ..updating.targets import Targets
 
 
 @dataclass(frozen=True, eq=False)

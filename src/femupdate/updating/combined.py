@@ -1,5 +1,6 @@
 r"""Updating from whatever the test data hold — modes, FRFs, static deflections or any mix — as
-one problem, and :func:`update`, the updating verb.
+one problem (:class:`CombinedProblem`); :func:`femupdate.updating.update` (module
+:mod:`femupdate.updating.run`) solves it.
 
 Each kind of data is a *block* with its own residuals and exact Jacobian, all on one vector of
 updated parameters:
@@ -32,7 +33,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -40,10 +40,9 @@ from .._errors import InputError, NumericalError
 from ..frf.lines import UNDAMPED
 from ..modal import check_static_load
 from ..testdata import FRFData, TestData
-from .frf import FRFProblem, FRFUpdateResult, frac, modal_report, prepare_problem
-from .problem import Parametrisation, Problem
-from .results import UpdateResult
-from .solve import diagnostics, result_at, solve, update_modal
+from .frf import FRFProblem, prepare_problem
+from .parametrisation import Parametrisation
+from .problem import Problem
 
 #: the kinds of test data, in the order their blocks are stacked
 DATA_KINDS = ("modes", "frf", "static")
@@ -111,8 +110,10 @@ def data_kinds(data: TestData, use: Sequence[str] = DATA_KINDS) -> tuple[str, ..
     return kinds
 
 
-def _split_std(measurement_std: Mapping | None) -> dict[str, dict]:
-    """``measurement_std`` by kind: {"modes": {"eigenvalue": .., "shape": ..}, "frf": .., ...}."""
+def split_std(measurement_std: Mapping | None) -> dict[str, dict]:
+    """Checked ``measurement_std`` split by kind of data.
+
+    ``measurement_std`` by kind: {"modes": {"eigenvalue": .., "shape": ..}, "frf": .., ...}."""
     out: dict[str, dict] = {}
     for key, value in dict(measurement_std or {}).items():
         if key not in STD_KEYS:
@@ -336,7 +337,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         As :class:`~femupdate.updating.Problem` (a test shape with a zero scaling entry).
     """
     kinds = data_kinds(data, use)
-    std = _split_std(measurement_std)
+    std = split_std(measurement_std)
     frf_options = dict(frf_options or {})
     bad = sorted(set(frf_options) - set(FRF_OPTIONS))
     if bad:
@@ -418,184 +419,5 @@ def _resonance_tol() -> float:
     return RESONANCE_TOL
 
 
-def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
-           use: Sequence[str] = DATA_KINDS, shape_scaling: str = "unit", ref_dof: str | None = None,
-           weights: Mapping | None = None, measurement_std: Mapping | None = None, min_mac: float = 0.5,
-           n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
-           ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
-           regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           frf_options: Mapping | None = None) -> UpdateResult:
-    """Update the model's parameters so that it matches the test data: measured modes, FRFs,
-    static deflections, or any mix of them, as one least-squares problem.
-
-    Parameters
-    ----------
-    model : Model
-        The model to update.
-    data : TestData
-        Measured modes (shapes may be partial: any subset of model dofs, any scaling), FRFs at
-        any dofs, static load cases with deflections at any dofs.
-    params : sequence of str, optional
-        Names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : mapping of str to float, optional
-        Starting values {name: value} (default: the model's nominal values).
-    use : sequence of str, default ``("modes", "frf", "static")``
-        The kinds of data to use (of those the data hold).
-    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
-        Scaling of the compared shapes (:class:`~femupdate.updating.Problem`).
-    ref_dof : str, optional
-        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode, the
-        paper's eq. 33 convention).
-    weights : mapping, optional
-        Modal weights {"eigenvalue": w or per-mode array, "shape": w or per-mode array}.
-    measurement_std : mapping, optional
-        Standard deviations by kind (:func:`combined_problem`): {"eigenvalue": relative std of
-        λ, "shape": std of scaled shape entries, "frf": std of the FRF residual entries,
-        "static": std of the deflections (m)}; the residuals are divided by them, and the
-        covariance is absolute, not scaled by the residual, when every kind used has one (modes
-        alone: any stated key; modes with shapes in a mix: both ``"eigenvalue"`` and ``"shape"``).
-    min_mac : float, default 0.5
-        Pairing threshold of the modes.
-    n_modes : int, optional
-        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
-    max_nfev : int, default 200
-        Largest number of residual evaluations of :func:`scipy.optimize.least_squares`.
-    ftol, xtol, gtol : float, default 1e-10
-        Tolerances of :func:`scipy.optimize.least_squares`.
-    use_shapes : bool, default True
-        False: frequencies only.
-    regularization : float, {"gcv", "lcurve"} or None, default None
-        A Tikhonov factor α, or the rule choosing it at the start; the residual is augmented
-        with α (x − x_start).
-    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
-        Values of the fixed parameters (default nominal).
-    sensitivity : str, default ``"auto"``
-        Derivative route of the modal Jacobian (:func:`femupdate.sensitivity.jacobian`):
-        ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint or subspace series), ``"nelson"``,
-        ``"modal"``, ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
-    frf_options : mapping, optional
-        Options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update` takes them:
-        ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``,
-        ``select``, ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
-
-    Returns
-    -------
-    UpdateResult
-        Modes only: as :func:`update_modal`.  FRFs only: as
-        :func:`~femupdate.updating.frf.frf_update` (an :class:`~femupdate.updating.frf.FRFUpdateResult`).
-        A mix, or static cases: an :class:`UpdateResult` (an ``FRFUpdateResult`` when FRFs are
-        used) whose ``blocks`` give each block's share of the cost and whose ``notes`` say how
-        the blocks were weighted.  ``success``/``status``/``message`` report convergence
-        (non-convergence is a status, not an exception).
-
-    Raises
-    ------
-    InputError
-        Bad options or data (named).
-    NumericalError
-        The model cannot be evaluated (unpaired modes, a singular stiffness for static data,
-        ...) or the solver failed.
-    """
-    if method not in ("trf", "dogbox", "lm"):
-        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
-    kinds = data_kinds(data, use)
-    modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
-                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity)
-    solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
-    unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
-    if unused:
-        raise InputError(f"standard deviations given for {', '.join(unused)} data (--std-{unused[0]}), but the data "
-                         f"used are: {', '.join(kinds)}")
-    if kinds == ("modes",) and not frf_options:
-        return update_modal(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
-                            measurement_std=measurement_std, regularization=regularization, **modal_options,
-                            **solver_options)
-    if kinds == ("frf",):
-        from .frf import frf_update
-
-        std = _split_std(measurement_std)
-        return frf_update(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
-                          measurement_std=std.get("frf", {}).get("frf"), regularization=regularization,
-                          **dict(frf_options or {}), **solver_options)
-    combined = combined_problem(model, data, params, use=kinds, x0=x0, values=values, parametrisation=parametrisation,
-                            measurement_std=measurement_std, frf_options=frf_options,
-                            regularized=regularization is not None, method=method, **modal_options)
-    sol, history, reg = solve(combined, model.bounds, regularization=regularization, **solver_options)
-    return combined_result(combined, data, sol.x, sol, history, reg)
-
-
-def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=None, reg=None) -> UpdateResult:
-    """The result of ``prob`` at the variables x (:func:`~femupdate.updating.result_at` for a
-    :class:`CombinedProblem`).
-
-    Parameters
-    ----------
-    prob : CombinedProblem
-        The problem.
-    data : TestData
-        Its test data (the FRF data for ``frac``; the modes for the pairing when there is no
-        modal block).
-    x : array_like, shape ``(L,)``
-        The optimiser's variables.
-    sol : scipy.optimize.OptimizeResult, optional
-        Convergence figures; None: a plain evaluation (``success`` False, one evaluation).
-    history : list of dict, optional
-        The iteration history (:func:`~femupdate.updating.solve`).
-    reg : dict, optional
-        The regularisation used.
-
-    Returns
-    -------
-    UpdateResult
-        An :class:`~femupdate.updating.frf.FRFUpdateResult` when an FRF block is used (its FRF
-        fields from that block); ``blocks`` and ``notes`` filled; ``sensitivity`` the routes of
-        the blocks joined by ``" + "``.
-
-    Raises
-    ------
-    NumericalError
-        A block cannot be evaluated at x.
-    """
-    model = prob.model
-    r = prob.residuals(x)
-    J = prob.jacobian(x)
-    p_final = prob.to_p(x)
-    modal = prob.modal
-    if modal is not None:
-        base = result_at(modal, x, sol, history, reg)
-        pairs, f_test, f_model, swaps = base.pairs, base.test_frequencies_hz, base.model_frequencies_hz, base.swaps
-        routes = [base.sensitivity]
-    else:
-        pairs, f_test, f_model, _ = modal_report(model, data, p_final)
-        swaps, routes = [], []
-    frf_blocks = [b for b in prob.blocks if b.kind == "frf"]
-    routes += ["brandon"] if frf_blocks else []
-    routes += ["static (brandon at ω = 0)"] if any(b.kind == "static" for b in prob.blocks) else []
-    history = history if history is not None else []
-    common = dict(
-        parameters=dict(zip(model.parameter_names, map(float, p_final))), names=tuple(prob.names), x=p_final[prob.idx],
-        success=bool(sol.success) if sol is not None else False, status=int(sol.status) if sol is not None else 0,
-        message=str(sol.message) if sol is not None else "evaluated, not solved", cost=float(0.5 * r @ r), fun=r,
-        jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=int(sol.njev or 0) if sol is not None else 0,
-        iterations=max(len(history) - 1, int(sol.njev or 0) if sol is not None else 0), history=history,
-        pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=swaps,
-        diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
-        start=dict(zip(prob.names, map(float, prob.p_base[prob.idx]))), sensitivity=" + ".join(routes),
-        blocks=prob.block_costs(r), notes=list(prob.notes))
-    if not frf_blocks:
-        return UpdateResult(**common)
-    fp = frf_blocks[0].problem
-    assert isinstance(fp, FRFProblem)
-    frf = data.frf
-    assert frf is not None
-    _, _, _, natural = modal_report(model, TestData(), p_final)
-    return FRFUpdateResult(**common, omega=fp.omega, skipped=list(getattr(fp, "skipped", [])), residual=fp.kind,
-                           frac=dict(zip(frf.dofs, frac(fp.xe, fp.responses(x)))), natural_frequencies_hz=natural)
-
-
-__all__ = ["update", "combined_problem", "combined_result", "CombinedProblem", "Block", "data_kinds", "DATA_KINDS",
+__all__ = ["combined_problem", "split_std", "CombinedProblem", "Block", "data_kinds", "DATA_KINDS",
            "STD_KEYS", "FRF_OPTIONS"]

@@ -35,7 +35,7 @@ from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, r
 from ..frf.sensitivity import RESONANCE_TOL
 from ..frf.simulate import check_data_against_model
 from ..testdata import FRFData, TestData
-from .problem import PARAMETRISATIONS, Parametrisation
+from .parametrisation import PARAMETRISATIONS, Parametrisation
 from .results import UpdateResult
 from .solve import diagnostics, solve
 

@@ -19,7 +19,8 @@ from scipy.optimize import least_squares
 
 from .._errors import InputError, NumericalError
 from ..testdata import TestData
-from .problem import Problem, check_determined, start_error, x_bounds
+from .parametrisation import start_error, x_bounds
+from .problem import Problem, check_determined
 from .results import Diagnostics, UpdateResult
 
 log = logging.getLogger(__name__)

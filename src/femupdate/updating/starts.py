@@ -17,7 +17,8 @@ from .._errors import FemupdateError, InputError
 from ..dask_cluster import collect, connect
 from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult
-from .combined import DATA_KINDS, data_kinds, update
+from .combined import DATA_KINDS, data_kinds
+from .run import update
 from .frf import frf_update
 
 log = logging.getLogger(__name__)

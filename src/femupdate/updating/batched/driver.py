@@ -33,7 +33,8 @@ import scipy.sparse as sp
 
 from ..._errors import InputError
 from ...modal import DENSE_LIMIT
-from ..problem import Parametrisation, Problem, check_determined, start_error, x_bounds, x_of_p
+from ..parametrisation import Parametrisation, start_error, x_bounds, x_of_p
+from ..problem import Problem, check_determined
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
 from .spec import DataSets, ModelArrays, Spec, concatenate, error_message, new_report
 

@@ -434,10 +434,8 @@ def build(sp_, cores: int) -> None:
 
     if getattr(config, "DISABLE_JIT", False) or cores < 2 or solve_rows.signatures or cached() or not sys.executable:
         return
-    import femupdate
-
     env = dict(os.environ)
-    root = str(Path(femupdate.__file__).resolve().parents[1])  # this femupdate, wherever installed
+    root = str(Path(__file__).resolve().parents[3])  # the folder holding this femupdate, wherever installed
     env["PYTHONPATH"] = os.pathsep.join([root] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     cache_dir = getattr(config, "CACHE_DIR", "")
     if cache_dir:  # the same cache as this process's, however it was set

@@ -8,7 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ... import rules
-from ..problem import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets
+from ..targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets
 
 
 class ModelArrays(NamedTuple):
