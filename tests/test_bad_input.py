@@ -470,3 +470,29 @@ def test_options_out_of_range_found_offline(ex, capsys, args, option):
 def test_float_options_above_the_magnitude_limit(ex, capsys, args, option):
     code, _, err = run(fill(args, ex), capsys)
     check_refused(code, err, option)
+
+
+# ---------------------------------------------------------------------------------- deeply nested files
+DEEP_TOML = "x = " + "[" * 100_000 + "]" * 100_000 + "\n"
+
+
+def test_deeply_nested_toml_model_is_refused(tmp_path, capsys):
+    p = tmp_path / "deep.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), "nested too deeply")
+
+
+def test_deeply_nested_toml_modification_is_refused(ex, tmp_path, capsys):
+    p = tmp_path / "deepmod.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["update-multi", ex / "two_dof.toml", "--config", f"{ex / 'two_dof_frequencies.json'}:{p}"],
+                       capsys)
+    check_refused(code, err, str(p), "nested too deeply")
+
+
+def test_deeply_nested_toml_candidates_are_refused(ex, tmp_path, capsys):
+    p = tmp_path / "deepcand.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["rank-modifications", ex / "two_dof.toml", p, "--measured-dofs", "1:x,2:x", "--modes", "2"], capsys)
+    check_refused(code, err, str(p), "nested too deeply")
