@@ -496,3 +496,39 @@ def test_deeply_nested_toml_candidates_are_refused(ex, tmp_path, capsys):
     p.write_text(DEEP_TOML)
     code, _, err = run(["rank-modifications", ex / "two_dof.toml", p, "--measured-dofs", "1:x,2:x", "--modes", "2"], capsys)
     check_refused(code, err, str(p), "nested too deeply")
+
+
+# ---------------------------------------------------------------------------------- TOML booleans and strings
+@pytest.mark.parametrize("model, old, new, fragment", [
+    ("two_dof.toml", "value = 7.0", "value = true", "parameter 'k1': value must be a number, got true"),
+    ("two_dof.toml", "bounds = [3.0, 13.0]", "bounds = [true, 13.0]", "parameter 'k1': bounds must be numbers, got [true, 13.0]"),
+    ("two_dof.toml", "m = 2.0", "m = true", "element #3 (mass): m must be a number or a parameter name, got true"),
+    ("truss.toml", "xyz = [1.0, 0.0]", "xyz = [1.0, false]", "node #2: xyz must be numbers, got [1.0, false]"),
+    ("truss.toml", "nodes = [1, 2]", "nodes = [true, 2]", "element #1 (rod): nodes must be numbers, got [true, 2]"),
+    ("truss.toml", "dim = 2", "dim = true", "element #1 (rod): dim must be a number, got true"),
+    ("truss.toml", "A = 4e-4", "A = true", "element #1 (rod): A must be a number or a parameter name, got true"),
+], ids=["value", "bounds", "mass", "xyz", "element nodes", "dim", "property"])
+def test_model_file_refuses_booleans_where_numbers_belong(ex, tmp_path, capsys, model, old, new, fragment):
+    p = tmp_path / model
+    text = (ex / model).read_text()
+    assert old in text
+    p.write_text(text.replace(old, new, 1))
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), fragment)
+
+
+def test_model_file_refuses_a_boolean_support_node(ex, tmp_path, capsys):
+    p = tmp_path / "truss.toml"
+    p.write_text((ex / "truss.toml").read_text() + "\n[[support]]\nnodes = [false]\n")
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), "support #2: nodes must be numbers, got [false]")
+
+
+def test_matrix_model_parameter_refuses_a_boolean_value():
+    from femupdate.model import Parameter
+    from femupdate._errors import InputError
+
+    with pytest.raises(InputError, match="value must be a number, got true"):
+        Parameter("k", True)
+    with pytest.raises(InputError, match=r"bounds must be numbers, got \[true, 5\]"):
+        Parameter("k", 2.0, (True, 5))
