@@ -532,3 +532,25 @@ def test_matrix_model_parameter_refuses_a_boolean_value():
         Parameter("k", True)
     with pytest.raises(InputError, match=r"bounds must be numbers, got \[true, 5\]"):
         Parameter("k", 2.0, (True, 5))
+
+
+# ---------------------------------------------------------------------------------- static load cases
+@pytest.mark.parametrize("static, fragment", [
+    ({"force": {"2:x": 1.0}, "displacement": {}}, "static[1]: no measured displacement"),
+    ([{"force": {"2:x": 1.0}, "displacement": {"1:x": 0.125}}, {"force": {"2:x": 1.0}, "displacement": {"1:x": 0.0, "2:x": 0}}],
+     "static[2]: every measured displacement is zero"),
+    ({"force": {"2:x": 0.0}, "displacement": {"1:x": 0.125}}, "static[1]: the force vector is empty or zero"),
+], ids=["no displacement", "all zero", "zero force"])
+def test_static_load_case_without_information_is_refused(ex, tmp_path, capsys, static, fragment):
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps({"modes": [{"eigenvalue": 0.7768890026375489}], "static": static}))
+    code, _, err = run(["update", ex / "two_dof.toml", p], capsys)
+    check_refused(code, err, str(p), fragment)
+
+
+def test_an_empty_static_list_is_like_an_empty_modes_list(ex, tmp_path, capsys):
+    for key in ("modes", "static"):
+        p = tmp_path / f"{key}.json"
+        p.write_text(json.dumps({key: []}))
+        code, _, err = run(["update", ex / "two_dof.toml", p], capsys)
+        check_refused(code, err, str(p), "no test data")

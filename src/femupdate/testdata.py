@@ -198,8 +198,8 @@ class StaticData:
     Raises
     ------
     InputError
-        A displacement of the wrong length or not finite; invalid dof labels; a non-finite,
-        empty or zero force.
+        A displacement of the wrong length or not finite; no measured displacement, or all of them
+        zero; invalid dof labels; a non-finite, empty or zero force.
     """
 
     force: Mapping[str, float]
@@ -211,7 +211,12 @@ class StaticData:
         u = np.asarray(self.displacement, dtype=float).ravel()
         if u.shape != (len(dofs),):
             raise InputError(f"static: {len(dofs)} dofs but {u.size} displacement values")
+        if not dofs:
+            raise InputError("static: no measured displacement (give at least one {dof: value})")
         _finite(u, "static displacement", dofs)
+        if not np.any(u):
+            raise InputError("static: every measured displacement is zero (a load that moves nothing measured "
+                             "carries no information; check the units and the sign convention)")
         force = {}
         for k, v in dict(self.force).items():
             (lab,) = canonical_all([k], "static force")
