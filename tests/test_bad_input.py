@@ -554,3 +554,14 @@ def test_an_empty_static_list_is_like_an_empty_modes_list(ex, tmp_path, capsys):
         p.write_text(json.dumps({key: []}))
         code, _, err = run(["update", ex / "two_dof.toml", p], capsys)
         check_refused(code, err, str(p), "no test data")
+
+
+@pytest.mark.parametrize("command", ["correlate", "update"])
+def test_a_shape_too_small_to_compute_with_is_refused_by_every_command(ex, tmp_path, capsys, command):
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps({"modes": [{"frequency_hz": 0.14, "shape": {"1:x": 1e-200, "2:x": 1e-200}}]}))
+    code, _, err = run([command, ex / "two_dof.toml", p], capsys)  # correlate left it unpaired, exit 0
+    check_refused(code, err, str(p), "modes[1]", "too small to compute with")
+    p.write_text(json.dumps({"modes": [{"frequency_hz": 0.14, "shape": {"1:x": 1e-140, "2:x": 2e-140}}]}))
+    code, _, err = run([command, ex / "two_dof.toml", p], capsys)
+    assert code == 0, err
