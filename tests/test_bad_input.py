@@ -470,3 +470,98 @@ def test_options_out_of_range_found_offline(ex, capsys, args, option):
 def test_float_options_above_the_magnitude_limit(ex, capsys, args, option):
     code, _, err = run(fill(args, ex), capsys)
     check_refused(code, err, option)
+
+
+# ---------------------------------------------------------------------------------- deeply nested files
+DEEP_TOML = "x = " + "[" * 100_000 + "]" * 100_000 + "\n"
+
+
+def test_deeply_nested_toml_model_is_refused(tmp_path, capsys):
+    p = tmp_path / "deep.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), "nested too deeply")
+
+
+def test_deeply_nested_toml_modification_is_refused(ex, tmp_path, capsys):
+    p = tmp_path / "deepmod.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["update-multi", ex / "two_dof.toml", "--config", f"{ex / 'two_dof_frequencies.json'}:{p}"],
+                       capsys)
+    check_refused(code, err, str(p), "nested too deeply")
+
+
+def test_deeply_nested_toml_candidates_are_refused(ex, tmp_path, capsys):
+    p = tmp_path / "deepcand.toml"
+    p.write_text(DEEP_TOML)
+    code, _, err = run(["rank-modifications", ex / "two_dof.toml", p, "--measured-dofs", "1:x,2:x", "--modes", "2"], capsys)
+    check_refused(code, err, str(p), "nested too deeply")
+
+
+# ---------------------------------------------------------------------------------- TOML booleans and strings
+@pytest.mark.parametrize("model, old, new, fragment", [
+    ("two_dof.toml", "value = 7.0", "value = true", "parameter 'k1': value must be a number, got true"),
+    ("two_dof.toml", "bounds = [3.0, 13.0]", "bounds = [true, 13.0]", "parameter 'k1': bounds must be numbers, got [true, 13.0]"),
+    ("two_dof.toml", "m = 2.0", "m = true", "element #3 (mass): m must be a number or a parameter name, got true"),
+    ("truss.toml", "xyz = [1.0, 0.0]", "xyz = [1.0, false]", "node #2: xyz must be numbers, got [1.0, false]"),
+    ("truss.toml", "nodes = [1, 2]", "nodes = [true, 2]", "element #1 (rod): nodes must be numbers, got [true, 2]"),
+    ("truss.toml", "dim = 2", "dim = true", "element #1 (rod): dim must be a number, got true"),
+    ("truss.toml", "A = 4e-4", "A = true", "element #1 (rod): A must be a number or a parameter name, got true"),
+], ids=["value", "bounds", "mass", "xyz", "element nodes", "dim", "property"])
+def test_model_file_refuses_booleans_where_numbers_belong(ex, tmp_path, capsys, model, old, new, fragment):
+    p = tmp_path / model
+    text = (ex / model).read_text()
+    assert old in text
+    p.write_text(text.replace(old, new, 1))
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), fragment)
+
+
+def test_model_file_refuses_a_boolean_support_node(ex, tmp_path, capsys):
+    p = tmp_path / "truss.toml"
+    p.write_text((ex / "truss.toml").read_text() + "\n[[support]]\nnodes = [false]\n")
+    code, _, err = run(["modes", p], capsys)
+    check_refused(code, err, str(p), "support #2: nodes must be numbers, got [false]")
+
+
+def test_matrix_model_parameter_refuses_a_boolean_value():
+    from femupdate.model import Parameter
+    from femupdate._errors import InputError
+
+    with pytest.raises(InputError, match="value must be a number, got true"):
+        Parameter("k", True)
+    with pytest.raises(InputError, match=r"bounds must be numbers, got \[true, 5\]"):
+        Parameter("k", 2.0, (True, 5))
+
+
+# ---------------------------------------------------------------------------------- static load cases
+@pytest.mark.parametrize("static, fragment", [
+    ({"force": {"2:x": 1.0}, "displacement": {}}, "static[1]: no measured displacement"),
+    ([{"force": {"2:x": 1.0}, "displacement": {"1:x": 0.125}}, {"force": {"2:x": 1.0}, "displacement": {"1:x": 0.0, "2:x": 0}}],
+     "static[2]: every measured displacement is zero"),
+    ({"force": {"2:x": 0.0}, "displacement": {"1:x": 0.125}}, "static[1]: the force vector is empty or zero"),
+], ids=["no displacement", "all zero", "zero force"])
+def test_static_load_case_without_information_is_refused(ex, tmp_path, capsys, static, fragment):
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps({"modes": [{"eigenvalue": 0.7768890026375489}], "static": static}))
+    code, _, err = run(["update", ex / "two_dof.toml", p], capsys)
+    check_refused(code, err, str(p), fragment)
+
+
+def test_an_empty_static_list_is_like_an_empty_modes_list(ex, tmp_path, capsys):
+    for key in ("modes", "static"):
+        p = tmp_path / f"{key}.json"
+        p.write_text(json.dumps({key: []}))
+        code, _, err = run(["update", ex / "two_dof.toml", p], capsys)
+        check_refused(code, err, str(p), "no test data")
+
+
+@pytest.mark.parametrize("command", ["correlate", "update"])
+def test_a_shape_too_small_to_compute_with_is_refused_by_every_command(ex, tmp_path, capsys, command):
+    p = tmp_path / "d.json"
+    p.write_text(json.dumps({"modes": [{"frequency_hz": 0.14, "shape": {"1:x": 1e-200, "2:x": 1e-200}}]}))
+    code, _, err = run([command, ex / "two_dof.toml", p], capsys)  # correlate left it unpaired, exit 0
+    check_refused(code, err, str(p), "modes[1]", "too small to compute with")
+    p.write_text(json.dumps({"modes": [{"frequency_hz": 0.14, "shape": {"1:x": 1e-140, "2:x": 2e-140}}]}))
+    code, _, err = run([command, ex / "two_dof.toml", p], capsys)
+    assert code == 0, err

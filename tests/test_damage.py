@@ -533,3 +533,51 @@ def test_bench_damage_quick_runs(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     res = json.loads(out.read_text())
     assert res["checks"]["located"]["ok"] and res["ratio"]["detect_over_eigensolution"] > 0
+
+
+def _beam_files(tmp_path, model):
+    lines = ['[model]\nname = "beam"']
+    lines += [f"[parameters.E{k}]\nvalue = 2.1e11\nbounds = [1e10, 5e11]" for k in range(1, 5)]
+    lines += [f"[[node]]\nid = {i}\nxyz = [{i / 12}, 0.0]" for i in range(13)]
+    lines += [f'[[element]]\ntype = "beam2d"\nnodes = [{i}, {i + 1}]\nE = "E{i // 3 + 1}"\nA = 1e-3\nI = 8.33e-8\nrho = 7850.0'
+              for i in range(12)]
+    lines += ["[[support]]\nnodes = [0]"]
+    (tmp_path / "beam.toml").write_text("\n".join(lines) + "\n")
+    scan = scan_beam(model, np.linspace(0.004, 1.0, 40), 3)
+    return {"points": scan.points.tolist(), "zero": ["x"],
+            "modes": [{"frequency_hz": np.sqrt(m.eigenvalue) / (2 * np.pi), "values": {"y": m.values["y"].tolist()}}
+                      for m in scan.modes]}
+
+
+def _same_point(raw):
+    raw["points"] = [raw["points"][7]] * len(raw["points"])
+
+
+def _negative_frequency(raw):
+    raw["modes"][1]["frequency_hz"] *= -1
+
+
+def _zero_frequency(raw):
+    raw["modes"][1] = {"eigenvalue": 0.0, "values": raw["modes"][1]["values"]}
+
+
+def _repeated_mode(raw):
+    raw["modes"][2] = dict(raw["modes"][0])
+
+
+@pytest.mark.parametrize("edit, fragments", [
+    (_same_point, ["all 40 scan points are at one place"]),
+    (_negative_frequency, ["modes[2]", "frequency_hz", "negative"]),
+    (_zero_frequency, ["modes[2]", "zero frequency"]),
+    (_repeated_mode, ["mode 3 repeats mode 1", "same frequency and shape"]),
+], ids=["points at one place", "negative frequency", "0 Hz mode", "repeated mode"])
+@pytest.mark.parametrize("method", ["rbf", "elements"])
+def test_cli_fullfield_refuses_a_degenerate_scan(tmp_path, capsys, beam, edit, fragments, method):
+    raw = _beam_files(tmp_path, beam[1])
+    edit(raw)
+    scan = tmp_path / "scan.json"
+    scan.write_text(json.dumps(raw))
+    code, _, err = _run(["fullfield", str(tmp_path / "beam.toml"), str(scan), "--method", method], capsys)
+    assert code == 2 and "Traceback" not in err, err
+    for f in [str(scan)] + fragments:
+        assert f in err, err

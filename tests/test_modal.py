@@ -92,6 +92,8 @@ def test_bad_input():
     np.testing.assert_allclose(np.abs(massless.shapes[:, 0]), [1.0, 1.0], rtol=1e-14)
     with pytest.raises(InputError, match="no positive mass at dof"):
         solve_modes(K, np.array([[1.0, 0.2], [0.2, 0.0]]), dofs=("1:x", "2:x"))
+    with pytest.raises(InputError, match=r"negative mass at dof\(s\) 2:x \(diagonal -4\)"):
+        solve_modes(K, np.diag([2.0, -4.0]), dofs=("1:x", "2:x"))
     with pytest.raises(InputError, match="not positive semi-definite"):
         solve_modes(-K, np.eye(2))
     with pytest.raises(InputError, match="n_modes"):

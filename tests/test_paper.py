@@ -1,6 +1,7 @@
 import json
 
 import numpy as np
+import pytest
 
 from femupdate import TestData
 from femupdate.examples import figure2_test_data
@@ -45,3 +46,44 @@ def test_appendix_section_checks_the_element_and_the_printed_row_7(tmp_path):
     assert sec["rigid_axial_translation_force"]["corrected"] == 0.0
     assert sec["rigid_axial_translation_force"]["as_printed"] > 0.0  # printed row 7 breaks equilibrium
     assert sec["identification_from_one_state"]["max_rel_error"] < 1e-10
+
+
+def _paper_cli(out, capsys):
+    from femupdate.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(["paper", "--out", str(out), "--section", "two_dof_characteristic", "--no-figures"])
+    o, e = capsys.readouterr()
+    return info.value.code, o, e
+
+
+def test_a_malformed_or_foreign_paper_json_is_ignored_with_a_note(tmp_path, capsys):
+    title = "Issues concerning the updating of finite-element models from experimental data"
+    cases = {
+        "deep": "[" * 100_000 + "]" * 100_000,
+        "nan": '{"paper": "%s", "sections": {"figure2_direct": {"summary": "s", "agrees_with_paper": NaN}}}' % title,
+        "not an object": '"x"',
+        "sections not an object": json.dumps({"paper": title, "sections": [1, 2]}),
+        "foreign": json.dumps({"paper": "another paper", "sections": {"figure2_direct": {"summary": "s",
+                                                                                          "agrees_with_paper": True}}}),
+    }
+    for what, text in cases.items():
+        (tmp_path / "paper.json").write_text(text)
+        code, out, err = _paper_cli(tmp_path, capsys)
+        assert code == 0 and "Traceback" not in err, (what, err)
+        assert "ignored" in out and str(tmp_path / "paper.json") in out, (what, out)
+        saved = json.loads((tmp_path / "paper.json").read_text())
+        assert set(saved["sections"]) == {"two_dof_characteristic"}, what
+    # sections not as femupdate writes them are dropped by name; kept ones are marked as earlier results
+    (tmp_path / "paper.json").write_text(json.dumps({"paper": title, "sections": {
+        "figure2_direct": {"summary": "kept", "agrees_with_paper": True},
+        "eq5_direct_three_dof": [1],
+        "eq22_sensitivity": {"summary": "s", "agrees_with_paper": "maybe"},
+        "forged_section": {"summary": "all fine", "agrees_with_paper": True}}}))
+    code, out, err = _paper_cli(tmp_path, capsys)
+    assert code == 0 and "Traceback" not in err, err
+    for name in ("'eq5_direct_three_dof'", "'eq22_sensitivity'", "'forged_section'"):
+        assert name in out, out
+    assert "ok (earlier run)" in out and "all fine" not in out
+    saved = json.loads((tmp_path / "paper.json").read_text())
+    assert set(saved["sections"]) == {"figure2_direct", "two_dof_characteristic"}

@@ -533,3 +533,22 @@ def test_bench_uniqueness_quick_runs(tmp_path):
     res = json.loads(out.read_text())
     assert res["agreement"]["cases_same"] == res["agreement"]["of"] == 9
     assert res["ratio_a_over_f"] > 1
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ('{"format": "femupdate-uniqueness-checkpoint", "version": 2, "study": "k", "units": {"0": [NaN]}}', "NaN"),
+    ('{"format": "femupdate-uniqueness-checkpoint", "version": 2, "study": "k", "units": {"0": [' + "1" * 5000 + ']}}',
+     "digits"),
+    ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+    ('{"format": "femupdate-uniqueness-checkpoint", "version": 2, "study": "k", "units": {"0": [Infinity]}}',
+     "Infinity"),
+], ids=["nan", "5000-digit integer", "deep nesting", "infinity"])
+def test_checkpoint_with_nan_huge_integer_or_deep_nesting_is_refused(tmp_path, text, fragment):
+    from femupdate._errors import InputError
+    from femupdate.uniqueness.checkpoint import Checkpoint
+
+    ck = tmp_path / "bad.checkpoint.json"
+    ck.write_text(text)
+    with pytest.raises(InputError, match="not a readable femupdate checkpoint") as info:
+        Checkpoint(ck, key="k", description={})
+    assert str(ck) in str(info.value) and fragment in str(info.value)

@@ -206,6 +206,13 @@ def _check_mass(M, dofs) -> np.ndarray:
     d = M.diagonal()
     massless = massless_dofs(M)
     bad = np.flatnonzero(~(d > 0) & ~massless)
+    neg = bad[d[bad] < 0]
+    if neg.size:
+        raise InputError(
+            "the mass matrix is not positive semi-definite: negative mass at dof(s) "
+            f"{describe([dofs[i] for i in neg]) if dofs else neg[:8].tolist()} (diagonal "
+            f"{', '.join(f'{d[i]:.4g}' for i in neg[:4])}{' ...' if neg.size > 4 else ''})"
+        )
     if bad.size:
         raise InputError(
             "the mass matrix is not positive semi-definite: no positive mass at dof(s) "

@@ -25,6 +25,15 @@ from .dofs import canonical_all, describe, index_of
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 
 
+def _shown(v) -> str:
+    """A value as the user wrote it in a file: true/false, quoted strings, lists of them."""
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_shown(x) for x in v) + "]"
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    return repr(v)
+
+
 @dataclass(frozen=True)
 class Parameter:
     """A physical parameter: nominal (or starting) value, bounds, and whether it is known.
@@ -49,6 +58,10 @@ class Parameter:
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
             raise InputError(f"parameter name {self.name!r} is not a valid identifier")
+        if isinstance(self.value, (bool, np.bool_)):  # float() would read true as 1
+            raise InputError(f"parameter {self.name!r}: value must be a number, got {_shown(self.value)}")
+        if isinstance(self.bounds, (list, tuple)) and any(isinstance(b, (bool, np.bool_)) for b in self.bounds):
+            raise InputError(f"parameter {self.name!r}: bounds must be numbers, got {_shown(list(self.bounds))}")
         try:
             value = float(self.value)
             lo, hi = (float(b) for b in self.bounds)

@@ -54,7 +54,8 @@ class MeasuredMode:
     ------
     InputError
         Negative or non-finite eigenvalue; invalid dof labels; a shape of the wrong length,
-        non-finite, or zero at every measured dof; a ``reference_dof`` that is not measured or
+        non-finite, zero at every measured dof, or too small to compute with (every value below
+        1e-150 in magnitude); a ``reference_dof`` that is not measured or
         where the shape is zero.
     """
 
@@ -76,6 +77,10 @@ class MeasuredMode:
         _finite(shape, f"mode {self.label} shape", dofs)
         if len(dofs) and not np.any(shape != 0):
             raise InputError(f"mode {self.label}: the shape is zero at every measured dof")
+        if len(dofs) and np.max(np.abs(shape)) < 1.0 / MAX_MAGNITUDE:  # its squares (MAC, norms) would underflow
+            raise InputError(f"mode {self.label}: the shape is too small to compute with (largest value "
+                             f"{np.max(np.abs(shape)):.3g}, below {1.0 / MAX_MAGNITUDE:g}); scale it: MAC and updating "
+                             "do not depend on the scale of a measured shape")
         if self.reference_dof is not None:
             (ref,) = canonical_all([self.reference_dof], f"mode {self.label} reference_dof")
             if ref not in dofs:
@@ -198,8 +203,8 @@ class StaticData:
     Raises
     ------
     InputError
-        A displacement of the wrong length or not finite; invalid dof labels; a non-finite,
-        empty or zero force.
+        A displacement of the wrong length or not finite; no measured displacement, or all of them
+        zero; invalid dof labels; a non-finite, empty or zero force.
     """
 
     force: Mapping[str, float]
@@ -211,7 +216,12 @@ class StaticData:
         u = np.asarray(self.displacement, dtype=float).ravel()
         if u.shape != (len(dofs),):
             raise InputError(f"static: {len(dofs)} dofs but {u.size} displacement values")
+        if not dofs:
+            raise InputError("static: no measured displacement (give at least one {dof: value})")
         _finite(u, "static displacement", dofs)
+        if not np.any(u):
+            raise InputError("static: every measured displacement is zero (a load that moves nothing measured "
+                             "carries no information; check the units and the sign convention)")
         force = {}
         for k, v in dict(self.force).items():
             (lab,) = canonical_all([k], "static force")

@@ -24,13 +24,18 @@ def paper(out_dir, sections, no_figures, json_path):
     unknown = [s for s in sections if s not in SECTIONS]
     if unknown:
         raise InputError(f"unknown section(s) {', '.join(unknown)}; known: {', '.join(SECTIONS)}")
-    result = run_sections(out_dir, list(sections) or list(SECTIONS), figures=not no_figures)
+    notes: list[str] = []
+    run = list(sections) or list(SECTIONS)
+    result = run_sections(out_dir, run, figures=not no_figures, notes=notes)
+    for n in notes:
+        ctx.console.print(f"note: {n}")
     t = Table(title=f"reference paper reproduced in {out_dir}")
     t.add_column("section")
     t.add_column("result")
     t.add_column("check", justify="center")
     for name, sec in result["sections"].items():
-        t.add_row(name, sec.get("summary", ""), {True: "ok", False: "DIFFERS", None: "-"}[sec.get("agrees_with_paper")])
+        check = {True: "ok", False: "DIFFERS", None: "-"}[sec.get("agrees_with_paper")]
+        t.add_row(name, sec.get("summary", ""), check if name in run else f"{check} (earlier run)")
     ctx.console.print(t)
     ctx.console.print(f"written {out_dir / 'paper.json'}")
     emit(ctx, result)

@@ -82,11 +82,23 @@ def scan_from_dict(raw, source: str = "scan"):
             raise InputError(f"{where}: expected frequency_hz or eigenvalue, and values {{direction: [...]}}")
         if ("frequency_hz" in m) == ("eigenvalue" in m):
             raise InputError(f"{where}: give exactly one of frequency_hz or eigenvalue")
-        lam = (2 * math.pi * finite_number(m["frequency_hz"], f"{where} frequency_hz")) ** 2 if "frequency_hz" in m \
-            else finite_number(m["eigenvalue"], f"{where} eigenvalue")
-        MeasuredMode(lam, label=str(m.get("label", f"mode {k}")))  # validates the eigenvalue
+        label = str(m.get("label", f"mode {k}"))
+        if "frequency_hz" in m:
+            f = finite_number(m["frequency_hz"], f"{where} frequency_hz")
+            if f < 0:  # it is squared below: -f would pass for f
+                raise InputError(f"{where}: frequency_hz {f:g} is negative")
+            lam = (2 * math.pi * f) ** 2
+        else:
+            lam = finite_number(m["eigenvalue"], f"{where} eigenvalue")
+        if lam == 0:
+            raise InputError(f"{where}: zero frequency: a rigid-body mode carries no stiffness information and cannot be "
+                             "a target of the identification; leave it out")
+        try:
+            MeasuredMode(lam, label=label)  # validates the eigenvalue
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
         vals = _values(m["values"], n, where, lambda v, w: _complex_rows(v, n, w))
-        modes.append(ScanMode(lam, vals, str(m.get("label", f"mode {k}"))))
+        modes.append(ScanMode(lam, vals, label))
     frf = None
     if raw.get("frf") is not None:
         f = raw["frf"]

@@ -95,7 +95,12 @@ def _rbf(xi_pts, F, xi_nodes, kernel, smoothing, folds, seed, neighbors):
     resid = np.zeros(F.shape[1])
     for s in np.unique(s_col):
         cols = np.flatnonzero(s_col == s)
-        f = _fit(xi_pts, F[:, cols], kernel, s, neighbors)
+        try:
+            f = _fit(xi_pts, F[:, cols], kernel, s, neighbors)
+        except np.linalg.LinAlgError:
+            raise InputError(f"the scan points do not spread over the structure enough to fit a spline through them "
+                             f"({len(np.unique(xi_pts, axis=0))} distinct position(s); a fit over {d} dimension(s) needs at least "
+                             f"{d + 1} not all on one {'point' if d == 1 else 'line'}); add scan points") from None
         val[:, cols] = f(xi_nodes)
         resid[cols] = np.sqrt(np.mean((f(xi_pts) - F[:, cols]) ** 2, axis=0))
         for a in range(d):

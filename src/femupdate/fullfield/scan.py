@@ -7,6 +7,7 @@ model's dofs, :mod:`.files` reads them from JSON.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,6 +62,16 @@ class ScanFRF:
     values: dict
 
 
+def _same_mode(a: ScanMode, b: ScanMode) -> bool:
+    """Whether two scanned modes are one mode given twice: equal eigenvalues, proportional values."""
+    if not math.isclose(float(a.eigenvalue), float(b.eigenvalue), rel_tol=1e-9) or sorted(a.values) != sorted(b.values):
+        return False
+    u = np.concatenate([np.ravel(a.values[d]) for d in sorted(a.values)]).astype(complex)
+    v = np.concatenate([np.ravel(b.values[d]) for d in sorted(b.values)]).astype(complex)
+    uu, vv = np.vdot(u, u).real, np.vdot(v, v).real
+    return uu > 0 and vv > 0 and abs(np.vdot(u, v)) ** 2 >= (1 - 1e-9) * uu * vv
+
+
 @dataclass(frozen=True)
 class ScanData:
     """A full-field scan: points by coordinates and the measured components at every point.
@@ -87,8 +98,9 @@ class ScanData:
     Raises
     ------
     InputError
-        Points of the wrong shape or not finite; no modes and no frf; values of the wrong shape,
-        not finite, or in a direction other than x, y, z; modes and frf measuring different
+        Points of the wrong shape or not finite, or all at one place; no modes and no frf; a mode
+        with an eigenvalue that is not positive and finite, or given twice (the same frequency and
+        shape); values of the wrong shape, not finite, or in a direction other than x, y, z; modes and frf measuring different
         directions; an unknown ``zero`` direction or one also measured; ``max_distance`` <= 0.
     """
 
@@ -107,9 +119,23 @@ class ScanData:
         if not np.all(np.isfinite(pts)):
             raise InputError("scan points contain NaN or infinite coordinates")
         n = len(pts)
+        if np.all(pts == pts[0]):
+            raise InputError(f"{'all ' + str(n) + ' scan points are' if n > 1 else 'the only scan point is'} at one place "
+                             f"({', '.join(f'{c:.4g}' for c in pts[0])}): a scan must spread over the structure")
         comps = None
         for k, m in enumerate(self.modes, start=1):
-            comps = self._check(m.values, n, (n,), comps, m.label or f"mode {k}")
+            what = m.label or f"mode {k}"
+            comps = self._check(m.values, n, (n,), comps, what)
+            lam = float(m.eigenvalue)
+            if not (math.isfinite(lam) and lam > 0):
+                raise InputError(f"scan {what}: eigenvalue {lam!r} must be finite and > 0" if lam != 0 else
+                                 f"scan {what}: zero frequency: a rigid-body mode carries no stiffness information "
+                                 "and cannot be a target of the identification; leave it out")
+        for k, m in enumerate(self.modes):
+            for j, o in enumerate(self.modes[:k]):
+                if _same_mode(o, m):
+                    raise InputError(f"scan {m.label or f'mode {k + 1}'} repeats {o.label or f'mode {j + 1}'} "
+                                     "(the same frequency and shape): give each mode once")
         if self.frf is not None:
             comps = self._check(self.frf.values, n, (np.asarray(self.frf.omega).size, n), comps, "frf")
         if comps is None:

@@ -54,7 +54,7 @@ def read_toml(path) -> dict:
     ------
     InputError
         The file is missing, a directory, not UTF-8 text, or not valid TOML; a number above
-        1e150 in magnitude (the field named).
+        1e150 in magnitude (the field named); arrays or tables nested too deeply.
     """
     path = Path(path)
     try:
@@ -69,11 +69,16 @@ def read_toml(path) -> dict:
         raise InputError(f"{path}: malformed TOML: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text (UTF-8) TOML file") from None
+    except RecursionError:
+        raise InputError(f"{path}: TOML nested too deeply") from None
     except ValueError:  # Python's limit of 4,300 digits for converting an integer string
         line = long_integer_line(text)
         raise InputError(f"{path}: line {line}: an integer too long to read (numbers must be at most "
                          f"{MAX_MAGNITUDE:g} in magnitude)") from None
-    check_magnitudes(data, str(path))
+    try:
+        check_magnitudes(data, str(path))
+    except RecursionError:
+        raise InputError(f"{path}: TOML nested too deeply") from None
     return data
 
 

@@ -98,11 +98,11 @@ def loads_json(text: str, source: str):
     """
     try:
         raw = json.loads(text, object_pairs_hook=_pairs, parse_int=_int)
+        check_magnitudes(raw, source)
     except json.JSONDecodeError as exc:
         raise InputError(f"{source}: malformed JSON: {exc}") from None
     except RecursionError:
         raise InputError(f"{source}: JSON nested too deeply") from None
-    check_magnitudes(raw, source)
     return raw
 
 

@@ -189,7 +189,11 @@ def parse_testdata(raw) -> TestData:
             raise InputError(f"{where}: needs 'force' and 'displacement' objects {{dof: value}}")
         force = {d: _number(v, f"{where} force {d}") for d, v in s["force"].items()}
         disp = s["displacement"]
-        static.append(StaticData(force, tuple(disp), np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])))
+        try:
+            static.append(StaticData(force, tuple(disp), np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])))
+        except InputError as exc:
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(where) else f"{where}: {msg.removeprefix('static: ')}") from None
     if not modes and frf is None and not static:
         raise InputError("no test data: expected at least one of modes, frf, static")
     units = raw.get("units", {}) or {}

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from .._errors import InputError
+from ..model import _shown
 from .groups import BENDING, ELEMENT_TYPES, PROPS
 
 
@@ -67,6 +68,7 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         node_id = nd["id"]
         if isinstance(node_id, bool) or not isinstance(node_id, (int, float)) or not float(node_id).is_integer():
             raise InputError(f"{where}: id must be an integer, got {node_id!r}")
+        _no_booleans(nd["xyz"], f"{where}: xyz")
         try:
             s.node(int(node_id), nd["xyz"])
         except InputError as exc:  # before ValueError: InputError is a ValueError
@@ -80,6 +82,7 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         unknown = sorted(set(sup) - {"dofs", "nodes"})
         if unknown or not sup:
             raise InputError(f"{where}: expected 'dofs' (labels) and/or 'nodes' (ids)")
+        _no_booleans(sup.get("nodes"), f"{where}: nodes")
         try:
             if "dofs" in sup:
                 s.support(list(sup["dofs"]))
@@ -88,6 +91,13 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         except (TypeError, ValueError, OverflowError) as exc:
             raise InputError(f"{where}: {exc}") from None
     return s
+
+
+def _no_booleans(v, where: str) -> None:
+    """Refuse TOML booleans in a numeric field (Python reads true as 1, false as 0)."""
+    if isinstance(v, bool) or (isinstance(v, list) and any(isinstance(x, bool) or (isinstance(x, list) and any(
+            isinstance(y, bool) for y in x)) for x in v)):
+        raise InputError(f"{where} must be {'numbers' if isinstance(v, list) else 'a number'}, got {_shown(v)}")
 
 
 def list_of_tables(data, key, source):
@@ -164,7 +174,9 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
     props = {k: v for k, v in e.items() if k not in ELEMENT_KEYS}
     for k, v in props.items():
         if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-            raise InputError(f"{where}: {k} must be a number or a parameter name, got {v!r}")
+            raise InputError(f"{where}: {k} must be a number or a parameter name, got {_shown(v)}")
+    for k in ("nodes", "orientation", "dim"):
+        _no_booleans(e.get(k), f"{where}: {k}")
     try:
         if t == "spring":
             if "dofs" not in e or "k" not in e:

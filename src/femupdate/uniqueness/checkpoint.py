@@ -30,6 +30,11 @@ VERSION = 2
 READABLE = (1, 2)
 
 
+def _refuse_constant(name: str):
+    """``parse_constant`` of :func:`json.loads`: a checkpoint never holds NaN or infinities."""
+    raise ValueError(f"{name} is not a number a checkpoint holds")
+
+
 class Checkpoint:
     """Finished work units of one study, kept in a JSON file (module docstring) or in memory.
 
@@ -74,8 +79,10 @@ class Checkpoint:
         if self.path is None:  # only called with a path (see __init__)
             raise RuntimeError("internal error: a checkpoint without a path was loaded")
         try:
-            doc = json.loads(self.path.read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            doc = json.loads(self.path.read_text(), parse_constant=_refuse_constant)
+        except RecursionError:
+            raise InputError(f"checkpoint {self.path}: not a readable femupdate checkpoint (nested too deeply)") from None
+        except (OSError, ValueError) as exc:  # malformed JSON, not UTF-8, NaN, an integer too long to convert
             raise InputError(f"checkpoint {self.path}: not a readable femupdate checkpoint ({exc})") from None
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise InputError(f"checkpoint {self.path}: not a femupdate uniqueness checkpoint")
