@@ -48,25 +48,75 @@ RULES: list = []
 
 
 def rule(fn):
-    """Mark ``fn`` as a rule of the problem: plain Python here, compiled by the compiled backend."""
+    """Mark ``fn`` as a rule of the problem: plain Python here, compiled by the compiled backend.
+
+    Parameters
+    ----------
+    fn : function
+        A function written in the subset of Python that numba compiles; appended to :data:`RULES`.
+
+    Returns
+    -------
+    function
+        ``fn`` itself, unchanged (a decorator).
+    """
     RULES.append(fn)
     return fn
 
 
 def dot(a, b) -> float:
     """The inner product of two vectors.  Here NumPy's; the compiled backend gives compiled code
-    its own implementation, a plain sequential sum (``numba.extending.overload``)."""
+    its own implementation, a plain sequential sum (``numba.extending.overload``).
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray of float, shape ``(n,)``
+        The vectors.
+
+    Returns
+    -------
+    float
+        aᵀb.
+    """
     return float(np.dot(a, b))
 
 
 def dot_col(a, B, j) -> float:
     """The inner product of the vector ``a`` with column ``j`` of the matrix ``B`` (compiled: a
-    sequential sum that makes no view of the column)."""
+    sequential sum that makes no view of the column).
+
+    Parameters
+    ----------
+    a : numpy.ndarray of float, shape ``(n,)``
+        The vector.
+    B : numpy.ndarray of float, shape ``(n, m)``
+        The matrix.
+    j : int
+        The column, ``0 <= j < m``.
+
+    Returns
+    -------
+    float
+        aᵀB[:, j].
+    """
     return float(np.dot(a, B[:, j]))
 
 
 def sumsq_col(B, j) -> float:
-    """The squared norm of column ``j`` of ``B`` (compiled: a sequential sum, no view)."""
+    """The squared norm of column ``j`` of ``B`` (compiled: a sequential sum, no view).
+
+    Parameters
+    ----------
+    B : numpy.ndarray of float, shape ``(n, m)``
+        The matrix.
+    j : int
+        The column, ``0 <= j < m``.
+
+    Returns
+    -------
+    float
+        ‖B[:, j]‖², the column's squared Euclidean norm.
+    """
     return float(np.dot(B[:, j], B[:, j]))
 
 
@@ -112,7 +162,35 @@ ERRORS = {
 
 def message(code: int, i0: int = 0, i1: int = 0, f0: float = 0.0, f1: float = 0.0, modes=(),
             min_mac: float = 0.5) -> str:
-    """The message of error ``code`` with its numbers (``modes``: 0-based test modes)."""
+    """The message of error ``code`` with its numbers (``modes``: 0-based test modes).
+
+    Parameters
+    ----------
+    code : int
+        An error code, a key of :data:`ERRORS` (``E_NONFINITE`` ... ``E_BAD_JACOBIAN``).
+    i0 : int, default 0
+        0-based mode (or position) of the message, shown 1-based as ``{k}``; shown as is as
+        ``{i0}`` (a count: the number of computed modes for ``E_NO_PAIR``).
+    i1 : int, default 0
+        0-based second mode, shown 1-based as ``{k1}`` (``E_REPEATED``).
+    f0, f1 : float, default 0.0
+        Values shown as ``{f0}``, ``{f1}`` (eigenvalues in rad²/s² for ``E_NEGATIVE`` and
+        ``E_REPEATED``).
+    modes : sequence of int, default ()
+        0-based test modes concerned, shown 1-based as ``{modes}`` (``E_NO_PAIR``).
+    min_mac : float, default 0.5
+        The MAC threshold shown by ``E_NO_PAIR``.
+
+    Returns
+    -------
+    str
+        The formatted message.
+
+    Raises
+    ------
+    KeyError
+        ``code`` is not an error code (``OK`` has no message).
+    """
     return ERRORS[int(code)].format(i0=int(i0), k=int(i0) + 1, k1=int(i1) + 1, f0=float(f0), f1=float(f1),
                                     modes=[int(k) + 1 for k in modes], min_mac=min_mac)
 
@@ -123,7 +201,24 @@ def message(code: int, i0: int = 0, i1: int = 0, f0: float = 0.0, f1: float = 0.
 @rule
 def to_p(code, x, scale):
     """Physical values of the updated parameters at the optimiser's variables ``x`` (L,);
-    ``scale`` (L,) the |starting values| of the relative parametrisation."""
+    ``scale`` (L,) the |starting values| of the relative parametrisation.
+
+    Parameters
+    ----------
+    code : int
+        The parametrisation, a value of :data:`PARAMETRISATIONS`: ``RELATIVE`` (p = x·scale),
+        ``LOG`` (p = exp x) or ``ABSOLUTE`` (p = x; any other code acts as ``ABSOLUTE``).
+    x : numpy.ndarray of float, shape ``(L,)``
+        The optimiser's variables.
+    scale : numpy.ndarray of float, shape ``(L,)``
+        |starting values| of the parameters (in their own units, e.g. N/m or kg); read only for
+        ``RELATIVE``.
+
+    Returns
+    -------
+    numpy.ndarray of float, shape ``(L,)``
+        The physical parameter values p (a new array).
+    """
     p = np.empty(x.size)
     for j in range(x.size):
         p[j] = x[j] * scale[j] if code == RELATIVE else (math.exp(x[j]) if code == LOG else x[j])
@@ -132,7 +227,23 @@ def to_p(code, x, scale):
 
 @rule
 def dp_dx(code, x, scale):
-    """∂p/∂x (L,), the diagonal of the parametrisation's Jacobian."""
+    """∂p/∂x (L,), the diagonal of the parametrisation's Jacobian.
+
+    Parameters
+    ----------
+    code : int
+        The parametrisation, as in :func:`to_p`.
+    x : numpy.ndarray of float, shape ``(L,)``
+        The optimiser's variables.
+    scale : numpy.ndarray of float, shape ``(L,)``
+        |starting values| of the parameters; read only for ``RELATIVE``.
+
+    Returns
+    -------
+    numpy.ndarray of float, shape ``(L,)``
+        ``scale`` for ``RELATIVE``, exp x (= p) for ``LOG``, ones for ``ABSOLUTE`` (and any
+        other code).
+    """
     d = np.empty(x.size)
     for j in range(x.size):
         d[j] = scale[j] if code == RELATIVE else (math.exp(x[j]) if code == LOG else 1.0)
@@ -149,6 +260,24 @@ def check_spectrum(lam, nm, pencil_scale):
 
     Returns ``(code, value)``: ``E_NEGATIVE`` and the lowest eigenvalue when one lies below
     −1e-12 of the scale max(|λ|, pencil_scale), else ``OK``.
+
+    Parameters
+    ----------
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        Eigenvalues λ = ω² (rad²/s²), ascending.  When the check passes, every one of the first
+        ``nm`` within :data:`RIGID_TOL` of the scale (in magnitude) is set to exactly 0 in place;
+        on ``E_NEGATIVE`` ``lam`` is left unchanged.
+    nm : int
+        How many eigenvalues (the lowest) to check.
+    pencil_scale : float
+        max_i |K_ii| / M_ii (rad²/s²); the scale is max(pencil_scale, 1e-300, max |λ|).
+
+    Returns
+    -------
+    code : int
+        ``E_NEGATIVE`` or ``OK``.
+    value : float
+        The lowest eigenvalue (rad²/s²) for ``E_NEGATIVE``, else 0.0.
     """
     scale = max(pencil_scale, 1e-300)
     low = 0.0
@@ -169,6 +298,23 @@ def check_distinct(lam, nm, t):
 
     Returns ``(code, other)``: ``E_RIGID`` for a rigid-body mode, ``E_REPEATED`` and the first
     mode whose eigenvalue lies within :data:`REPEATED_TOL` (relative) of mode t's, else ``OK``.
+
+    Parameters
+    ----------
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        Eigenvalues (rad²/s²), rigid-body ones already exactly 0 (:func:`check_spectrum`).
+    nm : int
+        The number of computed eigenvalues: modes ``0 .. nm-1`` are compared with mode ``t``.
+    t : int
+        The 0-based mode to differentiate.
+
+    Returns
+    -------
+    code : int
+        ``E_RIGID`` when ``lam[t] == 0`` exactly; ``E_REPEATED`` when another of the ``nm``
+        eigenvalues lies within ``REPEATED_TOL · max(|λ_t|, 1e-12 · max |λ|)`` of λ_t; else ``OK``.
+    other : int
+        The first such mode for ``E_REPEATED``, else ``t``.
     """
     scale = 1e-300
     for i in range(nm):
@@ -189,7 +335,22 @@ def check_distinct(lam, nm, t):
 @rule
 def mac_vector(psi, B, out):
     """MAC of the shape ``psi`` (n_s,) against the columns of ``B`` (n_s, nm) into ``out`` (nm,),
-    each in [0, 1] (0 where a column is zero)."""
+    each in [0, 1] (0 where a column is zero).
+
+    Parameters
+    ----------
+    psi : numpy.ndarray of float, shape ``(n_s,)``
+        The test shape at its measured dofs.
+    B : numpy.ndarray of float, shape ``(n_s, nm)``
+        The model shapes at the same dofs, one per column.
+    out : numpy.ndarray of float, shape ``(≥ nm,)``
+        Receives (ψᵀb_j)² / (ψᵀψ · b_jᵀb_j) clipped to [0, 1] in
+        ``out[j]``; 0 where the denominator is 0 (a zero column, or a zero ``psi``).
+
+    Returns
+    -------
+    None
+    """
     ee = dot(psi, psi)
     for j in range(B.shape[1]):
         num = dot_col(psi, B, j)
@@ -202,7 +363,22 @@ def mac_vector(psi, B, out):
 def assign(C, nr, nc, out):
     """Rows 0..nr-1 of the cost matrix C (nr <= nc) to distinct columns, minimising the total
     cost (the Hungarian algorithm with potentials and shortest augmenting paths, as
-    :func:`scipy.optimize.linear_sum_assignment`); ``out[i]`` the column of row i."""
+    :func:`scipy.optimize.linear_sum_assignment`); ``out[i]`` the column of row i.
+
+    Parameters
+    ----------
+    C : numpy.ndarray of float, shape ``(≥ nr, ≥ nc)``
+        Finite costs; only ``C[:nr, :nc]`` is read.
+    nr, nc : int
+        The numbers of rows and columns to assign.
+    out : numpy.ndarray of int64, shape ``(≥ nr,)``
+        Receives the 0-based column of each row; every entry ``-1`` when ``nr > nc`` (no
+        assignment exists).
+
+    Returns
+    -------
+    None
+    """
     if nr > nc:  # no assignment exists: every row unassigned
         for i in range(nr):
             out[i] = -1
@@ -264,6 +440,30 @@ def pair_by_mac(MAC, shaped, nm, min_mac, pairs, bad):
     Fills ``pairs`` (T,) and, on ``E_NO_PAIR``, ``bad`` (T,) the failing test modes.  Returns
     ``(code, i)``: ``E_NO_PAIR`` with ``i = nm``, ``E_NO_MODE_LEFT`` with ``i`` the test mode
     left without a model mode, else ``(OK, 0)``.
+
+    Parameters
+    ----------
+    MAC : numpy.ndarray of float, shape ``(T, ≥ nm)``
+        MAC of each test mode (row) against the model modes (:func:`mac_vector`).
+    shaped : numpy.ndarray of bool, shape ``(T,)``
+        Whether each test mode has a measured shape.
+    nm : int
+        The number of model modes available for pairing (the lowest ``nm``).
+    min_mac : float
+        The smallest MAC, in [0, 1], of a pair of shaped modes.
+    pairs : numpy.ndarray of int64, shape ``(T,)``
+        Receives the 0-based model mode of each test mode (complete only on ``OK``).
+    bad : numpy.ndarray of bool, shape ``(T,)``
+        Set True at the failing test modes on ``E_NO_PAIR`` (every shaped one when there are
+        more shaped test modes than ``nm``); not cleared first.
+
+    Returns
+    -------
+    code : int
+        ``OK``, ``E_NO_PAIR`` or ``E_NO_MODE_LEFT``.
+    i : int
+        ``nm`` for ``E_NO_PAIR``, the 0-based test mode left without a model mode for
+        ``E_NO_MODE_LEFT``, 0 for ``OK``.
     """
     T = shaped.size
     nws = 0
@@ -336,7 +536,30 @@ def shape_scale(scaling, phs, ref):
     """The scale s of a measured shape ``phs`` (n_s,) and the position k of its scaling entry:
     ``UNIT`` s = ±‖φ_s‖ with the sign of the largest entry (k the largest entry); ``REF``
     s = φ_s[ref]; ``MAX`` s = the largest-magnitude entry.  Returns ``(s, k, node)``, ``node``
-    True when ``REF``/``MAX`` meets an entry below 1e-12 of the largest (a node of the mode)."""
+    True when ``REF``/``MAX`` meets an entry not above 1e-12 of the largest (a node of the mode),
+    or when the shape is zero at every measured dof (any scaling).
+
+    The reference-dof scaling is the reference paper's eq. 33.
+
+    Parameters
+    ----------
+    scaling : int
+        ``UNIT``, ``REF`` or ``MAX`` (:data:`SCALINGS`); any other code acts as ``MAX``.
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The shape at its measured dofs.
+    ref : int
+        0-based position of the reference dof within ``phs``; read only for ``REF``.
+
+    Returns
+    -------
+    s : float
+        The scale (divide the shape by it); 0.0 for a zero shape under ``UNIT``.
+    k : int
+        0-based position of the scaling entry: ``ref`` for ``REF``, else the first entry of
+        largest magnitude.
+    node : bool
+        True when the shape cannot be scaled (see above).
+    """
     amax = 0.0
     kmax = 0
     for i in range(phs.size):
@@ -355,7 +578,24 @@ def shape_scale(scaling, phs, ref):
 @rule
 def unit_sign(scaling, phs, s, psi_e):
     """−1 when the unit-length model shape φ_s/s points against the test shape ψ_E, else 1
-    (always 1 for the other scalings, whose scale fixes the sign)."""
+    (always 1 for the other scalings, whose scale fixes the sign).
+
+    Parameters
+    ----------
+    scaling : int
+        ``UNIT``, ``REF`` or ``MAX`` (:data:`SCALINGS`).
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The model shape at the measured dofs.
+    s : float
+        Its scale from :func:`shape_scale` (non-zero).
+    psi_e : numpy.ndarray of float, shape ``(n_s,)``
+        The scaled test shape.
+
+    Returns
+    -------
+    float
+        −1.0 when ``scaling == UNIT`` and φ_sᵀψ_E / s < 0, else 1.0.
+    """
     if scaling != UNIT:
         return 1.0
     return -1.0 if dot(phs, psi_e) / s < 0 else 1.0
@@ -364,19 +604,65 @@ def unit_sign(scaling, phs, s, psi_e):
 @rule
 def n_shape_residuals(ns, ref):
     """Residuals of a shape measured at ``ns`` dofs: the reference entry (``ref`` >= 0) is 1 by
-    construction and dropped."""
+    construction and dropped.
+
+    Parameters
+    ----------
+    ns : int
+        The number of measured dofs of the shape.
+    ref : int
+        0-based position of the reference dof (``"ref"`` scaling), or −1 (other scalings).
+
+    Returns
+    -------
+    int
+        ``ns - 1`` when ``ref >= 0``, else ``ns``.
+    """
     return ns - 1 if ref >= 0 else ns
 
 
 @rule
 def eigenvalue_residual(lam, lam_e, w):
-    """w (λ_A − λ_E) / λ_E (paper eq. 19, normalised by the measured eigenvalue)."""
+    """w (λ_A − λ_E) / λ_E (paper eq. 19, normalised by the measured eigenvalue).
+
+    Parameters
+    ----------
+    lam : float
+        The model eigenvalue λ_A (rad²/s²).
+    lam_e : float
+        The measured eigenvalue λ_E (rad²/s²), non-zero.
+    w : float
+        The weight w_λ.
+
+    Returns
+    -------
+    float
+        The residual r_λ (dimensionless).
+    """
     return w * (lam - lam_e) / lam_e
 
 
 @rule
 def eigenvalue_gradient(dlam, lam_e, w, dpdx, out):
-    """∂r_λ/∂x (L,) from ∂λ/∂p ``dlam`` (L,) into ``out``."""
+    """∂r_λ/∂x (L,) from ∂λ/∂p ``dlam`` (L,) into ``out``.
+
+    Parameters
+    ----------
+    dlam : numpy.ndarray of float, shape ``(L,)``
+        ∂λ_A/∂p_j (rad²/s² per unit of each parameter).
+    lam_e : float
+        The measured eigenvalue λ_E (rad²/s²).
+    w : float
+        The weight w_λ.
+    dpdx : numpy.ndarray of float, shape ``(L,)``
+        ∂p/∂x (:func:`dp_dx`).
+    out : numpy.ndarray of float, shape ``(L,)``
+        Receives ``w · dlam[j] / lam_e · dpdx[j]``.
+
+    Returns
+    -------
+    None
+    """
     for j in range(dlam.size):
         out[j] = w * dlam[j] / lam_e * dpdx[j]
 
@@ -385,7 +671,32 @@ def eigenvalue_gradient(dlam, lam_e, w, dpdx, out):
 def shape_residuals(scaling, phs, psi_e, ref, w, out):
     """w (ψ_A − ψ_E) of a measured model shape ``phs`` against the scaled test shape ``psi_e``
     into ``out`` (:func:`n_shape_residuals` entries).  Returns the position of the scaling entry
-    when it is a node of the mode (the residual is then undefined), else −1."""
+    when it is a node of the mode (the residual is then undefined), else −1.
+
+    With ψ_A = ±φ_s/s (:func:`shape_scale`, sign from :func:`unit_sign`): paper eq. 19, with the
+    reference-dof scaling of eq. 33.
+
+    Parameters
+    ----------
+    scaling : int
+        ``UNIT``, ``REF`` or ``MAX`` (:data:`SCALINGS`).
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The model shape at the test mode's measured dofs.
+    psi_e : numpy.ndarray of float, shape ``(n_s,)``
+        The scaled test shape ψ_E.
+    ref : int
+        0-based position of the reference dof (``REF``; its entry is dropped), or −1.
+    w : float
+        The weight w_ψ.
+    out : numpy.ndarray of float, shape ``(≥ n_shape_residuals(n_s, ref),)``
+        Receives ``w (ψ_A[i] − ψ_E[i])`` for every ``i != ref``, in order; untouched on a node.
+
+    Returns
+    -------
+    int
+        The 0-based position of the scaling entry when :func:`shape_scale` reports a node (or a
+        zero shape), else −1.
+    """
     s, k, node = shape_scale(scaling, phs, ref)
     if node:
         return k
@@ -402,7 +713,34 @@ def shape_residuals(scaling, phs, psi_e, ref, w, out):
 def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
     """∂r_ψ/∂x into ``out`` (n_shape_residuals, L) from the derivatives ``dphs`` (n_s, L) of the
     mass-normalised measured shape: ψ' = φ_s'/s − ψ s'/s, s' = φ_sᵀφ_s'/s for unit length and
-    φ_k' for the reference and largest-entry scalings."""
+    φ_k' for the reference and largest-entry scalings.
+
+    The shape must have passed :func:`shape_residuals` (no node at the scaling entry): no check
+    is made here.
+
+    Parameters
+    ----------
+    scaling : int
+        ``UNIT``, ``REF`` or ``MAX`` (:data:`SCALINGS`).
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The mass-normalised model shape at the measured dofs.
+    dphs : numpy.ndarray of float, shape ``(n_s, L)``
+        ∂φ_s/∂p_j, one column per parameter.
+    psi_e : numpy.ndarray of float, shape ``(n_s,)``
+        The scaled test shape (for the sign of :func:`unit_sign`).
+    ref : int
+        0-based position of the reference dof (``REF``; its row is dropped), or −1.
+    w : float
+        The weight w_ψ.
+    dpdx : numpy.ndarray of float, shape ``(L,)``
+        ∂p/∂x (:func:`dp_dx`).
+    out : numpy.ndarray of float, shape ``(≥ n_shape_residuals(n_s, ref), ≥ L)``
+        Receives ∂r_ψ/∂x_j in column j, rows in the order of :func:`shape_residuals`.
+
+    Returns
+    -------
+    None
+    """
     s, k, node = shape_scale(scaling, phs, ref)
     sign = unit_sign(scaling, phs, s, psi_e)
     fct = w * sign / s

@@ -41,7 +41,25 @@ BLOCK_BYTES = 64 * 2**20
 
 
 def nonnegative(value, what: str) -> float:
-    """``value`` as a finite float >= 0, or an :class:`InputError` naming ``what``."""
+    """``value`` as a finite float >= 0, or an :class:`InputError` naming ``what``.
+
+    Parameters
+    ----------
+    value : object
+        Anything :class:`float` converts (a number, a numeric string, a size-1 array).
+    what : str
+        Its name in messages.
+
+    Returns
+    -------
+    float
+        ``float(value)``.
+
+    Raises
+    ------
+    InputError
+        ``value`` is not a number, or is negative, NaN or infinite.
+    """
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -75,16 +93,31 @@ class Damping:
 
     @property
     def undamped(self) -> bool:
+        """True when alpha, beta and eta are all 0 (receptances are then real)."""
         return self.alpha == 0 and self.beta == 0 and self.eta == 0
 
     def coefficients(self, omega) -> tuple[np.ndarray, np.ndarray]:
-        r"""``(c_K, c_M)`` per line: :math:`Z = c_K K + c_M M` (real when undamped)."""
+        r"""``(c_K, c_M)`` per line: :math:`Z = c_K K + c_M M` (real when undamped).
+
+        Parameters
+        ----------
+        omega : float or array_like of float, shape ``(n_lines,)``
+            Circular frequencies ω (rad/s).
+
+        Returns
+        -------
+        c_K : numpy.ndarray, shape of ``omega``
+            :math:`1 + i\eta + i\omega\beta` (dimensionless); ones (float) when undamped.
+        c_M : numpy.ndarray, shape of ``omega``
+            :math:`i\omega\alpha - \omega^2` (rad²/s²); :math:`-\omega^2` (float) when undamped.
+        """
         w = np.asarray(omega, float)
         if self.undamped:
             return np.ones_like(w), -(w**2)
         return 1.0 + 1j * self.eta + 1j * w * self.beta, 1j * w * self.alpha - w**2
 
     def as_dict(self) -> dict:
+        """``{"alpha": ..., "beta": ..., "eta": ...}`` (the keys :func:`as_damping` takes)."""
         return {"alpha": self.alpha, "beta": self.beta, "eta": self.eta}
 
 
@@ -92,7 +125,23 @@ UNDAMPED = Damping()
 
 
 def as_damping(damping) -> Damping:
-    """``None`` (undamped), a :class:`Damping`, or a mapping {alpha, beta, eta}."""
+    """``None`` (undamped), a :class:`Damping`, or a mapping {alpha, beta, eta}.
+
+    Parameters
+    ----------
+    damping : None, Damping or mapping of str to float
+        A mapping may give any of ``alpha`` (1/s), ``beta`` (s) and ``eta``; the others are 0.
+
+    Returns
+    -------
+    Damping
+        :data:`UNDAMPED` for None, ``damping`` itself for a :class:`Damping`.
+
+    Raises
+    ------
+    InputError
+        An unknown key; a value that is not a finite number >= 0; any other type.
+    """
     if damping is None:
         return UNDAMPED
     if isinstance(damping, Damping):
@@ -106,7 +155,26 @@ def as_damping(damping) -> Damping:
 
 
 def check_omega(omega, what: str = "omega") -> np.ndarray:
-    """A 1-D, finite, non-negative frequency axis in rad/s."""
+    """A 1-D, finite, non-negative frequency axis in rad/s.
+
+    Parameters
+    ----------
+    omega : float or array_like of float
+        Circular frequencies ω (rad/s), any shape (flattened).
+    what : str, default ``"omega"``
+        Its name in messages.
+
+    Returns
+    -------
+    numpy.ndarray of float, shape ``(n_lines,)``
+        ``omega`` flattened, as floats.
+
+    Raises
+    ------
+    InputError
+        Complex or non-numeric values; no value; a NaN, infinite or negative value (the lines,
+        1-based, named).
+    """
     w = np.asarray(omega)
     if np.iscomplexobj(w):
         raise InputError(f"{what}: frequencies must be real numbers (rad/s), got complex values")
@@ -127,6 +195,26 @@ def force_vector(model, force: Mapping, what: str = "force") -> np.ndarray:
 
     Raises :class:`InputError` naming every dof the model lacks, and for an empty, zero or
     non-finite force.
+
+    Parameters
+    ----------
+    model : Model
+        The model (its ``dofs`` and ``n_dofs``).
+    force : mapping of dof label to float or complex
+        Force amplitudes (N, or N·m at a rotational dof) at the excited dofs.
+    what : str, default ``"force"``
+        Its name in messages.
+
+    Returns
+    -------
+    numpy.ndarray of float or complex, shape ``(n_dofs,)``
+        The force vector, zero at the dofs not given; complex if any amplitude is complex.
+
+    Raises
+    ------
+    InputError
+        Not a mapping, or empty; a bad dof label; a dof given twice (after canonicalisation) or
+        one the model lacks; an amplitude that is not a number or not finite; every amplitude zero.
     """
     if not isinstance(force, Mapping) or not force:
         raise InputError(f"{what}: give the force as {{dof: amplitude}} with at least one dof")
@@ -155,17 +243,63 @@ def force_vector(model, force: Mapping, what: str = "force") -> np.ndarray:
 
 
 def use_dense(n: int, method: str = "auto") -> bool:
+    """Whether a model of ``n`` dofs takes the dense (stacked) path.
+
+    Parameters
+    ----------
+    n : int
+        The number of dofs.
+    method : {"auto", "dense", "sparse"}, default ``"auto"``
+        ``"auto"``: dense up to :data:`DENSE_LIMIT` dofs.
+
+    Returns
+    -------
+    bool
+        True for the dense path, False for sparse LU per line.
+
+    Raises
+    ------
+    InputError
+        An unknown ``method``.
+    """
     if method not in ("auto", "dense", "sparse"):
         raise InputError(f"unknown solver method {method!r}: use auto, dense or sparse")
     return method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
 
 
 def line_name(i: int, w: float) -> str:
+    """How messages name a spectral line.
+
+    Parameters
+    ----------
+    i : int
+        0-based line index (shown 1-based).
+    w : float
+        Its frequency ω (rad/s).
+
+    Returns
+    -------
+    str
+        ``"line {i+1} (omega = {w} rad/s)"``.
+    """
     return f"line {i + 1} (omega = {w:.6g} rad/s)"
 
 
 def dense_stack(K: np.ndarray, M: np.ndarray, cK: np.ndarray, cM: np.ndarray) -> np.ndarray:
-    """``Z[i] = cK[i] K + cM[i] M`` for dense K, M: shape ``(n_lines, n, n)``."""
+    """``Z[i] = cK[i] K + cM[i] M`` for dense K, M: shape ``(n_lines, n, n)``.
+
+    Parameters
+    ----------
+    K, M : numpy.ndarray of float, shape ``(n, n)``
+        Dense stiffness (N/m) and mass (kg) matrices.
+    cK, cM : numpy.ndarray, shape ``(n_lines,)``
+        The coefficients of :meth:`Damping.coefficients`.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(n_lines, n, n)``
+        The dynamic stiffness of every line (N/m); complex when the coefficients are.
+    """
     return cK[:, None, None] * K[None] + cM[:, None, None] * M[None]
 
 
@@ -175,6 +309,29 @@ def solve_stacked(Z: np.ndarray, B: np.ndarray, on_singular: str = "raise", omeg
     A stack that contains exactly singular matrices (an undamped line exactly on a resonance)
     raises :class:`NumericalError` naming the line (``on_singular="raise"``), or gives ``inf``
     for those members and the solutions of the others (``"inf"``: residual surfaces).
+
+    Parameters
+    ----------
+    Z : numpy.ndarray, shape ``(G, n, n)``
+        The stack (any leading axes).
+    B : numpy.ndarray, shape ``(n, k)`` or ``(G, n, k)``
+        Right-hand sides: one block for every member, or one per member.
+    on_singular : str, default ``"raise"``
+        ``"raise"``; any other value acts as ``"inf"``.  A member is singular when its
+        determinant is zero or not finite.
+    omega : array_like of float, shape ``(G,)``, optional
+        The members' frequencies (rad/s), to name the singular line in the message (else
+        ``"member g"``).
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(G, n, k)``
+        The solutions; ``inf`` for every singular member with ``"inf"``.
+
+    Raises
+    ------
+    NumericalError
+        A singular member with ``on_singular="raise"`` (the first one named).
     """
     Bb = np.broadcast_to(B, Z.shape[:-2] + B.shape[-2:]) if B.ndim == 2 else B
     try:
@@ -195,7 +352,25 @@ def solve_stacked(Z: np.ndarray, B: np.ndarray, on_singular: str = "raise", omeg
 
 
 def factor(Z, where: str):
-    """Sparse LU of one line's dynamic stiffness (complex symmetric when damped)."""
+    """Sparse LU of one line's dynamic stiffness (complex symmetric when damped).
+
+    Parameters
+    ----------
+    Z : sparse matrix, shape ``(n, n)``
+        The line's dynamic stiffness (N/m).
+    where : str
+        The line's name in messages (:func:`line_name`).
+
+    Returns
+    -------
+    scipy.sparse.linalg.SuperLU
+        The factor (:func:`femupdate.modal.factorize`).
+
+    Raises
+    ------
+    NumericalError
+        Z is exactly singular (the line lies on a resonance of the model).
+    """
     from ..modal import factorize
 
     try:
@@ -211,6 +386,33 @@ class LineSystems:
     ``solve(B)`` returns ``Z(ω_i)^{-1} B`` for every line, shape ``(n_lines, n, k)``; the dense
     path solves all lines in one stacked call, the sparse path factorises each line once (the
     factor is kept only while that line is being processed, see :meth:`each`).
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    p : numpy.ndarray of float, shape ``(n_parameters,)``
+        The full parameter vector (:meth:`Model.resolve`).
+    omega : array_like of float, shape ``(n_lines,)``
+        Circular frequencies of the lines (rad/s).
+    damping : Damping, default :data:`UNDAMPED`
+        The model's damping.
+    method : {"auto", "dense", "sparse"}, default ``"auto"``
+        The solution path (:func:`use_dense`).
+
+    Attributes
+    ----------
+    cK, cM : numpy.ndarray, shape ``(n_lines,)``
+        The coefficients of :meth:`Damping.coefficients`.
+    K, M : sparse matrix, shape ``(n, n)``
+        Stiffness (N/m) and mass (kg) at ``p``; ``Kd``, ``Md`` their dense copies on the dense path.
+    dense : bool
+        Whether the dense path is used.
+
+    Raises
+    ------
+    InputError
+        An unknown ``method``.
     """
 
     def __init__(self, model, p: np.ndarray, omega: np.ndarray, damping: Damping = UNDAMPED, method: str = "auto"):
@@ -227,13 +429,47 @@ class LineSystems:
 
     @property
     def complex(self) -> bool:
+        """True when the responses are complex (the damping is not zero)."""
         return not self.damping.undamped
 
     def Z(self, i: int):
+        """The dynamic stiffness of line ``i``.
+
+        Parameters
+        ----------
+        i : int
+            0-based line index.
+
+        Returns
+        -------
+        scipy.sparse.csc_array, shape ``(n, n)``
+            c_K(ω_i) K + c_M(ω_i) M (N/m).
+        """
         Z = self.cK[i] * self.K + self.cM[i] * self.M
         return sp.csc_array(Z)
 
     def solve(self, B: np.ndarray, on_singular: str = "raise") -> np.ndarray:
+        """``Z(ω_i)^{-1} B`` for every line.
+
+        Parameters
+        ----------
+        B : numpy.ndarray, shape ``(n,)`` or ``(n, k)``
+            Right-hand sides (forces, N).
+        on_singular : str, default ``"raise"``
+            ``"raise"``: a line exactly on a resonance raises; ``"inf"``: that line's solution is
+            ``inf``.  Other values act as ``"inf"`` on the dense path and as ``"raise"`` on the
+            sparse one.
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(n_lines, n)`` or ``(n_lines, n, k)``
+            The responses (m/N times B's units), real or complex.
+
+        Raises
+        ------
+        NumericalError
+            A singular line with ``on_singular="raise"``.
+        """
         B = np.asarray(B)
         B2 = B[:, None] if B.ndim == 1 else B
         if self.dense:
@@ -253,7 +489,25 @@ class LineSystems:
 
     def each(self, on_singular: str = "raise"):
         """Yield ``(i, lu)`` for every line: one sparse factorisation each, released after use
-        (``lu`` is None for an exactly singular line when ``on_singular="inf"``)."""
+        (``lu`` is None for an exactly singular line when ``on_singular="inf"``).
+
+        Parameters
+        ----------
+        on_singular : str, default ``"raise"``
+            ``"inf"``: yield None for a singular line; any other value: raise.
+
+        Yields
+        ------
+        i : int
+            0-based line index.
+        lu : scipy.sparse.linalg.SuperLU or None
+            The factor of :meth:`Z` ``(i)``.
+
+        Raises
+        ------
+        NumericalError
+            A singular line, unless ``on_singular="inf"``.
+        """
         for i, w in enumerate(self.omega):
             try:
                 lu = factor(self.Z(i), line_name(i, w))
@@ -266,7 +520,20 @@ class LineSystems:
 
 
 def lu_apply(lu, B: np.ndarray) -> np.ndarray:
-    """``Z^{-1} B`` with a SuperLU factor; a real factor takes complex ``B`` in two real solves."""
+    """``Z^{-1} B`` with a SuperLU factor; a real factor takes complex ``B`` in two real solves.
+
+    Parameters
+    ----------
+    lu : scipy.sparse.linalg.SuperLU
+        The factor of Z, shape ``(n, n)``.
+    B : numpy.ndarray, shape ``(n,)`` or ``(n, k)``
+        Right-hand sides, real or complex.
+
+    Returns
+    -------
+    numpy.ndarray, shape of ``B``
+        The solution; complex when ``B`` or the factor is.
+    """
     if np.iscomplexobj(B):
         try:
             return lu.solve(np.ascontiguousarray(B))
@@ -278,7 +545,21 @@ def lu_apply(lu, B: np.ndarray) -> np.ndarray:
 def derivative_stack(model, idx) -> tuple[sp.csr_array, sp.csr_array]:
     """``dK/dp_j`` and ``dM/dp_j`` of the parameters ``idx`` stacked row-wise into two sparse
     matrices of shape ``(L n, n)``: one product with a block of vectors gives every parameter's
-    ``K_j X`` at once."""
+    ``K_j X`` at once.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model (its ``dK``, ``dM``).
+    idx : sequence of int, length L
+        0-based parameter indices.
+
+    Returns
+    -------
+    Ks, Ms : scipy.sparse.csr_array, shape ``(L n, n)``
+        Block j (rows ``j n .. (j+1) n - 1``) is ∂K/∂p_j, resp. ∂M/∂p_j (zero for a parameter
+        that does not enter that matrix).
+    """
     n = model.n_dofs
     zero = sp.csr_array((n, n))
     Ks = sp.vstack([model.dK[j] if model.dK[j] is not None else zero for j in idx], format="csr")
@@ -293,6 +574,17 @@ class ParameterForms:
     by parameter): every entry contributes :math:`v\,U_{a,:}^T V_{b,:}` to its parameter, and one
     segmented sum (:func:`numpy.add.reduceat`) adds them up — no loop over parameters and no
     ``(L n, q)`` intermediate: the cost is O(nnz · p · q) whatever the number of parameters.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    idx : sequence of int, length L
+        0-based parameter indices (:func:`derivative_stack`).
+
+    Calling ``forms(U, V, cK, cM)`` with ``U`` ``(n, p)``, ``V`` ``(n, q)`` and the scalar
+    coefficients ``cK``, ``cM`` of one line returns the ``(L, p, q)`` array of
+    :math:`U^T (c_K K_j + c_M M_j) V`.
     """
 
     def __init__(self, model, idx):
@@ -308,6 +600,22 @@ class ParameterForms:
             self.parts.append((a, coo.col[order].astype(np.int64), coo.data[order], starts[used], used))
 
     def __call__(self, U: np.ndarray, V: np.ndarray, cK, cM) -> np.ndarray:
+        """The forms :math:`U^T (c_K K_j + c_M M_j) V` of every parameter.
+
+        Parameters
+        ----------
+        U : numpy.ndarray, shape ``(n, p)``
+            Left vectors.
+        V : numpy.ndarray, shape ``(n, q)``
+            Right vectors.
+        cK, cM : float or complex
+            One line's coefficients (:meth:`Damping.coefficients`).
+
+        Returns
+        -------
+        numpy.ndarray, shape ``(L, p, q)``
+            Entry ``[j]`` for parameter ``idx[j]``; zero for a parameter without stored entries.
+        """
         p, q = U.shape[1], V.shape[1]
         out = np.zeros((self.L, p, q), dtype=np.result_type(U, V, cK, cM))
         for (a, b, v, starts, used), c in zip(self.parts, (cK, cM)):
@@ -348,7 +656,18 @@ class Resonances:
     sensitivity: np.ndarray | None = None
 
     def near(self, tol: float) -> np.ndarray:
-        """Indices of the lines within ``tol`` (relative eigenvalue distance) of a resonance."""
+        """Indices of the lines within ``tol`` (relative eigenvalue distance) of a resonance.
+
+        Parameters
+        ----------
+        tol : float
+            Relative eigenvalue distance (``distance < tol``, strictly).
+
+        Returns
+        -------
+        numpy.ndarray of int
+            0-based line indices, ascending.
+        """
         return np.flatnonzero(self.distance < tol)
 
     def first_order_error(self, delta: float) -> np.ndarray:
@@ -360,6 +679,16 @@ class Resonances:
         and the exact change is :math:`-\phi\phi^T\Delta\lambda / ((\lambda-\omega^2)(\lambda+\Delta\lambda-\omega^2))`
         against the first-order :math:`-\phi\phi^T\Delta\lambda/(\lambda-\omega^2)^2`: their relative
         difference is :math:`|\Delta\lambda / (\lambda + \Delta\lambda - \omega^2)| \approx \delta\, s / d`.
+
+        Parameters
+        ----------
+        delta : float
+            Relative parameter change Δp/p.
+
+        Returns
+        -------
+        numpy.ndarray of float, shape ``(n_lines, L)`` or ``(n_lines,)``
+            The estimate; a distance of 0 counts as the smallest normal float (a huge error).
         """
         d = np.maximum(self.distance, np.finfo(float).tiny)
         if self.sensitivity is None:
@@ -367,6 +696,19 @@ class Resonances:
         return np.abs(delta * self.sensitivity) / d[:, None]
 
     def describe(self, lines) -> str:
+        """The lines' distances to their resonances, in words, for messages.
+
+        Parameters
+        ----------
+        lines : iterable of int
+            0-based line indices (e.g. from :meth:`near`).
+
+        Returns
+        -------
+        str
+            One ``"line k (omega = ... rad/s) is d (relative) from mode m at ... rad/s"`` per line,
+            joined by ``"; "``.
+        """
         return "; ".join(
             f"{line_name(int(i), float(self.omega[i]))} is {self.distance[i]:.2g} (relative) from "
             f"{'mode ' + str(int(self.mode[i])) if self.mode[i] > 0 else 'a mode'} at "
@@ -380,7 +722,31 @@ def _distance(w2: np.ndarray, lam: np.ndarray) -> np.ndarray:
 
 def nearest_mode(K, M, s: float, lu, where: str) -> tuple[float, np.ndarray]:
     """The eigenpair of (K, M) nearest ``s`` = ω², by shift-invert Lanczos (k = 1) with the given
-    real factor ``lu`` of K − sM; the vector mass-normalised."""
+    real factor ``lu`` of K − sM; the vector mass-normalised.
+
+    Parameters
+    ----------
+    K, M : sparse matrix, shape ``(n, n)``
+        Stiffness (N/m) and mass (kg).
+    s : float
+        The shift ω² (rad²/s²).
+    lu : scipy.sparse.linalg.SuperLU
+        Real factor of K − sM (:func:`factor`).
+    where : str
+        The line's name in messages.
+
+    Returns
+    -------
+    lam : float
+        The nearest eigenvalue (rad²/s²).
+    phi : numpy.ndarray of float, shape ``(n,)``
+        Its eigenvector, φᵀMφ = 1.
+
+    Raises
+    ------
+    NumericalError
+        ARPACK does not converge.
+    """
     op = spla.LinearOperator(K.shape, matvec=lambda v: lu_apply(lu, v), dtype=float)
     try:
         lam, vec = spla.eigsh(K, k=1, M=M, sigma=s, which="LM", OPinv=op, tol=1e-8, ncv=min(8, K.shape[0] - 1),
@@ -392,7 +758,30 @@ def nearest_mode(K, M, s: float, lu, where: str) -> tuple[float, np.ndarray]:
 
 
 def collect_resonances(model, p, w, nearest, Phi, mode_no, params=None) -> Resonances:
-    """:class:`Resonances` from the nearest eigenpair of every line (and Fox–Kapoor sensitivities)."""
+    """:class:`Resonances` from the nearest eigenpair of every line (and Fox–Kapoor sensitivities).
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    p : numpy.ndarray of float, shape ``(n_parameters,)``
+        The full parameter vector.
+    w : array_like of float, shape ``(n_lines,)``
+        Circular frequencies of the lines (rad/s).
+    nearest : numpy.ndarray of float, shape ``(n_lines,)``
+        Each line's nearest eigenvalue λ_r (rad²/s²).
+    Phi : numpy.ndarray of float, shape ``(n, n_lines)``
+        The mass-normalised eigenvectors of those modes.
+    mode_no : array_like of int, shape ``(n_lines,)``
+        Their 1-based mode numbers (−1: unknown).
+    params : sequence of int, optional
+        0-based parameter indices: with them, :attr:`Resonances.sensitivity` is
+        p_j (∂λ_r/∂p_j) / λ_r with ∂λ_r/∂p_j = φ_rᵀ (K_j − λ_r M_j) φ_r (0 where λ_r <= 0).
+
+    Returns
+    -------
+    Resonances
+    """
     n = model.n_dofs
     sens = None
     if params is not None and len(params):
@@ -413,6 +802,30 @@ def resonances(model, omega, values=None, params=None) -> Resonances:
     Large ones: the eigenpair nearest each ω² by shift-invert Lanczos, one factorisation of
     K − ω²M per line (:func:`nearest_mode`).  With ``params`` (indices), the relative
     eigenvalue sensitivities of the nearest mode too.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    omega : array_like of float
+        Circular frequencies of the lines (rad/s), checked by :func:`check_omega`.
+    values : None, mapping or array_like, optional
+        Parameter values (:meth:`Model.resolve`; None: nominal).
+    params : sequence of int, optional
+        0-based parameter indices for the sensitivities (:func:`collect_resonances`).
+
+    Returns
+    -------
+    Resonances
+
+    Raises
+    ------
+    InputError
+        A bad frequency axis or bad ``values``; small models: as :func:`femupdate.modal.solve_modes`
+        (e.g. a negative eigenvalue).
+    NumericalError
+        Small models: as :func:`femupdate.modal.solve_modes`; large models: a line exactly on a
+        resonance (K − ω²M singular), or no convergence of the shift-invert search.
     """
     from ..modal import DENSE_LIMIT as MODAL_DENSE
     from ..modal import solve_modes
@@ -435,7 +848,27 @@ def resonances(model, omega, values=None, params=None) -> Resonances:
 
 def dense_eigen_stack(K: np.ndarray, M: np.ndarray):
     """Eigenvalues (ascending) and M-orthonormal eigenvectors of a stack of symmetric pencils
-    ``(G, n, n)`` at once: Cholesky M = L Lᵀ, then ``eigh`` of L⁻¹ K L⁻ᵀ (batched LAPACK)."""
+    ``(G, n, n)`` at once: Cholesky M = L Lᵀ, then ``eigh`` of L⁻¹ K L⁻ᵀ (batched LAPACK).
+
+    Parameters
+    ----------
+    K : numpy.ndarray of float, shape ``(G, n, n)``
+        Symmetric stiffness matrices (N/m); any leading axes (or none).
+    M : numpy.ndarray of float, shape ``(G, n, n)``
+        Symmetric positive definite mass matrices (kg).
+
+    Returns
+    -------
+    lam : numpy.ndarray of float, shape ``(G, n)``
+        Eigenvalues ω² (rad²/s²), ascending per member.
+    Phi : numpy.ndarray of float, shape ``(G, n, n)``
+        Eigenvectors as columns, ΦᵀMΦ = I.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        A mass matrix that is not positive definite (NumPy's error, not a NumericalError).
+    """
     Lc = np.linalg.cholesky(M)
     A = np.linalg.solve(Lc, np.swapaxes(np.linalg.solve(Lc, K), -1, -2))
     A = 0.5 * (A + np.swapaxes(A, -1, -2))

@@ -23,6 +23,23 @@ _TINY = np.finfo(float).tiny
 
 
 def check_kind(kind: str) -> str:
+    """``kind`` if it names an FRF residual.
+
+    Parameters
+    ----------
+    kind : str
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:data:`RESIDUALS`).
+
+    Returns
+    -------
+    str
+        ``kind`` unchanged.
+
+    Raises
+    ------
+    InputError
+        ``kind`` is not one of :data:`RESIDUALS`.
+    """
     if kind not in RESIDUALS:
         raise InputError(f"unknown FRF residual {kind!r}: use {', '.join(RESIDUALS)}")
     return kind
@@ -31,8 +48,36 @@ def check_kind(kind: str) -> str:
 def prepare(xe: np.ndarray, kind: str, weights, real: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Per-value weights (broadcast to ``xe``'s shape) with the ``"relative"`` scaling folded in,
     and the transformed measured values (``ln|x_E|`` for ``"log"``).  ``real``: the model's
-    responses are real, so complex data (checked to have a negligible imaginary part) are
-    compared through their real part."""
+    responses are real, so complex data are compared through their real part (the imaginary
+    part is dropped here without a check; the callers refuse data with a significant one first,
+    :func:`femupdate.frf.simulate.check_data_against_model`).
+
+    Parameters
+    ----------
+    xe : numpy.ndarray, real or complex, shape ``(n_lines, n_dofs)``
+        The measured responses x_E (any shape: the output has the same).
+    kind : str
+        ``"linear"``, ``"relative"`` or ``"log"`` (not checked here: see :func:`check_kind`; any
+        other value acts as ``"linear"``).
+    weights : float, array_like broadcastable to ``xe.shape``, or None
+        Weights w >= 0 of the values; None: 1.
+    real : bool, default False
+        Take the real part of complex ``xe``.
+
+    Returns
+    -------
+    w : numpy.ndarray of float, shape ``xe.shape``
+        The weights; for ``"relative"`` divided by max(|x_E|, 1e-12 · max |x_E|).
+    target : numpy.ndarray, shape ``xe.shape``
+        ln|x_E| for ``"log"``, else ``xe`` (its real part when ``real``).
+
+    Raises
+    ------
+    InputError
+        Non-finite or negative weights; a zero measured value with ``"log"``.
+    ValueError
+        ``weights`` does not broadcast to ``xe``'s shape (NumPy's error).
+    """
     if real and np.iscomplexobj(xe):
         xe = xe.real
     w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, float), xe.shape).copy()
@@ -51,7 +96,24 @@ def prepare(xe: np.ndarray, kind: str, weights, real: bool = False) -> tuple[np.
 
 def values(xa: np.ndarray, target: np.ndarray, w: np.ndarray, kind: str) -> np.ndarray:
     """Residuals of model responses ``xa`` (any leading axes; trailing axes as ``target``),
-    complex ones as (..., 2, lines, dofs) real and imaginary parts — flatten as needed."""
+    complex ones as (..., 2, lines, dofs) real and imaginary parts — flatten as needed.
+
+    Parameters
+    ----------
+    xa : numpy.ndarray, real or complex, shape ``(..., n_lines, n_dofs)``
+        Model responses x_A (e.g. receptances in m/N), any leading axes (points of a surface).
+    target, w : numpy.ndarray, shape ``(n_lines, n_dofs)``
+        From :func:`prepare`.
+    kind : str
+        ``"linear"``, ``"relative"`` or ``"log"``, as given to :func:`prepare`.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        ``"log"``: w (ln max(|x_A|, tiny) − target), shape ``(..., n_lines, n_dofs)``; else
+        w (x_A − target), real of that shape, or, when complex, shape ``(..., 2, n_lines, n_dofs)``
+        (real part, then imaginary part).
+    """
     if kind == "log":
         return w * (np.log(np.maximum(np.abs(xa), _TINY)) - target)
     d = w * (xa - target)
@@ -60,7 +122,26 @@ def values(xa: np.ndarray, target: np.ndarray, w: np.ndarray, kind: str) -> np.n
 
 def jacobian(xa: np.ndarray, dxa: np.ndarray, w: np.ndarray, kind: str) -> np.ndarray:
     """``∂r/∂p`` from ``dxa = ∂x_A/∂p`` (trailing parameter axis); same layout as :func:`values`
-    with the parameter axis last."""
+    with the parameter axis last.
+
+    Parameters
+    ----------
+    xa : numpy.ndarray, real or complex, shape ``(..., n_lines, n_dofs)``
+        Model responses x_A (read only for ``"log"``).
+    dxa : numpy.ndarray, real or complex, shape ``(..., n_lines, n_dofs, L)``
+        Their derivatives with respect to the L parameters.
+    w : numpy.ndarray, shape ``(n_lines, n_dofs)``
+        Weights from :func:`prepare`.
+    kind : str
+        ``"linear"``, ``"relative"`` or ``"log"``.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        ``"log"``: w Re(∂x_A / x_A) (x_A = 0 replaced by the smallest normal float), shape
+        ``(..., n_lines, n_dofs, L)``; else w ∂x_A of that shape, or, when complex, shape
+        ``(..., 2, n_lines, n_dofs, L)``.
+    """
     if kind == "log":  # d ln|x| = Re(dx / x)
         return w[..., None] * np.real(dxa / np.where(xa == 0, _TINY, xa)[..., None])
     d = w[..., None] * dxa

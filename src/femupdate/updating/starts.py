@@ -25,7 +25,32 @@ log = logging.getLogger(__name__)
 
 
 def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_uniform: bool = False) -> np.ndarray:
-    """``n`` starting vectors uniform (or log-uniform) within the parameters' bounds."""
+    """``n`` starting vectors uniform (or log-uniform) within the parameters' bounds.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model; its :attr:`bounds` give the ranges.
+    names : sequence of str
+        The parameters to draw, in the order of the columns.
+    n : int
+        The number of starts.
+    seed : int or None
+        Seed of :func:`numpy.random.default_rng` (None: a fresh, unreproducible one).
+    log_uniform : bool, default False
+        Draw ln p uniformly between the logs of the bounds instead of p.
+
+    Returns
+    -------
+    numpy.ndarray of float, shape ``(n, len(names))``
+        The starting values, in the parameters' own units (N/m, kg, ...).
+
+    Raises
+    ------
+    InputError
+        An unknown parameter name; a parameter without finite bounds (all named); a lower bound
+        <= 0 with ``log_uniform``.
+    """
     idx = [model.parameter_index(nm) for nm in names]
     lo, hi = model.bounds
     lo, hi = lo[idx], hi[idx]
@@ -41,7 +66,30 @@ def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_unifo
 
 
 def run_with(fn, model, data, names, start, kwargs):
-    """``fn(model, data, params=names, x0=start, **kwargs)``; a start that fails is a message, not a crash."""
+    """``fn(model, data, params=names, x0=start, **kwargs)``; a start that fails is a message, not a crash.
+
+    Parameters
+    ----------
+    fn : callable
+        The update function (:func:`~femupdate.updating.update`, :func:`frf_update`, ...).
+    model : Model
+        The parametrised model.
+    data
+        The measured data, passed to ``fn`` as is.
+    names : sequence of str
+        The updated parameters.
+    start : sequence of float, length ``len(names)``
+        The starting values, passed as ``x0={name: value}``.
+    kwargs : dict
+        Further keyword arguments of ``fn``.
+
+    Returns
+    -------
+    result or str
+        ``fn``'s result, or ``"ErrorType: message"`` when ``fn`` raised a
+        :class:`~femupdate.FemupdateError` (an :class:`InputError` as well as a
+        :class:`NumericalError`).  Other exceptions propagate.
+    """
     try:
         return fn(model, data, params=names, x0=dict(zip(names, start)), **kwargs)
     except FemupdateError as exc:  # a start that fails numerically is a result, not a crash
@@ -61,19 +109,53 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
 
     Parameters
     ----------
-    starts : number of random starts (drawn within the bounds; uniform, or log-uniform).
-    seed : seed of the generator (reproducible studies).
-    scheduler : address of an existing Dask scheduler (``tcp://host:port``); local otherwise.
-    connect_timeout : seconds to wait for the scheduler before giving up (an InputError).
-    rel_tol : relative distance under which two solutions are the same.
-    cost_tol : a run counts as converged when the solver reports success and its cost is below
+    model : Model
+        The parametrised model.
+    data : TestData, FRFData or other data :func:`update` takes
+        The measured data.
+    starts : int, default 20
+        Number of random starts, drawn within the parameters' bounds (uniform, or log-uniform).
+    seed : int or None, default 0
+        Seed of the generator (reproducible studies; None: unreproducible).
+    params : sequence of str, optional
+        Parameters to update (default: the free ones).
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:port``); local runs otherwise.
+    rel_tol : float, default 1e-4
+        Relative distance under which two solutions are the same.
+    cost_tol : float, optional
+        A run counts as converged when the solver reports success and its cost (½‖r‖²) is at most
         this (default: no cost limit, i.e. local minima count as converged solutions too).
-    batched : advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
-        ``None`` (default): batched when the data are modal, the model has at most
+    log_uniform : bool, default False
+        Draw the starts log-uniformly instead of uniformly (needs positive lower bounds).
+    progress : callable ``(done, total)``, optional
+        Called as starts finish (locally and on Dask).
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler (and its first worker) before giving up.
+    batched : bool or None, default None
+        Advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
+        ``None``: batched when only modal data are used, the model has at most
         :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported — locally,
         or in chunks on the Dask cluster at ``scheduler``, with the same results; ``False``: one
-        :func:`update` per start.
-    **kwargs : passed to :func:`update`.
+        :func:`update` per start; ``True``: batched, or an :class:`InputError`.
+    **kwargs
+        Options of :func:`update` (not ``x0``).
+
+    Returns
+    -------
+    MultiStartResult
+        Every run (a failed start as its ``"ErrorType: message"``), the distinct solutions and the
+        best run.
+
+    Raises
+    ------
+    InputError
+        ``starts`` < 1; ``x0`` given; FRF options given when only modal data are used;
+        ``batched=True`` with non-modal data or options the batched route does not support; a
+        parameter without finite bounds, an unknown parameter, or a bound <= 0 with
+        ``log_uniform`` (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``.
+        The errors of :func:`update` itself (refused input, numerical failure) do not propagate:
+        each start that fails is recorded as its message in ``runs``.
     """
     if starts < 1:
         raise InputError("the number of starts must be at least 1")
@@ -112,7 +194,47 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
 def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=1e-4, cost_tol=None, progress=None,
                connect_timeout=10.0, runner=None) -> MultiStartResult:
     """``runner(model, data, names, X0[k], kwargs)`` (default: :func:`update` from start k) for every
-    start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions."""
+    start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions.
+
+    Parameters
+    ----------
+    model : Model
+        The parametrised model.
+    data
+        The measured data, passed to ``runner``.
+    names : sequence of str
+        The updated parameters, in the order of ``X0``'s columns.
+    X0 : numpy.ndarray of float, shape ``(n_starts, len(names))``
+        The starting values (:func:`draw_starts`).
+    kwargs : dict
+        Options passed to ``runner`` (neither ``x0`` nor ``params``).
+    seed : int or None
+        The seed the starts were drawn with (recorded in the result).
+    scheduler : str, optional
+        Address of a Dask scheduler; local runs otherwise.
+    rel_tol : float, default 1e-4
+        Relative distance under which two solutions are the same.
+    cost_tol : float, optional
+        Largest cost of a converged run (default: no limit).
+    progress : callable ``(done, total)``, optional
+        Called as runs finish (locally and on Dask).
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler.
+    runner : callable, optional
+        ``runner(model, data, names, start, kwargs)``; default: :func:`run_with` of :func:`update`.
+        On Dask it must be picklable; each task is retried up to twice.
+
+    Returns
+    -------
+    MultiStartResult
+        The runs in start order, the distinct converged solutions (classified, fitting ones first)
+        and the lowest-cost converged :class:`UpdateResult` (None when none converged).
+
+    Raises
+    ------
+    InputError
+        ``x0`` or ``params`` in ``kwargs``; a scheduler not reached within ``connect_timeout``.
+    """
     if "x0" in kwargs or "params" in kwargs:
         raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
     runner = runner or _run_one
@@ -173,12 +295,12 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
     rel_tol : float, default 1e-4
         Relative distance under which two solutions are the same.
     cost_tol : float, optional
-        A run counts as converged when it reports success and its cost is below this (default:
-        no limit).
+        A run counts as converged when it reports success and its cost (½‖r‖²) is at most this
+        (default: no limit).
     log_uniform : bool, default False
         Draw the starts log-uniformly instead of uniformly.
     progress : callable ``(done, total)``, optional
-        Called after each start (local runs).
+        Called as starts finish (locally and on Dask).
     connect_timeout : float, default 10.0
         Seconds to wait for the scheduler.
     **kwargs
@@ -192,7 +314,10 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
     Raises
     ------
     InputError
-        Fewer than one start; an unreachable scheduler; and as :func:`frf_update`.
+        Fewer than one start; a parameter without finite bounds, an unknown parameter, or a bound
+        <= 0 with ``log_uniform`` (:func:`draw_starts`); ``x0`` among ``kwargs``; an unreachable
+        scheduler.  The errors of :func:`frf_update` itself (refused input, numerical
+        failure) do not propagate: each start that fails is recorded as its message in ``runs``.
     """
     if starts < 1:
         raise InputError("the number of starts must be at least 1")
