@@ -116,3 +116,12 @@ def test_options_for_data_not_used_are_refused(ex, capsys):
     assert code == 2 and "--select: FRF option(s) given, but no FRF data are used" in out
     code, out = run(args + ["--std-static", "0.001"], capsys)
     assert code == 2 and "standard deviations given for static data (--std-static)" in out
+
+
+def test_values_given_twice_on_the_command_line_are_refused(ex, capsys):
+    code, out = run(["modes", str(ex / "two_dof.toml"), "--set", "k1=9,k1=10"], capsys)
+    assert code == 2 and "--set: 'k1' is given twice" in out  # the last value used to win silently
+    code, out = run(["frf", str(ex / "two_dof.toml"), "--force", "1:x=1,1:x=2", "--omega", "1,2"], capsys)
+    assert code == 2 and "--force: '1:x' is given twice" in out
+    code, out = run(["frf-update", str(ex / "two_dof.toml"), str(ex / "two_dof_frf.json"), "--lines", "1,2,2"], capsys)
+    assert code == 2 and "--lines: line(s) 2 given twice" in out

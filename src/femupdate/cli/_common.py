@@ -63,6 +63,8 @@ def parse_set(text: str | None) -> dict[str, float]:
         name, eq, val = item.partition("=")
         if not eq or not name.strip():
             raise InputError(f"--set: {item!r} is not of the form name=value")
+        if name.strip() in out:
+            raise InputError(f"--set: {name.strip()!r} is given twice")
         try:
             out[name.strip()] = float(val)
         except ValueError:

@@ -54,6 +54,8 @@ def parse_force(text: str) -> dict:
         if not item:
             continue
         dof, eq, amp = item.partition("=")
+        if dof.strip() in out:
+            raise InputError(f"--force: {dof.strip()!r} is given twice")
         try:
             out[dof.strip()] = float(amp) if eq else 1.0
         except ValueError:
@@ -119,6 +121,9 @@ def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_
             raise InputError(f"--lines: {lines_text!r} is not a list of line numbers (1-based)") from None
         if any(not 0 <= v < 2**31 for v in lines):
             raise InputError(f"--lines: line numbers count from 1 and are at most {2**31}")
+        twice = sorted({v + 1 for v in lines if lines.count(v) > 1})
+        if twice:
+            raise InputError(f"--lines: line(s) {', '.join(map(str, twice))} given twice")
     return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
                 damping=parse_damping(damping_text))
 
