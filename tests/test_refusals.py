@@ -125,3 +125,17 @@ def test_values_given_twice_on_the_command_line_are_refused(ex, capsys):
     assert code == 2 and "--force: '1:x' is given twice" in out
     code, out = run(["frf-update", str(ex / "two_dof.toml"), str(ex / "two_dof_frf.json"), "--lines", "1,2,2"], capsys)
     assert code == 2 and "--lines: line(s) 2 given twice" in out
+
+
+def test_the_reference_dof_is_read_as_the_user_may_type_it(ex, capsys):
+    from femupdate.examples import figure2_model_toml, figure2_test_data
+
+    (ex / "figure2.toml").write_text(figure2_model_toml())
+    (ex / "figure2_test.json").write_text(json.dumps(figure2_test_data()))
+    args = ["update", str(ex / "figure2.toml"), str(ex / "figure2_test.json"), "--shape-scaling", "ref", "--json", "-"]
+    code, out = run(args + ["--ref-dof", " 1 : X"], capsys)
+    code_canonical, out_canonical = run(args + ["--ref-dof", "1:x"], capsys)
+    assert code == code_canonical == 0
+    assert json.loads(out)["parameters"] == json.loads(out_canonical)["parameters"]
+    code, out = run(args[:-2] + ["--ref-dof", "1x"], capsys)
+    assert code == 2 and "reference dof (--ref-dof): dof label '1x' is not of the form" in out

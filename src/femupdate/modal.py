@@ -295,7 +295,8 @@ def solve_modes(
         lam, Phi = _dense(K, M, n_modes, dofs, massless)
     elif method == "sparse":
         if n_modes >= n - 1:
-            raise InputError(f"sparse solver: n_modes must be below n - 1 = {n - 1}; use method='dense'")
+            raise InputError(f"the sparse eigensolver computes fewer than n - 1 = {n - 1} modes of {n} dofs: use the "
+                             "dense one (--method dense; method='dense' in Python)")
         lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
     else:
         raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
@@ -495,7 +496,9 @@ def _sparse(K, M, n_modes, sigma, tol):
             f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
         ) from None
     except RuntimeError as exc:
-        raise NumericalError(f"the sparse eigensolver failed at shift {sigma:g}: {exc}") from None
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
+                             "use the dense one (--method dense)") from None
     return lam, Phi, (lu, float(sigma))
 
 

@@ -14,6 +14,7 @@ from .. import rules
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..sensitivity.subspace import buffered_modes
+from ..dofs import canonical
 from ..testdata import TestData
 
 
@@ -193,6 +194,11 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
     if not (np.all(np.isfinite(w_lam)) and np.all(w_lam >= 0) and np.all(np.isfinite(w_psi)) and np.all(w_psi >= 0)):
         raise InputError("weights must be finite and non-negative")
     code = rules.SCALINGS[shape_scaling]
+    if ref_dof is not None:  # as the user may type it (" 1 : X"), checked once for every mode
+        try:
+            ref_dof = canonical(ref_dof)
+        except InputError as exc:
+            raise InputError(f"reference dof (--ref-dof): {exc}") from None
     pptr: list[int] = [0]
     pos: list[int] = []
     psi: list[float] = []
