@@ -333,15 +333,17 @@ def static_equations(builder: EquationBuilder, cases: Sequence[StaticData]) -> N
     InputError
         Displacements missing model dofs or at dofs not in the model; a force at a dof not in
         the model; a load not in equilibrium on a model with rigid-body modes
-        (:func:`femupdate.modal.check_static_load`).
+        (:func:`femupdate.modal.check_static_loads`).
     """
-    from .modal import check_static_load
+    from .modal import check_static_loads
 
+    rows = []
     for k, case in enumerate(cases, start=1):
         u = _complete(builder.model, case.dofs, case.displacement, f"static case {k} displacement")
-        f = _force(builder.model, dict(case.force), f"static case {k}")
-        check_static_load(builder.model, builder.p, f, f"static case {k}")
-        builder.add(u, 0.0, f, f"static case {k}")
+        rows.append((f"static case {k}", u, _force(builder.model, dict(case.force), f"static case {k}")))
+    check_static_loads(builder.model, builder.p, [(what, f) for what, _, f in rows])
+    for what, u, f in rows:
+        builder.add(u, 0.0, f, what)
 
 
 def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "static"),

@@ -502,22 +502,21 @@ def _sparse(K, M, n_modes, sigma, tol):
     return lam, Phi, (lu, float(sigma))
 
 
-def check_static_load(model, values, force: np.ndarray, what: str, need_inverse: bool = False) -> None:
-    """Refuse a static load that a model with rigid-body modes cannot carry.
+def check_static_loads(model, values, loads, need_inverse: bool = False) -> None:
+    """Refuse static loads that a model with rigid-body modes cannot carry.
 
     A free (or partly free) structure can only be loaded by forces in equilibrium: the force must
     have no component along the rigid-body modes (the null space of K).  Otherwise K u = f has
     no solution at any parameter values, and a fit to such data is a least-squares compromise
-    that means nothing.
+    that means nothing.  K is factorised once for all the loads (and its modes computed only
+    when it is singular).
 
     Parameters
     ----------
     model : Model
     values : parameter values at which K is judged (None: nominal).
-    force : numpy.ndarray, shape ``(n_dofs,)``
-        The load (N).
-    what : str
-        How the caller names the load case, for the message.
+    loads : sequence of (str, numpy.ndarray)
+        Each load case's name, as messages give it, and its force vector (n_dofs,), N.
     need_inverse : bool, default False
         The caller computes u = K(p)⁻¹ f (iterative updating): any rigid-body mode is refused,
         a self-equilibrated load too (u is then defined only up to rigid motion).
@@ -525,14 +524,15 @@ def check_static_load(model, values, force: np.ndarray, what: str, need_inverse:
     Raises
     ------
     InputError
-        The model has rigid-body modes and the load is not in equilibrium with respect to them
+        The model has rigid-body modes and a load is not in equilibrium with respect to them
         (or, with ``need_inverse``, the model has rigid-body modes at all).
     """
+    loads = list(loads)
+    if not loads:
+        return
     p = model.resolve(values)
-    K = sp.csc_array(model.K(p))
     try:
-        lu = factorize(K)
-        if not nearly_singular(lu):
+        if not nearly_singular(factorize(sp.csc_array(model.K(p)))):
             return
     except RuntimeError:  # exactly singular
         pass
@@ -544,16 +544,18 @@ def check_static_load(model, values, force: np.ndarray, what: str, need_inverse:
         return
     if need_inverse:
         raise InputError(
-            f"{what}: the model has {rigid.shape[1]} rigid-body mode(s): iterative updating computes u = K(p)^-1 f, "
-            "which needs a supported model; support it, or use direct updating with displacements at every dof")
-    f = np.real(np.asarray(force))
-    along = np.abs(rigid.T @ f)
-    scale = np.linalg.norm(f) * np.linalg.norm(rigid, axis=0)
-    if np.any(along > 1e-8 * np.maximum(scale, np.finfo(float).tiny)):
-        raise InputError(
-            f"{what}: the model has {rigid.shape[1]} rigid-body mode(s) and the load is not in equilibrium with "
-            "them (K u = f has no solution at any parameter values): support the model, or give a self-equilibrated "
-            "load")
+            f"{loads[0][0]}: the model has {rigid.shape[1]} rigid-body mode(s): iterative updating computes "
+            "u = K(p)^-1 f, which needs a supported model; support it, or use direct updating with displacements "
+            "at every dof")
+    for what, force in loads:
+        f = np.real(np.asarray(force))
+        along = np.abs(rigid.T @ f)
+        scale = np.linalg.norm(f) * np.linalg.norm(rigid, axis=0)
+        if np.any(along > 1e-8 * np.maximum(scale, np.finfo(float).tiny)):
+            raise InputError(
+                f"{what}: the model has {rigid.shape[1]} rigid-body mode(s) and the load is not in equilibrium with "
+                "them (K u = f has no solution at any parameter values): support the model, or give a "
+                "self-equilibrated load")
 
 
 def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:

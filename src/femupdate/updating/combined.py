@@ -38,10 +38,10 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..frf.lines import UNDAMPED
-from ..modal import check_static_load
+from ..modal import check_static_loads
 from ..testdata import FRFData, TestData
 from .frf import FRFProblem, prepare_problem
-from .parametrisation import Parametrisation
+from .parametrisation import Parametrisation, start_vector, updated_names
 from .problem import Problem
 
 #: the kinds of test data, in the order their blocks are stacked
@@ -345,7 +345,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     if frf_options and "frf" not in kinds:
         raise InputError(f"FRF options ({', '.join(sorted(frf_options))}) given, but no FRF data are used")
     mixed = len(kinds) > 1
-    names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+    names = updated_names(model, params)
     blocks: list[Block] = []
     notes: list[str] = []
     n_data = 0
@@ -385,15 +385,17 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                         raise InputError(f"measurement_std['static']: give one value or one per measured dof of "
                                          f"{label} ({case.displacement.size})") from None
                 try:
-                    prob = FRFProblem(model, frf, names, parametrisation, _p_base(model, values, x0), "linear",
+                    prob = FRFProblem(model, frf, names, parametrisation, start_vector(model, values, x0), "linear",
                                       weights, np.zeros(1, int), UNDAMPED, "auto")
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}") from None
-                check_static_load(model, values, prob.f, label, need_inverse=True)
                 n_data += case.displacement.size
                 scale, weighting = _weighting(label, given is not None, mixed, case.displacement, "its deflections",
                                               "deflection", " m", notes, key="static")
                 blocks.append(Block("static", label, prob, scale, weighting))
+            check_static_loads(model, values, [(b.label, b.problem.f) for b in blocks
+                                               if isinstance(b.problem, FRFProblem) and b.kind == "static"],
+                               need_inverse=True)
     sigma = True if all(b.weighting == "stated std" for b in blocks) else None
     if mixed and "modes" in kinds and blocks[0].weighting == "stated std":
         modal = blocks[0].problem
@@ -405,12 +407,6 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                          "problem is underdetermined; add data, fix parameters, or use regularization")
     return combined
 
-
-def _p_base(model, values, x0) -> np.ndarray:
-    p = model.resolve(values)
-    for name, v in dict(x0 or {}).items():
-        p[model.parameter_index(name)] = float(v)
-    return p
 
 
 def _resonance_tol() -> float:

@@ -35,7 +35,7 @@ from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, r
 from ..frf.sensitivity import RESONANCE_TOL
 from ..frf.simulate import check_data_against_model
 from ..testdata import FRFData, TestData
-from .parametrisation import PARAMETRISATIONS, Parametrisation
+from .parametrisation import PARAMETRISATIONS, Parametrisation, start_vector, updated_names
 from .results import UpdateResult
 from .solve import diagnostics, solve
 
@@ -469,13 +469,9 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
     R.check_kind(residual)
     damping = as_damping(damping)
     check_data_against_model(model, frf, damping, residual)
-    names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
-    if not names:
-        raise InputError("no parameters to update: every parameter is fixed")
+    names = updated_names(model, params)
     p_nominal = model.resolve(values)
-    p_base = p_nominal.copy()
-    for name, v in dict(x0 or {}).items():
-        p_base[model.parameter_index(name)] = float(v)
+    p_base = start_vector(model, values, x0)
     w = weights
     sigma = None
     if measurement_std is not None:

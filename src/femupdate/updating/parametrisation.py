@@ -221,4 +221,27 @@ def start_error(names: Sequence[str], start, lo, hi, kind: str) -> str | None:
     return None
 
 
-__all__ = ["Parametrisation", "x_of_p", "x_bounds", "start_error", "PARAMETRISATIONS"]
+def updated_names(model, params: Sequence[str] | None) -> list[str]:
+    """The parameters to update: ``params``, or every parameter not ``fixed``.
+
+    Raises
+    ------
+    InputError
+        Nothing to update (every parameter fixed, or an empty ``params``).
+    """
+    names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+    if not names:
+        raise InputError("no parameters to update: every parameter is fixed")
+    return names
+
+
+def start_vector(model, values, x0) -> np.ndarray:
+    """The full parameter vector at the start: ``values`` (default nominal) with the updated
+    parameters' starting values ``x0`` {name: value} put in."""
+    p = model.resolve(values)
+    for name, v in dict(x0 or {}).items():
+        p[model.parameter_index(name)] = float(v)
+    return p
+
+
+__all__ = ["Parametrisation", "x_of_p", "x_bounds", "start_error", "PARAMETRISATIONS", "updated_names", "start_vector"]

@@ -25,7 +25,8 @@ from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
 from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
 from ..testdata import TestData
-from .parametrisation import PARAMETRISATIONS, Parametrisation, start_error, x_bounds, x_of_p
+from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, start_vector, updated_names, x_bounds,
+                              x_of_p)
 from .targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets, build_targets, modal_weights
 SHAPE_SCALINGS = tuple(rules.SCALINGS)  #: ``("unit", "ref", "max")``
 SENSITIVITY_CHOICES = SENSITIVITY_METHODS  #: ``"auto"``, ``"nelson"``, ``"modal"``, ... (the Jacobian's route)
@@ -138,13 +139,7 @@ class Problem(Parametrisation):
             raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
         if not 0.0 <= min_mac <= 1.0:
             raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
-        names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
-        if not names:
-            raise InputError("no parameters to update: every parameter is fixed")
-        p_base = model.resolve(values)
-        for name, v in dict(x0 or {}).items():
-            p_base[model.parameter_index(name)] = float(v)
-        super().__init__(model, names, parametrisation, p_base)
+        super().__init__(model, updated_names(model, params), parametrisation, start_vector(model, values, x0))
         w, self.sigma = modal_weights(weights, measurement_std)
         self.model = model
         self.data = data

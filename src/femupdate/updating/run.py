@@ -14,7 +14,7 @@ from ..testdata import TestData
 from .combined import DATA_KINDS, STD_KEYS, CombinedProblem, split_std, combined_problem, data_kinds
 from .frf import FRFProblem, FRFUpdateResult, frac, modal_report
 from .results import UpdateResult
-from .solve import diagnostics, result_at, solve, update_modal
+from .solve import diagnostics, paired_modes, solve, update_modal
 
 
 def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
@@ -164,12 +164,14 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
     J = prob.jacobian(x)
     p_final = prob.to_p(x)
     modal = prob.modal
-    if modal is not None:
-        base = result_at(modal, x, sol, history, reg)
-        pairs, f_test, f_model, swaps = base.pairs, base.test_frequencies_hz, base.model_frequencies_hz, base.swaps
-        routes = [base.sensitivity]
+    if modal is not None:  # its modes at x, cached by the evaluation above: no second eigen-solution
+        _, modes, mpairs = modal.evaluate(x)
+        paired = paired_modes(modal, modes, mpairs)
+        swaps, routes = list(modal.swaps), [modal.sensitivity_used]
+        natural = modes.frequencies_hz[:10]
     else:
-        pairs, f_test, f_model, _ = modal_report(model, data, p_final)
+        mp, f_test, f_model, natural = modal_report(model, data, p_final)
+        paired = dict(pairs=mp, test_frequencies_hz=f_test, model_frequencies_hz=f_model)
         swaps, routes = [], []
     frf_blocks = [b for b in prob.blocks if b.kind == "frf"]
     routes += ["brandon"] if frf_blocks else []
@@ -181,7 +183,7 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         message=str(sol.message) if sol is not None else "evaluated, not solved", cost=float(0.5 * r @ r), fun=r,
         jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=int(sol.njev or 0) if sol is not None else 0,
         iterations=max(len(history) - 1, int(sol.njev or 0) if sol is not None else 0), history=history,
-        pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=swaps,
+        **paired, swaps=swaps,
         diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.p_base[prob.idx]))), sensitivity=" + ".join(routes),
         blocks=prob.block_costs(r), notes=list(prob.notes))
@@ -191,7 +193,6 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
     assert isinstance(fp, FRFProblem)
     frf = data.frf
     assert frf is not None
-    _, _, _, natural = modal_report(model, TestData(), p_final)
     return FRFUpdateResult(**common, omega=fp.omega, skipped=list(getattr(fp, "skipped", [])), residual=fp.kind,
                            frac=dict(zip(frf.dofs, frac(fp.xe, fp.responses(x)))), natural_frequencies_hz=natural)
 

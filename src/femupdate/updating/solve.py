@@ -307,6 +307,27 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
     return result_at(prob, sol.x, sol, history, reg)
 
 
+def paired_modes(prob: Problem, modes, pairs) -> dict:
+    """The correlation part of a result: ``pairs`` (test mode, model mode, MAC — the MAC computed
+    for a mode compared by frequency only), ``test_frequencies_hz``, ``model_frequencies_hz``.
+
+    Parameters
+    ----------
+    prob : Problem
+    modes : Modes
+        The model's modes at the point (``prob.evaluate(x)``).
+    pairs : list of (int, int, float)
+        The pairs there.
+
+    Returns
+    -------
+    dict
+    """
+    return dict(pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
+                test_frequencies_hz=prob.data.frequencies_hz,
+                model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]))
+
+
 def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResult:
     """The :class:`UpdateResult` of ``prob`` at the variables x: residuals, Jacobian, pairs and
     diagnostics there; ``sol`` (a SciPy ``OptimizeResult`` or an object with its fields) gives
@@ -351,12 +372,10 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResul
         status=status, message=str(sol.message) if sol is not None else "evaluated, not solved",
         cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=njev,
         iterations=max(len(history) - 1, njev), history=history,
-        pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
-        test_frequencies_hz=prob.data.frequencies_hz,
-        model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
+        **paired_modes(prob, modes, pairs),
         swaps=list(prob.swaps), diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
     )
 
 
-__all__ = ["update_modal", "solve", "solve_problem", "result_at", "diagnostics"]
+__all__ = ["update_modal", "solve", "solve_problem", "result_at", "paired_modes", "diagnostics"]

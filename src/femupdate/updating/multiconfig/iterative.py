@@ -15,6 +15,7 @@ import numpy as np
 from ..._errors import InputError
 from ...model import Model
 from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, modal_weights, solve
+from ..parametrisation import start_vector
 from .configurations import Configuration, check_unknowns, config_values, is_complete, prepare
 from .direct import direct_configurations
 from .results import MultiConfigResult, conditioning
@@ -241,9 +242,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     cms = prepare(model, configurations, names)
-    p_base = model.resolve(values)
-    for name, v in dict(x0 or {}).items():
-        p_base[model.parameter_index(name)] = float(v)
+    p_base = start_vector(model, values, x0)
     _, sigma = modal_weights(weights, measurement_std)
     prob = Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
                     shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
