@@ -442,7 +442,7 @@ def test_compiled_route_failure_messages_equal_local_route():
     model = two_dof()
     data = measured(model, ["1:x", "2:x"], 2)
     starts = np.array([[9.0, 5.5], [90.0, 1.0], [8.5, 6.2]])
-    for opts in ({"min_mac": 0.9999999}, {"min_mac": 0.5}):
+    for opts in ({"min_mac": 0.9999999, "pairing": "mac"}, {"min_mac": 0.5, "pairing": "mac"}):
         a = BatchedProblem.from_problem(Problem(model, data, **opts), starts).solve()
         for r in range(3):
             try:

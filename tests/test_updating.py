@@ -165,7 +165,12 @@ def test_unpairable_test_mode_is_a_clear_error():
     model = six_dof()
     bogus = TestData(modes=(MeasuredMode(4e3, ["1:x", "2:x", "3:x"], [1.0, -1.0, 1.0]),))
     with pytest.raises(NumericalError, match="pair with no model mode"):
-        update(model, bogus, params=["k1", "k2"], min_mac=0.99)
+        update(model, bogus, params=["k1", "k2"], min_mac=0.99, pairing="mac")
+    # the default pairing keeps the start alive (by frequency order) and says the pair is not confirmed
+    res = update(model, bogus, params=["k1", "k2"], min_mac=0.99)
+    assert res.pairing["policy"] == "auto" and res.pairing["used"] == "order" and res.pairing["low_mac"] == [0]
+    assert res.pairs[0][1] == 0 and res.pairs[0][2] < 0.99
+    assert "the shapes do not confirm this pair" in res.summary()
 
 
 def test_draw_starts_and_cluster():

@@ -257,6 +257,7 @@ def update_payload(model, data, res, ms=None):
         "pairs": [[k, j, m] for k, j, m in res.pairs],
         "frequencies_hz": {"test": res.test_frequencies_hz, "model": res.model_frequencies_hz},
         "swaps": res.swaps,
+        "pairing": getattr(res, "pairing", {}) or None,
         "history": res.history,
         "regularization": res.regularization,
         "sensitivity": res.sensitivity,

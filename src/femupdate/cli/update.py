@@ -14,6 +14,7 @@ from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
                       print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
+from ..updating.results import pairing_warnings
 from .frf import frf_fields, frf_line_options, frf_options
 
 
@@ -31,7 +32,14 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
+              help="Pairing threshold: the MAC a pair of shaped modes must reach (--pairing mac), or that confirms a pairing (auto).")
+@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
+              help="How test modes pair with model modes: auto (by frequency order until the shapes show a swap, "
+                   "then by MAC; never abandons a start), mac (a test mode below --min-mac fails), order, or "
+                   "frequency (nearest frequency, MAC deciding within 10 %).")
+@click.option("--n-modes", type=click.IntRange(min=1), default=None,
+              help="Model modes computed and paired among (default max(2T, T + 6) for T test modes).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
@@ -49,7 +57,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
+           method, reg_text, min_mac, pairing, n_modes, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
            set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
@@ -70,7 +78,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
     kinds = data_kinds(data, use)
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
-              regularization=parse_regularization(reg_text), min_mac=min_mac, max_nfev=max_nfev,
+              regularization=parse_regularization(reg_text), min_mac=min_mac, pairing=pairing, n_modes=n_modes,
+              max_nfev=max_nfev,
               use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity,
               use=kinds)
     if "frf" in kinds:
@@ -128,8 +137,15 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
             f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
     if d.poorly_determined:
         c.print(f"poorly determined: {', '.join(d.poorly_determined)}")
-    for sw in res.swaps:
-        c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to {sw['to_model_mode'] + 1}")
+    if res.pairing:
+        c.print(f"pairing: {res.pairing['policy']} (the pairs at the solution made by {res.pairing['used']})")
+    for sw in res.swaps[:5]:
+        c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to "
+                f"{sw['to_model_mode'] + 1} (by {sw.get('rule', 'mac')}, evaluation {sw['evaluation']})")
+    if len(res.swaps) > 5:
+        c.print(f"... and {len(res.swaps) - 5} more mode swap(s) (all in the JSON under 'swaps')")
+    for line in pairing_warnings(res):
+        c.print(line)
     if ms is not None:
         print_starts(c, ms)
     for note in res.notes:

@@ -317,7 +317,8 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         The least-squares method (checked with the FRF block).
     **modal_options
         Options of the modal block (:class:`~femupdate.updating.Problem`: ``shape_scaling``,
-        ``ref_dof``, ``weights``, ``min_mac``, ``n_modes``, ``use_shapes``, ``sensitivity``).
+        ``ref_dof``, ``weights``, ``min_mac``, ``pairing``, ``n_modes``, ``use_shapes``,
+        ``sensitivity``).
 
     Returns
     -------

@@ -80,7 +80,8 @@ class Problem(Parametrisation):
     weights, measurement_std : mapping, optional
         See :func:`modal_weights`; each entry a single value or one per test mode.
     min_mac : float, default 0.5
-        Pairing threshold in [0, 1]; a test mode with a shape must reach it with its model mode.
+        Pairing threshold in [0, 1]: with ``pairing="mac"`` a test mode with a shape must reach
+        it with its model mode; with ``"auto"`` a pairing whose shapes all reach it correlates.
     n_modes : int, optional
         Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes,
         capped at the model's dofs).
@@ -92,6 +93,12 @@ class Problem(Parametrisation):
         The derivative route of the local Jacobian (:data:`SENSITIVITY_CHOICES`,
         :func:`femupdate.sensitivity.jacobian`; the compiled route always uses the exact
         complete modal method).
+    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        How test modes are paired with model modes at each evaluation
+        (:func:`femupdate.rules.pair_modes`): ``"auto"`` by frequency order until the shapes show
+        a swap (then by MAC), never abandoning a start; ``"mac"`` by MAC, a test mode below
+        ``min_mac`` failing; ``"order"`` by frequency order; ``"frequency"`` by the nearest
+        frequency, MAC deciding within 10 %.
 
     Attributes
     ----------
@@ -110,14 +117,17 @@ class Problem(Parametrisation):
         shape is compared).
     swaps : list of dict
         Mode swaps seen while evaluating (``evaluation``, ``test_mode``, ``from_model_mode``,
-        ``to_model_mode``; 0-based modes).
+        ``to_model_mode``; 0-based modes; ``rule``: the pairing rule that made the new pair).
+    pairing_used : str
+        The rule that made the last evaluation's pairs: ``"mac"``, ``"order"`` or
+        ``"frequency"``.
     nfev : int
         Residual evaluations so far.
 
     Raises
     ------
     InputError
-        An unknown ``shape_scaling``, ``sensitivity`` or ``parametrisation``; ``min_mac`` not a
+        An unknown ``shape_scaling``, ``sensitivity``, ``parametrisation`` or ``pairing``; ``min_mac`` not a
         number in [0, 1]; no parameters to update; bad weights, standard deviations or data (as
         :func:`modal_weights`, :func:`build_targets`).
     NumericalError
@@ -128,7 +138,7 @@ class Problem(Parametrisation):
                  x0: Mapping[str, float] | None = None, values=None, shape_scaling: str = "unit",
                  ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
                  min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
-                 use_shapes: bool = True, sensitivity: str = "auto"):
+                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto"):
         if shape_scaling not in rules.SCALINGS:
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         if sensitivity not in SENSITIVITY_CHOICES:
@@ -139,6 +149,8 @@ class Problem(Parametrisation):
             raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
         if not 0.0 <= min_mac <= 1.0:
             raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
+        if pairing not in rules.PAIRINGS:
+            raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
         super().__init__(model, updated_names(model, params), parametrisation, start_vector(model, values, x0))
         w, self.sigma = modal_weights(weights, measurement_std)
         self.model = model
@@ -146,6 +158,9 @@ class Problem(Parametrisation):
         self.scaling = shape_scaling
         self.scaling_code = rules.SCALINGS[shape_scaling]
         self.min_mac = float(min_mac)
+        self.pairing = pairing
+        #: the rule that made the last evaluation's pairs (``mac``, ``order`` or ``frequency``)
+        self.pairing_used = ""
         self.sensitivity = sensitivity
         self.sensitivity_used = sensitivity
         self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0),
@@ -208,15 +223,17 @@ class Problem(Parametrisation):
             rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k, :nm])
         pairs = np.zeros(T, np.int64)
         bad = np.zeros(T, np.bool_)
-        code, i = rules.pair_by_mac(MAC, shaped, nm, self.min_mac, pairs, bad)
+        code, i, used = rules.pair_modes(rules.PAIRINGS[self.pairing], MAC, shaped, modes.eigenvalues, tg.lam_e,
+                                         nm, self.min_mac, pairs, bad)
         if code != rules.OK:
             raise NumericalError(rules.message(code, i, modes=np.flatnonzero(bad), min_mac=self.min_mac))
         out = [(k, int(pairs[k]), float(MAC[k, pairs[k]]) if shaped[k] else math.nan) for k in range(T)]
         for k, j, _ in out:
             if k in self._pairs_seen and self._pairs_seen[k] != j:
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
-                                   "to_model_mode": j})
+                                   "to_model_mode": j, "rule": rules.PAIRING_NAMES[used]})
             self._pairs_seen[k] = j
+        self.pairing_used = rules.PAIRING_NAMES[used]
         return out
 
     def residuals(self, x) -> np.ndarray:

@@ -103,6 +103,31 @@ class RunResult:
     iterations: int
 
 
+def pairing_warnings(res) -> list[str]:
+    """Warnings on a result's pairing: test modes whose pair's MAC is below ``min_mac`` (the
+    shapes do not confirm the pairing, so the answer is doubtful).
+
+    Parameters
+    ----------
+    res : UpdateResult
+        A result (its ``pairing`` and ``pairs``).
+
+    Returns
+    -------
+    list of str
+        One line per such test mode (empty when every shaped pair correlates).
+    """
+    pg = getattr(res, "pairing", None) or {}
+    macs = {k: (j, m) for k, j, m in res.pairs}
+    out = []
+    for k in pg.get("low_mac", []):
+        j, m = macs[k]
+        out.append(f"warning: test mode {k + 1} is paired by {pg.get('used', '?')} with model mode {j + 1} at MAC "
+                   f"{m:.3f}, below the pairing threshold {pg.get('min_mac', 0.5):g}: the shapes do not confirm "
+                   "this pair, so the updated values are doubtful")
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class UpdateResult(RunResult):
     """Result of :func:`femupdate.update`, in the spirit of :class:`scipy.optimize.OptimizeResult`:
@@ -121,7 +146,7 @@ class UpdateResult(RunResult):
         Frequencies (Hz) of the test modes and of their paired model modes, in test-mode order.
     swaps : list of dict
         Mode swaps seen during the iteration (``evaluation``, ``test_mode``,
-        ``from_model_mode``, ``to_model_mode``).
+        ``from_model_mode``, ``to_model_mode``, ``rule``).
     diagnostics : Diagnostics or None
         Identifiability at the solution.
     regularization : dict
@@ -137,6 +162,11 @@ class UpdateResult(RunResult):
         residuals at the solution)}; empty for a single kind.
     notes : list of str
         What the run wants the user to know (lines skipped, weighting chosen, ...).
+    pairing : dict
+        How the modes were paired at the solution (empty without modes): ``policy`` (the rule
+        asked for), ``used`` (the rule that made the pairs: ``"mac"``, ``"order"`` or
+        ``"frequency"``), ``min_mac`` and ``low_mac`` (0-based test modes whose pair's MAC is
+        below ``min_mac``: their pairing is not confirmed by the shapes).
     """
 
     history: list[dict]
@@ -150,6 +180,7 @@ class UpdateResult(RunResult):
     sensitivity: str = ""  # the derivative route used at the solution (``"auto"`` resolved)
     blocks: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    pairing: dict = field(default_factory=dict)
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
@@ -185,6 +216,7 @@ class UpdateResult(RunResult):
             lines.append(repr(d))
         if self.swaps:
             lines.append(f"{len(self.swaps)} mode swap(s) during the iteration")
+        lines += pairing_warnings(self)
         return "\n".join(lines)
 
 
@@ -288,19 +320,20 @@ class MultiStartResult:
         """One record per start, in start order: ``start`` {name: value}, ``outcome``
         (``"fits"``, ``"local minimum"``, ``"not converged"``, ``"failed"``, or ``"rejected"``
         when above ``cost_tol``), ``cost``, ``iterations``, ``nfev``, ``solution`` (index into
-        ``solutions``, or None) and ``message``."""
+        ``solutions``, or None), ``message`` and ``pairing`` (the rule that made the final pairs:
+        ``"mac"``, ``"order"`` or ``"frequency"``; None for a failed start)."""
         where = {k: i for i, s in enumerate(self.solutions) for k in s.starts}
         out = []
         for k, run in enumerate(self.runs):
             rec: dict = {"start": dict(zip(self.names, map(float, self.starts[k]))), "solution": where.get(k)}
             if isinstance(run, str):
-                rec.update(outcome="failed", cost=None, iterations=None, nfev=None, message=run)
+                rec.update(outcome="failed", cost=None, iterations=None, nfev=None, message=run, pairing=None)
             else:
                 i = where.get(k)
                 outcome = ("not converged" if not run.success else "rejected" if i is None
                            else "fits" if self.solutions[i].fits else "local minimum")
                 rec.update(outcome=outcome, cost=float(run.cost), iterations=int(run.iterations), nfev=int(run.nfev),
-                           message=str(run.message))
+                           message=str(run.message), pairing=(getattr(run, "pairing", None) or {}).get("used"))
             out.append(rec)
         return out
 
@@ -316,4 +349,4 @@ def failure_reason(message: str) -> str:
     return re.sub(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", head)[:200]
 
 
-__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult", "failure_reason"]
+__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult", "failure_reason", "pairing_warnings"]

@@ -23,7 +23,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
            n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           frf_options: Mapping | None = None) -> UpdateResult:
+           frf_options: Mapping | None = None, pairing: str = "auto") -> UpdateResult:
     """Update the model's parameters so that it matches the test data: measured modes, FRFs,
     static deflections, or any mix of them, as one least-squares problem.
 
@@ -55,6 +55,9 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         alone: any stated key; modes with shapes in a mix: both ``"eigenvalue"`` and ``"shape"``).
     min_mac : float, default 0.5
         Pairing threshold of the modes.
+    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        How test modes are paired with model modes (:class:`~femupdate.updating.Problem`):
+        ``"auto"`` by frequency order until the shapes show a swap, then by MAC.
     n_modes : int, optional
         Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
     parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
@@ -103,7 +106,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     kinds = data_kinds(data, use)
     modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
-                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity)
+                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
     solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
     unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
     if unused:

@@ -193,7 +193,8 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
            measurement_std: Mapping | None = None, min_mac: float = 0.5, n_modes: int | None = None,
            parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
-           regularization: float | str | None = None, values=None, sensitivity: str = "auto") -> UpdateResult:
+           regularization: float | str | None = None, values=None, sensitivity: str = "auto",
+           pairing: str = "auto") -> UpdateResult:
     """Update the model's parameters so that its modes match the measured ones (the modal case of
     :func:`femupdate.update`, which takes FRFs and static deflections too).
 
@@ -220,6 +221,9 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         scaled by the residual.
     min_mac : float, default 0.5
         Pairing threshold.
+    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        How test modes are paired with model modes (:class:`~femupdate.updating.Problem`):
+        ``"auto"`` by frequency order until the shapes show a swap, then by MAC.
     n_modes : int, optional
         Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
     parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
@@ -262,7 +266,7 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     prob = Problem(model, data, params, x0=x0, values=values, shape_scaling=shape_scaling, ref_dof=ref_dof,
                    weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity)
+                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
     return solve_problem(prob, method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol,
                          regularization=regularization)
 
@@ -309,7 +313,9 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
 
 def paired_modes(prob: Problem, modes, pairs) -> dict:
     """The correlation part of a result: ``pairs`` (test mode, model mode, MAC — the MAC computed
-    for a mode compared by frequency only), ``test_frequencies_hz``, ``model_frequencies_hz``.
+    for a mode compared by frequency only), ``test_frequencies_hz``, ``model_frequencies_hz``
+    and ``pairing`` (``policy``: the rule asked for, ``used``: the rule that made these pairs,
+    ``low_mac``: 0-based test modes with a shape whose pair's MAC is below ``min_mac``).
 
     Parameters
     ----------
@@ -323,9 +329,11 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
     -------
     dict
     """
+    low = [k for k, _, m in pairs if np.isfinite(m) and not m >= prob.min_mac]
     return dict(pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
                 test_frequencies_hz=prob.data.frequencies_hz,
-                model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]))
+                model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
+                pairing={"policy": prob.pairing, "used": prob.pairing_used, "min_mac": prob.min_mac, "low_mac": low})
 
 
 def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResult:

@@ -43,10 +43,10 @@ log = logging.getLogger(__name__)
 AUTO_MAX_DOFS = 200  #: models up to this size take the batched route by default
 #: keyword options of :func:`femupdate.update` the batched route implements
 SUPPORTED_OPTIONS = frozenset({
-    "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "n_modes", "parametrisation",
+    "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes", "parametrisation",
     "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
 })
-PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "n_modes",
+PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes",
                     "parametrisation", "use_shapes", "values", "sensitivity")
 SOLVER_OPTIONS = ("max_nfev", "ftol", "xtol", "gtol")
 
@@ -110,7 +110,7 @@ class BatchedProblem:
         ``(DataSets, Targets)`` pair of :func:`.spec.concatenate`.
     row_dataset : (R,) the data set of each row (default: all the first).
     values : values of the parameters that are not updated (default nominal).
-    parametrisation, shape_scaling, min_mac : the problem's rules, as
+    parametrisation, shape_scaling, min_mac, pairing : the problem's rules, as
         :class:`~femupdate.updating.Problem` holds them.
     max_nfev, ftol, xtol, gtol : the solver's limits.
 
@@ -124,8 +124,8 @@ class BatchedProblem:
 
     def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
                  parametrisation: str = "relative", shape_scaling: str = "unit",
-                 min_mac: float = 0.5, max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10,
-                 gtol: float = 1e-10):
+                 min_mac: float = 0.5, pairing: str = "auto", max_nfev: int = 200, ftol: float = 1e-10,
+                 xtol: float = 1e-10, gtol: float = 1e-10):
         names = list(names)
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
@@ -145,6 +145,11 @@ class BatchedProblem:
         self.param = parametrisation
         self.scaling = shape_scaling
         self.min_mac = float(min_mac)
+        from ... import rules
+
+        if pairing not in rules.PAIRINGS:
+            raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+        self.pairing = pairing
         # per start: the parametrisation of the local route from that start
         self.idx = Parametrisation(model, names, parametrisation, self.p_fixed).idx
         self.scale = np.where(starts != 0, np.abs(starts), 1.0)
@@ -175,7 +180,7 @@ class BatchedProblem:
         p_fixed = problem.p_base.copy()
         return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
                    parametrisation=problem.param, shape_scaling=problem.scaling,
-                   min_mac=problem.min_mac, **solver_options)
+                   min_mac=problem.min_mac, pairing=problem.pairing, **solver_options)
 
     def to_p(self, X, rows) -> np.ndarray:
         """Updated parameters' values (S, L) at solver variables X (S, L) of the starts ``rows``."""
@@ -247,7 +252,8 @@ class BatchedProblem:
         arrays = ModelArrays(np.ascontiguousarray(self.K_const), kp, ki, kj, kv, bool(self.M_varies),
                              np.ascontiguousarray(self.M_const), mp, mi, mj, mv, np.ascontiguousarray(self.Cinv),
                              sptr, sidx, rules.PARAMETRISATIONS[self.param], np.ascontiguousarray(self.scale))
-        return Spec(arrays, self.sets, self.targets, rules.SCALINGS[self.scaling], float(self.min_mac))
+        return Spec(arrays, self.sets, self.targets, rules.SCALINGS[self.scaling], float(self.min_mac),
+                    rules.PAIRINGS[self.pairing])
 
     @property
     def n_residuals(self) -> np.ndarray:

@@ -227,7 +227,8 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
                 for j in range(nm):
                     B[i, j] = Phi[d.pos[a + i], j]
             rules.mac_vector(d.psi_e[a:b], B[:b - a], MAC[k, :nm])
-    code, i0 = rules.pair_by_mac(MAC, shaped, nm, sp_.min_mac, pairs, err_modes)
+    code, i0, _ = rules.pair_modes(sp_.pairing, MAC, shaped, lam, d.lam_e[t0:t0 + T], nm, sp_.min_mac, pairs,
+                                   err_modes)
     if code != rules.OK:
         err_i[0] = i0
         return code

@@ -56,6 +56,7 @@ class Spec(NamedTuple):
     targets: Targets
     scaling: int  #: :data:`femupdate.rules.SCALINGS`
     min_mac: float
+    pairing: int  #: :data:`femupdate.rules.PAIRINGS`
 
 
 def concatenate(targets: Sequence[Targets], row_dataset) -> tuple[DataSets, Targets]:

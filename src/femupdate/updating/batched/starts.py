@@ -26,8 +26,10 @@ class BatchRun(RunResult):
     """Result of one start of a batched study: the fields of
     :class:`~femupdate.updating.results.RunResult` (a light
     :class:`~femupdate.updating.UpdateResult`), and ``optimality`` (‖gradient‖∞), ``pairs``
-    [(test mode, model mode, MAC)], the paired ``model_frequencies_hz``, the ``start`` and the
-    iteration ``history`` (built from ``history_cost`` and ``history_x`` on demand).
+    [(test mode, model mode, MAC)], the paired ``model_frequencies_hz``, the ``start``, the
+    iteration ``history`` (built from ``history_cost`` and ``history_x`` on demand) and
+    ``pairing`` (as :attr:`UpdateResult.pairing`: the rule asked for and the rule that made the
+    final pairs).
     """
 
     optimality: float
@@ -36,6 +38,7 @@ class BatchRun(RunResult):
     start: dict[str, float] = field(default_factory=dict)
     history_cost: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: (iterations + 1,)
     history_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  #: (iterations + 1, L) values of names
+    pairing: dict = field(default_factory=dict)
 
     @property
     def history(self) -> list[dict]:
@@ -46,6 +49,15 @@ class BatchRun(RunResult):
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
         return f"BatchRun({'converged' if self.success else 'NOT converged'}, cost {self.cost:.4g}: {values})"
+
+
+def pairing_of(problem: Problem, pairs, macs) -> dict:
+    """A start's ``pairing`` record (as :attr:`UpdateResult.pairing`) from its final pairs."""
+    from ... import rules
+
+    low = [k for k, m in enumerate(macs) if np.isfinite(m) and not m >= problem.min_mac]
+    return {"policy": problem.pairing, "used": rules.pairing_rule(problem.pairing, pairs, problem.targets.lam_e),
+            "min_mac": problem.min_mac, "low_mac": low}
 
 
 def batched_runs(model, data, names: Sequence[str], starts, options: dict,
@@ -103,6 +115,7 @@ def batched_runs(model, data, names: Sequence[str], starts, options: dict,
             start=dict(zip(names, map(float, X0[r]))),
             history_cost=res.history_cost[r, :n_hist].copy(),
             history_x=bp.to_p(res.history_x[r, :n_hist], np.full(n_hist, r)),
+            pairing=pairing_of(problem, res.pairs[r, :T], res.macs[r, :T]),
         )
     return runs
 

@@ -44,9 +44,9 @@ class Stacked(Parametrisation):
     p_base : ndarray, shape ``(n_parameters,)``
         Parameter values of the base model (the start; the known values of each configuration are
         taken from it and its modification, :func:`~.configurations.config_values`).
-    shape_scaling, ref_dof, weights, measurement_std, min_mac, n_modes, use_shapes, sensitivity
+    shape_scaling, ref_dof, weights, measurement_std, min_mac, n_modes, use_shapes, sensitivity, pairing
         Options of each configuration's :class:`femupdate.updating.Problem` (defaults ``"unit"``,
-        None, None, None, 0.5, None, True, ``"auto"``).
+        None, None, None, 0.5, None, True, ``"auto"``, ``"auto"``).
 
     Raises
     ------
@@ -57,7 +57,7 @@ class Stacked(Parametrisation):
 
     def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, shape_scaling="unit",
                  ref_dof=None, weights=None, measurement_std=None, min_mac=0.5, n_modes=None, use_shapes=True,
-                 sensitivity="auto"):
+                 sensitivity="auto", pairing="auto"):
         if parametrisation not in PARAMETRISATIONS:
             raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
         super().__init__(model, names, parametrisation, p_base)
@@ -71,7 +71,8 @@ class Stacked(Parametrisation):
             try:
                 prob = Problem(cm, c.data, mine, values=pb, shape_scaling=shape_scaling, ref_dof=ref_dof,
                                weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                               parametrisation="absolute", use_shapes=use_shapes, sensitivity=sensitivity)
+                               parametrisation="absolute", use_shapes=use_shapes, sensitivity=sensitivity,
+                               pairing=pairing)
             except InputError as exc:
                 raise InputError(f"configuration {c.label!r}: {exc}") from None
             self.subs.append((c.label, prob, cols))
@@ -181,7 +182,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
                           n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf",
                           max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10,
                           use_shapes: bool = True, values=None, sensitivity: str = "auto",
-                          regularization: float | str | None = None) -> MultiConfigResult:
+                          regularization: float | str | None = None, pairing: str = "auto") -> MultiConfigResult:
     """Iterative joint updating of several configurations from (incomplete) modal data.
 
     The residuals of every configuration (relative eigenvalue errors and scaled shape
@@ -223,6 +224,9 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
         Derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`).
     regularization : float, {"gcv", "lcurve"} or None, default None
         Tikhonov factor, or the rule choosing it, pulling the scaled parameters toward the start.
+    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        How each configuration's test modes are paired with its model modes
+        (:class:`femupdate.updating.Problem`).
 
     Returns
     -------
@@ -247,7 +251,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     prob = Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
                     shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
                     measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                    use_shapes=use_shapes, sensitivity=sensitivity)
+                    use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
     n_data = prob.n_data()
     if n_data < len(names) and regularization is None:
         raise InputError(f"{len(names)} parameters but only {n_data} independent data over all configurations "

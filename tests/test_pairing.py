@@ -1,0 +1,173 @@
+"""Pairing of test modes with model modes (femupdate.rules.pair_modes): the policies mac, order,
+frequency and auto, the same on the local and the compiled route, and what each does for a start
+far from the data (issue: pairing that never throws a start away)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from femupdate import MeasuredMode, NumericalError, Structure, TestData, model_modes, rules
+from femupdate.generators import shear_building
+from femupdate.updating import multistart, update
+
+MAC_, ORDER, FREQ, AUTO = rules.PAIR_MAC, rules.PAIR_ORDER, rules.PAIR_FREQUENCY, rules.PAIR_AUTO
+
+
+def pair(policy, MAC, lam, lam_e, shaped=None, min_mac=0.5):
+    MAC = np.asarray(MAC, float)
+    T, nm = MAC.shape
+    shaped = np.ones(T, bool) if shaped is None else np.asarray(shaped, bool)
+    pairs, bad = np.zeros(T, np.int64), np.zeros(T, bool)
+    code, i, used = rules.pair_modes(policy, MAC, shaped, np.asarray(lam, float), np.asarray(lam_e, float), nm,
+                                     min_mac, pairs, bad)
+    return code, list(pairs), rules.PAIRING_NAMES[used]
+
+
+# ------------------------------------------------------------------ the rules
+def test_order_pairs_by_measured_frequency_whatever_the_listing():
+    code, pairs, used = pair(ORDER, np.zeros((3, 5)), [1, 2, 3, 4, 5], [9.0, 1.0, 4.0])
+    assert code == rules.OK and pairs == [2, 0, 1] and used == "order"
+    code, *_ = pair(ORDER, np.zeros((3, 2)), [1, 2], [1.0, 2.0, 3.0])
+    assert code == rules.E_NO_MODE_LEFT
+
+
+def test_frequency_pairing_lets_mac_decide_inside_the_window_only():
+    # test mode at 10 Hz; model modes at 9.8 and 10.3 Hz (inside 10 %) and 30 Hz
+    lam = (2 * np.pi * np.array([9.8, 10.3, 30.0])) ** 2
+    lam_e = [(2 * np.pi * 10.0) ** 2]
+    assert pair(FREQ, [[0.2, 0.9, 0.1]], lam, lam_e)[1] == [1]  # the better shape, not the nearer frequency
+    assert pair(FREQ, [[0.9, 0.2, 0.1]], lam, lam_e)[1] == [0]
+    # outside the window the nearest frequency wins whatever the MAC; a low MAC never fails
+    assert pair(FREQ, [[0.0, 0.0, 1.0]], lam, lam_e)[1:] == ([0], "frequency")
+
+
+def test_auto_keeps_order_unless_the_shapes_show_a_swap_clearly():
+    lam, lam_e = [1.0, 2.0, 3.0], [1.0, 2.0]
+    # order correlates: order
+    assert pair(AUTO, [[0.95, 0.1, 0.0], [0.1, 0.9, 0.2]], lam, lam_e)[1:] == ([0, 1], "order")
+    # a clear swap (each best match >= 0.9 and 0.2 better than any other): by MAC
+    assert pair(AUTO, [[0.05, 0.97, 0.0], [0.96, 0.1, 0.2]], lam, lam_e)[1:] == ([1, 0], "mac")
+    # the MAC pairing is not clear (0.8 < 0.9, or a second match within 0.2): order, never a failure
+    assert pair(AUTO, [[0.05, 0.8, 0.0], [0.96, 0.1, 0.2]], lam, lam_e)[:2] == (rules.OK, [0, 1])
+    assert pair(AUTO, [[0.05, 0.97, 0.85], [0.96, 0.1, 0.2]], lam, lam_e)[1:] == ([0, 1], "order")
+    # mac fails where auto goes on
+    assert pair(MAC_, [[0.05, 0.3, 0.0], [0.2, 0.1, 0.2]], lam, lam_e)[0] == rules.E_NO_PAIR
+    assert pair(AUTO, [[0.05, 0.3, 0.0], [0.2, 0.1, 0.2]], lam, lam_e)[:2] == (rules.OK, [0, 1])
+
+
+def test_pairing_rule_names_what_made_the_pairs():
+    assert rules.pairing_rule("auto", [1, 0], [1.0, 2.0]) == "mac"
+    assert rules.pairing_rule("auto", [1, 0], [2.0, 1.0]) == "order"
+    assert rules.pairing_rule("frequency", [0, 1], [1.0, 2.0]) == "frequency"
+
+
+# ------------------------------------------------------------------ updating
+def two_oscillators():
+    """Two uncoupled unit masses on springs k1, k2: their modes cross when k1 passes k2."""
+    s = Structure("two oscillators")
+    for i, k in ((1, 1.0), (2, 4.0)):
+        s.parameter(f"k{i}", k, (0.1, 10.0))
+        s.spring([f"{i}:x"], k=f"k{i}")
+        s.mass([f"{i}:x"], m=1.0)
+    return s.build()
+
+
+def test_auto_follows_a_mode_swap_that_order_pairing_gets_wrong():
+    model = two_oscillators()
+    mm = model_modes(model)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], ["1:x", "2:x"], mm.shapes[:, j]) for j in range(2)))
+    start = {"k1": 6.0, "k2": 2.0}  # the model's lower mode is the test's upper one
+    res = update(model, data, x0=start)
+    np.testing.assert_allclose(res.x, [1.0, 4.0], rtol=1e-8)
+    # paired by MAC while the model's modes are in the other order, then (once they have crossed) by order
+    assert res.pairing == {"policy": "auto", "used": "order", "min_mac": 0.5, "low_mac": []}
+    assert res.swaps and {sw["test_mode"] for sw in res.swaps} == {0, 1}
+    bad = update(model, data, x0=start, pairing="order")  # order pairs the wrong modes: no exact fit
+    assert bad.cost > 1e-3 and bad.pairing["low_mac"] and "do not confirm" in bad.summary()
+    assert update(model, data, x0=start, pairing="mac").cost < 1e-20
+
+
+def sparse_building(n=10, n_modes=4, n_sensors=5):
+    k = 2.0e7 * (1.0 - 0.4 * np.arange(n) / (n - 1))
+    model = shear_building(n, k=k, m=1.0e4, bounds=(0.0, 2.0)).build()
+    floors = sorted(set(np.linspace(1, n, n_sensors).round().astype(int)))
+    sensors = [f"{i}:x" for i in floors]
+    mm = model_modes(model)
+    pos = model.dof_index(sensors)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], sensors, mm.shapes[pos, j]) for j in range(n_modes)))
+    return model, data, k
+
+
+def reached(ms, k):
+    return sum(1 for r in ms.runs if not isinstance(r, str) and r.success and np.max(np.abs(r.x / k - 1)) < 1e-6)
+
+
+def test_auto_keeps_every_start_of_a_sparse_building_alive():
+    """Sensors on 5 of 10 floors, 4 modes, 40 starts over [0, 2] x nominal: by MAC a third of the starts
+    are abandoned at their first evaluation; the default keeps them and every one reaches the truth."""
+    model, data, k = sparse_building()
+    by_mac = multistart(model, data, starts=40, seed=1, pairing="mac")
+    assert sum(isinstance(r, str) for r in by_mac.runs) >= 5
+    assert any("pair with no model mode" in reason for reason in by_mac.failures)
+    ms = multistart(model, data, starts=40, seed=1)
+    assert reached(ms, k) == 40 and not ms.failures
+    assert {rec["pairing"] for rec in ms.records()} == {"order"}
+
+
+@pytest.mark.parametrize("pairing", ["auto", "order", "frequency", "mac"])
+def test_compiled_and_local_routes_pair_alike(pairing):
+    model, data, k = sparse_building(8, 3, 4)
+    a = multistart(model, data, starts=8, seed=5, pairing=pairing, batched=True)
+    b = multistart(model, data, starts=8, seed=5, pairing=pairing, batched=False)
+    for ra, rb in zip(a.runs, b.runs):
+        assert isinstance(ra, str) == isinstance(rb, str), (ra, rb)
+        if isinstance(ra, str):
+            assert ra == rb
+            continue
+        assert ra.success == rb.success
+        if ra.success:
+            np.testing.assert_allclose(ra.x, rb.x, rtol=1e-6, atol=1e-9 * k.max())  # a value on its bound 0
+            assert [j for _, j, _ in ra.pairs] == [j for _, j, _ in rb.pairs]
+            assert ra.pairing["used"] == rb.pairing["used"]
+
+
+# ------------------------------------------------------------------ command line
+def test_cli_pairing_option_and_warning(tmp_path, capsys):
+    from femupdate.cli import main
+
+    toml = ['[model]', 'name = "oscillators"']
+    for i, kv in ((1, 1.0), (2, 4.0)):
+        toml += [f"[parameters.k{i}]", f"value = {kv}", "bounds = [0.1, 10.0]",
+                 "[[element]]", 'type = "spring"', f'dofs = ["{i}:x"]', f'k = "k{i}"',
+                 "[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', "m = 1.0"]
+    (tmp_path / "m.toml").write_text("\n".join(toml) + "\n")
+    mm = model_modes(two_oscillators())
+    modes = [{"eigenvalue": float(mm.eigenvalues[j]), "shape": {"1:x": float(mm.shapes[0, j]),
+                                                                 "2:x": float(mm.shapes[1, j])}} for j in range(2)]
+    modes[1]["shape"] = {"1:x": 1.0, "2:x": 1.0}  # a shape no model mode matches at MAC 0.9
+    (tmp_path / "d.json").write_text(json.dumps({"modes": modes}))
+    args = ["update", str(tmp_path / "m.toml"), str(tmp_path / "d.json"), "--set", "k1=6,k2=2", "--min-mac", "0.9"]
+    with pytest.raises(SystemExit) as info:
+        main(args + ["--pairing", "mac"])
+    assert info.value.code == 1 and "pair with no model mode" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(args + ["--json", str(tmp_path / "r.json")])
+    out = capsys.readouterr().out
+    assert info.value.code in (0, None)
+    assert "pairing: auto" in out and "do not confirm" in out.replace("\n", " ")
+    got = json.loads((tmp_path / "r.json").read_text())
+    assert got["pairing"]["policy"] == "auto" and got["pairing"]["low_mac"]
+    with pytest.raises(SystemExit) as info:
+        main(args + ["--pairing", "nearest"])
+    assert info.value.code == 2
+
+
+def test_unknown_pairing_is_refused():
+    model = two_oscillators()
+    data = TestData(modes=(MeasuredMode(1.0),))
+    with pytest.raises(Exception, match="unknown pairing 'nearest'"):
+        update(model, data, params=["k1"], pairing="nearest")
+    with pytest.raises(NumericalError):
+        update(model, TestData(modes=(MeasuredMode(1.0, ["1:x", "2:x"], [1.0, 1.0]),)), params=["k1"],
+               min_mac=0.99, pairing="mac")
