@@ -30,12 +30,17 @@ from ._errors import InputError
 DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
 _DIR_INDEX = {d: i for i, d in enumerate(DIRECTIONS)}
 _NASTRAN = {str(i + 1): d for i, d in enumerate(DIRECTIONS)}  # NASTRAN components 1..6 = x..rz
-_INTEGER = re.compile(r"[+-]?[0-9]+")
 _INDEX = re.compile(r"#([0-9]+)")
 _SEPARATORS = ",;="  # separate dofs, sets and amplitudes in command-line options
 
 Node = int | str
 """A node: an integer node number, or a node name (a ``str`` that is not an integer)."""
+
+
+def _is_integer(text: str) -> bool:
+    """Whether ``text`` is an integer in ASCII digits, with an optional sign."""
+    digits = text[1:] if text[:1] in ("+", "-") else text
+    return digits.isascii() and digits.isdigit()
 
 
 def _node_problem(text: str) -> str | None:
@@ -88,7 +93,7 @@ def node_id(node, what: str = "node") -> Node:
     if not isinstance(node, str):
         raise InputError(f"{what}: {node!r} is not a node (an integer or a name such as 'A2')")
     text = node.strip()
-    if _INTEGER.fullmatch(text):
+    if _is_integer(text):
         return int(text)
     why = "contains ':'" if ":" in text else _node_problem(text)
     if why:
@@ -120,15 +125,15 @@ def parse_dof(label: str) -> tuple[Node, str]:
         name; its direction is unknown; it is a dof index ``"#N"`` (which only
         :func:`resolve_dof` resolves, against a model's dof list).
     """
-    if is_index(label):
-        raise InputError(f"dof {label!r}: '#N' (the N-th dof of a model) is resolved only where test data or "
-                         "command-line options are read with their model; give a label '<node>:<dir>' here")
     if not isinstance(label, str) or label.count(":") != 1:
+        if is_index(label):
+            raise InputError(f"dof {label!r}: '#N' (the N-th dof of a model) is resolved only where test data or "
+                             "command-line options are read with their model; give a label '<node>:<dir>' here")
         raise InputError(f"dof label {label!r} is not of the form '<node>:<dir>' (e.g. '3:x' or 'A2:x')")
     node_txt, direction = label.split(":")
     node_txt, direction = node_txt.strip(), direction.strip().lower()
     node: Node
-    if _INTEGER.fullmatch(node_txt):
+    if _is_integer(node_txt):
         node = int(node_txt)
     else:
         why = _node_problem(node_txt)
@@ -274,13 +279,13 @@ def resolve_dof(text: str, dofs: Sequence[str] | None, what: str = "dof") -> str
         raise InputError(f"{what}: dof {text!r}: '#N' (the N-th dof of the model) needs the model, which is "
                          "not known here; give a label '<node>:<dir>'")
     n = len(dofs)
+    has = f"the model has {n} dof{'' if n == 1 else 's'}"
     m = _INDEX.fullmatch(text.strip())
     if m is None:
-        raise InputError(f"{what}: dof index {text!r} is not '#' and a whole number from 1 to {n} "
-                         f"(the model has {n} dofs)")
+        raise InputError(f"{what}: dof index {text!r} is not '#' and a whole number from 1 to {n} ({has})")
     k = int(m.group(1))
     if not 1 <= k <= n:
-        raise InputError(f"{what}: dof index {text!r} is out of range: the model has {n} dofs (#1 to #{n})")
+        raise InputError(f"{what}: dof index {text!r} is out of range: {has} (#1 to #{n})")
     return canonical(dofs[k - 1])
 
 
