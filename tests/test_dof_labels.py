@@ -360,6 +360,17 @@ def test_bad_indices_in_options(ex, data, capsys, args, fragment):
     check_refused(code, err, fragment)
 
 
+def test_rank_modifications_sensors_by_index(ex, tmp_path, capsys):
+    cands = tmp_path / "cands.toml"
+    cands.write_text('[[candidate]]\nname = "tip mass"\n[[candidate.mass]]\ndofs = ["N-5.b:y"]\nm = 2.0\n')
+    args = ["rank-modifications", ex / "named.toml", cands, "--modes", "2", "--eigenvalues-only"]
+    a = run_json([*args, "--measured-dofs", "A10:y,N-5.b:y"], capsys)
+    b = run_json([*args, "--measured-dofs", "#8,#11"], capsys)
+    assert b == a
+    code, _, err = run([*args, "--measured-dofs", "#8,#0"], capsys)
+    check_refused(code, err, "--measured-dofs: dof index '#0' is out of range: the model has 12 dofs")
+
+
 def test_indices_need_a_model():
     from femupdate.io.testdata_json import parse_testdata
     from femupdate.updating.multiconfig.files import modification_from_dict

@@ -252,7 +252,8 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
     model = load_model(model_path)
     values = model_values(model, set_text)
     cands = load_candidates(candidates_path)
-    res = _rank(model, cands, list(option_dofs(_names(dofs_text) or [], model, "--measured-dofs")), n_modes, params=_names(params_text), values=values,
+    sensors = list(option_dofs(_names(dofs_text) or [], model, "--measured-dofs"))
+    res = _rank(model, cands, sensors, n_modes, params=_names(params_text), values=values,
                 criterion=criterion, select=select, use_shapes=not eigenvalues_only)
     t = Table(title=f"{model.name}: candidates ranked by {criterion} (baseline: condition {res.baseline['condition_number']:.4g}, "
                     f"rank {res.baseline['rank']}/{len(res.unknowns)})")
