@@ -171,11 +171,13 @@ def mutate_json(draw, text):
         elif op == "delete":
             del parent[key]
         elif op == "unknown_key" and isinstance(parent, dict):
-            parent[draw(st.sampled_from(["99:x", "1:q", "bogus", "1:x", "label"]))] = copy.deepcopy(draw(JSON_VALUES))
+            parent[draw(st.sampled_from(["99:x", "1:q", "bogus", "1:x", "label", "#1", "#0", "#x", "A2:x"]))] = \
+                copy.deepcopy(draw(JSON_VALUES))
         elif op == "empty":
             parent[key] = [] if isinstance(parent[key], list) else {} if isinstance(parent[key], dict) else None
         elif op == "rename" and isinstance(parent, dict):
-            parent[draw(st.sampled_from(["99:x", "2:x", "1:z", "eigenvalue", "frequency_hz"]))] = parent.pop(key)
+            parent[draw(st.sampled_from(["99:x", "2:x", "1:z", "eigenvalue", "frequency_hz", "#2", "#99", "#1.5"]))] = \
+                parent.pop(key)
     out = json.dumps(tree, indent=1)  # NaN and Infinity as JSON's extensions
     if draw(st.booleans()):
         out = draw(mutate_lines(out, n_max=1))  # duplicate keys, truncation, junk
@@ -305,7 +307,8 @@ def test_fuzz_matrix_model(work, ex_dir, data):
             np.savez(d / f"{name}.npz", arr, *([arr] if data.draw(st.integers(0, 5)) == 0 else []))
     dofs = data.draw(st.one_of(
         st.just([f"{i + 1}:x" for i in range(n)]),
-        st.lists(st.sampled_from(["1:x", "2:x", "3:x", "1:q", "x", "", "1:x:y", "0:x", "-1:x"]), max_size=4),
+        st.lists(st.sampled_from(["1:x", "2:x", "3:x", "1:q", "x", "", "1:x:y", "0:x", "-1:x", "A2:x", "a b:x", "#1", "N1:6"]),
+                 max_size=4),
         st.sampled_from(["5", "true", "{a = 1}", "\"dofs.txt\"", "\"nofile.txt\"", "[1, 2]"])))
     (d / "dofs.txt").write_bytes(data.draw(st.sampled_from([b"1:x\n2:x\n3:x\n"[:4 * n], b"\xff\xfe1:x\n", b"", b"# c\n1:x\n"])))
     names = {k: next(iter(d.glob(f"{k}.*"))).name for k in ("K0", "M0", "dK")}
@@ -340,7 +343,8 @@ OPTION_COMMANDS = [
 OPTION_VALUES = st.one_of(tokens, st.sampled_from([
     "1:x", "2:x", "1:x,2:x", "1:x=2", "9:x", "k1", "k1,k2", "k1=9", "k1=0", "k1=-1", "k9=1", "k1=1e400", "k1=9,k1=3",
     "alpha=nan", "eta=-1", "beta=1e300", "0:3:5", "1:2:0", "1,2,2", "0", "1", "2", "3", "-1", "1-3", "3-1",
-    "1:x;2:x", ";", ",", "modes", "frf,static", "ref", "max", "gcv", "lcurve", "1e-300", "4294967296"]))
+    "1:x;2:x", ";", ",", "modes", "frf,static", "ref", "max", "gcv", "lcurve", "1e-300", "4294967296",
+    "#1", "#2", "#0", "#x", "#1.5", "#1,1:x", "#1=2", "#2;#1", "A2:x", "ref:#1", "ref:#9"]))
 
 
 @fuzz_settings(500)

@@ -1,10 +1,26 @@
-"""Degree-of-freedom labels ``"<node>:<dir>"`` (``dir`` one of x y z rx ry rz).
+"""Degree-of-freedom labels ``"<node>:<dir>"`` and dof indices ``"#N"``.
+
+A label names a node and a direction, e.g. ``"3:x"``, ``"A2:rz"``, ``"hinge_3:y"``:
+
+* **node**: an integer (``3``, canonical without blanks, sign ``+`` or leading zeros: ``" 03 "`` ->
+  ``3``), or any other name as a commercial FE code exports it (``A2``, ``N101``, ``Part-1.12``):
+  printable, without whitespace, without ``:``, ``,``, ``;`` or ``=`` (they separate labels, dofs and
+  amplitudes on the command line), and not beginning with ``#`` (which marks a dof index).  A
+  name is kept exactly as written (case-sensitive; blanks around it are dropped).
+* **dir**: one of ``x y z rx ry rz`` in any case, or a NASTRAN component number ``1``-``6``
+  (``1`` = x … ``6`` = rz); canonical in lower-case letters.
+
+``"#N"`` is the N-th dof (1-based) of a model's dof list, as ``femupdate modes --json`` lists it
+under ``dofs``.  It is resolved to the model's label where test data or command-line options are
+read together with their model (:func:`resolve_dof`, :func:`resolve_all`); everything downstream
+sees labels only.
 
 Every array with a dof axis travels with its labels; selection and pairing are by label.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -13,50 +29,132 @@ from ._errors import InputError
 
 DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
 _DIR_INDEX = {d: i for i, d in enumerate(DIRECTIONS)}
+_NASTRAN = {str(i + 1): d for i, d in enumerate(DIRECTIONS)}  # NASTRAN components 1..6 = x..rz
+_INDEX = re.compile(r"#([0-9]+)")
+_SEPARATORS = ",;="  # separate dofs, sets and amplitudes in command-line options
+
+Node = int | str
+"""A node: an integer node number, or a node name (a ``str`` that is not an integer)."""
 
 
-def parse_dof(label: str) -> tuple[int, str]:
-    """Split ``"12:rz"`` into ``(12, "rz")``; raise :class:`InputError` if malformed.
+def _is_integer(text: str) -> bool:
+    """Whether ``text`` is an integer in ASCII digits, with an optional sign."""
+    digits = text[1:] if text[:1] in ("+", "-") else text
+    return digits.isascii() and digits.isdigit()
+
+
+def _node_problem(text: str) -> str | None:
+    """Why ``text`` (stripped) cannot be a node name, or None."""
+    if not text:
+        return "is empty"
+    if any(c.isspace() for c in text):
+        return "contains a blank"
+    if not text.isprintable():
+        return "contains a control character"
+    bad = sorted({c for c in text if c in _SEPARATORS})
+    if bad:
+        return (f"contains {' and '.join(repr(c) for c in bad)} (',' ';' and '=' separate dofs and amplitudes "
+                "on the command line)")
+    if text.startswith("#"):
+        return "begins with '#' (which marks a dof index '#N')"
+    return None
+
+
+def node_id(node, what: str = "node") -> Node:
+    """The canonical form of a node: an ``int`` for an integer node, else its name.
+
+    Parameters
+    ----------
+    node : int or str
+        An integer (Python or NumPy; a float with an integer value is accepted), or a node name;
+        a name that spells an integer (``" 03 "``, ``"+3"``) is that integer.
+    what : str, default "node"
+        What the node is, for the error message.
+
+    Returns
+    -------
+    int or str
+        The node number, or the name stripped of surrounding blanks (case kept).
+
+    Raises
+    ------
+    InputError
+        A boolean, a non-integer number, or a name that is empty, contains a blank, a control
+        character, ``:`` or one of ``, ; =``, or begins with ``#``.
+    """
+    if isinstance(node, (bool, np.bool_)):
+        raise InputError(f"{what}: {node!r} is not a node (an integer or a name such as 'A2')")
+    if isinstance(node, (int, np.integer)):
+        return int(node)
+    if isinstance(node, (float, np.floating)):
+        if not float(node).is_integer():
+            raise InputError(f"{what}: {float(node)!r} is not a node (an integer or a name such as 'A2')")
+        return int(node)
+    if not isinstance(node, str):
+        raise InputError(f"{what}: {node!r} is not a node (an integer or a name such as 'A2')")
+    text = node.strip()
+    if _is_integer(text):
+        return int(text)
+    why = "contains ':'" if ":" in text else _node_problem(text)
+    if why:
+        raise InputError(f"{what}: node name {node!r} {why}")
+    return text
+
+
+def parse_dof(label: str) -> tuple[Node, str]:
+    """Split ``"12:rz"`` into ``(12, "rz")`` and ``"A2:x"`` into ``("A2", "x")``; raise
+    :class:`InputError` if malformed.
 
     Parameters
     ----------
     label : str
-        ``"<node>:<dir>"``; blanks around either part are ignored and the direction may be in any case.
+        ``"<node>:<dir>"`` (module docstring); blanks around either part are ignored, the direction
+        may be in any case or a NASTRAN component number ``1``-``6``.
 
     Returns
     -------
-    node : int
-        The node number.
+    node : int or str
+        The node number (``int``) for an integer node, else the node name (``str``, as written).
     direction : str
         One of ``x y z rx ry rz`` (lower case).
 
     Raises
     ------
     InputError
-        ``label`` is not a string with exactly one ``:``, its node is not an integer, or its direction is unknown.
+        ``label`` is not a string with exactly one ``:``; its node is not an integer nor a valid
+        name; its direction is unknown; it is a dof index ``"#N"`` (which only
+        :func:`resolve_dof` resolves, against a model's dof list).
     """
     if not isinstance(label, str) or label.count(":") != 1:
-        raise InputError(f"dof label {label!r} is not of the form '<node>:<dir>' (e.g. '3:x')")
+        if is_index(label):
+            raise InputError(f"dof {label!r}: '#N' (the N-th dof of a model) is resolved only where test data or "
+                             "command-line options are read with their model; give a label '<node>:<dir>' here")
+        raise InputError(f"dof label {label!r} is not of the form '<node>:<dir>' (e.g. '3:x' or 'A2:x')")
     node_txt, direction = label.split(":")
     node_txt, direction = node_txt.strip(), direction.strip().lower()
-    try:
+    node: Node
+    if _is_integer(node_txt):
         node = int(node_txt)
-    except ValueError:
-        raise InputError(f"dof label {label!r}: node {node_txt!r} is not an integer") from None
+    else:
+        why = _node_problem(node_txt)
+        if why:
+            raise InputError(f"dof label {label!r}: node {node_txt!r} {why}")
+        node = node_txt
+    direction = _NASTRAN.get(direction, direction)
     if direction not in _DIR_INDEX:
         raise InputError(
-            f"dof label {label!r}: direction {direction!r} is not one of {', '.join(DIRECTIONS)}"
+            f"dof label {label!r}: direction {direction!r} is not one of {', '.join(DIRECTIONS)} (or 1-6)"
         )
     return node, direction
 
 
-def dof(node: int, direction: str) -> str:
+def dof(node: Node, direction: str) -> str:
     """Canonical label of ``direction`` at ``node``.
 
     Parameters
     ----------
-    node : int
-        Node number (converted with ``int``).
+    node : int or str
+        Node number or name (canonicalised by :func:`node_id`).
     direction : str
         Direction, written as given (not checked; pass one of ``x y z rx ry rz``).
 
@@ -64,12 +162,17 @@ def dof(node: int, direction: str) -> str:
     -------
     str
         ``"<node>:<direction>"``.
+
+    Raises
+    ------
+    InputError
+        ``node`` is neither an integer nor a valid node name.
     """
-    return f"{int(node)}:{direction}"
+    return f"{node_id(node)}:{direction}"
 
 
 def canonical(label: str) -> str:
-    """The canonical spelling of a label (``" 3 : X"`` -> ``"3:x"``).
+    """The canonical spelling of a label (``" 3 : X"`` -> ``"3:x"``, ``" A2 : 1"`` -> ``"A2:x"``).
 
     Parameters
     ----------
@@ -79,14 +182,30 @@ def canonical(label: str) -> str:
     Returns
     -------
     str
-        The label without blanks, direction in lower case.
+        The label without blanks: an integer node as a plain number, a named node as written,
+        the direction as ``x y z rx ry rz``.
 
     Raises
     ------
     InputError
         The label is malformed.
     """
-    return dof(*parse_dof(label))
+    node, direction = parse_dof(label)
+    return f"{node}:{direction}"
+
+
+def _listed_twice(out: Sequence[str], written: Sequence[object], what: str) -> None:
+    if len(set(out)) == len(out):
+        return
+    seen: dict[str, list[object]] = {}
+    for lab, w in zip(out, written):
+        seen.setdefault(lab, []).append(w)
+    parts = []
+    for lab in sorted((lab for lab, ws in seen.items() if len(ws) > 1), key=sort_key):
+        ws = seen[lab]
+        shown = [w for w in ws if w != lab]
+        parts.append(lab + (f" (written {' and '.join(repr(w) for w in ws)})" if shown else ""))
+    raise InputError(f"{what}: dof(s) listed twice: {', '.join(parts)}")
 
 
 def canonical_all(labels: Iterable[str], what: str = "dofs") -> tuple[str, ...]:
@@ -109,19 +228,102 @@ def canonical_all(labels: Iterable[str], what: str = "dofs") -> tuple[str, ...]:
     InputError
         A label is malformed, or two labels are the same dof once canonical.
     """
+    labels = list(labels)
     out = tuple(canonical(lab) for lab in labels)
-    if len(set(out)) != len(out):
-        seen, dup = set(), []
-        for lab in out:
-            if lab in seen:
-                dup.append(lab)
-            seen.add(lab)
-        raise InputError(f"{what}: dof(s) listed twice: {', '.join(sorted(set(dup)))}")
+    _listed_twice(out, labels, what)
     return out
 
 
-def sort_key(label: str) -> tuple[int, int]:
+def is_index(text) -> bool:
+    """Whether ``text`` is meant as a dof index: a string beginning with ``#`` and without ``:``.
+
+    Parameters
+    ----------
+    text : object
+        What the user wrote.
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(text, str) and text.strip().startswith("#") and ":" not in text
+
+
+def resolve_dof(text: str, dofs: Sequence[str] | None, what: str = "dof") -> str:
+    """A dof as the user wrote it: ``"#N"`` is ``dofs[N - 1]``, anything else a label.
+
+    Parameters
+    ----------
+    text : str
+        ``"#N"`` (N from 1 to ``len(dofs)``; blanks around it are ignored) or a dof label.
+    dofs : sequence of str or None
+        The model's dof list that ``#N`` counts in; ``None`` where no model is known (then
+        ``#N`` is refused).
+    what : str, default "dof"
+        What the dof is (e.g. ``"--ref-dof"``), for the message.
+
+    Returns
+    -------
+    str
+        The canonical label.  A label is not checked against ``dofs`` here.
+
+    Raises
+    ------
+    InputError
+        ``#`` not followed by a whole number; N out of range (the message gives the dof count);
+        ``#N`` without ``dofs``; a malformed label.
+    """
+    if not is_index(text):
+        return canonical(text)
+    if dofs is None:
+        raise InputError(f"{what}: dof {text!r}: '#N' (the N-th dof of the model) needs the model, which is "
+                         "not known here; give a label '<node>:<dir>'")
+    n = len(dofs)
+    has = f"the model has {n} dof{'' if n == 1 else 's'}"
+    m = _INDEX.fullmatch(text.strip())
+    if m is None:
+        raise InputError(f"{what}: dof index {text!r} is not '#' and a whole number from 1 to {n} ({has})")
+    k = int(m.group(1))
+    if not 1 <= k <= n:
+        raise InputError(f"{what}: dof index {text!r} is out of range: {has} (#1 to #{n})")
+    return canonical(dofs[k - 1])
+
+
+def resolve_all(texts: Iterable[str], dofs: Sequence[str] | None, what: str = "dofs") -> tuple[str, ...]:
+    """:func:`resolve_dof` of each text, refusing the same dof given twice (e.g. as ``"1:x"`` and ``"#1"``).
+
+    Parameters
+    ----------
+    texts : iterable of str
+        Dof labels and/or indices ``"#N"``.
+    dofs : sequence of str or None
+        The model's dof list (``None``: no model; ``#N`` is refused).
+    what : str, default "dofs"
+        What the dofs are, for the message.
+
+    Returns
+    -------
+    tuple of str
+        Canonical labels, in the given order.
+
+    Raises
+    ------
+    InputError
+        As :func:`resolve_dof`; a dof given twice (the message shows how each was written).
+    """
+    texts = list(texts)
+    out = tuple(resolve_dof(t, dofs, what) for t in texts)
+    _listed_twice(out, texts, what)
+    return out
+
+
+def sort_key(label: str) -> tuple:
     """Key ordering labels by node, then by direction in the order ``x y z rx ry rz``.
+
+    Integer nodes come first, by number; then named nodes in natural order: runs of digits
+    compare as numbers and letters without regard to case (``A2 < a3 < A10 < B1``), names that
+    still tie by their exact spelling (``A02 < A2``).  The order is total, so sorting is stable
+    and reproducible.
 
     Parameters
     ----------
@@ -130,8 +332,9 @@ def sort_key(label: str) -> tuple[int, int]:
 
     Returns
     -------
-    tuple of (int, int)
-        ``(node, index of the direction in DIRECTIONS)``.
+    tuple
+        ``(0, node, direction index)`` for an integer node, ``(1, natural key, name,
+        direction index)`` for a named node.
 
     Raises
     ------
@@ -139,7 +342,28 @@ def sort_key(label: str) -> tuple[int, int]:
         The label is malformed.
     """
     node, direction = parse_dof(label)
-    return node, _DIR_INDEX[direction]
+    if isinstance(node, int):
+        return 0, node, _DIR_INDEX[direction]
+    return 1, natural_key(node), node, _DIR_INDEX[direction]
+
+
+def natural_key(name: str) -> tuple:
+    """Natural-order key of a name: digit runs as numbers, the rest case-folded (``"A10"`` ->
+    ``("a", 10, "")``).
+
+    Parameters
+    ----------
+    name : str
+        Any text.
+
+    Returns
+    -------
+    tuple
+        Alternately text (case-folded) and integers, beginning and ending with text, so that any
+        two keys compare.
+    """
+    parts = re.split(r"([0-9]+)", name)
+    return tuple(int(p) if i % 2 else p.casefold() for i, p in enumerate(parts))
 
 
 def _names(labels: Sequence[str], limit: int = 8) -> str:

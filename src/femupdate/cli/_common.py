@@ -97,6 +97,38 @@ def model_values(model, set_text):
     return model.resolve(values) if values else None
 
 
+def option_dofs(items, model, option: str) -> tuple[str, ...]:
+    """Dofs given in a command-line option as labels or ``#N`` (the N-th dof of ``model``, 1-based),
+    as canonical labels; a message names the option.
+
+    Parameters
+    ----------
+    items : iterable of str
+        The dofs as typed.
+    model : Model
+        The model whose dof list ``#N`` counts in.
+    option : str
+        The option, e.g. ``"--keep"``.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    InputError
+        A malformed label or index, an index out of range (the message gives the model's dof
+        count), or the same dof twice.
+    """
+    from ..dofs import resolve_all
+
+    try:
+        return resolve_all(items, model.dofs, option)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(option) else f"{option}: {msg}") from None
+
+
 def parse_regularization(text):
     """``--regularization``: None, ``gcv``, ``lcurve`` or a Tikhonov factor."""
     if text is None:

@@ -19,7 +19,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, emit, flags, print_flags, fmt, json_option, model_values,
-                      parse_regularization, parse_set, set_option)
+                      option_dofs, parse_regularization, parse_set, set_option)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -205,7 +205,7 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
         dpath, mpath = split_config_spec(spec)
         mod = load_modification(mpath) if mpath is not None else Modification(name=dpath.stem)
         cm = configure(model, mod).model
-        data = load_testdata(dpath, cm)
+        data = load_testdata(dpath, cm, numbering=model.dofs)  # "#N" counts in the baseline model's dofs
         cfgs.append(Configuration(data, mod, name=mod.name if mpath is not None else dpath.stem))
     res = solve_configurations(model, cfgs, method, unknowns=_names(params_text), values=values, bounded=bounded,
                                shape_scaling=shape_scaling, min_mac=min_mac, max_nfev=max_nfev,
@@ -232,7 +232,8 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
 @click.command("rank-modifications")
 @click.argument("model_path", metavar="MODEL", type=_path)
 @click.argument("candidates_path", metavar="CANDIDATES", type=_path)
-@click.option("--measured-dofs", "dofs_text", required=True, help="The planned sensors, e.g. \"1:x,2:x\".")
+@click.option("--measured-dofs", "dofs_text", required=True,
+              help="The planned sensors, labels or #N (the N-th model dof), e.g. \"1:x,2:x\".")
 @click.option("--modes", "n_modes", type=click.IntRange(min=1), required=True, help="Modes measured in each configuration.")
 @click.option("--criterion", type=click.Choice(["condition", "logdet", "min_singular"]), default="condition", show_default=True)
 @click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many candidates greedily.")
@@ -251,7 +252,8 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
     model = load_model(model_path)
     values = model_values(model, set_text)
     cands = load_candidates(candidates_path)
-    res = _rank(model, cands, _names(dofs_text) or [], n_modes, params=_names(params_text), values=values,
+    sensors = list(option_dofs(_names(dofs_text) or [], model, "--measured-dofs"))
+    res = _rank(model, cands, sensors, n_modes, params=_names(params_text), values=values,
                 criterion=criterion, select=select, use_shapes=not eigenvalues_only)
     t = Table(title=f"{model.name}: candidates ranked by {criterion} (baseline: condition {res.baseline['condition_number']:.4g}, "
                     f"rank {res.baseline['rank']}/{len(res.unknowns)})")

@@ -43,6 +43,10 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, js
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
+    if uff_path is not None:
+        from ..io.uff.write import uff_dofs
+
+        uff_dofs(model.dofs, "direct --uff")  # before the solution: named nodes cannot be written
     data = load_testdata(data_path, model)
     kinds = [u.strip() for u in use.split(",") if u.strip()]
     names = [u.strip() for u in unknowns.split(",")] if unknowns else None

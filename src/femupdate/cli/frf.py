@@ -12,7 +12,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
-from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table,
+from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_flags, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
                       update_parameter_table, update_payload)
@@ -46,8 +46,9 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
     return np.array(out)
 
 
-def parse_force(text: str) -> dict:
-    """``"2:x"`` (unit force) or ``"2:x=1.5,1:x=-0.5"`` -> {dof: amplitude}."""
+def parse_force(text: str, model=None) -> dict:
+    """``"2:x"`` (unit force) or ``"2:x=1.5,1:x=-0.5"`` -> {dof: amplitude}; with the ``model``, a
+    dof may be ``#N`` (the N-th model dof) and the keys are canonical labels."""
     out = {}
     for item in (text or "").split(","):
         item = item.strip()
@@ -64,6 +65,8 @@ def parse_force(text: str) -> dict:
             raise InputError(f"--force: amplitude of {dof.strip()!r} is not finite: {amp.strip()!r}")
     if not out:
         raise InputError("--force: give a dof (e.g. 2:x) or dof=amplitude pairs")
+    if model is not None:
+        out = dict(zip(option_dofs(out, model, "--force"), out.values()))
     return out
 
 
@@ -82,6 +85,12 @@ def parse_damping(text: str | None):
 
 def _dofs(text: str | None):
     return [d.strip() for d in text.split(",") if d.strip()] if text else None
+
+
+def _model_dofs(text: str | None, model, option: str = "--dofs"):
+    """The dofs of a comma-separated option, ``#N`` resolved against ``model``; None if not given."""
+    items = _dofs(text)
+    return list(option_dofs(items, model, option)) if items else None
 
 
 def _pairs(h: np.ndarray) -> list:
@@ -137,9 +146,10 @@ def frf_fields(res) -> dict:
 # ---------------------------------------------------------------------------------- frf
 @click.command("frf")
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...", help="Excitation (unit force by default).")
+@click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...",
+              help="Excitation (unit force by default); a dof is a label or #N, the N-th model dof.")
 @click.option("--omega", "omega_text", required=True, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
-@click.option("--dofs", "dofs_text", default=None, help="Response dofs (default every model dof).")
+@click.option("--dofs", "dofs_text", default=None, help="Response dofs, labels or #N (default every model dof).")
 @click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
 @damping_option
 @click.option("--noise", type=FiniteFloat(min=0, max=1e150), default=0.0, show_default=True, help="Noise standard deviation.")
@@ -161,9 +171,14 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
     model = load_model(model_path)
     values = model_values(model, set_text)
     omega = parse_omega(omega_text)
-    force = parse_force(force_text)
+    force = parse_force(force_text, model)
+    response = _model_dofs(dofs_text, model)
+    if uff_path is not None:
+        from ..io.uff.write import uff_dofs
+
+        uff_dofs(list(force) + list(response or model.dofs), "frf --uff")
     damping = parse_damping(damping_text)
-    data = simulate(model, omega, force, _dofs(dofs_text), values, damping, noise, noise_kind, seed)
+    data = simulate(model, omega, force, response, values, damping, noise, noise_kind, seed)
     H = convert(data.response, omega, kind) if kind != "receptance" else data.response
     notes = []
     from ..modal import DENSE_LIMIT
@@ -320,7 +335,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
 @click.option("--lines", "n_lines", type=click.IntRange(min=1), required=True, help="How many lines to choose.")
 @click.option("--kind", type=click.Choice(["direct", "sensitivity"]), default="direct", show_default=True,
               help="direct: complete data (eq. 28); sensitivity: measured at --dofs (eqs. 31-32).")
-@click.option("--dofs", "dofs_text", default=None, help="Measured dofs (kind sensitivity; default all).")
+@click.option("--dofs", "dofs_text", default=None, help="Measured dofs, labels or #N (kind sensitivity; default all).")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--margin", type=FiniteFloat(min=0), default=0.05, show_default=True,
               help="Keep this relative eigenvalue distance from resonances.")
@@ -336,8 +351,8 @@ def frf_select_command(model_path, force_text, cand_text, n_lines, kind, dofs_te
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
-    sel = select_frequencies(model, parse_omega(cand_text, "--candidates"), n_lines, parse_force(force_text), kind=kind,
-                             response=_dofs(dofs_text), unknowns=_dofs(unknowns), values=values,
+    sel = select_frequencies(model, parse_omega(cand_text, "--candidates"), n_lines, parse_force(force_text, model),
+                             kind=kind, response=_model_dofs(dofs_text, model), unknowns=_dofs(unknowns), values=values,
                              damping=parse_damping(damping_text), margin=margin)
     c = ctx.console
     c.print(f"chosen lines (rad/s): {', '.join(fmt(w) for w in sel.omega)}  (condition number {sel.condition_number:.4g})")
@@ -367,7 +382,7 @@ def _range(text: str, what: str) -> np.ndarray:
 @click.option("--kind", type=click.Choice(["frf", "modal"]), default="frf", show_default=True,
               help="frf: eq. 34 from the data's FRFs; modal: eq. 33 from its modes.")
 @click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear", show_default=True)
-@click.option("--ref-dof", default=None, help="Modal: scale shapes to 1 here (default first measured dof).")
+@click.option("--ref-dof", default=None, help="Modal: scale shapes to 1 here, a label or #N (default first measured dof).")
 @damping_option
 @click.option("--truth", "truth_text", default=None, metavar="P1=V1,P2=V2", help="Mark the true solution.")
 @click.option("--plot", "plot_path", type=OUTPUT_FIGURE, default=None,
@@ -407,7 +422,8 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
     else:
         if not data.modes:
             raise InputError(f"{data_path}: no modes for a modal surface")
-        surf = modal_surface(model, data, names, x, y, values, ref_dof, truth=truth)
+        (ref,) = option_dofs([ref_dof], model, "--ref-dof") if ref_dof else (None,)
+        surf = modal_surface(model, data, names, x, y, values, ref, truth=truth)
     summ = surf.summary()
     m = summ["minimum"]
     ctx.console.print(f"{surf.kind} over {names[0]} x {names[1]} ({x.size} x {y.size}): minimum {m['value']:.4g} at "

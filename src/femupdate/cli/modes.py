@@ -8,7 +8,8 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, emit, fmt, json_option, model_values, set_option
+from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, emit, fmt, json_option, model_values, option_dofs,
+                      set_option)
 
 
 # ---------------------------------------------------------------------------------- modes
@@ -16,7 +17,7 @@ from ._common import OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, emit, fmt
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--n-modes", type=click.IntRange(min=1), default=None, help="Number of modes (default all for small models, 10 for large).")
 @click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
-              help="mass | unit | max | ref:<dof>")
+              help="mass | unit | max | ref:<dof> (a label, or #N: the N-th model dof)")
 @click.option("--method", type=click.Choice(["auto", "dense", "sparse"]), default="auto", show_default=True)
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Also write the modes as universal file datasets 55 (with nodes 2411).")
@@ -30,6 +31,12 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
+    if normalisation.startswith("ref:"):
+        normalisation = "ref:" + option_dofs([normalisation[4:]], model, "--normalise")[0]
+    if uff_path is not None:
+        from ..io.uff.write import uff_dofs
+
+        uff_dofs(model.dofs, "modes --uff")  # before the eigen-solution: named nodes cannot be written
     if n_modes is not None and n_modes > model.n_dofs:
         raise InputError(f"--n-modes {n_modes}: the model has only {model.n_dofs} dofs")
     res = model_modes(model, values, n_modes=n_modes, normalisation=normalisation, method=method)

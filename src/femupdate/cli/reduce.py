@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from ._common import Ctx, emit, fmt, json_option, model_values, set_option
+from ._common import Ctx, emit, fmt, json_option, model_values, option_dofs, set_option
 
 METHOD_CHOICES = ["guyan", "irs", "modal", "hybrid", "serep"]
 
@@ -23,7 +23,7 @@ def _keep_list(text: str) -> list[str]:
 
 @click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--keep", "keep_text", required=True, metavar="DOFS", help="Dofs to retain, comma-separated (e.g. 2:x,4:x).")
+@click.option("--keep", "keep_text", required=True, metavar="DOFS", help="Dofs to retain, comma-separated labels or #N (e.g. 2:x,4:x or #2,#4).")
 @click.option("--method", type=click.Choice(METHOD_CHOICES), default="guyan", show_default=True)
 @click.option("--n-modes", type=click.IntRange(min=1), default=None,
               help="Modes used by modal / hybrid / serep (at most the number of kept dofs; default: that number).")
@@ -43,7 +43,7 @@ def reduce(model_path, keep_text, method, n_modes, compare, set_text, json_path)
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
-    red = Reducer(model, _keep_list(keep_text), values)
+    red = Reducer(model, list(option_dofs(_keep_list(keep_text), model, "--keep")), values)
     a = red.n_keep
     n_full = min(model.n_dofs, a)
     f_full = red.modes(n_full).frequencies_hz  # cached: modal, hybrid and SEREP reuse these modes

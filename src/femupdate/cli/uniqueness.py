@@ -46,7 +46,7 @@ def _exact_for(model, names, case, truth):
 @click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--measured-dofs", "dofs_text", default=None, metavar="SETS",
-              help="Measured dof sets, ';' between sets, ',' within: \"1:x,2:x;1:x\". "
+              help="Measured dof sets, ';' between sets, ',' within, labels or #N: \"1:x,2:x;1:x\". "
                    "Default: the paper's plans, the first n model dofs for n = 1..N.")
 @click.option("--modes", "modes_text", default=None, metavar="LIST",
               help="Numbers of measured (lowest) modes: 1,2,3 or 1-6 (default 1..N).")
@@ -98,7 +98,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
         raise InputError(f"--measured-dofs is required for models of more than 12 dofs (this one has {N})")
     if modes_text is None and N > 12:
         raise InputError(f"--modes is required for models of more than 12 dofs (this one has {N})")
-    sets = parse_measured_dofs(dofs_text) if dofs_text is not None else nested_dof_sets(model)
+    sets = parse_measured_dofs(dofs_text, model.dofs) if dofs_text is not None else nested_dof_sets(model)
     modes = parse_modes(modes_text) if modes_text is not None else list(range(1, N + 1))
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
     noise = []

@@ -11,8 +11,10 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
+from ..dofs import is_index
 from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
-                      print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+                      print_flags, fmt, json_option, model_values, option_dofs, parse_regularization, set_option,
+                      update_parameter_table,
                       update_payload)
 from ..updating.results import pairing_warnings
 from .frf import frf_fields, frf_line_options, frf_options
@@ -28,7 +30,8 @@ from .frf import frf_fields, frf_line_options, frf_options
 @connect_timeout_option
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
-@click.option("--ref-dof", default=None, help="Reference dof for --shape-scaling ref (default: first measured dof).")
+@click.option("--ref-dof", default=None,
+              help="Reference dof for --shape-scaling ref, a label or #N (default: first measured dof).")
 @click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
@@ -72,6 +75,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     model = load_model(model_path)
     values = model_values(model, set_text)
     data = load_testdata(data_path, model)
+    if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
+        (ref_dof,) = option_dofs([ref_dof], model, "--ref-dof")
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
     std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", std_frf),
                              ("static", std_static)) if v is not None} or None

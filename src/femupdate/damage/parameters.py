@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from .._errors import InputError
+from ..dofs import parse_dof
 from ..structure import Structure
 
 MODULUS = {"spring": "k", "rod": "E", "beam2d": "E", "frame3d": "E"}
@@ -78,7 +79,7 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
     fixed = set(structure.supports)
 
     def supported(labels) -> bool:  # an element with no free dof carries no information
-        return all(lab in fixed or int(lab.split(":")[0]) in sup_nodes for lab in labels)
+        return all(lab in fixed or parse_dof(lab)[0] in sup_nodes for lab in labels)
 
     for g in structure.groups:
         n_el = len(g.labels)

@@ -120,7 +120,12 @@ def model_geometry(model, segments=None) -> Geometry:
     """
     if not model.nodes:
         raise InputError(f"model {model.name!r} has no node coordinates: full-field data need the geometry")
-    dof_nodes = np.array([parse_dof(d)[0] for d in model.dofs])
+    nodes_of_dofs = [parse_dof(d)[0] for d in model.dofs]
+    named = list(dict.fromkeys(nd for nd in nodes_of_dofs if isinstance(nd, str)))
+    if named:
+        raise InputError(f"model {model.name!r}: named node(s) {', '.join(map(repr, named[:8]))} have dofs but no "
+                         "coordinates (full-field data are mapped onto the [[node]] coordinates, whose ids are integers)")
+    dof_nodes = np.array(nodes_of_dofs, dtype=np.int64)
     missing = sorted({int(nd) for nd in dof_nodes if int(nd) not in model.nodes})
     if missing:
         raise InputError(f"model {model.name!r}: node(s) {missing[:8]} have dofs but no coordinates")

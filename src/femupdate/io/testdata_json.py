@@ -10,16 +10,19 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
+from ..dofs import resolve_all, resolve_dof
 from .numbers import loads_json
 from ..testdata import FRFData, MeasuredMode, StaticData, TestData
 
 UFF_SUFFIXES = (".uff", ".unv")
 
 
-def load_testdata(path, model=None) -> TestData:
+def load_testdata(path, model=None, numbering=None) -> TestData:
     """Read test data from JSON or a universal file (``.uff``/``.unv``).
 
-    With ``model``, every dof in the data must be a model dof (the message names the others).
+    With ``model``, every dof in the data must be a model dof (the message names the others), and
+    a JSON dof written ``"#N"`` is the N-th dof of the model's dof list (1-based), resolved here to
+    its label.
 
     Parameters
     ----------
@@ -28,16 +31,21 @@ def load_testdata(path, model=None) -> TestData:
         ``.uff``/``.unv`` (read by :func:`femupdate.io.uff.read_uff`).
     model : Model, optional
         Model whose dofs the data must use.
+    numbering : sequence of str, optional
+        The dof list that ``"#N"`` counts in (default ``model.dofs``); ``update-multi`` passes the
+        baseline model's list while checking the data against a configuration's model.
 
     Returns
     -------
     TestData
+        With labels only (indices resolved).
 
     Raises
     ------
     InputError
         A missing, unreadable or malformed file; data that :func:`parse_testdata` or the
-        universal-file reader reject; with ``model``, a dof not in the model.
+        universal-file reader reject; ``"#N"`` out of range or malformed (the message gives the
+        model's dof count), or without a model; with ``model``, a dof not in the model.
     """
     path = Path(path)
     if path.suffix.lower() in UFF_SUFFIXES:
@@ -52,8 +60,10 @@ def load_testdata(path, model=None) -> TestData:
         except (IsADirectoryError, UnicodeDecodeError):
             raise InputError(f"{path}: not a readable JSON text file") from None
         raw = loads_json(text, str(path))
+        if numbering is None and model is not None:
+            numbering = model.dofs
         try:
-            data = parse_testdata(raw)
+            data = parse_testdata(raw, numbering)
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
     if model is not None:
@@ -115,7 +125,7 @@ def _complex(v, what):
     return _number(v, what)
 
 
-def parse_testdata(raw) -> TestData:
+def parse_testdata(raw, dofs=None) -> TestData:
     """Build :class:`TestData` from the parsed JSON object.
 
     Parameters
@@ -125,17 +135,22 @@ def parse_testdata(raw) -> TestData:
         or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value}, ``label`` and ``reference_dof``),
         ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
         frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
-        with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).
+        with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).  A dof is a
+        label or ``"#N"``, the N-th entry of ``dofs``.
+    dofs : sequence of str, optional
+        The model's dof list that ``"#N"`` counts in (without it, ``"#N"`` is refused).
 
     Returns
     -------
     TestData
+        With labels only.
 
     Raises
     ------
     InputError
-        Not an object; unknown keys; missing or malformed entries; no modes, FRF or static
-        data at all; and as the :class:`TestData` value classes.
+        Not an object; unknown keys; missing or malformed entries; ``"#N"`` out of range,
+        malformed or without ``dofs``; the same dof twice in one object (e.g. as ``"1:x"`` and
+        ``"#1"``); no modes, FRF or static data at all; and as the :class:`TestData` value classes.
     """
     if not isinstance(raw, Mapping):
         raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
@@ -167,16 +182,19 @@ def parse_testdata(raw) -> TestData:
         if ref is not None and not isinstance(ref, str):
             raise InputError(f"{where}: reference_dof must be a dof label such as \"3:x\"")
         try:
+            shape_dofs = resolve_all(shape, dofs, "shape")
+            if ref is not None:
+                ref = resolve_dof(ref, dofs, "reference_dof")
             if "frequency_hz" in m:
-                mode = MeasuredMode.from_frequency(value, list(shape), arr, label)
+                mode = MeasuredMode.from_frequency(value, shape_dofs, arr, label)
                 modes.append(MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref) if ref else mode)
             else:
-                modes.append(MeasuredMode(value, tuple(shape), arr, label, ref))
+                modes.append(MeasuredMode(value, shape_dofs, arr, label, ref))
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     frf = None
     if raw.get("frf") is not None:
-        frf = _frf(raw["frf"])
+        frf = _frf(raw["frf"], dofs)
     static_raw = raw.get("static") or []
     if isinstance(static_raw, Mapping):
         static_raw = [static_raw]
@@ -187,10 +205,12 @@ def parse_testdata(raw) -> TestData:
         where = f"static[{i}]"
         if not isinstance(s, Mapping) or not isinstance(s.get("force"), Mapping) or not isinstance(s.get("displacement"), Mapping):
             raise InputError(f"{where}: needs 'force' and 'displacement' objects {{dof: value}}")
-        force = {d: _number(v, f"{where} force {d}") for d, v in s["force"].items()}
+        force_values = [_number(v, f"{where} force {d}") for d, v in s["force"].items()]
         disp = s["displacement"]
+        u = np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])
         try:
-            static.append(StaticData(force, tuple(disp), np.array([_number(v, f"{where} displacement {d}") for d, v in disp.items()])))
+            force = dict(zip(resolve_all(s["force"], dofs, "force"), force_values))
+            static.append(StaticData(force, resolve_all(disp, dofs, "displacement"), u))
         except InputError as exc:
             msg = str(exc)
             raise InputError(msg if msg.startswith(where) else f"{where}: {msg.removeprefix('static: ')}") from None
@@ -202,7 +222,7 @@ def parse_testdata(raw) -> TestData:
     return TestData(tuple(modes), frf, tuple(static), dict(units))
 
 
-def _frf(f) -> FRFData:
+def _frf(f, model_dofs=None) -> FRFData:
     if not isinstance(f, Mapping):
         raise InputError("frf must be an object")
     for k in ("omega_rad_s", "force", "response"):
@@ -216,7 +236,8 @@ def _frf(f) -> FRFData:
     if not isinstance(f["force"], Mapping) or not isinstance(f["response"], Mapping):
         raise InputError("frf: force and response must be objects {dof: ...}")
     omega = [_number(w, "frf omega_rad_s") for w in f["omega_rad_s"]]
-    force = {d: _complex(v, f"frf force {d}") for d, v in f["force"].items()}
+    force_values = [_complex(v, f"frf force {d}") for d, v in f["force"].items()]
+    force = dict(zip(resolve_all(f["force"], model_dofs, "frf force"), force_values))
     dofs, cols = [], []
     for d, series in f["response"].items():
         if not isinstance(series, list) or len(series) != len(omega):
@@ -228,4 +249,4 @@ def _frf(f) -> FRFData:
     arr = np.array(cols).T
     if np.iscomplexobj(arr) and not np.any(arr.imag):
         arr = arr.real
-    return FRFData(np.array(omega), force, tuple(dofs), arr)
+    return FRFData(np.array(omega), force, resolve_all(dofs, model_dofs, "frf response"), arr)

@@ -18,7 +18,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .._errors import InputError
-from ..dofs import canonical_all
+from ..dofs import canonical_all, parse_dof
 from ..model import Model
 
 __all__ = ["Transformation", "project", "reduce", "reduced_matrices", "reduced_modes", "reduced_eigenvalues"]
@@ -164,7 +164,7 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
     if dropped:
         warnings.warn(f"reduce: parameter(s) {', '.join(dropped)} do not enter the reduced model and are dropped",
                       stacklevel=2)
-    nodes_kept = {int(d.split(":", 1)[0]) for d in keep}
+    nodes_kept = {parse_dof(d)[0] for d in keep}
     return Model(
         dofs=tuple(keep), K0=_clean(K0), M0=_clean(M0), parameters=tuple(params),
         dK=tuple(_clean(k) if k is not None else None for k in dK),

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .._errors import InputError
-from ..dofs import canonical_all, describe, sort_key
+from ..dofs import canonical_all, describe, parse_dof, sort_key
 from ..model import Model, Parameter
 from ..structure import Structure
 from ..structure.groups import ElementGroup
@@ -88,7 +88,7 @@ def split_structure(structure: Structure, key: Callable[[list[str], tuple | None
                 where=[g.where[i] for i in sel]))
         s.parameters = {n: p for n, p in structure.parameters.items() if n in used_params}
         s.supports = [d for d in structure.supports if d in labels_here]
-        nodes_here = {int(lab.split(":", 1)[0]) for lab in labels_here}
+        nodes_here = {parse_dof(lab)[0] for lab in labels_here}
         s.support_nodes = [n for n in structure.support_nodes if n in nodes_here]
         out[k] = s
     return out

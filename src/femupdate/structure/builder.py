@@ -12,10 +12,17 @@ import scipy.sparse as sp
 from .. import elements as el
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
-from ..dofs import canonical, canonical_all, describe, dof, sort_key
+from ..dofs import Node, canonical, canonical_all, describe, dof, node_id, parse_dof, sort_key
 from ..model import Model, Parameter
 from .groups import BENDING, NODE_DIRS, PROPS, ElementGroup, mass_kind, merge_groups, per_element, triplets
 from .tables import structure_from_dict
+
+
+def _is_integer_text(v: str) -> bool:
+    try:
+        return isinstance(node_id(v), int)
+    except InputError:
+        return False
 
 
 class Structure:
@@ -38,7 +45,7 @@ class Structure:
         self.nodes: dict[int, tuple[float, float, float]] = {}
         self.groups: list[ElementGroup] = []
         self.supports: list[str] = []
-        self.support_nodes: list[int] = []
+        self.support_nodes: list[Node] = []
 
     # ------------------------------------------------------------------ declarations
     def parameter(self, name: str, value: float, bounds=None, fixed: bool = False) -> None:
@@ -128,15 +135,21 @@ class Structure:
         """
         self.supports.extend(canonical(d) for d in ([dofs] if isinstance(dofs, str) else dofs))
 
-    def support_node(self, nodes: Sequence[int]) -> None:
+    def support_node(self, nodes: Sequence[Node]) -> None:
         """Fix every dof that exists at the given nodes.
 
         Parameters
         ----------
-        nodes : sequence of int
-            Node numbers; :meth:`build` checks that each is used by an element.
+        nodes : sequence of int or str
+            Node numbers, or names of nodes that springs and masses use (``"A2"``);
+            :meth:`build` checks that each is used by an element.
+
+        Raises
+        ------
+        InputError
+            A node that is neither an integer nor a valid node name.
         """
-        self.support_nodes.extend(int(n) for n in nodes)
+        self.support_nodes.extend(node_id(n, "support node") for n in nodes)
 
     # ------------------------------------------------------------------ elements
     def _add(self, type_, labels, props, where, **kw) -> None:
@@ -213,6 +226,11 @@ class Structure:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise InputError(f"{where}: nodes must be a pair [a, b] (or an array of pairs), got {nodes!r}")
+        if arr.dtype.kind in "USO":
+            named = [v for v in arr.ravel().tolist() if isinstance(v, str) and not _is_integer_text(v)]
+            if named:
+                raise InputError(f"{where}: node {named[0]!r} is not an integer; line elements join [[node]] ids, which "
+                                 "are integers (named nodes such as 'A2' are for springs, masses and matrix models)")
         if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr) & (arr == np.round(arr)))):
             raise InputError(f"{where}: node ids must be integers, got {nodes!r}")
         arr = arr.astype(np.int64)
@@ -440,7 +458,7 @@ class Structure:
         unknown_sup = [d for d in self.supports if d not in present]
         if unknown_sup:
             raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
-        node_of = {lab: int(lab.split(":", 1)[0]) for lab in all_labels}
+        node_of = {lab: parse_dof(lab)[0] for lab in all_labels}
         used_nodes = set(node_of.values())
         missing_nodes = [n for n in self.support_nodes if n not in used_nodes]
         if missing_nodes:

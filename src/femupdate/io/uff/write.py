@@ -18,7 +18,7 @@ from ...dofs import DIRECTIONS, canonical_all, describe, parse_dof
 from ...testdata import FRFData
 from .conventions import code_of_direction
 
-__all__ = ["write_uff_modes", "write_uff_frf"]
+__all__ = ["write_uff_modes", "write_uff_frf", "uff_dofs"]
 
 log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before the split into modules
 
@@ -27,6 +27,36 @@ def _id_line(text: str) -> str:
     """An ID line: one line of at most 80 characters, never blank (UFF uses "NONE")."""
     text = " ".join(str(text).split())[:80]
     return text or "NONE"
+
+def uff_dofs(labels: Iterable[str], what: str) -> list[tuple[int, str]]:
+    """``(node number, direction)`` of each label, refusing named nodes (universal files number
+    nodes with integers).
+
+    Parameters
+    ----------
+    labels : iterable of str
+        Dof labels.
+    what : str
+        What writes the file (e.g. ``"modes --uff"`` or the file name), for the message.
+
+    Returns
+    -------
+    list of (int, str)
+
+    Raises
+    ------
+    InputError
+        A malformed label, or a node that is a name (``A2``) rather than a number.
+    """
+    out = []
+    for lab in labels:
+        node, direction = parse_dof(lab)
+        if not isinstance(node, int):
+            raise InputError(f"{what}: node {node!r} of dof {lab!r} is not an integer; universal files number "
+                             "nodes with integers")
+        out.append((node, direction))
+    return out
+
 
 def _si_units() -> dict:
     return pyuff.prepare_164(
@@ -138,8 +168,8 @@ def write_uff_modes(
     Raises
     ------
     InputError
-        Complex or non-finite shapes, inconsistent shapes, nodes without coordinates, or a
-        failed write (naming the file).
+        Complex or non-finite shapes, inconsistent shapes, a named node (``A2``: universal files
+        number nodes with integers), nodes without coordinates, or a failed write (naming the file).
     """
     target = os.fspath(path)
     lam = np.atleast_1d(np.asarray(modes.eigenvalues, dtype=float))
@@ -161,8 +191,7 @@ def write_uff_modes(
     freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
     rows: dict[int, dict[int, int]] = {}
-    for i, lab in enumerate(labels):
-        n, d = parse_dof(lab)
+    for i, (n, d) in enumerate(uff_dofs(labels, target)):
         rows.setdefault(n, {})[DIRECTIONS.index(d)] = i
     node_ids = sorted(rows)
     ncomp = 3 if all(j < 3 for r in rows.values() for j in r) else 6
@@ -244,7 +273,8 @@ def write_uff_frf(
     Raises
     ------
     InputError
-        More than one excitation dof, nodes without coordinates, or a failed write.
+        More than one excitation dof, a named node (``A2``: universal files number nodes with
+        integers), nodes without coordinates, or a failed write.
     """
     target = os.fspath(path)
     loads = {k: v for k, v in dict(frf.force).items() if v != 0}
@@ -253,7 +283,7 @@ def write_uff_frf(
             f"{target}: dataset 58 holds FRFs of one excitation dof; the force acts at {describe(list(loads))}"
         )
     ((ref, amplitude),) = loads.items()
-    ref_node, ref_dir = parse_dof(ref)
+    ((ref_node, ref_dir),) = uff_dofs([ref], target)
     omega = np.atleast_1d(np.asarray(frf.omega, dtype=float))
     h = np.asarray(frf.response, dtype=complex).reshape(omega.size, -1) / amplitude
     if not np.all(np.isfinite(h)) or not np.all(np.isfinite(omega)):
@@ -262,15 +292,15 @@ def write_uff_frf(
     f_hz = omega / (2 * np.pi)
     even = f_hz.size == 1  # pyuff needs two abscissas to write an uneven axis
     x = np.array([f_hz[0], f_hz[0] + 1.0]) if even else f_hz.copy()
-    used = {ref_node} | {parse_dof(lab)[0] for lab in labels}
+    nodes_dirs = uff_dofs(labels, target)
+    used = {ref_node} | {n for n, _ in nodes_dirs}
 
     datasets = []
     if units:
         datasets.append(_si_units())
     if nodes:
         datasets.append(_nodes_dataset(nodes, used, target))
-    for j, lab in enumerate(labels):
-        node, direction = parse_dof(lab)
+    for j, (lab, (node, direction)) in enumerate(zip(labels, nodes_dirs)):
         ds = pyuff.prepare_58(
             binary=0,
             id1=_id_line(model_name),

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._errors import InputError
-from ...dofs import canonical_all
+from ...dofs import canonical_all, resolve_all
 from ...model import Model
 
 ALGORITHM = "femupdate-uniqueness-1"  # part of the study key: bump when raw results change meaning
@@ -41,13 +41,16 @@ class Case:
         return len(self.measured_dofs)
 
 
-def parse_measured_dofs(text: str) -> list[tuple[str, ...]]:
+def parse_measured_dofs(text: str, dofs: Sequence[str] | None = None) -> list[tuple[str, ...]]:
     """Dof sets separated by ``;``: ``"1:x,2:x;1:x"`` -> ``[("1:x", "2:x"), ("1:x",)]``.
 
     Parameters
     ----------
     text : str
-        Sets separated by ``;``, labels within a set by ``,`` (the ``--measured-dofs`` option).
+        Sets separated by ``;``, dofs within a set by ``,`` (the ``--measured-dofs`` option): labels,
+        or ``#N`` for the N-th entry of ``dofs``.
+    dofs : sequence of str, optional
+        The model's dof list that ``#N`` counts in (without it, ``#N`` is refused).
 
     Returns
     -------
@@ -57,14 +60,20 @@ def parse_measured_dofs(text: str) -> list[tuple[str, ...]]:
     Raises
     ------
     InputError
-        An empty set or an invalid dof label.
+        An empty set, an invalid dof label, an index out of range or malformed, or a dof given
+        twice in one set.
     """
     sets = []
     for k, part in enumerate(str(text).split(";"), start=1):
         labels = [d.strip() for d in part.split(",") if d.strip()]
         if not labels:
             raise InputError(f"--measured-dofs: set {k} of {text!r} is empty")
-        sets.append(canonical_all(labels, f"--measured-dofs set {k}"))
+        what = f"--measured-dofs set {k}"
+        try:
+            sets.append(resolve_all(labels, dofs, what))
+        except InputError as exc:
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(what) else f"{what}: {msg}") from None
     return sets
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..._errors import InputError
-from ...dofs import canonical_all, describe, parse_dof
+from ...dofs import canonical_all, describe, node_id, parse_dof
 from ...modal import model_modes
 from ...model import Model
 from ...testdata import MeasuredMode, TestData
@@ -43,8 +43,8 @@ class Modification:
         Springs added to ground (one dof) or between two dofs (N/m, N m/rad).
     supports : tuple of str
         Dofs fixed in this configuration (removed from its model).
-    support_nodes : tuple of int
-        Nodes all of whose dofs are fixed.
+    support_nodes : tuple of int or str
+        Nodes (numbers, or names such as ``"A2"``) all of whose dofs are fixed.
     values : mapping {parameter: value}
         Known (fixed) parameters that take other values in this configuration.
 
@@ -80,7 +80,7 @@ class Modification:
         object.__setattr__(self, "masses", tuple(masses))
         object.__setattr__(self, "springs", tuple(springs))
         object.__setattr__(self, "supports", canonical_all(self.supports, f"{where} supports"))
-        object.__setattr__(self, "support_nodes", tuple(int(n) for n in self.support_nodes))
+        object.__setattr__(self, "support_nodes", tuple(node_id(n, f"{where} support node") for n in self.support_nodes))
         object.__setattr__(self, "values", vals)
 
     @property

@@ -82,8 +82,8 @@ def modification_from_dict(raw, source: str = "modification", default_name: str 
             supports += dof_labels(t["dofs"], where)
         if "nodes" in t:
             ids = t["nodes"]
-            if not isinstance(ids, list) or not all(isinstance(x, int) and not isinstance(x, bool) for x in ids):
-                raise InputError(f"{where}: nodes must be a list of integer ids, got {ids!r}")
+            if not isinstance(ids, list) or not all(isinstance(x, (int, str)) and not isinstance(x, bool) for x in ids):
+                raise InputError(f"{where}: nodes must be a list of node ids (integers, or names such as \"A2\"), got {ids!r}")
             nodes += ids
     values = raw.get("values", {})
     if not isinstance(values, Mapping):
