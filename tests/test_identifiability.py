@@ -51,14 +51,19 @@ def test_a_spring_whose_modes_are_not_measured_is_reported_with_its_reason():
     assert len(on_chain) == 2
     dofs = ["1:x", "2:x", "3:x"]
     data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[r], dofs, mm.shapes[:, r]) for r in on_chain))
-    res = update(truth, data, x0={"k1": 900.0, "k2": 1600.0, "k3": 800.0})
+    std = {"eigenvalue": 0.01, "shape": 0.01}
+    res = update(truth, data, x0={"k1": 900.0, "k2": 1600.0, "k3": 800.0}, measurement_std=std)
     d = res.diagnostics
     assert res.success
     np.testing.assert_allclose(res.x[:2], [1000.0, 1500.0], rtol=1e-8)
     assert res.x[2] == 800.0  # never moved
     assert d.poorly_determined == ["k3"]
     assert "do not depend on it" in d.poorly_determined_reasons["k3"]
-    assert d.at_bounds == {}
+    assert d.at_bounds == {} and d.rank == 2 and d.condition_number == np.inf
+    # k3 has no std; the others' covariance is that of the Jacobian without k3's column
+    assert np.isnan(d.std[2])
+    Jp = res.jac / np.array([900.0, 1600.0, 800.0])[None, :]  # relative parametrisation: ∂r/∂p
+    np.testing.assert_allclose(d.covariance[:2, :2], np.linalg.inv(Jp[:, :2].T @ Jp[:, :2]), rtol=1e-8)
 
 
 def test_a_parameter_the_data_barely_move_is_poorly_determined_by_its_std():
@@ -205,3 +210,96 @@ def test_infinite_bounds_are_never_sat_on():
     # a bound of 0 has no size of its own: the nominal value (1000) gives the scale of "on it"
     assert [f["kind"] for f in parameter_flags(model, {"k1": 1e-4, "k2": 2000.0})] == ["on_bound"]
     assert parameter_flags(model, {"k1": 1e-2, "k2": 2000.0}) == []
+
+
+# ---------------------------------------------------------------------------------- the command line
+def _cli(args, capsys):
+    from femupdate.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+TWO_DOF = """[model]
+name = "two-dof chain"
+
+[parameters.k1]
+value = 7.0
+bounds = [3.0, {hi}]
+
+[parameters.k2]
+value = 6.5
+bounds = [1.0, 11.0]
+
+[parameters.k3]
+value = 2.0
+bounds = [0.5, 5.0]
+
+[[element]]
+type = "spring"
+dofs = ["1:x"]
+k = "k1"
+
+[[element]]
+type = "spring"
+dofs = ["1:x", "2:x"]
+k = "k2"
+
+[[element]]
+type = "spring"
+dofs = ["3:x"]
+k = "k3"
+
+[[element]]
+type = "mass"
+dofs = ["1:x"]
+m = 2.0
+
+[[element]]
+type = "mass"
+dofs = ["2:x"]
+m = 4.0
+
+[[element]]
+type = "mass"
+dofs = ["3:x"]
+m = 1.0
+"""
+
+
+def test_update_prints_and_writes_active_bounds_and_what_the_data_cannot_move(tmp_path, capsys):
+    """The Figure 3 system (k1 = 8, k2 = 6) with k1's upper bound at 7.5, and a third oscillator
+    (k3 on its own mass) whose mode is not measured."""
+    import json
+
+    model = tmp_path / "m.toml"
+    model.write_text(TWO_DOF.format(hi=7.5))
+    lam = [0.7768890026375489, 7.723110997362449]  # the Figure 3 system's eigenvalues
+    shapes = model_modes(chain([8.0, 6.0], [(0, 1e3)] * 2, masses=[2.0, 4.0])).shapes
+    data = tmp_path / "d.json"
+    data.write_text(json.dumps({"modes": [
+        {"eigenvalue": lam[r], "shape": {"1:x": float(shapes[0, r]), "2:x": float(shapes[1, r]), "3:x": 0.0}}
+        for r in range(2)]}))
+    out_json = tmp_path / "o.json"
+    code, out, err = _cli(["update", model, data, "--json", out_json], capsys)
+    assert code == 0, err
+    assert "active bounds: 1 of 3 parameters on a bound (k1 upper)" in out
+    assert "poorly determined (the data cannot move them): 1 of 3" in out
+    assert "  k3: the data do not depend on it (zero sensitivity)" in out
+    assert "note: 1 parameter on its bound (k1 upper)" in out
+    assert "upper bound" in out  # in the std column
+    d = json.loads(out_json.read_text())["diagnostics"]
+    assert d["at_bounds"] == {"k1": "upper"} and d["n_at_bounds"] == 1
+    assert d["free"] == ["k2", "k3"]
+    assert d["poorly_determined"] == ["k3"] and list(d["poorly_determined_reasons"]) == ["k3"]
+    assert d["std"]["k1"] is None and d["relative_std"]["k1"] is None and d["std"]["k3"] is None
+    assert d["std"]["k2"] is not None  # k2's std is that of the free parameters the data see
+    assert set(d) >= {"singular_values", "condition_number", "rank", "covariance", "n_residuals", "n_parameters"}
+    # no bound active: the count is still printed
+    model.write_text(TWO_DOF.format(hi=13.0))
+    code, out, err = _cli(["update", model, data, "--json", out_json], capsys)
+    assert code == 0, err
+    assert "active bounds: 0 of 3 parameters on a bound" in out
+    assert json.loads(out_json.read_text())["diagnostics"]["at_bounds"] == {}

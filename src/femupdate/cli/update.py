@@ -12,7 +12,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
-                      print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
+                      print_diagnostics, print_flags, fmt, json_option, model_values, parse_regularization, set_option, update_parameter_table,
                       update_payload)
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -123,11 +123,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
         for s in res.skipped:
             c.print(f"skipped FRF line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
-    d = res.diagnostics
-    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
-            f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
-    if d.poorly_determined:
-        c.print(f"poorly determined: {', '.join(d.poorly_determined)}")
+    print_diagnostics(c, res)
     for sw in res.swaps:
         c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to {sw['to_model_mode'] + 1}")
     if ms is not None:

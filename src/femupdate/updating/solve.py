@@ -38,6 +38,14 @@ NULL_SHARE = 0.3
 POOR_RELATIVE_STD = 1.0
 
 
+def _svd(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (descending) and right singular vectors (rows, all of them) of S."""
+    if not S.size:
+        return np.zeros(0), np.eye(S.shape[1])
+    _, sv, Vt = np.linalg.svd(S, full_matrices=True)
+    return sv, Vt
+
+
 def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     """Identifiability figures (:class:`Diagnostics`) of ``prob`` at x.
 
@@ -53,7 +61,9 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
       values above :data:`RANK_RTOL` σ_max) and condition number.
     * **Covariance** of the free parameters, D V Σ⁻² Vᵀ D from the SVD S_free = U Σ Vᵀ
       (D = diag |p|) — that is (J_freeᵀ J_free)⁻¹ in parameter units — times the residual variance
-      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations.
+      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations.  A free
+      parameter the data do not depend on (a zero column) is left out of it too (NaN): the
+      others' covariance does not depend on it.
     * **Poorly determined** parameters, each with its reason (``poorly_determined_reasons``):
       a column of S below :data:`RANK_RTOL` times the largest (the data do not depend on the
       parameter; checked for every parameter, on a bound or not); an entry of at least
@@ -82,8 +92,8 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     Returns
     -------
     Diagnostics
-        Covariance and standard deviations NaN for the parameters on a bound, and for all unless
-        S has full column rank over the free parameters.
+        Covariance and standard deviations NaN for the parameters on a bound or with a zero
+        column, and for all unless S has full column rank over the remaining ones.
     """
     from ..flags import bound_side
 
@@ -106,15 +116,12 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     reasons: dict[str, str] = {}
     col = np.sqrt(np.sum(S ** 2, axis=0)) if m else np.zeros(L)
     largest = float(col.max()) if col.size else 0.0
-    for z in np.flatnonzero(col <= RANK_RTOL * largest):
+    unseen = col <= RANK_RTOL * largest  # the data do not depend on these
+    for z in np.flatnonzero(unseen):
         reasons[names[int(z)]] = ("the data do not depend on it (zero sensitivity)" if largest > 0
-                             else "the data do not depend on any parameter (zero sensitivity)")
-    SF = S[:, free]
+                                  else "the data do not depend on any parameter (zero sensitivity)")
+    sv, Vt = _svd(S[:, free])
     nF = free.size
-    if SF.size:
-        _, sv, Vt = np.linalg.svd(SF, full_matrices=True)
-    else:
-        sv, Vt = np.zeros(0), np.eye(nF)
     rank = int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size else 0
     for k in range(rank, nF):  # the null space of the free parameters (with the directions beyond m < L)
         v = np.abs(Vt[k])
@@ -127,13 +134,18 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
         cond = math.nan
     else:
         cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and nF <= m else math.inf
+    # the covariance of the free parameters the data depend on: a zero column is a null direction of
+    # its own, which leaves the others' covariance defined (the information matrix is block-diagonal)
+    cols = free[~unseen[free]]
+    nC = cols.size
+    svC, VtC = (sv, Vt) if nC == nF else _svd(S[:, cols])
     cov = np.full((L, L), np.nan)
-    if nF and rank == nF and m > 0:
-        V = Vt.T
-        covF = (mag[free][:, None] * V) @ np.diag(1.0 / sv ** 2) @ (V.T * mag[free][None, :])
+    if nC and m > 0 and np.sum(svC > RANK_RTOL * svC[0]) == nC:
+        V = VtC.T
+        covF = (mag[cols][:, None] * V) @ np.diag(1.0 / svC ** 2) @ (V.T * mag[cols][None, :])
         if sigma is None:
-            covF = covF * float(r @ r) / (m - nF) if m > nF else np.full((nF, nF), np.nan)
-        cov[np.ix_(free, free)] = covF
+            covF = covF * float(r @ r) / (m - nC) if m > nC else np.full((nC, nC), np.nan)
+        cov[np.ix_(cols, cols)] = covF
     diag = np.diag(cov)
     std = np.where(np.isfinite(diag), np.sqrt(np.clip(np.nan_to_num(diag, nan=0.0), 0, None)), np.nan)
     rel = std / mag
