@@ -115,6 +115,32 @@ def test_per_mode_values_reach_multistart_and_the_mixed_route(tmp_path):
     assert mixed.blocks[0]["weighting"] == "stated std" and mixed.diagnostics.absolute
 
 
+def test_per_mode_values_reach_update_multi():
+    """Two configurations (as tested, and with 1 kg added at 1:x), frequencies only with their
+    relative stds in the data: the joint update and its absolute covariance are those of the stds
+    given as lists."""
+    from femupdate.updating.multiconfig import Configuration, Modification, configure, update_configurations
+
+    base = two_dof(7.0, 6.5)
+    mod = Modification("+1 kg", masses=(("1:x", 1.0),))
+    s = [0.004, 0.01]
+    rich, plain = [], []
+    for modification in (Modification("as tested"), mod):
+        f = model_modes(configure(two_dof(), modification).model).frequencies_hz
+        rich.append(Configuration(TestData(modes=tuple(MeasuredMode.from_frequency(f[i] * (1.002, 0.997)[i],
+                                                                                   std_frequency=s[i])
+                                                      for i in range(2))), modification))
+        plain.append(Configuration(TestData(modes=tuple(MeasuredMode.from_frequency(f[i] * (1.002, 0.997)[i])
+                                                       for i in range(2))), modification))
+    a = update_configurations(base, rich)
+    b = update_configurations(base, plain, measurement_std={"eigenvalue": [2 * v for v in s]})
+    assert np.array_equal(a.x, b.x) and a.cost == b.cost
+    assert a.diagnostics.absolute and b.diagnostics.absolute
+    assert np.array_equal(a.diagnostics.covariance, b.diagnostics.covariance)
+    c = update_configurations(base, plain)
+    assert not c.diagnostics.absolute and not np.allclose(c.x, a.x, rtol=1e-6)
+
+
 def test_a_std_stated_for_some_modes_only_is_refused_unless_given_for_all(tmp_path):
     plain, _ = files(tmp_path)
     raw = json.loads(plain.read_text())
@@ -207,3 +233,82 @@ def test_bad_per_mode_values_are_refused_by_name(key, value, message):
 def test_both_stds_of_a_mode_are_refused():
     with pytest.raises(InputError, match=r"modes\[1\]: give at most one of std_frequency or std_eigenvalue"):
         parse_testdata({"modes": [{"frequency_hz": 1.0, "std_frequency": 0.01, "std_eigenvalue": 0.02}]})
+
+
+# ---------------------------------------------------------------------------------- (d) the command line
+def _cli(args, capsys):
+    from femupdate.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+def _model_file(tmp_path):
+    lines = ['[model]', 'name = "chain"']
+    for i, k in enumerate(K6 * [0.8, 1.2, 0.9, 1.1, 1.05, 0.95], start=1):
+        lines += [f"[parameters.k{i}]", f"value = {float(k)!r}", "bounds = [100.0, 5000.0]"]
+    for i, mass in enumerate(M6, start=1):
+        dofs = f'["{i}:x"]' if i == 1 else f'["{i - 1}:x", "{i}:x"]'
+        lines += ["[[element]]", 'type = "spring"', f"dofs = {dofs}", f'k = "k{i}"',
+                  "[[element]]", 'type = "mass"', f'dofs = ["{i}:x"]', f"m = {float(mass)!r}"]
+    p = tmp_path / "chain.toml"
+    p.write_text("\n".join(lines) + "\n")
+    return p
+
+
+def test_cli_lists_equal_the_file_and_win_over_it(tmp_path, capsys):
+    plain, rich = files(tmp_path, std_frequency=STD_F, std_shape=STD_PSI)
+    mf = _model_file(tmp_path)
+    outs = {}
+    for name, args in {"file": [rich],
+                       "lists": [plain, "--std-eigenvalue", ",".join(repr(2 * s) for s in STD_F),
+                                 "--std-shape", ",".join(map(repr, STD_PSI))],
+                       "override": [rich, "--std-eigenvalue", "0.02", "--std-shape", "0.02"],
+                       "uniform": [plain, "--std-eigenvalue", "0.02", "--std-shape", "0.02"]}.items():
+        code, _, err = _cli(["update", mf, *args, "--json", tmp_path / f"{name}.json"], capsys)
+        assert code == 0, err
+        outs[name] = json.loads((tmp_path / f"{name}.json").read_text())
+    assert outs["file"]["parameters"] == outs["lists"]["parameters"]
+    assert outs["file"]["diagnostics"]["std"] == outs["lists"]["diagnostics"]["std"]
+    assert outs["override"]["parameters"] == outs["uniform"]["parameters"]
+    assert outs["file"]["parameters"] != outs["uniform"]["parameters"]
+    # and the same as the Python API with lists
+    m = model()
+    res = update(m, load_testdata(plain, m), measurement_std={"eigenvalue": [2 * s for s in STD_F], "shape": STD_PSI})
+    assert [outs["file"]["parameters"][n] for n in res.names] == list(res.x)
+
+
+@pytest.mark.parametrize("option, value, fragment", [
+    ("--std-eigenvalue", "0.01,0.02", "--std-eigenvalue: 2 values given, but the test data hold 3 test modes"),
+    ("--std-shape", "0.01,0.02,0.03,0.04", "--std-shape: 4 values given, but the test data hold 3 test modes"),
+    ("--std-eigenvalue", "-0.01", "--std-eigenvalue: -0.01 is not > 0"),
+    ("--std-shape", "0.01,-0.02,0.03", "--std-shape: -0.02 is not > 0"),
+    ("--std-shape", "0.01,0,0.03", "--std-shape: 0 is not > 0"),
+    ("--std-eigenvalue", "0.01,abc,0.03", "--std-eigenvalue: 'abc' is not a number"),
+    ("--std-eigenvalue", "0.01,,0.03", "--std-eigenvalue: empty value"),
+    ("--std-eigenvalue", "0.01,inf,0.03", "--std-eigenvalue: 'inf' is not a finite number"),
+])
+def test_cli_bad_std_lists_exit_2_with_one_line(tmp_path, capsys, option, value, fragment):
+    plain, _ = files(tmp_path)
+    code, out, err = _cli(["update", _model_file(tmp_path), plain, option, value], capsys)
+    assert code == 2
+    assert "Traceback" not in err
+    assert err.count("\n") == 1 and err.startswith("femupdate: error: ") and fragment in err, err
+
+
+def test_cli_file_with_bad_or_partial_per_mode_values(tmp_path, capsys):
+    plain, _ = files(tmp_path)
+    raw = json.loads(plain.read_text())
+    raw["modes"][1]["std_frequency"] = -0.5
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(raw))
+    code, _, err = _cli(["update", _model_file(tmp_path), bad], capsys)
+    assert code == 2 and err.strip() == f"femupdate: error: {bad}: modes[2] std_frequency: -0.5 is not > 0"
+    raw["modes"][1]["std_frequency"] = 0.01
+    bad.write_text(json.dumps(raw))
+    code, _, err = _cli(["update", _model_file(tmp_path), bad], capsys)
+    assert code == 2 and err.count("\n") == 1 and "but not for test modes 1, 3" in err, err
+    code, _, err = _cli(["update", _model_file(tmp_path), bad, "--std-eigenvalue", "0.01"], capsys)
+    assert code == 0, err

@@ -112,6 +112,57 @@ def parse_regularization(text):
     return value
 
 
+def parse_std(text: str | None, option: str, n_modes: int) -> float | list[float] | None:
+    """A standard deviation option that takes one value or one per test mode (``--std-eigenvalue``,
+    ``--std-shape``): ``"0.002"`` -> 0.002, ``"0.002,0.004,0.01"`` -> [0.002, 0.004, 0.01].
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text (None: not given).
+    option : str
+        The option as the user typed it, for the messages.
+    n_modes : int
+        The number of test modes: a list must have one value per mode.
+
+    Returns
+    -------
+    float, list of float, or None
+
+    Raises
+    ------
+    InputError
+        An empty item, a value that is not a number, not finite, not > 0 or outside
+        [1e-150, 1e150]; a list whose length is neither 1 nor the number of test modes.
+    """
+    if text is None:
+        return None
+    values = []
+    for item in str(text).split(","):
+        item = item.strip()
+        if not item:
+            raise InputError(f"{option}: empty value in {text!r}; give one number, or one per test mode separated by "
+                             "commas")
+        try:
+            v = float(item)
+        except ValueError:
+            raise InputError(f"{option}: {item!r} is not a number") from None
+        if not math.isfinite(v):
+            raise InputError(f"{option}: {item!r} is not a finite number")
+        if not v > 0:
+            raise InputError(f"{option}: {item} is not > 0 (a standard deviation is positive)")
+        if v < 1 / MAX_MAGNITUDE or v > MAX_MAGNITUDE:
+            raise InputError(f"{option}: {item} is outside [{1 / MAX_MAGNITUDE:g}, {MAX_MAGNITUDE:g}]")
+        values.append(v)
+    if len(values) == 1:
+        return values[0]
+    if len(values) != n_modes:
+        held = f"{n_modes} test mode{'s' if n_modes != 1 else ''}" if n_modes else "no test modes"
+        raise InputError(f"{option}: {len(values)} values given, but the test data hold {held}: give one value, or "
+                         "one per test mode in the order of the file")
+    return values
+
+
 def emit(ctx: Ctx, payload: dict) -> None:
     """Write the machine-readable result if ``--json`` was given."""
     if ctx.json_path:
