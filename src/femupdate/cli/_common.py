@@ -347,7 +347,7 @@ def print_diagnostics(console, res) -> None:
     what = "free parameters" if d.at_bounds else "parameters"
     console.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
                   f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} "
-                  f"(rank {d.rank}/{len(d.free)} {what})", markup=False)
+                  f"(rank {d.rank}/{d.n_parameters - d.n_at_bounds} {what})", markup=False)
     print_identifiability(console, d)
 
 

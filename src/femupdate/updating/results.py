@@ -89,12 +89,12 @@ class Diagnostics:
         which = ", ".join(f"{n} {side}" for n, side in self.at_bounds.items())
         return [f"{k} parameter{'s' if k > 1 else ''} on {'their' if k > 1 else 'its'} bound{'s' if k > 1 else ''} "
                 f"({which}): held there by the bounds, not by the data; the covariance and std describe the "
-                f"{len(self.free)} free parameter{'s' if len(self.free) != 1 else ''} only"]
+                f"{self.n_parameters - k} free parameter{'s' if self.n_parameters - k != 1 else ''} only"]
 
     def __repr__(self) -> str:
         bound = f", {self.n_at_bounds} on bounds" if self.at_bounds else ""
         poor = f", poorly determined: {', '.join(self.poorly_determined)}" if self.poorly_determined else ""
-        free = f"/{len(self.free)} free" if self.at_bounds else f"/{self.n_parameters}"
+        free = f"/{self.n_parameters - self.n_at_bounds} free" if self.at_bounds else f"/{self.n_parameters}"
         return (f"Diagnostics(rank {self.rank}{free}, condition {self.condition_number:.3g}, "
                 f"{self.n_residuals} residuals{bound}{poor})")
 
