@@ -12,14 +12,45 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-#: a value within this fraction of the bounds' span (or of the bound itself when the other is
-#: infinite) counts as sitting on the bound
+#: a value within this fraction of the bounds' span (when the other bound is infinite: of the
+#: larger of the bound's and the parameter's nominal magnitude) counts as sitting on the bound
+#: (:func:`bound_side`; the updating diagnostics' ``at_bounds`` use the same test)
 ON_BOUND_RTOL = 1e-6
 
 
-def _on(v: float, b: float, lo: float, hi: float) -> bool:
-    span = hi - lo if math.isfinite(hi - lo) else max(abs(b), 1e-300)
-    return abs(v - b) <= ON_BOUND_RTOL * span
+def _on(v: float, b: float, lo: float, hi: float, scale: float = 0.0) -> bool:
+    span = hi - lo if math.isfinite(hi - lo) else max(abs(b), abs(scale), 1e-300)
+    return math.isfinite(b) and abs(v - b) <= ON_BOUND_RTOL * span
+
+
+def bound_side(v: float, lo: float, hi: float, scale: float = 0.0) -> str | None:
+    """Which bound the value v sits on: ``"lower"``, ``"upper"`` or None.
+
+    v sits on a bound when it lies within :data:`ON_BOUND_RTOL` times the bounds' span of it, or
+    beyond it; when the other bound is infinite the span is replaced by the larger of the bound's
+    magnitude and ``scale`` (the parameter's typical size: a bound of 0 has no size of its own).
+    An infinite bound is never sat on.
+
+    Parameters
+    ----------
+    v : float
+        The value.
+    lo, hi : float
+        Its bounds (``-inf`` / ``inf`` for none).
+    scale : float, default 0
+        The parameter's typical magnitude (its nominal or starting value).
+
+    Returns
+    -------
+    str or None
+    """
+    if not math.isfinite(v):
+        return None
+    if math.isfinite(lo) and (v <= lo or _on(v, lo, lo, hi, scale)):
+        return "lower"
+    if math.isfinite(hi) and (v >= hi or _on(v, hi, lo, hi, scale)):
+        return "upper"
+    return None
 
 
 def parameter_flags(model, parameters: Mapping[str, float], names: Sequence[str] | None = None) -> list[dict]:
@@ -55,8 +86,8 @@ def parameter_flags(model, parameters: Mapping[str, float], names: Sequence[str]
         elif v < lo or v > hi:
             out.append({"parameter": n, "value": v, "kind": "outside_bounds", "bounds": bounds,
                         "message": f"{n} = {v:.6g} lies outside its bounds {shown}"})
-        elif _on(v, lo, lo, hi) or _on(v, hi, lo, hi):
-            which = "lower" if _on(v, lo, lo, hi) else "upper"
+        elif bound_side(v, lo, hi, par.value) is not None:
+            which = bound_side(v, lo, hi, par.value)
             out.append({"parameter": n, "value": v, "kind": "on_bound", "bounds": bounds,
                         "message": f"{n} = {v:.6g} sits on its {which} bound {shown}: the best fit may lie beyond it"})
     return out
@@ -73,4 +104,4 @@ def suspect_values(model, p) -> str:
     return ", ".join(bad)
 
 
-__all__ = ["parameter_flags", "suspect_values", "ON_BOUND_RTOL"]
+__all__ = ["parameter_flags", "suspect_values", "bound_side", "ON_BOUND_RTOL"]

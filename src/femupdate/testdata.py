@@ -27,6 +27,39 @@ def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> No
             raise InputError(f"{what}: {kind}")
 
 
+def positive(v, what: str) -> float:
+    """``v`` as a float if it is a number between 1e-150 and 1e150 (a standard deviation or a
+    weight: it divides or multiplies residuals), else an :class:`InputError` naming ``what``.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+    what : str
+        How the message names it (``"mode 2: std_shape"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        Not a real number (booleans and strings refused), not finite, not > 0, below 1e-150 or
+        above 1e150.
+    """
+    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise InputError(f"{what}: expected a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise InputError(f"{what}: NaN or infinite value")
+    if not x > 0:
+        raise InputError(f"{what}: {x:g} is not > 0")
+    if x < 1.0 / MAX_MAGNITUDE or x > MAX_MAGNITUDE:
+        raise InputError(f"{what}: {x:g} is outside [{1.0 / MAX_MAGNITUDE:g}, {MAX_MAGNITUDE:g}]")
+    return x
+
+
 @dataclass(frozen=True)
 class MeasuredMode:
     """One measured mode: eigenvalue (rad^2/s^2) and an optional partial shape.
@@ -49,6 +82,18 @@ class MeasuredMode:
         The measured dof at which this mode's shape is scaled to 1 when shapes are compared with
         ``"ref"`` scaling (paper eq. 33); default: the updating option's ``ref_dof``, else the
         first measured dof.
+    std_eigenvalue : float, optional
+        Relative standard deviation of the measured eigenvalue, σ_λ / λ (a relative standard
+        deviation of the frequency σ_f / f is 2 σ_f / f here, to first order:
+        :meth:`from_frequency` converts it).  Updating divides this mode's eigenvalue residual
+        by it, unless ``measurement_std["eigenvalue"]`` (``--std-eigenvalue``) is given.
+    std_shape : float, optional
+        Standard deviation of this mode's scaled shape entries (absolute, in the units of the
+        scaled shape); updating divides its shape residuals by it, unless
+        ``measurement_std["shape"]`` (``--std-shape``) is given.
+    weight : float, optional
+        Factor on this mode's residuals (eigenvalue and shape) in updating, unless the caller's
+        ``weights`` give that kind's; default 1.
 
     Raises
     ------
@@ -56,7 +101,8 @@ class MeasuredMode:
         Negative or non-finite eigenvalue; invalid dof labels; a shape of the wrong length,
         non-finite, zero at every measured dof, or too small to compute with (every value below
         1e-150 in magnitude); a ``reference_dof`` that is not measured or
-        where the shape is zero.
+        where the shape is zero; a standard deviation or weight that is not a finite number
+        between 1e-150 and 1e150.
     """
 
     eigenvalue: float
@@ -64,6 +110,9 @@ class MeasuredMode:
     shape: np.ndarray = field(default_factory=lambda: np.zeros(0))
     label: str = ""
     reference_dof: str | None = None
+    std_eigenvalue: float | None = None
+    std_shape: float | None = None
+    weight: float | None = None
 
     def __post_init__(self):
         lam = float(self.eigenvalue)
@@ -88,6 +137,10 @@ class MeasuredMode:
             if shape[dofs.index(ref)] == 0:
                 raise InputError(f"mode {self.label}: the shape is zero at its reference_dof {ref}")
             object.__setattr__(self, "reference_dof", ref)
+        for name in ("std_eigenvalue", "std_shape", "weight"):
+            v = getattr(self, name)
+            if v is not None:
+                object.__setattr__(self, name, positive(v, f"mode {self.label}: {name}"))
         object.__setattr__(self, "eigenvalue", lam)
         object.__setattr__(self, "dofs", dofs)
         object.__setattr__(self, "shape", shape)
@@ -98,15 +151,20 @@ class MeasuredMode:
         return math.sqrt(self.eigenvalue) / (2 * math.pi)
 
     @classmethod
-    def from_frequency(cls, frequency_hz: float, dofs=(), shape=(), label: str = "") -> MeasuredMode:
+    def from_frequency(cls, frequency_hz: float, dofs=(), shape=(), label: str = "", *,
+                       reference_dof: str | None = None, std_frequency: float | None = None,
+                       std_shape: float | None = None, weight: float | None = None) -> MeasuredMode:
         """Measured mode from its natural frequency in Hz (λ = (2π f)²).
 
         Parameters
         ----------
         frequency_hz : float
             Natural frequency, Hz, finite and ≥ 0.
-        dofs, shape, label
+        dofs, shape, label, reference_dof, std_shape, weight
             As :class:`MeasuredMode`.
+        std_frequency : float, optional
+            Relative standard deviation of the frequency, σ_f / f; kept as the eigenvalue's
+            ``std_eigenvalue`` = 2 σ_f / f (λ ∝ f², to first order in σ_f / f).
 
         Returns
         -------
@@ -122,7 +180,11 @@ class MeasuredMode:
             raise InputError(f"mode {label}: frequency_hz {f!r} must be finite and >= 0")
         if f > MAX_MAGNITUDE:
             raise InputError(f"mode {label}: frequency_hz {f:.3g} is above {MAX_MAGNITUDE:g}")
-        return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label)
+        std_eigenvalue = None
+        if std_frequency is not None:
+            std_eigenvalue = 2.0 * positive(std_frequency, f"mode {label}: std_frequency")
+        return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label, reference_dof, std_eigenvalue,
+                   std_shape, weight)
 
     @property
     def has_shape(self) -> bool:

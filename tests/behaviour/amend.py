@@ -81,6 +81,18 @@ AMENDMENTS = {
         and (not path.endswith(".failed") or now <= rec)
         and (not path.endswith(".failure_examples") or (isinstance(now, list) and all(x in rec for x in now))),
     ),
+    "diagnostics say what they found": (
+        "The `diagnostics` of update, frf-update and update-multi carry `absolute`, `at_bounds` "
+        "{name: lower|upper}, `n_at_bounds`, `free` (the parameters not on a bound, which the singular "
+        "values, rank and covariance now describe), `poorly_determined_reasons` and `relative_std`.  The "
+        "keys are new; no recorded run has a parameter on a bound, and every recorded value is unchanged.",
+        lambda path, rec, now: path.split(".")[-1] == "diagnostics" and isinstance(rec, dict) and isinstance(now, dict)
+        and set(now) - set(rec) == {"absolute", "at_bounds", "n_at_bounds", "free", "poorly_determined_reasons",
+                                    "relative_std"}
+        and set(rec) <= set(now) and now["at_bounds"] == {} and now["n_at_bounds"] == 0
+        and now["poorly_determined_reasons"].keys() == set(rec["poorly_determined"])
+        and _same(rec, {k: now[k] for k in rec}),
+    ),
 }
 
 

@@ -144,6 +144,57 @@ def parse_regularization(text):
     return value
 
 
+def parse_std(text: str | None, option: str, n_modes: int) -> float | list[float] | None:
+    """A standard deviation option that takes one value or one per test mode (``--std-eigenvalue``,
+    ``--std-shape``): ``"0.002"`` -> 0.002, ``"0.002,0.004,0.01"`` -> [0.002, 0.004, 0.01].
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text (None: not given).
+    option : str
+        The option as the user typed it, for the messages.
+    n_modes : int
+        The number of test modes: a list must have one value per mode.
+
+    Returns
+    -------
+    float, list of float, or None
+
+    Raises
+    ------
+    InputError
+        An empty item, a value that is not a number, not finite, not > 0 or outside
+        [1e-150, 1e150]; a list whose length is neither 1 nor the number of test modes.
+    """
+    if text is None:
+        return None
+    values = []
+    for item in str(text).split(","):
+        item = item.strip()
+        if not item:
+            raise InputError(f"{option}: empty value in {text!r}; give one number, or one per test mode separated by "
+                             "commas")
+        try:
+            v = float(item)
+        except ValueError:
+            raise InputError(f"{option}: {item!r} is not a number") from None
+        if not math.isfinite(v):
+            raise InputError(f"{option}: {item!r} is not a finite number")
+        if not v > 0:
+            raise InputError(f"{option}: {item} is not > 0 (a standard deviation is positive)")
+        if v < 1 / MAX_MAGNITUDE or v > MAX_MAGNITUDE:
+            raise InputError(f"{option}: {item} is outside [{1 / MAX_MAGNITUDE:g}, {MAX_MAGNITUDE:g}]")
+        values.append(v)
+    if len(values) == 1:
+        return values[0]
+    if len(values) != n_modes:
+        held = f"{n_modes} test mode{'s' if n_modes != 1 else ''}" if n_modes else "no test modes"
+        raise InputError(f"{option}: {len(values)} values given, but the test data hold {held}: give one value, or "
+                         "one per test mode in the order of the file")
+    return values
+
+
 def emit(ctx: Ctx, payload: dict) -> None:
     """Write the machine-readable result if ``--json`` was given."""
     if ctx.json_path:
@@ -299,6 +350,7 @@ def update_payload(model, data, res, ms=None):
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
             "covariance": d.covariance, "n_residuals": d.n_residuals, "n_parameters": d.n_parameters,
+            **diagnostics_extra(res.names, d),
         },
     }
     if res.blocks:
@@ -309,6 +361,39 @@ def update_payload(model, data, res, ms=None):
         out["starts"] = {"total": 1, "converged": int(res.success),
                          "solutions": [{"parameters": {n: res.parameters[n] for n in res.names}, "cost": res.cost, "count": 1}] if res.success else []}
     return out
+
+
+def diagnostics_extra(names, d) -> dict:
+    """The JSON keys of :class:`~femupdate.updating.Diagnostics` added to ``diagnostics`` for the
+    bounds and the parameters the data cannot move (the older keys are written by the callers):
+    ``absolute``, ``at_bounds`` {name: ``"lower"`` | ``"upper"``}, ``n_at_bounds``, ``free``,
+    ``poorly_determined_reasons`` {name: reason}, ``relative_std`` {name: value}."""
+    return {"absolute": d.absolute, "at_bounds": dict(d.at_bounds), "n_at_bounds": d.n_at_bounds,
+            "free": list(d.free), "poorly_determined_reasons": dict(d.poorly_determined_reasons),
+            "relative_std": dict(zip(names, d.relative_std))}
+
+
+def print_diagnostics(console, res) -> None:
+    """The diagnostics' lines under an iterative update: convergence, cost and conditioning; the
+    count of active bounds (naming them); each poorly determined parameter with its reason."""
+    d = res.diagnostics
+    what = "free parameters" if d.at_bounds else "parameters"
+    console.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
+                  f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} "
+                  f"(rank {d.rank}/{d.n_parameters - d.n_at_bounds} {what})", markup=False)
+    print_identifiability(console, d)
+
+
+def print_identifiability(console, d) -> None:
+    """The count of active bounds (naming them) and each poorly determined parameter with its
+    reason, from :class:`~femupdate.updating.Diagnostics` ``d``."""
+    bounds = f" ({', '.join(f'{n} {side}' for n, side in d.at_bounds.items())})" if d.at_bounds else ""
+    console.print(f"active bounds: {d.n_at_bounds} of {d.n_parameters} parameters on a bound{bounds}", markup=False)
+    if d.poorly_determined:
+        console.print(f"poorly determined (the data cannot move them): {len(d.poorly_determined)} of "
+                      f"{d.n_parameters}", markup=False)
+        for n, why in d.poorly_determined_reasons.items():
+            console.print(f"  {n}: {why}", markup=False)
 
 
 def starts_payload(ms) -> dict:
@@ -361,15 +446,17 @@ def print_starts(console, ms, what: str = "starts") -> None:
 
 
 def update_parameter_table(res, title: str) -> Table:
-    """Start, updated value, standard deviation and change of each updated parameter."""
+    """Start, updated value, standard deviation (or the bound it sits on) and change of each
+    updated parameter."""
     t = Table(title=title)
     for col in ("parameter", "start", "updated", "std", "change"):
         t.add_column(col, justify="left" if col == "parameter" else "right")
     std_p = dict(zip(res.names, res.diagnostics.std))
+    at = res.diagnostics.at_bounds
     for n in res.names:
         p0, p1 = res.start[n], res.parameters[n]
-        t.add_row(n, fmt(p0), fmt(p1), "-" if not np.isfinite(std_p[n]) else fmt(std_p[n]),
-                  f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+        sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
+        t.add_row(n, fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
 
 

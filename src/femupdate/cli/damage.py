@@ -18,8 +18,9 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, emit, flags, print_flags, fmt, json_option, model_values,
-                      option_dofs, parse_regularization, parse_set, set_option)
+from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, print_flags,
+                      print_identifiability, fmt, json_option, model_values, option_dofs,
+                      parse_regularization, parse_set, set_option)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -169,7 +170,8 @@ def _multi_payload(model, res) -> dict:
             "rank": res.direct.rank, "unique": res.direct.unique, "n_equations": res.direct.system.n_equations},
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
-            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std))},
+            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
+            **diagnostics_extra(res.names, d)},
     }
 
 
@@ -221,6 +223,10 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
                   f"{row['min_singular']:.4g}")
     c.print(t)
     c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}")
+    if res.diagnostics is not None:
+        print_identifiability(c, res.diagnostics)
+    for note in res.notes:
+        c.print(f"note: {note}", markup=False)
     payload = _multi_payload(model, res)
     print_flags(ctx, payload["flags"])
     emit(ctx, payload)

@@ -13,7 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
-                      print_starts, starts_payload, emit, print_flags, fmt, json_option, model_values, parse_regularization,
+                      print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
                       update_parameter_table, update_payload)
 
@@ -303,9 +303,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         title = f"the lowest-cost solution in detail — {title}"
     c.print(update_parameter_table(res, title))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
-    d = res.diagnostics
-    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; condition number "
-            f"of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
+    print_diagnostics(c, res)
     for s in res.skipped:
         c.print(f"skipped line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     for note in res.notes:

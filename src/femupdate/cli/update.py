@@ -13,8 +13,8 @@ from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import is_index
 from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
-                      print_flags, fmt, json_option, model_values, option_dofs, parse_regularization, set_option,
-                      update_parameter_table,
+                      print_diagnostics, print_flags, fmt, json_option, model_values, option_dofs, parse_regularization,
+                      parse_std, set_option, update_parameter_table,
                       update_payload)
 from ..updating.results import pairing_warnings
 from .frf import frf_fields, frf_line_options, frf_options
@@ -50,8 +50,12 @@ from .frf import frf_fields, frf_line_options, frf_options
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
 @click.option("--use", "use_text", default=None, metavar="KINDS",
               help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold).")
-@click.option("--std-eigenvalue", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Relative std of measured eigenvalues (for the covariance).")
-@click.option("--std-shape", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of scaled shape entries (for the covariance).")
+@click.option("--std-eigenvalue", "std_eigenvalue", default=None, metavar="S|S1,S2,...",
+              help="Relative std of the measured eigenvalues (for the covariance): one value, or one per test mode; "
+                   "replaces the test data's std_frequency / std_eigenvalue.")
+@click.option("--std-shape", "std_shape", default=None, metavar="S|S1,S2,...",
+              help="Std of the scaled shape entries (for the covariance): one value, or one per test mode; replaces "
+                   "the test data's std_shape.")
 @click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
 @click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of measured static deflections, m (weights them).")
 @frf_line_options
@@ -78,6 +82,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
         (ref_dof,) = option_dofs([ref_dof], model, "--ref-dof")
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
+    std_eigenvalue = parse_std(std_eigenvalue, "--std-eigenvalue", len(data.modes))
+    std_shape = parse_std(std_shape, "--std-shape", len(data.modes))
     std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", std_frf),
                              ("static", std_static)) if v is not None} or None
     use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
@@ -137,11 +143,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
         for s in res.skipped:
             c.print(f"skipped FRF line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
-    d = res.diagnostics
-    c.print(f"{'converged' if res.success else 'NOT converged'}: {res.message}; cost {res.cost:.4g}; "
-            f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} (rank {d.rank}/{d.n_parameters})")
-    if d.poorly_determined:
-        c.print(f"poorly determined: {', '.join(d.poorly_determined)}")
+    print_diagnostics(c, res)
     if res.pairing:
         c.print(f"pairing: {res.pairing['policy']} (the pairs at the solution made by {res.pairing['used']})")
     for sw in res.swaps[:5]:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from pathlib import Path
@@ -12,9 +11,12 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
 from .numbers import loads_json
-from ..testdata import FRFData, MeasuredMode, StaticData, TestData
+from ..testdata import FRFData, MeasuredMode, StaticData, TestData, positive
 
 UFF_SUFFIXES = (".uff", ".unv")
+#: the keys of a mode object (docs/file-formats.md, "modes")
+MODE_KEYS = frozenset({"frequency_hz", "eigenvalue", "shape", "label", "reference_dof", "std_frequency",
+                       "std_eigenvalue", "std_shape", "weight"})
 
 
 def load_testdata(path, model=None, numbering=None) -> TestData:
@@ -132,7 +134,11 @@ def parse_testdata(raw, dofs=None) -> TestData:
     ----------
     raw : mapping
         The parsed JSON: ``"modes"`` (list of objects with exactly one of ``frequency_hz`` (Hz)
-        or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value}, ``label`` and ``reference_dof``),
+        or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value}, ``label`` and ``reference_dof``,
+        and optionally at most one of ``std_frequency`` (relative, of f; kept as
+        ``std_eigenvalue`` = 2 ``std_frequency``, to first order) or ``std_eigenvalue``
+        (relative, of λ), ``std_shape`` (of the scaled shape entries) and ``weight``; null: not
+        given),
         ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
         frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
         with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).  A dof is a
@@ -165,11 +171,18 @@ def parse_testdata(raw, dofs=None) -> TestData:
         where = f"modes[{i}]"
         if not isinstance(m, Mapping):
             raise InputError(f"{where}: expected an object")
-        unknown = sorted(set(m) - {"frequency_hz", "eigenvalue", "shape", "label", "reference_dof"})
+        unknown = sorted(set(m) - MODE_KEYS)
         if unknown:
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}")
         if ("frequency_hz" in m) == ("eigenvalue" in m):
             raise InputError(f"{where}: give exactly one of frequency_hz or eigenvalue")
+        # per-mode uncertainty and weight (null: not given), named as the file names them
+        extra = {k: positive(m[k], f"{where} {k}") for k in ("std_frequency", "std_eigenvalue", "std_shape", "weight")
+                 if m.get(k) is not None}
+        if "std_frequency" in extra and "std_eigenvalue" in extra:
+            raise InputError(f"{where}: give at most one of std_frequency or std_eigenvalue")
+        if "std_frequency" in extra:  # λ ∝ f²: σ_λ/λ = 2 σ_f/f to first order
+            extra["std_eigenvalue"] = 2.0 * extra.pop("std_frequency")
         shape = m.get("shape", {}) or {}
         if not isinstance(shape, Mapping):
             raise InputError(f"{where}: shape must be an object {{dof: value}}")
@@ -187,9 +200,9 @@ def parse_testdata(raw, dofs=None) -> TestData:
                 ref = resolve_dof(ref, dofs, "reference_dof")
             if "frequency_hz" in m:
                 mode = MeasuredMode.from_frequency(value, shape_dofs, arr, label)
-                modes.append(MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref) if ref else mode)
+                modes.append(MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref, **extra))
             else:
-                modes.append(MeasuredMode(value, shape_dofs, arr, label, ref))
+                modes.append(MeasuredMode(value, shape_dofs, arr, label, ref, **extra))
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     frf = None

@@ -24,9 +24,10 @@ from .problem import (PARAMETRISATIONS, SENSITIVITY_CHOICES, SHAPE_SCALINGS, Par
                       modal_weights)
 from .results import Diagnostics, MultiStartResult, RunResult, Solution, UpdateResult
 from .solve import diagnostics, result_at, solve, solve_problem, update_modal
+from .targets import mode_uncertainty
 
 __all__ = [
-    "Problem", "Parametrisation", "Targets", "modal_weights", "PARAMETRISATIONS", "SHAPE_SCALINGS",
+    "Problem", "Parametrisation", "Targets", "modal_weights", "mode_uncertainty", "PARAMETRISATIONS", "SHAPE_SCALINGS",
     "SENSITIVITY_CHOICES", "RunResult", "update", "solve", "solve_problem", "result_at", "diagnostics", "UpdateResult",
     "Diagnostics", "multistart", "MultiStartResult", "Solution", "cluster", "converged_solutions", "draw_starts",
     "run_starts", "update_modal", "CombinedProblem", "Block", "combined_problem", "data_kinds", "DATA_KINDS",

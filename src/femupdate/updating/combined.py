@@ -43,6 +43,7 @@ from ..testdata import FRFData, TestData
 from .frf import FRFProblem, prepare_problem
 from .parametrisation import Parametrisation, start_vector, updated_names
 from .problem import Problem
+from .targets import mode_uncertainty
 
 #: the kinds of test data, in the order their blocks are stacked
 DATA_KINDS = ("modes", "frf", "static")
@@ -353,7 +354,9 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     for kind in kinds:
         prob: Problem | FRFProblem
         if kind == "modes":
-            given = std.get("modes")
+            # the caller's standard deviations, completed by the data's per-mode ones
+            _, given = mode_uncertainty(data, modal_options.get("weights"), std.get("modes"),
+                                        modal_options.get("use_shapes", True))
             prob = Problem(model, data, names, x0=x0, values=values, parametrisation=parametrisation,
                            measurement_std=given, **modal_options)
             n_data += prob.targets.n_independent
@@ -400,7 +403,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     sigma = True if all(b.weighting == "stated std" for b in blocks) else None
     if mixed and "modes" in kinds and blocks[0].weighting == "stated std":
         modal = blocks[0].problem
-        if isinstance(modal, Problem) and modal.any_shape and "shape" not in std.get("modes", {}):
+        if isinstance(modal, Problem) and modal.any_shape and modal.sigma is None:
             sigma = None
     combined = CombinedProblem(model, blocks, sigma, notes)
     if not regularized and n_data < len(names):

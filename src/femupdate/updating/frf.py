@@ -400,7 +400,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     p_final = prob.to_p(sol.x)
     r = prob.residuals(sol.x)
     J = prob.jacobian(sol.x)
-    diag = diagnostics(prob, sol.x, r, J, sigma)
+    diag = diagnostics(prob, sol.x, r, J, sigma, bounds=None if method == "lm" else model.bounds)
     xa = prob.responses(sol.x)
     pairs, f_test, f_model, natural = modal_report(model, data, p_final)
     return FRFUpdateResult(
@@ -411,7 +411,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
         pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=[], diagnostics=diag,
         regularization=reg, start=dict(zip(names, map(float, prob.p_base[prob.idx]))), sensitivity="brandon",
         omega=prob.omega, skipped=skipped, residual=residual, frac=dict(zip(frf.dofs, frac(prob.xe, xa))),
-        natural_frequencies_hz=natural, notes=notes,
+        natural_frequencies_hz=natural, notes=notes + diag.notes,
     )
 
 

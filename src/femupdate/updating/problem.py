@@ -27,7 +27,7 @@ from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
 from ..testdata import TestData
 from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, start_vector, updated_names, x_bounds,
                               x_of_p)
-from .targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets, build_targets, modal_weights
+from .targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets, build_targets, modal_weights, mode_uncertainty
 SHAPE_SCALINGS = tuple(rules.SCALINGS)  #: ``("unit", "ref", "max")``
 SENSITIVITY_CHOICES = SENSITIVITY_METHODS  #: ``"auto"``, ``"nelson"``, ``"modal"``, ... (the Jacobian's route)
 
@@ -78,7 +78,9 @@ class Problem(Parametrisation):
     ref_dof : str, optional
         Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode).
     weights, measurement_std : mapping, optional
-        See :func:`modal_weights`; each entry a single value or one per test mode.
+        See :func:`modal_weights`; each entry a single value or one per test mode.  The test
+        data's per-mode ``std_eigenvalue``, ``std_shape`` and ``weight`` fill the keys not given
+        (:func:`mode_uncertainty`).
     min_mac : float, default 0.5
         Pairing threshold in [0, 1]: with ``pairing="mac"`` a test mode with a shape must reach
         it with its model mode; with ``"auto"`` a pairing whose shapes all reach it correlates.
@@ -111,7 +113,8 @@ class Problem(Parametrisation):
     n_modes : int
         Model modes computed and paired among.
     sigma : dict or None
-        The stated ``measurement_std`` (the covariance of the diagnostics is then absolute).
+        The stated ``measurement_std`` with the data's per-mode values, when every residual is
+        divided by a standard deviation (the covariance of the diagnostics is then absolute).
     sensitivity_used : str
         The derivative route of the last Jacobian (``"auto"`` resolved; ``"fox-kapoor"`` when no
         shape is compared).
@@ -152,6 +155,7 @@ class Problem(Parametrisation):
         if pairing not in rules.PAIRINGS:
             raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
         super().__init__(model, updated_names(model, params), parametrisation, start_vector(model, values, x0))
+        weights, measurement_std = mode_uncertainty(data, weights, measurement_std, use_shapes)
         w, self.sigma = modal_weights(weights, measurement_std)
         self.model = model
         self.data = data

@@ -10,26 +10,37 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class Diagnostics:
-    """Identifiability at the solution.
+    """Identifiability at the solution (:func:`~femupdate.updating.diagnostics`).
+
+    A parameter that sits on one of its bounds at the solution is held there by the bound, not by
+    the data: it is listed in ``at_bounds`` and the singular values, rank, condition number,
+    covariance and standard deviations describe the *free* parameters only (with no bound
+    active, all of them).
 
     Attributes
     ----------
-    singular_values : numpy.ndarray, shape ``(min(m, L),)``
+    singular_values : numpy.ndarray, shape ``(min(m, L_free),)``
         Singular values, descending, of the normalised sensitivity matrix S = ∂r/∂(p/|p|)
-        (columns scaled by the parameter values, so units do not matter).
+        (columns scaled by the parameter values, so units do not matter) over the free
+        parameters' columns.
     condition_number : float
-        σ_max / σ_min of S (inf when σ_min is zero or with fewer data than parameters; merely
-        very large when S is numerically rank-deficient).
+        σ_max / σ_min of that S (inf when σ_min is zero or with fewer data than free parameters;
+        merely very large when S is numerically rank-deficient; NaN when no parameter is free).
     rank : int
-        Numerical rank of S (singular values above 1e-6 σ_max).
+        Numerical rank of that S (singular values above 1e-6 σ_max), at most ``len(free)``.
     poorly_determined : list of str
-        Parameters dominating the right singular vectors of the singular values below
-        1e-6 σ_max (the combinations the data cannot determine), sorted by name.
+        Parameters the data cannot move, sorted by name; why, in ``poorly_determined_reasons``:
+        their column of S is (near) zero, they dominate a right singular vector of the free
+        parameters' null space (the data determine only a combination), or their standard
+        deviation exceeds their value's magnitude
+        (:data:`~femupdate.updating.solve.POOR_RELATIVE_STD`).
     covariance : numpy.ndarray, shape ``(L, L)``
         In parameter units (squared) — from the stated measurement standard deviations when
-        given, else from the residual variance; NaN when not estimable.
+        given, else from the residual variance; NaN when not estimable, and in the rows and
+        columns of the parameters on a bound.
     std : numpy.ndarray, shape ``(L,)``
-        Standard deviations (parameter units), the square roots of the covariance's diagonal.
+        Standard deviations (parameter units), the square roots of the covariance's diagonal (NaN
+        for a parameter on a bound).
     n_residuals : int
         m, the number of residuals.
     n_parameters : int
@@ -37,6 +48,16 @@ class Diagnostics:
     absolute : bool
         The residuals are divided by stated measurement standard deviations: the covariance is
         absolute (else scaled by the residual variance).
+    at_bounds : dict of str to str
+        The parameters sitting on a bound at the solution, {name: ``"lower"`` or ``"upper"``}, in
+        the order of the updated parameters (empty when the solver ignored the bounds).
+    free : tuple of str
+        The updated parameters not on a bound, whose figures the analysis gives.
+    poorly_determined_reasons : dict of str to str
+        {name: why} for each of ``poorly_determined``.
+    relative_std : numpy.ndarray, shape ``(L,)``
+        ``std / |value|`` (``std`` itself for a value of 0): the standard deviation in the
+        normalised variables of S; NaN where ``std`` is.
     """
 
     singular_values: np.ndarray
@@ -48,11 +69,34 @@ class Diagnostics:
     n_residuals: int
     n_parameters: int
     absolute: bool = False
+    at_bounds: dict[str, str] = field(default_factory=dict)
+    free: tuple[str, ...] = ()
+    poorly_determined_reasons: dict[str, str] = field(default_factory=dict)
+    relative_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def n_at_bounds(self) -> int:
+        """The number of parameters on a bound (active bounds)."""
+        return len(self.at_bounds)
+
+    @property
+    def notes(self) -> list[str]:
+        """What the user should know about these figures: with active bounds, that the covariance
+        and standard deviations describe the free parameters only (empty otherwise)."""
+        if not self.at_bounds:
+            return []
+        k = len(self.at_bounds)
+        which = ", ".join(f"{n} {side}" for n, side in self.at_bounds.items())
+        return [f"{k} parameter{'s' if k > 1 else ''} on {'their' if k > 1 else 'its'} bound{'s' if k > 1 else ''} "
+                f"({which}): held there by the bounds, not by the data; the covariance and std describe the "
+                f"{self.n_parameters - k} free parameter{'s' if self.n_parameters - k != 1 else ''} only"]
 
     def __repr__(self) -> str:
+        bound = f", {self.n_at_bounds} on bounds" if self.at_bounds else ""
         poor = f", poorly determined: {', '.join(self.poorly_determined)}" if self.poorly_determined else ""
-        return (f"Diagnostics(rank {self.rank}/{self.n_parameters}, condition {self.condition_number:.3g}, "
-                f"{self.n_residuals} residuals{poor})")
+        free = f"/{self.n_parameters - self.n_at_bounds} free" if self.at_bounds else f"/{self.n_parameters}"
+        return (f"Diagnostics(rank {self.rank}{free}, condition {self.condition_number:.3g}, "
+                f"{self.n_residuals} residuals{bound}{poor})")
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,8 +240,9 @@ class UpdateResult(RunResult):
         -------
         str
             Newline-separated lines: convergence, cost, a table of the parameters (start,
-            updated, change in %, standard deviation), a table of the pairs (frequencies in Hz,
-            error in %, MAC), the diagnostics and the number of mode swaps, if any.
+            updated, change in %, standard deviation — or the bound a parameter sits on), a
+            table of the pairs (frequencies in Hz, error in %, MAC), the diagnostics, each poorly
+            determined parameter with its reason, the notes and the number of mode swaps, if any.
         """
         d = self.diagnostics
         lines = [f"{'converged' if self.success else 'NOT converged'}: {self.message}",
@@ -207,13 +252,16 @@ class UpdateResult(RunResult):
             s0 = self.start.get(n, math.nan)
             ch = (v / s0 - 1) * 100 if s0 else math.nan
             sd = d.std[j] if d is not None and j < d.std.size else math.nan
-            lines.append(f"{n:<16}{s0:>14.6g}{v:>14.6g}{ch:>9.2f}%{sd:>12.3g}")
+            shown = f"{d.at_bounds[n]} bound" if d is not None and n in d.at_bounds else f"{sd:.3g}"
+            lines.append(f"{n:<16}{s0:>14.6g}{v:>14.6g}{ch:>9.2f}%{shown:>12}")
         lines.append(f"{'test':>5}{'model':>7}{'f test [Hz]':>14}{'f model [Hz]':>14}{'error':>9}{'MAC':>7}")
         for (k, j, m), ft, fa in zip(self.pairs, self.test_frequencies_hz, self.model_frequencies_hz):
             err = (fa - ft) / ft * 100 if ft else math.nan
             lines.append(f"{k + 1:>5}{j + 1:>7}{ft:>14.6g}{fa:>14.6g}{err:>8.3f}%{m:>7.3f}")
         if d is not None:
             lines.append(repr(d))
+            lines.extend(f"poorly determined: {n}: {why}" for n, why in d.poorly_determined_reasons.items())
+        lines.extend(f"note: {note}" for note in self.notes)
         if self.swaps:
             lines.append(f"{len(self.swaps)} mode swap(s) during the iteration")
         lines += pairing_warnings(self)

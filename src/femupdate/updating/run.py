@@ -127,10 +127,11 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
                             measurement_std=measurement_std, frf_options=frf_options,
                             regularized=regularization is not None, method=method, **modal_options)
     sol, history, reg = solve(combined, model.bounds, regularization=regularization, **solver_options)
-    return combined_result(combined, data, sol.x, sol, history, reg)
+    return combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
 
 
-def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=None, reg=None) -> UpdateResult:
+def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=None, reg=None,
+                    bounded: bool = True) -> UpdateResult:
     """The result of ``prob`` at the variables x (:func:`~femupdate.updating.result_at` for a
     :class:`CombinedProblem`).
 
@@ -149,6 +150,8 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         The iteration history (:func:`~femupdate.updating.solve`).
     reg : dict, optional
         The regularisation used.
+    bounded : bool, default True
+        The solver kept to the model's bounds (False for Levenberg–Marquardt).
 
     Returns
     -------
@@ -180,6 +183,7 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
     routes += ["brandon"] if frf_blocks else []
     routes += ["static (brandon at ω = 0)"] if any(b.kind == "static" for b in prob.blocks) else []
     history = history if history is not None else []
+    diag = diagnostics(prob, x, r, J, prob.sigma, bounds=model.bounds if bounded else None)
     common = dict(
         parameters=dict(zip(model.parameter_names, map(float, p_final))), names=tuple(prob.names), x=p_final[prob.idx],
         success=bool(sol.success) if sol is not None else False, status=int(sol.status) if sol is not None else 0,
@@ -187,9 +191,9 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=int(sol.njev or 0) if sol is not None else 0,
         iterations=max(len(history) - 1, int(sol.njev or 0) if sol is not None else 0), history=history,
         **paired, swaps=swaps,
-        diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
+        diagnostics=diag, regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.p_base[prob.idx]))), sensitivity=" + ".join(routes),
-        blocks=prob.block_costs(r), notes=list(prob.notes))
+        blocks=prob.block_costs(r), notes=list(prob.notes) + diag.notes)
     if not frf_blocks:
         return UpdateResult(**common)
     fp = frf_blocks[0].problem

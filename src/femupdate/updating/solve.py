@@ -26,18 +26,55 @@ from .results import Diagnostics, UpdateResult
 log = logging.getLogger(__name__)
 
 
-def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
+#: singular values of the normalised sensitivity matrix below this fraction of the largest count as
+#: zero (the rank), and so does a parameter's column below this fraction of the largest column
+RANK_RTOL = 1e-6
+#: a parameter whose entry in a right singular vector of the null space is at least this fraction
+#: of the vector's largest entry takes part in a combination the data cannot determine
+NULL_SHARE = 0.3
+#: a free parameter whose standard deviation exceeds this fraction of its value's magnitude (of 1
+#: for a value of 0) is poorly determined: within one standard deviation it could be zero or
+#: twice its value — the data barely move it
+POOR_RELATIVE_STD = 1.0
+
+
+def _svd(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values (descending) and right singular vectors (rows, all of them) of S."""
+    if not S.size:
+        return np.zeros(0), np.eye(S.shape[1])
+    _, sv, Vt = np.linalg.svd(S, full_matrices=True)
+    return sv, Vt
+
+
+def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     """Identifiability figures (:class:`Diagnostics`) of ``prob`` at x.
 
     The Jacobian is taken to the parameters (∂r/∂p) and its columns scaled by |p| (1 for a zero
-    value): the normalised sensitivity matrix S = ∂r/∂(p/|p|), whose singular values, rank
-    (above 1e-6 σ_max) and condition number are reported; parameters with an entry of at least
-    0.3 times the largest in a right singular vector of the null space are poorly determined.
+    value): the normalised sensitivity matrix S = ∂r/∂(p/|p|).
+
+    * **Active bounds.**  A parameter whose value sits on one of ``bounds`` (within
+      :data:`femupdate.flags.ON_BOUND_RTOL` of the bounds' span, :func:`femupdate.flags.bound_side`)
+      is held there by the bound, not by the data: it is listed in ``at_bounds`` and left out of
+      the analysis below, which describes the *free* parameters only (its standard deviation is
+      NaN).
+    * **Singular values** of S restricted to the free columns, descending; its rank (singular
+      values above :data:`RANK_RTOL` σ_max) and condition number.
+    * **Covariance** of the free parameters, D V Σ⁻² Vᵀ D from the SVD S_free = U Σ Vᵀ
+      (D = diag |p|) — that is (J_freeᵀ J_free)⁻¹ in parameter units — times the residual variance
+      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations.  A free
+      parameter the data do not depend on (a zero column) is left out of it too (NaN): the
+      others' covariance does not depend on it.
+    * **Poorly determined** parameters, each with its reason (``poorly_determined_reasons``):
+      a column of S below :data:`RANK_RTOL` times the largest (the data do not depend on the
+      parameter; checked for every parameter, on a bound or not); an entry of at least
+      :data:`NULL_SHARE` times the largest in a right singular vector of the free parameters'
+      null space (the data determine only a combination); a standard deviation above
+      :data:`POOR_RELATIVE_STD` times |p| (the data barely move it).
 
     Parameters
     ----------
     prob : Parametrisation
-        The problem (its ``to_p``, ``dp_dx``, ``idx`` and ``names``).
+        The problem (its ``to_p``, ``dp_dx``, ``idx``, ``names`` and ``scale``).
     x : numpy.ndarray, shape ``(L,)``
         The optimiser's variables.
     r : numpy.ndarray, shape ``(m,)``
@@ -47,37 +84,79 @@ def diagnostics(prob, x, r, J, sigma) -> Diagnostics:
     sigma : object or None
         Not None when the residuals are already divided by the measurement standard deviations:
         the covariance is then (JᵀJ)⁻¹ in parameter units (absolute); None: it is scaled by the
-        residual variance ‖r‖² / (m − L) (NaN unless m > L).
+        residual variance ‖r‖² / (m − L_free) (NaN unless m > L_free).
+    bounds : tuple of numpy.ndarray, optional
+        The model's ``(lo, hi)`` over its full parameter vector, when the solver kept to them;
+        None (default, and for Levenberg–Marquardt, which ignores bounds): no bound is active.
 
     Returns
     -------
     Diagnostics
-        Covariance and standard deviations NaN unless S has full column rank.
+        Covariance and standard deviations NaN for the parameters on a bound or with a zero
+        column, and for all unless S has full column rank over the remaining ones.
     """
+    from ..flags import bound_side
+
+    names = list(prob.names)
     p = prob.to_p(x)[prob.idx]
     dxdp = 1.0 / prob.dp_dx(x)
     Jp = J * dxdp[None, :]  # ∂r/∂p
-    S = Jp * np.where(p != 0, np.abs(p), 1.0)[None, :]  # ∂r/∂(p/|p|): normalised sensitivity
-    s = np.linalg.svd(S, compute_uv=False) if S.size else np.zeros(0)
+    mag = np.where(p != 0, np.abs(p), 1.0)
+    S = Jp * mag[None, :]  # ∂r/∂(p/|p|): normalised sensitivity
     m, L = J.shape
-    U, sv, Vt = np.linalg.svd(S, full_matrices=True) if S.size else (None, s, np.eye(L))
-    tol = 1e-6 * (sv[0] if sv.size else 0)
-    rank = int(np.sum(sv > tol))
-    poor: set[str] = set()
-    for k in range(rank, L):
-        v = Vt[k]
-        for j in np.flatnonzero(np.abs(v) >= 0.3 * np.abs(v).max()):
-            poor.add(prob.names[j])
-    cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and L <= m else math.inf
+    at: dict[str, str] = {}
+    if bounds is not None:
+        lo, hi = (np.asarray(b, float)[prob.idx] for b in bounds)
+        start = getattr(prob, "scale", np.ones(L))
+        for j, n in enumerate(names):
+            side = bound_side(float(p[j]), float(lo[j]), float(hi[j]), float(start[j]))
+            if side is not None:
+                at[n] = side
+    free = np.array([j for j, n in enumerate(names) if n not in at], dtype=np.intp)
+    reasons: dict[str, str] = {}
+    col = np.sqrt(np.sum(S ** 2, axis=0)) if m else np.zeros(L)
+    largest = float(col.max()) if col.size else 0.0
+    unseen = col <= RANK_RTOL * largest  # the data do not depend on these
+    for z in np.flatnonzero(unseen):
+        reasons[names[int(z)]] = ("the data do not depend on it (zero sensitivity)" if largest > 0
+                                  else "the data do not depend on any parameter (zero sensitivity)")
+    sv, Vt = _svd(S[:, free])
+    nF = free.size
+    rank = int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size else 0
+    for k in range(rank, nF):  # the null space of the free parameters (with the directions beyond m < L)
+        v = np.abs(Vt[k])
+        group = [names[free[j]] for j in np.flatnonzero(v >= NULL_SHARE * v.max())]
+        for n in group:
+            others = [g for g in group if g != n]
+            reasons.setdefault(n, f"the data determine only a combination of it with {', '.join(others)}"
+                               if others else "the data cannot move it (a null direction of the sensitivity matrix)")
+    if nF == 0:
+        cond = math.nan
+    else:
+        cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and nF <= m else math.inf
+    # the covariance of the free parameters the data depend on: a zero column is a null direction of
+    # its own, which leaves the others' covariance defined (the information matrix is block-diagonal)
+    cols = free[~unseen[free]]
+    nC = cols.size
+    svC, VtC = (sv, Vt) if nC == nF else _svd(S[:, cols])
     cov = np.full((L, L), np.nan)
-    if rank == L and m > 0:
-        JtJ_inv = np.linalg.pinv(Jp.T @ Jp)
-        if sigma is not None:
-            cov = JtJ_inv  # residuals already divided by their standard deviations
-        elif m > L:
-            cov = JtJ_inv * float(r @ r) / (m - L)
-    std = np.sqrt(np.clip(np.diag(cov), 0, None)) if np.all(np.isfinite(cov)) else np.full(L, np.nan)
-    return Diagnostics(s, cond, rank, sorted(poor), cov, std, m, L, sigma is not None)
+    if nC and m > 0 and np.sum(svC > RANK_RTOL * svC[0]) == nC:
+        V = VtC.T
+        covF = (mag[cols][:, None] * V) @ np.diag(1.0 / svC ** 2) @ (V.T * mag[cols][None, :])
+        if sigma is None:
+            covF = covF * float(r @ r) / (m - nC) if m > nC else np.full((nC, nC), np.nan)
+        cov[np.ix_(cols, cols)] = covF
+    diag = np.diag(cov)
+    std = np.where(np.isfinite(diag), np.sqrt(np.clip(np.nan_to_num(diag, nan=0.0), 0, None)), np.nan)
+    rel = std / mag
+    for j in free:
+        if np.isfinite(rel[j]) and rel[j] > POOR_RELATIVE_STD:
+            reasons.setdefault(names[j], f"its standard deviation {std[j]:.3g} is {rel[j] * 100:.0f} % of its value "
+                                         f"(above {POOR_RELATIVE_STD * 100:.0f} %): the data barely move it")
+    poor = sorted(reasons)
+    return Diagnostics(sv, cond, rank, poor, cov, std, m, L, sigma is not None, at_bounds=at,
+                       free=tuple(names[j] for j in free), poorly_determined_reasons={n: reasons[n] for n in poor},
+                       relative_std=rel)
 
 
 def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,
@@ -308,7 +387,7 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
         check_determined(prob)
     sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
-    return result_at(prob, sol.x, sol, history, reg)
+    return result_at(prob, sol.x, sol, history, reg, bounded=method != "lm")
 
 
 def paired_modes(prob: Problem, modes, pairs) -> dict:
@@ -336,7 +415,7 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
                 pairing={"policy": prob.pairing, "used": prob.pairing_used, "min_mac": prob.min_mac, "low_mac": low})
 
 
-def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResult:
+def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool = True) -> UpdateResult:
     """The :class:`UpdateResult` of ``prob`` at the variables x: residuals, Jacobian, pairs and
     diagnostics there; ``sol`` (a SciPy ``OptimizeResult`` or an object with its fields) gives
     the convergence figures (none: a plain evaluation, 0 iterations).
@@ -354,6 +433,9 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResul
         The iteration history (:func:`solve`; default empty).
     reg : dict, optional
         The regularisation used (:func:`solve`; default empty).
+    bounded : bool, default True
+        The solver kept to the model's bounds (False for Levenberg–Marquardt): parameters on a
+        bound are reported as held by it (:func:`diagnostics`).
 
     Returns
     -------
@@ -374,6 +456,7 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResul
     history = history if history is not None else []
     status = int(sol.status) if sol is not None else 0
     njev = int(sol.njev or 0) if sol is not None else 0
+    diag = diagnostics(prob, x, r, J, prob.sigma, bounds=prob.model.bounds if bounded else None)
     return UpdateResult(
         parameters=dict(zip(prob.model.parameter_names, map(float, p_final))),
         names=tuple(prob.names), x=p_final[prob.idx], success=bool(sol.success) if sol is not None else False,
@@ -381,9 +464,10 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None) -> UpdateResul
         cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=njev,
         iterations=max(len(history) - 1, njev), history=history,
         **paired_modes(prob, modes, pairs),
-        swaps=list(prob.swaps), diagnostics=diagnostics(prob, x, r, J, prob.sigma), regularization=reg or {},
-        start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
+        swaps=list(prob.swaps), diagnostics=diag, regularization=reg or {},
+        start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used, notes=diag.notes,
     )
 
 
-__all__ = ["update_modal", "solve", "solve_problem", "result_at", "paired_modes", "diagnostics"]
+__all__ = ["update_modal", "solve", "solve_problem", "result_at", "paired_modes", "diagnostics", "RANK_RTOL", "NULL_SHARE",
+           "POOR_RELATIVE_STD"]

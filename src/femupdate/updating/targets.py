@@ -102,6 +102,80 @@ TARGETS_PER_MODE = ("lam_e", "w_lam", "w_psi", "ref")
 TARGETS_PER_POSITION = ("pos", "psi_e")
 
 
+def mode_uncertainty(data: TestData, weights: Mapping | None, measurement_std: Mapping | None,
+                     use_shapes: bool = True) -> tuple[dict, dict | None]:
+    """The caller's modal ``weights`` and ``measurement_std`` completed by the test data's
+    per-mode values (:class:`~femupdate.testdata.MeasuredMode` ``std_eigenvalue``, ``std_shape``,
+    ``weight``: the test-data file's ``std_frequency`` / ``std_eigenvalue``, ``std_shape``,
+    ``weight``).
+
+    Precedence: a key the caller gives (``measurement_std["eigenvalue"]``, ``weights["shape"]``,
+    ...; on the command line ``--std-eigenvalue``, ``--std-shape``) replaces the data's per-mode
+    values for that key; the data's fill the keys the caller leaves out.  A standard deviation
+    from the data must then be stated for every mode it applies to (eigenvalue: every test mode;
+    shape: every mode whose shape is compared); a weight from the data multiplies both residuals
+    of its mode (1 for a mode without one).  Applying the result again changes nothing.
+
+    Parameters
+    ----------
+    data : TestData
+        The measured modes.
+    weights, measurement_std : mapping or None
+        As :func:`modal_weights` (a key with the value None counts as not given).
+    use_shapes : bool, default True
+        False: no shape is compared (the data's ``std_shape`` are not needed).
+
+    Returns
+    -------
+    weights : dict
+        ``{"eigenvalue": ..., "shape": ...}`` as given, per-mode arrays from the data where not.
+    measurement_std : dict or None
+        Likewise; None when neither the caller nor the data state one.
+
+    Raises
+    ------
+    InputError
+        A value of the caller's neither one number nor one per test mode; standard deviations
+        in the data for some modes but not all that need one (naming the modes without).
+    """
+    modes = data.modes
+    T = len(modes)
+    w = {k: v for k, v in dict(weights or {}).items() if v is not None}
+    std = {k: v for k, v in dict(measurement_std or {}).items() if v is not None}
+    for name, given in (("weights", w), ("measurement_std", std)):
+        for key in ("eigenvalue", "shape"):
+            if key in given:
+                shape = np.shape(given[key])
+                if not (shape in ((), (1,)) or shape == (T,)):
+                    raise InputError(f"{name}[{key!r}]: give one value or one per test mode ({T}), got "
+                                     f"{'x'.join(map(str, shape))} values")
+    compared = [use_shapes and m.has_shape and len(m.dofs) >= 2 for m in modes]
+    for key, needed, option, in_file in (("eigenvalue", [True] * T, "--std-eigenvalue", "std_frequency or std_eigenvalue"),
+                                         ("shape", compared, "--std-shape", "std_shape")):
+        values = [getattr(m, f"std_{key}") for m in modes]
+        if key in std or not any(v is not None for v, n in zip(values, needed) if n):
+            continue
+        missing = [k + 1 for k, (v, n) in enumerate(zip(values, needed)) if n and v is None]
+        if missing:
+            stated = [k + 1 for k, (v, n) in enumerate(zip(values, needed)) if n and v is not None]
+            which = "test mode" + ("s" if len(missing) > 1 else "")
+            raise InputError(f"the test data state {in_file} for {_modes(stated)} but not for {which} "
+                             f"{', '.join(map(str, missing))}: state it for every mode"
+                             f"{' whose shape is compared' if key == 'shape' else ''}, or give one value for all "
+                             f"({option}, or measurement_std[{key!r}] in Python)")
+        std[key] = np.array([1.0 if v is None else v for v in values], float)
+    factors = [m.weight for m in modes]
+    if any(v is not None for v in factors):
+        arr = np.array([1.0 if v is None else v for v in factors], float)
+        for key in ("eigenvalue", "shape"):
+            w.setdefault(key, arr)
+    return w, (std or None)
+
+
+def _modes(numbers: list[int]) -> str:
+    return f"test mode{'s' if len(numbers) > 1 else ''} {', '.join(map(str, numbers))}"
+
+
 def modal_weights(weights: Mapping | None, measurement_std: Mapping | None):
     """User weights of the modal residuals divided by the measurement standard deviations where
     given: ``(weights, sigma)`` with ``sigma`` the checked ``measurement_std`` (or None).
@@ -235,4 +309,4 @@ def build_targets(model, data: TestData, shape_scaling: str, ref_dof: str | None
                    np.array(ref, np.int64), int(nm))
 
 
-__all__ = ["Targets", "TARGETS_PER_MODE", "TARGETS_PER_POSITION", "modal_weights", "build_targets"]
+__all__ = ["Targets", "TARGETS_PER_MODE", "TARGETS_PER_POSITION", "mode_uncertainty", "modal_weights", "build_targets"]

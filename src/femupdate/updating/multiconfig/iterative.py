@@ -14,7 +14,7 @@ import numpy as np
 
 from ..._errors import InputError
 from ...model import Model
-from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, modal_weights, solve
+from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, solve
 from ..parametrisation import start_vector
 from .configurations import Configuration, check_unknowns, config_values, is_complete, prepare
 from .direct import direct_configurations
@@ -247,7 +247,6 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     cms = prepare(model, configurations, names)
     p_base = start_vector(model, values, x0)
-    _, sigma = modal_weights(weights, measurement_std)
     prob = Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
                     shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
                     measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
@@ -263,7 +262,9 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     blocks = prob.residual_blocks(sol.x)
     r = np.concatenate(blocks)
     J_blocks = prob.jacobian_blocks(sol.x)
-    diag = diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma)
+    # absolute when every configuration's residuals are divided by stated standard deviations
+    sigma = True if all(sub.sigma is not None for _, sub, _ in prob.subs) else None
+    diag = diagnostics(prob, sol.x, r, np.vstack(J_blocks), sigma, bounds=None if method == "lm" else model.bounds)
     per = []
     for (label, sub, cols), rc, c in zip(prob.subs, blocks, configurations):
         _, modes, pairs = sub.evaluate(p_final[prob.idx][cols])
@@ -279,7 +280,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
         x=p_final[prob.idx], success=bool(sol.success), message=str(sol.message), configurations=per,
         conditioning=cond, standard_error=diag.std, diagnostics=diag, cost=float(0.5 * r @ r), nfev=int(sol.nfev),
         iterations=max(len(history) - 1, int(sol.njev or 0)), history=history, regularization=reg,
-        start=dict(zip(names, map(float, p_base[prob.idx]))),
+        start=dict(zip(names, map(float, p_base[prob.idx]))), notes=diag.notes,
     )
 
 

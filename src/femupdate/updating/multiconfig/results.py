@@ -40,7 +40,8 @@ class MultiConfigResult:
         with ``rank``, ``condition_number`` and ``min_singular`` of the column-scaled direct
         matrix (direct) or the normalised sensitivity matrix (iterative); ``stacked``: all.
     standard_error : ndarray
-        Of ``x`` (NaN where not estimable).
+        Of ``x`` (NaN where not estimable; iterative: NaN for a parameter on a bound, see
+        ``diagnostics.at_bounds``).
     direct : DirectResult or None
         The direct solution (None for the iterative one).
     diagnostics : Diagnostics or None
@@ -49,7 +50,8 @@ class MultiConfigResult:
         Of the iterative solution: ½‖r‖², residual evaluations, iterations, per iteration
         {``iteration``, ``cost``, ``parameters``} (0 / [] for the direct one).
     notes : list of str
-        Notes of the direct solution.
+        Notes of the direct solution; of the iterative one, the parameters on their bounds
+        (:attr:`~femupdate.updating.Diagnostics.notes`).
     regularization : dict
         {``rule``, ``alpha``} when the iterative solution was regularised, else empty.
     start : dict of str to float
