@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from femupdate import InputError, MeasuredMode, Parameter, Structure, TestData, model_modes, solve_modes, update
+from femupdate import InputError, MeasuredMode, Parameter, Structure, TestData, model_modes, rules, solve_modes, update
 from femupdate.model import from_matrices
 from femupdate.updating import Problem, multistart
 
@@ -106,3 +106,38 @@ def test_a_penalty_link_does_not_turn_the_first_mode_into_a_rigid_body_mode(pena
     free = np.array([[penalty, -penalty], [-penalty, penalty]])  # no ground spring: truly rigid
     rigid = solve_modes(free, M, dofs=("1:x", "2:x"))
     assert rigid.n_rigid == 1 and rigid.eigenvalues[0] == 0.0
+
+
+@pytest.mark.parametrize("penalty", [1e8, 1e10])
+def test_the_compiled_route_tells_a_penalty_linked_mode_from_a_rigid_body_mode(penalty):
+    """A chain k1 - m1 = (penalty link) = m2 - k2 - m3 with a nearly massless m2, updated by
+    multi-start on the compiled route: its first mode is elastic.  The pencil-scale test (max
+    K_ii / M_ii = penalty / m2) called it a rigid-body mode, and every start failed ("mode 1 is a
+    rigid-body mode").  Now both routes compute the same eigenvalues and every start runs."""
+    from femupdate.updating.batched import BatchedProblem
+
+    k1, k2, m = 1e4, 2e4, (10.0, 1e-8, 5.0)
+    dofs = ("1:x", "2:x", "3:x")
+    link = np.zeros((3, 3))
+    link[np.ix_([0, 1], [0, 1])] = [[penalty, -penalty], [-penalty, penalty]]
+    dK1 = np.zeros((3, 3))
+    dK1[0, 0] = 1.0
+    dK2 = np.zeros((3, 3))
+    dK2[np.ix_([1, 2], [1, 2])] = [[1.0, -1.0], [-1.0, 1.0]]
+    model = from_matrices(dofs, link, np.diag(m), [Parameter("k1", k1, (1e3, 1e5)), Parameter("k2", k2, (1e3, 1e5))],
+                          dK=[dK1, dK2])
+    mm = model_modes(model)
+    assert mm.n_rigid == 0 and mm.eigenvalues[0] > 0
+    assert max(abs(np.diag(link + k1 * dK1 + k2 * dK2)) / m) * rules.RIGID_TOL > mm.eigenvalues[0]  # the old test's trap
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], ["1:x", "3:x"], mm.shapes[[0, 2], j]) for j in range(2)))
+    starts = np.array([[2e4, 1e4], [5e3, 4e4], [1.2e4, 2.2e4]])
+    bp = BatchedProblem.from_problem(Problem(model, data), starts)
+    ev = bp.evaluate(bp.x_start, np.arange(3))
+    for r in range(3):
+        local = model_modes(model, dict(zip(model.parameter_names, starts[r])))
+        assert ev.messages[r] is None
+        assert ev.eigenvalues[r, 0] > 0
+        # the same pencil reduced the same way (Cholesky of the diagonal M): the same eigenvalues
+        np.testing.assert_allclose(ev.eigenvalues[r, :2], local.eigenvalues[:2], rtol=1e-9)
+    a = multistart(model, data, starts=6, seed=2, batched=True)
+    assert a.converged == 6 and not a.failures

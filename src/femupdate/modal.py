@@ -333,8 +333,9 @@ def solve_modes(
 
 
 #: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
-#: its eigenvalue is next to the pencil's largest single-dof quotient
-RIGID_ENERGY_TOL = 1e-11
+#: its eigenvalue is next to the pencil's largest single-dof quotient (the compiled route's
+#: :func:`femupdate.rules.restore_elastic` uses the same)
+RIGID_ENERGY_TOL = rules.RIGID_ENERGY_TOL
 
 
 def strain_energy_ratio(K, phi) -> float:

@@ -136,6 +136,9 @@ PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
 REPEATED_TOL = 1e-8
 #: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
 RIGID_TOL = 1e-12
+#: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
+#: its eigenvalue is next to the pencil's largest single-dof quotient (:func:`restore_elastic`)
+RIGID_ENERGY_TOL = 1e-11
 PAIR_MAC, PAIR_ORDER, PAIR_FREQUENCY, PAIR_AUTO = 0, 1, 2, 3
 #: pairing policies by name (:func:`pair_modes`)
 PAIRINGS = {"mac": PAIR_MAC, "order": PAIR_ORDER, "frequency": PAIR_FREQUENCY, "auto": PAIR_AUTO}
@@ -305,6 +308,50 @@ def check_spectrum(lam, nm, pencil_scale):
         if abs(lam[i]) <= RIGID_TOL * scale:
             lam[i] = 0.0
     return OK, 0.0
+
+
+@rule
+def restore_elastic(K, Phi, lam, computed, nm):
+    """Undo :func:`check_spectrum`'s zero for each mode whose strain energy says it is elastic:
+    the pencil's scale, max K_ii / M_ii, can be dominated by one penalty stiffness (a rigid link
+    exported as a 1e10 spring) next to which a genuine first mode looks like round-off.  A
+    rigid-body mode's strain energy φᵀKφ is round-off of its terms, |φ|ᵀ|K||φ| times about
+    1e-16; an elastic mode's is far above :data:`RIGID_ENERGY_TOL` of it.
+
+    Parameters
+    ----------
+    K : numpy.ndarray of float, shape ``(n, n)``
+        The stiffness matrix (dense).
+    Phi : numpy.ndarray of float, shape ``(n, ≥ nm)``
+        The mode shapes, column by column.
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        The eigenvalues after :func:`check_spectrum`; an elastic one set to 0 gets its computed
+        value back, in place.
+    computed : numpy.ndarray of float, shape ``(≥ nm,)``
+        The eigenvalues as computed (before :func:`check_spectrum`).
+    nm : int
+        How many (the lowest) to check.
+
+    Returns
+    -------
+    None
+    """
+    n = K.shape[0]
+    for i in range(nm):
+        if lam[i] == 0.0 and computed[i] != 0.0:
+            energy = 0.0
+            total = 0.0
+            for a in range(n):
+                pa = Phi[a, i]
+                if pa == 0.0:
+                    continue
+                for b in range(n):
+                    kab = K[a, b]
+                    if kab != 0.0:
+                        energy += pa * kab * Phi[b, i]
+                        total += abs(pa) * abs(kab) * abs(Phi[b, i])
+            if total > 0.0 and abs(energy) > RIGID_ENERGY_TOL * total:
+                lam[i] = computed[i]
 
 
 @rule

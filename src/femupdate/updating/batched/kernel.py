@@ -211,10 +211,12 @@ def evaluate_row(sp_, r, x, fout, lam, Phi, pairs, pmac, err_i, err_f, err_modes
     pencil = 0.0
     for i in range(n):
         pencil = max(pencil, abs(K[i, i]) / mdiag[i])
+    computed = lam[:nm].copy()
     code, low = rules.check_spectrum(lam, nm, pencil)
     if code != rules.OK:
         err_f[0] = low
         return code
+    rules.restore_elastic(K, Phi, lam, computed, nm)
     # pairing
     shaped = _shaped(d, t0, T)
     MAC = np.zeros((T, max(nm, 1)))
