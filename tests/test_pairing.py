@@ -171,3 +171,13 @@ def test_unknown_pairing_is_refused():
     with pytest.raises(NumericalError):
         update(model, TestData(modes=(MeasuredMode(1.0, ["1:x", "2:x"], [1.0, 1.0]),)), params=["k1"],
                min_mac=0.99, pairing="mac")
+
+
+def test_each_start_records_its_time_on_the_per_start_route():
+    model, data, k = sparse_building(6, 3, 3)
+    local = multistart(model, data, starts=4, seed=3, batched=False)
+    assert local.batch_seconds is None and len(local.seconds) == 4 and all(s > 0 for s in local.seconds)
+    assert [rec["seconds"] for rec in local.records()] == local.seconds
+    compiled = multistart(model, data, starts=4, seed=3, batched=True)
+    assert compiled.seconds is None and compiled.batch_seconds > 0
+    assert all(rec["seconds"] is None for rec in compiled.records())

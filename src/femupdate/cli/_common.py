@@ -407,6 +407,8 @@ def starts_payload(ms) -> dict:
         "failed": [r for r in ms.runs if isinstance(r, str)],
         "failures": ms.failures,
         "runs": ms.records(),
+        "seconds": {"compiled_batch": ms.batch_seconds,
+                    "per_start_total": None if ms.seconds is None else float(sum(ms.seconds))},
     }
 
 

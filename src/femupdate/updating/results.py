@@ -324,6 +324,11 @@ class MultiStartResult:
     fit_cost : float
         The largest cost of a solution that fits the data as well as the best
         (:func:`~femupdate.updating.clustering.fit_threshold`); NaN when none converged.
+    seconds : list of float or None
+        Wall-clock seconds of each start on the per-start route (locally or on a Dask worker);
+        None on the compiled route, where the starts advance together (``batch_seconds`` then).
+    batch_seconds : float or None
+        The compiled route's wall-clock seconds for all the starts together (None per start).
 
     The solutions are ordered: those that fit the data first (most frequent first), then the
     local minima (lowest cost first).
@@ -338,6 +343,8 @@ class MultiStartResult:
     converged: int
     seed: int | None
     fit_cost: float = field(default=math.nan, kw_only=True)
+    seconds: list | None = field(default=None, kw_only=True)
+    batch_seconds: float | None = field(default=None, kw_only=True)
 
     @property
     def fitting(self) -> list[Solution]:
@@ -368,12 +375,14 @@ class MultiStartResult:
         """One record per start, in start order: ``start`` {name: value}, ``outcome``
         (``"fits"``, ``"local minimum"``, ``"not converged"``, ``"failed"``, or ``"rejected"``
         when above ``cost_tol``), ``cost``, ``iterations``, ``nfev``, ``solution`` (index into
-        ``solutions``, or None), ``message`` and ``pairing`` (the rule that made the final pairs:
+        ``solutions``, or None), ``message``, ``seconds`` (wall-clock seconds of the start on the
+        per-start route, None on the compiled route) and ``pairing`` (the rule that made the final pairs:
         ``"mac"``, ``"order"`` or ``"frequency"``; None for a failed start)."""
         where = {k: i for i, s in enumerate(self.solutions) for k in s.starts}
         out = []
         for k, run in enumerate(self.runs):
-            rec: dict = {"start": dict(zip(self.names, map(float, self.starts[k]))), "solution": where.get(k)}
+            rec: dict = {"start": dict(zip(self.names, map(float, self.starts[k]))), "solution": where.get(k),
+                         "seconds": None if self.seconds is None else self.seconds[k]}
             if isinstance(run, str):
                 rec.update(outcome="failed", cost=None, iterations=None, nfev=None, message=run, pairing=None)
             else:

@@ -8,6 +8,7 @@ identical for the same seed.
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable, Sequence
 from functools import partial
 
@@ -98,6 +99,13 @@ def run_with(fn, model, data, names, start, kwargs):
 
 def _run_one(model, data, names, start, kwargs):
     return run_with(update, model, data, names, start, kwargs)
+
+
+def timed(runner, model, data, names, start, kwargs):
+    """``(runner(model, data, names, start, kwargs), wall-clock seconds)`` (a Dask task)."""
+    t = time.perf_counter()
+    out = runner(model, data, names, start, kwargs)
+    return out, time.perf_counter() - t
 
 
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
@@ -239,16 +247,19 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
         raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
     runner = runner or _run_one
     if scheduler:
-        runs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
+        pairs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
     else:
-        runs = []
+        pairs = []
         for k, x in enumerate(X0):
-            runs.append(runner(model, data, names, x, kwargs))
+            pairs.append(timed(runner, model, data, names, x, kwargs))
             if progress:
                 progress(k + 1, len(X0))
+    runs = [r for r, _ in pairs]
+    seconds = [float(s) for _, s in pairs]
     ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
-    return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed))
+    return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed,
+                                     seconds=seconds))
 
 
 def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner):
@@ -256,7 +267,7 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
     client = connect(address, timeout)
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
+        futures = {client.submit(timed, runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
                    for k, x in enumerate(X0)}
         runs: list = [None] * len(futures)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -180,10 +181,12 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     reason = unsupported(model, options, explicit=True)
     if reason:
         raise InputError(f"batched multi-start: {reason}")
+    t0 = time.perf_counter()
     if scheduler:
         runs = _dask_runs(model, data, names, X0, options, scheduler, connect_timeout, progress)
     else:
         runs = batched_runs(model, data, names, X0, options, progress=progress)
+    batch_seconds = time.perf_counter() - t0
     ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol, parameter_scale(model, names))
     best = None
     if ok:
@@ -200,7 +203,7 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
         k_best = min(ok, key=lambda k: runs[k].cost)
         solutions = [dataclasses.replace(sol, parameters=dict(zip(names, map(float, best.x))), cost=float(best.cost))
                      if k_best in sol.starts else sol for sol in solutions]
-    return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed))
+    return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed, batch_seconds=batch_seconds))
 
 
 def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
