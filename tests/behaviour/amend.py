@@ -73,8 +73,10 @@ AMENDMENTS = {
         "studies more starts converge (the six-dof study's 3x6 case: 30 -> 99 of 100) and none fails; the "
         "criteria, condition numbers and unique/not-unique verdicts are unchanged.  Accepted: the counts "
         "of converged (not fewer), failed (not more), not-converged and local-minimum starts, the "
-        "failure examples (a subset of the recorded ones) and the solution lists of those cases.",
-        lambda path, rec, now: re.fullmatch(
+        "failure examples (a subset of the recorded ones) and the solution lists of those cases; and the "
+        "uniqueness study key, which names the algorithm (a checkpoint of the old pairing is not resumed).",
+        lambda path, rec, now: (re.fullmatch(r"(.*\.)?study_key", path) is not None and isinstance(rec, str)
+                                and isinstance(now, str) and len(rec) == len(now) == 64) or re.fullmatch(
             r"(sections\.six_dof_uniqueness\.(cases\[\d+\]|table\.\dx\d|singled_out_cases\.\dx\d)|cases\[\d+\])"
             r"\.(converged|failed|failure_examples|local_minima|not_converged|solutions(\[\d+\]\.count)?)", path) is not None
         and (not path.endswith(".converged") or now >= rec)

@@ -185,13 +185,15 @@ def _multi_payload(model, res) -> dict:
 @click.option("--params", "params_text", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
 @click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
+@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
+              help="How test modes pair with model modes (iterative), as in update.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative).")
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct).")
 @set_option
 @json_option
-def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, max_nfev, reg_text, eigenvalues_only,
+def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, pairing, max_nfev, reg_text, eigenvalues_only,
                  bounded, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
     from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
@@ -210,7 +212,7 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
         data = load_testdata(dpath, cm, numbering=model.dofs)  # "#N" counts in the baseline model's dofs
         cfgs.append(Configuration(data, mod, name=mod.name if mpath is not None else dpath.stem))
     res = solve_configurations(model, cfgs, method, unknowns=_names(params_text), values=values, bounded=bounded,
-                               shape_scaling=shape_scaling, min_mac=min_mac, max_nfev=max_nfev,
+                               shape_scaling=shape_scaling, min_mac=min_mac, pairing=pairing, max_nfev=max_nfev,
                                regularization=parse_regularization(reg_text), use_shapes=not eigenvalues_only)
     c = ctx.console
     c.print(_parameter_table(f"{model.name}: {res.method} update from {len(cfgs)} configurations", model, values,

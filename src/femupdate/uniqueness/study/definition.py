@@ -14,7 +14,7 @@ from ..._errors import InputError
 from ...dofs import canonical_all, resolve_all
 from ...model import Model
 
-ALGORITHM = "femupdate-uniqueness-1"  # part of the study key: bump when raw results change meaning
+ALGORITHM = "femupdate-uniqueness-2"  # part of the study key: bump when raw results change meaning (2: auto pairing)
 DEFAULT_UNIT_ROWS = 4096
 
 
