@@ -215,10 +215,12 @@ class OutputPath(click.ParamType):
 
     name = "path"
 
-    def __init__(self, kind: str = "file", dash: bool = False, suffixes: tuple[str, ...] = ()):
+    def __init__(self, kind: str = "file", dash: bool = False, suffixes: tuple[str, ...] = (),
+                 why: str = "the figure's format"):
         self.kind = kind
         self.dash = dash
         self.suffixes = suffixes
+        self.why = why
 
     def convert(self, value, param, ctx):
         from ..io.results import check_output
@@ -235,8 +237,8 @@ class OutputPath(click.ParamType):
             self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
         what = param.opts[0] if param is not None and param.opts else "output"
         if self.suffixes and Path(text).suffix.lower() not in self.suffixes:
-            self.fail(f"{text}: the file name must end in one of {', '.join(self.suffixes)} (the figure's format)", param,
-                      ctx)
+            ends = f"one of {', '.join(self.suffixes)}" if len(self.suffixes) > 1 else self.suffixes[0]
+            self.fail(f"{text}: the file name must end in {ends} ({self.why})", param, ctx)
         try:
             check_output(text, what, self.kind)
         except FemupdateError as exc:
@@ -273,6 +275,28 @@ connect_timeout_option = click.option(
     help="Seconds to wait for the Dask scheduler and its first worker (and how long a run may go without workers).")
 set_option = click.option("--set", "set_text", metavar="NAME=VALUE,...", default=None,
                           help="Evaluate the model at other parameter values.")
+#: ``--write-model FILE`` and ``--csv DIR``: the updated model out (:func:`write_model_outputs`)
+write_model_option = click.option("--write-model", "write_model_path", type=OutputPath("file", suffixes=(".toml",), why="a model file"),
+                                  default=None, metavar="FILE.toml",
+                                  help="Write the updated model file: the same schema with the updated values and "
+                                       "a [provenance] table.")
+csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
+                          help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
+
+
+def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, values: dict, names, cost,
+                        write_model_path=None, csv_dir=None, res=None) -> None:
+    """The updated model file and the CSV tables a command was asked for, each named on the
+    terminal (:mod:`femupdate.io.model_write`)."""
+    from ..io.model_write import provenance, write_result_tables, write_updated_model
+
+    if write_model_path is not None:
+        write_updated_model(model_path, write_model_path, {n: values[n] for n in names},
+                            provenance(model_path, data_path, command, cost, names))
+        ctx.console.print(f"wrote the updated model {write_model_path}")
+    if csv_dir is not None and res is not None:
+        written = write_result_tables(csv_dir, model, res)
+        ctx.console.print("wrote " + ", ".join(str(p) for p in written))
 
 
 # ---------------------------------------------------------------------------------- tables and payloads

@@ -10,8 +10,8 @@ from rich.table import Table
 
 from .._errors import NumericalError
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, correlation_table, direct_payload, emit, fmt, json_option, model_values,
-                      print_flags, set_option)
+from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, direct_payload, emit, fmt, json_option,
+                      model_values, print_flags, set_option, write_model_option, write_model_outputs)
 
 
 def _correlation_rows(data, model, values):
@@ -32,9 +32,11 @@ def _correlation_rows(data, model, values):
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (bounded least squares).")
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Write the updated model's modes as universal file datasets 55.")
+@write_model_option
+@csv_option
 @set_option
 @json_option
-def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, json_path):
+def direct(model_path, data_path, use, unknowns, bounded, uff_path, write_model_path, csv_dir, set_text, json_path):
     """Identify MODEL's parameters directly from DATA measured at every model dof."""
     from ..direct import direct_update
     from ..io.model_file import load_model
@@ -87,4 +89,20 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, set_text, js
         ctx.console.print(f"note: {note}")
     emit(ctx, payload)
     if not res.unique:
+        if write_model_path or csv_dir:
+            ctx.console.print("not written: the updated model and tables (the parameters are not determined uniquely)")
         raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")
+    write_model_outputs(ctx, model_path, data_path, "direct", model, res.parameters, list(res.unknowns), None,
+                        write_model_path, None)
+    if csv_dir is not None:
+        from ..io.model_write import csv_text
+        from ..io.results import atomic_write_text
+
+        p0 = model.resolve(values)
+        rows = [[n, float(p0[model.parameter_index(n)]), float(res.parameters[n]),
+                 (res.parameters[n] / p0[model.parameter_index(n)] - 1) * 100 if p0[model.parameter_index(n)] else None,
+                 float(res.standard_error[k]), *map(float, model.parameters[model.parameter_index(n)].bounds)]
+                for k, n in enumerate(res.unknowns)]
+        atomic_write_text(Path(csv_dir) / "parameters.csv",
+                          csv_text(["parameter", "start", "updated", "change_percent", "std", "lower", "upper"], rows))
+        ctx.console.print(f"wrote {Path(csv_dir) / 'parameters.csv'}")

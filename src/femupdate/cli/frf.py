@@ -13,7 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
-                      print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option, model_values, parse_regularization,
+                      print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
                       update_parameter_table, update_payload)
 
@@ -249,13 +249,15 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--std", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the residual entries (covariance).")
+@write_model_option
+@csv_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
 @set_option
 @json_option
 def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, connect_timeout, global_method, runs, global_residual,
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
-                       reg_text, max_nfev, std, plot_dir, set_text, json_path):
+                       reg_text, max_nfev, std, write_model_path, csv_dir, plot_dir, set_text, json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
     from ..updating import frf_multistart, frf_update
     from ..updating.frf import frf_data
@@ -322,7 +324,11 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
     emit(ctx, payload)
     if not res.success:
+        if write_model_path or csv_dir:
+            c.print("not written: the updated model and tables (the update did not converge)")
         raise NumericalError(f"the FRF update did not converge: {res.message}")
+    write_model_outputs(ctx, model_path, data_path, "frf-update", model, res.parameters, res.names, res.cost,
+                        write_model_path, csv_dir, res)
 
 
 # ---------------------------------------------------------------------------------- frf-select

@@ -12,10 +12,10 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import is_index
-from ._common import (SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, fitting_table, print_starts, starts_payload, emit,
-                      print_diagnostics, print_flags, fmt, json_option, model_values, option_dofs, parse_regularization,
-                      parse_std, set_option, update_parameter_table,
-                      update_payload)
+from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, csv_option,
+                      fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
+                      model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
+                      update_payload, write_model_option, write_model_outputs)
 from ..updating.results import pairing_warnings
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -61,12 +61,16 @@ from .frf import frf_fields, frf_line_options, frf_options
 @frf_line_options
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write convergence and MAC figures to this folder.")
+@write_model_option
+@csv_option
+@click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
+              help="Write the updated model's modes (with its nodes) as a universal file.")
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, pairing, n_modes, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
-           set_text, json_path):
+           write_model_path, csv_dir, uff_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -77,6 +81,10 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
 
     ctx = Ctx(json_path)
     model = load_model(model_path)
+    if uff_path is not None:
+        from ..io.uff.write import uff_dofs
+
+        uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, set_text)
     data = load_testdata(data_path, model)
     if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
@@ -182,4 +190,14 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         payload.update(frf_fields(res))
     emit(ctx, payload)
     if not res.success:
+        if write_model_path or csv_dir or uff_path:
+            c.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
+    write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
+                        write_model_path, csv_dir, res)
+    if uff_path is not None:
+        from ..io.uff import write_uff_modes
+        from ..modal import model_modes
+
+        write_uff_modes(uff_path, model_modes(model, res.parameters), nodes=model.nodes, model_name=model.name)
+        c.print(f"wrote the updated model's modes {uff_path}")

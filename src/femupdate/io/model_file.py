@@ -201,7 +201,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     for k in ("dofs", "K0", "M0"):
         if k not in mt:
             raise InputError(f"{src}: missing '{k}'")
-    other = sorted(set(data) - {"model", "matrices", "parameters"})
+    other = sorted(set(data) - {"model", "matrices", "parameters", "provenance"})
     if other:
         raise InputError(f"{path}: a [matrices] model cannot also have {', '.join(other)}")
     dofs = mt["dofs"]
@@ -223,6 +223,8 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         raise InputError(f"{path}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
     if not isinstance(data.get("model", {}), Mapping):
         raise InputError(f"{path}: [model] must be a table (name = ...)")
+    if not isinstance(data.get("provenance", {}), Mapping):
+        raise InputError(f"{path}: [provenance] must be a table (it records where an updated model came from)")
     params, dK, dM = [], [], []
     for name, spec in data.get("parameters", {}).items():
         where = f"{path}: [parameters.{name}]"

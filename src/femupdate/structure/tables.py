@@ -36,10 +36,12 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
     """
     if not isinstance(data, Mapping):
         raise InputError(f"{source}: expected a table at the top level")
-    known = {"model", "parameters", "node", "element", "support"}
+    known = {"model", "parameters", "node", "element", "support", "provenance"}
     extra = sorted(set(data) - known)
     if extra:
         raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
+    if not isinstance(data.get("provenance", {}), Mapping):
+        raise InputError(f"{source}: [provenance] must be a table (it records where an updated model came from)")
     meta = data.get("model", {})
     s = cls(str(meta.get("name", "model")) if isinstance(meta, Mapping) else "model")
     params = data.get("parameters", {})

@@ -1,0 +1,214 @@
+"""The updated model out: the model file again, with the updated parameter values and a
+provenance table, and flat tables (CSV) of parameters and paired modes.
+
+:func:`updated_model_text` re-writes the user's own TOML model file (same schema, every table
+kept) with each updated parameter's ``value`` replaced and a ``[provenance]`` table (source model,
+data file, date, femupdate version, command, cost, updated parameters) added; the paths of a
+``[matrices]`` model are re-written relative to the new file's folder, so it loads from wherever
+it is written.  The TOML is written by ``tomli-w``: the values, tables and order of the original
+are kept, its comments and layout are not.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as _dt
+import io
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from .._errors import InputError
+from .model_file import read_toml
+from .results import atomic_write_text
+
+#: keys of a ``[matrices]`` table (and of a matrix-model parameter) that name files
+_MATRIX_KEYS = ("dofs", "K0", "M0")
+_PARAM_MATRIX_KEYS = ("K", "M")
+
+
+def _moved(spec, src_dir: Path, out_dir: Path):
+    """A file reference of the model at ``src_dir`` as seen from ``out_dir`` (``file.mat:VAR``
+    keeps its variable)."""
+    if not isinstance(spec, str):
+        return spec
+    path, var = spec, ""
+    head, sep, tail = spec.rpartition(":")
+    if sep and head.lower().endswith(".mat"):
+        path, var = head, sep + tail
+    target = (src_dir / path).resolve()
+    try:
+        rel = os.path.relpath(target, out_dir.resolve())
+    except ValueError:  # another drive (Windows): keep it absolute
+        rel = str(target)
+    return Path(rel).as_posix() + var
+
+
+def updated_model_text(source, out_path, values: Mapping[str, float], provenance: Mapping) -> str:
+    """The TOML text of the model file ``source`` with ``values`` as its parameters' values.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        The model file the update started from (TOML).
+    out_path : str or os.PathLike
+        Where the text will be written (matrix paths are made relative to its folder).
+    values : mapping of str to float
+        The updated parameters' values.
+    provenance : mapping
+        Written as the ``[provenance]`` table (strings, numbers, lists of strings).
+
+    Returns
+    -------
+    str
+        The TOML document.
+
+    Raises
+    ------
+    InputError
+        ``source`` unreadable (as :func:`~femupdate.io.model_file.read_toml`); a value of
+        ``values`` not finite, outside the parameter's bounds, or naming no parameter of the file.
+    """
+    import tomli_w
+
+    source, out_path = Path(source), Path(out_path)
+    raw = read_toml(source)
+    params = raw.get("parameters", {})
+    for name, v in values.items():
+        spec = params.get(name)
+        if not isinstance(spec, dict):
+            raise InputError(f"{source}: no [parameters.{name}] table to write the updated value into")
+        v = float(v)
+        lo, hi = (spec.get("bounds") or [-math.inf, math.inf])[:2]
+        if not math.isfinite(v) or not lo <= v <= hi:
+            raise InputError(f"updated model: {name} = {v:.6g} lies outside its bounds [{lo:g}, {hi:g}] in {source}; "
+                             "the model file would not load (update with bounds, not --method lm)")
+        spec["value"] = v
+    src_dir, out_dir = source.parent, out_path.parent
+    if isinstance(raw.get("matrices"), dict):
+        mt = raw["matrices"]
+        for key in _MATRIX_KEYS:
+            if key in mt and isinstance(mt[key], str):
+                mt[key] = _moved(mt[key], src_dir, out_dir)
+        for spec in params.values():
+            for key in _PARAM_MATRIX_KEYS:
+                if isinstance(spec, dict) and key in spec:
+                    spec[key] = _moved(spec[key], src_dir, out_dir)
+    raw["provenance"] = {k: v for k, v in provenance.items() if v is not None}
+    return tomli_w.dumps(raw)
+
+
+def provenance(model_path, data_path, command: str, cost: float | None, updated: Sequence[str]) -> dict:
+    """The ``[provenance]`` table of an updated model file.
+
+    Parameters
+    ----------
+    model_path, data_path : str or os.PathLike or None
+        The model file and the test data the update used.
+    command : str
+        The femupdate command (``"update"``, ``"direct"``, ...).
+    cost : float or None
+        The final cost (½‖r‖²) where the command has one.
+    updated : sequence of str
+        The parameters the command identified.
+
+    Returns
+    -------
+    dict
+    """
+    from .. import __version__
+
+    out: dict = {"source_model": str(model_path), "data": None if data_path is None else str(data_path),
+                 "command": command, "femupdate_version": __version__,
+                 "date": _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
+                 "updated": list(updated)}
+    if cost is not None and math.isfinite(cost):
+        out["cost"] = float(cost)
+    return out
+
+
+def write_updated_model(source, out_path, values: Mapping[str, float], provenance: Mapping) -> None:
+    """Write :func:`updated_model_text` to ``out_path`` atomically.
+
+    Parameters
+    ----------
+    source, out_path, values, provenance
+        As :func:`updated_model_text`.
+
+    Raises
+    ------
+    InputError
+        As :func:`updated_model_text`; the file cannot be written.
+    """
+    atomic_write_text(out_path, updated_model_text(source, out_path, values, provenance))
+
+
+def csv_text(header: Sequence[str], rows: Sequence[Sequence]) -> str:
+    """A CSV table (``pandas.read_csv`` reads it as is): numbers in full precision (``repr``),
+    missing values empty.
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column names.
+    rows : sequence of sequences
+        One row per record, in the order of ``header``.
+
+    Returns
+    -------
+    str
+    """
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for row in rows:
+        w.writerow(["" if v is None or (isinstance(v, float) and not math.isfinite(v)) else
+                    repr(float(v)) if isinstance(v, float) else v for v in row])
+    return buf.getvalue()
+
+
+def write_result_tables(folder, model, res) -> list[Path]:
+    """``parameters.csv`` and, with paired modes, ``modes.csv`` of an update result in ``folder``.
+
+    ``parameters.csv``: ``parameter, start, updated, change_percent, std, lower, upper,
+    on_bound``; ``modes.csv``: ``test_mode, model_mode`` (1-based, as on the terminal),
+    ``f_test_hz, f_model_hz, error_percent, mac``.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        An existing folder.
+    model : Model
+        Its bounds.
+    res : UpdateResult
+        The result.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written (atomically).
+    """
+    folder = Path(folder)
+    d = res.diagnostics
+    at_bounds = getattr(d, "at_bounds", {}) or {}
+    rows = []
+    for j, (n, v) in enumerate(zip(res.names, res.x)):
+        lo, hi = model.parameters[model.parameter_index(n)].bounds
+        s0 = res.start.get(n, math.nan)
+        std = float(d.std[j]) if d is not None and j < len(d.std) else math.nan
+        rows.append([n, float(s0), float(v), (float(v) / s0 - 1) * 100 if s0 else math.nan, std, float(lo), float(hi),
+                     at_bounds.get(n, "")])
+    out = [folder / "parameters.csv"]
+    atomic_write_text(out[0], csv_text(["parameter", "start", "updated", "change_percent", "std", "lower", "upper",
+                                        "on_bound"], rows))
+    if res.pairs:
+        mrows = [[k + 1, j + 1, float(ft), float(fa), (float(fa) - ft) / ft * 100 if ft else math.nan, float(m)]
+                 for (k, j, m), ft, fa in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz)]
+        out.append(folder / "modes.csv")
+        atomic_write_text(out[1], csv_text(["test_mode", "model_mode", "f_test_hz", "f_model_hz", "error_percent",
+                                            "mac"], mrows))
+    return out
+
+
+__all__ = ["updated_model_text", "write_updated_model", "provenance", "csv_text", "write_result_tables"]
