@@ -51,5 +51,24 @@ def test_low_mac_leaves_test_mode_unpaired():
     model = three_dof()
     mm = model_modes(model)
     bogus = MeasuredMode(10.0, model.dofs, np.array([1.0, 0.0, 0.0]))
-    corr = correlate(TestData(modes=(bogus,)), mm, min_mac=0.95)
+    corr = correlate(TestData(modes=(bogus,)), mm, min_mac=0.95, pairing="mac")
     assert corr.pairs == [] and corr.unpaired_test == [0]
+    # the default pairs it as update does (by order) and says the shapes do not confirm the pair
+    corr = correlate(TestData(modes=(bogus,)), mm, min_mac=0.95)
+    assert [p[:2] for p in corr.pairs] == [(0, 0)] and corr.unconfirmed == [0] and corr.unpaired_test == []
+
+
+def test_correlate_and_update_pair_alike_a_mode_measured_at_fewer_dofs():
+    """A test mode measured at fewer dofs than the others was left unpaired by correlate (its MAC
+    was taken on the union of the dofs) while update paired it: now both pair it the same way."""
+    from femupdate import update
+
+    model = three_dof()
+    mm = model_modes(model)
+    data = TestData(modes=(MeasuredMode(mm.eigenvalues[0], model.dofs, mm.shapes[:, 0]),
+                           MeasuredMode(mm.eigenvalues[1], model.dofs[:2], mm.shapes[:2, 1]),
+                           MeasuredMode(mm.eigenvalues[2], model.dofs, mm.shapes[:, 2])))
+    corr = correlate(data, mm)
+    res = update(model, data, max_nfev=1)
+    assert corr.unpaired_test == [] and [p[:2] for p in corr.pairs] == [p[:2] for p in res.pairs]
+    np.testing.assert_allclose([p[2] for p in corr.pairs], [p[2] for p in res.pairs], rtol=1e-12)

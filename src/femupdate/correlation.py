@@ -6,8 +6,9 @@ label, never by index.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -172,9 +173,11 @@ class Correlation:
     Parameters
     ----------
     dofs : tuple of str
-        Dof labels common to the test and model shapes (empty when no test mode has a shape).
+        The dofs of the COMAC: those every paired test shape was measured at and the model has
+        (empty when no test mode has a shape).
     mac : numpy.ndarray, shape ``(n_test, n_model)``
-        MAC on ``dofs``; rows of test modes without a shape are 0.
+        MAC of each test mode over its own measured dofs (as ``update`` pairs them); rows of
+        test modes without a shape are 0.
     pairs : list of (int, int, float)
         ``(test mode, model mode, MAC)``, 0-based, sorted by test mode (MAC NaN when paired by
         frequency order).
@@ -185,9 +188,11 @@ class Correlation:
     frequency_error : numpy.ndarray, shape ``(n_pairs,)``
         Relative error (f_model − f_test) / f_test per pair (dimensionless).
     comac : numpy.ndarray, shape ``(len(dofs),)``
-        COMAC per common dof over the pairs (NaN if no pair; empty without shapes).
+        COMAC per dof over the shaped pairs (empty without shapes).
     unpaired_test : list of int
         Test modes left without a model mode.
+    unconfirmed : list of int
+        Paired test modes whose pair's MAC is below ``min_mac`` (the shapes do not confirm it).
     """
 
     dofs: tuple[str, ...]
@@ -198,14 +203,18 @@ class Correlation:
     frequency_error: np.ndarray
     comac: np.ndarray
     unpaired_test: list[int]
+    unconfirmed: list[int] = field(default_factory=list)
 
 
-def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
+def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") -> Correlation:
     """Correlate :class:`~femupdate.TestData` modes with :class:`~femupdate.Modes`.
 
-    Test modes without a shape are paired in frequency order with the remaining model modes
-    only if *no* test mode has a shape; otherwise they are left unpaired.  Shapes are compared
-    on their common dofs (by label) with :func:`mac` and paired by :func:`pair_modes`.
+    Test and model modes are paired by the rule that :func:`femupdate.update` uses
+    (:func:`femupdate.rules.pair_modes`, the policy ``pairing``), on each test mode's MAC over
+    its own measured dofs: the same data and model give the same pairs here as in ``update``.
+    With ``pairing="mac"`` a shaped test mode whose best MAC stays below ``min_mac`` is left
+    unpaired; with the other policies every test mode is paired and such a pair is listed in
+    ``unconfirmed``.  COMAC is computed on the dofs every paired shape was measured at.
 
     Parameters
     ----------
@@ -214,7 +223,9 @@ def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
     model_modes : Modes
         Model modes, e.g. from :func:`femupdate.model_modes`.
     min_mac : float, default 0.5
-        Smallest MAC of a pair.
+        The pairing threshold (as ``update``'s ``min_mac``).
+    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        The pairing policy (as ``update``'s).
 
     Returns
     -------
@@ -223,31 +234,54 @@ def correlate(test, model_modes, min_mac: float = 0.5) -> Correlation:
     Raises
     ------
     InputError
-        The test and model shapes have no dof in common.
+        An unknown ``pairing``; a test shape with no dof in common with the model.
     """
-    tdofs, Phi_t = test.shape_matrix()
+    from . import rules
+
+    if pairing not in rules.PAIRINGS:
+        raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+    modes = test.modes
+    T = len(modes)
     f_t = test.frequencies_hz
     f_a = model_modes.frequencies_hz
-    if not tdofs:
-        n = min(len(f_t), len(f_a))
-        pairs = [(i, i, float("nan")) for i in range(n)]
-        return Correlation((), np.zeros((len(f_t), len(f_a))), pairs, f_t, f_a,
-                           np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs]), np.zeros(0),
-                           list(range(n, len(f_t))))
-    it, ia, common = common_dofs(tdofs, model_modes.dofs)
-    Pt = Phi_t[it]
-    Pa = model_modes.shapes[ia]
-    has = ~np.isnan(Pt).any(axis=0) if not np.iscomplexobj(Pt) else ~np.isnan(Pt.real).any(axis=0)
-    Pt_filled = np.where(np.isnan(Pt), 0.0, Pt)
-    M = mac(Pt_filled, Pa)
-    M[~has] = 0.0
-    pairs = pair_modes(M, min_mac)
-    err = np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs])
-    if pairs:
-        ti = [p[0] for p in pairs]
-        mi = [p[1] for p in pairs]
-        cm = comac(Pt_filled[:, ti], Pa[:, mi])
+    nm = len(f_a)
+    pos = {d: i for i, d in enumerate(canonical_all(model_modes.dofs))}
+    shaped = np.zeros(T, bool)
+    M = np.zeros((T, nm))
+    for k, m in enumerate(modes):
+        if not m.has_shape:
+            continue
+        rows = [(i, pos[d]) for i, d in enumerate(canonical_all(m.dofs)) if d in pos]
+        if not rows:
+            raise InputError(f"test mode {k + 1} ({m.label or 'unlabelled'}): its shape has no dof in common with the "
+                             "model (check the dof labels)")
+        it, ia = map(list, zip(*rows))
+        M[k] = mac(np.asarray(m.shape)[it], model_modes.shapes[ia])[0]
+        shaped[k] = True
+    lam_e = np.array([m.eigenvalue for m in modes], float)
+    pairs_arr, bad = np.zeros(T, np.int64), np.zeros(T, bool)
+    policy = rules.PAIRINGS[pairing]
+    code, _, _ = rules.pair_modes(rules.PAIR_ORDER if policy == rules.PAIR_AUTO and not shaped.any() else policy,
+                                  M, shaped, np.asarray(model_modes.eigenvalues, float), lam_e, nm,
+                                  0.0 if policy == rules.PAIR_MAC else float(min_mac), pairs_arr, bad)
+    if code != rules.OK:  # more test modes than model modes: the best assignment of those there are
+        pairs = [(k, j, float(M[k, j]) if shaped[k] else math.nan) for k, j, _ in pair_modes(M, 0.0)]
     else:
-        cm = np.full(len(common), np.nan)
-    unpaired = sorted(set(range(len(f_t))) - {p[0] for p in pairs})
-    return Correlation(common, M, pairs, f_t, f_a, err, cm, unpaired)
+        pairs = [(k, int(pairs_arr[k]), float(M[k, pairs_arr[k]]) if shaped[k] else math.nan) for k in range(T)]
+    if policy == rules.PAIR_MAC:
+        pairs = [p for p in pairs if not (shaped[p[0]] and p[2] < min_mac)]
+    unconfirmed = [k for k, _, m in pairs if shaped[k] and m < min_mac]
+    err = np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs])
+    tdofs, Phi_t = test.shape_matrix()
+    common: tuple[str, ...] = ()
+    cm = np.zeros(0)
+    shaped_pairs = [(i, j) for i, j, _ in pairs if shaped[i]]
+    if tdofs and shaped_pairs:
+        it, ia, common = common_dofs(tdofs, model_modes.dofs)
+        ti = [i for i, _ in shaped_pairs]
+        Pt = Phi_t[it][:, ti]
+        keep = ~np.isnan(Pt.real if np.iscomplexobj(Pt) else Pt).any(axis=1)  # dofs every paired shape has
+        common = tuple(d for d, k in zip(common, keep) if k)
+        cm = comac(Pt[keep], model_modes.shapes[ia][keep][:, [j for _, j in shaped_pairs]]) if keep.any() else cm
+    unpaired = sorted(set(range(T)) - {p[0] for p in pairs})
+    return Correlation(common, M, pairs, f_t, f_a, err, cm, unpaired, unconfirmed)

@@ -83,6 +83,15 @@ AMENDMENTS = {
         and (not path.endswith(".failed") or now <= rec)
         and (not path.endswith(".failure_examples") or (isinstance(now, list) and all(x in rec for x in now))),
     ),
+    "correlate pairs as update does": (
+        "`correlate` pairs test and model modes by the rule `update` uses (`--pairing`, default auto), on each "
+        "test mode's MAC over its own measured dofs, and lists the pairs whose MAC is below `--min-mac` as "
+        "`unconfirmed`.  The JSON gains `pairing` and `unconfirmed`; the recorded pairs, MACs and COMAC are "
+        "unchanged (every recorded mode is measured at the same dofs).",
+        lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict)
+        and set(now) - set(rec) == {"unconfirmed", "pairing"} and set(rec) <= set(now)
+        and now["pairing"] == "auto" and now["unconfirmed"] == [] and _same(rec, {k: now[k] for k in rec}),
+    ),
     "diagnostics say what they found": (
         "The `diagnostics` of update, frf-update and update-multi carry `absolute`, `at_bounds` "
         "{name: lower|upper}, `n_at_bounds`, `free` (the parameters not on a bound, which the singular "

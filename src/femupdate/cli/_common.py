@@ -310,6 +310,9 @@ def correlation_table(corr, title):
                   f"{e * 100:+.2f} %" if np.isfinite(e) else "-", "-" if not np.isfinite(m) else f"{m:.4f}")
     for i in corr.unpaired_test:
         t.add_row(str(i + 1), "-", fmt(corr.test_frequencies_hz[i]), "-", "-", "unpaired")
+    if getattr(corr, "unconfirmed", None):
+        t.caption = (f"test mode(s) {', '.join(str(i + 1) for i in corr.unconfirmed)}: MAC below the pairing threshold, "
+                     "so the shapes do not confirm the pair")
     return t
 
 

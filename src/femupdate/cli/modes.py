@@ -66,10 +66,13 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
 @click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
+@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
+              help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not confirmed.")
+@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
+              help="How test modes pair with model modes: the same rule as update's --pairing.")
 @set_option
 @json_option
-def correlate(model_path, data_path, min_mac, set_text, json_path):
+def correlate(model_path, data_path, min_mac, pairing, set_text, json_path):
     """Pair test and model modes by MAC; frequency errors and COMAC."""
     from ..correlation import correlate as _correlate
     from ..io.model_file import load_model
@@ -83,11 +86,11 @@ def correlate(model_path, data_path, min_mac, set_text, json_path):
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
-    corr = _correlate(data, mm, min_mac=min_mac)
+    corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
     emit(ctx, {
         "dofs": list(corr.dofs), "mac": corr.mac, "pairs": [[i, j, m] for i, j, m in corr.pairs],
         "frequencies_hz": {"test": corr.test_frequencies_hz, "model": corr.model_frequencies_hz},
         "frequency_error": corr.frequency_error, "comac": dict(zip(corr.dofs, corr.comac)),
-        "unpaired_test": corr.unpaired_test,
+        "unpaired_test": corr.unpaired_test, "unconfirmed": corr.unconfirmed, "pairing": pairing,
     })
