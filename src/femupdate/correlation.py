@@ -255,8 +255,8 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         if not rows:
             raise InputError(f"test mode {k + 1} ({m.label or 'unlabelled'}): its shape has no dof in common with the "
                              "model (check the dof labels)")
-        it, ia = map(list, zip(*rows))
-        M[k] = mac(np.asarray(m.shape)[it], model_modes.shapes[ia])[0]
+        rt, ra = map(list, zip(*rows))
+        M[k] = mac(np.asarray(m.shape)[rt], model_modes.shapes[ra])[0]
         shaped[k] = True
     lam_e = np.array([m.eigenvalue for m in modes], float)
     pairs_arr, bad = np.zeros(T, np.int64), np.zeros(T, bool)
