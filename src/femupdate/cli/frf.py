@@ -148,7 +148,9 @@ def frf_fields(res) -> dict:
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...",
               help="Excitation (unit force by default); a dof is a label or #N, the N-th model dof.")
-@click.option("--omega", "omega_text", required=True, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
+@click.option("--omega", "omega_text", default=None, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
+@click.option("--frequency-hz", "hz_text", default=None, metavar="LIST|START:STOP:N",
+              help="Lines in Hz (instead of --omega).")
 @click.option("--dofs", "dofs_text", default=None, help="Response dofs, labels or #N (default every model dof).")
 @click.option("--kind", type=click.Choice(["receptance", "mobility", "accelerance"]), default="receptance", show_default=True)
 @damping_option
@@ -161,7 +163,7 @@ def frf_fields(res) -> dict:
               help="Also write them as test-data JSON (the 'frf' object), ready for frf-update.")
 @set_option
 @json_option
-def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_text, noise, noise_kind, seed, uff_path,
+def frf_command(model_path, force_text, omega_text, hz_text, dofs_text, kind, damping_text, noise, noise_kind, seed, uff_path,
                 data_path, set_text, json_path):
     """Frequency response functions of MODEL to a force (receptance, mobility or accelerance)."""
     from ..frf import convert, resonances, simulate
@@ -170,7 +172,9 @@ def frf_command(model_path, force_text, omega_text, dofs_text, kind, damping_tex
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
-    omega = parse_omega(omega_text)
+    if (omega_text is None) == (hz_text is None):
+        raise InputError("give the frequency lines with exactly one of --omega (rad/s) or --frequency-hz (Hz)")
+    omega = parse_omega(omega_text) if hz_text is None else 2 * np.pi * parse_omega(hz_text, "--frequency-hz")
     force = parse_force(force_text, model)
     response = _model_dofs(dofs_text, model)
     if uff_path is not None:

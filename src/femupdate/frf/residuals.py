@@ -84,14 +84,39 @@ def prepare(xe: np.ndarray, kind: str, weights, real: bool = False) -> tuple[np.
     if not np.all(np.isfinite(w)) or np.any(w < 0):
         raise InputError("FRF residual weights must be finite and >= 0")
     mag = np.abs(xe)
+    dead = zero_channels(xe)
+    if dead.any():  # a channel zero at every line (a dead sensor): left out, whatever the residual
+        w[..., dead] = 0.0
     if kind == "relative":
         floor = 1e-12 * max(float(mag.max()), _TINY)
         w = w / np.maximum(mag, floor)
+        w[..., dead] = 0.0
     if kind == "log":
-        if np.any(mag == 0):
-            raise InputError("log-magnitude residuals need non-zero measured values (a zero response was given)")
-        return w, np.log(mag)
+        live = mag[..., ~dead]
+        if np.any(live == 0):
+            raise InputError("log-magnitude residuals need non-zero measured values (a zero response was given at "
+                             "some lines of a channel that is not zero everywhere)")
+        return w, np.log(np.where(mag > 0, mag, 1.0))
     return w, xe
+
+
+def zero_channels(xe: np.ndarray) -> np.ndarray:
+    """The response dofs (last axis) whose measured values are zero at every one of two or more
+    lines (a dead channel; a single line, such as a static load case, is data whatever its value).
+
+    Parameters
+    ----------
+    xe : numpy.ndarray, shape ``(n_lines, n_dofs)``
+        Measured responses.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape ``(n_dofs,)``
+    """
+    xe = np.asarray(xe)
+    if xe.ndim < 2 or xe.reshape(-1, xe.shape[-1]).shape[0] < 2:
+        return np.zeros(xe.shape[-1:] if xe.ndim else (0,), bool)
+    return np.all(xe.reshape(-1, xe.shape[-1]) == 0, axis=0)
 
 
 def values(xa: np.ndarray, target: np.ndarray, w: np.ndarray, kind: str) -> np.ndarray:

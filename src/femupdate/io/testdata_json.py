@@ -238,17 +238,24 @@ def parse_testdata(raw, dofs=None) -> TestData:
 def _frf(f, model_dofs=None) -> FRFData:
     if not isinstance(f, Mapping):
         raise InputError("frf must be an object")
-    for k in ("omega_rad_s", "force", "response"):
+    axes = [k for k in ("omega_rad_s", "frequency_hz") if k in f]
+    if len(axes) != 1:
+        raise InputError("frf: give exactly one of omega_rad_s (rad/s) or frequency_hz (Hz) for the frequency axis"
+                         + (", not both" if len(axes) == 2 else ""))
+    axis = axes[0]
+    for k in ("force", "response"):
         if k not in f:
             raise InputError(f"frf: missing '{k}'")
-    unknown = sorted(set(f) - {"omega_rad_s", "force", "response"})
+    unknown = sorted(set(f) - {"omega_rad_s", "frequency_hz", "force", "response"})
     if unknown:
         raise InputError(f"frf: unknown key(s) {', '.join(unknown)}")
-    if not isinstance(f["omega_rad_s"], list):
-        raise InputError("frf: omega_rad_s must be a list of numbers")
+    if not isinstance(f[axis], list):
+        raise InputError(f"frf: {axis} must be a list of numbers")
     if not isinstance(f["force"], Mapping) or not isinstance(f["response"], Mapping):
         raise InputError("frf: force and response must be objects {dof: ...}")
-    omega = [_number(w, "frf omega_rad_s") for w in f["omega_rad_s"]]
+    omega = [_number(w, f"frf {axis}") for w in f[axis]]
+    if axis == "frequency_hz":
+        omega = [2 * math.pi * w for w in omega]
     force_values = [_complex(v, f"frf force {d}") for d, v in f["force"].items()]
     force = dict(zip(resolve_all(f["force"], model_dofs, "frf force"), force_values))
     dofs, cols = [], []

@@ -305,6 +305,16 @@ def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_to
                              f"{', '.join(str(int(b)) for b in bad)} from 0) outside the data's {n_all} lines")
         use = np.unique(use)
     skipped = []
+    dc = use[frf.omega[use] == 0]
+    if dc.size:  # an analyser's DC bin: not a measurement of the dynamic response
+        for i in dc:
+            skipped.append({"line": int(i) + 1, "omega_rad_s": 0.0,
+                            "reason": "a 0 Hz line (an analyser's DC bin); give static deflections as 'static' data"})
+        notes.append(f"skipped the 0 Hz line(s) {', '.join(str(int(i) + 1) for i in dc)}: an analyser's DC bin is not a "
+                     "measurement of the dynamic response (static deflections go in 'static')")
+        use = use[frf.omega[use] != 0]
+        if use.size == 0:
+            raise InputError("no FRF lines left to update with: every line given is at 0 Hz")
     if resonance not in RESONANCE_POLICIES:
         raise InputError(f"unknown resonance policy {resonance!r}: use {', '.join(RESONANCE_POLICIES)}")
     if resonance != "keep":
@@ -480,6 +490,12 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
             raise InputError("measurement_std must be positive and finite")
         w = np.asarray(1.0 if weights is None else weights, float) / sigma
     notes: list[str] = []
+    dead = R.zero_channels(frf.response)
+    if dead.all():
+        raise InputError("every FRF channel is zero at every line: no response to update with")
+    if dead.any():
+        notes.append(f"FRF response(s) at {', '.join(d for d, z in zip(frf.dofs, dead) if z)} zero at every line (a "
+                     "dead channel?): left out of the residual")
     use, skipped = _select_lines(model, frf, p_nominal, lines, select, resonance, resonance_tol, names, damping, notes)
     prob = FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
     n_res = prob.xe.size * (2 if np.iscomplexobj(prob.xe) and residual != "log" else 1)
