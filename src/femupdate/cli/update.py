@@ -151,7 +151,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if res.formulation:
         c.print(f"formulation: {res.formulation}")
     if res.pairing:
-        c.print(f"pairing: {res.pairing['policy']} (the pairs at the solution made by {res.pairing['used']})")
+        how = ("the dynamic formulation pairs no modes while it solves: the model's modes at the solution paired for "
+               "this report" if res.formulation == "dynamic" else "the pairs at the solution made")
+        c.print(f"pairing: {res.pairing['policy']} ({how} by {res.pairing['used']})")
     for sw in res.swaps[:5]:
         c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to "
                 f"{sw['to_model_mode'] + 1} (by {sw.get('rule', 'mac')}, evaluation {sw['evaluation']})")
