@@ -138,8 +138,15 @@ class DynamicResidual:
         self.m = [np.asarray(targets.pos[targets.measured(k)], np.intp) for k in range(T)]
         self.u = [np.setdiff1d(np.arange(self.n), mk) for mk in self.m]
         self.psi = [np.asarray(targets.psi_e[targets.measured(k)], float) for k in range(T)]
-        self.dK = [model.dK_dp(int(j)).tocsc() for j in self.idx]
-        self.dM = [model.dM_dp(int(j)).tocsc() for j in self.idx]
+        # the derivative matrices stacked, (L·n, n), and their transposes: A_j φ and A_jᵀ r of every
+        # parameter in one product each
+        dK = [model.dK_dp(int(j)) for j in self.idx]
+        dM = [model.dM_dp(int(j)) for j in self.idx]
+        empty = sp.csr_array((0, self.n))
+        self.DK = sp.csr_array(sp.vstack(dK or [empty], format="csr"))
+        self.DM = sp.csr_array(sp.vstack(dM or [empty], format="csr"))
+        self.DKT = sp.csr_array(sp.vstack([d.T for d in dK] or [empty], format="csr"))
+        self.DMT = sp.csr_array(sp.vstack([d.T for d in dM] or [empty], format="csr"))
         K0, M0 = model.K(p_nominal).tocsc(), model.M(p_nominal).tocsc()
         self.c = np.ones(T)
         for k in range(T):
@@ -156,8 +163,9 @@ class DynamicResidual:
         self._cache: list[_Expansion] = []
 
     def _matrix(self, K, M, k: int):
+        """A = (K − λ_k M) / c_k, dense (K and M given dense) or sparse."""
         A = (K - float(self.targets.lam_e[k]) * M) / self.c[k]
-        return A.toarray() if self.dense else A.tocsc()
+        return A if self.dense else sp.csc_array(A)
 
     def _expand(self, k: int, A) -> _Expansion:
         if self.dense and sp.issparse(A):
@@ -171,7 +179,8 @@ class DynamicResidual:
         p = np.asarray(p, float)
         key = p.tobytes()
         if key != self._key:
-            K, M = self.model.K(p).tocsc(), self.model.M(p).tocsc()
+            K, M = self.model.K(p), self.model.M(p)
+            K, M = (K.toarray(), M.toarray()) if self.dense else (K.tocsc(), M.tocsc())
             self._cache = [self._expand(k, self._matrix(K, M, k)) for k in range(self.targets.n_test)]
             self._key = key
         return self._cache
@@ -193,13 +202,8 @@ class DynamicResidual:
         out = np.zeros((tg.n_test * self.n, L))
         for e in self.expansions(p):
             lam, c = float(tg.lam_e[e.k]), self.c[e.k]
-            V = np.zeros((self.n, L))
-            G = np.zeros((e.u.size, L))
-            for j in range(L):
-                Aj = (self.dK[j] - lam * self.dM[j]) / c
-                V[:, j] = Aj @ e.phi
-                if e.u.size:
-                    G[:, j] = Aj[:, e.u].T @ e.r
+            V = ((self.DK @ e.phi - lam * (self.DM @ e.phi)) / c).reshape(L, self.n).T  # A_j φ
+            G = ((self.DKT @ e.r - lam * (self.DMT @ e.r)) / c).reshape(L, self.n).T[e.u]  # A_j[:, u]ᵀ r
             out[e.k * self.n:(e.k + 1) * self.n] = tg.w_lam[e.k] * e.derivative(V, G) * dpdx[None, :]
         return out
 
