@@ -27,7 +27,10 @@ these functions for:
   (the normalised sensitivity equation of the reference paper, eq. 19; the reference-dof
   scaling is its eq. 33) and their exact derivatives given ∂λ/∂p and ∂φ/∂p at the measured dofs
   (:func:`eigenvalue_gradient`, :func:`shape_jacobian`): with ψ = φ_s / s(φ_s),
-  ψ' = φ_s'/s − ψ s'/s.
+  ψ' = φ_s'/s − ψ s'/s;
+* the MAC residuals of the ``"mac"`` formulation (:func:`mac_residuals`, :func:`mac_jacobian`):
+  w (I − ê êᵀ) â, whose squared norm is w² (1 − MAC) (not compiled by the batched route, which
+  implements the ``"shapes"`` formulation, but written in the same subset).
 
 The functions are plain Python on NumPy arrays and scalars — no objects, no exceptions: a
 failure is an error code (:data:`ERRORS`, turned into a message by :func:`message`).  They are

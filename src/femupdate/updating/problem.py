@@ -4,7 +4,9 @@ A :class:`Problem` owns everything that defines the problem — the updated para
 parametrisation, the measured eigenvalues and scaled shapes with their weights, the pairing
 threshold, the number of model modes to pair among — and evaluates its residuals and exact
 Jacobian at one point by the rules of :mod:`femupdate.rules` (paper eqs. 16–21; the residual
-vector stacks, per test mode, its relative eigenvalue error and its scaled shape differences).
+vector stacks, per test mode, its relative eigenvalue error and its scaled shape differences —
+the default ``"shapes"`` formulation; ``"mac"`` compares the shapes by MAC residuals, and
+``"dynamic"`` takes the modal dynamic residual of :mod:`femupdate.updating.dynamic` instead).
 The drivers consume it: :func:`~femupdate.updating.solve` (one local solve),
 :func:`~femupdate.updating.multistart` and the compiled batched route
 (:mod:`femupdate.updating.batched`, which compiles the same rules and reads the same

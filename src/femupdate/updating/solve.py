@@ -61,7 +61,9 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
       values above :data:`RANK_RTOL` σ_max) and condition number.
     * **Covariance** of the free parameters, D V Σ⁻² Vᵀ D from the SVD S_free = U Σ Vᵀ
       (D = diag |p|) — that is (J_freeᵀ J_free)⁻¹ in parameter units — times the residual variance
-      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations.  A free
+      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations (m the
+      problem's ``residual_dof``, its independent equations, where it has one: fewer than its
+      residuals for the dynamic formulation, whose unknown shape entries take up the others).  A free
       parameter the data do not depend on (a zero column) is left out of it too (NaN): the
       others' covariance does not depend on it.
     * **Poorly determined** parameters, each with its reason (``poorly_determined_reasons``):
