@@ -55,6 +55,11 @@ def rename(obj):
         return [rename(v) for v in obj]
     if isinstance(obj, str) and obj.count(":") == 1 and obj.split(":")[0].isdigit() and int(obj.split(":")[0]) in NAMES:
         return named(obj)
+    if isinstance(obj, str):  # labels inside a sentence (notes)
+        import re
+
+        return re.sub(r"(?<![\w.-])(\d+):(x|y|z|rx|ry|rz)\b",
+                      lambda m: named(m.group(0)) if int(m.group(1)) in NAMES else m.group(0), obj)
     return obj
 
 

@@ -27,7 +27,10 @@ these functions for:
   (the normalised sensitivity equation of the reference paper, eq. 19; the reference-dof
   scaling is its eq. 33) and their exact derivatives given ∂λ/∂p and ∂φ/∂p at the measured dofs
   (:func:`eigenvalue_gradient`, :func:`shape_jacobian`): with ψ = φ_s / s(φ_s),
-  ψ' = φ_s'/s − ψ s'/s.
+  ψ' = φ_s'/s − ψ s'/s;
+* the MAC residuals of the ``"mac"`` formulation (:func:`mac_residuals`, :func:`mac_jacobian`):
+  w (I − ê êᵀ) â, whose squared norm is w² (1 − MAC) (not compiled by the batched route, which
+  implements the ``"shapes"`` formulation, but written in the same subset).
 
 The functions are plain Python on NumPy arrays and scalars — no objects, no exceptions: a
 failure is an error code (:data:`ERRORS`, turned into a message by :func:`message`).  They are
@@ -1005,9 +1008,90 @@ def shape_jacobian(scaling, phs, dphs, psi_e, ref, w, dpdx, out):
                 o += 1
 
 
+@rule
+def mac_residuals(phs, psi_e, w, out):
+    """The MAC residuals of a measured model shape ``phs`` against the test shape ``psi_e`` into
+    ``out`` (n_s entries): w (I − ê êᵀ) â, the part of the unit model shape â = ±φ_s/‖φ_s‖ (its
+    sign toward the test shape) orthogonal to the unit test shape ê = ψ_E/‖ψ_E‖.  Their squared
+    norm is exactly w² (1 − MAC): the cost ½‖r‖² adds w² (1 − MAC) / 2 per mode, a smooth
+    function of the shapes whose Gauss–Newton curvature at a fit is that of the shape differences
+    (the scalar residual w (1 − MAC) would add w² (1 − MAC)² / 2, flat to fourth order there).
+    Independent of how either shape is scaled.  Returns 0 when the model shape is zero at every
+    measured dof (the residual is then undefined), else −1.
+
+    Parameters
+    ----------
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The model shape at the test mode's measured dofs.
+    psi_e : numpy.ndarray of float, shape ``(n_s,)``
+        The test shape (any scaling, not zero).
+    w : float
+        The weight w_ψ.
+    out : numpy.ndarray of float, shape ``(≥ n_s,)``
+        Receives ``w · sign · (φ_s[i]/‖φ_s‖ − c ψ_E[i]/‖ψ_E‖)``, c = φ_sᵀψ_E / (‖φ_s‖‖ψ_E‖) and
+        sign = −1 when c < 0 else 1; untouched when the model shape is zero.
+
+    Returns
+    -------
+    int
+        0 when ‖φ_s‖ = 0, else −1.
+    """
+    nrm = math.sqrt(dot(phs, phs))
+    if not nrm > 0:
+        return 0
+    ee = math.sqrt(dot(psi_e, psi_e))
+    c = dot(phs, psi_e) / (nrm * ee)
+    sign = -1.0 if c < 0 else 1.0
+    for i in range(phs.size):
+        out[i] = w * sign * (phs[i] / nrm - c * psi_e[i] / ee)
+    return -1
+
+
+@rule
+def mac_jacobian(phs, dphs, psi_e, w, dpdx, out):
+    """∂r/∂x of :func:`mac_residuals` into ``out`` (n_s, L) from the derivatives ``dphs``
+    (n_s, L) of the model shape at the measured dofs: with u = φ_s/‖φ_s‖,
+    ∂u/∂p_j = (φ_s' − u uᵀφ_s') / ‖φ_s‖, and r' = w · sign · (I − ê êᵀ) u'.
+
+    The shape must have passed :func:`mac_residuals` (not zero): no check is made here.
+
+    Parameters
+    ----------
+    phs : numpy.ndarray of float, shape ``(n_s,)``
+        The model shape at the measured dofs (any scaling whose derivatives ``dphs`` are).
+    dphs : numpy.ndarray of float, shape ``(n_s, L)``
+        ∂φ_s/∂p_j, one column per parameter.
+    psi_e : numpy.ndarray of float, shape ``(n_s,)``
+        The test shape.
+    w : float
+        The weight w_ψ.
+    dpdx : numpy.ndarray of float, shape ``(L,)``
+        ∂p/∂x (:func:`dp_dx`).
+    out : numpy.ndarray of float, shape ``(≥ n_s, ≥ L)``
+        Receives ∂r/∂x_j in column j, rows in the order of :func:`mac_residuals`.
+
+    Returns
+    -------
+    None
+    """
+    n = phs.size
+    nrm = math.sqrt(dot(phs, phs))
+    ee = math.sqrt(dot(psi_e, psi_e))
+    sign = -1.0 if dot(phs, psi_e) < 0 else 1.0
+    v = np.empty(n)
+    for j in range(dphs.shape[1]):
+        t = dot_col(phs, dphs, j) / nrm  # uᵀφ_s'
+        s = 0.0
+        for i in range(n):
+            v[i] = (dphs[i, j] - phs[i] / nrm * t) / nrm
+            s += psi_e[i] / ee * v[i]
+        for i in range(n):
+            out[i, j] = w * sign * (v[i] - psi_e[i] / ee * s) * dpdx[j]
+
+
 __all__ = [
     "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL", "ERRORS", "message",
     "to_p", "dp_dx", "check_spectrum", "check_distinct", "mac_vector", "assign", "pair_by_mac", "shape_scale",
     "unit_sign", "n_shape_residuals", "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals",
-    "shape_jacobian",
+    "shape_jacobian", "mac_residuals", "mac_jacobian",
 ]

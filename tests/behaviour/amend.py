@@ -170,6 +170,17 @@ def _pairing_told(expected, actual) -> bool:
     return changed
 
 
+def _formulation_told(expected, actual) -> bool:
+    """Add the new top-level ``formulation`` key of an ``update`` result where (and only where) the
+    recording lacks it, and only with the documented default ``"shapes"`` (every recorded update
+    ran with it); every recorded value is left for the comparison."""
+    if (isinstance(expected, dict) and isinstance(actual, dict) and "formulation" not in expected
+            and actual.get("formulation") == "shapes" and {"pairs", "swaps", "history", "updated"} <= set(expected)):
+        expected["formulation"] = actual["formulation"]
+        return True
+    return False
+
+
 #: name -> (reason, prepare(expected, actual) -> changed): rewrites of the recorded JSON applied
 #: before the comparison, each limited to one deliberate change of form
 PREPARATIONS = {
@@ -187,6 +198,12 @@ PREPARATIONS = {
         "test modes whose pair's MAC is below it; each mode swap names the rule that made it. The keys are "
         "new; the recorded values are compared unchanged.",
         _pairing_told,
+    ),
+    "results name their formulation": (
+        "`femupdate update` now offers the formulations engineers compare (`--formulation shapes|mac|dynamic`) and "
+        "its JSON names the one used under `formulation`; every recorded update ran with the default, `shapes` "
+        "(today's residuals, unchanged). The key is new; the recorded values are compared unchanged.",
+        _formulation_told,
     ),
 }
 

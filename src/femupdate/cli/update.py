@@ -43,6 +43,10 @@ from .frf import frf_fields, frf_line_options, frf_options
                    "frequency (nearest frequency, MAC deciding within 10 %).")
 @click.option("--n-modes", type=click.IntRange(min=1), default=None,
               help="Model modes computed and paired among (default max(2T, T + 6) for T test modes).")
+@click.option("--formulation", type=click.Choice(["shapes", "mac", "dynamic"]), default="shapes", show_default=True,
+              help="Residuals of the measured modes: shapes (relative eigenvalue errors and scaled shape differences), "
+                   "mac (relative eigenvalue errors and 1 - MAC terms), or dynamic (the modal dynamic residual "
+                   "(K - lambda M) phi of every dof, the unmeasured shape entries as unknowns; every mode needs a shape).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
@@ -68,7 +72,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, pairing, n_modes, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
+           method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
            write_model_path, csv_dir, uff_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
@@ -100,7 +104,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
               regularization=parse_regularization(reg_text), min_mac=min_mac, pairing=pairing, n_modes=n_modes,
               max_nfev=max_nfev,
               use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity,
-              use=kinds)
+              use=kinds, formulation=formulation)
     if "frf" in kinds:
         kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text)
     else:
@@ -152,8 +156,12 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         for s in res.skipped:
             c.print(f"skipped FRF line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
     print_diagnostics(c, res)
+    if res.formulation:
+        c.print(f"formulation: {res.formulation}")
     if res.pairing:
-        c.print(f"pairing: {res.pairing['policy']} (the pairs at the solution made by {res.pairing['used']})")
+        how = ("the dynamic formulation pairs no modes while it solves: the model's modes at the solution paired for "
+               "this report" if res.formulation == "dynamic" else "the pairs at the solution made")
+        c.print(f"pairing: {res.pairing['policy']} ({how} by {res.pairing['used']})")
     for sw in res.swaps[:5]:
         c.print(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} to "
                 f"{sw['to_model_mode'] + 1} (by {sw.get('rule', 'mac')}, evaluation {sw['evaluation']})")
@@ -166,6 +174,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     for note in res.notes:
         c.print(f"note: {note}")
     payload = update_payload(model, data, res, ms)
+    payload["formulation"] = res.formulation or None
+    if res.expanded_shapes is not None:  # the dynamic formulation's full shapes, per test mode {dof: value}
+        payload["expanded_shapes"] = [dict(zip(model.dofs, map(float, col))) for col in res.expanded_shapes.T]
     print_flags(ctx, payload["flags"])
     if plot_dir is not None:
         names = []

@@ -204,6 +204,14 @@ class CombinedProblem(Parametrisation):
         return int(self.rows[-1])
 
     @property
+    def residual_dof(self) -> int:
+        """The number of independent residual equations: ``n_residuals`` less, for a modal block
+        of the dynamic formulation, its equations that only determine the unknown shape entries
+        (:attr:`Problem.residual_dof`)."""
+        modal = self.modal
+        return self.n_residuals - (modal.n_residuals - modal.residual_dof if modal is not None else 0)
+
+    @property
     def modal(self) -> Problem | None:
         """The modal block's problem (None without modes)."""
         return next((b.problem for b in self.blocks if isinstance(b.problem, Problem)), None)
@@ -319,7 +327,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     **modal_options
         Options of the modal block (:class:`~femupdate.updating.Problem`: ``shape_scaling``,
         ``ref_dof``, ``weights``, ``min_mac``, ``pairing``, ``n_modes``, ``use_shapes``,
-        ``sensitivity``).
+        ``sensitivity``, ``formulation``).
 
     Returns
     -------
@@ -356,7 +364,8 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         if kind == "modes":
             # the caller's standard deviations, completed by the data's per-mode ones
             _, given = mode_uncertainty(data, modal_options.get("weights"), std.get("modes"),
-                                        modal_options.get("use_shapes", True))
+                                        modal_options.get("use_shapes", True)
+                                        and modal_options.get("formulation", "shapes") != "dynamic")
             prob = Problem(model, data, names, x0=x0, values=values, parametrisation=parametrisation,
                            measurement_std=given, **modal_options)
             n_data += prob.targets.n_independent

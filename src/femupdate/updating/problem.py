@@ -4,7 +4,9 @@ A :class:`Problem` owns everything that defines the problem — the updated para
 parametrisation, the measured eigenvalues and scaled shapes with their weights, the pairing
 threshold, the number of model modes to pair among — and evaluates its residuals and exact
 Jacobian at one point by the rules of :mod:`femupdate.rules` (paper eqs. 16–21; the residual
-vector stacks, per test mode, its relative eigenvalue error and its scaled shape differences).
+vector stacks, per test mode, its relative eigenvalue error and its scaled shape differences —
+the default ``"shapes"`` formulation; ``"mac"`` compares the shapes by MAC residuals, and
+``"dynamic"`` takes the modal dynamic residual of :mod:`femupdate.updating.dynamic` instead).
 The drivers consume it: :func:`~femupdate.updating.solve` (one local solve),
 :func:`~femupdate.updating.multistart` and the compiled batched route
 (:mod:`femupdate.updating.batched`, which compiles the same rules and reads the same
@@ -27,9 +29,58 @@ from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
 from ..testdata import TestData
 from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, start_vector, updated_names, x_bounds,
                               x_of_p)
+from .dynamic import DynamicResidual
 from .targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets, build_targets, modal_weights, mode_uncertainty
 SHAPE_SCALINGS = tuple(rules.SCALINGS)  #: ``("unit", "ref", "max")``
+#: the residual formulations of the modal problem (:class:`Problem`), the default first
+FORMULATIONS = ("shapes", "mac", "dynamic")
 SENSITIVITY_CHOICES = SENSITIVITY_METHODS  #: ``"auto"``, ``"nelson"``, ``"modal"``, ... (the Jacobian's route)
+#: the route of the dynamic formulation's Jacobian, as ``sensitivity_used`` and results report it
+DYNAMIC_ROUTE = "dynamic residual (exact, no eigen-solution)"
+
+
+def check_formulation(formulation: str, *, shape_scaling: str = "unit", ref_dof: str | None = None,
+                      use_shapes: bool = True, sensitivity: str = "auto", weights: Mapping | None = None,
+                      measurement_std: Mapping | None = None) -> None:
+    """Refuse a formulation that is not one of :data:`FORMULATIONS`, or options it does not take.
+
+    Parameters
+    ----------
+    formulation : str
+        ``"shapes"``, ``"mac"`` or ``"dynamic"``.
+    shape_scaling, ref_dof, use_shapes, sensitivity, weights, measurement_std
+        As :class:`Problem` takes them.
+
+    Raises
+    ------
+    InputError
+        An unknown formulation; ``"mac"`` or ``"dynamic"`` with a shape scaling other than
+        ``"unit"``, a ``ref_dof`` or without shapes; ``"dynamic"`` with a sensitivity route other
+        than ``"auto"`` or a shape weight or standard deviation.
+    """
+    if formulation not in FORMULATIONS:
+        raise InputError(f"unknown formulation {formulation!r}: use {', '.join(FORMULATIONS)}")
+    if formulation == "shapes":
+        return
+    if not use_shapes:
+        raise InputError(f"formulation {formulation!r} compares the measured shapes, but they are ignored "
+                         "(--eigenvalues-only, use_shapes=False): use --formulation shapes for frequencies only")
+    if shape_scaling != "unit":
+        raise InputError(f"shape scaling {shape_scaling!r} (--shape-scaling) applies to formulation 'shapes' only: "
+                         f"formulation {formulation!r} does not depend on how the shapes are scaled")
+    if ref_dof is not None:
+        raise InputError(f"a reference dof (--ref-dof {ref_dof}) applies to formulation 'shapes' with --shape-scaling "
+                         f"ref only: formulation {formulation!r} does not depend on how the shapes are scaled")
+    if formulation != "dynamic":
+        return
+    if sensitivity != "auto":
+        raise InputError(f"sensitivity {sensitivity!r} (--sensitivity) chooses the route of the eigenvector "
+                         "derivatives; formulation 'dynamic' has none (its Jacobian is exact by construction)")
+    for name, given, option in (("weights", weights, None), ("measurement_std", measurement_std, "--std-shape")):
+        if given is not None and dict(given).get("shape") is not None:
+            raise InputError(f"{name}['shape']{f' ({option})' if option else ''}: formulation 'dynamic' holds the "
+                             "measured shape entries at the test values, so it has no shape residual to weigh; the "
+                             "eigenvalue's weight and std weigh each mode's dynamic residual")
 
 
 def check_determined(problem: Problem) -> None:
@@ -101,6 +152,23 @@ class Problem(Parametrisation):
         a swap (then by MAC), never abandoning a start; ``"mac"`` by MAC, a test mode below
         ``min_mac`` failing; ``"order"`` by frequency order; ``"frequency"`` by the nearest
         frequency, MAC deciding within 10 %.
+    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
+        The residuals of each test mode (:data:`FORMULATIONS`):
+
+        * ``"shapes"``: w_λ (λ_A − λ_E)/λ_E and the scaled shape differences w_ψ (ψ_A − ψ_E) at
+          the measured dofs (:func:`femupdate.rules.shape_residuals`);
+        * ``"mac"``: w_λ (λ_A − λ_E)/λ_E and the MAC residuals w_ψ (I − ê êᵀ) â
+          (:func:`femupdate.rules.mac_residuals`), whose squared norm is w_ψ² (1 − MAC): the
+          MAC term of the literature in a form smooth at MAC = 1, independent of the shapes'
+          scaling;
+        * ``"dynamic"``: the modal dynamic residual w_λ (K − λ_E M) φ / c of every dof, the
+          measured entries of φ the test shape and the unmeasured ones unknowns solved for at
+          each point (:mod:`femupdate.updating.dynamic`); no eigen-solution, every test mode
+          needs a shape, the eigenvalue's weight and standard deviation weigh the mode's
+          residual and the shape's have nothing to weigh (the measured entries are held).
+
+        ``"mac"`` and ``"dynamic"`` do not depend on how the shapes are scaled: they take
+        ``shape_scaling="unit"`` and no ``ref_dof``, and need the shapes (``use_shapes``).
 
     Attributes
     ----------
@@ -126,22 +194,29 @@ class Problem(Parametrisation):
         ``"frequency"``.
     nfev : int
         Residual evaluations so far.
+    formulation : str
+        The residual formulation.
+    notes : list of str
+        What the user should know about the formulation (data it does not use).
 
     Raises
     ------
     InputError
-        An unknown ``shape_scaling``, ``sensitivity``, ``parametrisation`` or ``pairing``; ``min_mac`` not a
-        number in [0, 1]; no parameters to update; bad weights, standard deviations or data (as
-        :func:`modal_weights`, :func:`build_targets`).
+        An unknown ``shape_scaling``, ``sensitivity``, ``parametrisation``, ``pairing`` or
+        ``formulation``; ``min_mac`` not a number in [0, 1]; no parameters to update; bad weights,
+        standard deviations or data (as :func:`modal_weights`, :func:`build_targets`); options
+        the formulation does not take, and for ``"dynamic"`` a test mode without a shape.
     NumericalError
-        A test shape whose scaling entry is zero.
+        A test shape whose scaling entry is zero; for ``"dynamic"``, a test shape whose
+        unmeasured entries the nominal model's equilibrium does not determine.
     """
 
     def __init__(self, model, data: TestData, params: Sequence[str] | None = None, *,
                  x0: Mapping[str, float] | None = None, values=None, shape_scaling: str = "unit",
                  ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
                  min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
-                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto"):
+                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto",
+                 formulation: str = "shapes"):
         if shape_scaling not in rules.SCALINGS:
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         if sensitivity not in SENSITIVITY_CHOICES:
@@ -154,8 +229,18 @@ class Problem(Parametrisation):
             raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
         if pairing not in rules.PAIRINGS:
             raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+        check_formulation(formulation, shape_scaling=shape_scaling, ref_dof=ref_dof, use_shapes=use_shapes,
+                          sensitivity=sensitivity, weights=weights, measurement_std=measurement_std)
+        self.formulation = formulation
+        dynamic = formulation == "dynamic"
         super().__init__(model, updated_names(model, params), parametrisation, start_vector(model, values, x0))
-        weights, measurement_std = mode_uncertainty(data, weights, measurement_std, use_shapes)
+        #: what the user should know about the formulation
+        self.notes: list[str] = []
+        if dynamic and any(m.std_shape is not None for m in data.modes):
+            self.notes.append("the test data's std_shape are not used: the dynamic formulation holds the measured "
+                              "shape entries at the test values (the eigenvalue's std weighs each mode's residual)")
+        # the dynamic formulation has no shape residual: the data's shape std are not needed
+        weights, measurement_std = mode_uncertainty(data, weights, measurement_std, use_shapes and not dynamic)
         w, self.sigma = modal_weights(weights, measurement_std)
         self.model = model
         self.data = data
@@ -170,13 +255,27 @@ class Problem(Parametrisation):
         self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0),
                                      w.get("shape", 1.0), use_shapes, n_modes)
         self.n_modes = self.targets.nm
-        self.n_residuals = self.targets.n_residuals
         tg = self.targets
         self.any_shape = bool(tg.shaped.any())
+        ns = np.diff(tg.pptr)
+        self.n_residuals = {"shapes": tg.n_residuals, "mac": int(tg.n_test + ns.sum()),
+                            "dynamic": int(tg.n_test * model.n_dofs)}[formulation]
         if self.sigma is not None and "eigenvalue" not in self.sigma or (
-                self.sigma is not None and self.any_shape and "shape" not in self.sigma):
+                self.sigma is not None and self.any_shape and not dynamic and "shape" not in self.sigma):
             # the covariance is absolute only when every residual is divided by its stated std
             self.sigma = None
+        self.dynamic: DynamicResidual | None = None
+        if dynamic:
+            shapeless = [k + 1 for k in np.flatnonzero(~tg.shaped)]
+            if shapeless:
+                which = f"test mode{'s' if len(shapeless) > 1 else ''} {', '.join(map(str, shapeless))}"
+                raise InputError(f"the dynamic formulation needs a shape measured at two dofs or more for every test "
+                                 f"mode (its unmeasured entries are the unknowns), and {which} "
+                                 f"{'have' if len(shapeless) > 1 else 'has'} none: drop "
+                                 f"{'them' if len(shapeless) > 1 else 'it'}, or use --formulation shapes or mac")
+            # normalised at the nominal values (the fixed ones as given), not at the start: every start of a
+            # multi-start study then solves the same problem
+            self.dynamic = DynamicResidual(model, tg, self.idx, start_vector(model, values, None))
         self.sensors = np.unique(tg.pos) if tg.pos.size else np.zeros(0, np.int64)  # where shape derivatives are needed
         self._cache_key: bytes | None = None
         self._cache: tuple = ()
@@ -243,7 +342,9 @@ class Problem(Parametrisation):
     def residuals(self, x) -> np.ndarray:
         """The residual vector at x: per test mode its eigenvalue residual
         w (λ_A − λ_E) / λ_E, then its shape residuals w (ψ_A − ψ_E) (paper eq. 19,
-        :mod:`femupdate.rules`).
+        :mod:`femupdate.rules`); with ``formulation="mac"`` its MAC residuals instead of the
+        shape differences; with ``"dynamic"`` its dynamic residual at every dof (no eigenvalue
+        residual, no eigen-solution).
 
         Parameters
         ----------
@@ -261,18 +362,27 @@ class Problem(Parametrisation):
             Unpaired test modes; a model shape whose scaling entry is zero; non-finite residuals.
         """
         self.nfev += 1
+        if self.dynamic is not None:
+            r = self.dynamic.residuals(self.to_p(np.asarray(x, float)))
+            if not np.all(np.isfinite(r)):
+                raise NumericalError(rules.message(rules.E_NONFINITE))
+            return r
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         r = np.zeros(self.n_residuals)
         row = 0
+        mac = self.formulation == "mac"
         for k, j, _ in pairs:
             r[row] = rules.eigenvalue_residual(modes.eigenvalues[j], tg.lam_e[k], tg.w_lam[k])
             row += 1
             sl = tg.measured(k)
             if sl.stop > sl.start:
-                n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
-                node = rules.shape_residuals(self.scaling_code, modes.shapes[tg.pos[sl], j], tg.psi_e[sl], tg.ref[k],
-                                             tg.w_psi[k], r[row:row + n])
+                n = sl.stop - sl.start if mac else rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
+                if mac:
+                    node = rules.mac_residuals(modes.shapes[tg.pos[sl], j], tg.psi_e[sl], tg.w_psi[k], r[row:row + n])
+                else:
+                    node = rules.shape_residuals(self.scaling_code, modes.shapes[tg.pos[sl], j], tg.psi_e[sl],
+                                                 tg.ref[k], tg.w_psi[k], r[row:row + n])
                 if node >= 0:
                     raise NumericalError(rules.message(rules.E_NODE, node))
                 row += n
@@ -299,6 +409,10 @@ class Problem(Parametrisation):
         NumericalError
             Unpaired test modes (as :meth:`evaluate`).
         """
+        if self.dynamic is not None:
+            x = np.asarray(x, float)
+            self.sensitivity_used = DYNAMIC_ROUTE
+            return self.dynamic.jacobian(self.to_p(x), self.dp_dx(x))
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         which = [j for _, j, _ in pairs]
@@ -314,18 +428,41 @@ class Problem(Parametrisation):
         dpdx = self.dp_dx(x)
         J = np.zeros((self.n_residuals, self.idx.size))
         row = 0
+        mac = self.formulation == "mac"
         for c, (k, j, _) in enumerate(pairs):
             rules.eigenvalue_gradient(dlam[c], tg.lam_e[k], tg.w_lam[k], dpdx, J[row])
             row += 1
             sl = tg.measured(k)
             if sl.stop > sl.start:
-                n = rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
+                n = sl.stop - sl.start if mac else rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
                 at = np.searchsorted(self.sensors, tg.pos[sl])
                 assert dphi is not None  # a shape is measured: the derivatives were computed
-                rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl],
-                                     tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
+                if mac:
+                    rules.mac_jacobian(modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl], tg.w_psi[k], dpdx,
+                                       J[row:row + n])
+                else:
+                    rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :],
+                                         tg.psi_e[sl], tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
                 row += n
         return J
+
+    @property
+    def residual_dof(self) -> int:
+        """The number of independent residual equations (for the residual variance of the
+        diagnostics): ``n_residuals``, except for the dynamic formulation, whose residual of
+        each mode has as many equations as dofs less one per unknown shape entry, that is one per
+        measured entry (the unknowns are eliminated at every point)."""
+        if self.dynamic is not None:
+            return int(np.diff(self.targets.pptr).sum())
+        return self.n_residuals
+
+    def expanded_shapes(self, x) -> np.ndarray | None:
+        """The full shapes of the dynamic formulation at x, (n_dofs, T): the measured entries the
+        test shape (unit length over them), the others the unknowns solved for; None for the
+        other formulations."""
+        if self.dynamic is None:
+            return None
+        return self.dynamic.shapes(self.to_p(np.asarray(x, float)))
 
     def mac_of_pair(self, modes: Modes, k: int, j: int) -> float:
         """MAC of test mode k with model mode j (NaN for a test mode without shape).
@@ -357,4 +494,4 @@ class Problem(Parametrisation):
 # readers have always found them
 __all__ = ["Problem", "Parametrisation", "Targets", "x_of_p", "x_bounds", "start_error", "check_determined", "modal_weights",
            "build_targets", "PARAMETRISATIONS", "SHAPE_SCALINGS", "SENSITIVITY_CHOICES", "TARGETS_PER_MODE",
-           "TARGETS_PER_POSITION"]
+           "TARGETS_PER_POSITION", "FORMULATIONS", "check_formulation", "DYNAMIC_ROUTE"]

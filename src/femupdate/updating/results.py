@@ -211,6 +211,13 @@ class UpdateResult(RunResult):
         asked for), ``used`` (the rule that made the pairs: ``"mac"``, ``"order"`` or
         ``"frequency"``), ``min_mac`` and ``low_mac`` (0-based test modes whose pair's MAC is
         below ``min_mac``: their pairing is not confirmed by the shapes).
+    formulation : str
+        The formulation of the modal residuals (``"shapes"``, ``"mac"`` or ``"dynamic"``;
+        :class:`~femupdate.updating.Problem`); empty without modes.
+    expanded_shapes : numpy.ndarray or None, shape ``(n_dofs, T)``
+        With the dynamic formulation, each test mode's full shape at the solution (column k in
+        the model's dof order): the measured entries the test shape scaled to unit length over
+        them, the unmeasured ones those that minimise the mode's dynamic residual; else None.
     """
 
     history: list[dict]
@@ -225,6 +232,8 @@ class UpdateResult(RunResult):
     blocks: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     pairing: dict = field(default_factory=dict)
+    formulation: str = ""
+    expanded_shapes: np.ndarray | None = None
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))

@@ -13,6 +13,7 @@ from .._errors import InputError
 from ..testdata import TestData
 from .combined import DATA_KINDS, STD_KEYS, CombinedProblem, split_std, combined_problem, data_kinds
 from .frf import FRFProblem, FRFUpdateResult, frac, modal_report
+from .problem import check_formulation
 from .results import UpdateResult
 from .solve import diagnostics, paired_modes, solve, update_modal
 
@@ -23,7 +24,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
            n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           frf_options: Mapping | None = None, pairing: str = "auto") -> UpdateResult:
+           frf_options: Mapping | None = None, pairing: str = "auto", formulation: str = "shapes") -> UpdateResult:
     """Update the model's parameters so that it matches the test data: measured modes, FRFs,
     static deflections, or any mix of them, as one least-squares problem.
 
@@ -83,6 +84,12 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         Options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update` takes them:
         ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``,
         ``select``, ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
+    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
+        The modal residuals (:class:`~femupdate.updating.Problem`): ``"shapes"`` relative
+        eigenvalue errors and scaled shape differences; ``"mac"`` relative eigenvalue errors and
+        MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"`` the modal dynamic residual
+        (K − λ_E M) φ of every dof, the unmeasured shape entries solved for (no eigen-solution;
+        every test mode needs a shape).  Measured modes only.
 
     Returns
     -------
@@ -105,8 +112,13 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     kinds = data_kinds(data, use)
+    if formulation != "shapes" and "modes" not in kinds:
+        check_formulation(formulation)  # an unknown one is named first
+        raise InputError(f"formulation {formulation!r} (--formulation) applies to measured modes; the data used are: "
+                         f"{', '.join(kinds)}")
     modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
-                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
+                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
+                         formulation=formulation)
     solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
     unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
     if unused:
@@ -175,10 +187,12 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         paired = paired_modes(modal, modes, mpairs)
         swaps, routes = list(modal.swaps), [modal.sensitivity_used]
         natural = modes.frequencies_hz[:10]
+        formulation, expanded = modal.formulation, modal.expanded_shapes(x)
     else:
         mp, f_test, f_model, natural = modal_report(model, data, p_final)
         paired = dict(pairs=mp, test_frequencies_hz=f_test, model_frequencies_hz=f_model)
         swaps, routes = [], []
+        formulation, expanded = "", None
     frf_blocks = [b for b in prob.blocks if b.kind == "frf"]
     routes += ["brandon"] if frf_blocks else []
     routes += ["static (brandon at ω = 0)"] if any(b.kind == "static" for b in prob.blocks) else []
@@ -193,7 +207,8 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         **paired, swaps=swaps,
         diagnostics=diag, regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.p_base[prob.idx]))), sensitivity=" + ".join(routes),
-        blocks=prob.block_costs(r), notes=list(prob.notes) + diag.notes)
+        blocks=prob.block_costs(r), notes=list(prob.notes) + (list(modal.notes) if modal is not None else []) + diag.notes,
+        formulation=formulation, expanded_shapes=expanded)
     if not frf_blocks:
         return UpdateResult(**common)
     fp = frf_blocks[0].problem

@@ -61,7 +61,9 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
       values above :data:`RANK_RTOL` σ_max) and condition number.
     * **Covariance** of the free parameters, D V Σ⁻² Vᵀ D from the SVD S_free = U Σ Vᵀ
       (D = diag |p|) — that is (J_freeᵀ J_free)⁻¹ in parameter units — times the residual variance
-      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations.  A free
+      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations (m the
+      problem's ``residual_dof``, its independent equations, where it has one: fewer than its
+      residuals for the dynamic formulation, whose unknown shape entries take up the others).  A free
       parameter the data do not depend on (a zero column) is left out of it too (NaN): the
       others' covariance does not depend on it.
     * **Poorly determined** parameters, each with its reason (``poorly_determined_reasons``):
@@ -140,11 +142,12 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     nC = cols.size
     svC, VtC = (sv, Vt) if nC == nF else _svd(S[:, cols])
     cov = np.full((L, L), np.nan)
+    m_dof = int(getattr(prob, "residual_dof", m))  # independent equations (fewer than m: dynamic formulation)
     if nC and m > 0 and np.sum(svC > RANK_RTOL * svC[0]) == nC:
         V = VtC.T
         covF = (mag[cols][:, None] * V) @ np.diag(1.0 / svC ** 2) @ (V.T * mag[cols][None, :])
         if sigma is None:
-            covF = covF * float(r @ r) / (m - nC) if m > nC else np.full((nC, nC), np.nan)
+            covF = covF * float(r @ r) / (m_dof - nC) if m_dof > nC else np.full((nC, nC), np.nan)
         cov[np.ix_(cols, cols)] = covF
     diag = np.diag(cov)
     std = np.where(np.isfinite(diag), np.sqrt(np.clip(np.nan_to_num(diag, nan=0.0), 0, None)), np.nan)
@@ -273,7 +276,7 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
            parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           pairing: str = "auto") -> UpdateResult:
+           pairing: str = "auto", formulation: str = "shapes") -> UpdateResult:
     """Update the model's parameters so that its modes match the measured ones (the modal case of
     :func:`femupdate.update`, which takes FRFs and static deflections too).
 
@@ -325,12 +328,19 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint series when there are fewer
         measured dofs than parameters, else the subspace series), ``"nelson"``, ``"modal"``,
         ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
+    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
+        The modal residuals (:class:`~femupdate.updating.Problem`): ``"shapes"`` relative
+        eigenvalue errors and scaled shape differences; ``"mac"`` relative eigenvalue errors and
+        MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"`` the modal dynamic residual
+        (K − λ_E M) φ of every dof, the unmeasured shape entries solved for (no eigen-solution;
+        every test mode needs a shape).
 
     Returns
     -------
     UpdateResult
         ``success``/``status``/``message`` report convergence (non-convergence is a status,
-        not an exception); ``diagnostics`` holds the identifiability figures.
+        not an exception); ``diagnostics`` holds the identifiability figures; ``formulation``
+        the formulation, ``expanded_shapes`` the full shapes of the dynamic one.
 
     Raises
     ------
@@ -345,7 +355,8 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     prob = Problem(model, data, params, x0=x0, values=values, shape_scaling=shape_scaling, ref_dof=ref_dof,
                    weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
+                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
+                   formulation=formulation)
     return solve_problem(prob, method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol,
                          regularization=regularization)
 
@@ -442,7 +453,9 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool 
     UpdateResult
         ``cost`` ½‖r‖² of the problem's own residuals (without regularisation rows),
         ``iterations`` the larger of the history's iterations and ``njev``, ``sensitivity`` the
-        route of the Jacobian at x.
+        route of the Jacobian at x, ``formulation`` the problem's, ``expanded_shapes`` the full
+        shapes of the dynamic formulation there (the pairs of the dynamic formulation, which
+        pairs nothing while it solves, are those of the model's modes at x, for the report).
 
     Raises
     ------
@@ -465,7 +478,8 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool 
         iterations=max(len(history) - 1, njev), history=history,
         **paired_modes(prob, modes, pairs),
         swaps=list(prob.swaps), diagnostics=diag, regularization=reg or {},
-        start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used, notes=diag.notes,
+        start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
+        notes=list(prob.notes) + diag.notes, formulation=prob.formulation, expanded_shapes=prob.expanded_shapes(x),
     )
 
 

@@ -143,7 +143,9 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     batched : bool or None, default None
         Advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
         ``None``: batched when only modal data are used, the model has at most
-        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported — locally,
+        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported (the
+        compiled route implements ``formulation="shapes"`` only: ``"mac"`` and ``"dynamic"`` run
+        one :func:`update` per start) — locally,
         or in chunks on the Dask cluster at ``scheduler``, with the same results; ``False``: one
         :func:`update` per start; ``True``: batched, or an :class:`InputError`.
     **kwargs
@@ -177,6 +179,8 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
             raise InputError(f"FRF options ({', '.join(sorted(kwargs['frf_options']))}) given, but no FRF data are used")
         kwargs.pop("use", None)  # modes only: the modal problem, whatever route
         kwargs.pop("frf_options", None)
+        if kwargs.get("formulation", "shapes") != "shapes":
+            _check_once(model, data, names, kwargs)
     elif batched:
         raise InputError(f"batched=True takes modal data only; these data use {', '.join(kinds)}: use batched=False")
     else:
@@ -197,6 +201,21 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     # ---- end of the batched path ----------------------------------------------------------------
     return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
                       cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout)
+
+
+def _check_once(model, data, names, kwargs) -> None:
+    """Build the modal problem once, so that input a formulation other than ``"shapes"`` refuses
+    (a test mode without a shape for ``"dynamic"``, options it does not take, too few data) is
+    refused once, as an :class:`InputError`, rather than recorded as the failure of every start
+    (those formulations take the per-start route)."""
+    import inspect
+
+    from .problem import Problem, check_determined
+
+    keys = set(inspect.signature(Problem).parameters) - {"model", "data", "params", "x0"}
+    prob = Problem(model, data, names, **{k: v for k, v in kwargs.items() if k in keys})
+    if kwargs.get("regularization") is None:
+        check_determined(prob)
 
 
 def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=1e-4, cost_tol=None, progress=None,

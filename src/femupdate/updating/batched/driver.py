@@ -45,9 +45,10 @@ AUTO_MAX_DOFS = 200  #: models up to this size take the batched route by default
 SUPPORTED_OPTIONS = frozenset({
     "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes", "parametrisation",
     "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
+    "formulation",
 })
 PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes",
-                    "parametrisation", "use_shapes", "values", "sensitivity")
+                    "parametrisation", "use_shapes", "values", "sensitivity", "formulation")
 SOLVER_OPTIONS = ("max_nfev", "ftol", "xtol", "gtol")
 
 
@@ -68,6 +69,9 @@ def unsupported(model, options: Mapping, explicit: bool = False) -> str | None:
         return "regularization: the batched route solves the unregularised problem only"
     if options.get("sensitivity", "auto") != "auto":
         return f"sensitivity={options['sensitivity']!r}: the batched route uses exact derivatives (sensitivity='auto')"
+    if options.get("formulation", "shapes") != "shapes":
+        return (f"formulation={options['formulation']!r}: the batched route implements the 'shapes' formulation only "
+                "(the other formulations run one start at a time)")
     limit = DENSE_LIMIT if explicit else AUTO_MAX_DOFS
     if model.n_dofs > limit:
         return f"the model has {model.n_dofs} dofs; the batched (dense) route takes at most {limit}"
@@ -175,7 +179,10 @@ class BatchedProblem:
     @classmethod
     def from_problem(cls, problem: Problem, starts, **solver_options) -> BatchedProblem:
         """The starts ``starts`` (R, L) of ``problem``: each row is the problem that
-        :func:`femupdate.update` solves from that start."""
+        :func:`femupdate.update` solves from that start (the ``"shapes"`` formulation only)."""
+        if problem.formulation != "shapes":
+            raise InputError(f"batched updating: formulation={problem.formulation!r}: the batched route implements the "
+                             "'shapes' formulation only")
         check_determined(problem)
         p_fixed = problem.p_base.copy()
         return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
