@@ -25,8 +25,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._errors import FemupdateError, InputError, NumericalError
-
-__version__ = "0.1.0"
+from ._version import __version__
 
 #: public name -> module that defines it
 _LAZY = {

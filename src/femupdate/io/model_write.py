@@ -117,7 +117,7 @@ def provenance(model_path, data_path, command: str, cost: float | None, updated:
     -------
     dict
     """
-    from .. import __version__
+    from .._version import __version__
 
     out: dict = {"source_model": str(model_path), "data": None if data_path is None else str(data_path),
                  "command": command, "femupdate_version": __version__,
