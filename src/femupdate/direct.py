@@ -382,8 +382,9 @@ def build_system(model, data: TestData, use: Sequence[str] = ("modes", "frf", "s
         raise InputError(f"unknown data kind(s) {sorted(unknown_kinds)}: use modes, frf, static")
     if "modes" in use and data.modes:
         modal_equations(b, data.modes, notes)
-    if "frf" in use and data.frf is not None:
-        frf_equations(b, data.frf)
+    if "frf" in use:
+        for fs in data.frf_sets:  # one set per excitation (several in a multi-reference test)
+            frf_equations(b, fs)
     if "static" in use and data.static:
         static_equations(b, data.static)
     return b.system()

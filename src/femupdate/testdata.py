@@ -313,6 +313,19 @@ class TestData:
         Unit information carried from the file (e.g. a universal file's dataset 164).
     nodes : mapping of int to (float, float, float), optional
         Node id -> coordinates (x, y, z), when the file gives them.
+    frf_sets : tuple of FRFData, default ``()``
+        Every FRF set, one per excitation (reference): a roving-hammer or multi-reference test
+        holds several.  Given ``frf`` alone, ``frf_sets`` is ``(frf,)``; given ``frf_sets``
+        alone, ``frf`` is its first set.  Code that compares one set only must check
+        :attr:`n_frf_sets` (the updating commands use every set, one residual block each).
+    notes : tuple of str, default ``()``
+        What the reader decided about the data (components taken as unmeasured, units
+        converted, coordinate systems applied), for the results' notes.
+
+    Raises
+    ------
+    InputError
+        ``frf`` given together with ``frf_sets`` whose first set it is not.
     """
 
     __test__ = False  # not a pytest test class
@@ -322,6 +335,24 @@ class TestData:
     static: tuple[StaticData, ...] = ()
     units: Mapping[str, object] = field(default_factory=dict)
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
+    frf_sets: tuple[FRFData, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        sets = tuple(self.frf_sets)
+        if not sets and self.frf is not None:
+            sets = (self.frf,)
+        elif sets and self.frf is None:
+            object.__setattr__(self, "frf", sets[0])
+        elif sets and self.frf is not sets[0]:
+            raise InputError("TestData: frf must be the first of frf_sets (give frf_sets alone)")
+        object.__setattr__(self, "frf_sets", sets)
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+
+    @property
+    def n_frf_sets(self) -> int:
+        """The number of FRF sets (excitations): 0, 1, or more for a multi-reference test."""
+        return len(self.frf_sets)
 
     @property
     def eigenvalues(self) -> np.ndarray:

@@ -272,7 +272,10 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     model = load_model(model_path)
     values = model_values(model, set_text)
     data = load_testdata(data_path, model)
-    frf = frf_data(data)
+    if global_method or data.n_frf_sets <= 1:
+        frf_data(data)  # no FRF data, or several sets for the global search: refused by name
+    frf = data.frf
+    assert frf is not None
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
     kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text),
               parametrisation=parametrisation, method=method, regularization=parse_regularization(reg_text),
@@ -302,8 +305,10 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
     c = ctx.console
     what = f"{global_method} runs" if global_method else "starts"
+    sets = (f"{res.omega.size} lines x {len(frf.dofs)} dofs" if data.n_frf_sets == 1
+            else f"{data.n_frf_sets} excitations, {sum(len(s.dofs) for s in data.frf_sets)} responses")
     title = (f"{model.name}: FRF update ({res.iterations} iterations, {res.nfev} evaluations, "
-             f"{res.omega.size} lines x {len(frf.dofs)} dofs, {res.residual} residual)")
+             f"{sets}, {res.residual} residual)")
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms, what))
         title = f"the lowest-cost solution in detail — {title}"
@@ -325,7 +330,9 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
         use = np.isin(frf.omega, res.omega)
         _, xa = model_frf(model, frf.omega[use], frf.force, frf.dofs, res.parameters, kw["damping"])
         names = save_frf_update_figures(plot_dir, res.history, frf.omega[use], frf.dofs, frf.response[use], xa)
-        c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
+        c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}"
+                + (f" (the FRF overlay shows the first excitation's set, {', '.join(frf.force)})"
+                   if data.n_frf_sets > 1 else ""))
     emit(ctx, payload)
     if not res.success:
         if write_model_path or csv_dir:

@@ -196,6 +196,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
             _, xa = model_frf(model, frf.omega[used], frf.force, frf.dofs, res.parameters, kw["frf_options"]["damping"])
             names += [n for n in save_frf_update_figures(plot_dir, res.history, frf.omega[used], frf.dofs,
                                                          frf.response[used], xa) if n not in names]
+            if data.n_frf_sets > 1:
+                c.print(f"the FRF overlay shows the first excitation's set ({', '.join(frf.force)})")
         c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
     if is_frf:
         payload.update(frf_fields(res))

@@ -97,8 +97,8 @@ def check_dofs(data: TestData, model, source: str) -> None:
         for d in m.dofs:
             if d not in known:
                 bad.setdefault(d)
-    if data.frf is not None:
-        for d in list(data.frf.dofs) + list(data.frf.force):
+    for fs in data.frf_sets:
+        for d in list(fs.dofs) + list(fs.force):
             if d not in known:
                 bad.setdefault(d)
     for s in data.static:

@@ -102,13 +102,19 @@ def data_kinds(data: TestData, use: Sequence[str] = DATA_KINDS) -> tuple[str, ..
     unknown = sorted(set(use) - set(DATA_KINDS))
     if unknown:
         raise InputError(f"unknown data kind(s) {', '.join(unknown)}: use {', '.join(DATA_KINDS)}")
-    have = {"modes": bool(data.modes), "frf": data.frf is not None, "static": bool(data.static)}
+    have = {"modes": bool(data.modes), "frf": bool(data.frf_sets), "static": bool(data.static)}
     kinds = tuple(k for k in DATA_KINDS if k in use and have[k])
     if not kinds:
         held = [k for k in DATA_KINDS if have[k]]
         raise InputError(f"the test data hold no {' or '.join(use)} data to update from"
                          + (f" (they hold: {', '.join(held)})" if held else " (they are empty)"))
     return kinds
+
+
+def frf_label(frf: FRFData) -> str:
+    """How a block of one FRF set of a multi-reference test is named: ``"frf excitation 1:z"``
+    (a force pattern of several dofs: ``"frf excitation 1:z, 2:x"``)."""
+    return "frf excitation " + ", ".join(frf.force)
 
 
 def split_std(measurement_std: Mapping | None) -> dict[str, dict]:
@@ -374,17 +380,23 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         elif kind == "frf":
             given = std.get("frf", {}).get("frf")
             opts = dict(frf_options)
-            fp, _, skipped, frf_notes = prepare_problem(
-                model, data, names, x0, opts.get("residual", "linear"), opts.get("weights"), given,
-                opts.get("lines"), opts.get("select"), opts.get("resonance", "skip"),
-                opts.get("resonance_tol", _resonance_tol()), opts.get("damping"), parametrisation, values,
-                opts.get("solver", "auto"), True, method)
-            fp.skipped = skipped
-            notes.extend(frf_notes)
-            n_data += CombinedProblem._n(Block("frf", "frf", fp, 1.0, ""))
-            scale, weighting = _weighting("frf", given is not None, mixed and fp.kind == "linear", fp.xe,
-                                          "the linear FRF residuals", "response", "", notes)
-            blocks.append(Block("frf", "frf", fp, scale, weighting))
+            several = data.n_frf_sets > 1  # a multi-reference test: one block per excitation
+            for fs in data.frf_sets:
+                label = frf_label(fs) if several else "frf"
+                try:
+                    fp, _, skipped, frf_notes = prepare_problem(
+                        model, fs, names, x0, opts.get("residual", "linear"), opts.get("weights"), given,
+                        opts.get("lines"), opts.get("select"), opts.get("resonance", "skip"),
+                        opts.get("resonance_tol", _resonance_tol()), opts.get("damping"), parametrisation, values,
+                        opts.get("solver", "auto"), True, method)
+                except InputError as exc:
+                    raise InputError(f"{label}: {exc}" if several else str(exc)) from None
+                fp.skipped = [dict(s, excitation=label) for s in skipped] if several else skipped
+                notes.extend(f"{label}: {n}" if several else n for n in frf_notes)
+                n_data += CombinedProblem._n(Block("frf", label, fp, 1.0, ""))
+                scale, weighting = _weighting(label, given is not None, mixed and fp.kind == "linear", fp.xe,
+                                              "the linear FRF residuals", "response", "", notes)
+                blocks.append(Block("frf", label, fp, scale, weighting))
         else:
             given = std.get("static", {}).get("static")
             for k, case in enumerate(data.static, start=1):
@@ -428,5 +440,5 @@ def _resonance_tol() -> float:
     return RESONANCE_TOL
 
 
-__all__ = ["combined_problem", "split_std", "CombinedProblem", "Block", "data_kinds", "DATA_KINDS",
+__all__ = ["combined_problem", "split_std", "frf_label", "CombinedProblem", "Block", "data_kinds", "DATA_KINDS",
            "STD_KEYS", "FRF_OPTIONS"]

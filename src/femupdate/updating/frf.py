@@ -94,10 +94,17 @@ def frf_data(data) -> FRFData:
     Raises
     ------
     InputError
-        No FRF data.
+        No FRF data, or several sets (a multi-reference test: :func:`femupdate.updating.update`
+        compares them all).
     """
     if isinstance(data, FRFData):
         return data
+    if isinstance(data, TestData) and data.n_frf_sets > 1:
+        refs = "; ".join(", ".join(s.force) for s in data.frf_sets)
+        raise InputError(f"the test data hold {data.n_frf_sets} FRF sets, one per excitation ({refs}): this route "
+                         "compares one set; update from all of them with femupdate update (or frf-update without "
+                         "--global), one residual block per excitation, or split the file into one file per "
+                         "excitation dof")
     if isinstance(data, TestData) and data.frf is not None:
         return data.frf
     raise InputError("FRF updating needs FRF test data (omega_rad_s, force, response)")
@@ -360,6 +367,9 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
         The model to update.
     data : TestData or FRFData
         Test data with ``frf``, or FRF data: responses at any subset of dofs to one force vector.
+        Test data with several FRF sets (a roving-hammer or multi-reference test, ``frf_sets``)
+        are compared set by set, one residual block per excitation
+        (:func:`~femupdate.updating.combined.combined_problem`; ``blocks`` in the result).
     params : sequence of str, optional
         Names of the parameters to update (default: every parameter not ``fixed``).
     x0 : mapping of str to float, optional
@@ -400,6 +410,21 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     NumericalError
         A line on a resonance of the model during the iteration, or the solver failed.
     """
+    if isinstance(data, TestData) and data.n_frf_sets > 1:  # a multi-reference test: one block per excitation
+        from .combined import combined_problem
+        from .run import combined_result
+
+        opts = dict(residual=residual, weights=weights, lines=lines, select=select, resonance=resonance,
+                    resonance_tol=resonance_tol, damping=damping, solver=solver)
+        combined = combined_problem(model, data, params, use=("frf",), x0=x0, values=values,
+                                    parametrisation=parametrisation,
+                                    measurement_std=None if measurement_std is None else {"frf": measurement_std},
+                                    frf_options=opts, regularized=regularization is not None, method=method)
+        sol, history, reg = solve(combined, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                                  xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+        res = combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
+        assert isinstance(res, FRFUpdateResult)
+        return res
     prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
                                            resonance, resonance_tol, damping, parametrisation, values, solver,
                                            regularization is not None, method)

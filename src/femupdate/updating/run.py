@@ -128,7 +128,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         return update_modal(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
                             measurement_std=measurement_std, regularization=regularization, **modal_options,
                             **solver_options)
-    if kinds == ("frf",):
+    if kinds == ("frf",) and data.n_frf_sets == 1:
         from .frf import frf_update
 
         std = split_std(measurement_std)
@@ -213,10 +213,18 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         return UpdateResult(**common)
     fp = frf_blocks[0].problem
     assert isinstance(fp, FRFProblem)
-    frf = data.frf
-    assert frf is not None
-    return FRFUpdateResult(**common, omega=fp.omega, skipped=list(getattr(fp, "skipped", [])), residual=fp.kind,
-                           frac=dict(zip(frf.dofs, frac(fp.xe, fp.responses(x)))), natural_frequencies_hz=natural)
+    several = len(frf_blocks) > 1  # a multi-reference test: FRAC per response and excitation
+    fracs: dict[str, float] = {}
+    skipped: list[dict] = []
+    for b, fs in zip(frf_blocks, data.frf_sets):
+        q = b.problem
+        assert isinstance(q, FRFProblem)
+        exc = ", ".join(fs.force)
+        fracs.update((f"{d} (excitation {exc})" if several else d, float(v))
+                     for d, v in zip(fs.dofs, frac(q.xe, q.responses(x))))
+        skipped += list(getattr(q, "skipped", []))
+    return FRFUpdateResult(**common, omega=fp.omega, skipped=skipped, residual=fp.kind, frac=fracs,
+                           natural_frequencies_hz=natural)
 
 
 __all__ = ["update", "combined_result"]

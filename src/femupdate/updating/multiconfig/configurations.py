@@ -409,8 +409,8 @@ def _check_data_dofs(c: Configuration, cm: ConfiguredModel) -> None:
     d = c.data
     for m in d.modes:
         used.update(dict.fromkeys(m.dofs))
-    if d.frf is not None:
-        used.update(dict.fromkeys(list(d.frf.dofs) + list(d.frf.force)))
+    for fs in d.frf_sets:
+        used.update(dict.fromkeys(list(fs.dofs) + list(fs.force)))
     for s in d.static:
         used.update(dict.fromkeys(list(s.dofs) + list(s.force)))
     bad = [x for x in used if x not in known]
@@ -439,7 +439,6 @@ def is_complete(c: Configuration, cm: Model) -> bool:
     n = cm.n_dofs
     d = c.data
     items = [len(m.dofs) for m in d.modes if m.has_shape]
-    if d.frf is not None:
-        items.append(len(d.frf.dofs))
+    items += [len(fs.dofs) for fs in d.frf_sets]
     items += [len(s.dofs) for s in d.static]
     return bool(items) and all(k == n for k in items)

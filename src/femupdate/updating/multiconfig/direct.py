@@ -77,8 +77,9 @@ def direct_configurations(model: Model, configurations: Sequence[Configuration],
         cnotes: list[str] = []
         if "modes" in kinds and c.data.modes:
             modal_equations(b, c.data.modes, cnotes)
-        if "frf" in kinds and c.data.frf is not None:
-            frf_equations(b, c.data.frf)
+        if "frf" in kinds:
+            for fs in c.data.frf_sets:  # one set per excitation
+                frf_equations(b, fs)
         if "static" in kinds and c.data.static:
             static_equations(b, c.data.static)
         notes += [f"{c.label}: {x}" for x in cnotes]
