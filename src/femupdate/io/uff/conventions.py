@@ -7,7 +7,8 @@ from ..._errors import InputError
 from ...dofs import DIRECTIONS
 
 NODE_SETS = (15, 2411)
-READ_SETS = frozenset((15, 2411, 55, 58, 164))
+SYSTEM_SETS = (18, 2420)
+READ_SETS = frozenset((15, 18, 55, 58, 164, 2411, 2420))
 
 #: Dataset 164 unit-system codes.
 UNIT_SYSTEMS = {
@@ -88,5 +89,5 @@ def code_of_direction(direction: str) -> int:
     return DIRECTIONS.index(direction) + 1
 
 
-__all__ = ["NODE_SETS", "READ_SETS", "UNIT_SYSTEMS", "ABSCISSA_FREQUENCY", "ORD_DISPLACEMENT", "ORD_VELOCITY",
+__all__ = ["NODE_SETS", "SYSTEM_SETS", "READ_SETS", "UNIT_SYSTEMS", "ABSCISSA_FREQUENCY", "ORD_DISPLACEMENT", "ORD_VELOCITY",
            "ORD_ACCELERATION", "DENOM_FORCE", "AXIS_RTOL", "direction_of_code", "code_of_direction"]

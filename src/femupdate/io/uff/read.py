@@ -7,6 +7,7 @@ import math
 import os
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from ...dofs import DIRECTIONS, canonical_all, describe, dof, parse_dof
 from ...testdata import FRFData, MeasuredMode, TestData
 from .conventions import (ABSCISSA_FREQUENCY, AXIS_RTOL, DENOM_FORCE, NODE_SETS, ORD_ACCELERATION, ORD_DISPLACEMENT,
                           ORD_VELOCITY, READ_SETS, UNIT_SYSTEMS, direction_of_code)
+from .systems import System, aligned_axis, read_18, read_2420, resolve_18
 
 __all__ = ["read_uff"]
 
@@ -131,24 +133,51 @@ def _read_records(name: str) -> list[tuple[int, int, dict]]:
     return out
 
 
-def _read_nodes(dset: dict, where: str, nodes: dict[int, tuple[float, float, float]]) -> None:
+@dataclass
+class _Nodes:
+    """The nodes of the file: global coordinates (file units) and displacement systems."""
+
+    xyz: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    disp: dict[int, int] = field(default_factory=dict)
+    where: dict[int, str] = field(default_factory=dict)
+
+
+def _read_nodes(dset: dict, where: str, out: _Nodes, systems: Mapping[int, System]) -> None:
     try:
         nums = np.atleast_1d(np.asarray(dset["node_nums"], dtype=float))
         xyz = np.column_stack([np.atleast_1d(np.asarray(dset[k], dtype=float)) for k in ("x", "y", "z")])
+        cs = {k: np.atleast_1d(np.asarray(dset.get(k, np.zeros(nums.size)), dtype=float)) for k in ("def_cs", "disp_cs")}
     except (KeyError, ValueError, TypeError) as exc:
         raise InputError(f"{where}: node coordinates cannot be read ({exc})") from None
-    if xyz.shape[0] != nums.size:
+    if xyz.shape[0] != nums.size or any(v.size != nums.size for v in cs.values()):
         raise InputError(f"{where}: {nums.size} node numbers but {xyz.shape[0]} coordinate triples (truncated record?)")
     if not np.all(np.isfinite(xyz)):
         bad = [_node_id(n, where) for n, ok in zip(nums, np.isfinite(xyz).all(axis=1)) if not ok]
         raise InputError(f"{where}: NaN or infinite coordinate(s) at node(s) {', '.join(map(str, bad[:8]))}")
-    for n, p in zip(nums, xyz):
+    for n, p, dcs, ucs in zip(nums, xyz, cs["def_cs"], cs["disp_cs"]):
         nid = _node_id(n, where)
-        p = (float(p[0]), float(p[1]), float(p[2]))
-        old = nodes.get(nid)
-        if old is not None and not np.allclose(old, p, rtol=AXIS_RTOL, atol=1e-9):
-            raise InputError(f"{where}: node {nid} defined twice with different coordinates {old} and {p}")
-        nodes.setdefault(nid, p)
+        dcs, ucs = _node_id(dcs, f"{where}: node {nid}: coordinate system"), _node_id(ucs, f"{where}: node {nid}: coordinate system")
+        if dcs != 0:  # coordinates given in a local system
+            s = systems.get(dcs)
+            if s is None:
+                raise InputError(f"{where}: node {nid}: its definition coordinate system {dcs} is not defined in the "
+                                 "file (datasets 2420, 18)")
+            try:
+                R = s.cartesian(nid, "definition")
+            except InputError as exc:
+                raise InputError(f"{where}: {exc}") from None
+            p = s.origin + R.T @ p
+        if ucs != 0 and ucs not in systems:
+            raise InputError(f"{where}: node {nid}: its displacement coordinate system {ucs} is not defined in the "
+                             "file (datasets 2420, 18)")
+        q = (float(p[0]), float(p[1]), float(p[2]))
+        old = out.xyz.get(nid)
+        if old is not None and (not np.allclose(old, q, rtol=AXIS_RTOL, atol=1e-9) or out.disp[nid] != ucs):
+            raise InputError(f"{where}: node {nid} defined twice with different coordinates or systems "
+                             f"({out.where[nid].split(': ', 1)[-1]} and here)")
+        out.xyz.setdefault(nid, q)
+        out.disp.setdefault(nid, ucs)
+        out.where.setdefault(nid, where)
 
 
 def _read_units(dset: dict, where: str) -> dict:
@@ -169,11 +198,25 @@ def _read_units(dset: dict, where: str) -> dict:
     factors = [units[k] for k in ("length", "force", "temperature", "temperature_offset")]
     if not all(math.isfinite(v) for v in factors):
         raise InputError(f"{where}: NaN or infinite unit factor(s)")
+    for k in ("length", "force"):
+        if not units[k] > 0:
+            raise InputError(f"{where}: the {k} unit factor {units[k]:g} is not > 0 (file units -> SI: divide by it)")
     return units
 
 
-def _read_mode(dset: dict, where: str, nodes: Mapping[int, object], known: frozenset[str] | None):
-    """One dataset 55 record -> MeasuredMode (or None for records that are not modes)."""
+@dataclass
+class _RawMode:
+    """One dataset 55 record as read: values by (node, direction in the node's displacement system)."""
+
+    where: str
+    label: str
+    eigenvalue: float
+    values: dict[tuple[int, str], complex | float]
+
+
+def _read_mode(dset: dict, where: str, nodes: _Nodes) -> _RawMode | None:
+    """One dataset 55 record -> its values at (node, direction) as the file gives them (None for
+    records that are not modes)."""
     analysis = int(dset.get("analysis_type", 0))
     if analysis not in (2, 3, 7):
         log.warning("%s: analysis type %d is not a mode (2, 3 or 7); record skipped", where, analysis)
@@ -199,27 +242,16 @@ def _read_mode(dset: dict, where: str, nodes: Mapping[int, object], known: froze
                 f"{where}: {len(node_nums)} nodes but {r.size} values of component r{j + 1} (truncated record?)"
             )
         comps.append((DIRECTIONS[j], r))
-    _check_nodes(node_nums, nodes, where)
-    labels, values = [], []
+    _check_nodes(node_nums, nodes.xyz, where)
+    values: dict[tuple[int, str], Any] = {}
     for i, n in enumerate(node_nums):
         for direction, r in comps:
-            labels.append(dof(n, direction))
-            values.append(r[i])
-    shape = np.asarray(values) if values else np.zeros(0)
-    if shape.size and not np.all(np.isfinite(shape)):
-        bad = [lab for lab, v in zip(labels, shape) if not np.isfinite(v)]
-        raise InputError(f"{where}: NaN or infinite value(s) at dof(s) {describe(bad)}")
-    if known is not None and labels:
-        # UFF pads 3- and 6-dof vectors with zeros (dataset 55 note 15); drop zero padding at
-        # dofs the model lacks, at nodes the model has.  Anything else must be in the model.
-        model_nodes = {parse_dof(k)[0] for k in known}
-        keep = [
-            lab in known or not (parse_dof(lab)[0] in model_nodes and v == 0)
-            for lab, v in zip(labels, shape)
-        ]
-        labels = [lab for lab, k in zip(labels, keep) if k]
-        shape = shape[np.asarray(keep, dtype=bool)]
-        _check_in_model(labels, known, where)
+            v = r[i]
+            if not np.isfinite(v):
+                raise InputError(f"{where}: NaN or infinite value(s) at dof(s) {dof(n, direction)}")
+            if (n, direction) in values:
+                raise InputError(f"{where}: node {n} appears twice")
+            values[(n, direction)] = v
     mode_n = dset.get("mode_n")
     label = str(int(mode_n)) if mode_n is not None else ""
     try:
@@ -227,20 +259,167 @@ def _read_mode(dset: dict, where: str, nodes: Mapping[int, object], known: froze
             freq = float(dset["freq"])
             if not math.isfinite(freq) or freq < 0:
                 raise InputError(f"frequency {freq!r} Hz must be finite and >= 0")
-            return MeasuredMode.from_frequency(freq, tuple(labels), shape, label)
-        eig = complex(dset["eig"])  # s = -zeta*omega_n + i*omega_d, rad/s
-        if not (math.isfinite(eig.real) and math.isfinite(eig.imag)):
-            raise InputError(f"complex eigenvalue {eig!r} is not finite")
-        return MeasuredMode(abs(eig) ** 2, tuple(labels), shape, label)
+            lam = (2 * math.pi * freq) ** 2
+        else:
+            eig = complex(dset["eig"])  # s = -zeta*omega_n + i*omega_d, rad/s
+            if not (math.isfinite(eig.real) and math.isfinite(eig.imag)):
+                raise InputError(f"complex eigenvalue {eig!r} is not finite")
+            lam = abs(eig) ** 2
     except KeyError as exc:
         raise InputError(f"{where}: missing field {exc} for analysis type {analysis}") from None
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+    return _RawMode(where, label, lam, values)
 
 
-def _read_frf_record(dset: dict, where: str):
+def _is_zero(v) -> bool:
+    return bool(v == 0)
+
+
+def _to_global(raw: _RawMode, measured: set[tuple[int, str]], nodes: _Nodes, systems: Mapping[int, System],
+               ) -> dict[str, Any]:
+    """The mode's measured values in the global axes, {label: value}, node by node in the order of
+    the record.  At a node whose displacement system is a local one, a global component is
+    measured when every local component it is made of is measured; a measured local component
+    that enters no measured global component is refused (it cannot be rotated alone)."""
+    out: dict[str, Any] = {}
+    by_node: dict[int, dict[str, Any]] = {}
+    for (n, d), v in raw.values.items():
+        by_node.setdefault(n, {})[d] = v
+    for n, vals in by_node.items():
+        cs = nodes.disp.get(n, 0)
+        if cs == 0:
+            for d, v in vals.items():
+                if (n, d) in measured:
+                    out[dof(n, d)] = v
+            continue
+        s = systems[cs]
+        try:
+            R = s.cartesian(n, "displacement")
+        except InputError as exc:
+            raise InputError(f"{raw.where}: {exc}") from None
+        for group in (DIRECTIONS[:3], DIRECTIONS[3:]):
+            have = [d in vals for d in group]
+            if not any(have):
+                continue
+            known = np.array([(n, d) in measured for d in group])
+            local = np.array([vals.get(d, 0) for d in group])
+            lost = set(np.flatnonzero(known))
+            for i, g in enumerate(group):
+                needs = np.flatnonzero(R[:, i] != 0)
+                if known[needs].all():
+                    out[dof(n, g)] = (R[:, i] @ local).item()
+                    lost -= set(needs.tolist())
+            if lost:
+                comps = ", ".join(group[j] for j in sorted(lost))
+                raise InputError(f"{raw.where}: node {n}: the measured component(s) {comps} along the axes of "
+                                 f"{s.describe()} do not lie along the model's axes, and the node's other components "
+                                 "in that system are not measured: they cannot be rotated into the model's axes; "
+                                 "give the node's three components, or the data in the global system")
+    return out
+
+
+def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, System], sensors: frozenset[str] | None,
+                 sensor_source: str, units: Mapping[str, Any], known: frozenset[str] | None, name: str,
+                 notes: list[str]) -> list[MeasuredMode]:
+    """The measured modes from the records: measured components chosen (the sensor list, or the
+    zero rule), rotated into the global axes, converted to SI, checked against the model."""
+    keys: dict[tuple[int, str], None] = {}
+    for r in raws:
+        keys.update(dict.fromkeys(r.values))
+    if sensors is not None:
+        measured = set(keys)  # every component read; the sensor list picks the global dofs below
+    else:
+        # the zero rule: a component that is exactly zero in every mode record that holds it is
+        # an unmeasured one that the record pads (UFF records carry 3 or 6 values per node)
+        zero_all = {k for k in keys if all(_is_zero(r.values[k]) for r in raws if k in r.values)}
+        measured = set(keys) - zero_all
+        if zero_all:
+            padded = [dof(n, d) for n, d in keys if (n, d) in zero_all]
+            local = sorted({n for n, _ in zero_all if nodes.disp.get(n, 0) != 0})
+            where = f" (in the nodes' own coordinate systems at node(s) {', '.join(map(str, local[:8]))})" if local else ""
+            notes.append(f"{name}: datasets 55: {len(padded)} component(s) exactly zero in every mode taken as "
+                         f"unmeasured (padding of the 3- or 6-value records) and left out{where}: "
+                         f"{describe(padded, 12)}; give the measured dofs (--measured-dofs, or sensors) to "
+                         "keep a measured zero")
+        partial = [k for k in keys if k in measured and any(_is_zero(r.values[k]) for r in raws if k in r.values)]
+        if partial:
+            which = {}
+            for k in partial:
+                which[dof(*k)] = [r.label or str(i + 1) for i, r in enumerate(raws) if k in r.values
+                                  and _is_zero(r.values[k])]
+            shown = "; ".join(f"{lab} (mode {', '.join(m)})" for lab, m in list(which.items())[:8])
+            more = f"; … ({len(which)} in all)" if len(which) > 8 else ""
+            notes.append(f"{name}: datasets 55: zero values kept as measured (the component is not zero in every "
+                         f"mode): {shown}{more}")
+    length = float(units.get("length", 1.0)) if units else 1.0
+    modes = []
+    dropped: dict[str, None] = {}
+    dropped_nonzero: dict[str, None] = {}
+    model_padding: dict[str, None] = {}
+    model_nodes = {parse_dof(k)[0] for k in known} if known is not None else set()
+    for r in raws:
+        vals = _to_global(r, measured, nodes, systems)
+        if sensors is not None:
+            for lab, v in vals.items():
+                if lab not in sensors:
+                    dropped.setdefault(lab)
+                    if not _is_zero(v):
+                        dropped_nonzero.setdefault(lab)
+            vals = {lab: v for lab, v in vals.items() if lab in sensors}
+        if known is not None:
+            # a zero at a dof the model lacks, at a node it has (a 6-value record read for a planar
+            # model): padding too; anything else must be in the model
+            for lab in [lab for lab, v in vals.items() if lab not in known and parse_dof(lab)[0] in model_nodes
+                        and _is_zero(v)]:
+                model_padding.setdefault(lab)
+                del vals[lab]
+            _check_in_model(vals, known, r.where)
+        labels = tuple(vals)
+        shape = np.array([vals[lab] for lab in labels]) if labels else np.zeros(0)
+        if length != 1.0 and labels:  # translations file units -> m; rotations are radians
+            trans = np.array([parse_dof(lab)[1] in DIRECTIONS[:3] for lab in labels])
+            shape = np.where(trans, shape / length, shape)
+        try:
+            modes.append(MeasuredMode(r.eigenvalue, labels, shape, r.label))
+        except InputError as exc:
+            raise InputError(f"{r.where}: {exc}") from None
+    if sensors is not None:
+        notes.append(f"{name}: the modes' measured dofs are {sensor_source} ({len(sensors)} dofs)"
+                     + (f"; components at other dofs left out: {describe(list(dropped), 12)}" if dropped else ""))
+        if dropped_nonzero:
+            notes.append(f"{name}: non-zero values left out at dofs outside {sensor_source}: "
+                         f"{describe(list(dropped_nonzero), 12)}")
+    if model_padding:
+        notes.append(f"{name}: zero values at dofs the model lacks left out: {describe(list(model_padding), 12)}")
+    return modes
+
+
+def _frf_dof(node: int, direction: str, sign: float, nodes: _Nodes, systems: Mapping[int, System], where: str,
+             role: str) -> tuple[str, float]:
+    """The global dof and sign of a transducer along ``direction`` of its node's displacement
+    system; a direction that does not lie along a global axis is refused."""
+    cs = nodes.disp.get(node, 0)
+    if cs == 0:
+        return dof(node, direction), sign
+    s = systems[cs]
+    try:
+        R = s.cartesian(node, "displacement")
+    except InputError as exc:
+        raise InputError(f"{where}: {role}: {exc}") from None
+    j = DIRECTIONS.index(direction)
+    axis = aligned_axis(R[j % 3])
+    if axis is None:
+        raise InputError(f"{where}: {role} node {node}: direction {direction} of {s.describe()} does not lie along "
+                         f"one of the model's axes ({np.round(R[j % 3], 6).tolist()} in global axes): FRFs are read "
+                         "along the model's axes only; give the data in the global system")
+    i, g = axis
+    return dof(node, DIRECTIONS[i + 3 * (j // 3)]), sign * g
+
+
+def _read_frf_record(dset: dict, where: str, nodes: _Nodes, systems: Mapping[int, System], units: Mapping[str, Any]):
     """One function-type-4 dataset 58 record -> (abscissa in file units, omega, response dof,
-    excitation dof, receptance)."""
+    excitation dof, receptance in SI)."""
     try:
         rsp_node = _node_id(dset["rsp_node"], where)
         ref_node = _node_id(dset["ref_node"], where)
@@ -252,6 +431,7 @@ def _read_frf_record(dset: dict, where: str):
         raise InputError(f"{where}: missing field {exc}") from None
     except (TypeError, ValueError) as exc:
         raise InputError(f"{where}: cannot be read ({exc})") from None
+    _check_nodes((rsp_node, ref_node), nodes.xyz, where)
     n_pts = int(dset.get("num_pts", 0) or 0)
     if x.size != y.size or (n_pts and y.size != n_pts):
         raise InputError(
@@ -285,9 +465,17 @@ def _read_frf_record(dset: dict, where: str):
     elif ordinate not in ORD_DISPLACEMENT:
         raise InputError(f"{where}: ordinate specific data type {ordinate} is not displacement (8), "
                          "velocity (11) or acceleration (12)")
+    rsp, rsp_sign = _frf_dof(rsp_node, rsp_dir, rsp_sign, nodes, systems, where, "response")
+    ref, ref_sign = _frf_dof(ref_node, ref_dir, ref_sign, nodes, systems, where, "reference (excitation)")
     # H measured between transducers oriented s_rsp, s_ref: H_+ = s_rsp * s_ref * H_measured
     h = h * (rsp_sign * ref_sign)
-    return x, omega, dof(rsp_node, rsp_dir), dof(ref_node, ref_dir), (rsp_node, ref_node), h
+    if units:  # file units -> SI: a length L_file = L_SI * length, a force F_file = F_SI * force
+        factor = float(units["force"])
+        factor /= float(units["length"]) if rsp_dir in DIRECTIONS[:3] else 1.0  # a displacement (a rotation: rad)
+        factor *= float(units["length"]) if ref_dir in DIRECTIONS[3:] else 1.0  # a moment excitation: force x length
+        if factor != 1.0:
+            h = h * factor
+    return x, omega, rsp, ref, h
 
 
 def _same_axis(a: np.ndarray, b: np.ndarray) -> bool:
@@ -297,11 +485,23 @@ def _same_axis(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.all(np.abs(a - b) <= tol))
 
 
+@dataclass
+class _FRFSet:
+    """The FRF records of one excitation dof."""
+
+    first: str
+    axis: np.ndarray
+    omega: np.ndarray
+    dofs: list[str] = field(default_factory=list)
+    cols: list[np.ndarray] = field(default_factory=list)
+
+
 def read_uff(
     path: str | os.PathLike,
     *,
     model_dofs: Sequence[str] | None = None,
     model=None,
+    sensors: Iterable[str] | None = None,
 ) -> TestData:
     r"""Read test data from a universal file.
 
@@ -311,54 +511,78 @@ def read_uff(
         The universal file (ASCII; binary 58b records are read too).
     model_dofs : sequence of str, optional
         Dof labels of the model the data will be compared with. Every dof in the data must be
-        one of them, except zero-valued padding components of dataset 55 (a 6-dof record read
-        for a planar model) at nodes the model has, which are dropped.
+        one of them, except zero values of dataset 55 (a 6-dof record read for a planar model)
+        at dofs the model lacks at nodes it has, which are dropped with a note.
     model : Model, optional
         Alternative to ``model_dofs``: its ``dofs`` are used.
+    sensors : iterable of str, optional
+        The measured dofs (labels in the global axes): the modes keep their components at these
+        dofs only, zeros included (:ref:`the measured dofs <uff-measured>` below).
 
     Returns
     -------
     TestData
-        ``modes`` (ordered by frequency), ``frf`` (or ``None``), ``units`` and ``nodes``.
+        ``modes`` (ordered by frequency), ``frf`` and ``frf_sets`` (one set per excitation dof),
+        ``units``, ``nodes`` and ``notes`` (what was left out, converted or rotated).
 
+        * **Measured dofs of the modes** (dataset 55 records carry 3 or 6 values at every node,
+          measured or not): with ``sensors``, those dofs; else, when the file holds FRF records
+          (dataset 58), their response dofs (and their excitation dofs when there are several);
+          else every component that is non-zero in at least one mode record: a component exactly
+          zero in every mode record is taken as unmeasured padding and left out, and a zero in
+          some modes only is kept as a measured zero -- each named in ``notes``.
         * Dataset 55, analysis type 2 (normal mode): the eigenvalue is
           :math:`\lambda = (2\pi f)^2` from the record's frequency :math:`f` in Hz.
           Analysis types 3 and 7 (complex modes): the record's complex eigenvalue
           :math:`s = -\zeta\omega_n + i\omega_d` (rad/s) gives :math:`\lambda = |s|^2 = \omega_n^2`;
-          shapes stay complex. All components a record provides are kept (zeros included),
-          labelled node by node ``x y z`` or ``x y z rx ry rz``.
-        * Dataset 58, function type 4 (FRF; other function types are skipped): every record
-          must share one excitation (reference) dof and one frequency axis. The abscissa is in Hz
+          shapes stay complex, labelled node by node ``x y z`` or ``x y z rx ry rz``.
+        * Dataset 58, function type 4 (FRF; other function types are skipped): the records are
+          grouped by excitation (reference) dof into one :class:`FRFData` each (a roving-hammer
+          or multi-reference test gives several), every record of a group on one frequency
+          axis (even or uneven spacing). The abscissa is in Hz
           (converted to :math:`\omega = 2\pi f` rad/s) unless its units label says rad/s. The
           ordinate is a receptance (displacement / force) unless the ordinate specific data type
           says velocity (mobility, divided by :math:`i\omega`) or acceleration (accelerance,
           divided by :math:`-\omega^2`). Negative direction codes negate the data, for the
           response and for the reference alike. The force is 1 at the excitation dof.
-        * Dataset 164: ``units`` = {``code``, ``system`` (e.g. ``"SI"``), ``description``,
+        * Dataset 164: ``units`` = {``code``, ``system`` (e.g. ``"MM"``), ``description``,
           ``temperature_mode``, ``length``, ``force``, ``temperature``,
-          ``temperature_offset``}; the factors are pyuff's (file units -> SI: divide by them).
-          Data are *not* converted to SI.
-        * Datasets 15 and 2411: ``nodes`` = {id: (x, y, z)}. When present, every node used by a
-          mode or FRF record must be among them.
+          ``temperature_offset``, ``data``: ``"SI"``}; the factors are pyuff's (file units ->
+          SI: divide by them). Node coordinates, mode shape translations (rotations are radians)
+          and FRFs are converted to SI (m, N): a receptance in mm/N is multiplied by
+          force / length. Without dataset 164 values are kept as they are (``units`` empty).
+        * Datasets 2420 and 18 (coordinate systems) with 15 and 2411 (nodes): coordinates given
+          in a local Cartesian system are moved to global ones, and data at a node whose
+          displacement system is a local Cartesian one are rotated into the global axes
+          (:mod:`femupdate.io.uff.systems`); cylindrical and spherical systems are refused.
+        * Datasets 15 and 2411: ``nodes`` = {id: (x, y, z)} in global coordinates. When present,
+          every node used by a mode or FRF record must be among them.
 
     Raises
     ------
     InputError
-        Missing, unreadable or non-UFF file; a malformed record; NaN values; direction codes
-        other than ±1..±6; FRFs with different excitation dofs or frequency axes; unknown nodes
-        or dofs not in the model; a file with neither modes nor FRFs. The message names the file
-        and the record (``"f.uff: dataset 58 record 3: ..."``).
+        Missing, unreadable or non-UFF file; a malformed or truncated record; NaN values;
+        direction codes other than ±1..±6; FRFs of one excitation dof on different frequency
+        axes; unknown nodes or dofs not in the model; an undefined, cylindrical or spherical
+        coordinate system, or data that cannot be rotated into the global axes; a file with
+        neither modes nor FRFs. The message names the file and the record
+        (``"f.uff: dataset 58 record 3: ..."``), and the node or system where it applies.
     """
     name = os.fspath(path)
     known = _known_dofs(model_dofs, model)
+    given = None if sensors is None else frozenset(canonical_all(list(sensors), "sensors"))
     records = _read_records(name)
+    notes: list[str] = []
 
-    nodes: dict[int, tuple[float, float, float]] = {}
+    systems: dict[int, System] = {}
+    raw18: list = []
     units: dict = {}
     for t, k, dset in records:
         where = f"{name}: dataset {t} record {k}"
-        if t in NODE_SETS:
-            _read_nodes(dset, where, nodes)
+        if t == 2420:
+            read_2420(dset, where, systems)
+        elif t == 18:
+            raw18 += read_18(dset, where)
         elif t == 164:
             u = _read_units(dset, where)
             if units and u != units:
@@ -366,59 +590,84 @@ def read_uff(
                     f"{where}: a second units dataset ({u['system']}) differs from the first ({units['system']})"
                 )
             units = u
+    resolve_18(raw18, systems)
+    nodes = _Nodes()
+    for t, k, dset in records:
+        if t in NODE_SETS:
+            _read_nodes(dset, f"{name}: dataset {t} record {k}", nodes, systems)
 
-    modes: list[MeasuredMode] = []
-    frf_axis: np.ndarray | None = None
-    frf_omega: np.ndarray | None = None
-    frf_ref: str | None = None
-    frf_first: str | None = None
-    frf_dofs: list[str] = []
-    frf_cols: list[np.ndarray] = []
+    raws: list[_RawMode] = []
+    sets: dict[str, _FRFSet] = {}
     for t, k, dset in records:
         where = f"{name}: dataset {t} record {k}"
         if t == 55:
-            m = _read_mode(dset, where, nodes, known)
+            m = _read_mode(dset, where, nodes)
             if m is not None:
-                modes.append(m)
+                raws.append(m)
         elif t == 58:
             func = int(dset.get("func_type", 0))
             if func != 4:
                 log.info("%s: function type %d is not an FRF (4); record skipped", where, func)
                 continue
-            x, omega, rsp, ref, used_nodes, h = _read_frf_record(dset, where)
-            _check_nodes(used_nodes, nodes, where)
+            x, omega, rsp, ref, h = _read_frf_record(dset, where, nodes, systems, units)
             _check_in_model([rsp, ref], known, where)
-            if frf_ref is None:
-                frf_ref, frf_first, frf_axis, frf_omega = ref, f"dataset 58 record {k}", x, omega
-            elif ref != frf_ref:
-                raise InputError(
-                    f"{where}: excitation dof {ref} differs from {frf_ref} of {frf_first}; "
-                    "one file must hold the FRFs of one excitation dof"
-                )
-            elif frf_axis is None:  # set together with frf_ref
-                raise RuntimeError("internal error: an FRF reference without its frequency axis")
-            elif not _same_axis(frf_axis, x):
+            fs = sets.get(ref)
+            if fs is None:
+                fs = sets[ref] = _FRFSet(f"dataset 58 record {k}", x, omega)
+            elif not _same_axis(fs.axis, x):
                 raise InputError(
                     f"{where}: frequency axis ({x.size} points, {x[0]:g} .. {x[-1]:g}) differs from that of "
-                    f"{frf_first} ({frf_axis.size} points, {frf_axis[0]:g} .. {frf_axis[-1]:g})"
+                    f"{fs.first} ({fs.axis.size} points, {fs.axis[0]:g} .. {fs.axis[-1]:g}), the first record of "
+                    f"excitation dof {ref}"
                 )
-            if rsp in frf_dofs:
-                raise InputError(f"{where}: response dof {rsp} appears in two FRF records")
-            frf_dofs.append(rsp)
-            frf_cols.append(h)
+            if rsp in fs.dofs:
+                raise InputError(f"{where}: response dof {rsp} appears in two FRF records of excitation dof {ref}")
+            fs.dofs.append(rsp)
+            fs.cols.append(h)
 
-    frf = None
-    if frf_cols:
-        cplx = any(np.iscomplexobj(c) for c in frf_cols)
-        resp = np.column_stack([c.astype(complex) if cplx else c for c in frf_cols])
-        if frf_omega is None or frf_ref is None:  # both set with the first FRF record
-            raise InputError(f"{name}: datasets 58: no frequency axis or excitation dof")
+    frf_sets: list[FRFData] = []
+    for ref, group in sets.items():
+        cplx = any(np.iscomplexobj(c) for c in group.cols)
+        resp = np.column_stack([c.astype(complex) if cplx else c for c in group.cols])
         try:
-            frf = FRFData(frf_omega, {frf_ref: 1.0}, tuple(frf_dofs), resp)
+            frf_sets.append(FRFData(group.omega, {ref: 1.0}, tuple(group.dofs), resp))
         except InputError as exc:
-            raise InputError(f"{name}: datasets 58: {exc}") from None
-    if not modes and frf is None:
+            raise InputError(f"{name}: datasets 58 of excitation dof {ref}: {exc}") from None
+    if len(frf_sets) > 1:
+        notes.append(f"{name}: datasets 58: {len(frf_sets)} excitation dofs (a roving-hammer or multi-reference "
+                     "test), one FRF set each: " + "; ".join(f"{r} ({len(g.dofs)} response(s))"
+                                                             for r, g in sets.items()))
+    if units and (units["length"] != 1.0 or units["force"] != 1.0):
+        notes.append(f"{name}: dataset 164: units {units['system']} ({units['description'] or 'no description'}): "
+                     f"converted to SI, lengths divided by {units['length']:g} and forces by {units['force']:g} "
+                     "(node coordinates, mode shape translations, FRFs)")
+    if units:
+        units["data"] = "SI"
+    local = sorted({n for n, cs in nodes.disp.items() if cs != 0})
+    moved = sorted({s.label for s in systems.values()} & set(nodes.disp.values()))
+    if local:
+        notes.append(f"{name}: data at {len(local)} node(s) in local displacement coordinate systems "
+                     f"({', '.join(map(str, moved))}) rotated into the global axes: node(s) "
+                     f"{', '.join(map(str, local[:12]))}{' …' if len(local) > 12 else ''}")
+
+    sensor_source = "the dofs given (sensors)"
+    if given is None and raws and frf_sets:
+        measured_at: dict[str, None] = {}
+        for data_set in frf_sets:
+            measured_at.update(dict.fromkeys(data_set.dofs))
+        if len(frf_sets) > 1:
+            for data_set in frf_sets:
+                measured_at.update(dict.fromkeys(data_set.force))
+        given = frozenset(measured_at)
+        sensor_source = "the dofs of the file's FRF records (dataset 58)"
+    modes = _build_modes(raws, nodes, systems, given, sensor_source, units, known, name, notes)
+    if not modes and not frf_sets:
         raise InputError(f"{name}: no usable data: no mode records (dataset 55) and no FRF records (dataset 58)")
+    length = float(units.get("length", 1.0)) if units else 1.0
+    xyz = {n: (p[0] / length, p[1] / length, p[2] / length) if length != 1.0 else p for n, p in nodes.xyz.items()}
     order = sorted(range(len(modes)), key=lambda i: modes[i].eigenvalue)
-    log.info("%s: %d mode(s), %d FRF(s), %d node(s)", name, len(modes), len(frf_dofs), len(nodes))
-    return TestData(modes=tuple(modes[i] for i in order), frf=frf, units=units, nodes=nodes)
+    for note in notes:
+        log.info("%s", note)
+    log.info("%s: %d mode(s), %d FRF set(s), %d node(s)", name, len(modes), len(frf_sets), len(xyz))
+    return TestData(modes=tuple(modes[i] for i in order), units=units, nodes=xyz, frf_sets=tuple(frf_sets),
+                    notes=tuple(notes))
