@@ -129,6 +129,53 @@ def option_dofs(items, model, option: str) -> tuple[str, ...]:
         raise InputError(msg if msg.startswith(option) else f"{option}: {msg}") from None
 
 
+#: ``--measured-dofs`` of the commands that read test data (:func:`load_data`)
+measured_dofs_option = click.option(
+    "--measured-dofs", "measured_text", default=None, metavar="DOFS",
+    help="The measured dofs of the test modes, comma-separated labels or #N: each mode keeps its shape at these "
+         "dofs only, zeros included. Replaces the test data's sensors and a universal file's rule for padded zeros.")
+
+
+def load_data(path, model, measured_text: str | None = None, numbering=None, option: str = "--measured-dofs"):
+    """The test data in ``path`` for ``model`` (:func:`femupdate.io.testdata_json.load_testdata`),
+    with ``--measured-dofs`` as its sensor list.
+
+    Raises
+    ------
+    InputError
+        As the reader; ``--measured-dofs`` empty, malformed, out of range or listing a dof twice
+        (the message names the option).
+    """
+    from ..io.testdata_json import load_testdata
+
+    sensors = None
+    if measured_text is not None:
+        items = [t.strip() for t in str(measured_text).split(",") if t.strip()]
+        if not items:
+            raise InputError(f"{option}: no dofs given (comma-separated labels such as 3:x, or #N)")
+        from ..dofs import resolve_all
+
+        try:
+            sensors = resolve_all(items, model.dofs if numbering is None else numbering, option)
+        except InputError as exc:
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(option) else f"{option}: {msg}") from None
+    return load_testdata(path, model, numbering=numbering, sensors=sensors)
+
+
+def data_fields(data) -> dict:
+    """The JSON keys a result takes from its test data: ``units`` (a universal file's dataset
+    164, or the JSON's ``units``) when the data state them."""
+    return {"units": dict(data.units)} if data.units else {}
+
+
+def print_data_notes(ctx: "Ctx", data) -> None:
+    """One ``note:`` line per note of the reader (measured dofs chosen, units converted, systems
+    applied)."""
+    for n in data.notes:
+        ctx.console.print(f"note: {n}", markup=False)
+
+
 def parse_regularization(text):
     """``--regularization``: None, ``gcv``, ``lcurve`` or a Tikhonov factor."""
     if text is None:

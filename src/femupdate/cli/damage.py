@@ -20,7 +20,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, print_flags,
                       print_identifiability, fmt, json_option, model_values, option_dofs,
-                      parse_regularization, parse_set, set_option)
+                      parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -85,14 +85,14 @@ def _names(text):
 @click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True, help="Baseline check: smallest MAC.")
 @click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
               help="A damaged mode pairing with no baseline mode this well stops the localisation.")
+@measured_dofs_option
 @set_option
 @json_option
 def damage(baseline_path, data_path, undamaged_path, elements_text, method, alpha, expansion, n_basis, allow_increase,
            min_change, iterations, bootstrap, noise_frequency, noise_shape, seed, max_frequency_error, min_mac,
-           localise_min_mac, set_text, json_path):
+           localise_min_mac, measured_text, set_text, json_path):
     """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
     from ..damage import detect_damage, element_parameters
-    from ..io.testdata_json import load_testdata
 
     ctx = Ctx(json_path)
     structure, model = _load_structure(baseline_path)
@@ -106,8 +106,9 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
         values = model_values(model, set_text)
         model = model.with_values(values) if values is not None else model
         notes.append("matrix model: its parameters are taken as the elements")
-    data = load_testdata(data_path, model)
-    undamaged = load_testdata(undamaged_path, model) if undamaged_path is not None else None
+    data = load_data(data_path, model, measured_text)
+    undamaged = load_data(undamaged_path, model, measured_text) if undamaged_path is not None else None
+    notes = [*data.notes, *(undamaged.notes if undamaged is not None else ()), *notes]
     if undamaged is None:
         notes.append("no --undamaged data: the baseline was not checked against the undamaged structure")
     noise = {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
@@ -141,14 +142,14 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
     else:
         c.print(f"[bold]not localised[/bold]: {res.reason}")
     for n in notes + res.notes:
-        c.print(f"note: {n}")
+        c.print(f"note: {n}", markup=False)
     emit(ctx, {
         "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
         "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
         "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
         "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
         "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
-        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes,
+        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
     })
     if not res.localised:
         raise NumericalError(f"damage not localised: {res.reason}")

@@ -10,8 +10,9 @@ from rich.table import Table
 
 from .._errors import NumericalError
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, direct_payload, emit, fmt, json_option,
-                      model_values, print_flags, set_option, write_model_option, write_model_outputs)
+from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, data_fields, direct_payload, emit, fmt, json_option,
+                      load_data, measured_dofs_option, model_values, print_flags, set_option, write_model_option,
+                      write_model_outputs)
 
 
 def _correlation_rows(data, model, values):
@@ -32,15 +33,16 @@ def _correlation_rows(data, model, values):
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (bounded least squares).")
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Write the updated model's modes as universal file datasets 55.")
+@measured_dofs_option
 @write_model_option
 @csv_option
 @set_option
 @json_option
-def direct(model_path, data_path, use, unknowns, bounded, uff_path, write_model_path, csv_dir, set_text, json_path):
+def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_text, write_model_path, csv_dir, set_text,
+           json_path):
     """Identify MODEL's parameters directly from DATA measured at every model dof."""
     from ..direct import direct_update
     from ..io.model_file import load_model
-    from ..io.testdata_json import load_testdata
 
     ctx = Ctx(json_path)
     model = load_model(model_path)
@@ -49,11 +51,13 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, write_model_
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "direct --uff")  # before the solution: named nodes cannot be written
-    data = load_testdata(data_path, model)
+    data = load_data(data_path, model, measured_text)
     kinds = [u.strip() for u in use.split(",") if u.strip()]
     names = [u.strip() for u in unknowns.split(",")] if unknowns else None
     res = direct_update(model, data, use=kinds, values=values, unknowns=names, bounded=bounded)
     payload = direct_payload(model, res, data)
+    payload["notes"] = [*data.notes, *payload["notes"]]
+    payload.update(data_fields(data))
     table = Table(title=f"{model.name}: direct update from {res.system.n_equations} equations")
     for col in ("parameter", "start", "identified", "std. error", "change"):
         table.add_column(col, justify="right" if col != "parameter" else "left")
@@ -76,7 +80,7 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, write_model_
         if not payload["flags"]:
             raise
         mm = corr = None
-        payload["notes"] = [*res.notes, f"no correlation of the identified model with the test: {exc}"]
+        payload["notes"] = [*data.notes, *res.notes, f"no correlation of the identified model with the test: {exc}"]
     if corr is not None:
         payload["frequencies_hz"] = {"test": data.frequencies_hz, "model": [mm.frequencies_hz[j] for _, j, _ in corr.pairs]}
         payload["pairs"] = [[i, j, m] for i, j, m in corr.pairs]
@@ -86,7 +90,7 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, write_model_
 
             write_uff_modes(uff_path, mm, nodes=model.nodes, model_name=model.name)
     for note in payload["notes"]:
-        ctx.console.print(f"note: {note}")
+        ctx.console.print(f"note: {note}", markup=False)
     emit(ctx, payload)
     if not res.unique:
         if write_model_path or csv_dir:

@@ -15,7 +15,7 @@ from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
-                      update_parameter_table, update_payload)
+                      update_parameter_table, update_payload, data_fields)
 
 
 def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
@@ -317,9 +317,11 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     print_diagnostics(c, res)
     for s in res.skipped:
         c.print(f"skipped line {s['line']} ({fmt(s['omega_rad_s'])} rad/s): {s['reason']}")
-    for note in res.notes:
-        c.print(f"note: {note}")
+    for note in [*data.notes, *res.notes]:
+        c.print(f"note: {note}", markup=False)
     payload = _frf_payload(model, data, res, ms, extra)
+    payload["notes"] = [*data.notes, *payload["notes"]]
+    payload.update(data_fields(data))
     print_flags(ctx, payload["flags"])
     if ms is not None:
         print_starts(c, ms, what)

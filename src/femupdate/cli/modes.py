@@ -8,8 +8,8 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, emit, fmt, json_option, model_values, option_dofs,
-                      set_option)
+from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, data_fields, emit, fmt, json_option, load_data,
+                      measured_dofs_option, model_values, option_dofs, print_data_notes, set_option)
 
 
 # ---------------------------------------------------------------------------------- modes
@@ -70,27 +70,29 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
               help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not confirmed.")
 @click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
               help="How test modes pair with model modes: the same rule as update's --pairing.")
+@measured_dofs_option
 @set_option
 @json_option
-def correlate(model_path, data_path, min_mac, pairing, set_text, json_path):
+def correlate(model_path, data_path, min_mac, pairing, measured_text, set_text, json_path):
     """Pair test and model modes by MAC; frequency errors and COMAC."""
     from ..correlation import correlate as _correlate
     from ..io.model_file import load_model
-    from ..io.testdata_json import load_testdata
     from ..modal import model_modes
 
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
-    data = load_testdata(data_path, model)
+    data = load_data(data_path, model, measured_text)
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
     corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
+    print_data_notes(ctx, data)
+    extra = ({"notes": list(data.notes)} if data.notes else {}) | data_fields(data)
     emit(ctx, {
         "dofs": list(corr.dofs), "mac": corr.mac, "pairs": [[i, j, m] for i, j, m in corr.pairs],
         "frequencies_hz": {"test": corr.test_frequencies_hz, "model": corr.model_frequencies_hz},
         "frequency_error": corr.frequency_error, "comac": dict(zip(corr.dofs, corr.comac)),
-        "unpaired_test": corr.unpaired_test, "unconfirmed": corr.unconfirmed, "pairing": pairing,
+        "unpaired_test": corr.unpaired_test, "unconfirmed": corr.unconfirmed, "pairing": pairing, **extra,
     })

@@ -15,7 +15,8 @@ from ..dofs import is_index
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, csv_option,
                       fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
                       model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
-                      update_payload, write_model_option, write_model_outputs)
+                      update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
+                      data_fields)
 from ..updating.results import pairing_warnings
 from .frf import frf_fields, frf_line_options, frf_options
 
@@ -49,6 +50,7 @@ from .frf import frf_fields, frf_line_options, frf_options
                    "(K - lambda M) phi of every dof, the unmeasured shape entries as unknowns; every mode needs a shape).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
+@measured_dofs_option
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
               default="auto", show_default=True,
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
@@ -72,13 +74,12 @@ from .frf import frf_fields, frf_line_options, frf_options
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, sensitivity, use_text, std_eigenvalue, std_shape,
+           method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
            write_model_path, csv_dir, uff_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
-    from ..io.testdata_json import load_testdata
     from ..updating import multistart
     from ..updating import data_kinds
     from ..updating import update as _update
@@ -90,7 +91,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
 
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, set_text)
-    data = load_testdata(data_path, model)
+    data = load_data(data_path, model, measured_text)
     if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
         (ref_dof,) = option_dofs([ref_dof], model, "--ref-dof")
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
@@ -171,9 +172,11 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         c.print(line)
     if ms is not None:
         print_starts(c, ms)
-    for note in res.notes:
-        c.print(f"note: {note}")
+    for note in [*data.notes, *res.notes]:
+        c.print(f"note: {note}", markup=False)
     payload = update_payload(model, data, res, ms)
+    payload["notes"] = [*data.notes, *payload["notes"]]
+    payload.update(data_fields(data))
     payload["formulation"] = res.formulation or None
     if res.expanded_shapes is not None:  # the dynamic formulation's full shapes, per test mode {dof: value}
         payload["expanded_shapes"] = [dict(zip(model.dofs, map(float, col))) for col in res.expanded_shapes.T]

@@ -16,10 +16,10 @@ from ..testdata import FRFData, MeasuredMode, StaticData, TestData, positive
 UFF_SUFFIXES = (".uff", ".unv")
 #: the keys of a mode object (docs/file-formats.md, "modes")
 MODE_KEYS = frozenset({"frequency_hz", "eigenvalue", "shape", "label", "reference_dof", "std_frequency",
-                       "std_eigenvalue", "std_shape", "weight"})
+                       "std_eigenvalue", "std_shape", "weight", "sensors"})
 
 
-def load_testdata(path, model=None, numbering=None) -> TestData:
+def load_testdata(path, model=None, numbering=None, sensors=None) -> TestData:
     """Read test data from JSON or a universal file (``.uff``/``.unv``).
 
     With ``model``, every dof in the data must be a model dof (the message names the others), and
@@ -36,6 +36,10 @@ def load_testdata(path, model=None, numbering=None) -> TestData:
     numbering : sequence of str, optional
         The dof list that ``"#N"`` counts in (default ``model.dofs``); ``update-multi`` passes the
         baseline model's list while checking the data against a configuration's model.
+    sensors : sequence of str, optional
+        The measured dofs of the modes (labels, or ``"#N"`` with a model): each mode keeps its
+        shape at these dofs only, zeros included; it replaces the JSON's ``sensors`` and a
+        universal file's own rule (``--measured-dofs``).
 
     Returns
     -------
@@ -50,10 +54,14 @@ def load_testdata(path, model=None, numbering=None) -> TestData:
         model's dof count), or without a model; with ``model``, a dof not in the model.
     """
     path = Path(path)
+    if numbering is None and model is not None:
+        numbering = model.dofs
+    if sensors is not None:
+        sensors = resolve_all(list(sensors), numbering, "sensors")
     if path.suffix.lower() in UFF_SUFFIXES:
         from .uff import read_uff
 
-        data = read_uff(path, model=model)  # drops the zero padding at dofs the model lacks
+        data = read_uff(path, model=model, sensors=sensors)  # measured dofs: sensors, FRF records or the zero rule
     else:
         try:
             text = path.read_text()
@@ -62,10 +70,8 @@ def load_testdata(path, model=None, numbering=None) -> TestData:
         except (IsADirectoryError, UnicodeDecodeError):
             raise InputError(f"{path}: not a readable JSON text file") from None
         raw = loads_json(text, str(path))
-        if numbering is None and model is not None:
-            numbering = model.dofs
         try:
-            data = parse_testdata(raw, numbering)
+            data = parse_testdata(raw, numbering, sensors)
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
     if model is not None:
@@ -127,7 +133,29 @@ def _complex(v, what):
     return _number(v, what)
 
 
-def parse_testdata(raw, dofs=None) -> TestData:
+def _sensor_list(value, dofs, what: str) -> tuple[str, ...]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise InputError(f"{what}: expected a list of dofs (labels such as \"3:x\", or \"#N\")")
+    return resolve_all(value, dofs, what)
+
+
+def _keep_sensors(mode: MeasuredMode, sensors: tuple[str, ...], where: str, notes: list[str]) -> MeasuredMode:
+    """The mode with its shape at ``sensors`` only (a note names what was left out)."""
+    keep = set(sensors)
+    mask = np.array([d in keep for d in mode.dofs], dtype=bool)
+    if mask.all():
+        return mode
+    out = [d for d, k in zip(mode.dofs, mask) if not k]
+    nonzero = [d for d, k, v in zip(mode.dofs, mask, mode.shape) if not k and v != 0]
+    from ..dofs import describe
+
+    notes.append(f"{where}: shape entries at dofs outside the sensors left out: {describe(out)}"
+                 + (f" (non-zero at {describe(nonzero)})" if nonzero else ""))
+    return MeasuredMode(mode.eigenvalue, tuple(d for d, k in zip(mode.dofs, mask) if k), mode.shape[mask], mode.label,
+                        mode.reference_dof, mode.std_eigenvalue, mode.std_shape, mode.weight)
+
+
+def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
     """Build :class:`TestData` from the parsed JSON object.
 
     Parameters
@@ -141,10 +169,16 @@ def parse_testdata(raw, dofs=None) -> TestData:
         given),
         ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
         frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
-        with ``force`` and ``displacement`` {dof: value}) and ``"units"`` (an object).  A dof is a
-        label or ``"#N"``, the N-th entry of ``dofs``.
+        with ``force`` and ``displacement`` {dof: value}), ``"units"`` (an object) and
+        ``"sensors"`` (a list of dofs: the measured dofs of every mode; a mode's own
+        ``sensors`` replace it for that mode; each mode keeps its shape at its sensors only,
+        with a note naming what was left out).  A dof is a label or ``"#N"``, the N-th entry of
+        ``dofs``.
     dofs : sequence of str, optional
         The model's dof list that ``"#N"`` counts in (without it, ``"#N"`` is refused).
+    sensors : sequence of str, optional
+        Measured dofs (canonical labels) that replace the file's ``sensors`` (top-level and per
+        mode).
 
     Returns
     -------
@@ -160,9 +194,11 @@ def parse_testdata(raw, dofs=None) -> TestData:
     """
     if not isinstance(raw, Mapping):
         raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
-    unknown = sorted(set(raw) - {"modes", "frf", "static", "units"})
+    unknown = sorted(set(raw) - {"modes", "frf", "static", "units", "sensors"})
     if unknown:
         raise InputError(f"unknown key(s) {', '.join(unknown)} (expected modes, frf, static)")
+    notes: list[str] = []
+    top_sensors = None if raw.get("sensors") is None else _sensor_list(raw["sensors"], dofs, "sensors")
     modes = []
     modes_raw = raw.get("modes", []) or []
     if not isinstance(modes_raw, list):
@@ -198,13 +234,22 @@ def parse_testdata(raw, dofs=None) -> TestData:
             shape_dofs = resolve_all(shape, dofs, "shape")
             if ref is not None:
                 ref = resolve_dof(ref, dofs, "reference_dof")
+            mode_sensors = sensors
+            if mode_sensors is None and m.get("sensors") is not None:
+                mode_sensors = _sensor_list(m["sensors"], dofs, "sensors")
+            if mode_sensors is None:
+                mode_sensors = top_sensors
             if "frequency_hz" in m:
                 mode = MeasuredMode.from_frequency(value, shape_dofs, arr, label)
-                modes.append(MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref, **extra))
+                mode = MeasuredMode(mode.eigenvalue, mode.dofs, mode.shape, label, ref, **extra)
             else:
-                modes.append(MeasuredMode(value, shape_dofs, arr, label, ref, **extra))
+                mode = MeasuredMode(value, shape_dofs, arr, label, ref, **extra)
+            if mode_sensors is not None:
+                mode = _keep_sensors(mode, mode_sensors, where, notes)
+            modes.append(mode)
         except InputError as exc:
-            raise InputError(f"{where}: {exc}") from None
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
     frf = None
     if raw.get("frf") is not None:
         frf = _frf(raw["frf"], dofs)
@@ -232,7 +277,7 @@ def parse_testdata(raw, dofs=None) -> TestData:
     units = raw.get("units", {}) or {}
     if not isinstance(units, Mapping):
         raise InputError("'units' must be an object")
-    return TestData(tuple(modes), frf, tuple(static), dict(units))
+    return TestData(tuple(modes), frf, tuple(static), dict(units), notes=tuple(notes))
 
 
 def _frf(f, model_dofs=None) -> FRFData:
