@@ -2,12 +2,19 @@ r"""Universal files (UFF / UNV) through :mod:`pyuff`: nodes, modes, FRFs and uni
 
 Datasets read
 -------------
-* **15**, **2411** -- node coordinates, into :attr:`TestData.nodes` ``{id: (x, y, z)}``;
+* **15**, **2411** -- node coordinates, into :attr:`TestData.nodes` ``{id: (x, y, z)}`` (global,
+  SI), with each node's definition and displacement coordinate systems;
+* **2420**, **18** -- coordinate systems (:mod:`.systems`): coordinates and data given in local
+  Cartesian systems are brought into the global axes; other systems are refused by name;
 * **55** -- data at nodes: real normal modes (analysis type 2) and complex modes (analysis
-  types 3 and 7), into :class:`~femupdate.testdata.MeasuredMode`, ordered by frequency;
-* **58** -- functions at nodal dofs: frequency response functions (function type 4) of one
-  excitation dof, into :class:`~femupdate.testdata.FRFData` (receptance, ``omega`` in rad/s);
-* **164** -- units, into :attr:`TestData.units`.
+  types 3 and 7), into :class:`~femupdate.testdata.MeasuredMode`, ordered by frequency; the
+  measured components are the sensor list's, the FRF records' dofs, or those not zero in every
+  mode (padding of the 3- and 6-value records is left out, with a note);
+* **58** -- functions at nodal dofs: frequency response functions (function type 4), one
+  :class:`~femupdate.testdata.FRFData` per excitation dof (receptance, ``omega`` in rad/s), into
+  :attr:`TestData.frf_sets`;
+* **164** -- units, into :attr:`TestData.units`; coordinates, shape translations and FRFs are
+  converted to SI with its factors.
 
 Other datasets (trace lines 82, elements 2412, ...) and other kinds of records (coherences,
 operating shapes, static data at nodes) are skipped with a log message.
@@ -16,10 +23,11 @@ Directions
 ----------
 UFF direction codes 1..6 map to ``x y z rx ry rz`` (:mod:`femupdate.dofs`). A negative code
 means that the transducer points the negative way: its data are negated and stored under the
-positive label. In dataset 55 the components ``r1 .. r6`` of each node are ``x .. rz``.
+positive label. In dataset 55 the components ``r1 .. r6`` of each node are ``x .. rz``, along
+the axes of the node's displacement system.
 
-Values are kept in the file's units (dataset 164 says which); only the abscissa of FRFs is
-converted from Hz to rad/s.
+What the reader decided (components left out, units converted, systems applied) is listed in
+:attr:`TestData.notes`.
 
 Every malformed or inconsistent file raises :class:`~femupdate.InputError` with one message that
 names the file and the record (``"test.uff: dataset 55 record 2: ..."``, records counted

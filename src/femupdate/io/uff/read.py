@@ -1,4 +1,4 @@
-"""Reading universal files: :func:`read_uff` (datasets 15, 2411, 55, 58 and 164; see the package notes)."""
+"""Reading universal files: :func:`read_uff` (datasets 15, 18, 55, 58, 164, 2411 and 2420; see the package notes)."""
 
 from __future__ import annotations
 
