@@ -365,3 +365,25 @@ def test_several_references_on_the_command_line(tmp_path, capsys):
         assert got["parameters"][name] == pytest.approx(v, rel=1e-4)
     code, _, err = run(["frf-update", str(toml), str(path), "--global", "dual_annealing"], capsys)
     assert code == 2 and "2 FRF sets" in err and "split the file" in err, err
+    # reciprocity, when asked for: the roving-hammer set becomes one set excited at the response dof
+    code, _, err = run(["update", str(toml), str(path), "--reciprocity", "--json", str(out)], capsys)
+    assert code == 0, err
+    rec = json.loads(out.read_text())
+    assert "blocks" not in rec and set(rec["frac"]) == {"1:x", "3:x"}
+    assert any(n.startswith("reciprocity: 2 FRF set(s)") for n in rec["notes"])
+    assert rec["parameters"] == pytest.approx(got["parameters"], rel=1e-6)
+
+
+def test_reciprocity_regroups_by_response_dof(tmp_path):
+    from femupdate.testdata import reciprocal
+
+    path, truth, start = _roving_hammer(tmp_path)
+    td = reciprocal(read_uff(path, model=start))
+    assert td.n_frf_sets == 1 and dict(td.frf.force) == {"3:x": 1.0} and td.frf.dofs == ("1:x", "2:x", "3:x")
+    direct = simulate(truth, td.frf.omega, {"3:x": 1.0})  # the responses to a force at 3:x
+    np.testing.assert_allclose(td.frf.response.real, direct.response, rtol=1e-9)
+    res = frf_update(start, td)
+    for name, v in zip(start.parameter_names, truth.resolve(None)):
+        assert res.parameters[name] == pytest.approx(v, rel=1e-4)
+    with pytest.raises(InputError, match=r"reciprocity: the test data hold no FRFs"):
+        reciprocal(read_uff(_write(tmp_path / "m.uff", [_mode([1], [[1.0, 0, 0]], 1.0, 1)])))

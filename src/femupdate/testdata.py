@@ -399,3 +399,52 @@ class TestData:
                 if d in pos:
                     Phi[pos[d], j] = v
         return tuple(dofs), Phi
+
+
+def reciprocal(data: TestData) -> TestData:
+    """The test data with their FRF sets regrouped by response dof through reciprocity
+    (H_ij = H_ji for a linear structure with symmetric matrices): the response at dof i to a unit
+    force at dof j is read as the response at j to a unit force at i.  A roving-hammer test (one
+    response dof, the hammer at many dofs: one set per excitation) becomes one set of one
+    excitation, compared with one factorisation per line instead of one per set.
+
+    Parameters
+    ----------
+    data : TestData
+        Test data whose FRF sets each have a unit force at one dof and share one frequency axis.
+
+    Returns
+    -------
+    TestData
+        The same modes, static cases, units and nodes; one FRF set per response dof of the
+        given sets (in first-seen order), its responses at the given sets' excitation dofs;
+        a note says what was regrouped.
+
+    Raises
+    ------
+    InputError
+        No FRF data; a set whose force is not a unit force at one dof; sets on different
+        frequency axes.
+    """
+    sets = data.frf_sets
+    if not sets:
+        raise InputError("reciprocity: the test data hold no FRFs")
+    omega = sets[0].omega
+    cols: dict[str, dict[str, np.ndarray]] = {}
+    for k, s in enumerate(sets, start=1):
+        if len(s.force) != 1 or next(iter(s.force.values())) != 1:
+            raise InputError(f"reciprocity: FRF set {k} has the force {dict(s.force)}; reciprocity regroups sets of "
+                             "a unit force at one dof (receptances)")
+        if s.omega.shape != omega.shape or not np.array_equal(s.omega, omega):
+            raise InputError(f"reciprocity: FRF set {k} ({', '.join(s.force)}) has another frequency axis than set 1: "
+                             "the sets can only be regrouped on one axis")
+        (exc,) = s.force
+        for j, d in enumerate(s.dofs):
+            cols.setdefault(d, {})[exc] = s.response[:, j]
+    out = []
+    for d, by in cols.items():
+        resp = np.column_stack(list(by.values()))
+        out.append(FRFData(omega, {d: 1.0}, tuple(by), resp))
+    note = (f"reciprocity: {len(sets)} FRF set(s) (one per excitation) regrouped by response dof into {len(out)} "
+            f"set(s) (excitation {', '.join(cols)}), reading H(i <- j) as H(j <- i)")
+    return TestData(data.modes, None, data.static, data.units, data.nodes, tuple(out), (*data.notes, note))

@@ -120,6 +120,21 @@ def frf_line_options(command):
     return command
 
 
+reciprocity_option = click.option(
+    "--reciprocity", is_flag=True,
+    help="Regroup the FRF sets by response dof (H_ij = H_ji): a roving-hammer file (one response, many excitations) "
+         "becomes one set of one excitation. Default: one residual block per excitation, as measured.")
+
+
+def apply_reciprocity(data, asked: bool):
+    """The test data with their FRF sets regrouped by reciprocity when ``--reciprocity`` was given."""
+    if not asked:
+        return data
+    from ..testdata import reciprocal
+
+    return reciprocal(data)
+
+
 def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text) -> dict:
     """The FRF options of :func:`femupdate.updating.frf_update` from the command line's."""
     lines = None
@@ -253,6 +268,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve.")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
 @click.option("--std", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the residual entries (covariance).")
+@reciprocity_option
 @write_model_option
 @csv_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
@@ -261,7 +277,7 @@ def _frf_payload(model, data, res, ms, extra=None):
 @json_option
 def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, connect_timeout, global_method, runs, global_residual,
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
-                       reg_text, max_nfev, std, write_model_path, csv_dir, plot_dir, set_text, json_path):
+                       reg_text, max_nfev, std, reciprocity, write_model_path, csv_dir, plot_dir, set_text, json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
     from ..updating import frf_multistart, frf_update
     from ..updating.frf import frf_data
@@ -271,7 +287,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     ctx = Ctx(json_path)
     model = load_model(model_path)
     values = model_values(model, set_text)
-    data = load_testdata(data_path, model)
+    data = apply_reciprocity(load_testdata(data_path, model), reciprocity)
     if global_method or data.n_frf_sets <= 1:
         frf_data(data)  # no FRF data, or several sets for the global search: refused by name
     frf = data.frf

@@ -18,7 +18,7 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
                       data_fields)
 from ..updating.results import pairing_warnings
-from .frf import frf_fields, frf_line_options, frf_options
+from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, reciprocity_option
 
 
 @click.command()
@@ -65,6 +65,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
 @click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of measured static deflections, m (weights them).")
 @frf_line_options
+@reciprocity_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write convergence and MAC figures to this folder.")
 @write_model_option
@@ -75,7 +76,7 @@ from .frf import frf_fields, frf_line_options, frf_options
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
-           std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, plot_dir,
+           std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, reciprocity, plot_dir,
            write_model_path, csv_dir, uff_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
@@ -101,6 +102,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
                              ("static", std_static)) if v is not None} or None
     use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
     kinds = data_kinds(data, use)
+    if reciprocity and "frf" not in kinds:
+        raise InputError(f"--reciprocity: no FRF data are used ({', '.join(kinds)})")
+    data = apply_reciprocity(data, reciprocity)
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
               regularization=parse_regularization(reg_text), min_mac=min_mac, pairing=pairing, n_modes=n_modes,
               max_nfev=max_nfev,
