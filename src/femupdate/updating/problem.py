@@ -101,6 +101,14 @@ class Problem(Parametrisation):
         a swap (then by MAC), never abandoning a start; ``"mac"`` by MAC, a test mode below
         ``min_mac`` failing; ``"order"`` by frequency order; ``"frequency"`` by the nearest
         frequency, MAC deciding within 10 %.
+    reuse : bool, default True
+        Models above :data:`femupdate.modal.DENSE_LIMIT` dofs (sparse eigen-solutions): reuse
+        from one evaluation to the next what does not change — the model's factorisation
+        workspace (ordering and factorisation route, :mod:`femupdate.workspace`) — and start
+        the eigensolver from the previous evaluation's modes (ARPACK's starting vector, and a
+        shift below their lowest eigenvalue, which also shortens the sensitivities' series).
+        The same modes and derivatives to round-off.  False: every evaluation as a first one
+        (SuperLU afresh, shift 0).
 
     Attributes
     ----------
@@ -141,7 +149,7 @@ class Problem(Parametrisation):
                  x0: Mapping[str, float] | None = None, values=None, shape_scaling: str = "unit",
                  ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
                  min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
-                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto"):
+                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto", reuse: bool = True):
         if shape_scaling not in rules.SCALINGS:
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         if sensitivity not in SENSITIVITY_CHOICES:
@@ -183,6 +191,8 @@ class Problem(Parametrisation):
         self._pairs_seen: dict[int, int] = {}
         self.swaps: list[dict] = []
         self.nfev = 0
+        self.reuse = bool(reuse)
+        self._warm: Modes | None = None  # the last modes computed: the next eigen-solution starts from them
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
@@ -212,7 +222,13 @@ class Problem(Parametrisation):
         if key == self._cache_key:
             return self._cache
         p = self.to_p(x)
-        modes = model_modes(self.model, p, n_modes=self.n_modes)
+        if self.reuse:
+            # large (sparse) models: the model's factorisation workspace, and the eigensolver
+            # started from the previous evaluation's modes (the same modes, found sooner)
+            modes = model_modes(self.model, p, n_modes=self.n_modes, start=self._warm)
+            self._warm = modes
+        else:
+            modes = model_modes(self.model, p, n_modes=self.n_modes, reuse=False)
         pairs = self._pair(modes)
         self._cache_key, self._cache = key, (p, modes, pairs)
         return self._cache

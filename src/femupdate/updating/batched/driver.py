@@ -45,6 +45,7 @@ AUTO_MAX_DOFS = 200  #: models up to this size take the batched route by default
 SUPPORTED_OPTIONS = frozenset({
     "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes", "parametrisation",
     "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
+    "reuse",  # the sparse path's workspace: nothing to reuse on the dense, compiled route
 })
 PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes",
                     "parametrisation", "use_shapes", "values", "sensitivity")
