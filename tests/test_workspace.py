@@ -155,3 +155,38 @@ def test_updating_with_and_without_reuse_reaches_the_same_solution(tower):
     assert off.success and on.success
     np.testing.assert_allclose(on.x, off.x, rtol=1e-8)
     np.testing.assert_allclose(on.x, truth, rtol=1e-6)
+
+
+def test_blocked_multi_column_solves_equal_the_column_by_column_ones(tower, monkeypatch):
+    from femupdate import workspace
+
+    monkeypatch.setattr(workspace, "BLOCKED_MIN_BANDWIDTH", 16)  # the tower's band (58) goes by blocks too
+    p = tower.values * np.array([0.7, 1.3, 1.1])
+    K, M = tower.K(p), tower.M(p)
+    ws = SparseWorkspace(K, M)
+    ws.factor(K, M, 0.0)
+    lu = ws.factor(K, M, 1.0)
+    assert isinstance(lu, BandCholesky) and lu.c.shape[0] - 1 >= workspace.BLOCKED_MIN_BANDWIDTH
+    B = np.random.default_rng(2).standard_normal((tower.n_dofs, workspace.BLOCKED_MIN_COLUMNS + 3))
+    X = lu.solve(B)  # by blocks
+    assert lu._blk is not None
+    X1 = np.column_stack([lu.solve(B[:, j]) for j in range(B.shape[1])])  # LAPACK pbtrs, one column each
+    np.testing.assert_allclose(X, X1, rtol=0, atol=1e-11 * np.max(np.abs(X1)))
+    A = (K - 1.0 * M).toarray()
+    assert np.max(np.abs(A @ X - B)) <= 1e-14 * np.max(np.abs(A)) * np.max(np.abs(X)) * A.shape[0]
+
+
+def test_one_sweep_for_all_modes_equals_one_sweep_per_mode(tower, monkeypatch):
+    import importlib
+
+    sub = importlib.import_module("femupdate.sensitivity.subspace")  # the module (the package exports the function)
+
+    p = tower.values * np.array([0.7, 1.3, 1.1])
+    model_modes(tower, p, n_modes=9)
+    modes = model_modes(tower, p, n_modes=9, start=model_modes(tower, p * 1.02, n_modes=9))
+    joint = sub.subspace_details(tower, modes, [0, 1, 2], None, p)
+    monkeypatch.setattr(sub, "JOINT_MAX_ENTRIES", 0)
+    apart = sub.subspace_details(tower, modes, [0, 1, 2], None, p)
+    assert np.all(joint[2] == joint[2][0])  # one sweep: the same number of terms for every mode
+    np.testing.assert_allclose(joint[0], apart[0], rtol=1e-12)
+    np.testing.assert_allclose(joint[1], apart[1], rtol=0, atol=1e-9 * np.max(np.abs(apart[1])))

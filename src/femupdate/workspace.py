@@ -21,7 +21,10 @@ pattern only, found once per model:
   (the band, or the permuted compressed columns): K − σM is one ``zeros`` and two indexed stores.
 
 The band factor *is* the symbolic factorisation of the band route: its structure is fixed by
-the ordering, and reused as such.
+the ordering, and reused as such.  Its solves with many right-hand sides (the sensitivities'
+series: every mode's parameters at once) go by dense blocks of the bandwidth, matrix-matrix
+kernels, instead of LAPACK's column-by-column ``pbtrs`` (36 columns on the 2,304-dof building:
+about 1.4 times faster).
 
 Safety: a workspace belongs to one model (a weak-keyed cache, :func:`workspace_of`) and is used
 only for matrices whose compressed-row pattern is exactly the one it was built for (checked at
@@ -33,12 +36,13 @@ stable LU or Cholesky): the band route and SuperLU give the same eigenpairs to r
 
 from __future__ import annotations
 
+import functools
 import weakref
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 __all__ = ["SparseWorkspace", "BandCholesky", "OrderedLU", "NotPositiveDefinite", "workspace_of"]
@@ -88,22 +92,94 @@ class BandCholesky:
         self.c = c
         self.perm = perm
         self.shape = (n, n)
+        self._blk: tuple | None = None
 
     def solve(self, B) -> np.ndarray:
-        """A⁻¹ B for ``B`` of shape ``(n,)`` or ``(n, k)``."""
+        """A⁻¹ B for ``B`` of shape ``(n,)`` or ``(n, k)``.
+
+        LAPACK's ``pbtrs`` solves one column at a time (matrix-vector kernels); from
+        :data:`BLOCKED_MIN_COLUMNS` columns on, and for bands of at least
+        :data:`BLOCKED_MIN_BANDWIDTH`, the triangular solves run by blocks of the bandwidth
+        instead (:meth:`_blocked`: matrix-matrix kernels, the same operations in another order).
+        """
         B = np.asarray(B, dtype=float)
         one = B.ndim == 1
-        Bp = np.asfortranarray(B[self.perm].reshape(self.shape[0], -1))
-        X, info = lapack.dpbtrs(self.c, Bp, lower=1, overwrite_b=1)
-        if info != 0:  # pragma: no cover
-            raise ValueError(f"dpbtrs: illegal argument {-info}")
+        n = self.shape[0]
+        B2 = B.reshape(n, -1)
+        b = self.c.shape[0] - 1
+        if B2.shape[1] >= BLOCKED_MIN_COLUMNS and b >= BLOCKED_MIN_BANDWIDTH and n > 2 * b:
+            X = self._blocked(B2[self.perm])
+        else:
+            X, info = lapack.dpbtrs(self.c, np.asfortranarray(B2[self.perm]), lower=1, overwrite_b=1)
+            if info != 0:  # pragma: no cover
+                raise ValueError(f"dpbtrs: illegal argument {-info}")
         out = np.empty_like(X)
         out[self.perm] = X
         return out[:, 0] if one else out
 
+    def _blocks(self):
+        """L as block-bidiagonal dense blocks of the bandwidth's size: ``D[i]`` (lower
+        triangular) on the diagonal and ``S[i]`` below it (rows of block i + 1); padded to whole
+        blocks with an identity."""
+        if self._blk is None:
+            b = self.c.shape[0] - 1
+            n = self.shape[0]
+            nb = b
+            idx, nblk = _block_index(n, b, nb)
+            cpad = np.zeros((b + 1) * nblk * nb + 1)
+            cpad[:(b + 1) * n] = self.c.ravel(order="F")
+            cpad[(b + 1) * np.arange(n, nblk * nb)] = 1.0  # identity on the padding
+            W = cpad[idx]  # (nblk, 2 nb, nb); idx -1 reads the trailing zero
+            self._blk = (nb, nblk, W)
+        return self._blk
+
+    def _blocked(self, Bp: np.ndarray) -> np.ndarray:
+        nb, nblk, W = self._blocks()
+        n, k = Bp.shape
+        X = np.zeros((nblk * nb, k))
+        X[:n] = Bp
+        trsm = blas.dtrsm
+        for i in range(nblk):  # L Y = B
+            r = slice(i * nb, (i + 1) * nb)
+            if i:
+                X[r] -= W[i - 1, nb:] @ X[(i - 1) * nb:i * nb]
+            # D_i (C order) is the upper triangle D_iᵀ in Fortran order: solve (D_iᵀ)ᵀ y = x
+            X[r] = trsm(1.0, W[i, :nb].T, X[r], lower=0, trans_a=1)
+        for i in range(nblk - 1, -1, -1):  # Lᵀ X = Y
+            r = slice(i * nb, (i + 1) * nb)
+            if i < nblk - 1:
+                X[r] -= W[i, nb:].T @ X[(i + 1) * nb:(i + 2) * nb]
+            X[r] = trsm(1.0, W[i, :nb].T, X[r], lower=0, trans_a=0)
+        return X[:n]
+
     def nearly_singular(self) -> bool:
         """Pivots of the LDLᵀ form (the squared diagonal of L) spread beyond 1e11."""
         return nearly_singular_pivots(self.c[0] ** 2)
+
+
+#: multi-column solves from this many columns on go by blocks (matrix-matrix kernels) ...
+BLOCKED_MIN_COLUMNS = 16
+#: ... when the band is at least this wide (narrower blocks are all Python overhead)
+BLOCKED_MIN_BANDWIDTH = 64
+
+
+@functools.lru_cache(maxsize=8)
+def _block_index(n: int, b: int, nb: int) -> tuple[np.ndarray, int]:
+    """Gather indices of the block-bidiagonal form of a band factor (:meth:`BandCholesky._blocks`):
+    ``W[i, r, c] = L[i nb + r, i nb + c]`` for r < 2 nb, c < nb, read from the column-major band
+    storage ``c[d + (b + 1) j] = L[j + d, j]`` padded to whole blocks; -1 where L is zero."""
+    nblk = -(-n // nb)
+    N = nblk * nb
+    r = np.arange(2 * nb)[:, None]
+    c = np.arange(nb)[None, :]
+    d = r - c
+    i = np.arange(nblk)[:, None, None]
+    col = i * nb + c
+    idx = d + (b + 1) * col
+    ok = (d >= 0) & (d <= b) & (i * nb + r < N)
+    idx = np.where(ok, idx, -1)
+    idx.setflags(write=False)
+    return idx, nblk
 
 
 class OrderedLU:
