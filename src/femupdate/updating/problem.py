@@ -186,8 +186,10 @@ class Problem(Parametrisation):
             # the covariance is absolute only when every residual is divided by its stated std
             self.sigma = None
         self.sensors = np.unique(tg.pos) if tg.pos.size else np.zeros(0, np.int64)  # where shape derivatives are needed
-        self._cache_key: bytes | None = None
-        self._cache: tuple = ()
+        # the last two points' evaluations and Jacobians: least squares ends on the point before
+        # its last trial step, where the result is then reported (no second eigen-solution)
+        self._evaluations: dict[bytes, tuple] = {}
+        self._jacobians: dict[bytes, tuple] = {}
         self._pairs_seen: dict[int, int] = {}
         self.swaps: list[dict] = []
         self.nfev = 0
@@ -219,8 +221,10 @@ class Problem(Parametrisation):
         """
         x = np.asarray(x, float)
         key = x.tobytes()
-        if key == self._cache_key:
-            return self._cache
+        hit = self._evaluations.get(key)
+        if hit is not None:
+            self.pairing_used = hit[3]
+            return hit[:3]
         p = self.to_p(x)
         if self.reuse:
             # large (sparse) models: the model's factorisation workspace, and the eigensolver
@@ -230,8 +234,8 @@ class Problem(Parametrisation):
         else:
             modes = model_modes(self.model, p, n_modes=self.n_modes, reuse=False)
         pairs = self._pair(modes)
-        self._cache_key, self._cache = key, (p, modes, pairs)
-        return self._cache
+        _remember(self._evaluations, key, (p, modes, pairs, self.pairing_used))
+        return p, modes, pairs
 
     def _pair(self, modes: Modes) -> list[tuple[int, int, float]]:
         tg = self.targets
@@ -315,6 +319,12 @@ class Problem(Parametrisation):
         NumericalError
             Unpaired test modes (as :meth:`evaluate`).
         """
+        x = np.asarray(x, float)
+        key = x.tobytes()
+        hit = self._jacobians.get(key)
+        if hit is not None:
+            self.sensitivity_used = hit[1]
+            return hit[0].copy()
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         which = [j for _, j, _ in pairs]
@@ -341,6 +351,7 @@ class Problem(Parametrisation):
                 rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl],
                                      tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
                 row += n
+        _remember(self._jacobians, key, (J.copy(), self.sensitivity_used))
         return J
 
     def mac_of_pair(self, modes: Modes, k: int, j: int) -> float:
@@ -367,6 +378,14 @@ class Problem(Parametrisation):
         out = np.zeros(1)
         rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], j:j + 1], out)
         return float(out[0])
+
+
+def _remember(cache: dict, key: bytes, value: tuple, size: int = 2) -> None:
+    """Keep ``value`` under ``key`` among the ``size`` most recent entries of ``cache``."""
+    cache.pop(key, None)
+    cache[key] = value
+    while len(cache) > size:
+        cache.pop(next(iter(cache)))
 
 
 # Parametrisation and Targets live in their own modules; they are named here too, where the problem's
