@@ -124,7 +124,7 @@ class BandCholesky:
         if self._blk is None:
             b = self.c.shape[0] - 1
             n = self.shape[0]
-            nb = b
+            nb = b  # = the bandwidth: the blocks below the diagonal are then upper triangular (trmm)
             idx, nblk = _block_index(n, b, nb)
             cpad = np.zeros((b + 1) * nblk * nb + 1)
             cpad[:(b + 1) * n] = self.c.ravel(order="F")
@@ -138,17 +138,17 @@ class BandCholesky:
         n, k = Bp.shape
         X = np.zeros((nblk * nb, k))
         X[:n] = Bp
-        trsm = blas.dtrsm
+        trsm, trmm = blas.dtrsm, blas.dtrmm
         for i in range(nblk):  # L Y = B
             r = slice(i * nb, (i + 1) * nb)
-            if i:
-                X[r] -= W[i - 1, nb:] @ X[(i - 1) * nb:i * nb]
+            if i:  # S_{i-1} is upper triangular (the band ends on its diagonal): trmm, half gemm's work
+                X[r] -= trmm(1.0, W[i - 1, nb:].T, X[(i - 1) * nb:i * nb], lower=1, trans_a=1)
             # D_i (C order) is the upper triangle D_iᵀ in Fortran order: solve (D_iᵀ)ᵀ y = x
             X[r] = trsm(1.0, W[i, :nb].T, X[r], lower=0, trans_a=1)
         for i in range(nblk - 1, -1, -1):  # Lᵀ X = Y
             r = slice(i * nb, (i + 1) * nb)
             if i < nblk - 1:
-                X[r] -= W[i, nb:].T @ X[(i + 1) * nb:(i + 2) * nb]
+                X[r] -= trmm(1.0, W[i, nb:].T, X[(i + 1) * nb:(i + 2) * nb], lower=1, trans_a=0)
             X[r] = trsm(1.0, W[i, :nb].T, X[r], lower=0, trans_a=0)
         return X[:n]
 
