@@ -29,8 +29,10 @@ parametrisation, trf, tolerances 1e-10):
     sensitivities' series);
 (b) the baseline: the same ``multistart`` with ``reuse=False`` — femupdate's per-start route as
     it was before the workspace existed (SuperLU factorisation with its own ordering at every
-    evaluation, shift 0, ARPACK from its fixed random vector) — on the first ``--baseline-starts``
-    (default 10) of the same starts (``draw_starts`` fills row by row, so they are the same
+    evaluation, shift 0, ARPACK from its fixed random vector; what does not depend on ``reuse``,
+    the one series sweep for all modes and the kept Jacobian of the last point, serves both:
+    measured apart, the code before any of it took the same time per start) — on the first
+    ``--baseline-starts`` (default 10) of the same starts (``draw_starts`` fills row by row, so they are the same
     starting vectors; checked);
 (d) optionally (``--dask``) route (f) on a local Dask cluster of two single-threaded workers
     (``dask.distributed.LocalCluster(n_workers=2, threads_per_worker=1)``) through
