@@ -233,6 +233,8 @@ def solve_modes(
     method: str = "auto",
     sigma: float | None = None,
     tol: float = 0.0,
+    workspace=None,
+    start=None,
 ) -> Modes:
     """Lowest ``n_modes`` modes of the pencil (K, M).
 
@@ -258,6 +260,16 @@ def solve_modes(
         is singular (rigid-body modes).
     tol : float, default 0.0
         ARPACK's relative accuracy of the eigenvalues (sparse only; 0 means machine precision).
+    workspace : femupdate.workspace.SparseWorkspace, optional
+        Sparse only: the pattern's reusable ordering and factorisation route
+        (:func:`femupdate.workspace.workspace_of`); ignored unless K and M have its pattern.
+        Without it every call factorises afresh with SuperLU.
+    start : Modes or (eigenvalues, shapes), optional
+        Sparse with ``workspace`` only: modes of a nearby model (the previous iterate) to start
+        from: ARPACK's starting vector is the sum of their shapes, and, when ``sigma`` is not
+        given, the shift is :data:`SHIFT_FRACTION` times their lowest eigenvalue (checked: the
+        shift must come out below every computed eigenvalue and at most half the highest,
+        which proves they are the lowest of the model; else the solution is repeated at σ = 0).
 
     Returns
     -------
@@ -297,7 +309,10 @@ def solve_modes(
         if n_modes >= n - 1:
             raise InputError(f"the sparse eigensolver computes fewer than n - 1 = {n - 1} modes of {n} dofs: use the "
                              "dense one (--method dense; method='dense' in Python)")
-        lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
+        if workspace is not None and workspace.matches(K, M):
+            lam, Phi, factor = _sparse_reused(K, M, n_modes, sigma, tol, workspace, start)
+        else:
+            lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
     else:
         raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
     order = np.argsort(lam)
@@ -503,6 +518,101 @@ def _sparse(K, M, n_modes, sigma, tol):
     return lam, Phi, (lu, float(sigma))
 
 
+#: with a previous solution to start from, the shift of shift-invert is this fraction of its lowest
+#: eigenvalue: the omitted modes' series of the sensitivities then converge with ratio
+#: (λ_i − σ)/(λ_{m+1} − σ) instead of λ_i/λ_{m+1}, and ARPACK separates the lowest modes sooner
+SHIFT_FRACTION = 0.9
+
+
+def _arpack(K, M, n_modes, sigma, tol, lu, v0=None):
+    OPinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+    try:
+        return spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv, v0=v0, **arpack_options())
+    except spla.ArpackNoConvergence as exc:
+        raise NumericalError(
+            f"the sparse eigensolver did not converge for {n_modes} modes "
+            f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
+        ) from None
+    except RuntimeError as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
+                             "use the dense one (--method dense)") from None
+
+
+def _is_singular(lu) -> bool:
+    return lu.nearly_singular() if hasattr(lu, "nearly_singular") else nearly_singular(lu)
+
+
+def _mass_operator(M):
+    """M for ARPACK's products: a diagonal M (lumped masses) as an elementwise product (the same
+    numbers as the sparse product, without its per-call overhead), else M in CSC."""
+    Mr = sp.csr_array(M)
+    n = Mr.shape[0]
+    if Mr.nnz <= n and np.array_equal(Mr.indices, np.repeat(np.arange(n), np.diff(Mr.indptr))):
+        d = Mr.diagonal()
+        return spla.LinearOperator(Mr.shape, matvec=lambda x: d * np.ravel(x), dtype=float)
+    return sp.csc_array(M)
+
+
+def _sparse_reused(K, M, n_modes, sigma, tol, ws, start):
+    """:func:`_sparse` with the workspace's factorisation route, warm-started from ``start``.
+
+    The same eigenpairs (to round-off): only the factorisation's ordering and kernel, ARPACK's
+    starting vector and, with ``start``, the shift change.  A shift taken from ``start`` is
+    accepted only when every computed eigenvalue lies above it and the highest at least twice
+    it: any eigenvalue below σ would then lie nearer σ than the highest computed one and have
+    been found, so the modes are the lowest of the model; otherwise the solution is repeated at
+    σ = 0."""
+    from .workspace import NotPositiveDefinite
+
+    Mc = _mass_operator(M)
+    v0 = guess = None
+    if start is not None:
+        lam0, Phi0 = (start.eigenvalues, start.shapes) if isinstance(start, Modes) else start
+        lam0, Phi0 = np.asarray(lam0, float), np.asarray(Phi0, float)
+        if Phi0.ndim == 2 and Phi0.shape[0] == K.shape[0] and Phi0.shape[1] and np.all(np.isfinite(Phi0)):
+            v = Phi0[:, :n_modes].sum(axis=1)
+            if np.any(Mc @ v):
+                v0 = v
+        if sigma is None and lam0.size and np.isfinite(lam0[0]) and lam0[0] > 0:
+            guess = SHIFT_FRACTION * float(lam0[0])
+    if guess is not None:
+        try:
+            lu = ws.factor(K, M, guess)
+        except (NotPositiveDefinite, RuntimeError):
+            lu = None
+        if lu is not None:
+            lam, Phi = _arpack(K, Mc, n_modes, guess, tol, lu, v0)
+            if np.min(lam) > guess and np.max(lam) >= 2.0 * guess:
+                return lam, Phi, (lu, guess)
+            log.debug("shift %.6g from the previous solution rejected (eigenvalues %.6g..%.6g): sigma = 0",
+                      guess, np.min(lam), np.max(lam))
+    lu = None
+    if sigma is None:
+        sigma = 0.0
+        try:
+            lu = ws.factor(K, M, 0.0)
+            if _is_singular(lu):
+                raise RuntimeError("nearly singular")
+        except (NotPositiveDefinite, RuntimeError):
+            lu = None
+            d, md = K.diagonal(), M.diagonal()
+            both = (d > 0) & (md > 0)
+            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
+            sigma = -1e-6 * s
+            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
+    if lu is None:
+        try:
+            lu = ws.factor(K, M, sigma)
+        except NotPositiveDefinite:  # an indefinite K - sigma M: LU with pivoting
+            lu = factorize(K - sigma * M)
+        except RuntimeError as exc:
+            raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} (K - sigma M is singular: "
+                                 f"{exc})") from None
+    lam, Phi = _arpack(K, Mc, n_modes, sigma, tol, lu, v0)
+    return lam, Phi, (lu, float(sigma))
+
+
 def check_static_loads(model, values, loads, need_inverse: bool = False) -> None:
     """Refuse static loads that a model with rigid-body modes cannot carry.
 
@@ -559,7 +669,8 @@ def check_static_loads(model, values, loads, need_inverse: bool = False) -> None
                 "self-equilibrated load")
 
 
-def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", **kw) -> Modes:
+def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", reuse: bool = True,
+                **kw) -> Modes:
     """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal).
 
     :func:`solve_modes` on the model's K(p) and M(p), with the model's dof labels.
@@ -574,8 +685,12 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
         Number of modes (default as :func:`solve_modes`).
     normalisation : str, default ``"mass"``
         ``"mass"`` | ``"unit"`` | ``"max"`` | ``"ref:<dof>"``.
+    reuse : bool, default True
+        Sparse path: factorise through the model's :class:`~femupdate.workspace.SparseWorkspace`
+        (the ordering and factorisation route found once per model and reused; the same
+        eigenpairs to round-off); False: SuperLU afresh at every call.
     **kw
-        Further options of :func:`solve_modes`: ``method``, ``sigma``, ``tol``.
+        Further options of :func:`solve_modes`: ``method``, ``sigma``, ``tol``, ``start``.
 
     Returns
     -------
@@ -586,9 +701,13 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
+    K, M = model.K(values), model.M(values)
+    if reuse and "workspace" not in kw and model.n_dofs > DENSE_LIMIT:
+        from .workspace import workspace_of
+
+        kw["workspace"] = workspace_of(model, K, M)
     try:
-        return solve_modes(model.K(values), model.M(values), n_modes=n_modes, dofs=model.dofs,
-                           normalisation=normalisation, **kw)
+        return solve_modes(K, M, n_modes=n_modes, dofs=model.dofs, normalisation=normalisation, **kw)
     except InputError as exc:
         from .flags import suspect_values
 

@@ -60,6 +60,11 @@ from .modal import modal_part
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
 
+#: the modes' right-hand sides share one sweep of the series when its sums, (modes × n_dofs ×
+#: modes × parameters) numbers, stay below this (40 MB); else one sweep per mode
+JOINT_MAX_ENTRIES = 5_000_000
+
+
 def buffered_modes(n_differentiated: int, n_dofs: int | None = None) -> int:
     """Number of modes to compute to differentiate the lowest ``n_differentiated`` by the
     series routes: ``max(2 m_d, m_d + 6)``, capped at ``n_dofs`` when given.
@@ -120,6 +125,19 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
     dlam = np.zeros((which.size, params.size))
     dphi = np.zeros((n, which.size, params.size))
     n_terms = np.zeros(which.size, dtype=int)
+    L = params.size
+    if 1 < which.size and which.size * n * which.size * L <= JOINT_MAX_ENTRIES:
+        # one sweep for all the modes: the terms do not depend on the mode, so the right-hand
+        # sides of every mode go through each solve together (fewer, wider solves; each mode
+        # takes its own columns at its own shift, and the sweep runs until every mode's converge)
+        rhs = [mode_rhs(model, params, lam[i], Phi[:, i], M @ Phi[:, i]) for i in which]
+        Q, terms = omitted_modes_series(lu, M, Phi, np.hstack([F for _, F, _ in rhs]), lam[which] - sigma, tol=tol,
+                                        max_terms=max_terms, labels=[str(i + 1) for i in which], series=series)
+        for r, (i, (dl, F, mjj)) in enumerate(zip(which, rhs)):
+            dlam[r] = dl
+            dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[r][:, r * L:(r + 1) * L]
+        n_terms[:] = terms
+        return dlam, dphi, n_terms
     for r, i in enumerate(which):
         phi = Phi[:, i]
         dl, F, mjj = mode_rhs(model, params, lam[i], phi, M @ phi)

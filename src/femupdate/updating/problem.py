@@ -169,6 +169,14 @@ class Problem(Parametrisation):
 
         ``"mac"`` and ``"dynamic"`` do not depend on how the shapes are scaled: they take
         ``shape_scaling="unit"`` and no ``ref_dof``, and need the shapes (``use_shapes``).
+    reuse : bool, default True
+        Models above :data:`femupdate.modal.DENSE_LIMIT` dofs (sparse eigen-solutions): reuse
+        from one evaluation to the next what does not change — the model's factorisation
+        workspace (ordering and factorisation route, :mod:`femupdate.workspace`) — and start
+        the eigensolver from the previous evaluation's modes (ARPACK's starting vector, and a
+        shift below their lowest eigenvalue, which also shortens the sensitivities' series).
+        The same modes and derivatives to round-off.  False: every evaluation as a first one
+        (SuperLU afresh, shift 0).
 
     Attributes
     ----------
@@ -216,7 +224,7 @@ class Problem(Parametrisation):
                  ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
                  min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
                  use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto",
-                 formulation: str = "shapes"):
+                 formulation: str = "shapes", reuse: bool = True):
         if shape_scaling not in rules.SCALINGS:
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         if sensitivity not in SENSITIVITY_CHOICES:
@@ -277,11 +285,15 @@ class Problem(Parametrisation):
             # multi-start study then solves the same problem
             self.dynamic = DynamicResidual(model, tg, self.idx, start_vector(model, values, None))
         self.sensors = np.unique(tg.pos) if tg.pos.size else np.zeros(0, np.int64)  # where shape derivatives are needed
-        self._cache_key: bytes | None = None
-        self._cache: tuple = ()
+        # the last two points' evaluations and Jacobians: least squares ends on the point before
+        # its last trial step, where the result is then reported (no second eigen-solution)
+        self._evaluations: dict[bytes, tuple] = {}
+        self._jacobians: dict[bytes, tuple] = {}
         self._pairs_seen: dict[int, int] = {}
         self.swaps: list[dict] = []
         self.nfev = 0
+        self.reuse = bool(reuse)
+        self._warm: Modes | None = None  # the last modes computed: the next eigen-solution starts from them
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
@@ -308,13 +320,21 @@ class Problem(Parametrisation):
         """
         x = np.asarray(x, float)
         key = x.tobytes()
-        if key == self._cache_key:
-            return self._cache
+        hit = self._evaluations.get(key)
+        if hit is not None:
+            self.pairing_used = hit[3]
+            return hit[:3]
         p = self.to_p(x)
-        modes = model_modes(self.model, p, n_modes=self.n_modes)
+        if self.reuse:
+            # large (sparse) models: the model's factorisation workspace, and the eigensolver
+            # started from the previous evaluation's modes (the same modes, found sooner)
+            modes = model_modes(self.model, p, n_modes=self.n_modes, start=self._warm)
+            self._warm = modes
+        else:
+            modes = model_modes(self.model, p, n_modes=self.n_modes, reuse=False)
         pairs = self._pair(modes)
-        self._cache_key, self._cache = key, (p, modes, pairs)
-        return self._cache
+        _remember(self._evaluations, key, (p, modes, pairs, self.pairing_used))
+        return p, modes, pairs
 
     def _pair(self, modes: Modes) -> list[tuple[int, int, float]]:
         tg = self.targets
@@ -413,6 +433,12 @@ class Problem(Parametrisation):
             x = np.asarray(x, float)
             self.sensitivity_used = DYNAMIC_ROUTE
             return self.dynamic.jacobian(self.to_p(x), self.dp_dx(x))
+        x = np.asarray(x, float)
+        key = x.tobytes()
+        hit = self._jacobians.get(key)
+        if hit is not None:
+            self.sensitivity_used = hit[1]
+            return hit[0].copy()
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         which = [j for _, j, _ in pairs]
@@ -444,6 +470,7 @@ class Problem(Parametrisation):
                     rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :],
                                          tg.psi_e[sl], tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
                 row += n
+        _remember(self._jacobians, key, (J.copy(), self.sensitivity_used))
         return J
 
     @property
@@ -488,6 +515,14 @@ class Problem(Parametrisation):
         out = np.zeros(1)
         rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], j:j + 1], out)
         return float(out[0])
+
+
+def _remember(cache: dict, key: bytes, value: tuple, size: int = 2) -> None:
+    """Keep ``value`` under ``key`` among the ``size`` most recent entries of ``cache``."""
+    cache.pop(key, None)
+    cache[key] = value
+    while len(cache) > size:
+        cache.pop(next(iter(cache)))
 
 
 # Parametrisation and Targets live in their own modules; they are named here too, where the problem's

@@ -24,7 +24,8 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
            n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           frf_options: Mapping | None = None, pairing: str = "auto", formulation: str = "shapes") -> UpdateResult:
+           frf_options: Mapping | None = None, pairing: str = "auto", formulation: str = "shapes",
+           reuse: bool = True) -> UpdateResult:
     """Update the model's parameters so that it matches the test data: measured modes, FRFs,
     static deflections, or any mix of them, as one least-squares problem.
 
@@ -80,6 +81,11 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         Derivative route of the modal Jacobian (:func:`femupdate.sensitivity.jacobian`):
         ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint or subspace series), ``"nelson"``,
         ``"modal"``, ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
+    reuse : bool, default True
+        Models above 1,500 dofs (sparse eigen-solutions): reuse from one evaluation to the next
+        the model's factorisation workspace and the previous modes as the eigensolver's start
+        (:class:`~femupdate.updating.Problem`); the same solution to round-off.  False: every
+        evaluation factorises afresh (the route before this option existed).
     frf_options : mapping, optional
         Options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update` takes them:
         ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``,
@@ -118,7 +124,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
                          f"{', '.join(kinds)}")
     modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
                          n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
-                         formulation=formulation)
+                         formulation=formulation, reuse=reuse)
     solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
     unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
     if unused:

@@ -276,7 +276,7 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
            parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
            ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
            regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           pairing: str = "auto", formulation: str = "shapes") -> UpdateResult:
+           pairing: str = "auto", formulation: str = "shapes", reuse: bool = True) -> UpdateResult:
     """Update the model's parameters so that its modes match the measured ones (the modal case of
     :func:`femupdate.update`, which takes FRFs and static deflections too).
 
@@ -334,6 +334,11 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"`` the modal dynamic residual
         (K − λ_E M) φ of every dof, the unmeasured shape entries solved for (no eigen-solution;
         every test mode needs a shape).
+    reuse : bool, default True
+        Models above 1,500 dofs (sparse eigen-solutions): reuse from one evaluation to the next
+        the model's factorisation workspace and the previous modes as the eigensolver's start
+        (:class:`~femupdate.updating.Problem`); the same solution to round-off.  False: every
+        evaluation factorises afresh (the route before this option existed).
 
     Returns
     -------
@@ -356,7 +361,7 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
     prob = Problem(model, data, params, x0=x0, values=values, shape_scaling=shape_scaling, ref_dof=ref_dof,
                    weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
                    parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
-                   formulation=formulation)
+                   formulation=formulation, reuse=reuse)
     return solve_problem(prob, method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol,
                          regularization=regularization)
 

@@ -46,6 +46,7 @@ SUPPORTED_OPTIONS = frozenset({
     "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes", "parametrisation",
     "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
     "formulation",
+    "reuse",  # the sparse path's workspace: nothing to reuse on the dense, compiled route
 })
 PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes",
                     "parametrisation", "use_shapes", "values", "sensitivity", "formulation")

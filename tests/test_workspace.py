@@ -1,0 +1,192 @@
+"""The sparse path's reusable workspace (femupdate.workspace) and the warm-started eigensolver:
+the same modes, derivatives and updated parameters as a fresh SuperLU factorisation at every
+call, whichever route (band Cholesky, ordered SuperLU) the workspace takes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from femupdate import MeasuredMode, TestData, model_modes
+from femupdate.generators import frame_lattice
+from femupdate.modal import DENSE_LIMIT, solve_modes
+from femupdate.sensitivity import jacobian
+from femupdate.updating import update
+from femupdate.workspace import BandCholesky, OrderedLU, SparseWorkspace, workspace_of
+
+
+def massless_rotations(model):
+    """The model with its rotational inertia removed: lumped translational masses only (the
+    rotations massless, as commercial codes export frame models)."""
+    d = model.M(model.values).diagonal().copy()
+    d[[lab.split(":")[1].startswith("r") for lab in model.dofs]] = 0.0
+    assert all(a is None or a.nnz == 0 for a in model.dM)
+    return dataclasses.replace(model, M0=sp.diags_array(d).tocsr())
+
+
+@pytest.fixture(scope="module")
+def tower():
+    """1,566 dofs (above the dense limit), a narrow band: the band route."""
+    m = massless_rotations(frame_lattice(3, 3, 30, spacing=(3.0, 3.0, 3.0), mass="lumped", parameters="direction",
+                                         bounds=(0.2, 2.0)).build())
+    assert m.n_dofs > DENSE_LIMIT
+    return m
+
+
+@pytest.fixture(scope="module")
+def slab():
+    """1,536 dofs, wide in plan: the band would hold more than SuperLU's fill (SuperLU route)."""
+    m = frame_lattice(8, 8, 5, parameters="direction").build()
+    assert m.n_dofs > DENSE_LIMIT
+    return m
+
+
+def same_modes(a, b, rtol=1e-9):
+    np.testing.assert_allclose(a.eigenvalues, b.eigenvalues, rtol=rtol)
+    scale = np.max(np.abs(a.shapes), axis=0)
+    assert np.max(np.abs(a.shapes - b.shapes) / scale) < 1e-6
+    assert a.n_rigid == b.n_rigid
+
+
+@pytest.mark.parametrize("which, route, kind", [("tower", "band", BandCholesky), ("slab", "superlu", OrderedLU)])
+def test_each_route_gives_the_modes_of_a_fresh_factorisation(request, which, route, kind):
+    model = request.getfixturevalue(which)
+    p = model.values * np.linspace(0.6, 1.5, len(model.parameters))
+    K, M = model.K(p), model.M(p)
+    ws = SparseWorkspace(K, M)
+    fresh = solve_modes(K, M, n_modes=8, dofs=model.dofs)
+    first = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)  # SuperLU, and the route chosen
+    assert ws.route == route
+    again = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)
+    assert isinstance(again.factor[0], kind)
+    same_modes(fresh, first)
+    same_modes(fresh, again)
+    # the factorisation solves K x = b to round-off, in the original order
+    b = np.random.default_rng(1).standard_normal((model.n_dofs, 3))
+    x = again.factor[0].solve(b)
+    assert np.max(np.abs(K @ x - b)) < 1e-9 * np.max(np.abs(b))
+
+
+@pytest.mark.parametrize("which", ["tower", "slab"])
+def test_warm_start_and_its_shift_give_the_same_modes(request, which):
+    model = request.getfixturevalue(which)
+    p0 = model.values * np.linspace(0.6, 1.5, len(model.parameters))
+    p1 = p0 * np.linspace(1.1, 0.9, len(model.parameters))
+    prev = model_modes(model, p0, n_modes=8)
+    model_modes(model, p0, n_modes=8)  # the route is chosen
+    warm = model_modes(model, p1, n_modes=8, start=prev)
+    assert warm.factor[1] > 0  # shifted toward the lowest mode
+    same_modes(model_modes(model, p1, n_modes=8, reuse=False), warm)
+
+
+@pytest.mark.parametrize("which", ["tower", "slab"])
+def test_a_shift_above_the_lowest_mode_is_rejected_and_the_lowest_modes_are_found(request, which):
+    model = request.getfixturevalue(which)
+    p = model.values * np.array([0.5, 0.6, 0.55])  # E_x != E_y: no repeated modes of the square plan
+    model_modes(model, p, n_modes=6)
+    model_modes(model, p, n_modes=6)
+    stiff = model_modes(model, model.values * 1.9, n_modes=6)  # its lowest eigenvalue is far above
+    warm = model_modes(model, p, n_modes=6, start=stiff)
+    assert warm.factor[1] == 0.0  # the shift from the start was refused, the solution repeated at 0
+    same_modes(model_modes(model, p, n_modes=6, reuse=False), warm)
+
+
+def test_rigid_body_modes_through_the_workspace():
+    model = frame_lattice(2, 2, 64, parameters="direction", support="none").build()
+    assert model.n_dofs > DENSE_LIMIT
+    fresh = model_modes(model, n_modes=10, reuse=False)
+    model_modes(model, n_modes=10)
+    reused = model_modes(model, n_modes=10)
+    assert fresh.n_rigid == reused.n_rigid == 6
+    assert reused.factor[1] < 0
+    np.testing.assert_allclose(reused.eigenvalues[6:], fresh.eigenvalues[6:], rtol=1e-9)
+
+
+def test_the_workspace_is_only_used_for_its_own_pattern(tower):
+    K, M = tower.K(), tower.M()
+    ws = workspace_of(tower, K, M)
+    assert ws is not None and ws.matches(K, M)
+    other = frame_lattice(3, 3, 30, parameters="direction").build()  # the same size, another M pattern
+    assert not ws.matches(other.K(), other.M())
+    assert not ws.matches(sp.csc_array(K), M)  # another storage
+    K2 = K.copy()
+    K2.indices = K2.indices.copy()
+    K2.indices[[0, 1]] = K2.indices[[1, 0]]  # the same size, a permuted pattern
+    assert not ws.matches(K2, M)
+    # a mismatched workspace is ignored: a fresh SuperLU factorisation, the same modes
+    modes = solve_modes(other.K(), other.M(), n_modes=5, dofs=other.dofs, workspace=ws)
+    same_modes(model_modes(other, n_modes=5, reuse=False), modes)
+    assert not isinstance(modes.factor[0], (BandCholesky, OrderedLU))
+    # one workspace per model: a model with other values is another model, with its own
+    changed = tower.with_values({tower.parameter_names[0]: 2 * tower.values[0]})
+    assert workspace_of(changed, changed.K(), changed.M()) is not ws
+    assert workspace_of(tower, tower.K(tower.values * 1.3), tower.M()) is ws  # values change, the pattern does not
+
+
+def test_derivatives_from_the_shifted_factorisation_match_the_fresh_ones(tower):
+    p = tower.values * np.array([0.7, 1.3, 1.1])
+    sensors = [d for d in tower.dofs if d.endswith((":x", ":y"))][::7]
+    ref = model_modes(tower, p, n_modes=9, reuse=False)
+    model_modes(tower, p, n_modes=9)
+    warm = model_modes(tower, p, n_modes=9, start=model_modes(tower, p * 0.97, n_modes=9))
+    assert warm.factor[1] > 0
+    same_modes(ref, warm)
+    for method in ("subspace", "adjoint"):
+        a = jacobian(tower, ref, [0, 1, 2], sensors, values=p, method=method, shape_scaling="mass",
+                     relative_eigenvalues=False)
+        b = jacobian(tower, warm, [0, 1, 2], sensors, values=p, method=method, shape_scaling="mass",
+                     relative_eigenvalues=False)
+        np.testing.assert_allclose(b.dlam, a.dlam, rtol=1e-8)
+        np.testing.assert_allclose(b.dpsi, a.dpsi, atol=1e-8 * np.max(np.abs(a.dpsi)))
+
+
+def test_updating_with_and_without_reuse_reaches_the_same_solution(tower):
+    truth = tower.values * np.array([0.8, 1.25, 0.9])
+    sensors = [f"{n}:{d}" for n in range(10, 271, 18) for d in ("x", "y")]
+    mm = model_modes(tower, truth, n_modes=6, reuse=False)
+    pos = tower.dof_index(sensors)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], sensors, mm.shapes[pos, j]) for j in range(3)))
+    x0 = dict(zip(tower.parameter_names, tower.values * np.array([1.3, 0.7, 1.2])))
+    off = update(tower, data, x0=x0, reuse=False)
+    on = update(tower, data, x0=x0)
+    assert off.success and on.success
+    np.testing.assert_allclose(on.x, off.x, rtol=1e-8)
+    np.testing.assert_allclose(on.x, truth, rtol=1e-6)
+
+
+def test_blocked_multi_column_solves_equal_the_column_by_column_ones(tower, monkeypatch):
+    from femupdate import workspace
+
+    monkeypatch.setattr(workspace, "BLOCKED_MIN_BANDWIDTH", 16)  # the tower's band (58) goes by blocks too
+    p = tower.values * np.array([0.7, 1.3, 1.1])
+    K, M = tower.K(p), tower.M(p)
+    ws = SparseWorkspace(K, M)
+    ws.factor(K, M, 0.0)
+    lu = ws.factor(K, M, 1.0)
+    assert isinstance(lu, BandCholesky) and lu.c.shape[0] - 1 >= workspace.BLOCKED_MIN_BANDWIDTH
+    B = np.random.default_rng(2).standard_normal((tower.n_dofs, workspace.BLOCKED_MIN_COLUMNS + 3))
+    X = lu.solve(B)  # by blocks
+    assert lu._blk is not None
+    X1 = np.column_stack([lu.solve(B[:, j]) for j in range(B.shape[1])])  # LAPACK pbtrs, one column each
+    np.testing.assert_allclose(X, X1, rtol=0, atol=1e-11 * np.max(np.abs(X1)))
+    A = (K - 1.0 * M).toarray()
+    assert np.max(np.abs(A @ X - B)) <= 1e-14 * np.max(np.abs(A)) * np.max(np.abs(X)) * A.shape[0]
+
+
+def test_one_sweep_for_all_modes_equals_one_sweep_per_mode(tower, monkeypatch):
+    import importlib
+
+    sub = importlib.import_module("femupdate.sensitivity.subspace")  # the module (the package exports the function)
+
+    p = tower.values * np.array([0.7, 1.3, 1.1])
+    model_modes(tower, p, n_modes=9)
+    modes = model_modes(tower, p, n_modes=9, start=model_modes(tower, p * 1.02, n_modes=9))
+    joint = sub.subspace_details(tower, modes, [0, 1, 2], None, p)
+    monkeypatch.setattr(sub, "JOINT_MAX_ENTRIES", 0)
+    apart = sub.subspace_details(tower, modes, [0, 1, 2], None, p)
+    assert np.all(joint[2] == joint[2][0])  # one sweep: the same number of terms for every mode
+    np.testing.assert_allclose(joint[0], apart[0], rtol=1e-12)
+    np.testing.assert_allclose(joint[1], apart[1], rtol=0, atol=1e-9 * np.max(np.abs(apart[1])))
