@@ -32,6 +32,42 @@ def test_order_pairs_by_measured_frequency_whatever_the_listing():
     assert code == rules.E_NO_MODE_LEFT
 
 
+def test_order_skips_rigid_body_modes_of_a_free_structure():
+    lam = [0.0, 0.0, 4.0, 9.0, 16.0]
+    assert pair(ORDER, np.zeros((2, 5)), lam, [9.5, 4.2])[1] == [3, 2]
+    assert pair(AUTO, np.zeros((2, 5)), lam, [9.5, 4.2], shaped=[False, False])[1] == [3, 2]
+    assert pair(ORDER, np.zeros((3, 5)), lam, [0.0, 4.2, 9.5])[1] == [0, 2, 3]  # a measured rigid-body mode
+
+
+def free_chain():
+    """Three unit masses joined by springs k1, k2, free at both ends: one rigid-body mode."""
+    s = Structure("free chain")
+    for i, k in ((1, 1.0), (2, 2.0)):
+        s.parameter(f"k{i}", k, (0.1, 10.0))
+        s.spring([f"{i}:x", f"{i + 1}:x"], k=f"k{i}")
+    for i in (1, 2, 3):
+        s.mass([f"{i}:x"], m=1.0)
+    return s.build()
+
+
+@pytest.mark.parametrize("shapes", [True, False])
+def test_a_free_structure_updates_by_the_default_pairing(shapes):
+    """Its elastic test modes pair with its elastic modes, never with the 0 Hz rigid-body mode."""
+    model = free_chain()
+    mm = model_modes(model)
+    assert mm.n_rigid == 1
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], model.dofs, mm.shapes[:, j]) if shapes
+                                else MeasuredMode(mm.eigenvalues[j]) for j in (1, 2)))
+    res = update(model, data, x0={"k1": 1.6, "k2": 1.3})
+    assert res.cost < 1e-20 and [j for _, j, _ in res.pairs] == [1, 2]
+    # the shapes tell k1 from k2; the frequencies alone allow the mirror image (k1, k2) = (2, 1) too
+    expected = [[1.0, 2.0]] if shapes else [[1.0, 2.0], [2.0, 1.0]]
+    assert any(np.allclose(res.x, e, rtol=1e-8) for e in expected)
+    if shapes:
+        ms = multistart(model, data, starts=6, seed=1, batched=True)
+        assert not ms.failures and {rec["pairing"] for rec in ms.records()} == {"order"}
+
+
 def test_frequency_pairing_lets_mac_decide_inside_the_window_only():
     # test mode at 10 Hz; model modes at 9.8 and 10.3 Hz (inside 10 %) and 30 Hz
     lam = (2 * np.pi * np.array([9.8, 10.3, 30.0])) ** 2
@@ -59,6 +95,7 @@ def test_auto_keeps_order_unless_the_shapes_show_a_swap_clearly():
 def test_pairing_rule_names_what_made_the_pairs():
     assert rules.pairing_rule("auto", [1, 0], [1.0, 2.0]) == "mac"
     assert rules.pairing_rule("auto", [1, 0], [2.0, 1.0]) == "order"
+    assert rules.pairing_rule("auto", [7, 6], [2.0, 1.0]) == "order"  # after six rigid-body modes
     assert rules.pairing_rule("frequency", [0, 1], [1.0, 2.0]) == "frequency"
 
 

@@ -594,13 +594,17 @@ def pair_by_mac(MAC, shaped, nm, min_mac, pairs, bad):
 
 
 @rule
-def pair_by_order(lam_e, nm, pairs):
-    """Pair the T test modes with the lowest T model modes in order of frequency: the test mode
-    of lowest measured eigenvalue with model mode 0, the next with model mode 1, and so on (ties
-    in the order the modes are listed).
+def pair_by_order(lam, lam_e, nm, pairs):
+    """Pair the T test modes with model modes in order of frequency: the elastic test mode of
+    lowest measured eigenvalue with the lowest elastic model mode, the next with the next, and
+    so on (ties in the order the modes are listed).  Rigid-body model modes (eigenvalue exactly
+    0, as :func:`check_spectrum` leaves them) are paired only with test modes of eigenvalue 0,
+    so the elastic modes of a free structure are counted from its first elastic mode.
 
     Parameters
     ----------
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        Model eigenvalues, ascending, rigid-body ones exactly 0.
     lam_e : numpy.ndarray of float, shape ``(T,)``
         Measured eigenvalues.
     nm : int
@@ -611,16 +615,28 @@ def pair_by_order(lam_e, nm, pairs):
     Returns
     -------
     code : int
-        ``OK``, or ``E_NO_MODE_LEFT`` when there are more test modes than ``nm``.
+        ``OK``, or ``E_NO_MODE_LEFT`` when the model modes run out.
     i : int
         The 0-based test mode left without a model mode for ``E_NO_MODE_LEFT``, else 0.
     """
     T = lam_e.size
     order = np.argsort(lam_e, kind="mergesort")
+    nr = 0
+    while nr < nm and lam[nr] == 0.0:
+        nr += 1
+    rp = 0
+    ep = nr
     for r in range(T):
-        if r >= nm:
-            return E_NO_MODE_LEFT, order[r]
-        pairs[order[r]] = r
+        k = order[r]
+        if lam_e[k] == 0.0 and rp < nr:
+            j = rp
+            rp += 1
+        else:
+            j = ep
+            ep += 1
+        if j >= nm:
+            return E_NO_MODE_LEFT, k
+        pairs[k] = j
     return OK, 0
 
 
@@ -730,7 +746,7 @@ def pair_modes(policy, MAC, shaped, lam, lam_e, nm, min_mac, pairs, bad):
     if policy == PAIR_FREQUENCY:
         code, i = pair_by_frequency(MAC, shaped, lam, lam_e, nm, pairs)
         return code, i, PAIR_FREQUENCY
-    code, i = pair_by_order(lam_e, nm, pairs)
+    code, i = pair_by_order(lam, lam_e, nm, pairs)
     if code != OK or policy == PAIR_ORDER:
         return code, i, PAIR_ORDER
     T = shaped.size
@@ -758,8 +774,9 @@ def pair_modes(policy, MAC, shaped, lam, lam_e, nm, min_mac, pairs, bad):
 
 def pairing_rule(policy: str, pairs, lam_e) -> str:
     """The rule that made ``pairs`` under the pairing ``policy`` (a name of :data:`PAIRINGS`):
-    the policy itself, or for ``"auto"`` ``"order"`` when the pairs are the frequency-order
-    pairs of :func:`pair_by_order` and ``"mac"`` otherwise.  Plain Python, not a compiled rule.
+    the policy itself, or for ``"auto"`` ``"order"`` when the pairs are consecutive model modes
+    in the order of the measured eigenvalues (as :func:`pair_by_order` makes them, counted from
+    the first elastic mode) and ``"mac"`` otherwise.  Plain Python, not a compiled rule.
 
     Parameters
     ----------
@@ -779,8 +796,10 @@ def pairing_rule(policy: str, pairs, lam_e) -> str:
         return policy
     lam_e = np.asarray(lam_e, float)
     ranks = np.empty(lam_e.size, np.int64)
-    ranks[np.argsort(lam_e, kind="mergesort")] = np.arange(lam_e.size)
-    return "order" if np.array_equal(np.asarray(pairs, np.int64), ranks) else "mac"
+    ordered = np.asarray(pairs, np.int64)[np.argsort(lam_e, kind="mergesort")]
+    # by order: consecutive model modes in the order of the measured eigenvalues (counted from the
+    # first elastic mode, wherever that is)
+    return "order" if ordered.size == 0 or np.array_equal(np.diff(ordered), np.ones(ordered.size - 1)) else "mac"
 
 
 # ---------------------------------------------------------------------------------------------
