@@ -470,13 +470,14 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
             break
         except InputError as exc:
             # the default basis: fewer modes when the sensors cannot tell that many apart
-            if not chosen or full or n_basis <= m or expansion != "serep":
+            if not chosen or full or n_basis <= 1 or expansion != "serep":
                 raise
             log.info("%s; trying %d modes", exc, n_basis - 1)
             n_basis -= 1
     if chosen and not full and n_basis < min(n_s, 2 * (max(j for j, _ in best.values()) + 1)):
         notes.append(f"the sensors do not tell apart as many model modes as the default SEREP basis holds: "
-                     f"{n_basis} modes used")
+                     f"{n_basis} modes used" + (f", fewer than the {m} measured: the expansion, and so the "
+                                               "localisation, is approximate" if n_basis < m else ""))
 
     def expansion_at(theta, fallback):
         """The expansion with the damaged estimate (the previous one where the sensors cannot tell its modes apart)."""

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -254,6 +255,8 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
             orig = g.props[prop][i]
             where = g.where[i]
             where = where[:-len(f" ({g.type})")] if where.endswith(f" ({g.type})") else where
+            numbered = re.search(r"element #\d+$", where)  # a model file's element: its number, not the file's name
+            where = numbered.group(0) if numbered else where
             described[nm] = f"{where} ({_connection(g, i)})" + (f", model parameter {orig}" if isinstance(orig, str) else "")
             names.append(nm)
         props[prop] = names

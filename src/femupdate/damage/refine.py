@@ -49,6 +49,7 @@ MAX_LOSS = 0.999      # the lower bound of a damaged stiffness: 0.1 % of the bas
 NOISE_FLOOR = 1e-8    # smallest noise level the residuals are divided by (noise-free data: round-off)
 MAX_ALL = 200         # largest number of unknowns fitted all at once as the last enlargement
 TOL = 1e-10           # ftol, xtol and gtol of the least-squares fits
+MAX_NEIGHBOURS = 12   # neighbours of a member tried in its exchanges
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +142,12 @@ class SetSearch:
         self.score = score
         self.path_order = [int(i) for i in path_order]
         self.pairing = pairing
+        # the dofs each unknown's stiffness touches, and the unknowns at each dof (neighbours)
+        self.touched = [np.unique(model.dK[j].indices) if model.dK[j] is not None else np.zeros(0, int) for j in self.idx]
+        self.by_dof: dict[int, list[int]] = {}
+        for i, ds in enumerate(self.touched):
+            for d in ds.tolist():
+                self.by_dof.setdefault(d, []).append(i)
         self.cache: dict[tuple[int, ...], SetFit] = {}
         self.trail: list[SetFit] = []  # every set fitted, in order
         self.n_data = self._n_independent()
@@ -278,6 +285,42 @@ class SetSearch:
                 best = g
         return best
 
+    def neighbours(self, i: int) -> list[int]:
+        """The unknowns whose stiffness shares a dof with unknown i's (the ones it is most easily taken for)."""
+        out: set[int] = set()
+        for d in self.touched[i]:
+            out.update(self.by_dof.get(d, ()))
+        out.discard(i)
+        return sorted(out)
+
+    def swaps(self, f: SetFit) -> list[tuple[int, int]]:
+        """(member, outsider) exchanges worth fitting: each member for its neighbours and the best-scored."""
+        scored = self.candidates(f)
+        inside = set(f.members)
+        out = []
+        for i in f.members:
+            near = [c for c in self.neighbours(i) if c not in inside][:MAX_NEIGHBOURS]
+            out += [(i, c) for c in dict.fromkeys(near + scored) if c not in inside]
+        return out
+
+    def exchange(self, f: SetFit) -> SetFit:
+        """While f fits: the exchange of one member for an outsider that fits better, trimmed again."""
+        seen = {f.members}
+        while f.fits and f.members:
+            best = None
+            for i, c in self.swaps(f):
+                g = self.fit([j for j in f.members if j != i] + [c], f.delta)
+                if g.fits and g.chi2 < f.chi2 and (best is None or g.chi2 < best.chi2):
+                    best = g
+            if best is None:
+                break
+            h = self.trim(best)
+            if h.members in seen:
+                break
+            seen.add(h.members)
+            f = h
+        return f
+
     def _stepwise(self, f: SetFit) -> SetFit:
         f = self.trim(f)
         seen = {f.members}
@@ -291,7 +334,7 @@ class SetSearch:
                 break
             seen.add(h.members)
             f = h
-        return f
+        return self.exchange(f)
 
     def every(self) -> SetFit | None:
         """Every unknown fitted at once from the baseline (plain updating), when the data allow it."""
@@ -354,13 +397,11 @@ class SetSearch:
         out: list[SetFit] = []
         if not f.fits:
             return out
-        for i in f.members:
-            rest = [j for j in f.members if j != i]
-            for c in self.candidates(f):
-                g = self.fit(rest + [c], f.delta)
-                if g.fits and all(abs(g.delta[k]) >= self.min_change for k in g.members):
-                    out.append(g)
-        return out
+        for i, c in self.swaps(f):
+            g = self.fit([j for j in f.members if j != i] + [c], f.delta)
+            if g.fits and all(abs(g.delta[k]) >= self.min_change for k in g.members):
+                out.append(g)
+        return sorted(out, key=lambda g: g.chi2)
 
     def evidence(self, f: SetFit) -> dict[int, float]:
         """For each member: the rise of χ² when it is left out (refitted without it)."""
