@@ -768,3 +768,22 @@ def test_comparable_rate_reads_the_benchmark_table():
             and (r["modes"] is None or x["modes"] == r["modes"])]
     assert r["scenarios"] == sum(x["scenarios"] for x in rows)
     assert r["false_positive_rate"] == pytest.approx(sum(x["false_positives"] for x in rows) / r["scenarios"])
+
+
+@pytest.mark.parametrize("extra, fragments", [
+    (["--level", "1"], ["--level", "1"]),
+    (["--level", "0.3"], ["--level", "0.3"]),
+    (["--max-located", "0"], ["--max-located", "0"]),
+    (["--unknowns", "members"], ["--unknowns", "members"]),
+    (["--unknowns", "parameters", "--elements", "E.1-2"], ["E.1-2"]),
+])
+def test_cli_damage_refuses_bad_options_by_name(tmp_path, capsys, extra, fragments):
+    from femupdate.io.model_file import read_toml
+
+    _truss_toml(tmp_path / "b.toml")
+    em = element_parameters(Structure.from_dict(read_toml(tmp_path / "b.toml")))[0].build()
+    _modes_json(tmp_path / "d.json", noisy_modes(em, list(em.dofs), 4, {"E.102-103": 7e10 * 0.6}))
+    code, out, err = _run(["damage", str(tmp_path / "b.toml"), str(tmp_path / "d.json"), *extra], capsys)
+    assert code == 2 and "Traceback" not in err, err
+    for f in fragments:
+        assert f in err, err
