@@ -1,11 +1,14 @@
-r"""Damage detection from a validated baseline: element stiffnesses, expansion, sparse regularisation.
+r"""Damage detection from a validated baseline: localise (expansion, sparse regularisation), refine
+(nonlinear updating of the located set), verify (against the stated noise).
 
 The reference paper ("Damage detection"): for damage detection "the properties of each element
 must be treated as being unknown", and because the baseline model has been validated, expanding
 the measured shapes with it "should be acceptable".  So:
 
-1. **Element parameters.** :func:`element_parameters` turns a :class:`~femupdate.Structure` into
-   one whose every element has its own stiffness parameter (the stiffness modulus: ``k`` of a
+1. **Unknowns.** The model's stiffness parameters: its own, as it names them (a group of elements
+   sharing a parameter is one unknown: :func:`~femupdate.damage.damage_unknowns`), or, when the
+   user asks, one per element: :func:`element_parameters` turns a :class:`~femupdate.Structure`
+   into one whose every element has its own stiffness parameter (the stiffness modulus: ``k`` of a
    spring, ``E`` of a rod, beam or frame — the whole element stiffness of springs, rods and
    plane beams scales with it; a space frame's torsion, through G, does not), at its validated
    value: :math:`K(\theta) = K_0 + \sum_e \theta_e K_e`, damage :math:`\delta_e = \theta_e/\theta_{e,0} - 1`.
@@ -18,8 +21,8 @@ the measured shapes with it "should be acceptable".  So:
    located, the expansion is repeated with the damaged estimate to re-estimate the loss
    (``iterations``).  Measured modes that pair with no baseline mode
    (MAC below ``localise_min_mac``, 0.8) mean the damage changed the dynamics too much for a
-   model-based expansion: damage is detected, but not localised (the paper's closing remark on
-   Doebling et al. 1993).
+   model-based expansion: the localisation alone cannot place it (the paper's closing remark on
+   Doebling et al. 1993) and says so; the refinement (step 6), which needs no expansion, still can.
 4. **Equations**, linear in δ, for each measured mode (paper eqs. 4-9 with the element
    stiffnesses as unknowns), projected onto the expanded shapes :math:`w_k` (unit length):
 
@@ -39,12 +42,27 @@ the measured shapes with it "should be acceptable".  So:
    squares on the located elements only.  Tikhonov regularisation (α by GCV,
    :mod:`femupdate.regularization`) is computed alongside for comparison: it spreads the change
    over many elements.
-6. **Confidence.** The measured data are perturbed by their noise (``noise``: relative frequency
-   and shape standard deviations; the shape noise defaults to the SEREP misfit) and the whole
-   chain (expansion, choice of α, debiasing) re-run ``bootstrap`` times: the fraction of
-   replicates in which each element is located (selection frequency), and the spread of its
-   estimated change (standard error); plus the ratio of the smallest located change to the
-   largest change elsewhere in the L1 solution (``separation``).
+   Steps 2-5 are the **localisation**: its located set (``localisation``) is the candidates of
+   the next steps — and, with ``refine=False``, the answer (the method before refinement).
+6. **Refine and verify** (:mod:`.refine`).  The candidate set is fitted by nonlinear updating
+   (:class:`femupdate.updating.Problem` with ``params`` = the set, the other unknowns at the
+   baseline; exact Jacobian; every measured mode at its own dofs, no expansion) and claimed only
+   when its misfit, divided by the stated noise, passes a chi-square test at ``level``; else the
+   set is enlarged, trimmed and its members exchanged for neighbours, up to ``max_located``
+   unknowns, the last enlargement being every unknown at once (plain updating, when the data
+   suffice): wherever plain updating identifies the damage exactly, so does this.  Sets of the
+   same size that fit as well make the location *doubtful*; when no set fits, the data do not
+   localise the damage (``status`` "not localised").
+7. **Confidence.** ``bootstrap`` replicates are simulated from the identified model with the
+   stated noise (``noise``: relative frequency and shape standard deviations; the shape noise
+   defaults to the SEREP misfit) and each is localised, refined and verified anew: the fraction
+   of replicates locating each unknown (selection frequency) and exactly the located set
+   (``same_set``), and the spread of its estimated change (standard error); the rise of the
+   misfit when each member is left out (``evidence``); the localisation's ratio of the smallest
+   located change to the largest change elsewhere in the L1 solution (``separation``); and the
+   false-positive rate :mod:`.rates` holds from ``benchmarks/bench_damage.py`` for comparable
+   noise, sensors and modes.  With ``refine=False`` the measured data are perturbed instead and
+   the localisation alone re-run (its confidence then ignores whether the set fits).
 
 The equations are weighted by the inverse square root of their covariance under that same noise
 (Monte Carlo at the baseline), so that rows dominated by shape noise — the orthogonality rows
