@@ -57,6 +57,7 @@ FLOAT_OPTIONS = [
     (["damage", "{truss}", "{damaged}", "--max-frequency-error", "{v}"], "--max-frequency-error"),
     (["damage", "{truss}", "{damaged}", "--min-mac", "{v}"], "--min-mac"),
     (["damage", "{truss}", "{damaged}", "--localise-min-mac", "{v}"], "--localise-min-mac"),
+    (["damage", "{truss}", "{damaged}", "--level", "{v}"], "--level"),
 ]
 
 

@@ -1,7 +1,9 @@
 """``femupdate damage``, ``update-multi``, ``rank-modifications`` and ``fullfield``.
 
-* ``damage BASELINE DATA``: localise stiffness loss from a validated baseline (one stiffness per
-  element, expansion, L1 regularisation), with the baseline checked against ``--undamaged`` data;
+* ``damage BASELINE DATA``: localise stiffness loss from a validated baseline (the model's stiffness
+  parameters or one per element; expansion and L1 regularisation), refine the located set by
+  nonlinear updating and verify it against the stated noise, with the baseline checked against
+  ``--undamaged`` data;
 * ``update-multi MODEL --config DATA[:MODIFICATION] ...``: one set of unknowns updated from several
   test configurations (perturbed boundary conditions), directly when every configuration's data
   are complete, iteratively otherwise;
@@ -59,24 +61,57 @@ def _names(text):
 
 
 # ---------------------------------------------------------------------------------- damage
+def _pct(v) -> str:
+    return "-" if v is None or not np.isfinite(v) else f"{v * 100:.1f} %"
+
+
+def _fp_line(rate) -> str:
+    """The benchmark's false-positive rate for comparable scenarios, as one line."""
+    bins = []
+    if rate.get("sensor_fraction"):
+        lo, hi = rate["sensor_fraction"]
+        bins.append(f"sensors on {lo * 100:.0f}-{min(hi, 1) * 100:.0f} % of the dofs")
+    if rate.get("modes"):
+        lo, hi = rate["modes"]
+        bins.append(f"{lo}-{hi - 1} modes")
+    return (f"benchmark: a healthy unknown was reported damaged in {rate['false_positives']} of {rate['scenarios']} "
+            f"comparable scenarios ({rate['false_positive_rate'] * 100:.0f} %; every damaged one found in "
+            f"{rate['detection_rate'] * 100:.0f} %) at {rate['noise'] * 100:g} % noise"
+            + (f", {', '.join(bins)}" if bins else "") + f" (bench_damage.py, {rate['date']})")
+
+
 @click.command()
 @click.argument("baseline_path", metavar="BASELINE_MODEL", type=_path)
 @click.argument("data_path", metavar="DATA", type=_path)
 @click.option("--undamaged", "undamaged_path", type=_path, default=None,
               help="Test data of the undamaged structure: the baseline must match them first.")
-@click.option("--elements", "elements_text", default=None, help="Element parameters that may change (default all).")
-@click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True)
+@click.option("--unknowns", "unknowns_kind", type=click.Choice(["auto", "parameters", "elements"]), default="auto",
+              show_default=True,
+              help="The model's stiffness parameters as it names them, or one stiffness per element (auto: the "
+                   "parameters, unless the model has fewer than two).")
+@click.option("--elements", "elements_text", default=None, help="Unknowns that may change (default all).")
+@click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True,
+              help="Regulariser of the localisation step.")
 @click.option("--alpha", type=FiniteFloat(0, 1, min_open=True), default=None,
               help="L1 factor as a fraction of alpha_max (default: chosen by BIC).")
 @click.option("--expansion", type=click.Choice(["serep", "irs", "guyan"]), default="serep", show_default=True)
 @click.option("--n-basis", type=click.IntRange(min=1), default=None, help="SEREP modes (default: twice the highest paired).")
-@click.option("--allow-increase", is_flag=True, help="Let element stiffness increase too.")
+@click.option("--allow-increase", is_flag=True, help="Let stiffness increase too.")
 @click.option("--min-change", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
               help="Smallest relative change reported as damage.")
 @click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
-              help="Expansions (later ones with the damaged estimate).")
-@click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True, help="Noise replicates for the confidence.")
-@click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True, help="Relative frequency noise.")
+              help="Expansions of the localisation step (later ones with the damaged estimate).")
+@click.option("--refine/--no-refine", default=True, show_default=True,
+              help="Refine the located set by nonlinear updating and verify it against the noise (--no-refine: the "
+                   "localisation step's answer alone, unverified).")
+@click.option("--level", type=FiniteFloat(0.5, 1, min_open=True, max_open=True), default=0.99, show_default=True,
+              help="Confidence level of the verification (chi-square test of the misfit).")
+@click.option("--max-located", type=click.IntRange(min=1), default=None,
+              help="Largest set of damaged unknowns tried (default 8).")
+@click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True,
+              help="Replicates for the confidence, each re-localised, refined and verified.")
+@click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True,
+              help="Relative frequency noise (0: noise-free data).")
 @click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
               help="Shape noise relative to each shape's largest value (default: from the expansion misfit).")
 @click.option("--seed", type=SEED, default=0, show_default=True)
@@ -88,11 +123,11 @@ def _names(text):
 @measured_dofs_option
 @set_option
 @json_option
-def damage(baseline_path, data_path, undamaged_path, elements_text, method, alpha, expansion, n_basis, allow_increase,
-           min_change, iterations, bootstrap, noise_frequency, noise_shape, seed, max_frequency_error, min_mac,
-           localise_min_mac, measured_text, set_text, json_path):
-    """Localise and quantify damage in DATA from the validated BASELINE_MODEL."""
-    from ..damage import detect_damage, element_parameters
+def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_text, method, alpha, expansion, n_basis,
+           allow_increase, min_change, iterations, refine, level, max_located, bootstrap, noise_frequency, noise_shape,
+           seed, max_frequency_error, min_mac, localise_min_mac, measured_text, set_text, json_path):
+    """Localise, refine and verify damage in DATA from the validated BASELINE_MODEL."""
+    from ..damage import damage_unknowns, detect_damage
 
     ctx = Ctx(json_path)
     structure, model = _load_structure(baseline_path)
@@ -100,12 +135,17 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
     if structure is not None:
         values = parse_set(set_text)
         check_set(model, values)
-        em, _ = element_parameters(structure, values)
-        model = em.build()
+        du = damage_unknowns(structure, values, unknowns_kind)
+        model, kind, descriptions = du.model, du.kind, du.descriptions
+        notes += du.notes
     else:
         values = model_values(model, set_text)
         model = model.with_values(values) if values is not None else model
-        notes.append("matrix model: its parameters are taken as the elements")
+        kind, descriptions = "parameters", {}
+        if unknowns_kind == "elements":
+            raise InputError(f"{baseline_path}: a [matrices] model has no elements; its parameters are the unknowns "
+                             "(--unknowns parameters)")
+        notes.append("matrix model: its parameters are the unknowns")
     data = load_data(data_path, model, measured_text)
     undamaged = load_data(undamaged_path, model, measured_text) if undamaged_path is not None else None
     notes = [*data.notes, *(undamaged.notes if undamaged is not None else ()), *notes]
@@ -115,32 +155,57 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
     res = detect_damage(model, data, undamaged=undamaged, elements=_names(elements_text), method=method, alpha=alpha,
                         expansion=expansion, n_basis=n_basis, allow_increase=allow_increase, min_change=min_change,
                         iterations=iterations, bootstrap=bootstrap, noise=noise, seed=seed,
-                        localise_min_mac=localise_min_mac, max_frequency_error=max_frequency_error, min_mac=min_mac)
+                        localise_min_mac=localise_min_mac, max_frequency_error=max_frequency_error, min_mac=min_mac,
+                        refine=refine, level=level, max_located=max_located, descriptions=descriptions)
     c = ctx.console
-    t = Table(title=f"{model.name}: {len(res.changes)} element stiffnesses, {len(data.modes)} measured modes")
+    what = "element stiffnesses" if kind == "elements" else "stiffness parameters"
+    t = Table(title=f"{model.name}: {len(res.changes)} {what}, {len(data.modes)} measured modes")
     for col in ("test mode", "baseline mode", "MAC", "frequency change"):
         t.add_column(col, justify="right")
     for (k, j, m), fc in zip(res.pairs, res.frequency_change):
         t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
     c.print(t)
+    confirmed = res.status == "confirmed"
     if res.localised:
-        t = Table(title=f"located ({res.method}, alpha {res.alpha:.3g})")
-        for col in ("element", "change", "std. error", "selected in replicates"):
-            t.add_column(col, justify="left" if col == "element" else "right")
+        head = {"confirmed": "located and verified", "doubtful": "located, DOUBTFUL",
+                "unverified": "located, NOT verified (--no-refine)"}[res.status]
+        t = Table(title=f"{head} (localisation {res.method}, alpha {res.alpha:.3g})")
+        cols = ["unknown", "what", "change", "std. error", "misfit without it", "selected in replicates"]
+        for col in cols:
+            t.add_column(col, justify="left" if col in ("unknown", "what") else "right")
         sel = res.confidence.get("selection_frequency", {})
         se = res.confidence.get("standard_error", {})
+        ev = res.confidence.get("evidence", {})
         for n in res.located:
-            t.add_row(n, f"{res.changes[n] * 100:+.1f} %", "-" if not np.isfinite(se.get(n, np.nan)) else f"{se[n] * 100:.1f} %",
-                      "-" if n not in sel else f"{sel[n] * 100:.0f} %")
-        c.print(t)
-        if not res.located:
-            c.print("no element changed by more than the threshold")
-        c.print(f"separation (smallest located / largest other change): {res.confidence.get('separation', float('nan')):.3g}")
+            t.add_row(n, res.descriptions.get(n, ""), f"{res.changes[n] * 100:+.1f} %", _pct(se.get(n)),
+                      "-" if n not in ev else f"{ev[n]:.3g}",
+                      f"{sel[n] * 100:.0f} %" if confirmed and n in sel and np.isfinite(sel[n]) else "-")
+        if res.located:
+            c.print(t)
+        else:
+            c.print("no unknown changed by more than the threshold")
+        v = res.verification
+        if v:
+            c.print(f"verification: chi-square {v['chi2']:.4g} for a limit of {v['limit']:.4g} ({v['dof']} degrees of "
+                    f"freedom, level {v['level']:g}; noise: frequency {v['noise']['frequency']:g}, shape "
+                    f"{v['noise']['shape']:g}): the located set reproduces the data"
+                    + ("" if res.located else " (the baseline does)"))
+        if confirmed and res.confidence.get("bootstrap"):
+            c.print(f"bootstrap: {res.confidence['bootstrap']} replicates simulated from the identified model, each "
+                    f"re-localised, refined and verified: {res.confidence['same_set'] * 100:.0f} % locate exactly this set")
+        if res.status == "unverified":
+            c.print("warning: not verified: the localisation step's answer was not checked against the data "
+                    "(--no-refine); its bootstrap varies the noise only", markup=False)
+        for d in res.doubts:
+            c.print(f"warning: doubtful: {d}", markup=False)
         if res.tikhonov:
-            c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} element(s) by more than "
+            c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} unknown(s) by more than "
                     f"{min_change * 100:g} %")
     else:
         c.print(f"[bold]not localised[/bold]: {res.reason}")
+    rate = res.confidence.get("false_positive_rate")
+    if rate:
+        c.print(_fp_line(rate), markup=False)
     for n in notes + res.notes:
         c.print(f"note: {n}", markup=False)
     emit(ctx, {
@@ -150,7 +215,11 @@ def damage(baseline_path, data_path, undamaged_path, elements_text, method, alph
         "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
         "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
         "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
+        "status": res.status, "doubts": res.doubts, "verification": res.verification,
+        "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
     })
+    if res.status == "doubtful":
+        click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
     if not res.localised:
         raise NumericalError(f"damage not localised: {res.reason}")
 

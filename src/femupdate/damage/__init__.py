@@ -1,12 +1,16 @@
 """Damage detection from a validated baseline.
 
 =======================================  =====================================================
+:func:`damage_unknowns`                   the model and its unknowns: its own stiffness
+                                          parameters or one per element (:mod:`.parameters`)
 :func:`element_parameters`                one stiffness parameter per element (:mod:`.parameters`)
 :func:`check_baseline`                    the baseline against the undamaged structure's data
                                           (:mod:`.baseline`)
-:func:`detect_damage`                     damage localisation from a validated baseline
-                                          (element stiffnesses, expansion, sparse
-                                          regularisation, bootstrap; :mod:`.detect`)
+:func:`detect_damage`                     damage from a validated baseline: localise
+                                          (expansion, sparse regularisation), refine and
+                                          verify (:mod:`.refine`), bootstrap; :mod:`.detect`
+:func:`~.rates.comparable_rate`           the benchmark's false-positive rate for comparable
+                                          noise, sensors and modes (:mod:`.rates`)
 :func:`l1_solve`, :func:`~.solvers.tikhonov`  the regularised solvers (:mod:`.solvers`)
 =======================================  =====================================================
 
@@ -16,7 +20,8 @@ full-field scans in :mod:`femupdate.fullfield`.
 
 from .baseline import BaselineCheck, check_baseline
 from .detect import DamageResult, detect_damage
-from .parameters import element_parameters
+from .parameters import DamageUnknowns, damage_unknowns, element_parameters
 from .solvers import l1_solve
 
-__all__ = ["element_parameters", "check_baseline", "BaselineCheck", "detect_damage", "DamageResult", "l1_solve"]
+__all__ = ["element_parameters", "damage_unknowns", "DamageUnknowns", "check_baseline", "BaselineCheck", "detect_damage",
+           "DamageResult", "l1_solve"]

@@ -1,19 +1,29 @@
-"""One stiffness parameter per element: the unknowns of damage detection.
+"""The unknowns of damage detection: the model's own stiffness parameters, or one per element.
 
-:func:`element_parameters` turns a :class:`~femupdate.Structure` into one whose every element
-has its own stiffness parameter (the stiffness modulus: ``k`` of a spring, ``E`` of a rod, beam
-or frame), at its validated value.
+* :func:`damage_unknowns` — the model and its unknowns as the user asked: ``"parameters"`` (the
+  model's stiffness parameters as it names them: a group of elements sharing a parameter is one
+  unknown), ``"elements"`` (one stiffness per element, :func:`element_parameters`) or
+  ``"auto"`` (the parameters, unless the model has fewer than two stiffness parameters — one
+  unknown cannot say where the damage is — then the elements), with a description of each
+  unknown that names its elements.
+* :func:`element_parameters` turns a :class:`~femupdate.Structure` into one whose every element
+  has its own stiffness parameter (the stiffness modulus: ``k`` of a spring, ``E`` of a rod,
+  beam or frame), at its validated value.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 from .._errors import InputError
 from ..dofs import parse_dof
+from ..model import Model
 from ..structure import Structure
 
 MODULUS = {"spring": "k", "rod": "E", "beam2d": "E", "frame3d": "E"}
+UNKNOWNS = ("auto", "parameters", "elements")
 
 
 def _resolve(structure: Structure, v, values: Mapping) -> float:
@@ -27,6 +37,144 @@ def _element_name(prop: str, g, i: int) -> str:
         a, b = (int(x) for x in g.nodes[i])
         return f"{prop}.{a}-{b}"
     return f"{prop}." + "-".join(lab.replace(":", "") for lab in g.labels[i])
+
+
+def _connection(g, i: int) -> str:
+    """The element's type and what it joins: ``spring 4:x-5:x``, ``rod 102-103``."""
+    if g.nodes is not None:
+        a, b = (int(x) for x in g.nodes[i])
+        return f"{g.type} {a}-{b}"
+    return f"{g.type} " + "-".join(g.labels[i]) + (" (to ground)" if len(g.labels[i]) == 1 and g.type == "spring" else "")
+
+
+def _plural(kind: str, n: int) -> str:
+    return kind if n == 1 else kind + ("es" if kind.endswith("s") else "s")
+
+
+def parameter_descriptions(structure: Structure, names) -> dict[str, str]:
+    """What each named parameter of ``structure`` scales: ``spring 4:x-5:x`` for a parameter of one
+    element, ``2 springs: 1:x-2:x, 3:x-4:x`` or ``14 rods`` for a group.
+
+    Parameters
+    ----------
+    structure : Structure
+    names : iterable of str
+        Parameter names.
+
+    Returns
+    -------
+    dict of str to str
+        {name: description}; a parameter no element uses is described as ``"no element"``.
+    """
+    used: dict[str, list[tuple[str, str]]] = {n: [] for n in names}
+    for g in structure.groups:
+        for prop, vals in g.props.items():
+            for i, v in enumerate(vals):
+                if isinstance(v, str) and v in used:
+                    used[v].append((g.type, _connection(g, i) + ("" if prop in ("k", "E") else f" ({prop})")))
+    out = {}
+    for n, els in used.items():
+        if not els:
+            out[n] = "no element"
+        elif len(els) == 1:
+            out[n] = els[0][1]
+        else:
+            kinds: dict[str, int] = {}
+            for t, _ in els:
+                kinds[t] = kinds.get(t, 0) + 1
+            head = ", ".join(f"{c} {_plural(t, c)}" for t, c in kinds.items())
+            out[n] = head + (": " + ", ".join(c.split(" ", 1)[1] for _, c in els) if len(els) <= 3 else "")
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class DamageUnknowns:
+    """The model damage detection works on and its unknowns (:func:`damage_unknowns`).
+
+    Attributes
+    ----------
+    model : Model
+        The baseline model (the structure's own, or one stiffness parameter per element).
+    kind : str
+        ``"parameters"`` or ``"elements"``.
+    names : list of str
+        The unknowns: the model's free stiffness parameters (those entering K only).
+    descriptions : dict
+        {unknown: what it scales, e.g. ``spring 4:x-5:x`` or ``rod 102-103, model parameter E``}.
+    notes : list of str
+        Why the kind was chosen, parameters left out (those entering M).
+    """
+
+    model: Model
+    kind: str
+    names: list[str]
+    descriptions: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+
+
+def stiffness_unknowns(model: Model) -> tuple[list[str], list[str]]:
+    """(free parameters entering K only, free parameters entering M) of ``model``."""
+    k_only: list[str] = []
+    in_m: list[str] = []
+    for j in model.free:
+        name = model.parameter_names[j]
+        (in_m if model.dM[j] is not None else k_only).append(name)
+    return k_only, in_m
+
+
+def damage_unknowns(structure: Structure, values: Mapping | None = None, unknowns: str = "auto") -> DamageUnknowns:
+    """The baseline model and the unknowns of damage detection, as the user asked for them.
+
+    Parameters
+    ----------
+    structure : Structure
+        The validated baseline.
+    values : mapping of str to float, optional
+        ``{parameter: value}`` overriding the structure's parameter values (e.g. updated ones).
+    unknowns : {"auto", "parameters", "elements"}, default ``"auto"``
+        ``"parameters"``: the structure's free stiffness parameters as it names them (elements
+        sharing a parameter change together: one unknown; elements with a numeric stiffness and
+        parameters entering the mass matrix stay known).  ``"elements"``: one stiffness per
+        element (:func:`element_parameters`).  ``"auto"``: the parameters, unless fewer than two
+        of them enter the stiffness matrix (one unknown cannot locate anything), then the
+        elements; a note says which.
+
+    Returns
+    -------
+    DamageUnknowns
+
+    Raises
+    ------
+    InputError
+        An unknown ``unknowns``; as :func:`element_parameters` and :meth:`Structure.build`;
+        ``"parameters"`` with no free stiffness parameter.
+    """
+    if unknowns not in UNKNOWNS:
+        raise InputError(f"unknowns must be one of {', '.join(UNKNOWNS)}, got {unknowns!r}")
+    values = dict(values or {})
+    notes: list[str] = []
+    if unknowns in ("auto", "parameters"):
+        model = structure.build()
+        if values:
+            model = model.with_values(values)
+        k_only, in_m = stiffness_unknowns(model)
+        if in_m:
+            notes.append(f"parameter(s) entering the mass matrix stay known: {', '.join(in_m)}")
+        if unknowns == "parameters" or len(k_only) >= 2:
+            if not k_only:
+                raise InputError(f"structure {structure.name!r} has no free stiffness parameter to take as a damage "
+                                 "unknown; use unknowns='elements' (--unknowns elements) for one stiffness per element")
+            desc = parameter_descriptions(structure, k_only)
+            return DamageUnknowns(model, "parameters", k_only, desc, notes)
+        if k_only:
+            notes = [f"the model has one stiffness parameter ({k_only[0]}): one unknown cannot say where damage is, so "
+                     "each element's stiffness is an unknown (--unknowns parameters to keep the model's parameter)"]
+        else:
+            notes = ["the model has no free stiffness parameter: each element's stiffness is an unknown"]
+    es, described = element_parameters(structure, values)
+    model = es.build()
+    names = [n for n in stiffness_unknowns(model)[0] if n in described]
+    return DamageUnknowns(model, "elements", names, {n: described[n] for n in names}, notes)
 
 
 def element_parameters(structure: Structure, values: Mapping | None = None, bounds: tuple[float, float] = (0.0, 2.0),
@@ -104,7 +252,12 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
             nm = base if k == 1 else f"{base}.{k}"
             v = props[prop][i]
             out.parameter(nm, v, bounds=(lo * v, hi * v))
-            described[nm] = g.where[i]
+            orig = g.props[prop][i]
+            where = g.where[i]
+            where = where[:-len(f" ({g.type})")] if where.endswith(f" ({g.type})") else where
+            numbered = re.search(r"element #\d+$", where)  # a model file's element: its number, not the file's name
+            where = numbered.group(0) if numbered else where
+            described[nm] = f"{where} ({_connection(g, i)})" + (f", model parameter {orig}" if isinstance(orig, str) else "")
             names.append(nm)
         props[prop] = names
         if g.type == "spring":

@@ -133,12 +133,16 @@ class L1Fit:
         α_max, the factor above which δ = 0.
     path : list of dict
         One entry per α tried: ``alpha``, ``alpha_fraction``, ``n_located``, ``rss``, ``bic``.
+    order : ndarray of int, optional
+        Every unknown, in the order it enters the path (first non-zero as α decreases), the
+        others after them by decreasing :math:`|A^T r|` (the correlation that brings them in).
     """
     l1: np.ndarray
     debiased: np.ndarray
     alpha: float
     alpha_max: float
     path: list
+    order: np.ndarray | None = None
 
 
 def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
@@ -171,17 +175,22 @@ def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
     c = A.T @ r
     g = np.abs(c) if upper > 0 else np.maximum(-c, 0.0)
     amax = float(np.max(g)) if g.size else 0.0
+    by_correlation = np.argsort(-g, kind="stable")
     if amax <= 0:
         z = np.zeros(A.shape[1])
-        return L1Fit(z, z, 0.0, 0.0, [])
+        return L1Fit(z, z, 0.0, 0.0, [], by_correlation)
     fracs = np.geomspace(1.0, 1e-3, N_PATH) if alpha is None else np.array([float(alpha)])
     n = A.shape[0]
     x, path, worse = None, [], 0
+    entered: list[int] = []
     best: tuple[float, float, np.ndarray, np.ndarray] | None = None
     for fr in fracs:
         if worse >= 3:  # the criterion has risen clearly three times running: the rest of the path only adds elements
             break
         x = l1_solve(A, r, fr * amax, lower, upper, x0=x)
+        new = np.flatnonzero(np.abs(x) > 1e-9)
+        seen = set(entered)
+        entered += [int(i) for i in new[np.argsort(-np.abs(x[new]), kind="stable")] if int(i) not in seen]
         S = support_of(x, threshold)
         xd = debias(A, r, S, lower, upper)
         res = A @ xd - r
@@ -194,7 +203,9 @@ def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
     if best is None:  # set on the first step of the path
         raise RuntimeError("internal error: an empty regularisation path")
     _, fr, x, xd = best
-    return L1Fit(x, xd, float(fr * amax), amax, path)
+    seen = set(entered)
+    order = np.array(entered + [int(i) for i in by_correlation if int(i) not in seen], dtype=np.intp)
+    return L1Fit(x, xd, float(fr * amax), amax, path, order)
 
 
 def tikhonov(A, r, rule="gcv") -> tuple[np.ndarray, float]:
