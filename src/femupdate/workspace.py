@@ -56,6 +56,58 @@ class NotPositiveDefinite(ArithmeticError):
     definite (σ is not below the lowest eigenvalue)."""
 
 
+PIVOT_THRESHOLD = 0.1  # SuperLU symmetric mode: off-diagonal pivot only below this fraction
+
+
+def factorize(A):
+    """Sparse LU of a symmetric matrix with a symmetric fill-reducing ordering.
+
+    ``MMD_AT_PLUS_A`` orders on the pattern of A + A^T, which for FE matrices gives far less
+    fill than SuperLU's default COLAMD (meant for unsymmetric A^T A): on a 100,000-dof frame
+    it halves the factorisation time and memory.  SuperLU's *symmetric mode* (diagonal pivots
+    preferred, an off-diagonal one only when the diagonal is below 0.1 of its column) keeps that
+    ordering intact: with the default partial pivoting the omitted partition K_oo of a 23,400-dof
+    frame took 37-120 s instead of 2 s for the same fill.  The threshold keeps indefinite
+    (K - omega^2 M) and complex matrices as accurate as partial pivoting (residuals 1e-13).
+
+    Parameters
+    ----------
+    A : sparse matrix or array_like, shape ``(n, n)``
+        Symmetric (real or complex) matrix; converted to CSC.
+
+    Returns
+    -------
+    scipy.sparse.linalg.SuperLU
+        The factorisation; ``.solve(b)`` solves ``A x = b``.
+
+    Raises
+    ------
+    RuntimeError
+        SuperLU finds A exactly singular (SciPy's own error, not a NumericalError).
+    """
+    return spla.splu(sp.csc_array(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=PIVOT_THRESHOLD,
+                     options={"SymmetricMode": True})
+
+
+def nearly_singular(lu) -> bool:
+    """Whether a factorisation's smallest pivot is at most 1e-11 times its largest.
+
+    Parameters
+    ----------
+    lu : scipy.sparse.linalg.SuperLU
+        A factorisation from :func:`factorize`.
+
+    Returns
+    -------
+    bool
+        True if ``min |U_ii| <= 1e-11 max |U_ii|``.
+    """
+    U = lu.U
+    piv = np.abs(U.diagonal())
+    del U
+    return bool(piv.min() <= 1e-11 * piv.max())
+
+
 def nearly_singular_pivots(piv: np.ndarray) -> bool:
     """Whether the smallest pivot magnitude is at most 1e-11 times the largest (as
     :func:`femupdate.modal.nearly_singular`)."""
@@ -195,7 +247,6 @@ class OrderedLU:
     """
 
     def __init__(self, Ap, perm: np.ndarray):
-        from .modal import PIVOT_THRESHOLD
 
         self.lu = spla.splu(Ap, permc_spec="NATURAL", diag_pivot_thresh=PIVOT_THRESHOLD,
                             options={"SymmetricMode": True})
@@ -349,7 +400,6 @@ class SparseWorkspace:
         RuntimeError
             SuperLU finds the matrix exactly singular.
         """
-        from .modal import factorize
 
         self.n_factorisations += 1
         if self.route is None:

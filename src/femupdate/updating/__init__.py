@@ -16,8 +16,8 @@
 
 from .clustering import cluster, converged_solutions
 from .combined import DATA_KINDS, Block, CombinedProblem, combined_problem, data_kinds
-from .run import update
-from .frf import FRFProblem, FRFUpdateResult, frf_update
+from .run import frf_update, update
+from .frf import FRFProblem, FRFUpdateResult
 from .search import GlobalSearchResult, global_search
 from .starts import draw_starts, frf_multistart, multistart, run_starts
 from .problem import (PARAMETRISATIONS, SENSITIVITY_CHOICES, SHAPE_SCALINGS, Parametrisation, Problem, Targets,

@@ -23,7 +23,7 @@ The residual vector stacks the blocks, each times a scale:
   block's is stated, the covariance of the parameters is absolute;
 * without a stated standard deviation, a block of a problem with *one* kind of data keeps its
   own residuals (the result is that of :func:`update_modal` or
-  :func:`~femupdate.updating.frf.frf_update`); in a *mix*, a block whose residuals carry units
+  :func:`~femupdate.updating.frf_update`); in a *mix*, a block whose residuals carry units
   (FRF ``"linear"`` residuals, in m/N; static deflections, in m) is divided by the RMS of its
   measured values, so that every block is dimensionless like the modal one, and a note says so:
   such weights are a convention, not a statement about the data.
@@ -49,7 +49,7 @@ from .targets import mode_uncertainty
 DATA_KINDS = ("modes", "frf", "static")
 #: the keys of ``measurement_std``, by kind
 STD_KEYS = {"eigenvalue": "modes", "shape": "modes", "frf": "frf", "static": "static"}
-#: options of the FRF block (``frf_options``), as :func:`~femupdate.updating.frf.frf_update` takes them
+#: options of the FRF block (``frf_options``), as :func:`~femupdate.updating.frf_update` takes them
 FRF_OPTIONS = ("residual", "weights", "lines", "select", "resonance", "resonance_tol", "damping", "solver")
 
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,12 +31,10 @@ import numpy as np
 from .._errors import InputError, NumericalError
 from ..frf import residuals as R
 from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
-from ..frf.sensitivity import RESONANCE_TOL
 from ..frf.simulate import check_data_against_model
 from ..testdata import FRFData, TestData
 from .parametrisation import PARAMETRISATIONS, Parametrisation, start_vector, updated_names
 from .results import UpdateResult
-from .solve import diagnostics, solve
 
 log = logging.getLogger(__name__)
 
@@ -351,103 +348,6 @@ def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_to
     if use.size == 0:
         raise InputError("no FRF lines left to update with")
     return use, skipped
-
-
-def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
-               residual: str = "linear", weights=None, measurement_std=None, lines=None, select: int | None = None,
-               resonance: str = "skip", resonance_tol: float = RESONANCE_TOL, damping=None,
-               parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
-               xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None, values=None,
-               solver: str = "auto") -> FRFUpdateResult:
-    """Update the model's parameters so that its FRFs match measured ones (eqs. 30-32).
-
-    Parameters
-    ----------
-    model : Model
-        The model to update.
-    data : TestData or FRFData
-        Test data with ``frf``, or FRF data: responses at any subset of dofs to one force vector.
-        Test data with several FRF sets (a roving-hammer or multi-reference test, ``frf_sets``)
-        are compared set by set, one residual block per excitation
-        (:func:`~femupdate.updating.combined.combined_problem`; ``blocks`` in the result).
-    params : sequence of str, optional
-        Names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : mapping of str to float, optional
-        Starting values {name: value} (default: the model's values, or ``values``).
-    residual : {"linear", "relative", "log"}, default ``"linear"``
-        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (log-magnitude).
-    weights : array_like, optional
-        Broadcastable to the data's (n_lines, n_dofs), multiplying the residuals.
-    measurement_std : float or array_like, optional
-        Standard deviation of the residual entries (scalar or broadcastable array); the
-        residuals are divided by it and the covariance is absolute.
-    lines : array_like of int or bool, optional
-        Indices (0-based) or a boolean mask of the data's lines to use (default all).
-    select : int, optional
-        Choose this many of the lines by conditioning of the sensitivity matrix.
-    resonance : {"skip", "error", "keep"}, default ``"skip"``
-        What to do with lines within ``resonance_tol`` of a resonance of the model at ``values``
-        (the nominal model: the same lines for every start of a multi-start study).
-    resonance_tol : float, default 1e-3
-        Relative eigenvalue distance within which a line is near a resonance.
-    damping : Damping or mapping, optional
-        :class:`~femupdate.frf.Damping` of the model, or ``{alpha, beta, eta}`` (default
-        undamped: real responses).
-    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values
-        As in :func:`femupdate.updating.update`.
-    solver : {"auto", "dense", "sparse"}, default ``"auto"``
-        Solver of the line systems.
-
-    Returns
-    -------
-    FRFUpdateResult
-        ``pairs`` and the frequencies of the pairs only when the test data hold modes too.
-
-    Raises
-    ------
-    InputError
-        As :func:`prepare_problem`, or a start outside the bounds.
-    NumericalError
-        A line on a resonance of the model during the iteration, or the solver failed.
-    """
-    if isinstance(data, TestData) and data.n_frf_sets > 1:  # a multi-reference test: one block per excitation
-        from .combined import combined_problem
-        from .run import combined_result
-
-        opts = dict(residual=residual, weights=weights, lines=lines, select=select, resonance=resonance,
-                    resonance_tol=resonance_tol, damping=damping, solver=solver)
-        combined = combined_problem(model, data, params, use=("frf",), x0=x0, values=values,
-                                    parametrisation=parametrisation,
-                                    measurement_std=None if measurement_std is None else {"frf": measurement_std},
-                                    frf_options=opts, regularized=regularization is not None, method=method)
-        sol, history, reg = solve(combined, model.bounds, regularization=regularization, method=method, ftol=ftol,
-                                  xtol=xtol, gtol=gtol, max_nfev=max_nfev)
-        res = combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
-        assert isinstance(res, FRFUpdateResult)
-        return res
-    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
-                                           resonance, resonance_tol, damping, parametrisation, values, solver,
-                                           regularization is not None, method)
-    names = prob.names
-    frf = frf_data(data)
-    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
-                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
-    p_final = prob.to_p(sol.x)
-    r = prob.residuals(sol.x)
-    J = prob.jacobian(sol.x)
-    diag = diagnostics(prob, sol.x, r, J, sigma, bounds=None if method == "lm" else model.bounds)
-    xa = prob.responses(sol.x)
-    pairs, f_test, f_model, natural = modal_report(model, data, p_final)
-    return FRFUpdateResult(
-        parameters=dict(zip(model.parameter_names, map(float, p_final))),
-        names=tuple(names), x=p_final[prob.idx], success=bool(sol.success), status=int(sol.status),
-        message=str(sol.message), cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev),
-        njev=int(sol.njev or 0), iterations=max(len(history) - 1, int(sol.njev or 0)), history=history,
-        pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=[], diagnostics=diag,
-        regularization=reg, start=dict(zip(names, map(float, prob.p_base[prob.idx]))), sensitivity="brandon",
-        omega=prob.omega, skipped=skipped, residual=residual, frac=dict(zip(frf.dofs, frac(prob.xe, xa))),
-        natural_frequencies_hz=natural, notes=notes + diag.notes,
-    )
 
 
 def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,

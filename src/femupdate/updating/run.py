@@ -1,6 +1,6 @@
 """The updating verb: :func:`update` solves, from its start, whatever the test data hold —
 measured modes (:func:`~femupdate.updating.update_modal`), FRFs
-(:func:`~femupdate.updating.frf.frf_update`), static deflections or any mix
+(:func:`~femupdate.updating.frf_update`), static deflections or any mix
 (:class:`~femupdate.updating.combined.CombinedProblem`) — and :func:`combined_result` reports a
 mix."""
 
@@ -12,7 +12,8 @@ from typing import Any
 from .._errors import InputError
 from ..testdata import TestData
 from .combined import DATA_KINDS, STD_KEYS, CombinedProblem, split_std, combined_problem, data_kinds
-from .frf import FRFProblem, FRFUpdateResult, frac, modal_report
+from ..frf.sensitivity import RESONANCE_TOL
+from .frf import FRFProblem, FRFUpdateResult, frac, frf_data, modal_report, prepare_problem
 from .problem import check_formulation
 from .results import UpdateResult
 from .solve import diagnostics, paired_modes, solve, update_modal
@@ -87,7 +88,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         (:class:`~femupdate.updating.Problem`); the same solution to round-off.  False: every
         evaluation factorises afresh (the route before this option existed).
     frf_options : mapping, optional
-        Options of the FRF residuals, as :func:`~femupdate.updating.frf.frf_update` takes them:
+        Options of the FRF residuals, as :func:`~femupdate.updating.frf_update` takes them:
         ``residual`` (``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``,
         ``select``, ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
     formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
@@ -101,7 +102,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     -------
     UpdateResult
         Modes only: as :func:`update_modal`.  FRFs only: as
-        :func:`~femupdate.updating.frf.frf_update` (an :class:`~femupdate.updating.frf.FRFUpdateResult`).
+        :func:`~femupdate.updating.frf_update` (an :class:`~femupdate.updating.frf.FRFUpdateResult`).
         A mix, or static cases: an :class:`UpdateResult` (an ``FRFUpdateResult`` when FRFs are
         used) whose ``blocks`` give each block's share of the cost and whose ``notes`` say how
         the blocks were weighted.  ``success``/``status``/``message`` report convergence
@@ -135,8 +136,6 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
                             measurement_std=measurement_std, regularization=regularization, **modal_options,
                             **solver_options)
     if kinds == ("frf",) and data.n_frf_sets == 1:
-        from .frf import frf_update
-
         std = split_std(measurement_std)
         return frf_update(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
                           measurement_std=std.get("frf", {}).get("frf"), regularization=regularization,
@@ -233,4 +232,100 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
                            natural_frequencies_hz=natural)
 
 
-__all__ = ["update", "combined_result"]
+
+def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
+               residual: str = "linear", weights=None, measurement_std=None, lines=None, select: int | None = None,
+               resonance: str = "skip", resonance_tol: float = RESONANCE_TOL, damping=None,
+               parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
+               xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None, values=None,
+               solver: str = "auto") -> FRFUpdateResult:
+    """Update the model's parameters so that its FRFs match measured ones (eqs. 30-32).
+
+    Parameters
+    ----------
+    model : Model
+        The model to update.
+    data : TestData or FRFData
+        Test data with ``frf``, or FRF data: responses at any subset of dofs to one force vector.
+        Test data with several FRF sets (a roving-hammer or multi-reference test, ``frf_sets``)
+        are compared set by set, one residual block per excitation
+        (:func:`~femupdate.updating.combined.combined_problem`; ``blocks`` in the result).
+    params : sequence of str, optional
+        Names of the parameters to update (default: every parameter not ``fixed``).
+    x0 : mapping of str to float, optional
+        Starting values {name: value} (default: the model's values, or ``values``).
+    residual : {"linear", "relative", "log"}, default ``"linear"``
+        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (log-magnitude).
+    weights : array_like, optional
+        Broadcastable to the data's (n_lines, n_dofs), multiplying the residuals.
+    measurement_std : float or array_like, optional
+        Standard deviation of the residual entries (scalar or broadcastable array); the
+        residuals are divided by it and the covariance is absolute.
+    lines : array_like of int or bool, optional
+        Indices (0-based) or a boolean mask of the data's lines to use (default all).
+    select : int, optional
+        Choose this many of the lines by conditioning of the sensitivity matrix.
+    resonance : {"skip", "error", "keep"}, default ``"skip"``
+        What to do with lines within ``resonance_tol`` of a resonance of the model at ``values``
+        (the nominal model: the same lines for every start of a multi-start study).
+    resonance_tol : float, default 1e-3
+        Relative eigenvalue distance within which a line is near a resonance.
+    damping : Damping or mapping, optional
+        :class:`~femupdate.frf.Damping` of the model, or ``{alpha, beta, eta}`` (default
+        undamped: real responses).
+    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values
+        As in :func:`femupdate.updating.update`.
+    solver : {"auto", "dense", "sparse"}, default ``"auto"``
+        Solver of the line systems.
+
+    Returns
+    -------
+    FRFUpdateResult
+        ``pairs`` and the frequencies of the pairs only when the test data hold modes too.
+
+    Raises
+    ------
+    InputError
+        As :func:`prepare_problem`, or a start outside the bounds.
+    NumericalError
+        A line on a resonance of the model during the iteration, or the solver failed.
+    """
+    if isinstance(data, TestData) and data.n_frf_sets > 1:  # a multi-reference test: one block per excitation
+
+        opts = dict(residual=residual, weights=weights, lines=lines, select=select, resonance=resonance,
+                    resonance_tol=resonance_tol, damping=damping, solver=solver)
+        combined = combined_problem(model, data, params, use=("frf",), x0=x0, values=values,
+                                    parametrisation=parametrisation,
+                                    measurement_std=None if measurement_std is None else {"frf": measurement_std},
+                                    frf_options=opts, regularized=regularization is not None, method=method)
+        sol, history, reg = solve(combined, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                                  xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+        res = combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
+        assert isinstance(res, FRFUpdateResult)
+        return res
+    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
+                                           resonance, resonance_tol, damping, parametrisation, values, solver,
+                                           regularization is not None, method)
+    names = prob.names
+    frf = frf_data(data)
+    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
+                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+    p_final = prob.to_p(sol.x)
+    r = prob.residuals(sol.x)
+    J = prob.jacobian(sol.x)
+    diag = diagnostics(prob, sol.x, r, J, sigma, bounds=None if method == "lm" else model.bounds)
+    xa = prob.responses(sol.x)
+    pairs, f_test, f_model, natural = modal_report(model, data, p_final)
+    return FRFUpdateResult(
+        parameters=dict(zip(model.parameter_names, map(float, p_final))),
+        names=tuple(names), x=p_final[prob.idx], success=bool(sol.success), status=int(sol.status),
+        message=str(sol.message), cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev),
+        njev=int(sol.njev or 0), iterations=max(len(history) - 1, int(sol.njev or 0)), history=history,
+        pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=[], diagnostics=diag,
+        regularization=reg, start=dict(zip(names, map(float, prob.p_base[prob.idx]))), sensitivity="brandon",
+        omega=prob.omega, skipped=skipped, residual=residual, frac=dict(zip(frf.dofs, frac(prob.xe, xa))),
+        natural_frequencies_hz=natural, notes=notes + diag.notes,
+    )
+
+
+__all__ = ["update", "combined_result", "frf_update"]

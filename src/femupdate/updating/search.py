@@ -3,7 +3,7 @@ r"""Global search for the rough FRF residual surfaces of the paper's Figures 6 a
 The paper concludes that on such surfaces "other non-linear approaches such as random walks or
 genetic algorithms (Larson and Zimmerman 1993) would have to be applied".  Here SciPy's
 well-kept global optimisers minimise the FRF cost :math:`\tfrac12\|r\|^2` of
-:func:`femupdate.updating.frf.frf_update` (same weights and lines; log-magnitude residuals by
+:func:`femupdate.updating.frf_update` (same weights and lines; log-magnitude residuals by
 default, ``global_residual``) within the parameters' bounds, and the best point of each run is
 polished by the local least-squares FRF update with the chosen residual:
 
@@ -32,7 +32,8 @@ from scipy import optimize
 from .._errors import FemupdateError, InputError
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .clustering import cluster, converged_solutions, parameter_scale
-from .frf import FRFUpdateResult, frf_data, frf_update, prepare_problem
+from .frf import FRFUpdateResult, frf_data, prepare_problem
+from .run import frf_update
 from .results import MultiStartResult, UpdateResult
 from .starts import run_starts
 
@@ -222,7 +223,7 @@ def global_search(model, data, *, method: str = "differential_evolution", params
     Parameters
     ----------
     model, data
-        As for :func:`femupdate.updating.frf.frf_update` (finite bounds needed).
+        As for :func:`femupdate.updating.frf_update` (finite bounds needed).
     method : {"differential_evolution", "basinhopping", "dual_annealing"}, default ``"differential_evolution"``
         The SciPy global optimiser (module docstring).
     params : sequence of str, optional
@@ -252,7 +253,7 @@ def global_search(model, data, *, method: str = "differential_evolution", params
     connect_timeout : float, default 10.0
         Seconds to wait for the Dask scheduler.
     **kwargs
-        Passed to :func:`~femupdate.updating.frf.frf_update` (``residual``, ``weights``,
+        Passed to :func:`~femupdate.updating.frf_update` (``residual``, ``weights``,
         ``lines``, ``damping``, ...), for the cost and for the polish.
 
     Returns

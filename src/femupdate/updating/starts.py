@@ -20,7 +20,7 @@ from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult
 from .combined import DATA_KINDS, data_kinds
 from .run import update
-from .frf import frf_update
+from .run import frf_update
 
 log = logging.getLogger(__name__)
 
