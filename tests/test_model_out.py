@@ -114,3 +114,18 @@ def test_the_written_model_must_be_toml_and_a_provenance_must_be_a_table(ex, tmp
     bad.write_text('provenance = "from somewhere"\n' + (ex / "figure2.toml").read_text())
     code, _, err = run(["modes", str(bad)], capsys)
     assert code == 2 and "[provenance] must be a table" in err
+
+
+def test_update_multi_writes_the_updated_base_model(ex, tmp_path, capsys):
+    out = tmp_path / "multi.toml"
+    code, _, err = run(["update-multi", str(ex / "two_dof.toml"), "--config", str(ex / "two_dof_frequencies.json"),
+                        "--config", f"{ex / 'two_dof_plus_2kg.json'}:{ex / 'plus_2kg.toml'}", "--write-model", str(out),
+                        "--json", str(tmp_path / "r.json")], capsys)
+    assert code == 0, err
+    res = json.loads((tmp_path / "r.json").read_text())
+    model = load_model(out)
+    for name in res["updated"]:
+        assert model.values[model.parameter_index(name)] == res["parameters"][name]
+    np.testing.assert_allclose(model.values, [8.0, 6.0], rtol=1e-6)  # the two configurations' unique answer
+    prov = tomllib.loads(out.read_text())["provenance"]
+    assert prov["command"] == "update-multi" and "plus_2kg.toml" in prov["data"]

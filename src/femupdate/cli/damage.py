@@ -22,7 +22,8 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, print_flags,
                       print_identifiability, fmt, json_option, model_values, option_dofs,
-                      parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option)
+                      parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option,
+                      write_model_option, write_model_outputs)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -261,10 +262,11 @@ def _multi_payload(model, res) -> dict:
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative).")
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct).")
+@write_model_option
 @set_option
 @json_option
 def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, pairing, max_nfev, reg_text, eigenvalues_only,
-                 bounded, set_text, json_path):
+                 bounded, write_model_path, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
     from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
     from ..updating.multiconfig.files import load_modification, split_config_spec
@@ -303,7 +305,11 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
     print_flags(ctx, payload["flags"])
     emit(ctx, payload)
     if not res.success:
+        if write_model_path:
+            c.print("not written: the updated model (the multi-configuration update did not succeed)")
         raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
+    write_model_outputs(ctx, model_path, ",".join(configs), "update-multi", model, res.parameters, list(res.names),
+                        res.cost if res.method == "iterative" else None, write_model_path)
 
 
 # ---------------------------------------------------------------------------------- rank-modifications
