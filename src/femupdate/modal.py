@@ -450,20 +450,12 @@ def _sparse(K, M, n_modes, sigma, tol):
             s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
             sigma = -1e-6 * s
             log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
-    try:
-        if lu is None:
+    if lu is None:
+        try:
             lu = factorize(K - sigma * M)
-        OPinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
-        lam, Phi = spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv, **arpack_options())
-    except spla.ArpackNoConvergence as exc:
-        raise NumericalError(
-            f"the sparse eigensolver did not converge for {n_modes} modes "
-            f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
-        ) from None
-    except RuntimeError as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
-                             "use the dense one (--method dense)") from None
+        except RuntimeError as exc:
+            raise _arpack_failed(sigma, exc) from None
+    lam, Phi = _arpack(K, M, n_modes, sigma, tol, lu)
     return lam, Phi, (lu, float(sigma))
 
 
@@ -483,9 +475,14 @@ def _arpack(K, M, n_modes, sigma, tol, lu, v0=None):
             f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
         ) from None
     except RuntimeError as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
-                             "use the dense one (--method dense)") from None
+        raise _arpack_failed(sigma, exc) from None
+
+
+def _arpack_failed(sigma: float, exc: RuntimeError) -> NumericalError:
+    """The message of a failed shift-invert solution (SuperLU's or ARPACK's error, first line)."""
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
+                          "use the dense one (--method dense)")
 
 
 def _is_singular(lu) -> bool:
