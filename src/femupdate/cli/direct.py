@@ -99,14 +99,10 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_tex
     write_model_outputs(ctx, model_path, data_path, "direct", model, res.parameters, list(res.unknowns), None,
                         write_model_path, None)
     if csv_dir is not None:
-        from ..io.model_write import csv_text
-        from ..io.results import atomic_write_text
+        from ..io.model_write import write_parameter_table
 
         p0 = model.resolve(values)
-        rows = [[n, float(p0[model.parameter_index(n)]), float(res.parameters[n]),
-                 (res.parameters[n] / p0[model.parameter_index(n)] - 1) * 100 if p0[model.parameter_index(n)] else None,
-                 float(res.standard_error[k]), *map(float, model.parameters[model.parameter_index(n)].bounds)]
-                for k, n in enumerate(res.unknowns)]
-        atomic_write_text(Path(csv_dir) / "parameters.csv",
-                          csv_text(["parameter", "start", "updated", "change_percent", "std", "lower", "upper"], rows))
-        ctx.console.print(f"wrote {Path(csv_dir) / 'parameters.csv'}")
+        written = write_parameter_table(Path(csv_dir) / "parameters.csv", model, res.unknowns,
+                                        [p0[model.parameter_index(n)] for n in res.unknowns],
+                                        [res.parameters[n] for n in res.unknowns], res.standard_error)
+        ctx.console.print(f"wrote {written}")

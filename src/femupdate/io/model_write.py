@@ -168,6 +168,38 @@ def csv_text(header: Sequence[str], rows: Sequence[Sequence]) -> str:
     return buf.getvalue()
 
 
+def write_parameter_table(path, model, names, start, updated, std, at_bounds=None) -> Path:
+    """``parameters.csv``: ``parameter, start, updated, change_percent, std, lower, upper``, and
+    ``on_bound`` when ``at_bounds`` is given.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file (written atomically).
+    model : Model
+        Its bounds.
+    names : sequence of str
+        The identified parameters, one row each.
+    start, updated, std : sequence of float
+        Their starting and identified values and standard deviations (NaN: none).
+    at_bounds : mapping of str to str, optional
+        ``{name: "lower" | "upper"}`` of the parameters on a bound.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    rows = []
+    for n, s0, v, sd in zip(names, start, updated, std):
+        lo, hi = model.parameters[model.parameter_index(n)].bounds
+        s0, v = float(s0), float(v)
+        row = [n, s0, v, (v / s0 - 1) * 100 if s0 else math.nan, float(sd), float(lo), float(hi)]
+        rows.append(row + ([at_bounds.get(n, "")] if at_bounds is not None else []))
+    header = ["parameter", "start", "updated", "change_percent", "std", "lower", "upper"]
+    atomic_write_text(path, csv_text(header + (["on_bound"] if at_bounds is not None else []), rows))
+    return Path(path)
+
+
 def write_result_tables(folder, model, res) -> list[Path]:
     """``parameters.csv`` and, with paired modes, ``modes.csv`` of an update result in ``folder``.
 
@@ -191,17 +223,10 @@ def write_result_tables(folder, model, res) -> list[Path]:
     """
     folder = Path(folder)
     d = res.diagnostics
-    at_bounds = getattr(d, "at_bounds", {}) or {}
-    rows = []
-    for j, (n, v) in enumerate(zip(res.names, res.x)):
-        lo, hi = model.parameters[model.parameter_index(n)].bounds
-        s0 = res.start.get(n, math.nan)
-        std = float(d.std[j]) if d is not None and j < len(d.std) else math.nan
-        rows.append([n, float(s0), float(v), (float(v) / s0 - 1) * 100 if s0 else math.nan, std, float(lo), float(hi),
-                     at_bounds.get(n, "")])
-    out = [folder / "parameters.csv"]
-    atomic_write_text(out[0], csv_text(["parameter", "start", "updated", "change_percent", "std", "lower", "upper",
-                                        "on_bound"], rows))
+    std = [float(d.std[j]) if d is not None and j < len(d.std) else math.nan for j in range(len(res.names))]
+    out = [write_parameter_table(folder / "parameters.csv", model, res.names,
+                                 [res.start.get(n, math.nan) for n in res.names], res.x, std,
+                                 getattr(d, "at_bounds", {}) or {})]
     if res.pairs:
         mrows = [[k + 1, j + 1, float(ft), float(fa), (float(fa) - ft) / ft * 100 if ft else math.nan, float(m)]
                  for (k, j, m), ft, fa in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz)]
@@ -211,4 +236,5 @@ def write_result_tables(folder, model, res) -> list[Path]:
     return out
 
 
-__all__ = ["updated_model_text", "write_updated_model", "provenance", "csv_text", "write_result_tables"]
+__all__ = ["updated_model_text", "write_updated_model", "provenance", "csv_text", "write_parameter_table",
+           "write_result_tables"]
