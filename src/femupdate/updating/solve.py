@@ -424,11 +424,29 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
     -------
     dict
     """
-    low = [k for k, _, m in pairs if np.isfinite(m) and not m >= prob.min_mac]
     return dict(pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
                 test_frequencies_hz=prob.data.frequencies_hz,
                 model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
-                pairing={"policy": prob.pairing, "used": prob.pairing_used, "min_mac": prob.min_mac, "low_mac": low})
+                pairing=pairing_record(prob, [m for _, _, m in pairs], prob.pairing_used))
+
+
+def pairing_record(prob: Problem, macs, used: str) -> dict:
+    """The ``pairing`` record of a result (:attr:`UpdateResult.pairing`): the policy, the rule
+    ``used`` for the final pairs, ``min_mac`` and the test modes whose pair's MAC (``macs``, in
+    test-mode order, NaN without shape) is below it.
+
+    Parameters
+    ----------
+    prob : Problem
+    macs : sequence of float
+    used : str
+
+    Returns
+    -------
+    dict
+    """
+    low = [k for k, m in enumerate(macs) if np.isfinite(m) and not m >= prob.min_mac]
+    return {"policy": prob.pairing, "used": used, "min_mac": prob.min_mac, "low_mac": low}
 
 
 def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool = True) -> UpdateResult:
@@ -488,5 +506,5 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool 
     )
 
 
-__all__ = ["update_modal", "solve", "solve_problem", "result_at", "paired_modes", "diagnostics", "RANK_RTOL", "NULL_SHARE",
+__all__ = ["update_modal", "solve", "solve_problem", "result_at", "paired_modes", "pairing_record", "diagnostics", "RANK_RTOL", "NULL_SHARE",
            "POOR_RELATIVE_STD"]

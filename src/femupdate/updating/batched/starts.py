@@ -15,7 +15,7 @@ from ..._errors import FemupdateError, InputError
 from ..clustering import classify, converged_solutions, parameter_scale
 from ..problem import Problem
 from ..results import MultiStartResult, RunResult, UpdateResult
-from ..solve import result_at, update_modal
+from ..solve import pairing_record, result_at, update_modal
 from .driver import PROBLEM_OPTIONS, SOLVER_OPTIONS, BatchedProblem, unsupported
 from .lsq import FAILED
 
@@ -56,9 +56,7 @@ def pairing_of(problem: Problem, pairs, macs) -> dict:
     """A start's ``pairing`` record (as :attr:`UpdateResult.pairing`) from its final pairs."""
     from ... import rules
 
-    low = [k for k, m in enumerate(macs) if np.isfinite(m) and not m >= problem.min_mac]
-    return {"policy": problem.pairing, "used": rules.pairing_rule(problem.pairing, pairs, problem.targets.lam_e),
-            "min_mac": problem.min_mac, "low_mac": low}
+    return pairing_record(problem, macs, rules.pairing_rule(problem.pairing, pairs, problem.targets.lam_e))
 
 
 def batched_runs(model, data, names: Sequence[str], starts, options: dict,
