@@ -42,11 +42,33 @@ def _quiet() -> None:
             logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
+def _refused(address: str, timeout: float) -> str | None:
+    """Why a plain TCP connection to a ``tcp://host:port`` address fails (connection refused, no
+    route), or None when it opens, the address has another scheme or cannot be split (Dask then
+    decides). Deterministic where Dask's own connection retries are not: under load, its client
+    can take longer than any margin to report a closed port."""
+    import socket
+
+    if not address.startswith("tcp://"):
+        return None
+    host, sep, port = address[len("tcp://"):].rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return None
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
+            return None
+    except (OSError, ValueError, OverflowError) as exc:
+        return str(exc) or type(exc).__name__
+
+
 def _client_within(Client, address: str, timeout: float, what: str):
     """``Client(address)`` with a hard limit: a service that accepts the connection but is not a
     Dask scheduler (a web server, say) can keep the handshake waiting past Dask's own timeout."""
     import threading
 
+    refused = _refused(address, timeout)
+    if refused is not None:  # nothing listens there: no need to wait for Dask's own retries
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s: {refused}")
     box: dict = {}
 
     def attempt():
