@@ -116,7 +116,7 @@ def test_reduced_model_is_affine_with_T_frozen_and_exact_only_at_its_values(fram
 def test_k_oo_is_factorised_once_for_every_method(frame, monkeypatch):
     calls = []
     real = reducer_mod.factorize
-    monkeypatch.setattr(reducer_mod, "factorize", lambda A: calls.append(A.shape) or real(A))
+    monkeypatch.setattr(reducer_mod, "factorize", lambda A, **kw: calls.append(A.shape) or real(A, **kw))
     red = Reducer(frame, ["11:x", "13:y", "20:z", "24:x", "17:y", "8:z"])
     red.guyan(); red.irs(); red.kammer_hybrid(3)
     reduction_criteria(frame, red.keep, reducer=red, warn=False)

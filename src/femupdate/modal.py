@@ -19,7 +19,8 @@ import scipy.sparse.linalg as spla
 
 from . import rules
 from ._errors import InputError, NumericalError
-from .workspace import PIVOT_THRESHOLD, factorize, nearly_singular  # noqa: F401  (named here too, where callers find them)
+from ._threads import LARGE_DENSE, blas_phase
+from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
 from .dofs import canonical, describe, index_of
 
 log = logging.getLogger(__name__)
@@ -64,6 +65,16 @@ class Modes:
     def frequencies_hz(self) -> np.ndarray:
         """Natural frequencies √λ / 2π in Hz, shape ``(n_modes,)`` (negative λ read as 0)."""
         return np.sqrt(np.clip(self.eigenvalues, 0.0, None)) / (2 * np.pi)
+
+    @property
+    def solver(self) -> str:
+        """How these modes were computed: ``"dense (LAPACK)"``, or ``"sparse (ARPACK, <the
+        factorisation of K − σM>)"`` — band Cholesky, CHOLMOD Cholesky or SuperLU."""
+        if self.factor is None:
+            return "dense (LAPACK)"
+        from .workspace import factor_name
+
+        return f"sparse (ARPACK, {factor_name(self.factor[0])})"
 
     @property
     def n_modes(self) -> int:
@@ -305,15 +316,17 @@ def solve_modes(
         method = "dense" if n <= DENSE_LIMIT or n_modes >= n_finite - 1 else "sparse"
     factor = None
     if method == "dense":
-        lam, Phi = _dense(K, M, n_modes, dofs, massless)
+        with blas_phase("dense" if n >= LARGE_DENSE else "solve"):  # BLAS threads: femupdate._threads
+            lam, Phi = _dense(K, M, n_modes, dofs, massless)
     elif method == "sparse":
         if n_modes >= n - 1:
             raise InputError(f"the sparse eigensolver computes fewer than n - 1 = {n - 1} modes of {n} dofs: use the "
                              "dense one (--method dense; method='dense' in Python)")
-        if workspace is not None and workspace.matches(K, M):
-            lam, Phi, factor = _sparse_reused(K, M, n_modes, sigma, tol, workspace, start)
-        else:
-            lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
+        with blas_phase("solve"):
+            if workspace is not None and workspace.matches(K, M):
+                lam, Phi, factor = _sparse_reused(K, M, n_modes, sigma, tol, workspace, start)
+            else:
+                lam, Phi, factor = _sparse(K, M, n_modes, sigma, tol)
     else:
         raise InputError(f"unknown eigensolver method {method!r}: use auto, dense or sparse")
     order = np.argsort(lam)
@@ -439,10 +452,10 @@ def _sparse(K, M, n_modes, sigma, tol):
     if sigma is None:
         sigma = 0.0
         try:
-            lu = factorize(K)
+            lu = factorize(K, definite=True)
             if nearly_singular(lu):
                 raise RuntimeError("nearly singular")
-        except RuntimeError:
+        except (RuntimeError, NotPositiveDefinite):
             # rigid-body modes: shift just below zero, relative to the pencil's scale
             lu = None
             d, md = K.diagonal(), M.diagonal()
@@ -509,8 +522,6 @@ def _sparse_reused(K, M, n_modes, sigma, tol, ws, start):
     it: any eigenvalue below σ would then lie nearer σ than the highest computed one and have
     been found, so the modes are the lowest of the model; otherwise the solution is repeated at
     σ = 0."""
-    from .workspace import NotPositiveDefinite
-
     Mc = _mass_operator(M)
     v0 = guess = None
     if start is not None:
@@ -589,9 +600,9 @@ def check_static_loads(model, values, loads, need_inverse: bool = False) -> None
         return
     p = model.resolve(values)
     try:
-        if not nearly_singular(factorize(sp.csc_array(model.K(p)))):
+        if not nearly_singular(factorize(sp.csc_array(model.K(p)), definite=True)):
             return
-    except RuntimeError:  # exactly singular
+    except (RuntimeError, NotPositiveDefinite):  # exactly singular
         pass
     n = model.n_dofs
     modes = solve_modes(model.K(p), model.M(p), n_modes=min(n, 12) if n > DENSE_LIMIT else None, dofs=model.dofs,

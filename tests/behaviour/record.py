@@ -165,10 +165,20 @@ def pinned_arpack(seed: int = 0):
     same eigenpairs, bit for bit.
 
     Patches SciPy's ARPACK parameter classes, through which every ``eigsh``/``eigs`` call goes
-    however it was imported; restored on exit."""
+    however it was imported; restored on exit.
+
+    The sparse factorisation backend is pinned too: SuperLU, with which the baseline was recorded
+    (the CHOLMOD backend, where scikit-sparse is installed, gives the same eigenpairs to round-off,
+    not bit for bit; tests/test_workspace.py compares the two)."""
+    import os
+
     import numpy as np
     from scipy.sparse.linalg._eigen.arpack import arpack
 
+    from femupdate.workspace import BACKEND_VARIABLE
+
+    saved_backend = os.environ.get(BACKEND_VARIABLE)
+    os.environ[BACKEND_VARIABLE] = "superlu"
     saved = {}
     for cls in (arpack._SymmetricArpackParams, arpack._UnsymmetricArpackParams):
         init = cls.__init__
@@ -185,6 +195,10 @@ def pinned_arpack(seed: int = 0):
     finally:
         for cls, init in saved.items():
             cls.__init__ = init
+        if saved_backend is None:
+            os.environ.pop(BACKEND_VARIABLE, None)
+        else:
+            os.environ[BACKEND_VARIABLE] = saved_backend
 
 
 def _cli(argv: list[str]) -> None:

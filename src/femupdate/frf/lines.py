@@ -374,7 +374,7 @@ def factor(Z, where: str):
     from ..modal import factorize
 
     try:
-        return factorize(Z)
+        return factorize(Z, definite=False)  # K - omega^2 M: indefinite above the first resonance
     except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
         raise NumericalError(f"the dynamic stiffness is singular at {where} ({exc}): the line lies on a "
                              "resonance of the model (move the line, skip it, or add damping)") from None
