@@ -74,7 +74,8 @@ class Modes:
             return "dense (LAPACK)"
         from .workspace import factor_name
 
-        return f"sparse (ARPACK, {factor_name(self.factor[0])})"
+        lu = self.factor[0] if isinstance(self.factor, tuple) else self.factor
+        return f"sparse (ARPACK, {factor_name(lu)})"
 
     @property
     def n_modes(self) -> int:

@@ -57,6 +57,26 @@ AMENDMENTS = {
         lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"notes"}
         and set(rec) <= set(now) and now["notes"] == [] and _same(rec, {k: now[k] for k in rec}),
     ),
+    "BLAS on one thread": (
+        "femupdate now runs BLAS on one thread by default (its threading policy, femupdate._threads: two "
+        "OpenBLAS threads made every phase 2-12 times slower when another process kept the second core "
+        "busy).  The thread count changes the summation order of dense kernels, so results move at "
+        "round-off; the ill-conditioned full-field direct solutions from noisy scans follow it by up to "
+        "3e-6 relative, and the iterative update on the 1 % scan, which stops in a flat valley, by 2e-4 "
+        "(max error 0.026630 -> 0.026625).  One thread also makes the results independent of the "
+        "machine's core count.",
+        lambda path, rec, now: path.startswith("sections.full_field_direct.")
+        and isinstance(rec, float) and isinstance(now, float)
+        and abs(rec - now) <= 1e-3 * max(abs(rec), abs(now)),
+    ),
+    "results name their eigen-solver": (
+        "`modes` and `update` results say how the model's modes were computed (`solver`: dense LAPACK, or "
+        "ARPACK with the factorisation used: band Cholesky, CHOLMOD Cholesky or SuperLU), now that the "
+        "factorisation layer chooses among them.  The key is new; every recorded value is unchanged.",
+        lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"solver"}
+        and set(rec) <= set(now) and (now["solver"] is None or isinstance(now["solver"], str))
+        and _same(rec, {k: now[k] for k in rec}),
+    ),
     "results carry flags": (
         "The results of direct, update, frf-update, update-multi, fullfield and demo list `flags`: "
         "identified values that are not > 0 where they must be, outside their bounds or on a bound "

@@ -541,9 +541,12 @@ def run(group: click.Group, argv=None) -> None:
     """Run ``group``, turning femupdate errors into one message and an exit code."""
     from .. import dask_cluster
 
+    from .._threads import blas_phase
+
     dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
     try:
-        rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
+        with blas_phase("solve"):  # BLAS threads by phase (femupdate._threads); a bad FEMUPDATE_BLAS_THREADS exits 2
+            rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
     except click.exceptions.Abort:
         click.echo("femupdate: interrupted", err=True)
         sys.exit(130)
