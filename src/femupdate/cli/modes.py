@@ -49,6 +49,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
     ctx.console.print(t)
     if res.n_rigid:
         ctx.console.print(f"{res.n_rigid} rigid-body mode(s)")
+    ctx.console.print(f"eigen-solution: {res.solver}")
     if uff_path is not None:
         from ..io.uff import write_uff_modes
 
@@ -59,6 +60,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
         "dofs": list(res.dofs), "shapes": res.shapes.T, "normalisation": res.normalisation,
         "n_rigid": res.n_rigid,
         "parameters": dict(zip(model.parameter_names, model.resolve(values))),
+        "solver": res.solver,
     })
 
 

@@ -163,6 +163,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     print_diagnostics(c, res)
     if res.formulation:
         c.print(f"formulation: {res.formulation}")
+    if getattr(res, "solver", ""):
+        c.print(f"eigen-solutions: {res.solver}")
     if res.pairing:
         how = ("the dynamic formulation pairs no modes while it solves: the model's modes at the solution paired for "
                "this report" if res.formulation == "dynamic" else "the pairs at the solution made")
@@ -182,6 +184,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     payload["notes"] = [*data.notes, *payload["notes"]]
     payload.update(data_fields(data))
     payload["formulation"] = res.formulation or None
+    payload["solver"] = getattr(res, "solver", "") or None
     if res.expanded_shapes is not None:  # the dynamic formulation's full shapes, per test mode {dof: value}
         payload["expanded_shapes"] = [dict(zip(model.dofs, map(float, col))) for col in res.expanded_shapes.T]
     print_flags(ctx, payload["flags"])
