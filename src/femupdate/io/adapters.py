@@ -117,7 +117,11 @@ def channel_map(channels, n_channels: int, channel_names: Sequence[str] | None =
         text = value.strip()
         sign = -1.0 if text.startswith("-") else 1.0
         text = text.lstrip("+-").strip()
-        label = resolve_dof(text, dofs, f"{what}: channel {k}")
+        try:
+            label = resolve_dof(text, dofs, f"{what}: channel {k}")
+        except InputError as exc:
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(what) else f"{what}: channel {k}: {msg}") from None
         if label in seen:
             raise InputError(f"{what}: channels {seen[label]} and {k} both measure {label}")
         seen[label] = k
