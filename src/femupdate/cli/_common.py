@@ -384,7 +384,7 @@ def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | No
     damped = damping is not None and not damping.undamped
     if not data.modes or (np.all(np.isnan(zeta)) and not damped):
         return None
-    model = [None] * len(data.modes)
+    model: list[float | None] = [None] * len(data.modes)
     if damped:
         for i, f in paired_hz.items():
             model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
