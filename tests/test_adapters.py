@@ -161,6 +161,13 @@ def test_a_saved_result_updates_from_the_command_line_and_converts(tmp_path, cap
     got = json.loads(out.read_text())
     assert np.allclose([got["parameters"][f"k{j}"] for j in range(1, 5)], K, rtol=1e-6)
     assert got["damping_ratio"]["test"] == pytest.approx([0.02] * 4)
+    # one pairing everywhere: correlate at the updated values pairs the identified modes as update did
+    values = ",".join(f"{k}={v!r}" for k, v in got["parameters"].items())
+    with pytest.raises(SystemExit) as e:
+        main(["correlate", str(model), str(tmp_path / "ssi.npz"), "--set", values, "--json", str(tmp_path / "c.json")])
+    assert e.value.code == 0
+    corr = json.loads((tmp_path / "c.json").read_text())
+    assert [p[:2] for p in corr["pairs"]] == [p[:2] for p in got["pairs"]] == [[k, k] for k in range(4)]
     with pytest.raises(SystemExit) as e:
         main(["convert-data", str(tmp_path / "ssi.npz"), str(tmp_path / "test.json"), "--model", str(model)])
     assert e.value.code == 0
