@@ -27,6 +27,17 @@ def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> No
             raise InputError(f"{what}: {kind}")
 
 
+def _finite_number(v, what: str) -> float:
+    """``v`` as a float if it is a finite real number (booleans and strings refused), else an
+    :class:`InputError` naming ``what``."""
+    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise InputError(f"{what}: expected a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise InputError(f"{what}: NaN or infinite value")
+    return x
+
+
 def positive(v, what: str) -> float:
     """``v`` as a float if it is a number between 1e-150 and 1e150 (a standard deviation or a
     weight: it divides or multiplies residuals), else an :class:`InputError` naming ``what``.
@@ -48,11 +59,7 @@ def positive(v, what: str) -> float:
         Not a real number (booleans and strings refused), not finite, not > 0, below 1e-150 or
         above 1e150.
     """
-    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise InputError(f"{what}: expected a number, got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise InputError(f"{what}: NaN or infinite value")
+    x = _finite_number(v, what)
     if not x > 0:
         raise InputError(f"{what}: {x:g} is not > 0")
     if x < 1.0 / MAX_MAGNITUDE or x > MAX_MAGNITUDE:
@@ -81,11 +88,7 @@ def check_damping_ratio(v, what: str) -> float:
         Not a real number (booleans and strings refused), not finite, negative, or 1 or more
         (critically or over-damped: no vibration mode).
     """
-    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise InputError(f"{what}: expected a number, got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise InputError(f"{what}: NaN or infinite value")
+    x = _finite_number(v, what)
     if not 0 <= x < 1:
         raise InputError(f"{what}: {x:g} is not a damping ratio in [0, 1) (a fraction of critical damping: 0.02 "
                          "is 2 %)")
