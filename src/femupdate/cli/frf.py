@@ -70,12 +70,23 @@ def parse_force(text: str, model=None) -> dict:
     return out
 
 
-def parse_damping(text: str | None):
+def parse_damping(text: str | None, data=None):
+    """``--damping``: ``alpha=A,beta=B,eta=E`` (any of them; default undamped), or ``fit``: the
+    Rayleigh damping fitted to the test modes' damping ratios (needs ``data`` with two or more)."""
     from ..frf import Damping
     from ..frf.lines import as_damping
 
     if not text:
         return Damping()
+    if text.strip().lower() == "fit":
+        from ._common import fitted_damping
+
+        fit, _ = fitted_damping(data) if data is not None else (None, None)
+        if fit is None:
+            have = 0 if data is None else sum(m.damping_ratio is not None for m in data.modes)
+            raise InputError(f"--damping fit: fits Rayleigh damping to the test modes' damping ratios and needs two or "
+                             f"more; the test data give {have}")
+        return fit
     try:
         values = parse_set(text)
     except InputError as exc:
@@ -97,8 +108,10 @@ def _pairs(h: np.ndarray) -> list:
     return [[float(np.real(v)), float(np.imag(v))] for v in h]
 
 
-damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E",
-                              help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped.")
+damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E|fit",
+                              help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped. "
+                                   "'fit': Rayleigh damping fitted to the test modes' damping ratios (where the "
+                                   "command reads test data).")
 
 
 
@@ -135,7 +148,7 @@ def apply_reciprocity(data, asked: bool):
     return reciprocal(data)
 
 
-def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text) -> dict:
+def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data=None) -> dict:
     """The FRF options of :func:`femupdate.updating.frf_update` from the command line's."""
     lines = None
     if lines_text:
@@ -149,7 +162,7 @@ def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_
         if twice:
             raise InputError(f"--lines: line(s) {', '.join(map(str, twice))} given twice")
     return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
-                damping=parse_damping(damping_text))
+                damping=parse_damping(damping_text, data))
 
 
 def frf_fields(res) -> dict:
@@ -293,7 +306,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     frf = data.frf
     assert frf is not None
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
-    kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text),
+    kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data),
               parametrisation=parametrisation, method=method, regularization=parse_regularization(reg_text),
               max_nfev=max_nfev, values=values, measurement_std=std)
     ms, extra = None, {}

@@ -16,9 +16,9 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
                       model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
-                      data_fields)
+                      data_fields, damping_fields, print_damping)
 from ..updating.results import pairing_warnings
-from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, reciprocity_option
+from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
 
 @click.command()
@@ -110,12 +110,13 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
               max_nfev=max_nfev,
               use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity,
               use=kinds, formulation=formulation)
+    damping = parse_damping(damping_text, data)  # with modes alone: compared with their damping ratios
     if "frf" in kinds:
-        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text)
+        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
     else:
         given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
                                     ("--select", select is not None), ("--resonance", resonance != "skip"),
-                                    ("--resonance-tol", resonance_tol != 1e-3), ("--damping", bool(damping_text))) if v]
+                                    ("--resonance-tol", resonance_tol != 1e-3)) if v]
         if given:
             raise InputError(f"{', '.join(given)}: FRF option(s) given, but no FRF data are used ({', '.join(kinds)})")
     ms = None
@@ -176,6 +177,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         c.print(f"... and {len(res.swaps) - 5} more mode swap(s) (all in the JSON under 'swaps')")
     for line in pairing_warnings(res):
         c.print(line)
+    damping_out = damping_fields(data, {k: float(fm) for (k, _, _), fm in zip(res.pairs, res.model_frequencies_hz)},
+                                 damping)
+    print_damping(c, data, damping_out)
     if ms is not None:
         print_starts(c, ms)
     for note in [*data.notes, *res.notes]:
@@ -185,6 +189,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     payload.update(data_fields(data))
     payload["formulation"] = res.formulation or None
     payload["solver"] = getattr(res, "solver", "") or None
+    if damping_out is not None:
+        payload["damping_ratio"] = damping_out
     if res.expanded_shapes is not None:  # the dynamic formulation's full shapes, per test mode {dof: value}
         payload["expanded_shapes"] = [dict(zip(model.dofs, map(float, col))) for col in res.expanded_shapes.T]
     print_flags(ctx, payload["flags"])
@@ -217,7 +223,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
             c.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
-                        write_model_path, csv_dir, res)
+                        write_model_path, csv_dir, res, damping_out)
     if uff_path is not None:
         from ..io.uff import write_uff_modes
         from ..modal import model_modes
