@@ -377,6 +377,28 @@ def print_flags(ctx: Ctx, found: list[dict]) -> None:
         ctx.console.print(f"warning: {f['message']}", markup=False)
 
 
+def parameter_fields(model, names=None) -> dict:
+    """The JSON keys that describe a result's parameters beyond their values: ``parameter_units``
+    {name: unit or null} (SI, from the element properties they stand for; null for matrix
+    models) and ``bounds`` {name: [lower, upper]} (null for an infinite bound).
+
+    Parameters
+    ----------
+    model : Model
+    names : sequence of str, optional
+        The parameters to describe (default: all of the model's).
+    """
+    names = model.parameter_names if names is None else names
+    par = {p.name: p for p in model.parameters}
+    return {"parameter_units": {n: par[n].unit or None for n in names},
+            "bounds": {n: list(par[n].bounds) for n in names}}
+
+
+def unit_suffix(unit: str | None) -> str:
+    """``" [N/m]"`` for a unit, ``""`` without one (for column headings and axis labels)."""
+    return f" [{unit}]" if unit else ""
+
+
 def direct_payload(model, res, data, corr_before=None):
     """JSON of a direct update (``direct`` and ``demo``)."""
     return {
@@ -394,6 +416,7 @@ def direct_payload(model, res, data, corr_before=None):
         "bounded": res.bounded,
         "notes": res.notes,
         "flags": flags(model, res.parameters, res.unknowns),
+        **parameter_fields(model),
     }
 
 
@@ -420,6 +443,7 @@ def update_payload(model, data, res, ms=None):
         "sensitivity": res.sensitivity,
         "notes": list(res.notes),
         "flags": flags(model, res.parameters, res.names),
+        **parameter_fields(model),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
@@ -521,18 +545,19 @@ def print_starts(console, ms, what: str = "starts") -> None:
             console.print(f"  {count:4d} x  {reason}")
 
 
-def update_parameter_table(res, title: str) -> Table:
+def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
     """Start, updated value, standard deviation (or the bound it sits on) and change of each
-    updated parameter."""
+    updated parameter, with its unit (``units`` {name: unit}) when known."""
     t = Table(title=title)
-    for col in ("parameter", "start", "updated", "std", "change"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
+    for col in ("parameter", "unit", "start", "updated", "std", "change"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
+    units = units or {}
     std_p = dict(zip(res.names, res.diagnostics.std))
     at = res.diagnostics.at_bounds
     for n in res.names:
         p0, p1 = res.start[n], res.parameters[n]
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
-        t.add_row(n, fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+        t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
 
 

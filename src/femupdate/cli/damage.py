@@ -20,7 +20,8 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, print_flags,
+from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, parameter_fields,
+                      print_flags,
                       print_identifiability, fmt, json_option, model_values, option_dofs,
                       parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option,
                       write_model_option, write_model_outputs)
@@ -49,11 +50,12 @@ def _load_structure(path: Path):
 def _parameter_table(title, model, values, names, x, stderr) -> Table:
     """Start, identified value and standard error of each unknown."""
     t = Table(title=title)
-    for col in ("parameter", "start", "identified", "std. error"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
+    for col in ("parameter", "unit", "start", "identified", "std. error"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     p0 = dict(zip(model.parameter_names, model.resolve(values)))
+    unit = {p.name: p.unit or "-" for p in model.parameters}
     for n, v, se in zip(names, x, stderr):
-        t.add_row(n, fmt(p0[n]), fmt(v), "-" if not np.isfinite(se) else fmt(se))
+        t.add_row(n, unit[n], fmt(p0[n]), fmt(v), "-" if not np.isfinite(se) else fmt(se))
     return t
 
 
@@ -218,6 +220,7 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
         "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
         "status": res.status, "doubts": res.doubts, "verification": res.verification,
         "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
+        **parameter_fields(model, list(res.changes)),
     })
     if res.status == "doubtful":
         click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
@@ -235,6 +238,7 @@ def _multi_payload(model, res) -> dict:
         "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
         "regularization": res.regularization, "notes": res.notes,
         "flags": flags(model, res.parameters, res.names),
+        **parameter_fields(model),
         "direct": None if res.direct is None else {
             "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
             "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,

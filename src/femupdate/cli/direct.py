@@ -59,17 +59,18 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_tex
     payload["notes"] = [*data.notes, *payload["notes"]]
     payload.update(data_fields(data))
     table = Table(title=f"{model.name}: direct update from {res.system.n_equations} equations")
-    for col in ("parameter", "start", "identified", "std. error", "change"):
-        table.add_column(col, justify="right" if col != "parameter" else "left")
+    for col in ("parameter", "unit", "start", "identified", "std. error", "change"):
+        table.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     p0 = model.resolve(values)
-    for j, name in enumerate(model.parameter_names):
-        new = res.parameters[name]
+    payload["start"] = dict(zip(model.parameter_names, map(float, p0)))
+    for j, par in enumerate(model.parameters):
+        name, new, unit = par.name, res.parameters[par.name], par.unit or "-"
         if name in res.unknowns:
             se = res.standard_error[res.unknowns.index(name)]
-            table.add_row(name, fmt(p0[j]), fmt(new), "-" if not np.isfinite(se) else fmt(se),
+            table.add_row(name, unit, fmt(p0[j]), fmt(new), "-" if not np.isfinite(se) else fmt(se),
                           f"{(new - p0[j]) / p0[j] * 100:+.1f} %" if p0[j] else "")
         else:
-            table.add_row(name, fmt(p0[j]), "(fixed)", "", "")
+            table.add_row(name, unit, fmt(p0[j]), "(fixed)", "", "")
     ctx.console.print(table)
     ctx.console.print(f"condition number {res.condition_number:.4g} (columns scaled: {res.condition_number_scaled:.4g}), "
                       f"residual {res.residual_norm:.4g} (relative {res.relative_residual:.3g}), rank {res.rank}/{len(res.unknowns)}")

@@ -328,7 +328,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms, what))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
     print_diagnostics(c, res)
     for s in res.skipped:

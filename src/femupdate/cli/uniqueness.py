@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, model_values, set_option
+from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, parameter_fields, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -133,6 +133,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
         raise
     payload = res.to_dict()
     payload["criteria_agreement"] = _criteria_agreement(res.cases)
+    payload.update(parameter_fields(model, list(study.names)))
     if exact:
         truth = dict(zip(model.parameter_names, study.truth))
         exact: dict[int, dict] = {}  # frequencies only: the answer depends on the number of modes alone

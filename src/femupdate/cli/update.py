@@ -139,7 +139,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     if res.pairs:
         t2 = Table(title="paired modes")
         for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
