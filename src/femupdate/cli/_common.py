@@ -329,6 +329,41 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
                                        "a [provenance] table.")
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
+#: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
+REPORT_FILE = OutputPath("file", suffixes=(".html", ".htm"), why="an HTML report")
+report_option = click.option("--report", "report_path", type=REPORT_FILE, default=None, metavar="FILE.html",
+                             help="Write one self-contained HTML report of the run (tables, figures, mode shapes on "
+                                  "the model, notes); it opens offline.")
+
+
+def model_segments(model_path):
+    """Node pairs of every line element of a structure model file, supported ends included (for
+    drawing mode shapes), or None for a ``[matrices]`` model or a file that is not a structure."""
+    from ..fullfield import structure_segments
+    from ..io.model_file import read_toml
+    from ..structure import Structure
+
+    path = Path(model_path)
+    raw = read_toml(path)
+    if "matrices" in raw:
+        return None
+    segs = structure_segments(Structure.from_dict(raw, source=str(path)))
+    return segs if len(segs) else None
+
+
+def write_report_output(ctx: Ctx, report_path, payload: dict, *, model=None, data=None, model_path=None,
+                        before=None, damping=None, kind: str | None = None, segments=None) -> None:
+    """Write the run's HTML report (``--report``) from its JSON payload, with the model and the
+    data for what needs recomputing (:func:`femupdate.report.write_report`), and name it."""
+    if report_path is None:
+        return
+    from ..report import write_report
+
+    if segments is None and model_path is not None:
+        segments = model_segments(model_path)
+    write_report(report_path, payload, model=model, data=data, kind=kind, segments=segments, before=before,
+                 damping=damping, source=f"run on {model_path}" if model_path else "")
+    ctx.console.print(f"wrote the report {report_path}")
 
 
 def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, values: dict, names, cost,

@@ -11,8 +11,8 @@ from rich.table import Table
 from .._errors import NumericalError
 from .._errors import InputError
 from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, data_fields, direct_payload, emit, fmt, json_option,
-                      load_data, measured_dofs_option, model_values, print_flags, set_option, write_model_option,
-                      write_model_outputs)
+                      load_data, measured_dofs_option, model_values, print_flags, report_option, set_option,
+                      write_model_option, write_model_outputs, write_report_output)
 
 
 def _correlation_rows(data, model, values):
@@ -36,10 +36,11 @@ def _correlation_rows(data, model, values):
 @measured_dofs_option
 @write_model_option
 @csv_option
+@report_option
 @set_option
 @json_option
-def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_text, write_model_path, csv_dir, set_text,
-           json_path):
+def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_text, write_model_path, csv_dir, report_path,
+           set_text, json_path):
     """Identify MODEL's parameters directly from DATA measured at every model dof."""
     from ..direct import direct_update
     from ..io.model_file import load_model
@@ -93,6 +94,8 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_tex
     for note in payload["notes"]:
         ctx.console.print(f"note: {note}", markup=False)
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="direct",
+                        before=payload["start"])
     if not res.unique:
         if write_model_path or csv_dir:
             ctx.console.print("not written: the updated model and tables (the parameters are not determined uniquely)")
