@@ -144,8 +144,8 @@ def _parameter_table(result: dict, names, start: dict | None, std: dict | None, 
             cls = "flag"
         t.rows.append([
             Cell(n), Cell(units.get(n) or "not stated"),
-            numcell(p0, f"start.{n}" if "start" in result else None),
-            numcell(v, f"parameters.{n}", cls=cls),
+            numcell(p0, f"/start/{n}" if "start" in result else None),
+            numcell(v, f"/parameters/{n}", cls=cls),
             Cell(pct((v - p0) / p0, 3) if _fin(v) and _fin(p0) and p0 else "–"),
             Cell(num(lo) if lo is not None else "none (−∞)"), Cell(num(hi) if hi is not None else "none (∞)"),
             numcell(sd, None), Cell(pct(sd / abs(v), 3, sign=False) if _fin(sd) and _fin(v) and v else "–"),
@@ -159,9 +159,9 @@ def _pairs_table(caption: str, pairs, test_hz, model_hz, key: str | None) -> Tab
     for i, (k, j, mac) in enumerate(pairs):
         ft, fm = test_hz[i], model_hz[i]
         t.rows.append([Cell(str(k + 1)), Cell(str(j + 1)),
-                       numcell(ft, f"{key}.test.{i}" if key else None), numcell(fm, f"{key}.model.{i}" if key else None),
+                       numcell(ft, f"/{key}/test/{i}" if key else None), numcell(fm, f"/{key}/model/{i}" if key else None),
                        Cell(pct((fm - ft) / ft) if _fin(ft) and _fin(fm) and ft else "–"),
-                       numcell(mac, f"pairs.{i}.2" if key else None, 4)])
+                       numcell(mac, f"/pairs/{i}/2" if key else None, 4)])
     return t
 
 
@@ -268,7 +268,7 @@ def _convergence_section(result: dict) -> Section | None:
     facts = [("iterations", result.get("iterations")), ("residual evaluations", result.get("nfev")),
              (f"final cost ½‖r‖² [{cost_unit(result)}]", result.get("cost"))]
     t = Table("", ["quantity", "value"])
-    keys = ["iterations", "nfev", "cost"]
+    keys = ["/iterations", "/nfev", "/cost"]
     for (label, v), key in zip(facts, keys):
         if v is not None:
             t.rows.append([Cell(label), numcell(v, key)])
@@ -289,7 +289,7 @@ def _identifiability_section(result: dict) -> Section | None:
     sv = d.get("singular_values") or []
     t = Table("", ["quantity", "value"])
     t.rows.append([Cell("condition number of the normalised sensitivity matrix [–]"),
-                   numcell(d.get("condition_number"), "diagnostics.condition_number", 4)
+                   numcell(d.get("condition_number"), "/diagnostics/condition_number", 4)
                    if d.get("condition_number") is not None else Cell("∞ (singular)")])
     if d.get("rank") is not None:
         t.rows.append([Cell("rank / free parameters"), Cell(f"{d['rank']} / {len(d.get('free') or [])}")])
@@ -367,9 +367,9 @@ def _starts_section(result: dict) -> Section | None:
     t = Table("", ["solution", *[unit_label(n, units.get(n)) for n in names], f"cost ½‖r‖² [{cost_unit(result)}]",
                    "starts [–]", "fits the data"])
     for i, s in enumerate(sols):
-        t.rows.append([Cell(str(i + 1)), *[numcell(s["parameters"].get(n), f"starts.solutions.{i}.parameters.{n}")
+        t.rows.append([Cell(str(i + 1)), *[numcell(s["parameters"].get(n), f"/starts/solutions/{i}/parameters/{n}")
                                            for n in names],
-                       numcell(s.get("cost"), f"starts.solutions.{i}.cost", 3), numcell(s.get("count"), f"starts.solutions.{i}.count"),
+                       numcell(s.get("cost"), f"/starts/solutions/{i}/cost", 3), numcell(s.get("count"), f"/starts/solutions/{i}/count"),
                        Cell("yes" if s.get("fits", True) else "no (local minimum)", cls="ok" if s.get("fits", True) else "bad")])
     sec.add(t)
     if len(names) >= 2 and sols:
@@ -397,7 +397,7 @@ def _frf_section(result: dict, rec) -> Section | None:
     if result.get("residual"):
         t.rows.append([Cell("residual form"), Cell(str(result["residual"]))])
     for d, v in frac.items():
-        t.rows.append([Cell(f"FRAC at {d} [–]"), numcell(v, f"frac.{d}", 6)])
+        t.rows.append([Cell(f"FRAC at {d} [–]"), numcell(v, f"/frac/{d}", 6)])
     nat = result.get("natural_frequencies_hz")
     if nat:
         t.rows.append([Cell(f"natural frequencies of the updated model [{HZ}]"), Cell(", ".join(num(f, 6) for f in nat))])
@@ -436,8 +436,8 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
     names = list(result.get("updated") or [])
     doc.verdict = _verdict_update(result)
     doc.facts += [("parameters updated", Cell(str(len(names)))),
-                  (f"cost ½‖r‖² [{cost_unit(result)}]", numcell(result.get("cost"), "cost", 4)),
-                  ("iterations", numcell(result.get("iterations"), "iterations"))]
+                  (f"cost ½‖r‖² [{cost_unit(result)}]", numcell(result.get("cost"), "/cost", 4)),
+                  ("iterations", numcell(result.get("iterations"), "/iterations"))]
     if result.get("formulation"):
         doc.facts.append(("formulation", Cell(str(result["formulation"]))))
     extra = []
@@ -473,8 +473,8 @@ def build_direct(doc: Document, result: dict, model, data, rec, segments, kind: 
     unknowns = list(result.get("unknowns") or [])
     ok = bool(result.get("unique", True))
     doc.verdict = Cell("unique solution" if ok else "NOT unique (rank-deficient)", cls="ok" if ok else "bad")
-    doc.facts += [("unknowns", Cell(str(len(unknowns)))), ("equations", numcell(result.get("n_equations"), "n_equations")),
-                  ("condition number [–]", numcell(result.get("condition_number"), "condition_number", 4))]
+    doc.facts += [("unknowns", Cell(str(len(unknowns)))), ("equations", numcell(result.get("n_equations"), "/n_equations")),
+                  ("condition number [–]", numcell(result.get("condition_number"), "/condition_number", 4))]
     extra = []
     if result.get("mapping"):
         m = result["mapping"]
@@ -490,7 +490,7 @@ def build_direct(doc: Document, result: dict, model, data, rec, segments, kind: 
                        ("residual norm ‖A p − b‖ [units of b]", "residual_norm"), ("relative residual [–]", "relative_residual"),
                        ("rank", "rank"), ("equations", "n_equations")):
         if result.get(key) is not None:
-            t.rows.append([Cell(label), numcell(result[key], key, 4)])
+            t.rows.append([Cell(label), numcell(result[key], f"/{key}", 4)])
     t.rows.append([Cell("bounded least squares"), Cell("yes" if result.get("bounded") else "no")])
     sec.add(t)
     doc.sections.append(sec)
@@ -505,7 +505,7 @@ def build_multi(doc: Document, result: dict, model, data, rec, segments, kind: s
     doc.verdict = _verdict_update(result)
     cfgs = result.get("configurations") or []
     doc.facts += [("configurations", Cell(str(len(cfgs)))), ("method", Cell(str(result.get("method")))),
-                  ("cost ½‖r‖² [–]", numcell(result.get("cost"), "cost", 4))]
+                  ("cost ½‖r‖² [–]", numcell(result.get("cost"), "/cost", 4))]
     doc.sections.append(_summary(doc, result, model, None, [("configurations", "; ".join(
         f"{c.get('name')}: {c.get('modification')} ({c.get('n_data')} data)" for c in cfgs))]))
     se = result.get("standard_error") or {}
@@ -519,8 +519,8 @@ def build_multi(doc: Document, result: dict, model, data, rec, segments, kind: s
         if c.get("pairs") and fr.get("test"):
             t = _pairs_table(f"{c.get('name')} ({c.get('modification')})", c["pairs"], fr["test"], fr["model"], None)
             for i, row in enumerate(t.rows):
-                row[2] = numcell(fr["test"][i], f"configurations.{ci}.frequencies_hz.test.{i}")
-                row[3] = numcell(fr["model"][i], f"configurations.{ci}.frequencies_hz.model.{i}")
+                row[2] = numcell(fr["test"][i], f"/configurations/{ci}/frequencies_hz/test/{i}")
+                row[3] = numcell(fr["model"][i], f"/configurations/{ci}/frequencies_hz/model/{i}")
             sec.add(t)
             sec.add(Figure(figs.frequency_figure(fr["test"], None, fr["model"]),
                            f"{c.get('name')}: relative frequency error after the update."))
@@ -563,7 +563,7 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
         sel = (conf.get("selection_frequency") or {}).get(n)
         ev = (conf.get("evidence") or {}).get(n)
         t.rows.append([Cell(n, cls="flag"), Cell(desc.get(n, "")), numcell((result.get("baseline") or {}).get(n)),
-                       numcell((result.get("parameters") or {}).get(n), f"parameters.{n}"), Cell(units.get(n) or "not stated"),
+                       numcell((result.get("parameters") or {}).get(n), f"/parameters/{n}"), Cell(units.get(n) or "not stated"),
                        Cell(pct(changes.get(n), 4)), Cell(pct(se, 3, sign=False)),
                        Cell(pct(sel, 3, sign=False) if status == "confirmed" else "–"), Cell(num(ev, 4))])
     if located:
@@ -601,7 +601,7 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
         ct = Table("damaged test modes against the baseline", ["test mode", "baseline mode", f"MAC [{NONE}]",
                                                                f"frequency change [{PCT}]"])
         for i, ((k, j, mac), fc) in enumerate(zip(pairs, result.get("frequency_change") or [])):
-            ct.rows.append([Cell(str(k + 1)), Cell(str(j + 1)), numcell(mac, f"pairs.{i}.2", 4), Cell(pct(fc))])
+            ct.rows.append([Cell(str(k + 1)), Cell(str(j + 1)), numcell(mac, f"/pairs/{i}/2", 4), Cell(pct(fc))])
         doc.sections.append(Section("pairs", "Test modes against the baseline").add(ct))
     bc = result.get("baseline_check")
     if bc:
@@ -648,7 +648,7 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
     names = list(result.get("parameters") or [])
     verdicts = [c.get("verdict") for c in cases]
     doc.verdict = Cell(f"{verdicts.count('unique')} of {len(cases)} cases unique", cls="ok")
-    doc.facts += [("unknowns", Cell(", ".join(names))), ("starts per case", numcell(result.get("starts"), "starts")),
+    doc.facts += [("unknowns", Cell(", ".join(names))), ("starts per case", numcell(result.get("starts"), "/starts")),
                   ("cases", Cell(str(len(cases))))]
     truth = result.get("truth") or {}
     rows = [(f"truth {unit_label(n, units.get(n))}", num(truth.get(n))) for n in names]
@@ -665,9 +665,9 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
         d = c.get("measured_dofs") or []
         t.rows.append([Cell(", ".join(d) if len(d) <= 4 else f"{d[0]} … {d[-1]} ({len(d)})"), Cell(str(c.get("n_modes"))),
                        Cell(str(c.get("verdict")), cls="ok" if c.get("verdict") == "unique" else "bad"),
-                       numcell(len(c.get("solutions") or []), None), numcell(c.get("converged"), f"cases.{i}.converged"),
+                       numcell(len(c.get("solutions") or []), None), numcell(c.get("converged"), f"/cases/{i}/converged"),
                        Cell(str(c.get("local_minima", "–"))),
-                       numcell(c.get("condition_number"), f"cases.{i}.condition_number", 3)
+                       numcell(c.get("condition_number"), f"/cases/{i}/condition_number", 3)
                        if c.get("condition_number") is not None else Cell("∞"),
                        Cell("yes" if (c.get("criteria") or {}).get("paper") else "no")])
     sec.add(t)
@@ -686,7 +686,7 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
                        ["solution", *[unit_label(n, units.get(n)) for n in names], "starts", "truth"])
             sols = c.get("solutions") or []
             for k, s in enumerate(sols[:10]):
-                st.rows.append([Cell(str(k + 1)), *[numcell(s["parameters"].get(n), f"cases.{i}.solutions.{k}.parameters.{n}")
+                st.rows.append([Cell(str(k + 1)), *[numcell(s["parameters"].get(n), f"/cases/{i}/solutions/{k}/parameters/{n}")
                                                     for n in names], Cell(str(s.get("count"))),
                                 Cell("yes" if s.get("is_truth") else "no")])
             if len(sols) > 10:
@@ -708,15 +708,16 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
 
 
 # ---------------------------------------------------------------------------------- paper
-def _find(obj, key: str, skip: str = "paper", path: str = ""):
-    """The first value at ``key`` in ``obj`` (depth first, in order), outside the ``skip`` subtree."""
+def _find(obj, key: str, skip: str = "paper", path: tuple = ()):
+    """(path as a tuple of keys, value) of the first ``key`` in ``obj`` (depth first, in order),
+    outside the ``skip`` subtree; None when there is none."""
     if isinstance(obj, dict):
         if key in obj:
-            return f"{path}{key}", obj[key]
+            return (*path, key), obj[key]
         for k, v in obj.items():
             if k == skip:
                 continue
-            hit = _find(v, key, skip, f"{path}{k}.")
+            hit = _find(v, key, skip, (*path, k))
             if hit is not None:
                 return hit
     return None
@@ -751,7 +752,7 @@ def build_paper(doc: Document, result: dict, model, data, rec, segments, kind: s
         ref = ", ".join(f"{w} {s[k]}" for k, w in (("equations", "eqs."), ("figure", "Fig.")) if s.get(k)
                         and isinstance(s.get(k), str) and not str(s.get(k)).endswith(".png"))
         t.rows.append([Cell(name), Cell(ref or "–"), Cell(str(s.get("summary", ""))),
-                       Cell({True: "agrees", False: "DIFFERS", None: "–"}[a], key=f"sections.{name}.agrees_with_paper",
+                       Cell({True: "agrees", False: "DIFFERS", None: "–"}[a], key=f"/sections/{name}/agrees_with_paper",
                             cls={True: "ok", False: "bad", None: ""}[a])])
     ov.add(t)
     doc.sections.append(ov)
@@ -765,8 +766,10 @@ def build_paper(doc: Document, result: dict, model, data, rec, segments, kind: s
                                                                             "where in paper.json"])
             for k, v in printed.items():
                 hit = _find(s, k)
-                pt.rows.append([Cell(k), Cell(_short(v)), Cell(_short(hit[1]) if hit else "–"),
-                                Cell(f"sections.{name}.{hit[0]}" if hit else "(no value of that name)")])
+                got = (numcell(hit[1], "/" + "/".join(("sections", name, *hit[0])))
+                       if hit and _fin(hit[1]) else Cell(_short(hit[1]) if hit else "–"))
+                pt.rows.append([Cell(k), Cell(_short(v)), got,
+                                Cell(".".join(("sections", name, *hit[0])) if hit else "(no value of that name)")])
             sec.add(pt)
         elif printed is not None:
             sec.add(Text(f"The paper: {_short(printed, 600)}"))

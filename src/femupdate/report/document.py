@@ -12,8 +12,9 @@ from typing import ClassVar
 
 @dataclass
 class Cell:
-    """One table cell: its text; optionally the JSON path and full-precision value it shows, and
-    a CSS class (``flag`` for a value on a bound, ``ok`` / ``bad`` for verdicts)."""
+    """One table cell: its text; optionally the place in the JSON of the value it shows (a JSON
+    pointer, ``"/parameters/k1"``) and that value at full precision, and a CSS class (``flag`` for
+    a value on a bound, ``ok`` / ``bad`` for verdicts)."""
 
     text: str
     key: str | None = None
