@@ -76,12 +76,16 @@ def check_numbers(html: str, result: dict) -> int:
         if not isinstance(want, (int, float)):
             continue
         assert float(c["value"]) == pytest.approx(want, rel=1e-15, abs=0), c["key"]
-        text = c["text"].strip().replace("−", "-")
-        shown = float(text)
-        digits = len(re.sub(r"e.*$", "", text).replace("-", "").replace(".", "").lstrip("0")) or 1
-        assert shown == pytest.approx(want, rel=10 ** (1 - digits), abs=1e-300), (c["key"], text, want)
+        assert_shown(c["text"], want, c["key"])
         checked += 1
     return checked
+
+
+def assert_shown(text: str, want: float, key: str) -> None:
+    """``text`` is ``want`` rounded to the significant digits it shows."""
+    text = text.strip().replace("−", "-")
+    digits = len(re.sub(r"e.*$", "", text).replace("-", "").replace(".", "").lstrip("0")) or 1
+    assert float(text) == pytest.approx(want, rel=10 ** (1 - digits), abs=1e-300), (key, text, want)
 
 
 @pytest.fixture(scope="module")

@@ -53,6 +53,11 @@ def cost_unit(result: dict) -> str:
     return "m²" if result.get("residual") == "linear" and not result.get("blocks") and not absolute else NONE
 
 
+def maccell(mac, key: str | None) -> Cell:
+    """A MAC to four decimals (``0.9999``, not rounded up to ``1``)."""
+    return Cell(f"{float(mac):.4f}", key, float(mac)) if _fin(mac) else Cell("–")
+
+
 def _fin(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(float(v))
 
@@ -161,7 +166,7 @@ def _pairs_table(caption: str, pairs, test_hz, model_hz, key: str | None) -> Tab
         t.rows.append([Cell(str(k + 1)), Cell(str(j + 1)),
                        numcell(ft, f"/{key}/test/{i}" if key else None), numcell(fm, f"/{key}/model/{i}" if key else None),
                        Cell(pct((fm - ft) / ft) if _fin(ft) and _fin(fm) and ft else "–"),
-                       numcell(mac, f"/pairs/{i}/2" if key else None, 4)])
+                       maccell(mac, f"/pairs/{i}/2" if key else None)])
     return t
 
 
@@ -212,8 +217,11 @@ def _correlation_section(result: dict, rec, json_pairs: bool = True) -> Section 
                        "Relative frequency error of each paired test mode."))
     for st, what in ((before, "before"), (after, "after")):
         if st is not None and st.mac.size and np.isfinite(st.mac).any():
-            sec.add(Figure(figs.mac_figure(st.mac, f"MAC {what}"),
-                           f"MAC of every test mode (rows) with the lowest model modes (columns), {what} the update."))
+            n_test = st.mac.shape[0]
+            shown = min(st.mac.shape[1], max([2 * n_test, *(j + 3 for _, j, _ in st.pairs)]))
+            sec.add(Figure(figs.mac_figure(st.mac[:, :shown], f"MAC {what}"),
+                           f"MAC of every test mode (rows) with the lowest {shown} model modes (columns), {what} "
+                           "the update."))
     if rec is None:
         sec.add(Text("The MAC matrices and the correlation before the update need the model and the test data "
                      "(femupdate report RESULT.json --model MODEL --data DATA).", "note"))
@@ -252,7 +260,7 @@ def _shapes_section(model, data, rec, segments, pairs) -> Section | None:
         title = (f"test mode {k + 1} ↔ model mode {j + 1}: {num(data.frequencies_hz[k], 5)} / {num(f_m, 5)} Hz"
                  + (f", MAC {mac:.4f}" if mac is not None and _fin(mac) else "")) if k is not None else \
             f"model mode {j + 1}: {num(f_m, 5)} Hz"
-        sec.add(Figure(figs.mode_shape_figure(model, modes.shapes[:, j], test, title, segments), title))
+        sec.add(Figure(figs.mode_shape_figure(model, modes.shapes[:, j], test, title, segments)))
     if len(items) > MAX_SHAPES:
         sec.add(Text(f"The first {MAX_SHAPES} of {len(items)} paired modes are drawn.", "note"))
     return sec
@@ -276,7 +284,7 @@ def _convergence_section(result: dict) -> Section | None:
         t.rows.append([Cell("optimiser's message"), Cell(str(result["message"]))])
     sec.add(t, Figure(figs.convergence_figure(hist, names, cost_unit(result)),
                       f"Cost (weighted squared residual, [{cost_unit(result)}]) and each updated parameter relative "
-                      "to its start, per iteration."))
+                      "to its start, per iteration.", wide=True))
     return sec
 
 
@@ -410,7 +418,8 @@ def _frf_section(result: dict, rec) -> Section | None:
         sec.add(Figure(figs.frf_figure(f["omega"], f["dofs"], f["measured"], f["model_omega"], f["before"], f["after"],
                                        unit="m"),
                        f"Response magnitude to the measured force ({amp}): test (circles), the model before (dashed) "
-                       "and after (solid) the update; the model undamped unless the run stated damping."))
+                       "and after (solid) the update; the model undamped unless the run stated damping.",
+                       wide=len(f["dofs"]) > 1))
     if rec is not None and rec.surface is not None:
         s = rec.surface
         after: Any = rec.after.values if rec.after is not None else result.get("parameters")
@@ -589,7 +598,8 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
     names = list(changes)
     if names:
         sec.add(Figure(_figures().damage_figure(names, changes, set(located), conf.get("standard_error")),
-                       "Identified relative change of every unknown; located ones in red with their standard error."))
+                       "Identified relative change of every unknown; located ones in red with their standard error.",
+                       wide=len(names) > 16))
     members = _members(model, names) if model is not None and model.nodes else {}
     if any(members.values()):
         sec.add(Figure(_figures().damage_map_figure(model, members, changes, set(located), segments),
@@ -601,7 +611,7 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
         ct = Table("damaged test modes against the baseline", ["test mode", "baseline mode", f"MAC [{NONE}]",
                                                                f"frequency change [{PCT}]"])
         for i, ((k, j, mac), fc) in enumerate(zip(pairs, result.get("frequency_change") or [])):
-            ct.rows.append([Cell(str(k + 1)), Cell(str(j + 1)), numcell(mac, f"/pairs/{i}/2", 4), Cell(pct(fc))])
+            ct.rows.append([Cell(str(k + 1)), Cell(str(j + 1)), maccell(mac, f"/pairs/{i}/2"), Cell(pct(fc))])
         doc.sections.append(Section("pairs", "Test modes against the baseline").add(ct))
     bc = result.get("baseline_check")
     if bc:

@@ -36,12 +36,14 @@ class Table:
 
 @dataclass
 class Figure:
-    """An embedded figure (``{"svg": ...}`` or ``{"png": data URI}``) with its caption."""
+    """An embedded figure (``{"svg": ...}`` or ``{"png": data URI}``) with its caption; ``wide`` for
+    figures of several panels."""
 
     type: ClassVar[str] = "figure"
 
     image: dict
     caption: str = ""
+    wide: bool = False
 
 
 @dataclass
