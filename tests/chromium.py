@@ -31,8 +31,10 @@ def find_chromium() -> tuple[str | None, str]:
         import websocket  # noqa: F401
     except ImportError:
         return None, "the websocket-client package is not installed (pip install websocket-client)"
-    exe = os.environ.get("FEMUPDATE_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser") \
-        or shutil.which("google-chrome")
+    given = os.environ.get("FEMUPDATE_CHROMIUM")
+    if given:
+        return (given, "") if shutil.which(given) else (None, f"FEMUPDATE_CHROMIUM={given} is not an executable")
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
     if not exe:
         return None, "no Chromium installed (apt-get install chromium, or set FEMUPDATE_CHROMIUM)"
     return exe, ""

@@ -108,3 +108,22 @@ def test_bad_arguments_are_refused_by_name():
         mode_shape_axes(model, np.ones(3))
     with pytest.raises(ValueError, match="projection must be"):
         mode_shape_axes(model, np.ones(2), projection="4d")
+
+
+def test_a_bent_member_follows_the_beam_deflection_its_end_rotations_give():
+    """A cantilever under a tip load P bends as v(x) = P x² (3L − x) / (6 EI), a cubic: the member
+    drawn from its end translations and rotations (v(L) = PL³/3EI, θ(L) = PL²/2EI) is that curve."""
+    from femupdate.plot.shapes import member_points
+
+    L, P, EI = 2.0, 1.0, 3.0
+    tip, slope = P * L**3 / (3 * EI), P * L**2 / (2 * EI)
+    pts = member_points([0, 0, 0], [L, 0, 0], [0, 0, 0], [0, tip, 0], [0, 0, 0], [0, 0, slope], scale=1.0, n=11)
+    x = np.linspace(0, L, 11)
+    np.testing.assert_allclose(pts[:, 0], x, atol=1e-15)  # no axial motion
+    np.testing.assert_allclose(pts[:, 1], P * x**2 * (3 * L - x) / (6 * EI), rtol=1e-12, atol=1e-15)
+    # the same member along z bending in x-z (rotation about y: du_x/dz = θ_y)
+    pts = member_points([0, 0, 0], [0, 0, L], [0, 0, 0], [tip, 0, 0], [0, 0, 0], [0, slope, 0], n=11)
+    np.testing.assert_allclose(pts[:, 0], P * x**2 * (3 * L - x) / (6 * EI), rtol=1e-12, atol=1e-15)
+    # without rotations: a straight member between the moved ends
+    np.testing.assert_allclose(member_points([0, 0, 0], [1, 0, 0], [0, 0, 0], [0, 1, 0], scale=0.5),
+                               [[0, 0, 0], [1, 0.5, 0]])

@@ -3,8 +3,9 @@ undeformed, with a measured shape drawn at its sensors.
 
 Rods, beams, frames and lumped models whose nodes have coordinates are drawn on their geometry
 (in 3-D when the structure or its motion leaves a plane, else in its plane); the translations of
-each node displace it, rotations are not drawn, and elements are straight lines between their
-deformed end nodes.  A model without node coordinates (a lumped spring-mass chain) has no
+each node displace it.  A member whose ends carry rotations (beams, frames; a fully supported end
+counts as clamped) is drawn as the cubic curve that its end translations and rotations give;
+other members (rods, springs) as straight lines.  A model without node coordinates (a lumped spring-mass chain) has no
 geometry to draw on: its shape is drawn against its dofs in model order, and the title says so.
 """
 
@@ -144,6 +145,72 @@ def _displacements(geom: ShapeGeometry, shape: dict) -> tuple[np.ndarray, np.nda
     return u, seen
 
 
+_ROT = {"rx": 0, "ry": 1, "rz": 2}
+
+
+def _rotations(geom: ShapeGeometry, shape: dict) -> np.ndarray:
+    """Per node of ``geom``: the rotation vector (n, 3) of ``shape`` (zero where none is given)."""
+    pos = {nd: k for k, nd in enumerate(geom.node_ids)}
+    th = np.zeros((len(geom.node_ids), 3))
+    for d, v in shape.items():
+        nd, dr = parse_dof(d)
+        if dr in _ROT and nd in pos:
+            th[pos[nd], _ROT[dr]] = v
+    return th
+
+
+def member_points(xa, xb, ua, ub, ta=None, tb=None, scale: float = 1.0, n: int = 9) -> np.ndarray:
+    """Points of a deformed member: straight between its moved ends, or — given the end rotations
+    — the cubic (Hermite) curve a beam takes, its transverse displacement from the end
+    translations and slopes ``du/ds = θ × e`` (small rotations θ, member direction e), its axial
+    displacement linear.
+
+    Parameters
+    ----------
+    xa, xb : array_like, shape ``(3,)``
+        End coordinates.
+    ua, ub : array_like, shape ``(3,)``
+        End translations.
+    ta, tb : array_like, shape ``(3,)``, optional
+        End rotation vectors (rad); None: a straight member.
+    scale : float
+        Drawing factor of the displacements.
+    n : int
+        Points along a curved member.
+
+    Returns
+    -------
+    numpy.ndarray, shape ``(2, 3)`` or ``(n, 3)``
+    """
+    xa, xb, ua, ub = (np.asarray(v, float) for v in (xa, xb, ua, ub))
+    if ta is None or tb is None:
+        return np.array([xa + scale * ua, xb + scale * ub])
+    d = xb - xa
+    L = float(np.linalg.norm(d))
+    if L == 0:
+        return np.array([xa + scale * ua, xb + scale * ub])
+    e = d / L
+    xi = np.linspace(0.0, 1.0, n)[:, None]
+    P = np.eye(3) - np.outer(e, e)
+    h1, h2, h3, h4 = 1 - 3 * xi**2 + 2 * xi**3, xi - 2 * xi**2 + xi**3, 3 * xi**2 - 2 * xi**3, -xi**2 + xi**3
+    trans = h1 * (P @ ua) + h2 * L * np.cross(np.asarray(ta, float), e) + h3 * (P @ ub) \
+        + h4 * L * np.cross(np.asarray(tb, float), e)
+    axial = ((1 - xi) * (ua @ e) + xi * (ub @ e)) * e
+    return xa + xi * d + scale * (axial + trans)
+
+
+def _rotation_nodes(model, geom: ShapeGeometry) -> np.ndarray:
+    """Per node of ``geom``: whether the model has a rotation dof there."""
+    have = {parse_dof(d)[0] for d in model.dofs if parse_dof(d)[1] in _ROT}
+    return np.array([nd in have for nd in geom.node_ids])
+
+
+def _moving_nodes(model, geom: ShapeGeometry) -> np.ndarray:
+    """Per node of ``geom``: whether the model has any dof there (a fully supported node has none)."""
+    have = {parse_dof(d)[0] for d in model.dofs}
+    return np.array([nd in have for nd in geom.node_ids])
+
+
 def _wants_3d(geom: ShapeGeometry, motions) -> bool:
     z = np.ptp(geom.xyz[:, 2]) if len(geom.xyz) > 1 else 0.0
     return bool(z > 1e-12 * geom.extent or any(np.any(u[:, 2] != 0) for u in motions))
@@ -224,6 +291,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
         ax = fig.add_subplot(projection="3d") if three else fig.add_subplot()
     three = getattr(ax, "name", "") == "3d"
     cols = slice(0, 3) if three else slice(0, 2)
+    moving = _moving_nodes(model, geom)
 
     def draw(points, style, label, **kw):
         for k, (a, b) in enumerate(geom.segments):
@@ -235,7 +303,14 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     ax.plot(*geom.xyz[:, cols].T, ".", color="0.55", ms=3)
     if mshape:
         deformed = geom.xyz + s * um
-        draw(deformed, "-", labels[0], color="C0", lw=1.6)
+        th = _rotations(geom, mshape)
+        rot = _rotation_nodes(model, geom)
+        for k, (a, b) in enumerate(geom.segments):
+            bends = (rot[a] or rot[b]) and (rot[a] or not moving[a]) and (rot[b] or not moving[b])
+            pts = member_points(geom.xyz[a], geom.xyz[b], um[a], um[b], th[a] if bends else None, th[b], s)
+            ax.plot(*pts[:, cols].T, "-", color="C0", lw=1.6, label=labels[0] if k == 0 else None)
+        if not len(geom.segments):
+            ax.plot(*deformed[:, cols].T, "-", color="C0", lw=1.6, label=labels[0])
         ax.plot(*deformed[:, cols].T, "o", color="C0", ms=3)
     if tshape:
         pts = geom.xyz + s * ut
@@ -252,7 +327,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
         ax.set_box_aspect(tuple(span))
     else:
         ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left" if three else "best")
     note = f"displacements × {s:.3g}"
     ax.set_title(f"{title}\n{note}" if title else note, fontsize=9)
     return ax
