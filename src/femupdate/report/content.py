@@ -137,7 +137,7 @@ def _parameter_table(result: dict, names, start: dict | None, std: dict | None, 
     params = result.get("parameters") or {}
     reasons = ((result.get("diagnostics") or {}).get("poorly_determined_reasons") or {})
     t = Table(caption, ["parameter", "unit", "start", "updated", "change [%]", "lower bound", "upper bound",
-                        f"{std_label} [unit]", f"{std_label} [% of value]", "flag"])
+                        f"{std_label} [parameter unit]", f"{std_label} [% of value]", "flag"])
     for n in names:
         v = params.get(n)
         p0 = (start or {}).get(n)
