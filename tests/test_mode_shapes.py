@@ -27,8 +27,10 @@ def truss(tmp_path_factory):
     return s, s.build()
 
 
-def _lines(ax, colour):
-    return [ln for ln in ax.get_lines() if ln.get_color() == colour and ln.get_linestyle() == "-"]
+def _members(ax, label):
+    """The polylines of the members drawn under ``label`` (one collection per wireframe)."""
+    (coll,) = [c for c in ax.collections if c.get_label() == label]
+    return coll.get_segments()
 
 
 def test_segments_from_the_structure_include_supported_members(truss):
@@ -48,7 +50,7 @@ def test_deformed_wireframe_is_the_nodes_moved_by_the_scaled_translations(truss)
     ax = mode_shape_axes(model, phi, segments=structure_segments(s), scale=0.5, ax=Figure().add_subplot())
     assert ax.name != "3d"  # a plane truss is drawn in its plane
     geom = shape_geometry(model, structure_segments(s))
-    moved = {tuple(np.round(xy, 12)) for ln in _lines(ax, "C0") for xy in np.column_stack(ln.get_data())}
+    moved = {tuple(np.round(xy, 12)) for seg in _members(ax, "model") for xy in seg}
     for k, nd in enumerate(geom.node_ids):
         u = [phi[model.dofs.index(f"{nd}:{d}")] if f"{nd}:{d}" in model.dofs else 0.0 for d in "xy"]
         assert tuple(np.round(geom.xyz[k, :2] + 0.5 * np.array(u), 12)) in moved

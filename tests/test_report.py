@@ -148,14 +148,6 @@ def test_unknown_results_are_refused_by_name(tmp_path):
         build_report({"starts": {}, "success": True}, kind="modes")
 
 
-@pytest.fixture(scope="module")
-def ex(tmp_path_factory):
-    d = tmp_path_factory.mktemp("ex")
-    with pytest.raises(SystemExit):
-        main(["demo", "--write-files", str(d)])
-    return d
-
-
 def _eigen_hz(model, values):
     """Natural frequencies by SciPy's dense generalised eigen-solver (an independent route)."""
     lam = scipy.linalg.eigh(model.K(values).toarray(), model.M(values).toarray(), eigvals_only=True)
@@ -229,3 +221,18 @@ def test_write_report_is_atomic_and_returns_the_path(tmp_path):
     p = write_report(tmp_path / "d.html", result)
     assert p == tmp_path / "d.html" and p.read_text().startswith("<!DOCTYPE html>")
     assert [f.name for f in tmp_path.iterdir()] == ["d.html"]
+
+
+def test_every_warning_of_the_run_is_in_the_report():
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    result["success"], result["message"] = False, "The maximum number of function evaluations is exceeded."
+    result["pairing"] = {**result["pairing"], "low_mac": [1]}
+    result["flags"] = [{"parameter": "k4", "value": 0.0, "kind": "on_bound", "bounds": [0.0, 1e5],
+                        "message": "k4 = 0 is on its lower bound 0"}]
+    html = build_report(result)
+    notes = html[html.index('id="notes"'):]
+    for text in ("the update did not converge: The maximum number of function evaluations is exceeded.",
+                 "test mode 2 is paired by", "k4 = 0 is on its lower bound 0"):
+        assert text in notes, text
+    assert "NOT converged" in html and 'class="fact verdict bad"' in html
+    assert '<td class=" flag">on a bound</td>' in html  # the flagged parameter's row says so

@@ -34,7 +34,7 @@ FIGURES = """Array.from(document.querySelectorAll('figure svg, figure img')).map
 
 
 @pytest.fixture(scope="module")
-def pages(tmp_path_factory):
+def pages(tmp_path_factory, ex):
     """One report of each kind from its recorded result, and an update report with the model and
     the data (mode shapes, MAC before and after), written by the command itself."""
     d = tmp_path_factory.mktemp("reports")
@@ -42,9 +42,6 @@ def pages(tmp_path_factory):
     for kind, name in KIND_FILES.items():
         result = json.loads((RECORDED / name).read_text())
         out[kind] = (write_report(d / f"{kind}.html", result, source=name), result)
-    ex = d / "ex"
-    with pytest.raises(SystemExit):
-        main(["demo", "--write-files", str(ex)])
     with pytest.raises(SystemExit) as e:
         main(["update", str(ex / "figure2.toml"), str(ex / "figure2_test.json"), "--json", str(d / "u.json"),
               "--report", str(d / "update-full.html")])

@@ -293,31 +293,41 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     cols = slice(0, 3) if three else slice(0, 2)
     moving = _moving_nodes(model, geom)
 
-    def draw(points, style, label, **kw):
-        for k, (a, b) in enumerate(geom.segments):
-            ax.plot(*points[[a, b], cols].T, style, label=label if k == 0 else None, **kw)
-        if not len(geom.segments):
-            ax.plot(*points[:, cols].T, style, label=label, **kw)
+    def draw(polylines, label, **kw):
+        """All members as one collection (fast for thousands of elements)."""
+        if three:
+            from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-    draw(geom.xyz, "--", "undeformed", color="0.65", lw=0.9)
-    ax.plot(*geom.xyz[:, cols].T, ".", color="0.55", ms=3)
+            ax.add_collection3d(Line3DCollection(polylines, label=label, **kw))
+        else:
+            from matplotlib.collections import LineCollection
+
+            ax.add_collection(LineCollection(polylines, label=label, **kw))
+
+    straight = [geom.xyz[[a, b], cols] for a, b in geom.segments]
+    if straight:
+        draw(straight, "undeformed", colors="0.65", linewidths=0.9, linestyles="--")
+    ax.plot(*geom.xyz[:, cols].T, ".", color="0.55", ms=3, label=None if straight else "undeformed")
     if mshape:
         deformed = geom.xyz + s * um
         th = _rotations(geom, mshape)
         rot = _rotation_nodes(model, geom)
-        for k, (a, b) in enumerate(geom.segments):
+        members = []
+        for a, b in geom.segments:
             bends = (rot[a] or rot[b]) and (rot[a] or not moving[a]) and (rot[b] or not moving[b])
-            pts = member_points(geom.xyz[a], geom.xyz[b], um[a], um[b], th[a] if bends else None, th[b], s)
-            ax.plot(*pts[:, cols].T, "-", color="C0", lw=1.6, label=labels[0] if k == 0 else None)
-        if not len(geom.segments):
-            ax.plot(*deformed[:, cols].T, "-", color="C0", lw=1.6, label=labels[0])
-        ax.plot(*deformed[:, cols].T, "o", color="C0", ms=3)
+            members.append(member_points(geom.xyz[a], geom.xyz[b], um[a], um[b], th[a] if bends else None, th[b],
+                                         s)[:, cols])
+        if members:
+            draw(members, labels[0], colors="C0", linewidths=1.6)
+        ax.plot(*deformed[:, cols].T, "o", color="C0", ms=3, label=None if members else labels[0])
     if tshape:
         pts = geom.xyz + s * ut
-        both = [(a, b) for a, b in geom.segments if measured[a] and measured[b]]
-        for a, b in both:
-            ax.plot(*pts[[a, b], cols].T, ":", color="C3", lw=1.2)
+        both = [pts[[a, b], cols] for a, b in geom.segments if measured[a] and measured[b]]
+        if both:
+            draw(both, None, colors="C3", linewidths=1.2, linestyles=":")
         ax.plot(*pts[measured][:, cols].T, "o", mfc="none", mec="C3", mew=1.5, ms=6, ls="none", label=labels[1])
+    if not three:
+        ax.autoscale_view()
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     if three:

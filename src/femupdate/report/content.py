@@ -472,6 +472,16 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
             t.rows.append([Cell(str(b.get("label"))), Cell(str(b.get("n_residuals"))), Cell(num(b.get("scale"))),
                            Cell(num(b.get("cost"), 4)), Cell(str(b.get("weighting")))])
         doc.sections.append(Section("blocks", "Data blocks").add(t))
+    pg = result.get("pairing") or {}
+    macs = {int(k): (int(j), m) for k, j, m in result.get("pairs") or []}
+    for k in pg.get("low_mac") or []:
+        if int(k) in macs:
+            j, m = macs[int(k)]
+            doc.warnings.append(f"test mode {int(k) + 1} is paired by {pg.get('used', '?')} with model mode {j + 1} at MAC "
+                                f"{num(m, 3)}, below the pairing threshold {num(pg.get('min_mac', 0.5))}: the shapes do not "
+                                "confirm this pair, so the updated values are doubtful")
+    if result.get("success") is False:
+        doc.warnings.append(f"the update did not converge: {result.get('message', '')}".rstrip(": "))
     for sw in (result.get("swaps") or [])[:10]:
         doc.notes.append(f"mode swap: test mode {sw['test_mode'] + 1} moved from model mode {sw['from_model_mode'] + 1} "
                          f"to {sw['to_model_mode'] + 1} (evaluation {sw['evaluation']})")
