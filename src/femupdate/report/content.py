@@ -244,8 +244,8 @@ def _shapes_section(model, data, rec, segments, pairs) -> Section | None:
     else:
         sec.add(Text("Deformed (blue) over undeformed (grey, dashed) wireframe of the updated model; measured shapes "
                      "as red circles at the nodes they displace (scaled to the model shape by least squares, "
-                     "unmeasured directions at zero). Translations only; elements are straight lines between their "
-                     "nodes."))
+                     "unmeasured directions at zero). Beams and frames bend with their end rotations; rods and "
+                     "springs are straight."))
     items: list[tuple[Any, int, Any]]
     if pairs:
         items = [(int(k), int(j), m) for k, j, m in pairs]
