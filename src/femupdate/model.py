@@ -48,12 +48,18 @@ class Parameter:
         Lower and upper bound (``-inf``/``inf`` for none); ``value`` must lie within them.
     fixed : bool
         A known parameter, never updated.
+    unit : str, default ""
+        Unit of the value, for tables and figure axes (e.g. ``"N/m"``); ``""`` when unknown.
+        :meth:`Structure.build <femupdate.Structure.build>` sets it from the element properties
+        the parameter stands for (SI: :mod:`femupdate.structure.units`); femupdate converts no
+        units.
     """
 
     name: str
     value: float
     bounds: tuple[float, float] = (-math.inf, math.inf)
     fixed: bool = False
+    unit: str = ""
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -76,6 +82,8 @@ class Parameter:
         object.__setattr__(self, "value", value)
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "fixed", bool(self.fixed))
+        if not isinstance(self.unit, str):
+            raise InputError(f"parameter {self.name!r}: unit must be a string, got {self.unit!r}")
 
 
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:

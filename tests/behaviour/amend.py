@@ -86,6 +86,18 @@ AMENDMENTS = {
         and all(set(x) == {"parameter", "value", "kind", "bounds", "message"} for x in now["flags"])
         and _same(rec, {k: now[k] for k in rec}),
     ),
+    "results carry parameter units and bounds": (
+        "The results of direct, update, frf-update, update-multi, damage, uniqueness, fullfield and demo "
+        "describe their parameters beyond the values (issue 18, for tables and reports with units): "
+        "`parameter_units` {name: SI unit or null} and `bounds` {name: [lower, upper]}; `direct` also "
+        "gives its `start` values.  The keys are new; every recorded value is unchanged.",
+        lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict)
+        and {"parameter_units", "bounds"} <= set(now) - set(rec) <= {"parameter_units", "bounds", "start"}
+        and set(rec) <= set(now)
+        and all(u is None or isinstance(u, str) for u in now["parameter_units"].values())
+        and all(isinstance(b, list) and len(b) == 2 for b in now["bounds"].values())
+        and _same(rec, {k: now[k] for k in rec}),
+    ),
     "pairing that never throws a start away": (
         "Modes are now paired by the `auto` policy by default (by frequency order until the shapes show a "
         "swap, then by MAC) instead of by MAC alone, so a start whose model is far from the data is no "

@@ -25,6 +25,7 @@ from .frf import frf_command, frf_select_command, frf_update_command, surface_co
 from .modes import correlate, modes
 from .paper import paper
 from .reduce import reduce
+from .report import report
 from .uniqueness import uniqueness
 from .update import update
 
@@ -43,7 +44,7 @@ def cli(verbose: int) -> None:
 for _command in (modes, direct, update, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness, convert_data):
+                 reduce, uniqueness, convert_data, report):
     cli.add_command(_command)
 del _command
 

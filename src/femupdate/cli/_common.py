@@ -329,6 +329,41 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
                                        "a [provenance] table.")
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
+#: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
+REPORT_FILE = OutputPath("file", suffixes=(".html", ".htm"), why="an HTML report")
+report_option = click.option("--report", "report_path", type=REPORT_FILE, default=None, metavar="FILE.html",
+                             help="Write one self-contained HTML report of the run (tables, figures, mode shapes on "
+                                  "the model, notes); it opens offline.")
+
+
+def model_segments(model_path):
+    """Node pairs of every line element of a structure model file, supported ends included (for
+    drawing mode shapes), or None for a ``[matrices]`` model or a file that is not a structure."""
+    from ..fullfield import structure_segments
+    from ..io.model_file import read_toml
+    from ..structure import Structure
+
+    path = Path(model_path)
+    raw = read_toml(path)
+    if "matrices" in raw:
+        return None
+    segs = structure_segments(Structure.from_dict(raw, source=str(path)))
+    return segs if len(segs) else None
+
+
+def write_report_output(ctx: Ctx, report_path, payload: dict, *, model=None, data=None, model_path=None,
+                        before=None, damping=None, kind: str | None = None, segments=None) -> None:
+    """Write the run's HTML report (``--report``) from its JSON payload, with the model and the
+    data for what needs recomputing (:func:`femupdate.report.write_report`), and name it."""
+    if report_path is None:
+        return
+    from ..report import write_report
+
+    if segments is None and model_path is not None:
+        segments = model_segments(model_path)
+    write_report(report_path, payload, model=model, data=data, kind=kind, segments=segments, before=before,
+                 damping=damping, source=f"run on {model_path}" if model_path else "")
+    ctx.console.print(f"wrote the report {report_path}")
 
 
 def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, values: dict, names, cost,
@@ -444,6 +479,28 @@ def print_flags(ctx: Ctx, found: list[dict]) -> None:
         ctx.console.print(f"warning: {f['message']}", markup=False)
 
 
+def parameter_fields(model, names=None) -> dict:
+    """The JSON keys that describe a result's parameters beyond their values: ``parameter_units``
+    {name: unit or null} (SI, from the element properties they stand for; null for matrix
+    models) and ``bounds`` {name: [lower, upper]} (null for an infinite bound).
+
+    Parameters
+    ----------
+    model : Model
+    names : sequence of str, optional
+        The parameters to describe (default: all of the model's).
+    """
+    names = model.parameter_names if names is None else names
+    par = {p.name: p for p in model.parameters}
+    return {"parameter_units": {n: par[n].unit or None for n in names},
+            "bounds": {n: list(par[n].bounds) for n in names}}
+
+
+def unit_suffix(unit: str | None) -> str:
+    """``" [N/m]"`` for a unit, ``""`` without one (for column headings and axis labels)."""
+    return f" [{unit}]" if unit else ""
+
+
 def direct_payload(model, res, data, corr_before=None):
     """JSON of a direct update (``direct`` and ``demo``)."""
     return {
@@ -461,6 +518,7 @@ def direct_payload(model, res, data, corr_before=None):
         "bounded": res.bounded,
         "notes": res.notes,
         "flags": flags(model, res.parameters, res.unknowns),
+        **parameter_fields(model),
     }
 
 
@@ -487,6 +545,7 @@ def update_payload(model, data, res, ms=None):
         "sensitivity": res.sensitivity,
         "notes": list(res.notes),
         "flags": flags(model, res.parameters, res.names),
+        **parameter_fields(model),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
@@ -588,18 +647,19 @@ def print_starts(console, ms, what: str = "starts") -> None:
             console.print(f"  {count:4d} x  {reason}")
 
 
-def update_parameter_table(res, title: str) -> Table:
+def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
     """Start, updated value, standard deviation (or the bound it sits on) and change of each
-    updated parameter."""
+    updated parameter, with its unit (``units`` {name: unit}) when known."""
     t = Table(title=title)
-    for col in ("parameter", "start", "updated", "std", "change"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
+    for col in ("parameter", "unit", "start", "updated", "std", "change"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
+    units = units or {}
     std_p = dict(zip(res.names, res.diagnostics.std))
     at = res.diagnostics.at_bounds
     for n in res.names:
         p0, p1 = res.start[n], res.parameters[n]
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
-        t.add_row(n, fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+        t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
 
 

@@ -15,7 +15,7 @@ from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
-                      update_parameter_table, update_payload, data_fields)
+                      update_parameter_table, update_payload, data_fields, report_option, write_report_output)
 
 
 def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
@@ -286,11 +286,13 @@ def _frf_payload(model, data, res, ms, extra=None):
 @csv_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
+@report_option
 @set_option
 @json_option
 def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, connect_timeout, global_method, runs, global_residual,
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
-                       reg_text, max_nfev, std, reciprocity, write_model_path, csv_dir, plot_dir, set_text, json_path):
+                       reg_text, max_nfev, std, reciprocity, write_model_path, csv_dir, plot_dir, report_path, set_text,
+                       json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
     from ..updating import frf_multistart, frf_update
     from ..updating.frf import frf_data
@@ -328,8 +330,10 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                                 connect_timeout=connect_timeout,
                                 progress=lambda done, total: bar.update(task, completed=done), **kw)
     if ms is not None and ms.best is None:
-        emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms), **extra})
+        failed = {"model": model.name, "success": False, "starts": starts_payload(ms), **extra}
+        emit(ctx, failed)
         print_starts(ctx.console, ms, f"{global_method} runs" if global_method else "starts")
+        write_report_output(ctx, report_path, failed, model=model, model_path=model_path, kind="frf-update")
         raise NumericalError(f"none of the {ms.total} {'runs' if global_method else 'starts'} converged")
     res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
     c = ctx.console
@@ -341,7 +345,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms, what))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
     print_diagnostics(c, res)
     for s in res.skipped:
@@ -365,6 +369,9 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                 + (f" (the FRF overlay shows the first excitation's set, {', '.join(frf.force)})"
                    if data.n_frf_sets > 1 else ""))
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="frf-update",
+                        before=None if values is None else dict(zip(model.parameter_names, values)),
+                        damping=kw["damping"])
     if not res.success:
         if write_model_path or csv_dir:
             c.print("not written: the updated model and tables (the update did not converge)")

@@ -7,7 +7,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_DIR, Ctx, emit, json_option
+from ._common import OUTPUT_DIR, Ctx, emit, json_option, report_option
 
 
 @click.command()
@@ -15,8 +15,9 @@ from ._common import OUTPUT_DIR, Ctx, emit, json_option
               help="Folder for paper.json and the figures.")
 @click.option("--section", "sections", multiple=True, help="Only these sections (repeatable).")
 @click.option("--no-figures", is_flag=True, help="Skip the figures.")
+@report_option
 @json_option
-def paper(out_dir, sections, no_figures, json_path):
+def paper(out_dir, sections, no_figures, report_path, json_path):
     """Reproduce the reference paper's numbered results into OUT/paper.json and figures."""
     from ..paper import SECTIONS, run_sections
 
@@ -39,3 +40,8 @@ def paper(out_dir, sections, no_figures, json_path):
     ctx.console.print(t)
     ctx.console.print(f"written {out_dir / 'paper.json'}")
     emit(ctx, result)
+    if report_path is not None:
+        from ..report import paper_images, write_report
+
+        write_report(report_path, result, kind="paper", images=paper_images(out_dir, result), source=str(out_dir))
+        ctx.console.print(f"wrote the report {report_path}")

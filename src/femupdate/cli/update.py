@@ -16,7 +16,7 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
                       model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
-                      data_fields, damping_fields, print_damping)
+                      data_fields, damping_fields, print_damping, report_option, write_report_output)
 from ..updating.results import pairing_warnings
 from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
@@ -72,12 +72,13 @@ from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, p
 @csv_option
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Write the updated model's modes (with its nodes) as a universal file.")
+@report_option
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, reciprocity, plot_dir,
-           write_model_path, csv_dir, uff_path, set_text, json_path):
+           write_model_path, csv_dir, uff_path, report_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -131,8 +132,10 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
                             connect_timeout=connect_timeout,
                             progress=lambda done, total: bar.update(task, completed=done), **kw)
         if ms.best is None:
-            emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms)})
+            failed = {"model": model.name, "success": False, "starts": starts_payload(ms)}
+            emit(ctx, failed)
             print_starts(ctx.console, ms)
+            write_report_output(ctx, report_path, failed, model=model, model_path=model_path, kind="update")
             raise NumericalError(f"none of the {starts} starts converged")
         res = ms.best
     c = ctx.console
@@ -140,7 +143,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     if res.pairs:
         t2 = Table(title="paired modes")
         for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
@@ -218,6 +221,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if is_frf:
         payload.update(frf_fields(res))
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="update",
+                        before=None if values is None else dict(zip(model.parameter_names, values)),
+                        damping=kw.get("frf_options", {}).get("damping"))
     if not res.success:
         if write_model_path or csv_dir or uff_path:
             c.print("not written: the updated model, tables and modes (the update did not converge)")
