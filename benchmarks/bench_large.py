@@ -183,7 +183,7 @@ def main(argv=None) -> int:
         np.testing.assert_allclose(np.sort(lam_c), mm.eigenvalues, rtol=1e-8)
         res["cholmod_eigensolution"] = {"wall_seconds": t_c, "cpu_seconds": c_c}
         print(f"(c) CHOLMOD + ARPACK: {t_c:.2f} s wall, {c_c:.2f} s CPU", flush=True)
-    del K, M
+    K = M = None  # the matrices are not needed any more
 
     ms_f, t_f, c_f = timed(lambda: multistart(model, data, starts=n_starts, seed=args.seed))
     X0 = draw_starts(model, model.parameter_names, n_starts, args.seed)
