@@ -154,3 +154,39 @@ def multistart_scatter(path, ms) -> str:
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     multistart_axes(ms, ax)
     return save_figure(fig, path)
+
+
+def eigvec_cost_figure(path, rows) -> str:
+    """CPU time and error against finite differences of each eigenvector-derivative route, by model size.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    rows : list of dict
+        The ``rows`` of the ``eigenvector_derivatives`` paper section: ``n_dofs``, ``n_parameters``
+        and ``routes`` (route → ``seconds``, ``error_vs_fd``).
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    fig, (a0, a1) = plt.subplots(1, 2, figsize=(11, 4.2))
+    routes = list(dict.fromkeys(k for r in rows for k in r["routes"]))
+    styles = {L: ls for L, ls in zip(sorted({r["n_parameters"] for r in rows}), ("-", "--", ":"))}
+    for i, route in enumerate(routes):
+        for L, ls in styles.items():
+            sel = [r for r in rows if r["n_parameters"] == L and route in r["routes"]]
+            x = [r["n_dofs"] for r in sel]
+            a0.plot(x, [r["routes"][route]["seconds"] for r in sel], ls, marker="o", color=f"C{i}",
+                    label=f"{route} (L={L})")
+            if ls == "-":
+                a1.plot(x, [max(r["routes"][route]["error_vs_fd"], 1e-16) for r in sel], ls, marker="o",
+                        color=f"C{i}", label=route)
+    a0.set(xscale="log", yscale="log", xlabel="dofs N", ylabel="CPU s (best of 3)", title="cost of the derivatives")
+    a1.set(xscale="log", yscale="log", xlabel="dofs N", ylabel="max error / max |dφ|", title="error against finite differences")
+    a0.legend(fontsize=7)
+    a1.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
