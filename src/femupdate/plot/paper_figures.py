@@ -251,3 +251,39 @@ def error_vs_condition_figure(path, cond, err, named: dict, sigma: float) -> str
     ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def identifiability_grids_figure(path, tables: dict, N: int) -> str:
+    """Sensors × actuators grids (rank / unknowns; green where identifiable), one row per variant
+    and one column per placement (the ``su_juang_criteria`` paper section).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    tables : dict of str to dict of str to dict
+        Variant → placement → ``"s x a"`` → {sensors, actuators, rank, unknowns, identifiable}.
+    N : int
+        Number of dofs.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    rows, cols = list(tables), list(next(iter(tables.values())))
+    fig, axes = plt.subplots(len(rows), len(cols), figsize=(4.2 * len(cols), 3.3 * len(rows)), squeeze=False)
+    for i, v in enumerate(rows):
+        for j, p in enumerate(cols):
+            ax = axes[i][j]
+            grid = np.zeros((N, N))
+            for c in tables[v][p].values():
+                s, a = c["sensors"], c["actuators"]
+                grid[s - 1, a - 1] = 1.0 if c["identifiable"] else 0.0
+                ax.text(a - 1, s - 1, f"{c['rank']}/{c['unknowns']}", ha="center", va="center", fontsize=8)
+            ax.imshow(grid, cmap="RdYlGn", vmin=-0.3, vmax=1.3, origin="lower")
+            ax.set(xticks=range(N), xticklabels=range(1, N + 1), yticks=range(N), yticklabels=range(1, N + 1),
+                   xlabel="actuators", ylabel="sensors", title=f"{v}\n{p.split(' (')[0]}")
+            ax.title.set_fontsize(9)
+    fig.tight_layout()
+    return save_figure(fig, path)
