@@ -26,9 +26,10 @@ numerical rank (checked over every layout of the six-dof chain in ``tests``).  F
 by Hall's theorem, that every group of segments has no more springs than m times the number of
 measured dofs that touch it.  Two consequences:
 
-* consecutive sensors at dofs 1..n: rank = n + min(m, N − n), full iff m + n >= N;
-* consecutive sensors at the free end, dofs N−n+1..N: rank = n − 1 + min(m, N − n + 1), full iff
-  m + n >= N + 1.
+* consecutive sensors at dofs 1..n: rank = min(mn, n + min(m, N − n)), full iff m + n >= N and
+  mn >= N;
+* consecutive sensors at the free end, dofs N−n+1..N: rank = min(mn, n − 1 + min(m, N − n + 1)),
+  full iff m + n >= N + 1 and mn >= N.
 
 So mn >= L (the data count) is necessary but not sufficient: the data must also reach every
 segment.  Full rank is local identifiability; a single sensor (n = 1) can be full rank and still
