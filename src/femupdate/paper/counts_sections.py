@@ -120,15 +120,22 @@ def su_juang_criteria(out_dir, figures=True, N: int = 4, seed: int = 1992) -> di
     general = all(matches(g, lambda s, a: s >= N or a >= N) for g in tables["general K, M known"].values())
     sym_rule = {v: {p: matches(g, lambda s, a: s + a >= N) for p, g in tables[v].items()}
                 for v in ("symmetric K, M known", "symmetric K and M")}
+    # as a necessary condition (every identifiable plan has s + a >= N) and as a sufficient one
+    sym_nec = {v: {p: all(c["sensors"] + c["actuators"] >= N for c in g.values() if c["identifiable"])
+                   for p, g in tables[v].items()} for v in sym_rule}
+    sym_suf = {v: {p: all(c["identifiable"] for c in g.values() if c["sensors"] + c["actuators"] >= N)
+                   for p, g in tables[v].items()} for v in sym_rule}
     agree = bool(general and all(all(d.values()) for d in sym_rule.values()))
     explanation = (
         f"Local identifiability of every stiffness entry from FRFs (which carry all N = {N} modes, Su & Juang's "
         "assumption), as the rank of the receptance Jacobian. General K: identifiable exactly when sensors or "
         f"actuators number N ({'reproduced' if general else 'NOT reproduced'} in every placement). Symmetric K: the "
-        "rule sensors + actuators >= N holds "
-        + "; ".join(f"{v}: " + ", ".join(f"{'yes' if ok else 'no'} for {p.split(' (')[0]}" for p, ok in d.items())
-                    for v, d in sym_rule.items())
-        + ". Where it fails, the count depends on where the actuators sit relative to the sensors (collocated pairs "
+        "rule sensors + actuators >= N is "
+        + "; ".join(f"{v}, {p.split(' (')[0]}: " + ("exact" if sym_rule[v][p] else
+                                                    "necessary but not sufficient" if sym_nec[v][p] else
+                                                    "sufficient but not necessary" if sym_suf[v][p] else "neither")
+                    for v in sym_rule for p in sym_rule[v])
+        + ". Where it is not exact, the count depends on where the actuators sit relative to the sensors (collocated pairs "
         "give a symmetric block, so fewer independent data) and on whether M is known: with M known and the "
         "actuators away from the sensors fewer than N transducers in all suffice; with M unknown and collocated "
         "transducers N sensors or N actuators are needed. The paper quotes the criteria without these conditions.")
@@ -139,12 +146,16 @@ def su_juang_criteria(out_dir, figures=True, N: int = 4, seed: int = 1992) -> di
         "tables": tables,
         "general_criterion_reproduced": general,
         "symmetric_criterion_reproduced": sym_rule,
+        "symmetric_criterion_necessary": sym_nec,
+        "symmetric_criterion_sufficient": sym_suf,
         "paper": {"general": "sensors >= N or actuators >= N", "symmetric": "sensors + actuators >= N",
                   "assumption": "number of measured modes = N"},
         "agrees_with_paper": agree, "comparison": "agree" if agree else "differ-explained", "explanation": explanation,
         "summary": f"general K: sensors or actuators >= N {'reproduced' if general else 'not reproduced'}; symmetric "
-                   "K, sum >= N: " + "; ".join(f"{v}: " + "/".join("yes" if ok else "no" for ok in d.values())
-                                              for v, d in sym_rule.items()) + " (collocated/opposite)",
+                   "K, sum >= N: " + "; ".join(f"{v}: " + "/".join("exact" if sym_rule[v][p] else "necessary" if sym_nec[v][p]
+                                                                else "sufficient" if sym_suf[v][p] else "neither"
+                                                                for p in sym_rule[v])
+                                              for v in sym_rule) + " (collocated/opposite)",
     }
     if figures:
         from ..plot.paper_figures import identifiability_grids_figure
