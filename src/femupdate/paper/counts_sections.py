@@ -5,6 +5,8 @@ identification from static deflections (Lallement et al. 1992).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .._errors import InputError
@@ -188,8 +190,8 @@ def static_deflections(out_dir, figures=True, noise: float = 0.01, reps: int = 2
     cases = [StaticData({d: 1000.0}, t2.dofs, np.linalg.solve(K2, 1000.0 * np.eye(3)[i]))
              for i, d in ((2, "3:x"), (1, "2:x"), (0, "1:x"))]
     try:
-        direct_update(t2, TestData(static=cases[:1]))
-        one = {"solved": True}
+        direct_update(t2, TestData(static=tuple(cases[:1])))
+        one: dict[str, Any] = {"solved": True}
     except InputError as exc:
         one = {"solved": False, "message": str(exc)}
     r2 = direct_update(t2.with_values(t2.values * 0.5), TestData(static=tuple(cases[:2])))

@@ -15,6 +15,8 @@ All noise is relative: eigenvalues × (1 + σε), shapes + σε (unit-length sha
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..examples import two_dof
@@ -283,7 +285,7 @@ def noise_uniqueness(out_dir, figures=True, starts: int = 30, levels=(0.001, 0.0
     st = define_study(model, cases, starts=starts, seed=USEED, noise=levels)
     res = run_study(st)
     by = dict(zip(cases, res.cases))
-    table = {}
+    table: dict[str, Any] = {}
     for lay, n, m in plans:
         c = by[(tuple(f"{i}:x" for i in layout_dofs(lay, n)), m)]
         table[f"{lay} {n}x{m}"] = {

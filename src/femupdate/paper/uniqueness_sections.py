@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from typing import Any
 import math
 
 import numpy as np
@@ -116,7 +117,7 @@ PANEL = {"ground": "from the ground", "free_end": "from the free end", "spread":
 # the paper's two singled-out cases: (n, m)
 SINGLED = {"2x3": (2, 3), "3x2": (3, 2)}
 # sensitivity-matrix definitions searched for the paper's condition numbers (uniqueness.chain)
-DEFINITIONS = {
+DEFINITIONS: dict[str, dict[str, Any]] = {
     "eq19_scaled_analytic": {"eigen": "relative", "shapes": "scaled", "derivative": "analytic"},
     "eq19_scaled_perturbation": {"eigen": "relative", "shapes": "scaled", "derivative": "central"},
     "eq17_scaled_analytic": {"eigen": "absolute", "shapes": "scaled", "derivative": "analytic"},
@@ -149,7 +150,7 @@ def condition_search(N: int = 6) -> dict:
 
     systems = {"femupdate_six_dof": (SIX_DOF_K, SIX_DOF_M), "uniform_unit": UNIFORM}
     out: dict = {}
-    matches = []
+    matches: list[dict[str, Any]] = []
     for sname, (k, m) in systems.items():
         out[sname] = {}
         for dname, opts in DEFINITIONS.items():

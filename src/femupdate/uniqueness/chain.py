@@ -108,20 +108,20 @@ def chain_rank_bound(n_dofs: int, measured: Sequence[int], n_modes: int) -> int:
         queue = [0]
         while queue and parent[1] < 0:
             u = queue.pop(0)
-            for v in np.flatnonzero((cap[u] > 0) & (parent < 0)):
-                parent[v] = u
-                queue.append(int(v))
+            for w in np.flatnonzero((cap[u] > 0) & (parent < 0)):
+                parent[w] = u
+                queue.append(int(w))
         if parent[1] < 0:
             return int(min(flow, n_dofs))
         f, v = big, 1
         while v != 0:
             f = min(f, int(cap[parent[v], v]))
-            v = parent[v]
+            v = int(parent[v])
         v = 1
         while v != 0:
             cap[parent[v], v] -= f
             cap[v, parent[v]] += f
-            v = parent[v]
+            v = int(parent[v])
         flow += f
 
 
