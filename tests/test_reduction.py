@@ -426,8 +426,12 @@ def test_paper_sections(tmp_path):
     from femupdate.paper.reduction_sections import reduction_truss, superelement_beam
 
     t = reduction_truss(tmp_path, figures=False, seeds=2)
-    assert t["geometry"]["n_dofs"] == 1020 and 0.05 <= t["retained_mass_fraction"] < 0.12
-    assert t["accuracy_ranking_matches"] is True
+    assert t["geometry"]["n_dofs"] == 1020 and 0.04 <= t["retained_mass_fraction"] <= 0.06  # Tan's ~5 %
+    assert t["accuracy_ranking_matches"] is True and t["irs_at_least_as_robust_as_guyan"] is True
+    # Tan's point: the modal TAM's robustness degrades with the model error, the physical reductions' far less
+    g = t["self_orthogonality_growth"]["with_local"]
+    assert g["modal"] > 2 * max(g["guyan"], g["irs"])
+    assert t["comparison"] in ("agree", "differ-explained") and t["explanation"]
     e = t["eq42_max_frequency_error_first5"]
     assert e["irs_corrected"] < e["guyan"] < e["irs_as_printed"]
     b = superelement_beam(tmp_path, figures=True)

@@ -148,7 +148,58 @@ AMENDMENTS = {
         and (abs(now - rec) <= 0.01 if m.group(1) in ("changes", "loss")
              else abs(now - rec) <= 0.01 * abs(rec) if m.group(1) == "parameters" else 0 < now < 0.05),
     ),
+    "the rest of the reference paper": (
+        "`femupdate paper` answers every result of the reference paper (issue 20): new sections (parameter "
+        "counts, Su & Juang, static deflections, eigenvector derivatives, three noise studies); the six-dof "
+        "study over three sensor layouts and Tan's truss under Tan's conditions (10 kept dofs, 4.4 % of the "
+        "mass, swept model error) are rebuilt; every section gains `comparison` and, unless it agrees, "
+        "`explanation` (`agrees_with_paper` is never null); FRF sections state their `force`, also in the "
+        "summary; the Appendix section adds the three-unknown minimum (`length_known`, `checks_pass`) and "
+        "now differs from the paper's five.  The sections run in worker processes with one BLAS thread, so "
+        "BLAS sums in another order: the full-field fits, which stop in flat valleys, move by up to 1e-3 "
+        "(relative; the iterative fit 0.026630 -> 0.026625, as before the change of arithmetic amended above).  "
+        "Accepted: the sections object; every other recorded section value unchanged except those named.",
+        lambda path, rec, now: path == "sections" and _paper_answered(rec, now),
+    ),
 }
+
+#: sections rebuilt by "the rest of the reference paper"; new keys the other sections may gain
+_PAPER_REBUILT = {"six_dof_uniqueness", "reduction_truss"}
+_PAPER_NEW_KEYS = {"comparison", "explanation", "force", "checks_pass", "length_known"}
+
+
+def _close(expected, actual, rel: float) -> bool:
+    """Same structure; floats within ``rel`` (relative), strings and the rest equal."""
+    if isinstance(expected, dict) and isinstance(actual, dict):
+        return expected.keys() == actual.keys() and all(_close(expected[k], actual[k], rel) for k in expected)
+    if isinstance(expected, list) and isinstance(actual, list):
+        return len(expected) == len(actual) and all(_close(e, a, rel) for e, a in zip(expected, actual))
+    if isinstance(expected, float) and isinstance(actual, float):
+        return abs(expected - actual) <= max(rel * max(abs(expected), abs(actual)), 1e-12)
+    return _same(expected, actual)
+
+
+def _paper_answered(expected, actual) -> bool:
+    if not (isinstance(expected, dict) and isinstance(actual, dict) and set(expected) <= set(actual)):
+        return False
+    for name, rec in expected.items():
+        now = actual[name]
+        if name in _PAPER_REBUILT:
+            if not (now.get("agrees_with_paper") in (True, False) and now.get("comparison")):
+                return False
+            continue
+        if not (set(rec) <= set(now) and set(now) - set(rec) <= _PAPER_NEW_KEYS):
+            return False
+        for k, v in rec.items():
+            if k == "summary" and isinstance(v, str) and isinstance(now[k], str) and v in now[k]:
+                continue
+            if name == "full_field_direct" and _close(v, now[k], 1e-3):
+                continue
+            if k == "agrees_with_paper" and name == "appendix_frame_terms" and v is True and now[k] is False:
+                continue
+            if not _same(v, now[k]):
+                return False
+    return True
 
 
 def _canon(sol: dict) -> str:

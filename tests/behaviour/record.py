@@ -23,6 +23,8 @@ Placeholders in the manifest's command lines:
 Run to run, femupdate's output is bit-for-bit the same except for
 
 * ``seconds`` (wall-clock time of a uniqueness study): dropped by :func:`normalise`;
+* ``paper.json``'s ``eigenvector_derivatives`` section (CPU timings and the savings and verdict
+  computed from them): dropped by :func:`normalise` (``tests/test_paper.py`` checks its errors);
 * every result that goes through ARPACK (``scipy.sparse.linalg.eigsh``: the sparse modal solver,
   the reduction criteria, ...): femupdate passes neither ``v0`` nor ``rng``, so SciPy (>= 1.15)
   draws ARPACK's start vector from OS entropy at every call.  The eigenpairs then differ by
@@ -129,7 +131,9 @@ COMMANDS: dict[str, dict] = {
 
 # ---------------------------------------------------------------------------------- normalisation
 # Keys (at any depth) whose values change from run to run of the same code: wall-clock times.
-VOLATILE_KEYS = frozenset({"seconds"})
+#: dropped wherever they occur: wall-clock times, and the paper's eigenvector-derivative section, whose
+#: results are CPU timings and the savings and verdict computed from them
+VOLATILE_KEYS = frozenset({"seconds", "eigenvector_derivatives"})
 
 
 def normalise(obj, places: dict[str, str]):
