@@ -757,23 +757,48 @@ def _short(v, limit: int = 220) -> str:
     return text if len(text) <= limit else text[:limit] + " …"
 
 
+#: a section's verdict -> (check column, its class, the sentence under the section)
+_VERDICT_TEXT = {
+    "agree": ("agrees", "ok", "Agrees with the paper."),
+    "differ-explained": ("differs (explained)", "", "Differs from the paper, for the reason explained below."),
+    "differ": ("DIFFERS", "bad", "DIFFERS from the paper, with no explanation recorded."),
+    "not-comparable": ("not comparable", "", "Not comparable with the paper (the reason below)."),
+    None: ("–", "", "The paper prints nothing to compare with."),
+}
+
+
+def _paper_verdict(s: dict) -> str | None:
+    """A section's verdict: its ``comparison`` (agree, differ-explained, not-comparable) when it
+    states one, else read from ``agrees_with_paper`` (False without an explanation: differ)."""
+    c = s.get("comparison")
+    if c in ("agree", "differ-explained", "not-comparable"):
+        return c
+    a = s.get("agrees_with_paper")
+    if a is True:
+        return "agree"
+    if a is False:
+        return "differ-explained" if s.get("explanation") else "differ"
+    return None
+
+
 def build_paper(doc: Document, result: dict, model, data, rec, segments, kind: str, images: dict | None = None) -> None:
     sections = result.get("sections") or {}
-    agree = [s.get("agrees_with_paper") for s in sections.values()]
-    n_ok, n_bad = agree.count(True), agree.count(False)
+    verdicts = [_paper_verdict(s) for s in sections.values()]
+    count = {v: verdicts.count(v) for v in ("agree", "differ-explained", "differ", "not-comparable", None)}
     doc.title = str(result.get("paper") or "the reference paper")
-    doc.verdict = Cell(f"{n_ok} agree, {n_bad} differ, {agree.count(None)} without printed values",
-                       cls="ok" if not n_bad else "bad")
+    parts = [f"{count['agree']} agree", f"{count['differ-explained']} differ (explained)"]
+    parts += [f"{count['differ']} DIFFER unexplained"] if count["differ"] else []
+    parts += [f"{count['not-comparable'] + count[None]} not comparable"]
+    doc.verdict = Cell(", ".join(parts), cls="ok" if not count["differ"] else "bad")
     doc.facts += [("sections", Cell(str(len(sections))))]
     ov = Section("overview", "Sections")
     t = Table("", ["section", "paper", "result", "check"])
     for name, s in sections.items():
-        a = s.get("agrees_with_paper")
+        v = _paper_verdict(s)
         ref = ", ".join(f"{w} {s[k]}" for k, w in (("equations", "eqs."), ("figure", "Fig.")) if s.get(k)
                         and isinstance(s.get(k), str) and not str(s.get(k)).endswith(".png"))
         t.rows.append([Cell(name), Cell(ref or "–"), Cell(str(s.get("summary", ""))),
-                       Cell({True: "agrees", False: "DIFFERS", None: "–"}[a], key=f"/sections/{name}/agrees_with_paper",
-                            cls={True: "ok", False: "bad", None: ""}[a])])
+                       Cell(_VERDICT_TEXT[v][0], key=f"/sections/{name}/agrees_with_paper", cls=_VERDICT_TEXT[v][1])])
     ov.add(t)
     doc.sections.append(ov)
     for name, s in sections.items():
@@ -798,9 +823,10 @@ def build_paper(doc: Document, result: dict, model, data, rec, segments, kind: s
             if v:
                 for line in (v if isinstance(v, list) else [v]):
                     sec.add(Text(str(line), "note"))
-        a = s.get("agrees_with_paper")
-        sec.add(Text({True: "Agrees with the paper.", False: "DIFFERS from the paper.",
-                      None: "The paper prints nothing to compare with."}[a], {True: "", False: "warning", None: "note"}[a]))
+        v = _paper_verdict(s)
+        sec.add(Text(_VERDICT_TEXT[v][2], {"agree": "", "differ": "warning"}.get(v, "note")))
+        if s.get("explanation"):
+            sec.add(Text(f"Why: {s['explanation']}", "note"))
         for img in (images or {}).get(name, []):
             sec.add(Figure(img, f"{name}: the figure written by femupdate paper"))
         sec.add(Details("every computed value (JSON)", json.dumps(s, indent=1, ensure_ascii=False)))
