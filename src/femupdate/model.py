@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
+from .priors import Prior, parse_prior
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 
@@ -48,12 +49,17 @@ class Parameter:
         Lower and upper bound (``-inf``/``inf`` for none); ``value`` must lie within them.
     fixed : bool
         A known parameter, never updated.
+    prior : Prior, str or mapping, optional
+        Its prior distribution for Bayesian updating (:mod:`femupdate.priors`: ``"uniform"``,
+        ``"normal(MEAN, STD)"``, ``"lognormal(MEDIAN, STD_LOG)"``, or the model file's inline
+        table), truncated to ``bounds``; None (default): uniform within finite bounds.
     """
 
     name: str
     value: float
     bounds: tuple[float, float] = (-math.inf, math.inf)
     fixed: bool = False
+    prior: Prior | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -76,6 +82,10 @@ class Parameter:
         object.__setattr__(self, "value", value)
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "fixed", bool(self.fixed))
+        if self.prior is not None:
+            prior = parse_prior(self.prior, f"parameter {self.name!r}: prior")
+            prior.check(self.name, (lo, hi))
+            object.__setattr__(self, "prior", prior)
 
 
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
