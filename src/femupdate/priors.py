@@ -36,6 +36,8 @@ PRIOR_KINDS = ("uniform", "normal", "lognormal")
 #: the numbers each kind takes, by name (the model file's inline-table keys), in the order of the text form
 PRIOR_ARGUMENTS = {"uniform": (), "normal": ("mean", "std"), "lognormal": ("median", "std_log")}
 
+#: log of the smallest prior probability within the bounds that can be drawn from in double precision
+_LOG_TINY = math.log(1e-300)
 _CALL = re.compile(r"^\s*([A-Za-z_]+)\s*(?:\((.*)\))?\s*$", re.S)
 
 
@@ -134,7 +136,7 @@ class Prior:
         if za > 0:
             za, zb = -zb, -za
         hi_l, lo_l = float(log_ndtr(zb)), float(log_ndtr(za))
-        if not hi_l > lo_l:
+        if not hi_l > lo_l or hi_l < _LOG_TINY:  # none, or too little to draw from in double precision
             raise InputError(f"prior {self}: no probability within the bounds [{lo:g}, {hi:g}]")
         return hi_l + math.log1p(-math.exp(lo_l - hi_l))
 

@@ -307,16 +307,17 @@ def mixture_draws(post: Posterior, modes: list[Mode], n: int, rng: np.random.Gen
 
 
 def assign(modes: list[Mode], X: np.ndarray) -> np.ndarray:
-    """The nearest mode of each sample (S,): smallest Mahalanobis distance under the mode's Laplace
-    covariance in x (−1 when no mode has one)."""
+    """The solution each sample belongs to (S,): the mode whose Laplace Gaussian (in x, equal
+    weights) has the highest density there, −½ (x − x_k)ᵀ H_k (x − x_k) + ½ log |H_k| (−1 when no
+    mode has a Gaussian)."""
     usable = [k for k, m in enumerate(modes) if math.isfinite(m.log_weight)]
     if not usable:
         return np.full(X.shape[0], -1)
-    d = np.empty((X.shape[0], len(usable)))
+    score = np.empty((X.shape[0], len(usable)))
     for i, k in enumerate(usable):
         C = np.linalg.cholesky(modes[k].hessian)
-        d[:, i] = np.sum(((X - modes[k].x) @ C) ** 2, axis=1)
-    return np.array(usable)[np.argmin(d, axis=1)]
+        score[:, i] = -0.5 * np.sum(((X - modes[k].x) @ C) ** 2, axis=1) + float(np.sum(np.log(np.diag(C))))
+    return np.array(usable)[np.argmax(score, axis=1)]
 
 
 __all__ = ["Mode", "candidates", "refine", "laplace_modes", "log_evidence", "mixture_draws", "assign"]

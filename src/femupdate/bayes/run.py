@@ -221,6 +221,7 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
             s = scale[np.isfinite(scale)]
             a = (1 - level) / 2
             noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+            noise_info["draws"] = int(s.size)
         pred = predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
@@ -257,8 +258,8 @@ def _describe(post: Posterior, j: int) -> str:
 
 def _mcmc_diagnostics(post: Posterior, kept: np.ndarray, out: dict, walkers: int, ensembles: int, burn: int,
                       modes) -> tuple[dict, list[str], bool]:
-    """Effective sample size, autocorrelation time, split R-hat (walkers of every ensemble as the
-    chains) and acceptance; the warnings when they fail."""
+    """Effective sample size, autocorrelation time, split R-hat (the ensembles as the chains, each
+    split in halves) and acceptance; the warnings when they fail."""
     names = post.names
     E, n, W, L = kept.shape
     warnings: list[str] = []
@@ -269,7 +270,9 @@ def _mcmc_diagnostics(post: Posterior, kept: np.ndarray, out: dict, walkers: int
         rhat = np.full(L, np.nan)
     else:
         ess, tau, reliable = effective_sample_size(kept)
-        rhat = np.array([split_rhat(kept[:, :, :, j].transpose(1, 0, 2).reshape(n, E * W)) for j in range(L)])
+        # the chains R-hat compares are the independent ensembles (all walkers' draws, step after step),
+        # each split in halves: their walkers are not independent of one another
+        rhat = np.array([split_rhat(kept[:, :, :, j].reshape(E, n * W).T) for j in range(L)])
     acceptance = float(out["accepted"].sum() / (out["steps"] * E * W))
     diag = {"ess": dict(zip(names, map(float, ess))), "tau": dict(zip(names, map(float, tau))),
             "tau_reliable": dict(zip(names, map(bool, reliable))), "rhat": dict(zip(names, map(float, rhat))),
