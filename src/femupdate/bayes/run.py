@@ -154,7 +154,8 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
         raise InputError(f"target_ess must be a number > 0, got {target_ess!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise InputError(f"seed must be an integer >= 0 (or None), got {seed!r}")
-    entropy = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
+    fresh = np.random.SeedSequence().entropy
+    entropy = int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
     post = Posterior(model, data, params, priors=priors, noise=noise, route=route, threads=threads, **options)
     L = post.L
     walkers = _count(walkers, "walkers", 2) if walkers is not None else max(32, 4 * L + (4 * L) % 2)
