@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 NOISE = ("auto", "stated", "estimate")
 #: evaluation routes: compiled (many points at once), local (one problem evaluation per point)
 ROUTES = ("auto", "compiled", "local")
+#: fewer points than this are evaluated on one thread (the threads' start-up costs more than they gain)
+PARALLEL_POINTS = 96
 #: options of the modal problem a posterior takes (as :func:`femupdate.update`)
 MODAL_OPTIONS = ("shape_scaling", "ref_dof", "weights", "min_mac", "pairing", "n_modes", "use_shapes", "sensitivity",
                  "formulation", "reuse")
@@ -233,6 +235,11 @@ class Posterior:
         self.evaluations = 0
         self.failures: Counter = Counter()
         self._log_prior_const = self._prior_constant()
+        #: the parameters without a declared prior, and their flat density's log (uniform within finite
+        #: bounds; an improper prior's constant is taken as 1)
+        self._flat = np.array([j for j, pr in enumerate(self.priors) if pr is None], dtype=np.intp)
+        self._log_flat = -float(sum(math.log(self.hi[j] - self.lo[j]) for j in self._flat
+                                    if math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])))
 
     # ------------------------------------------------------------------ setup
     def _choose_route(self, route: str, modal_options: Mapping) -> str:
@@ -308,19 +315,16 @@ class Posterior:
         the Jacobian |dp/dx| included; (S,)."""
         X = np.atleast_2d(np.asarray(X, float))
         P = self.to_p(X)
-        out = np.full(X.shape[0], self._log_prior_const)
+        out = np.full(X.shape[0], self._log_prior_const + self._log_flat)
         if self.param.param == "log":
             out += X.sum(axis=1)
+        flat = self._flat
+        if flat.size:  # the parameters without a declared prior: flat within the bounds, all at once
+            Pf = P[:, flat]
+            out[~np.all((Pf >= self.lo[flat]) & (Pf <= self.hi[flat]), axis=1)] = -np.inf
         for j, pr in enumerate(self.priors):
-            lo, hi = self.lo[j], self.hi[j]
-            if pr is None:
-                inside = (P[:, j] >= lo) & (P[:, j] <= hi)
-                if math.isfinite(lo) and math.isfinite(hi):
-                    out += np.where(inside, -math.log(hi - lo), -np.inf)
-                else:
-                    out += np.where(inside, 0.0, -np.inf)
-            else:
-                out += pr.logpdf(P[:, j], lo, hi)
+            if pr is not None:
+                out += pr.logpdf(P[:, j], self.lo[j], self.hi[j])
         out[~np.all(np.isfinite(X), axis=1)] = -np.inf
         return out
 
@@ -371,9 +375,11 @@ class Posterior:
         if self.route == "compiled":
             n = len(self.problems)
             rows = np.repeat(np.arange(n, dtype=np.int64), S)
-            if self._pool is None and self.threads > 1:
+            threads = self.threads if n * S >= PARALLEL_POINTS else 1
+            if self._pool is None and threads > 1:
                 self._pool = ThreadPoolExecutor(self.threads)
-            ev = self.batched.residuals(np.tile(X, (n, 1)), rows, pool=self._pool, threads=self.threads)
+            ev = self.batched.residuals(np.tile(X, (n, 1)), rows, pool=self._pool if threads > 1 else None,
+                                        threads=threads)
             sq = np.einsum("ij,ij->i", ev.fun, ev.fun).reshape(n, S)
             Q = sq.sum(axis=0)
             for i, msg in enumerate(ev.messages):

@@ -86,16 +86,18 @@ def start_ensembles(post: Posterior, modes: list[Mode], ensembles: int, walkers:
 
 
 def run_mcmc(post: Posterior, runner: Runner, modes: list[Mode], *, walkers: int, ensembles: int, steps: int,
-             burn: int, segment: int, target_ess: float | None, entropy, checkpoint: RunCheckpoint,
+             burn: int | None, segment: int, target_ess: float | None, entropy, checkpoint: RunCheckpoint,
              progress: Callable[[int, int], None] | None = None) -> dict:
-    """Run ``ensembles`` ensembles of ``walkers`` walkers for up to ``steps`` steps each.
+    """Run ``ensembles`` ensembles of ``walkers`` walkers for up to ``steps`` steps each (or until
+    every parameter's effective sample size after the burn-in reaches ``target_ess``, checked after
+    each segment; ``burn`` None: a quarter of the steps done).
 
     Returns
     -------
     dict
         ``chain`` (E, n, W, L) in the variables x, ``log_post`` and ``log_like`` (E, n, W),
-        ``accepted`` (E, W) over all steps, ``steps`` done, ``resumed`` (the steps read from the
-        checkpoint), ``stopped`` (why the run ended).
+        ``accepted`` (E, W) over all steps, ``steps`` done, ``burn`` used, ``resumed`` (the steps
+        read from the checkpoint), ``stopped`` (why the run ended).
     """
     _emcee()
     L = post.L
@@ -122,8 +124,12 @@ def run_mcmc(post: Posterior, runner: Runner, modes: list[Mode], *, walkers: int
     stopped = "steps"
     if progress:
         progress(chain.shape[1] * E, steps * E)
+    def reached() -> bool:
+        b = chain.shape[1] // 4 if burn is None else burn
+        return bool(target_ess) and chain.shape[1] > b and _ess(post, chain[:, b:]) >= float(target_ess or 0)
+
     while chain.shape[1] < steps:
-        if target_ess and chain.shape[1] > burn and _ess(post, chain[:, burn:]) >= target_ess:
+        if reached():
             stopped = "target_ess"
             break
         n = min(segment, steps - chain.shape[1])
@@ -138,10 +144,10 @@ def run_mcmc(post: Posterior, runner: Runner, modes: list[Mode], *, walkers: int
                         {"method": "mcmc", "segments": n_seg, "steps": int(chain.shape[1])})
         if progress:
             progress(chain.shape[1] * E, steps * E)
-    if target_ess and stopped == "steps" and chain.shape[1] > burn and _ess(post, chain[:, burn:]) >= target_ess:
+    if stopped == "steps" and reached():
         stopped = "target_ess"
     return {"chain": chain, "log_post": lpost, "log_like": llike, "accepted": acc, "steps": int(chain.shape[1]),
-            "resumed": int(resumed), "stopped": stopped}
+            "burn": chain.shape[1] // 4 if burn is None else burn, "resumed": int(resumed), "stopped": stopped}
 
 
 def _ess(post: Posterior, chain: np.ndarray) -> float:

@@ -83,12 +83,15 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
     samples : int, default 4000
         Laplace draws, or TMCMC's population.
     walkers : int, optional
-        MCMC walkers per ensemble (default max(32, 4 L), even).
+        MCMC walkers per ensemble, even (default max(64, 8 L) on the compiled route, whose
+        likelihood of a half-ensemble costs little more than of one walker; max(32, 4 L) on the
+        local route).
     ensembles : int, default 2
         Independent MCMC ensembles (one Dask task each).
     steps, burn, segment : int
-        MCMC steps per walker (default 2000), of which the first ``burn`` (default steps // 4)
-        are discarded; a checkpoint (and a Dask round) every ``segment`` steps.
+        MCMC steps per walker (default 2000), of which the first ``burn`` are discarded (default a
+        quarter: of ``steps``, or with ``target_ess`` of the steps done); a checkpoint (and a Dask
+        round) every ``segment`` steps.
     target_ess : float, optional
         Stop MCMC once every parameter's effective sample size reaches this.
     tmcmc_steps : int, default 5
@@ -158,9 +161,14 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
     entropy = int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
     post = Posterior(model, data, params, priors=priors, noise=noise, route=route, threads=threads, **options)
     L = post.L
-    walkers = _count(walkers, "walkers", 2) if walkers is not None else max(32, 4 * L + (4 * L) % 2)
-    burn = steps // 4 if burn is None else _count(burn, "burn", 0)
-    if method == "mcmc" and burn >= steps:
+    # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
+    walkers = _count(walkers, "walkers", 2) if walkers is not None else (
+        max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
+    if burn is not None:
+        burn = _count(burn, "burn", 0)
+    elif target_ess is None:
+        burn = steps // 4
+    if method == "mcmc" and burn is not None and burn >= steps:
         raise InputError(f"burn ({burn}) must be smaller than steps ({steps})")
     if method == "tmcmc" and post.improper:
         post.sample_prior(np.random.default_rng(0), 1)  # refuses, naming the parameters
@@ -191,22 +199,26 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
             success = True
         else:
             runner = Runner(post, key, scheduler, connect_timeout)
+            t_sample = time.perf_counter()
             if method == "mcmc":
                 out = run_mcmc(post, runner, modes, walkers=walkers, ensembles=ensembles, steps=steps, burn=burn,
                                segment=segment, target_ess=target_ess, entropy=entropy, checkpoint=ckpt,
                                progress=tell("mcmc"))
                 chain = out["chain"]
+                burn = out["burn"]
                 chain_p = post.to_p(chain.reshape(-1, L)).reshape(chain.shape)
                 kept = chain_p[:, burn:]
                 X = chain[:, burn:].reshape(-1, L)
                 ll = out["log_like"][:, burn:].reshape(-1)
                 diag, warnings, success = _mcmc_diagnostics(post, kept, out, walkers, ensembles, burn, modes)
+                diag["mcmc_seconds"] = time.perf_counter() - t_sample
                 logz, logz_err = math.nan, math.nan
             else:
                 out = run_tmcmc(post, runner, samples=samples, steps=tmcmc_steps, target_cov=target_cov, chunks=chunks,
                                 entropy=entropy, checkpoint=ckpt, progress=tell("tmcmc"))
                 X, ll = out["x"], out["log_like"]
                 diag, warnings, success = _tmcmc_diagnostics(out, samples)
+                diag["tmcmc_seconds"] = time.perf_counter() - t_sample
                 logz, logz_err = out["log_evidence"], out["log_evidence_error"]
             near = assign(modes, X)
             fractions = [float(np.mean(near == k)) for k in range(len(modes))]

@@ -87,7 +87,8 @@ def posterior_payload(model, res, data_sets) -> dict:
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of every random stream.")
 @click.option("--samples", type=click.IntRange(min=2), default=4000, show_default=True,
               help="Laplace draws, or the TMCMC population.")
-@click.option("--walkers", type=click.IntRange(min=2), default=None, help="MCMC walkers per ensemble (default max(32, 4 L)).")
+@click.option("--walkers", type=click.IntRange(min=2), default=None, help="MCMC walkers per ensemble (default max(64, 8 L) on the compiled route, max(32, 4 L) "
+                   "otherwise).")
 @click.option("--ensembles", type=click.IntRange(min=1), default=2, show_default=True,
               help="Independent MCMC ensembles (one Dask task each).")
 @click.option("--steps", type=click.IntRange(min=2), default=2000, show_default=True, help="MCMC steps per walker.")

@@ -57,9 +57,9 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior)")
         if "value" not in spec:
             raise InputError(f"{where} has no 'value'")
+        prior = _prior(spec, f"{where} prior")  # its message names the file and table already
         try:
-            s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False),
-                        _prior(spec, f"{where} prior"))
+            s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False), prior)
         except InputError as exc:
             raise InputError(f"{source}: {exc}") from None
     for i, nd in enumerate(list_of_tables(data, "node", source), start=1):
