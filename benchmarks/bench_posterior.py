@@ -45,8 +45,8 @@ benchmarks.  Results go to ``benchmarks/results/bench_posterior.json`` (``_quick
 from __future__ import annotations
 
 import argparse
-import os
 import sys
+from pathlib import Path
 
 
 def _parse(argv=None):
@@ -66,23 +66,19 @@ def _parse(argv=None):
     return ap.parse_args(argv)
 
 
-ARGS = _parse() if __name__ == "__main__" else None
-ENV_FOUND = {k: os.environ.get(k) for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-if ARGS is not None and ARGS.blas_threads > 0:  # must precede the NumPy import
-    for key in ENV_FOUND:
-        os.environ[key] = str(ARGS.blas_threads)
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from _probes import pin_blas, write_results  # noqa: E402
 
-import json  # noqa: E402
-import platform  # noqa: E402
+ARGS = _parse() if __name__ == "__main__" else None
+ENV_FOUND = pin_blas(ARGS.blas_threads if ARGS is not None else 0)  # must precede the NumPy import
+
 import time  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-HERE = Path(__file__).resolve().parent
 if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out source tree
     sys.path.insert(0, str(HERE.parent / "src"))
-sys.path.insert(0, str(HERE))
 import femupdate as fu  # noqa: E402
 from bench_multistart import PlainResiduals  # noqa: E402
 from femupdate.bayes import Posterior, effective_sample_size  # noqa: E402
@@ -170,8 +166,7 @@ def main(args) -> dict:
     target = args.target_ess or (200.0 if args.quick else 1000.0)
     model, data, k_true = problem(n, args.seed)
     out: dict = {"storeys": n, "parameters": n, "target_ess": target, "blas_threads": args.blas_threads,
-                 "environment_found": ENV_FOUND, "python": platform.python_version(), "numpy": np.__version__,
-                 "femupdate": fu.__version__, "date": time.strftime("%Y-%m-%d")}
+                 "environment_found": ENV_FOUND}
     t = time.perf_counter()
     fu.posterior(model, data, method="laplace", starts=2, samples=10)  # loads the compiled code
     out["first_call_seconds"] = time.perf_counter() - t
@@ -223,9 +218,17 @@ def main(args) -> dict:
     return out
 
 
+def table(res: dict) -> str:
+    e = res["evaluations_per_second"]
+    lines = [f"likelihood evaluations per second: compiled {e['femupdate_compiled']:,.0f}, local "
+             f"{e['femupdate_local']:,.0f}, plain SciPy loop {e['plain_scipy_loop']:,.0f} "
+             f"(ratio {e['ratio_compiled_over_plain']:.1f}x)"]
+    for w, t in res["time_to_ess"].items():
+        lines.append(f"time to ESS {res['target_ess']:.0f}, {ENSEMBLES} x {w} walkers: femupdate "
+                     f"{t['femupdate']['seconds_to_target']:.1f} s, plain SciPy loop "
+                     f"{t['plain_scipy_loop']['seconds_to_target']:.1f} s (ratio {t['ratio']:.1f}x)")
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
-    result = main(ARGS)
-    path = Path(ARGS.output) if ARGS.output else HERE / "results" / f"bench_posterior{'_quick' if ARGS.quick else ''}.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=2) + "\n")
-    print(f"wrote {path}")
+    write_results(main(ARGS), "bench_posterior", ARGS.quick, ARGS.output, table, None)

@@ -14,7 +14,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (OUTPUT_DIR, OUTPUT_FILE, SCHEDULER, SEED, Ctx, FiniteFloat, OutputPath, connect_timeout_option,
                       data_fields, emit, fmt, json_option, load_data, model_values, set_option)
-from .update import problem_options, problem_setup
+from .update import problem_from_command_line, problem_options
 
 
 def _default_checkpoint(json_path, method: str):
@@ -134,12 +134,7 @@ def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, 
     kw: dict = {}
     for path in data_paths:
         data = load_data(path, model, measured_text)
-        params, data, kinds, kw = problem_setup(
-            model, data, params_text=params_text, shape_scaling=shape_scaling, ref_dof=ref_dof,
-            parametrisation=parametrisation, min_mac=min_mac, pairing=pairing, n_modes=n_modes, formulation=formulation,
-            eigenvalues_only=eigenvalues_only, use_text=use_text, std_eigenvalue=std_eigenvalue, std_shape=std_shape,
-            std_frf=std_frf, std_static=std_static, residual=residual, lines_text=lines_text, select=select,
-            resonance=resonance, resonance_tol=resonance_tol, damping_text=damping_text, reciprocity=reciprocity)
+        params, data, kinds, kw = problem_from_command_line(model, data)
         sets.append(data)
     checkpoint = checkpoint_path if checkpoint_path is not None else _default_checkpoint(json_path, method)
     c = ctx.console

@@ -69,6 +69,19 @@ def problem_options(command):
     return command
 
 
+#: the parameters of :func:`problem_options`, as the commands' functions receive them
+PROBLEM_PARAMS = ("params_text", "shape_scaling", "ref_dof", "parametrisation", "min_mac", "pairing", "n_modes",
+                  "formulation", "eigenvalues_only", "use_text", "std_eigenvalue", "std_shape", "std_frf", "std_static",
+                  "residual", "lines_text", "select", "resonance", "resonance_tol", "damping_text", "reciprocity")
+
+
+def problem_from_command_line(model, data):
+    """:func:`problem_setup` with the options of :func:`problem_options` as the running command was
+    given them."""
+    params = click.get_current_context().params
+    return problem_setup(model, data, **{k: params[k] for k in PROBLEM_PARAMS})
+
+
 def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes,
                   formulation, eigenvalues_only, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual,
                   lines_text, select, resonance, resonance_tol, damping_text, reciprocity):
@@ -150,12 +163,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, set_text)
     data = load_data(data_path, model, measured_text)
-    params, data, kinds, kw = problem_setup(
-        model, data, params_text=params_text, shape_scaling=shape_scaling, ref_dof=ref_dof,
-        parametrisation=parametrisation, min_mac=min_mac, pairing=pairing, n_modes=n_modes, formulation=formulation,
-        eigenvalues_only=eigenvalues_only, use_text=use_text, std_eigenvalue=std_eigenvalue, std_shape=std_shape,
-        std_frf=std_frf, std_static=std_static, residual=residual, lines_text=lines_text, select=select,
-        resonance=resonance, resonance_tol=resonance_tol, damping_text=damping_text, reciprocity=reciprocity)
+    params, data, kinds, kw = problem_from_command_line(model, data)
     kw.update(method=method, regularization=parse_regularization(reg_text), max_nfev=max_nfev, values=values,
               sensitivity=sensitivity)
     ms = None
