@@ -248,7 +248,7 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
     modes = [_with(m, probability=float(w)) for m, w in zip(modes, prob)]
     modes.sort(key=lambda m: -m.probability)
     for m in modes:
-        if m.note:
+        if m.note and (m is modes[0] or m.probability >= 1e-4):  # the negligible local minima go unremarked
             notes.append(f"solution at {_where(m)}: {m.note}")
     return modes, notes
 

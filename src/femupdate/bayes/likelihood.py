@@ -222,7 +222,8 @@ class Posterior:
                 ("the residuals are divided by the stated standard deviations, and a common scale s on them is "
                  "estimated" if stated else
                  "no measurement standard deviation is stated for every residual: a common noise scale s on the "
-                 "residuals (relative eigenvalue errors and scaled shape entries as weighted) is estimated")
+                 "residuals as weighted (for modes the relative eigenvalue errors and the scaled shape entries) is "
+                 "estimated")
                 + " with Jeffreys' prior p(s) ∝ 1/s, integrated out (the likelihood is ∝ ‖r‖^-m); state the test's "
                   "standard deviations to use its own uncertainty")
         if self.improper:

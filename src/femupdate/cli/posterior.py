@@ -192,6 +192,7 @@ def _print(c, model, res, data, checkpoint) -> None:
         strong = sorted(pairs, reverse=True)[:5]
         if strong:
             c.print("largest correlations: " + ", ".join(f"{names[i]}-{names[j]} {corr[i, j]:+.2f}" for _, i, j in strong))
+    shown = [k for k, (m, f) in enumerate(zip(res.modes, res.mode_fractions)) if k == 0 or max(m.probability, f) >= 1e-4]
     ts = Table(title=f"{len(res.modes)} distinct solution(s)")
     ts.add_column("solution", justify="right")
     for n in names:
@@ -199,8 +200,13 @@ def _print(c, model, res, data, checkpoint) -> None:
     ts.add_column("probability (Laplace)", justify="right")
     ts.add_column("share of samples", justify="right")
     ts.add_column("starts", justify="right")
-    for k, (m, frac) in enumerate(zip(res.modes, res.mode_fractions), start=1):
-        ts.add_row(str(k), *(fmt(m.parameters[n]) for n in names), f"{m.probability:.3f}", f"{frac:.3f}", str(m.count))
+    for k in shown:
+        m, frac = res.modes[k], res.mode_fractions[k]
+        ts.add_row(str(k + 1), *(fmt(m.parameters[n]) for n in names), f"{m.probability:.3f}", f"{frac:.3f}",
+                   str(m.count))
+    if len(shown) < len(res.modes):
+        ts.caption = (f"and {len(res.modes) - len(shown)} more with probability and share below 1e-4 (local minima; "
+                      "all in the JSON under 'solutions')")
     c.print(ts)
     if math.isfinite(res.log_evidence):
         err = f" ± {res.log_evidence_error:.2g}" if math.isfinite(res.log_evidence_error) else ""
