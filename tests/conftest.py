@@ -4,6 +4,19 @@ import pytest
 from femupdate import Structure
 
 
+@pytest.fixture(scope="module")
+def ex(tmp_path_factory):
+    """The example files of ``femupdate demo --write-files`` (models .toml, test data .json),
+    written once per test module (a module may define its own ``ex``)."""
+    from femupdate.cli import main
+
+    d = tmp_path_factory.mktemp("ex")
+    with pytest.raises(SystemExit) as info:
+        main(["demo", "--write-files", str(d)])
+    assert info.value.code in (0, None)
+    return d
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

@@ -15,16 +15,6 @@ def run(args, capsys):
     return info.value.code, out, err
 
 
-@pytest.fixture(scope="module")
-def ex(tmp_path_factory):
-    """The demo's example files (models .toml, test data .json)."""
-    d = tmp_path_factory.mktemp("ex")
-    with pytest.raises(SystemExit) as info:
-        main(["demo", "--write-files", str(d)])
-    assert info.value.code == 0
-    return d
-
-
 def check_refused(code, err, *fragments, exit_code=2):
     assert code == exit_code, err
     assert "Traceback" not in err

@@ -139,3 +139,21 @@ def test_sign_convention_is_stable_for_antisymmetric_shapes():
     b = np.array([[0.5], [1.0], [-1.0 - 1e-13], [0.2]])
     np.testing.assert_array_equal(_sign_fix(a) > 0, _sign_fix(b) > 0)
     np.testing.assert_array_equal(_sign_fix(-b), _sign_fix(b))
+
+
+def test_the_eigensolver_path_follows_the_cost_rule():
+    """modal.eigensolver_for: every mode (or the default number) dense up to DENSE_LIMIT; a few
+    modes of a model from SPARSE_FROM dofs sparse; the dense and sparse paths agree."""
+    from femupdate.generators import frame_lattice
+    from femupdate.modal import DENSE_LIMIT, SPARSE_FROM, eigensolver_for
+
+    assert eigensolver_for(DENSE_LIMIT, None) == "dense" and eigensolver_for(DENSE_LIMIT + 1, None) == "sparse"
+    assert eigensolver_for(SPARSE_FROM - 1, 10) == "dense" and eigensolver_for(SPARSE_FROM, 10) == "sparse"
+    assert eigensolver_for(1000, 201) == "dense" and eigensolver_for(1000, 200) == "sparse"  # a fifth of the modes
+    assert eigensolver_for(5000, 4999) == "dense"  # n - 1 modes: only the dense solver gives them
+    m = frame_lattice(2, 2, 20).build()  # 456 dofs
+    sparse = model_modes(m, n_modes=8)
+    assert sparse.factor is not None and sparse.solver.startswith("sparse")
+    dense = model_modes(m, n_modes=8, method="dense")
+    assert dense.factor is None and dense.solver == "dense (LAPACK)"
+    np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues, rtol=1e-10)

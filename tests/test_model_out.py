@@ -22,14 +22,6 @@ def run(args, capsys):
     return (0 if info.value.code is None else info.value.code), out, err
 
 
-@pytest.fixture(scope="module")
-def ex(tmp_path_factory):
-    d = tmp_path_factory.mktemp("ex")
-    with pytest.raises(SystemExit):
-        main(["demo", "--write-files", str(d)])
-    return d
-
-
 def test_update_writes_a_model_that_loads_and_reproduces_the_update(ex, tmp_path, capsys):
     out = tmp_path / "sub" / "updated.toml"
     out.parent.mkdir()

@@ -116,7 +116,7 @@ def test_reduced_model_is_affine_with_T_frozen_and_exact_only_at_its_values(fram
 def test_k_oo_is_factorised_once_for_every_method(frame, monkeypatch):
     calls = []
     real = reducer_mod.factorize
-    monkeypatch.setattr(reducer_mod, "factorize", lambda A: calls.append(A.shape) or real(A))
+    monkeypatch.setattr(reducer_mod, "factorize", lambda A, **kw: calls.append(A.shape) or real(A, **kw))
     red = Reducer(frame, ["11:x", "13:y", "20:z", "24:x", "17:y", "8:z"])
     red.guyan(); red.irs(); red.kammer_hybrid(3)
     reduction_criteria(frame, red.keep, reducer=red, warn=False)
@@ -426,8 +426,12 @@ def test_paper_sections(tmp_path):
     from femupdate.paper.reduction_sections import reduction_truss, superelement_beam
 
     t = reduction_truss(tmp_path, figures=False, seeds=2)
-    assert t["geometry"]["n_dofs"] == 1020 and 0.05 <= t["retained_mass_fraction"] < 0.12
-    assert t["accuracy_ranking_matches"] is True
+    assert t["geometry"]["n_dofs"] == 1020 and 0.04 <= t["retained_mass_fraction"] <= 0.06  # Tan's ~5 %
+    assert t["accuracy_ranking_matches"] is True and t["irs_at_least_as_robust_as_guyan"] is True
+    # Tan's point: the modal TAM's robustness degrades with the model error, the physical reductions' far less
+    g = t["self_orthogonality_growth"]["with_local"]
+    assert g["modal"] > 2 * max(g["guyan"], g["irs"])
+    assert t["comparison"] in ("agree", "differ-explained") and t["explanation"]
     e = t["eq42_max_frequency_error_first5"]
     assert e["irs_corrected"] < e["guyan"] < e["irs_as_printed"]
     b = superelement_beam(tmp_path, figures=True)

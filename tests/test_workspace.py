@@ -15,7 +15,8 @@ from femupdate.generators import frame_lattice
 from femupdate.modal import DENSE_LIMIT, solve_modes
 from femupdate.sensitivity import jacobian
 from femupdate.updating import update
-from femupdate.workspace import BandCholesky, OrderedLU, SparseWorkspace, workspace_of
+from femupdate import workspace
+from femupdate.workspace import BandCholesky, CholmodFactor, OrderedLU, SparseWorkspace, workspace_of
 
 
 def massless_rotations(model):
@@ -38,7 +39,7 @@ def tower():
 
 @pytest.fixture(scope="module")
 def slab():
-    """1,536 dofs, wide in plan: the band would hold more than SuperLU's fill (SuperLU route)."""
+    """1,536 dofs, wide in plan (a wider band than the tower's)."""
     m = frame_lattice(8, 8, 5, parameters="direction").build()
     assert m.n_dofs > DENSE_LIMIT
     return m
@@ -51,23 +52,75 @@ def same_modes(a, b, rtol=1e-9):
     assert a.n_rigid == b.n_rigid
 
 
-@pytest.mark.parametrize("which, route, kind", [("tower", "band", BandCholesky), ("slab", "superlu", OrderedLU)])
-def test_each_route_gives_the_modes_of_a_fresh_factorisation(request, which, route, kind):
+@pytest.fixture(params=["superlu", "cholmod"])
+def backend(request, monkeypatch):
+    """Each factorisation backend in turn (CHOLMOD skipped where scikit-sparse is missing)."""
+    if request.param == "cholmod":
+        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    monkeypatch.setenv(workspace.BACKEND_VARIABLE, request.param)
+    assert workspace.backend() == request.param
+    return request.param
+
+
+SPARSE_KIND = {"superlu": OrderedLU, "cholmod": CholmodFactor}
+
+
+@pytest.mark.parametrize("which, prefer", [("tower", None), ("tower", "sparse"), ("slab", None), ("slab", "sparse")])
+def test_each_route_gives_the_modes_of_a_fresh_factorisation(request, backend, which, prefer):
     model = request.getfixturevalue(which)
     p = model.values * np.linspace(0.6, 1.5, len(model.parameters))
     K, M = model.K(p), model.M(p)
-    ws = SparseWorkspace(K, M)
+    ws = SparseWorkspace(K, M, prefer=prefer)
     fresh = solve_modes(K, M, n_modes=8, dofs=model.dofs)
-    first = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)  # SuperLU, and the route chosen
+    first = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)  # the backend's factor, and the route chosen
+    route = "band" if prefer is None else backend  # the cost model takes the band for both (band_wins)
     assert ws.route == route
     again = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)
-    assert isinstance(again.factor[0], kind)
+    assert isinstance(again.factor[0], BandCholesky if route == "band" else SPARSE_KIND[backend])
     same_modes(fresh, first)
     same_modes(fresh, again)
     # the factorisation solves K x = b to round-off, in the original order
     b = np.random.default_rng(1).standard_normal((model.n_dofs, 3))
     x = again.factor[0].solve(b)
     assert np.max(np.abs(K @ x - b)) < 1e-9 * np.max(np.abs(b))
+
+
+def test_the_cost_model_against_counts_of_operations():
+    """band_wins compares n b^2 with BAND_EFFICIENCY nnz(L)^2 / n, within the storage limit."""
+    n = 10_000
+    assert workspace.band_wins(n, 100, 400_000)  # 1e8 against 8 * 1.6e7
+    assert not workspace.band_wins(n, 400, 400_000)  # 1.6e9 against 1.28e8
+    assert not workspace.band_wins(10 ** 6, 200, 10 ** 9)  # storage 2e8 > MAX_BAND_ENTRIES, whatever the fill
+
+
+def test_a_cholmod_factor_solves_and_reports_singularity(backend):
+    if backend != "cholmod":
+        pytest.skip("CHOLMOD only")
+    A = sp.csc_array(sp.diags_array([2.0, 3.0, 4.0]) + sp.diags_array([-1.0, -1.0], offsets=1)
+                     + sp.diags_array([-1.0, -1.0], offsets=-1))
+    f = workspace.factorize(A)
+    assert isinstance(f, CholmodFactor)
+    b = np.array([1.0, 2.0, 3.0])
+    np.testing.assert_allclose(A @ f.solve(b), b, rtol=1e-14)
+    np.testing.assert_allclose(A @ f.solve(b * (1 + 2j)), b * (1 + 2j), rtol=1e-14)  # complex right-hand side
+    assert not workspace.nearly_singular(f)
+    S = sp.csc_array(np.array([[1.0, -1.0], [-1.0, 1.0]]))  # singular: Cholesky fails, LU (SuperLU) takes it
+    with pytest.raises(workspace.NotPositiveDefinite):
+        workspace.factorize(S, definite=True)
+    with pytest.raises(RuntimeError):
+        workspace.factorize(S)  # SuperLU: exactly singular
+    indefinite = sp.csc_array(np.diag([1.0, -2.0, 3.0]))
+    lu = workspace.factorize(indefinite)  # Cholesky fails: SuperLU
+    assert not isinstance(lu, CholmodFactor)
+    np.testing.assert_allclose(indefinite @ lu.solve(b), b, rtol=1e-14)
+
+
+def test_an_unknown_backend_is_refused_by_name(monkeypatch):
+    from femupdate import InputError
+
+    monkeypatch.setenv(workspace.BACKEND_VARIABLE, "mumps")
+    with pytest.raises(InputError, match="FEMUPDATE_FACTORISATION='mumps'"):
+        workspace.backend()
 
 
 @pytest.mark.parametrize("which", ["tower", "slab"])
@@ -190,3 +243,31 @@ def test_one_sweep_for_all_modes_equals_one_sweep_per_mode(tower, monkeypatch):
     assert np.all(joint[2] == joint[2][0])  # one sweep: the same number of terms for every mode
     np.testing.assert_allclose(joint[0], apart[0], rtol=1e-12)
     np.testing.assert_allclose(joint[1], apart[1], rtol=0, atol=1e-9 * np.max(np.abs(apart[1])))
+
+
+@pytest.mark.parametrize("prefer", [None, "sparse"])
+def test_rigid_body_modes_and_updating_through_each_backend_and_route(backend, prefer):
+    """A free frame (six rigid-body modes: K singular, Cholesky fails at shift 0 and the shift
+    goes below zero) and an update of the tower, with the workspace on the band or on the
+    backend's sparse factor: the same answers as a fresh SuperLU factorisation at every call."""
+    free = frame_lattice(2, 2, 64, parameters="direction", support="none").build()
+    workspace._WORKSPACES[free] = SparseWorkspace(free.K(), free.M(), prefer=prefer)
+    fresh = model_modes(free, n_modes=10, reuse=False)
+    model_modes(free, n_modes=10)
+    reused = model_modes(free, n_modes=10)
+    assert workspace._WORKSPACES[free].route == ("band" if prefer is None else backend)
+    assert fresh.n_rigid == reused.n_rigid == 6 and reused.factor[1] < 0
+    np.testing.assert_allclose(reused.eigenvalues[6:], fresh.eigenvalues[6:], rtol=1e-9)
+
+    tower = massless_rotations(frame_lattice(3, 3, 30, spacing=(3.0, 3.0, 3.0), mass="lumped",
+                                             parameters="direction", bounds=(0.2, 2.0)).build())
+    workspace._WORKSPACES[tower] = SparseWorkspace(tower.K(), tower.M(), prefer=prefer)
+    truth = tower.values * np.array([0.8, 1.25, 0.9])
+    sensors = [f"{n}:{d}" for n in range(10, 271, 18) for d in ("x", "y")]
+    mm = model_modes(tower, truth, n_modes=6, reuse=False)
+    pos = tower.dof_index(sensors)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], sensors, mm.shapes[pos, j]) for j in range(3)))
+    x0 = dict(zip(tower.parameter_names, tower.values * np.array([1.3, 0.7, 1.2])))
+    on = update(tower, data, x0=x0)
+    assert on.success and workspace._WORKSPACES[tower].route == ("band" if prefer is None else backend)
+    np.testing.assert_allclose(on.x, truth, rtol=1e-6)

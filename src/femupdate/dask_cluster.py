@@ -135,6 +135,16 @@ def connect(address: str, timeout: float, what: str = "--scheduler"):
     return client
 
 
+def task(fn: Callable, *args, **kwargs):
+    """Run ``fn(*args, **kwargs)`` as one of a cluster's parallel tasks: BLAS on one thread
+    (:func:`femupdate._threads.parallel_work`), since the worker's other tasks use the other
+    cores.  Submit ``task`` with the function as its first argument."""
+    from ._threads import blas_phase, parallel_work
+
+    with parallel_work(), blas_phase("solve"):
+        return fn(*args, **kwargs)
+
+
 def collect(client, futures: Mapping, address: str, timeout: float, on_result: Callable[[Hashable, object], None],
             poll: float = 1.0) -> None:
     """Wait for ``futures`` ({future: key}) and hand each result to ``on_result(key, result)`` as it

@@ -49,6 +49,11 @@ class Parameter:
         Lower and upper bound (``-inf``/``inf`` for none); ``value`` must lie within them.
     fixed : bool
         A known parameter, never updated.
+    unit : str, default ""
+        Unit of the value, for tables and figure axes (e.g. ``"N/m"``); ``""`` when unknown.
+        :meth:`Structure.build <femupdate.Structure.build>` sets it from the element properties
+        the parameter stands for (SI: :mod:`femupdate.structure.units`); femupdate converts no
+        units.
     prior : Prior, str or mapping, optional
         Its prior distribution for Bayesian updating (:mod:`femupdate.priors`: ``"uniform"``,
         ``"normal(MEAN, STD)"``, ``"lognormal(MEDIAN, STD_LOG)"``, or the model file's inline
@@ -59,6 +64,7 @@ class Parameter:
     value: float
     bounds: tuple[float, float] = (-math.inf, math.inf)
     fixed: bool = False
+    unit: str = ""
     prior: Prior | None = None
 
     def __post_init__(self):
@@ -82,6 +88,8 @@ class Parameter:
         object.__setattr__(self, "value", value)
         object.__setattr__(self, "bounds", (lo, hi))
         object.__setattr__(self, "fixed", bool(self.fixed))
+        if not isinstance(self.unit, str):
+            raise InputError(f"parameter {self.name!r}: unit must be a string, got {self.unit!r}")
         if self.prior is not None:
             prior = parse_prior(self.prior, f"parameter {self.name!r}: prior")
             prior.check(self.name, (lo, hi))

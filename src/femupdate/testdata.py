@@ -27,6 +27,17 @@ def _finite(arr: np.ndarray, what: str, dofs: Sequence[str] | None = None) -> No
             raise InputError(f"{what}: {kind}")
 
 
+def _finite_number(v, what: str) -> float:
+    """``v`` as a float if it is a finite real number (booleans and strings refused), else an
+    :class:`InputError` naming ``what``."""
+    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise InputError(f"{what}: expected a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise InputError(f"{what}: NaN or infinite value")
+    return x
+
+
 def positive(v, what: str) -> float:
     """``v`` as a float if it is a number between 1e-150 and 1e150 (a standard deviation or a
     weight: it divides or multiplies residuals), else an :class:`InputError` naming ``what``.
@@ -48,15 +59,39 @@ def positive(v, what: str) -> float:
         Not a real number (booleans and strings refused), not finite, not > 0, below 1e-150 or
         above 1e150.
     """
-    if isinstance(v, (bool, np.bool_, str)) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise InputError(f"{what}: expected a number, got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise InputError(f"{what}: NaN or infinite value")
+    x = _finite_number(v, what)
     if not x > 0:
         raise InputError(f"{what}: {x:g} is not > 0")
     if x < 1.0 / MAX_MAGNITUDE or x > MAX_MAGNITUDE:
         raise InputError(f"{what}: {x:g} is outside [{1.0 / MAX_MAGNITUDE:g}, {MAX_MAGNITUDE:g}]")
+    return x
+
+
+def check_damping_ratio(v, what: str) -> float:
+    """``v`` as a float if it is a modal damping ratio: a finite number in [0, 1) (fraction of
+    critical damping), else an :class:`InputError` naming ``what``.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+    what : str
+        How the message names it (``"modes[2] damping_ratio"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        Not a real number (booleans and strings refused), not finite, negative, or 1 or more
+        (critically or over-damped: no vibration mode).
+    """
+    x = _finite_number(v, what)
+    if not 0 <= x < 1:
+        raise InputError(f"{what}: {x:g} is not a damping ratio in [0, 1) (a fraction of critical damping: 0.02 "
+                         "is 2 %)")
     return x
 
 
@@ -94,6 +129,14 @@ class MeasuredMode:
     weight : float, optional
         Factor on this mode's residuals (eigenvalue and shape) in updating, unless the caller's
         ``weights`` give that kind's; default 1.
+    damping_ratio : float, optional
+        Measured modal damping ratio ζ (viscous, fraction of critical: 0.02 is 2 %), 0 <= ζ < 1.
+        Carried and reported; compared with the model's modal damping where the model has
+        damping (Rayleigh ζ = α/2ω + βω/2, hysteretic ζ = η/2 at resonance); it does not enter
+        the modal residuals.
+    std_damping_ratio : float, optional
+        Standard deviation of ``damping_ratio`` (absolute, as ζ itself: 0.002 is 0.2 % of
+        critical); needs ``damping_ratio``.
 
     Raises
     ------
@@ -102,7 +145,8 @@ class MeasuredMode:
         non-finite, zero at every measured dof, or too small to compute with (every value below
         1e-150 in magnitude); a ``reference_dof`` that is not measured or
         where the shape is zero; a standard deviation or weight that is not a finite number
-        between 1e-150 and 1e150.
+        between 1e-150 and 1e150; a damping ratio that is not a finite number in [0, 1), or its
+        standard deviation without it.
     """
 
     eigenvalue: float
@@ -113,6 +157,8 @@ class MeasuredMode:
     std_eigenvalue: float | None = None
     std_shape: float | None = None
     weight: float | None = None
+    damping_ratio: float | None = None
+    std_damping_ratio: float | None = None
 
     def __post_init__(self):
         lam = float(self.eigenvalue)
@@ -137,10 +183,15 @@ class MeasuredMode:
             if shape[dofs.index(ref)] == 0:
                 raise InputError(f"mode {self.label}: the shape is zero at its reference_dof {ref}")
             object.__setattr__(self, "reference_dof", ref)
-        for name in ("std_eigenvalue", "std_shape", "weight"):
+        for name in ("std_eigenvalue", "std_shape", "weight", "std_damping_ratio"):
             v = getattr(self, name)
             if v is not None:
                 object.__setattr__(self, name, positive(v, f"mode {self.label}: {name}"))
+        if self.damping_ratio is not None:
+            object.__setattr__(self, "damping_ratio",
+                               check_damping_ratio(self.damping_ratio, f"mode {self.label}: damping_ratio"))
+        elif self.std_damping_ratio is not None:
+            raise InputError(f"mode {self.label}: std_damping_ratio is given without damping_ratio")
         object.__setattr__(self, "eigenvalue", lam)
         object.__setattr__(self, "dofs", dofs)
         object.__setattr__(self, "shape", shape)
@@ -153,14 +204,15 @@ class MeasuredMode:
     @classmethod
     def from_frequency(cls, frequency_hz: float, dofs=(), shape=(), label: str = "", *,
                        reference_dof: str | None = None, std_frequency: float | None = None,
-                       std_shape: float | None = None, weight: float | None = None) -> MeasuredMode:
+                       std_shape: float | None = None, weight: float | None = None,
+                       damping_ratio: float | None = None, std_damping_ratio: float | None = None) -> MeasuredMode:
         """Measured mode from its natural frequency in Hz (λ = (2π f)²).
 
         Parameters
         ----------
         frequency_hz : float
             Natural frequency, Hz, finite and ≥ 0.
-        dofs, shape, label, reference_dof, std_shape, weight
+        dofs, shape, label, reference_dof, std_shape, weight, damping_ratio, std_damping_ratio
             As :class:`MeasuredMode`.
         std_frequency : float, optional
             Relative standard deviation of the frequency, σ_f / f; kept as the eigenvalue's
@@ -184,7 +236,7 @@ class MeasuredMode:
         if std_frequency is not None:
             std_eigenvalue = 2.0 * positive(std_frequency, f"mode {label}: std_frequency")
         return cls((2 * math.pi * f) ** 2, tuple(dofs), np.asarray(shape), label, reference_dof, std_eigenvalue,
-                   std_shape, weight)
+                   std_shape, weight, damping_ratio, std_damping_ratio)
 
     @property
     def has_shape(self) -> bool:
@@ -363,6 +415,11 @@ class TestData:
     def frequencies_hz(self) -> np.ndarray:
         """Measured natural frequencies (Hz), shape ``(n_modes,)``."""
         return np.sqrt(self.eigenvalues) / (2 * np.pi)
+
+    @property
+    def damping_ratios(self) -> np.ndarray:
+        """Measured modal damping ratios ζ, shape ``(n_modes,)``; NaN for a mode without one."""
+        return np.array([np.nan if m.damping_ratio is None else m.damping_ratio for m in self.modes], float)
 
     def shape_matrix(self, dofs: Sequence[str] | None = None) -> tuple[tuple[str, ...], np.ndarray]:
         """Measured shapes on a common dof set: ``(dofs, Phi)`` with ``Phi`` (n_dofs, n_modes).

@@ -18,6 +18,7 @@ import click
 
 from ._common import run
 from .damage import damage, fullfield, rank_modifications, update_multi
+from .data import convert_data
 from .demo import demo
 from .direct import direct
 from .frf import frf_command, frf_select_command, frf_update_command, surface_command
@@ -25,6 +26,7 @@ from .modes import correlate, modes
 from .paper import paper
 from .posterior import posterior
 from .reduce import reduce
+from .report import report
 from .uniqueness import uniqueness
 from .update import update
 
@@ -43,7 +45,7 @@ def cli(verbose: int) -> None:
 for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness):
+                 reduce, uniqueness, convert_data, report):
     cli.add_command(_command)
 del _command
 

@@ -329,10 +329,45 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
                                        "a [provenance] table.")
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
+#: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
+REPORT_FILE = OutputPath("file", suffixes=(".html", ".htm"), why="an HTML report")
+report_option = click.option("--report", "report_path", type=REPORT_FILE, default=None, metavar="FILE.html",
+                             help="Write one self-contained HTML report of the run (tables, figures, mode shapes on "
+                                  "the model, notes); it opens offline.")
+
+
+def model_segments(model_path):
+    """Node pairs of every line element of a structure model file, supported ends included (for
+    drawing mode shapes), or None for a ``[matrices]`` model or a file that is not a structure."""
+    from ..fullfield import structure_segments
+    from ..io.model_file import read_toml
+    from ..structure import Structure
+
+    path = Path(model_path)
+    raw = read_toml(path)
+    if "matrices" in raw:
+        return None
+    segs = structure_segments(Structure.from_dict(raw, source=str(path)))
+    return segs if len(segs) else None
+
+
+def write_report_output(ctx: Ctx, report_path, payload: dict, *, model=None, data=None, model_path=None,
+                        before=None, damping=None, kind: str | None = None, segments=None) -> None:
+    """Write the run's HTML report (``--report``) from its JSON payload, with the model and the
+    data for what needs recomputing (:func:`femupdate.report.write_report`), and name it."""
+    if report_path is None:
+        return
+    from ..report import write_report
+
+    if segments is None and model_path is not None:
+        segments = model_segments(model_path)
+    write_report(report_path, payload, model=model, data=data, kind=kind, segments=segments, before=before,
+                 damping=damping, source=f"run on {model_path}" if model_path else "")
+    ctx.console.print(f"wrote the report {report_path}")
 
 
 def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, values: dict, names, cost,
-                        write_model_path=None, csv_dir=None, res=None) -> None:
+                        write_model_path=None, csv_dir=None, res=None, damping: dict | None = None) -> None:
     """The updated model file and the CSV tables a command was asked for, each named on the
     terminal (:mod:`femupdate.io.model_write`)."""
     from ..io.model_write import provenance, write_result_tables, write_updated_model
@@ -342,8 +377,75 @@ def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, va
                             provenance(model_path, data_path, command, cost, names))
         ctx.console.print(f"wrote the updated model {write_model_path}")
     if csv_dir is not None and res is not None:
-        written = write_result_tables(csv_dir, model, res)
+        written = write_result_tables(csv_dir, model, res, damping)
         ctx.console.print("wrote " + ", ".join(str(p) for p in written))
+
+
+# ---------------------------------------------------------------------------------- damping
+def fitted_damping(data):
+    """The Rayleigh damping (α, β ≥ 0) that fits the test modes' damping ratios
+    (:meth:`femupdate.frf.Damping.rayleigh_fit`, weighted by their standard deviations when every
+    one has one): ``(Damping, {"alpha", "beta", "rms_error", "n_modes"})``, or ``(None, None)``
+    when fewer than two modes carry a damping ratio."""
+    from ..frf import Damping
+
+    use = [m for m in data.modes if m.damping_ratio is not None and m.eigenvalue > 0]
+    if len(use) < 2:
+        return None, None
+    std = [m.std_damping_ratio for m in use]
+    fit, resid = Damping.rayleigh_fit([np.sqrt(m.eigenvalue) for m in use], [m.damping_ratio for m in use],
+                                      None if any(v is None for v in std) else std)
+    return fit, {"alpha": fit.alpha, "beta": fit.beta, "rms_error": float(np.sqrt(np.mean(resid ** 2))),
+                 "n_modes": len(use)}
+
+
+def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
+    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
+    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
+    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
+    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
+    or more); None when neither the data nor the model have damping.
+
+    Parameters
+    ----------
+    data : TestData
+        The test modes.
+    paired_hz : dict of int to float
+        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
+    damping : Damping, optional
+        The model's damping (``--damping``).
+    """
+    zeta = data.damping_ratios
+    damped = damping is not None and not damping.undamped
+    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
+        return None
+    model: list[float | None] = [None] * len(data.modes)
+    if damped:
+        for i, f in paired_hz.items():
+            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
+    _, fit = fitted_damping(data)
+    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
+            "std": [m.std_damping_ratio for m in data.modes], "model": model,
+            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
+
+
+def print_damping(console, data, fields: dict | None) -> None:
+    """The damping table (test ratio ± std, the model's, the difference) and the Rayleigh fit."""
+    if not fields:
+        return
+    t = Table(title="modal damping ratios")
+    for col in ("test", "f test [Hz]", "ζ test", "std", "ζ model", "model - test"):
+        t.add_column(col, justify="right")
+    f = data.frequencies_hz
+    for i, (zt, sd, zm) in enumerate(zip(fields["test"], fields["std"], fields["model"])):
+        t.add_row(str(i + 1), fmt(f[i]), "-" if zt is None else f"{zt:.4g}", "-" if sd is None else f"{sd:.2g}",
+                  "-" if zm is None else f"{zm:.4g}", "-" if zt is None or zm is None else f"{zm - zt:+.3g}")
+    console.print(t)
+    fit = fields["rayleigh_fit"]
+    if fit:
+        console.print(f"Rayleigh damping fitted to the {fit['n_modes']} measured damping ratios: alpha={fit['alpha']:.6g}, "
+                      f"beta={fit['beta']:.6g} (rms misfit {fit['rms_error']:.3g}); use it for FRFs with --damping "
+                      "fit", markup=False)
 
 
 # ---------------------------------------------------------------------------------- tables and payloads
@@ -377,6 +479,28 @@ def print_flags(ctx: Ctx, found: list[dict]) -> None:
         ctx.console.print(f"warning: {f['message']}", markup=False)
 
 
+def parameter_fields(model, names=None) -> dict:
+    """The JSON keys that describe a result's parameters beyond their values: ``parameter_units``
+    {name: unit or null} (SI, from the element properties they stand for; null for matrix
+    models) and ``bounds`` {name: [lower, upper]} (null for an infinite bound).
+
+    Parameters
+    ----------
+    model : Model
+    names : sequence of str, optional
+        The parameters to describe (default: all of the model's).
+    """
+    names = model.parameter_names if names is None else names
+    par = {p.name: p for p in model.parameters}
+    return {"parameter_units": {n: par[n].unit or None for n in names},
+            "bounds": {n: list(par[n].bounds) for n in names}}
+
+
+def unit_suffix(unit: str | None) -> str:
+    """``" [N/m]"`` for a unit, ``""`` without one (for column headings and axis labels)."""
+    return f" [{unit}]" if unit else ""
+
+
 def direct_payload(model, res, data, corr_before=None):
     """JSON of a direct update (``direct`` and ``demo``)."""
     return {
@@ -394,6 +518,7 @@ def direct_payload(model, res, data, corr_before=None):
         "bounded": res.bounded,
         "notes": res.notes,
         "flags": flags(model, res.parameters, res.unknowns),
+        **parameter_fields(model),
     }
 
 
@@ -420,6 +545,7 @@ def update_payload(model, data, res, ms=None):
         "sensitivity": res.sensitivity,
         "notes": list(res.notes),
         "flags": flags(model, res.parameters, res.names),
+        **parameter_fields(model),
         "diagnostics": None if d is None else {
             "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
             "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
@@ -521,18 +647,19 @@ def print_starts(console, ms, what: str = "starts") -> None:
             console.print(f"  {count:4d} x  {reason}")
 
 
-def update_parameter_table(res, title: str) -> Table:
+def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
     """Start, updated value, standard deviation (or the bound it sits on) and change of each
-    updated parameter."""
+    updated parameter, with its unit (``units`` {name: unit}) when known."""
     t = Table(title=title)
-    for col in ("parameter", "start", "updated", "std", "change"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
+    for col in ("parameter", "unit", "start", "updated", "std", "change"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
+    units = units or {}
     std_p = dict(zip(res.names, res.diagnostics.std))
     at = res.diagnostics.at_bounds
     for n in res.names:
         p0, p1 = res.start[n], res.parameters[n]
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
-        t.add_row(n, fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+        t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
 
 
@@ -541,9 +668,12 @@ def run(group: click.Group, argv=None) -> None:
     """Run ``group``, turning femupdate errors into one message and an exit code."""
     from .. import dask_cluster
 
+    from .._threads import blas_phase
+
     dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
     try:
-        rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
+        with blas_phase("solve"):  # BLAS threads by phase (femupdate._threads); a bad FEMUPDATE_BLAS_THREADS exits 2
+            rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
     except click.exceptions.Abort:
         click.echo("femupdate: interrupted", err=True)
         sys.exit(130)

@@ -20,10 +20,11 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, print_flags,
+from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, parameter_fields,
+                      print_flags,
                       print_identifiability, fmt, json_option, model_values, option_dofs,
                       parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option,
-                      write_model_option, write_model_outputs)
+                      write_model_option, write_model_outputs, report_option, write_report_output)
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -49,11 +50,12 @@ def _load_structure(path: Path):
 def _parameter_table(title, model, values, names, x, stderr) -> Table:
     """Start, identified value and standard error of each unknown."""
     t = Table(title=title)
-    for col in ("parameter", "start", "identified", "std. error"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
+    for col in ("parameter", "unit", "start", "identified", "std. error"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     p0 = dict(zip(model.parameter_names, model.resolve(values)))
+    unit = {p.name: p.unit or "-" for p in model.parameters}
     for n, v, se in zip(names, x, stderr):
-        t.add_row(n, fmt(p0[n]), fmt(v), "-" if not np.isfinite(se) else fmt(se))
+        t.add_row(n, unit[n], fmt(p0[n]), fmt(v), "-" if not np.isfinite(se) else fmt(se))
     return t
 
 
@@ -122,11 +124,12 @@ def _fp_line(rate) -> str:
 @click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
               help="A damaged mode pairing with no baseline mode this well stops the localisation.")
 @measured_dofs_option
+@report_option
 @set_option
 @json_option
 def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_text, method, alpha, expansion, n_basis,
            allow_increase, min_change, iterations, refine, level, max_located, bootstrap, noise_frequency, noise_shape,
-           seed, max_frequency_error, min_mac, localise_min_mac, measured_text, set_text, json_path):
+           seed, max_frequency_error, min_mac, localise_min_mac, measured_text, report_path, set_text, json_path):
     """Localise, refine and verify damage in DATA from the validated BASELINE_MODEL."""
     from ..damage import damage_unknowns, detect_damage
 
@@ -209,7 +212,7 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
         c.print(_fp_line(rate), markup=False)
     for n in notes + res.notes:
         c.print(f"note: {n}", markup=False)
-    emit(ctx, {
+    payload = {
         "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
         "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
         "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
@@ -218,7 +221,14 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
         "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
         "status": res.status, "doubts": res.doubts, "verification": res.verification,
         "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
-    })
+        **parameter_fields(model, list(res.changes)),
+    }
+    emit(ctx, payload)
+    if report_path is not None:
+        from ..fullfield import structure_segments
+
+        write_report_output(ctx, report_path, payload, model=model, data=data, kind="damage",
+                            segments=structure_segments(structure) if structure is not None else None)
     if res.status == "doubtful":
         click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
     if not res.localised:
@@ -235,6 +245,7 @@ def _multi_payload(model, res) -> dict:
         "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
         "regularization": res.regularization, "notes": res.notes,
         "flags": flags(model, res.parameters, res.names),
+        **parameter_fields(model),
         "direct": None if res.direct is None else {
             "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
             "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,
@@ -263,10 +274,11 @@ def _multi_payload(model, res) -> dict:
 @click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct).")
 @write_model_option
+@report_option
 @set_option
 @json_option
 def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, pairing, max_nfev, reg_text, eigenvalues_only,
-                 bounded, write_model_path, set_text, json_path):
+                 bounded, write_model_path, report_path, set_text, json_path):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
     from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
     from ..updating.multiconfig.files import load_modification, split_config_spec
@@ -304,6 +316,7 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
     payload = _multi_payload(model, res)
     print_flags(ctx, payload["flags"])
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, model_path=model_path, kind="update-multi")
     if not res.success:
         if write_model_path:
             c.print("not written: the updated model (the multi-configuration update did not succeed)")

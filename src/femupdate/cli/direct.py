@@ -11,8 +11,8 @@ from rich.table import Table
 from .._errors import NumericalError
 from .._errors import InputError
 from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, data_fields, direct_payload, emit, fmt, json_option,
-                      load_data, measured_dofs_option, model_values, print_flags, set_option, write_model_option,
-                      write_model_outputs)
+                      load_data, measured_dofs_option, model_values, print_flags, report_option, set_option,
+                      write_model_option, write_model_outputs, write_report_output)
 
 
 def _correlation_rows(data, model, values):
@@ -36,10 +36,11 @@ def _correlation_rows(data, model, values):
 @measured_dofs_option
 @write_model_option
 @csv_option
+@report_option
 @set_option
 @json_option
-def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_text, write_model_path, csv_dir, set_text,
-           json_path):
+def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_text, write_model_path, csv_dir, report_path,
+           set_text, json_path):
     """Identify MODEL's parameters directly from DATA measured at every model dof."""
     from ..direct import direct_update
     from ..io.model_file import load_model
@@ -59,17 +60,18 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_tex
     payload["notes"] = [*data.notes, *payload["notes"]]
     payload.update(data_fields(data))
     table = Table(title=f"{model.name}: direct update from {res.system.n_equations} equations")
-    for col in ("parameter", "start", "identified", "std. error", "change"):
-        table.add_column(col, justify="right" if col != "parameter" else "left")
+    for col in ("parameter", "unit", "start", "identified", "std. error", "change"):
+        table.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     p0 = model.resolve(values)
-    for j, name in enumerate(model.parameter_names):
-        new = res.parameters[name]
+    payload["start"] = dict(zip(model.parameter_names, map(float, p0)))
+    for j, par in enumerate(model.parameters):
+        name, new, unit = par.name, res.parameters[par.name], par.unit or "-"
         if name in res.unknowns:
             se = res.standard_error[res.unknowns.index(name)]
-            table.add_row(name, fmt(p0[j]), fmt(new), "-" if not np.isfinite(se) else fmt(se),
+            table.add_row(name, unit, fmt(p0[j]), fmt(new), "-" if not np.isfinite(se) else fmt(se),
                           f"{(new - p0[j]) / p0[j] * 100:+.1f} %" if p0[j] else "")
         else:
-            table.add_row(name, fmt(p0[j]), "(fixed)", "", "")
+            table.add_row(name, unit, fmt(p0[j]), "(fixed)", "", "")
     ctx.console.print(table)
     ctx.console.print(f"condition number {res.condition_number:.4g} (columns scaled: {res.condition_number_scaled:.4g}), "
                       f"residual {res.residual_norm:.4g} (relative {res.relative_residual:.3g}), rank {res.rank}/{len(res.unknowns)}")
@@ -92,6 +94,8 @@ def direct(model_path, data_path, use, unknowns, bounded, uff_path, measured_tex
     for note in payload["notes"]:
         ctx.console.print(f"note: {note}", markup=False)
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="direct",
+                        before=payload["start"])
     if not res.unique:
         if write_model_path or csv_dir:
             ctx.console.print("not written: the updated model and tables (the parameters are not determined uniquely)")

@@ -15,7 +15,7 @@ from .._limits import MAX_MAGNITUDE
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
-                      update_parameter_table, update_payload, data_fields)
+                      update_parameter_table, update_payload, data_fields, report_option, write_report_output)
 
 
 def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
@@ -70,12 +70,23 @@ def parse_force(text: str, model=None) -> dict:
     return out
 
 
-def parse_damping(text: str | None):
+def parse_damping(text: str | None, data=None):
+    """``--damping``: ``alpha=A,beta=B,eta=E`` (any of them; default undamped), or ``fit``: the
+    Rayleigh damping fitted to the test modes' damping ratios (needs ``data`` with two or more)."""
     from ..frf import Damping
     from ..frf.lines import as_damping
 
     if not text:
         return Damping()
+    if text.strip().lower() == "fit":
+        from ._common import fitted_damping
+
+        fit, _ = fitted_damping(data) if data is not None else (None, None)
+        if fit is None:
+            have = 0 if data is None else sum(m.damping_ratio is not None for m in data.modes)
+            raise InputError(f"--damping fit: fits Rayleigh damping to the test modes' damping ratios and needs two or "
+                             f"more; the test data give {have}")
+        return fit
     try:
         values = parse_set(text)
     except InputError as exc:
@@ -97,8 +108,10 @@ def _pairs(h: np.ndarray) -> list:
     return [[float(np.real(v)), float(np.imag(v))] for v in h]
 
 
-damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E",
-                              help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped.")
+damping_option = click.option("--damping", "damping_text", default=None, metavar="alpha=A,beta=B,eta=E|fit",
+                              help="Rayleigh (C = alpha M + beta K) and structural (eta) damping; default undamped. "
+                                   "'fit': Rayleigh damping fitted to the test modes' damping ratios (where the "
+                                   "command reads test data).")
 
 
 
@@ -135,7 +148,7 @@ def apply_reciprocity(data, asked: bool):
     return reciprocal(data)
 
 
-def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text) -> dict:
+def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data=None) -> dict:
     """The FRF options of :func:`femupdate.updating.frf_update` from the command line's."""
     lines = None
     if lines_text:
@@ -149,7 +162,7 @@ def frf_options(residual, lines_text, select, resonance, resonance_tol, damping_
         if twice:
             raise InputError(f"--lines: line(s) {', '.join(map(str, twice))} given twice")
     return dict(residual=residual, lines=lines, select=select, resonance=resonance, resonance_tol=resonance_tol,
-                damping=parse_damping(damping_text))
+                damping=parse_damping(damping_text, data))
 
 
 def frf_fields(res) -> dict:
@@ -273,11 +286,13 @@ def _frf_payload(model, data, res, ms, extra=None):
 @csv_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the FRF overlay and convergence figures to this folder.")
+@report_option
 @set_option
 @json_option
 def frf_update_command(model_path, data_path, params_text, starts, seed, scheduler, connect_timeout, global_method, runs, global_residual,
                        residual, lines_text, select, resonance, resonance_tol, damping_text, parametrisation, method,
-                       reg_text, max_nfev, std, reciprocity, write_model_path, csv_dir, plot_dir, set_text, json_path):
+                       reg_text, max_nfev, std, reciprocity, write_model_path, csv_dir, plot_dir, report_path, set_text,
+                       json_path):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
     from ..updating import frf_multistart, frf_update
     from ..updating.frf import frf_data
@@ -293,7 +308,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     frf = data.frf
     assert frf is not None
     params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
-    kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text),
+    kw = dict(**frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data),
               parametrisation=parametrisation, method=method, regularization=parse_regularization(reg_text),
               max_nfev=max_nfev, values=values, measurement_std=std)
     ms, extra = None, {}
@@ -315,8 +330,10 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                                 connect_timeout=connect_timeout,
                                 progress=lambda done, total: bar.update(task, completed=done), **kw)
     if ms is not None and ms.best is None:
-        emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms), **extra})
+        failed = {"model": model.name, "success": False, "starts": starts_payload(ms), **extra}
+        emit(ctx, failed)
         print_starts(ctx.console, ms, f"{global_method} runs" if global_method else "starts")
+        write_report_output(ctx, report_path, failed, model=model, model_path=model_path, kind="frf-update")
         raise NumericalError(f"none of the {ms.total} {'runs' if global_method else 'starts'} converged")
     res = ms.best if ms is not None else frf_update(model, data, params=params, **kw)
     c = ctx.console
@@ -328,7 +345,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms, what))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     c.print("FRAC per dof: " + ", ".join(f"{d} {v:.4f}" for d, v in res.frac.items()))
     print_diagnostics(c, res)
     for s in res.skipped:
@@ -352,6 +369,9 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
                 + (f" (the FRF overlay shows the first excitation's set, {', '.join(frf.force)})"
                    if data.n_frf_sets > 1 else ""))
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="frf-update",
+                        before=None if values is None else dict(zip(model.parameter_names, values)),
+                        damping=kw["damping"])
     if not res.success:
         if write_model_path or csv_dir:
             c.print("not written: the updated model and tables (the update did not converge)")

@@ -8,8 +8,10 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, data_fields, emit, fmt, json_option, load_data,
-                      measured_dofs_option, model_values, option_dofs, print_data_notes, set_option)
+from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, damping_fields, data_fields, emit, fmt,
+                      json_option, load_data, measured_dofs_option, model_values, option_dofs, print_damping,
+                      print_data_notes, set_option)
+from .frf import damping_option, parse_damping
 
 
 # ---------------------------------------------------------------------------------- modes
@@ -49,6 +51,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
     ctx.console.print(t)
     if res.n_rigid:
         ctx.console.print(f"{res.n_rigid} rigid-body mode(s)")
+    ctx.console.print(f"eigen-solution: {res.solver}")
     if uff_path is not None:
         from ..io.uff import write_uff_modes
 
@@ -59,6 +62,7 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
         "dofs": list(res.dofs), "shapes": res.shapes.T, "normalisation": res.normalisation,
         "n_rigid": res.n_rigid,
         "parameters": dict(zip(model.parameter_names, model.resolve(values))),
+        "solver": res.solver,
     })
 
 
@@ -71,10 +75,12 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
 @click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
               help="How test modes pair with model modes: the same rule as update's --pairing.")
 @measured_dofs_option
+@damping_option
 @set_option
 @json_option
-def correlate(model_path, data_path, min_mac, pairing, measured_text, set_text, json_path):
-    """Pair test and model modes by MAC; frequency errors and COMAC."""
+def correlate(model_path, data_path, min_mac, pairing, measured_text, damping_text, set_text, json_path):
+    """Pair test and model modes by MAC; frequency errors and COMAC; measured damping ratios against
+    the model's (--damping)."""
     from ..correlation import correlate as _correlate
     from ..io.model_file import load_model
     from ..modal import model_modes
@@ -88,8 +94,13 @@ def correlate(model_path, data_path, min_mac, pairing, measured_text, set_text, 
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
     corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
+    damping = damping_fields(data, {i: float(corr.model_frequencies_hz[j]) for i, j, _ in corr.pairs},
+                             parse_damping(damping_text, data))
+    print_damping(ctx.console, data, damping)
     print_data_notes(ctx, data)
     extra = ({"notes": list(data.notes)} if data.notes else {}) | data_fields(data)
+    if damping is not None:
+        extra["damping_ratio"] = damping
     emit(ctx, {
         "dofs": list(corr.dofs), "mac": corr.mac, "pairs": [[i, j, m] for i, j, m in corr.pairs],
         "frequencies_hz": {"test": corr.test_frequencies_hz, "model": corr.model_frequencies_hz},

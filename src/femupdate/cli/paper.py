@@ -7,7 +7,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OUTPUT_DIR, Ctx, emit, json_option
+from ._common import OUTPUT_DIR, Ctx, emit, json_option, report_option
 
 
 @click.command()
@@ -15,9 +15,14 @@ from ._common import OUTPUT_DIR, Ctx, emit, json_option
               help="Folder for paper.json and the figures.")
 @click.option("--section", "sections", multiple=True, help="Only these sections (repeatable).")
 @click.option("--no-figures", is_flag=True, help="Skip the figures.")
+@click.option("--jobs", type=click.IntRange(1, 64), default=None,
+              help="Worker processes (default: one per usable core; 1 runs in this process).")
+@report_option
 @json_option
-def paper(out_dir, sections, no_figures, json_path):
+def paper(out_dir, sections, no_figures, jobs, report_path, json_path):
     """Reproduce the reference paper's numbered results into OUT/paper.json and figures."""
+    import time
+
     from ..paper import SECTIONS, run_sections
 
     ctx = Ctx(json_path)
@@ -25,8 +30,14 @@ def paper(out_dir, sections, no_figures, json_path):
     if unknown:
         raise InputError(f"unknown section(s) {', '.join(unknown)}; known: {', '.join(SECTIONS)}")
     notes: list[str] = []
-    run = list(sections) or list(SECTIONS)
-    result = run_sections(out_dir, run, figures=not no_figures, notes=notes)
+    run = list(dict.fromkeys(sections)) or list(SECTIONS)
+    t0 = time.perf_counter()
+
+    def progress(name, seconds, done, total):
+        ctx.console.print(f"[{done}/{total}] {name} ({seconds:.1f} s)")
+
+    result = run_sections(out_dir, run, figures=not no_figures, notes=notes, jobs=jobs, progress=progress)
+    ctx.console.print(f"{len(run)} section(s) in {time.perf_counter() - t0:.1f} s")
     for n in notes:
         ctx.console.print(f"note: {n}")
     t = Table(title=f"reference paper reproduced in {out_dir}")
@@ -34,8 +45,14 @@ def paper(out_dir, sections, no_figures, json_path):
     t.add_column("result")
     t.add_column("check", justify="center")
     for name, sec in result["sections"].items():
-        check = {True: "ok", False: "DIFFERS", None: "-"}[sec.get("agrees_with_paper")]
+        check = {"agree": "ok", "differ-explained": "differs (explained)", "not-comparable": "not comparable"}.get(
+            sec.get("comparison"), {True: "ok", False: "DIFFERS", None: "-"}[sec.get("agrees_with_paper")])
         t.add_row(name, sec.get("summary", ""), check if name in run else f"{check} (earlier run)")
     ctx.console.print(t)
     ctx.console.print(f"written {out_dir / 'paper.json'}")
     emit(ctx, result)
+    if report_path is not None:
+        from ..report import paper_images, write_report
+
+        write_report(report_path, result, kind="paper", images=paper_images(out_dir, result), source=str(out_dir))
+        ctx.console.print(f"wrote the report {report_path}")

@@ -134,7 +134,7 @@ def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, 
     kw: dict = {}
     for path in data_paths:
         data = load_data(path, model, measured_text)
-        params, data, kinds, kw = problem_from_command_line(model, data)
+        params, data, kinds, kw, _ = problem_from_command_line(model, data)
         sets.append(data)
     checkpoint = checkpoint_path if checkpoint_path is not None else _default_checkpoint(json_path, method)
     c = ctx.console

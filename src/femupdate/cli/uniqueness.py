@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, model_values, set_option
+from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, parameter_fields, report_option, write_report_output, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -74,11 +74,12 @@ def _exact_for(model, names, case, truth):
 @click.option("--exact", is_flag=True, help="Also solve single-sensor cases exactly (frequencies only; small models).")
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write the heat map of the (dof set, modes) table to this folder.")
+@report_option
 @set_option
 @json_option
 def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, connect_timeout, workers, params_text, noise_text,
                checkpoint_path, unit_rows, max_nfev, min_mac, rel_tol, cost_tol, log_uniform, exact, plot_dir,
-               set_text, json_path):
+               report_path, set_text, json_path):
     """Can MODEL's parameters be identified from these measurements? Random-start updates per case.
 
     The model's parameter values (or --set) are the truth; for every measured dof set and number
@@ -133,6 +134,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
         raise
     payload = res.to_dict()
     payload["criteria_agreement"] = _criteria_agreement(res.cases)
+    payload.update(parameter_fields(model, list(study.names)))
     if exact:
         truth = dict(zip(model.parameter_names, study.truth))
         exact: dict[int, dict] = {}  # frequencies only: the answer depends on the number of modes alone
@@ -163,6 +165,7 @@ def uniqueness(model_path, dofs_text, modes_text, starts, seed, scheduler, conne
         payload["figure"] = str(Path(plot_dir) / name)
         c.print(f"figure: {payload['figure']}")
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, model_path=model_path, kind="uniqueness")
 
 
 def _print_table(console, res) -> None:

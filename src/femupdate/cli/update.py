@@ -16,9 +16,9 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
                       model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
-                      data_fields)
+                      data_fields, damping_fields, print_damping, report_option, write_report_output)
 from ..updating.results import pairing_warnings
-from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, reciprocity_option
+from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
 
 def problem_options(command):
@@ -85,9 +85,10 @@ def problem_from_command_line(model, data):
 def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes,
                   formulation, eigenvalues_only, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual,
                   lines_text, select, resonance, resonance_tol, damping_text, reciprocity):
-    """The updated parameters, the test data (regrouped by ``--reciprocity``), the kinds of data used
-    and the problem's keyword options (as :func:`femupdate.update` takes them) from the options of
-    :func:`problem_options`.
+    """The updated parameters, the test data (regrouped by ``--reciprocity``), the kinds of data used,
+    the problem's keyword options (as :func:`femupdate.update` takes them) and the ``--damping``
+    given (:func:`~femupdate.cli.frf.parse_damping`; with modes alone it is compared with their
+    damping ratios) from the options of :func:`problem_options`.
 
     Raises
     ------
@@ -111,15 +112,16 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, min_mac=min_mac,
               pairing=pairing, n_modes=n_modes, use_shapes=not eigenvalues_only, measurement_std=std, use=kinds,
               formulation=formulation)
+    damping = parse_damping(damping_text, data)  # with modes alone: compared with their damping ratios
     if "frf" in kinds:
-        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text)
+        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
     else:
         given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
                                     ("--select", select is not None), ("--resonance", resonance != "skip"),
-                                    ("--resonance-tol", resonance_tol != 1e-3), ("--damping", bool(damping_text))) if v]
+                                    ("--resonance-tol", resonance_tol != 1e-3)) if v]
         if given:
             raise InputError(f"{', '.join(given)}: FRF option(s) given, but no FRF data are used ({', '.join(kinds)})")
-    return params, data, kinds, kw
+    return params, data, kinds, kw, damping
 
 
 @click.command()
@@ -143,12 +145,13 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
 @csv_option
 @click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
               help="Write the updated model's modes (with its nodes) as a universal file.")
+@report_option
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, reciprocity, plot_dir,
-           write_model_path, csv_dir, uff_path, set_text, json_path):
+           write_model_path, csv_dir, uff_path, report_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -163,7 +166,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, set_text)
     data = load_data(data_path, model, measured_text)
-    params, data, kinds, kw = problem_from_command_line(model, data)
+    params, data, kinds, kw, damping = problem_from_command_line(model, data)
     kw.update(method=method, regularization=parse_regularization(reg_text), max_nfev=max_nfev, values=values,
               sensitivity=sensitivity)
     ms = None
@@ -178,8 +181,10 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
                             connect_timeout=connect_timeout,
                             progress=lambda done, total: bar.update(task, completed=done), **kw)
         if ms.best is None:
-            emit(ctx, {"model": model.name, "success": False, "starts": starts_payload(ms)})
+            failed = {"model": model.name, "success": False, "starts": starts_payload(ms)}
+            emit(ctx, failed)
             print_starts(ctx.console, ms)
+            write_report_output(ctx, report_path, failed, model=model, model_path=model_path, kind="update")
             raise NumericalError(f"none of the {starts} starts converged")
         res = ms.best
     c = ctx.console
@@ -187,7 +192,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"
-    c.print(update_parameter_table(res, title))
+    c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
     if res.pairs:
         t2 = Table(title="paired modes")
         for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
@@ -211,6 +216,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     print_diagnostics(c, res)
     if res.formulation:
         c.print(f"formulation: {res.formulation}")
+    if getattr(res, "solver", ""):
+        c.print(f"eigen-solutions: {res.solver}")
     if res.pairing:
         how = ("the dynamic formulation pairs no modes while it solves: the model's modes at the solution paired for "
                "this report" if res.formulation == "dynamic" else "the pairs at the solution made")
@@ -222,6 +229,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         c.print(f"... and {len(res.swaps) - 5} more mode swap(s) (all in the JSON under 'swaps')")
     for line in pairing_warnings(res):
         c.print(line)
+    damping_out = damping_fields(data, {k: float(fm) for (k, _, _), fm in zip(res.pairs, res.model_frequencies_hz)},
+                                 damping)
+    print_damping(c, data, damping_out)
     if ms is not None:
         print_starts(c, ms)
     for note in [*data.notes, *res.notes]:
@@ -230,6 +240,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     payload["notes"] = [*data.notes, *payload["notes"]]
     payload.update(data_fields(data))
     payload["formulation"] = res.formulation or None
+    payload["solver"] = getattr(res, "solver", "") or None
+    if damping_out is not None:
+        payload["damping_ratio"] = damping_out
     if res.expanded_shapes is not None:  # the dynamic formulation's full shapes, per test mode {dof: value}
         payload["expanded_shapes"] = [dict(zip(model.dofs, map(float, col))) for col in res.expanded_shapes.T]
     print_flags(ctx, payload["flags"])
@@ -257,12 +270,15 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if is_frf:
         payload.update(frf_fields(res))
     emit(ctx, payload)
+    write_report_output(ctx, report_path, payload, model=model, data=data, model_path=model_path, kind="update",
+                        before=None if values is None else dict(zip(model.parameter_names, values)),
+                        damping=kw.get("frf_options", {}).get("damping"))
     if not res.success:
         if write_model_path or csv_dir or uff_path:
             c.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
-                        write_model_path, csv_dir, res)
+                        write_model_path, csv_dir, res, damping_out)
     if uff_path is not None:
         from ..io.uff import write_uff_modes
         from ..modal import model_modes

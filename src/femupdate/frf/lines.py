@@ -120,6 +120,65 @@ class Damping:
         """``{"alpha": ..., "beta": ..., "eta": ...}`` (the keys :func:`as_damping` takes)."""
         return {"alpha": self.alpha, "beta": self.beta, "eta": self.eta}
 
+    def modal_damping_ratio(self, omega) -> np.ndarray:
+        r"""The modal damping ratio of an undamped mode of circular frequency ω:
+        :math:`\zeta = \alpha/(2\omega) + \beta\omega/2 + \eta/2` (Rayleigh damping is
+        diagonal in the real modes; a loss factor η is the viscous ratio η/2 at resonance).
+
+        Parameters
+        ----------
+        omega : float or array_like of float
+            The modes' circular frequencies ω = √λ (rad/s), > 0 where ``alpha`` > 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            ζ per mode (infinite at ω = 0 when ``alpha`` > 0).
+        """
+        w = np.asarray(omega, float)
+        with np.errstate(divide="ignore"):
+            mass_term = np.where(w > 0, self.alpha / (2 * np.where(w > 0, w, 1.0)), np.inf if self.alpha else 0.0)
+        return mass_term + self.beta * w / 2 + self.eta / 2
+
+    @classmethod
+    def rayleigh_fit(cls, omega, zeta, std=None) -> tuple[Damping, np.ndarray]:
+        r"""The Rayleigh damping that best fits measured modal damping ratios: α, β ≥ 0
+        minimising :math:`\sum_r ((\alpha/(2\omega_r) + \beta\omega_r/2 - \zeta_r)/\sigma_r)^2`
+        (non-negative least squares).
+
+        Parameters
+        ----------
+        omega : array_like of float, shape ``(n,)``
+            Circular frequencies of the measured modes (rad/s), > 0.
+        zeta : array_like of float, shape ``(n,)``
+            Their measured damping ratios.
+        std : array_like of float, shape ``(n,)``, optional
+            Standard deviations of the ratios (default: equal weights).
+
+        Returns
+        -------
+        damping : Damping
+            α and β (η = 0).
+        residual : numpy.ndarray, shape ``(n,)``
+            The fitted ratio minus the measured one, per mode.
+
+        Raises
+        ------
+        InputError
+            Fewer than one mode, a frequency that is not > 0, or sizes that differ.
+        """
+        from scipy.optimize import nnls
+
+        w = np.asarray(omega, float).ravel()
+        z = np.asarray(zeta, float).ravel()
+        if w.size == 0 or w.shape != z.shape or not np.all(w > 0) or not np.all(np.isfinite(z)):
+            raise InputError("Rayleigh fit: needs at least one mode with a frequency > 0 and a finite damping ratio")
+        s = np.ones_like(z) if std is None else np.asarray(std, float).ravel()
+        A = np.column_stack([1 / (2 * w), w / 2]) / s[:, None]
+        x, _ = nnls(A, z / s)
+        fit = cls(alpha=float(x[0]), beta=float(x[1]))
+        return fit, fit.modal_damping_ratio(w) - z
+
 
 UNDAMPED = Damping()
 
@@ -374,7 +433,7 @@ def factor(Z, where: str):
     from ..modal import factorize
 
     try:
-        return factorize(Z)
+        return factorize(Z, definite=False)  # K - omega^2 M: indefinite above the first resonance
     except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
         raise NumericalError(f"the dynamic stiffness is singular at {where} ({exc}): the line lies on a "
                              "resonance of the model (move the line, skip it, or add damping)") from None

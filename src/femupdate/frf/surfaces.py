@@ -63,6 +63,9 @@ class Surface:
     info : dict
         What the surface was computed from (lines, dofs and force, or eigenvalues and
         reference dof).
+    units : (str, str), default ("", "")
+        The two parameters' units (:attr:`Parameter.unit <femupdate.Parameter.unit>`; ``""``
+        unknown), for the axes.
     """
 
     names: tuple[str, str]
@@ -72,6 +75,7 @@ class Surface:
     kind: str
     truth: tuple[float, float] | None = None
     info: dict = field(default_factory=dict)
+    units: tuple[str, str] = ("", "")
 
     @property
     def minimum(self) -> dict:
@@ -124,6 +128,12 @@ def local_minima(values: np.ndarray) -> list[tuple[int, int, bool]]:
     ii, jj = np.nonzero(is_min)
     edge = (ii == 0) | (jj == 0) | (ii == n1 - 1) | (jj == n2 - 1)
     return list(zip(ii.tolist(), jj.tolist(), edge.tolist()))
+
+
+def _units(model, names: Sequence[str]) -> tuple[str, str]:
+    """The two surface parameters' units."""
+    u = [model.parameters[model.parameter_index(n)].unit for n in names]
+    return u[0], u[1]
 
 
 def _grid(model, names: Sequence[str], x, y):
@@ -356,7 +366,8 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
     return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size),
                    f"frf (eq. 34, {residual})",
                    None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
-                   {"omega_rad_s": data.omega.tolist(), "dofs": list(data.dofs), "force": dict(data.force)})
+                   {"omega_rad_s": data.omega.tolist(), "dofs": list(data.dofs), "force": dict(data.force)},
+                   _units(model, names))
 
 
 def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, values=None,
@@ -501,7 +512,7 @@ def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None
     out = modal_r2(model, data, names, P, values, ref_dof)
     return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size), "modal (eq. 33)",
                    None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
-                   {"eigenvalues": data.eigenvalues.tolist(), "ref_dof": ref_dof})
+                   {"eigenvalues": data.eigenvalues.tolist(), "ref_dof": ref_dof}, _units(model, names))
 
 
 def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1e-3) -> list[dict]:

@@ -243,7 +243,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
             raise InputError(f"{where}: fixed must be true or false, got {spec['fixed']!r}")
         try:
             prior = parse_prior(spec["prior"], f"{where} prior") if "prior" in spec else None
-            params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False), prior))
+            params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False), prior=prior))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
         dK.append(load_matrix(spec["K"], base, f"{where} K") if "K" in spec else None)

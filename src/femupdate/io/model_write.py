@@ -200,12 +200,13 @@ def write_parameter_table(path, model, names, start, updated, std, at_bounds=Non
     return Path(path)
 
 
-def write_result_tables(folder, model, res) -> list[Path]:
+def write_result_tables(folder, model, res, damping: dict | None = None) -> list[Path]:
     """``parameters.csv`` and, with paired modes, ``modes.csv`` of an update result in ``folder``.
 
     ``parameters.csv``: ``parameter, start, updated, change_percent, std, lower, upper,
     on_bound``; ``modes.csv``: ``test_mode, model_mode`` (1-based, as on the terminal),
-    ``f_test_hz, f_model_hz, error_percent, mac``.
+    ``f_test_hz, f_model_hz, error_percent, mac``, and with ``damping``
+    ``damping_test, damping_test_std, damping_model`` (empty where not known).
 
     Parameters
     ----------
@@ -215,6 +216,8 @@ def write_result_tables(folder, model, res) -> list[Path]:
         Its bounds.
     res : UpdateResult
         The result.
+    damping : dict, optional
+        The result's ``damping_ratio`` fields (``test``, ``std``, ``model``: one per test mode).
 
     Returns
     -------
@@ -230,9 +233,14 @@ def write_result_tables(folder, model, res) -> list[Path]:
     if res.pairs:
         mrows = [[k + 1, j + 1, float(ft), float(fa), (float(fa) - ft) / ft * 100 if ft else math.nan, float(m)]
                  for (k, j, m), ft, fa in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz)]
+        header = ["test_mode", "model_mode", "f_test_hz", "f_model_hz", "error_percent", "mac"]
+        if damping:
+            header += ["damping_test", "damping_test_std", "damping_model"]
+            for row, (k, _, _) in zip(mrows, res.pairs):
+                row += [math.nan if v is None else v for v in (damping["test"][k], damping["std"][k],
+                                                              damping["model"][k])]
         out.append(folder / "modes.csv")
-        atomic_write_text(out[1], csv_text(["test_mode", "model_mode", "f_test_hz", "f_model_hz", "error_percent",
-                                            "mac"], mrows))
+        atomic_write_text(out[1], csv_text(header, mrows))
     return out
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -11,15 +12,19 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
 from .numbers import loads_json
-from ..testdata import FRFData, MeasuredMode, StaticData, TestData, positive
+from ..testdata import FRFData, MeasuredMode, StaticData, TestData, check_damping_ratio, positive
 
 UFF_SUFFIXES = (".uff", ".unv")
+#: other spellings of a mode's keys, accepted as the key itself (the issue tracker's and other
+#: tools' spelling): alias -> key
+MODE_ALIASES = {"frequency_std": "std_frequency", "shape_std": "std_shape", "damping_ratio_std": "std_damping_ratio"}
 #: the keys of a mode object (docs/file-formats.md, "modes")
 MODE_KEYS = frozenset({"frequency_hz", "eigenvalue", "shape", "label", "reference_dof", "std_frequency",
-                       "std_eigenvalue", "std_shape", "weight", "sensors"})
+                       "std_eigenvalue", "std_shape", "weight", "sensors", "damping_ratio", "std_damping_ratio",
+                       *MODE_ALIASES})
 
 
-def load_testdata(path, model=None, numbering=None, sensors=None) -> TestData:
+def load_testdata(path, model=None, numbering=None, sensors=None, channels=None) -> TestData:
     """Read test data from JSON or a universal file (``.uff``/``.unv``).
 
     With ``model``, every dof in the data must be a model dof (the message names the others), and
@@ -29,8 +34,11 @@ def load_testdata(path, model=None, numbering=None, sensors=None) -> TestData:
     Parameters
     ----------
     path : str or os.PathLike
-        A JSON file (format in docs/file-formats.md), or a universal file by its suffix
-        ``.uff``/``.unv`` (read by :func:`femupdate.io.uff.read_uff`).
+        A JSON file (format in docs/file-formats.md), a universal file by its suffix
+        ``.uff``/``.unv`` (read by :func:`femupdate.io.uff.read_uff`), or an identification
+        result saved with ``numpy.savez`` by its suffix ``.npz`` (a pyOMA2 result's or an
+        sdypy-EMA model's arrays with their channel map, read by
+        :func:`femupdate.io.adapters.read_identification`).
     model : Model, optional
         Model whose dofs the data must use.
     numbering : sequence of str, optional
@@ -40,6 +48,9 @@ def load_testdata(path, model=None, numbering=None, sensors=None) -> TestData:
         The measured dofs of the modes (labels, or ``"#N"`` with a model): each mode keeps its
         shape at these dofs only, zeros included; it replaces the JSON's ``sensors`` and a
         universal file's own rule (``--measured-dofs``).
+    channels : sequence or mapping, optional
+        The channel map of an identification result (``.npz`` only), replacing the file's
+        (:func:`femupdate.io.adapters.channel_map`).
 
     Returns
     -------
@@ -56,12 +67,22 @@ def load_testdata(path, model=None, numbering=None, sensors=None) -> TestData:
     path = Path(path)
     if numbering is None and model is not None:
         numbering = model.dofs
+    if channels is not None and path.suffix.lower() != ".npz":
+        raise InputError(f"{path}: a channel map is for an identification result saved as .npz")
     if sensors is not None:
         sensors = resolve_all(list(sensors), numbering, "sensors")
     if path.suffix.lower() in UFF_SUFFIXES:
         from .uff import read_uff
 
         data = read_uff(path, model=model, sensors=sensors)  # measured dofs: sensors, FRF records or the zero rule
+    elif path.suffix.lower() == ".npz":
+        from .adapters import read_identification
+
+        data = read_identification(path, numbering, channels)
+        if sensors is not None:
+            notes = list(data.notes)
+            modes = tuple(_keep_sensors(m, sensors, f"modes[{k}]", notes) for k, m in enumerate(data.modes, start=1))
+            data = TestData(modes=modes, notes=tuple(notes))
     else:
         try:
             text = path.read_text()
@@ -151,8 +172,7 @@ def _keep_sensors(mode: MeasuredMode, sensors: tuple[str, ...], where: str, note
 
     notes.append(f"{where}: shape entries at dofs outside the sensors left out: {describe(out)}"
                  + (f" (non-zero at {describe(nonzero)})" if nonzero else ""))
-    return MeasuredMode(mode.eigenvalue, tuple(d for d, k in zip(mode.dofs, mask) if k), mode.shape[mask], mode.label,
-                        mode.reference_dof, mode.std_eigenvalue, mode.std_shape, mode.weight)
+    return replace(mode, dofs=tuple(d for d, k in zip(mode.dofs, mask) if k), shape=mode.shape[mask])
 
 
 def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
@@ -165,11 +185,15 @@ def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
         or ``eigenvalue`` (rad²/s²), an optional ``shape`` {dof: value}, ``label`` and ``reference_dof``,
         and optionally at most one of ``std_frequency`` (relative, of f; kept as
         ``std_eigenvalue`` = 2 ``std_frequency``, to first order) or ``std_eigenvalue``
-        (relative, of λ), ``std_shape`` (of the scaled shape entries) and ``weight``; null: not
-        given),
+        (relative, of λ), ``std_shape`` (of the scaled shape entries), ``weight``,
+        ``damping_ratio`` (ζ, fraction of critical) and ``std_damping_ratio`` (absolute, of ζ);
+        ``frequency_std``, ``shape_std`` and ``damping_ratio_std`` are other spellings of
+        ``std_frequency``, ``std_shape`` and ``std_damping_ratio`` (both spellings of one key
+        together are refused); null: not given),
         ``"frf"`` (``omega_rad_s``, ``force`` {dof: value}, ``response`` {dof: one value per
         frequency}; complex values as ``[re, im]``), ``"static"`` (an object or a list of them
-        with ``force`` and ``displacement`` {dof: value}), ``"units"`` (an object) and
+        with ``force`` and ``displacement`` {dof: value}), ``"units"`` (an object), ``"notes"`` (a list of
+        strings, kept as the data's notes: what a conversion decided) and
         ``"sensors"`` (a list of dofs: the measured dofs of every mode; a mode's own
         ``sensors`` replace it for that mode; each mode keeps its shape at its sensors only,
         with a note naming what was left out).  A dof is a label or ``"#N"``, the N-th entry of
@@ -194,10 +218,14 @@ def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
     """
     if not isinstance(raw, Mapping):
         raise InputError("test data must be a JSON object with 'modes', 'frf' and/or 'static'")
-    unknown = sorted(set(raw) - {"modes", "frf", "static", "units", "sensors"})
+    unknown = sorted(set(raw) - {"modes", "frf", "static", "units", "sensors", "notes"})
     if unknown:
         raise InputError(f"unknown key(s) {', '.join(unknown)} (expected modes, frf, static)")
     notes: list[str] = []
+    given_notes = raw.get("notes") or []
+    if not isinstance(given_notes, list) or not all(isinstance(n, str) for n in given_notes):
+        raise InputError("'notes' must be a list of strings")
+    notes.extend(given_notes)
     top_sensors = None if raw.get("sensors") is None else _sensor_list(raw["sensors"], dofs, "sensors")
     modes = []
     modes_raw = raw.get("modes", []) or []
@@ -212,11 +240,20 @@ def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}")
         if ("frequency_hz" in m) == ("eigenvalue" in m):
             raise InputError(f"{where}: give exactly one of frequency_hz or eigenvalue")
-        # per-mode uncertainty and weight (null: not given), named as the file names them
-        extra = {k: positive(m[k], f"{where} {k}") for k in ("std_frequency", "std_eigenvalue", "std_shape", "weight")
-                 if m.get(k) is not None}
+        for alias, key in MODE_ALIASES.items():
+            if alias in m and key in m:
+                raise InputError(f"{where}: give {key} or {alias} (two spellings of one key), not both")
+        written = {MODE_ALIASES.get(k, k): k for k in m}  # each key as the file spells it, for the messages
+        m = {MODE_ALIASES.get(k, k): v for k, v in m.items()}
+        # per-mode uncertainty, weight and damping (null: not given), named as the file names them
+        extra = {k: positive(m[k], f"{where} {written[k]}") for k in ("std_frequency", "std_eigenvalue", "std_shape", "weight",
+                                                              "std_damping_ratio") if m.get(k) is not None}
+        if m.get("damping_ratio") is not None:
+            extra["damping_ratio"] = check_damping_ratio(m["damping_ratio"], f"{where} damping_ratio")
+        elif "std_damping_ratio" in extra:
+            raise InputError(f"{where}: {written['std_damping_ratio']} is given without damping_ratio")
         if "std_frequency" in extra and "std_eigenvalue" in extra:
-            raise InputError(f"{where}: give at most one of std_frequency or std_eigenvalue")
+            raise InputError(f"{where}: give at most one of {written['std_frequency']} or std_eigenvalue")
         if "std_frequency" in extra:  # λ ∝ f²: σ_λ/λ = 2 σ_f/f to first order
             extra["std_eigenvalue"] = 2.0 * extra.pop("std_frequency")
         shape = m.get("shape", {}) or {}
@@ -315,3 +352,56 @@ def _frf(f, model_dofs=None) -> FRFData:
     if np.iscomplexobj(arr) and not np.any(arr.imag):
         arr = arr.real
     return FRFData(np.array(omega), force, resolve_all(dofs, model_dofs, "frf response"), arr)
+
+
+def _value(v):
+    """A shape or FRF value as the JSON writes it: a number, or ``[re, im]``."""
+    return [float(v.real), float(v.imag)] if isinstance(v, complex | np.complexfloating) else float(v)
+
+
+def testdata_object(data: TestData) -> dict:
+    """The test-data JSON object of ``data`` (docs/file-formats.md), which :func:`parse_testdata`
+    reads back to the same data (the eigenvalue through ``frequency_hz``, to round-off).
+
+    Parameters
+    ----------
+    data : TestData
+        Modes (with their labels, reference dofs, standard deviations, weights and damping
+        ratios), at most one FRF set, static cases, units and notes.
+
+    Returns
+    -------
+    dict
+        ``modes``, and ``frf``, ``static``, ``units``, ``notes`` where the data have them.
+
+    Raises
+    ------
+    InputError
+        Several FRF sets (the JSON format holds one).
+    """
+    out: dict = {"modes": []}
+    for m in data.modes:
+        obj: dict = {"label": m.label, "frequency_hz": m.frequency_hz}
+        if m.has_shape:
+            obj["shape"] = {d: _value(v) for d, v in zip(m.dofs, m.shape)}
+        for key in ("reference_dof", "std_eigenvalue", "std_shape", "weight", "damping_ratio", "std_damping_ratio"):
+            if getattr(m, key) is not None:
+                obj[key] = getattr(m, key)
+        out["modes"].append(obj)
+    if data.n_frf_sets > 1:
+        raise InputError(f"the test data hold {data.n_frf_sets} FRF sets (one per excitation); the test-data JSON "
+                         "holds one: keep the universal file, or convert the modes alone")
+    if data.frf is not None:
+        f = data.frf
+        out["frf"] = {"omega_rad_s": [float(w) for w in f.omega], "force": {d: _value(v) for d, v in f.force.items()},
+                      "response": {d: [_value(v) for v in f.response[:, j]] for j, d in enumerate(f.dofs)}}
+    if data.static:
+        out["static"] = [{"force": dict(s.force), "displacement": dict(zip(s.dofs, map(float, s.displacement)))}
+                         for s in data.static]
+    if not out["modes"]:
+        del out["modes"]
+    if data.units:
+        out["units"] = dict(data.units)
+    if data.notes:
+        out["notes"] = list(data.notes)
+    return out

@@ -2,8 +2,12 @@
 
 Each section is a function ``(out_dir, figures) -> dict`` registered in :data:`SECTIONS`; the
 dict holds the computed values, the paper's printed values where there are any, a one-line
-``summary`` and ``agrees_with_paper`` (True / False / None when the paper prints no number).
-Later capabilities add their sections to the same registry.
+``summary``, ``agrees_with_paper`` (True or False, never None) and ``comparison``: ``"agree"``,
+``"differ-explained"`` (with the ``explanation``) or ``"not-comparable"`` (with why, in
+``explanation``).  Later capabilities add their sections to the same registry.
+
+:func:`run_sections` runs the sections in worker processes (one per core by default), the
+longest first, and reports each finished section to a ``progress`` callback.
 """
 
 from __future__ import annotations
@@ -78,19 +82,115 @@ def previous_sections(path, notes: list) -> dict:
     return kept
 
 
-def run_sections(out_dir, names=None, figures: bool = True, notes: list | None = None) -> dict:
+COMPARISONS = ("agree", "differ-explained", "not-comparable")
+
+#: sections that share a cache and run best in one worker, in this order
+GROUPS = (("figure6_frf_surface", "figure7_frf_surface"),)
+
+#: CPU seconds each section took on the reference machine (2 cores, idle), to start the longest first
+COST = {"six_dof_uniqueness": 7.0, "damage_cantilever_vs_free": 5.4, "modal_vs_frf_convergence": 5.5,
+        "figure7_frf_surface": 2.8, "noise_modal_vs_frf": 3.6, "noise_frf_lines": 3.0, "reduction_truss": 2.9,
+        "eigenvector_derivatives": 2.7, "perturbed_boundary": 1.8}
+
+
+def checked(name: str, sec: dict) -> dict:
+    """A section's result with ``comparison`` set and checked (``agrees_with_paper`` True or False)."""
+    agrees = sec.get("agrees_with_paper")
+    if agrees is not True and agrees is not False:
+        raise RuntimeError(f"paper section {name!r}: agrees_with_paper must be true or false, got {agrees!r}")
+    comp = sec.setdefault("comparison", "agree" if agrees else "differ-explained")
+    if comp not in COMPARISONS or (comp == "agree") != agrees:
+        raise RuntimeError(f"paper section {name!r}: comparison {comp!r} does not fit agrees_with_paper {agrees}")
+    if comp != "agree" and not (sec.get("explanation") or sec.get("finding")):
+        raise RuntimeError(f"paper section {name!r}: {comp} without an explanation")
+    if comp != "agree":
+        sec.setdefault("explanation", sec.get("finding"))
+    return sec
+
+
+def _run_group(names, out_dir, figures):
+    """Run sections in this process (a worker, or the caller), one BLAS thread: [(name, result, seconds)]."""
+    import time
+
+    from ..sensitivity.factor import single_thread_blas
+
+    out = []
+    with single_thread_blas():
+        for name in names:
+            t0 = time.perf_counter()
+            sec = checked(name, SECTIONS[name](Path(out_dir), figures))
+            out.append((name, to_jsonable(sec), time.perf_counter() - t0))
+    return out
+
+
+def _tasks(names) -> list[tuple[str, ...]]:
+    """The sections to run grouped (:data:`GROUPS`) and ordered longest first."""
+    left = list(names)
+    tasks = []
+    for g in GROUPS:
+        mine = tuple(n for n in g if n in left)
+        if len(mine) > 1:
+            tasks.append(mine)
+            left = [n for n in left if n not in mine]
+    tasks += [(n,) for n in left]
+    return sorted(tasks, key=lambda t: -sum(COST.get(n, 1.0) for n in t))
+
+
+def run_sections(out_dir, names=None, figures: bool = True, notes: list | None = None, jobs: int | None = None,
+                 progress=None) -> dict:
     """Run the named sections (default all) and write ``out_dir/paper.json``.
 
     Sections already in an existing ``paper.json`` and not re-run are kept when they are as
     femupdate writes them (:func:`previous_sections`); what is ignored is appended to ``notes``.
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Folder of ``paper.json`` and the figures.
+    names : sequence of str, optional
+        Sections to run (default all).
+    figures : bool, default True
+    notes : list, optional
+        Receives notes about an existing ``paper.json``.
+    jobs : int, optional
+        Worker processes (default: the usable cores, at most the number of tasks); 1 runs in this
+        process.
+    progress : callable, optional
+        ``progress(name, seconds, done, total)`` after each section.
     """
+    import os
+
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = list(SECTIONS) if not names else list(names)
     path = out_dir / "paper.json"
     sections = previous_sections(path, notes if notes is not None else [])
-    for name in names:
-        sections[name] = to_jsonable(SECTIONS[name](out_dir, figures))
+    tasks = _tasks(names)
+    if jobs is None:
+        jobs = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    jobs = max(1, min(int(jobs), len(tasks)))
+    done = 0
+
+    def collect(results):
+        nonlocal done
+        for name, sec, seconds in results:
+            sections[name] = sec
+            done += 1
+            if progress is not None:
+                progress(name, seconds, done, len(names))
+
+    if jobs == 1:
+        for t in tasks:
+            collect(_run_group(t, out_dir, figures))
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context(method)) as pool:
+            futures = [pool.submit(_run_group, t, str(out_dir), figures) for t in tasks]
+            for f in as_completed(futures):
+                collect(f.result())
     result = {"paper": TITLE, "sections": {k: sections[k] for k in SECTIONS if k in sections}}
     write_json(path, result)
     return result

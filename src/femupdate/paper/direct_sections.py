@@ -137,7 +137,7 @@ def eq29_frf_direct_two_dof(out_dir, figures=True) -> dict:
         "stacked": {"X": res.system.A, "rows_equal_eq27": same, "k": res.x,
                     "condition_number": res.condition_number, "residual_norm": res.residual_norm},
         "agrees_with_paper": bool(ok),
-        "summary": f"k = {np.round(res.x, 9).tolist()}, cond(X) = {res.condition_number:.3g}",
+        "summary": f"unit force at 2:x: k = {np.round(res.x, 9).tolist()}, cond(X) = {res.condition_number:.3g}",
         "notes": ["eq. 27's last block prints x_{1,2}, x_{2,2}; it is the N-th line x_{1,N}, x_{2,N}"],
     }
 

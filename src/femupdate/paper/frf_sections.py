@@ -98,6 +98,7 @@ def figure4_frf_condition(out_dir, figures=True) -> dict:
         "description": "cond(X) of eq. 28 for 5 simulated noise-free lines of the two-dof system, lowest line = "
                        "spacing (the caption: both are on the horizontal axis); all dofs measured, unit force",
         "spacings_rad_s": spacings,
+        "force": PRIMARY_FORCE,
         "by_force": per_force,
         "reproduces_description": described,
         "map": {"force": PRIMARY_FORCE, "starts_rad_s": starts, "spacings_rad_s": sp2, "condition": st2.condition},
@@ -150,6 +151,7 @@ def eq32_receptance_sensitivity(out_dir, figures=True) -> dict:
                        "both dofs), 346 lines 0.05-3.5 rad/s: against central differences, and the first-order "
                        "prediction of a 1 % change of k1 against the exact change",
         "resonances_rad_s": np.sqrt(lam),
+        "force": "2:x",
         "fd_vs_brandon": {"rel_step": 1e-6, "max_far_from_resonance": float(np.max(err_fd[far])),
                           "max_near_resonance": float(np.max(err_fd[near]))},
         "first_order": {"delta": delta, "median_error_far": float(np.median(chk.error[far])),
@@ -163,7 +165,7 @@ def eq32_receptance_sensitivity(out_dir, figures=True) -> dict:
         "notes": ["eq. 32 writes [dZ] = [dK] - w^2 [dM] inside a derivative: it is dK/dD_j - w_i^2 dM/dD_j (the exact "
                   "derivative), or for a finite change the first-order term of the exact identity "
                   "alpha' - alpha = -alpha' dZ alpha; the w carries the line index i"],
-        "summary": f"FD agrees to {np.max(err_fd[far]):.1e} away from resonance; 1 % change of k1: first-order error "
+        "summary": f"force at 2:x: FD agrees to {np.max(err_fd[far]):.1e} away from resonance; 1 % change of k1: first-order error "
                    f"{np.median(chk.error[far]):.1e} far vs {np.median(chk.error[near]):.2g} within 2 % of a resonance; "
                    f"estimate delta*s/d within x{max(ratio.max(), 1 / ratio.min()):.2f}",
     }
@@ -313,6 +315,7 @@ def modal_vs_frf_convergence(out_dir, figures=True, starts: int = 100, seed: int
                        "the SAME starts for every data type; trust-region least squares from each; 'reached' = within "
                        "1e-4 (relative) of (8, 6). Modal: eigenvalues + shapes scaled at the first measured dof; FRF: "
                        f"receptances, unit force at {PRIMARY_FORCE}, lines as in Figures 6 and 7",
+        "force": PRIMARY_FORCE,
         "same_starts": bool(same),
         "cases": cases,
         "global_search": {"method": "differential_evolution (log-magnitude global stage, eq. 34 polish)",
@@ -323,7 +326,7 @@ def modal_vs_frf_convergence(out_dir, figures=True, starts: int = 100, seed: int
                            "estimates; random walks or genetic algorithms would have to be applied"},
         "agrees_with_paper": bool(ok),
         "summary": "; ".join(f"{k}: {v['reached_truth']}/{starts}" for k, v in cases.items())
-                   + f"; differential evolution: {int(g_ok.sum())}/5 runs",
+                   + f"; differential evolution: {int(g_ok.sum())}/5 runs (FRF force at {PRIMARY_FORCE})",
     }
     if figures:
         from ..plot.frf import save_starts_figure

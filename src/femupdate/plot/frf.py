@@ -116,6 +116,12 @@ def _clipped_log10(surface):
     return np.log10(np.clip(np.where(np.isfinite(v), v, hi), lo, hi))
 
 
+def _axis(surface, i: int) -> str:
+    """Axis label of a surface parameter, with its unit when known: ``"k1 [N/m]"``."""
+    unit = getattr(surface, "units", ("", ""))[i]
+    return f"{surface.names[i]} [{unit}]" if unit else surface.names[i]
+
+
 def surface_axes(surface, ax=None):
     """3-D surface of log10 of the residual (the paper's plots; spikes clipped for display).
 
@@ -141,7 +147,7 @@ def surface_axes(surface, ax=None):
     ax.plot_surface(X, Y, Z, cmap="viridis", linewidth=0, antialiased=False, rcount=150, ccount=150)
     if surface.truth is not None:
         ax.scatter(*surface.truth, float(np.min(Z)), color="r", s=40, depthshade=False)
-    ax.set(xlabel=surface.names[0], ylabel=surface.names[1], zlabel="log10 r")
+    ax.set(xlabel=_axis(surface, 0), ylabel=_axis(surface, 1), zlabel="log10 r")
     return ax
 
 
@@ -171,7 +177,7 @@ def contour_axes(surface, ax=None, minima=None):
     if surface.truth is not None:
         ax.plot(*surface.truth, "r*", ms=12, label=f"true ({surface.truth[0]:g}, {surface.truth[1]:g})")
         ax.legend(loc="upper right", fontsize=8)
-    ax.set(xlabel=surface.names[0], ylabel=surface.names[1])
+    ax.set(xlabel=_axis(surface, 0), ylabel=_axis(surface, 1))
     return ax
 
 

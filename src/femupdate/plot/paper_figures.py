@@ -154,3 +154,136 @@ def multistart_scatter(path, ms) -> str:
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     multistart_axes(ms, ax)
     return save_figure(fig, path)
+
+
+def eigvec_cost_figure(path, rows) -> str:
+    """CPU time and error against finite differences of each eigenvector-derivative route, by model size.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    rows : list of dict
+        The ``rows`` of the ``eigenvector_derivatives`` paper section: ``n_dofs``, ``n_parameters``
+        and ``routes`` (route → ``seconds``, ``error_vs_fd``).
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    fig, (a0, a1) = plt.subplots(1, 2, figsize=(11, 4.2))
+    routes = list(dict.fromkeys(k for r in rows for k in r["routes"]))
+    styles = {L: ls for L, ls in zip(sorted({r["n_parameters"] for r in rows}), ("-", "--", ":"))}
+    for i, route in enumerate(routes):
+        for L, ls in styles.items():
+            sel = [r for r in rows if r["n_parameters"] == L and route in r["routes"]]
+            x = [r["n_dofs"] for r in sel]
+            a0.plot(x, [r["routes"][route]["seconds"] for r in sel], ls, marker="o", color=f"C{i}",
+                    label=f"{route} (L={L})")
+            if ls == "-":
+                a1.plot(x, [max(r["routes"][route]["error_vs_fd"], 1e-16) for r in sel], ls, marker="o",
+                        color=f"C{i}", label=route)
+    a0.set(xscale="log", yscale="log", xlabel="dofs N", ylabel="CPU s (best of 3)", title="cost of the derivatives")
+    a1.set(xscale="log", yscale="log", xlabel="dofs N", ylabel="max error / max |dφ|", title="error against finite differences")
+    a0.legend(fontsize=7)
+    a1.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def grouped_bars_figure(path, groups: dict, ylabel: str, title: str, log: bool = False) -> str:
+    """Grouped bar chart: ``groups`` maps a series name to {category: value}.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    groups : dict of str to dict of str to float
+        One bar colour per series; the categories share the x axis.
+    ylabel, title : str
+    log : bool, default False
+        Logarithmic y axis.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    cats = list(dict.fromkeys(c for g in groups.values() for c in g))
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(cats) * len(groups) ** 0.5 + 2), 4.2))
+    x = np.arange(len(cats))
+    w = 0.8 / max(1, len(groups))
+    for k, (name, g) in enumerate(groups.items()):
+        ax.bar(x + k * w, [max(g.get(c, np.nan), 1e-16) for c in cats], w, label=name)
+    ax.set_xticks(x + 0.4 - w / 2, cats, rotation=20, ha="right", fontsize=8)
+    ax.set(ylabel=ylabel, title=title, yscale="log" if log else "linear")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def error_vs_condition_figure(path, cond, err, named: dict, sigma: float) -> str:
+    """Median parameter error of the direct FRF solution against cond(X): random line sets as dots,
+    ``named`` sets ({label: (cond, error)}) as labelled markers.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    cond, err : array_like
+        Condition numbers and median errors of the random sets.
+    named : dict of str to (float, float)
+    sigma : float
+        The noise level (title).
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    ax.loglog(cond, err, "o", color="0.6", label="random 5-line sets")
+    for i, (name, (c, e)) in enumerate(named.items()):
+        ax.loglog([c], [e], "s", ms=9, color=f"C{i}", label=name)
+    ax.set(xlabel="cond(X) (eq. 28)", ylabel="RMS of the largest relative error of k",
+           title=f"Figure 4 with {sigma:.0%} FRF noise: direct solution error vs conditioning")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def identifiability_grids_figure(path, tables: dict, N: int) -> str:
+    """Sensors × actuators grids (rank / unknowns; green where identifiable), one row per variant
+    and one column per placement (the ``su_juang_criteria`` paper section).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    tables : dict of str to dict of str to dict
+        Variant → placement → ``"s x a"`` → {sensors, actuators, rank, unknowns, identifiable}.
+    N : int
+        Number of dofs.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    rows, cols = list(tables), list(next(iter(tables.values())))
+    fig, axes = plt.subplots(len(rows), len(cols), figsize=(4.2 * len(cols), 3.3 * len(rows)), squeeze=False)
+    for i, v in enumerate(rows):
+        for j, p in enumerate(cols):
+            ax = axes[i][j]
+            grid = np.zeros((N, N))
+            for c in tables[v][p].values():
+                s, a = c["sensors"], c["actuators"]
+                grid[s - 1, a - 1] = 1.0 if c["identifiable"] else 0.0
+                ax.text(a - 1, s - 1, f"{c['rank']}/{c['unknowns']}", ha="center", va="center", fontsize=8)
+            ax.imshow(grid, cmap="RdYlGn", vmin=-0.3, vmax=1.3, origin="lower")
+            ax.set(xticks=range(N), xticklabels=range(1, N + 1), yticks=range(N), yticklabels=range(1, N + 1),
+                   xlabel="actuators", ylabel="sensors", title=f"{v}\n{p.split(' (')[0]}")
+            ax.title.set_fontsize(9)
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -44,8 +44,8 @@ def truss_metrics_axes(table: dict, methods, axes=None):
     return axes
 
 
-def truss_metrics_figure(path, table, methods) -> str:
-    """Save :func:`truss_metrics_axes` to ``path``.
+def truss_metrics_figure(path, table, methods, sweep: dict | None = None) -> str:
+    """Save :func:`truss_metrics_axes` to ``path`` (with a third panel for ``sweep``).
 
     Parameters
     ----------
@@ -53,14 +53,24 @@ def truss_metrics_figure(path, table, methods) -> str:
         Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
     table, methods
         As :func:`truss_metrics_axes`.
+    sweep : dict of float to dict, optional
+        Model error sigma -> method -> metrics dict: self-orthogonality against sigma per method.
 
     Returns
     -------
     str
         The file name (without directory).
     """
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    truss_metrics_axes(table, methods, axes)
+    fig, axes = plt.subplots(1, 3 if sweep else 2, figsize=(15 if sweep else 10, 4))
+    truss_metrics_axes(table, methods, axes[:2])
+    if sweep:
+        sig = sorted(sweep)
+        for m in methods:
+            axes[2].plot(sig, [sweep[s][m]["self_orthogonality_max_offdiag"] for s in sig], "o-", label=m)
+        axes[2].set(xlabel="model error sigma of the member moduli", ylabel="max |off-diagonal|",
+                    title="robustness vs model error (6 modes)")
+        axes[2].legend()
+    fig.tight_layout()
     return save_figure(fig, path)
 
 

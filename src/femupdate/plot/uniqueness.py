@@ -92,3 +92,31 @@ def save_uniqueness_figure(path, cases, title: str | None = None) -> str:
     fig, ax = plt.subplots(figsize=(7.5, 5))
     uniqueness_axes(cases, ax, title)
     return save_figure(fig, path)
+
+
+def save_layouts_figure(path, panels: dict, title: str | None = None) -> str:
+    """Several uniqueness heat maps side by side (one per sensor layout); returns the file name.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Image file.
+    panels : dict of str to list of dict
+        Panel title → that layout's ``cases`` (as :func:`uniqueness_axes`).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    str
+        The file name (without directory).
+    """
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 5.2))
+    for ax, (name, cases) in zip(np.atleast_1d(axes), panels.items()):
+        uniqueness_axes(cases, ax, name)
+        if ax is not np.atleast_1d(axes)[-1]:
+            ax.get_legend().remove()
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -18,7 +18,7 @@ import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical_all, describe
-from ..modal import Modes, arpack_options, factorize, model_modes, nearly_singular
+from ..modal import Modes, NotPositiveDefinite, arpack_options, factorize, model_modes, nearly_singular
 from ..model import Model
 from .projection import Transformation, project
 
@@ -106,9 +106,9 @@ class Reducer:
         if self.io.size == 0:
             return None
         try:
-            lu = factorize(self.K_oo)
+            lu = factorize(self.K_oo, definite=True)
             singular = nearly_singular(lu)
-        except RuntimeError:  # SuperLU: "Factor is exactly singular"
+        except (RuntimeError, NotPositiveDefinite):  # SuperLU: "Factor is exactly singular"; CHOLMOD: not definite
             singular = True
         if singular:
             raise InputError(self._mechanism_message())

@@ -7,13 +7,12 @@ K − σM (or reuses the factorisation the sparse eigensolver left with the mode
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import math
 
 import numpy as np
 
 from .._errors import InputError
+from .._threads import blas_phase
 from .modal import shifted_factor
 
 __all__ = ["single_thread_blas", "solve", "check_modes", "prepare_factor"]
@@ -22,70 +21,15 @@ __all__ = ["single_thread_blas", "solve", "check_modes", "prepare_factor"]
 # ---------------------------------------------------------------------------------------------
 # solves with one thread of BLAS
 # ---------------------------------------------------------------------------------------------
-_BLAS_CONTROLS = None
-_THREADPOOL_LIMITS = None  # threadpoolctl's context manager, False when not installed
-
-
-def _blas_controls():
-    """(get, set) thread-count functions of the OpenBLAS libraries loaded in this process."""
-    global _BLAS_CONTROLS
-    if _BLAS_CONTROLS is not None:
-        return _BLAS_CONTROLS
-    controls = []
-    try:
-        with open("/proc/self/maps") as f:
-            paths = sorted({line.split()[-1] for line in f if "openblas" in line.lower() and "/" in line})
-    except OSError:
-        paths = []
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"), ("openblas", "")):
-            try:
-                get = getattr(lib, f"{prefix}_get_num_threads{suffix}")
-                set_ = getattr(lib, f"{prefix}_set_num_threads{suffix}")
-            except AttributeError:
-                continue
-            get.restype, set_.restype = ctypes.c_int, None
-            set_.argtypes = [ctypes.c_int]
-            controls.append((get, set_))
-            break
-    _BLAS_CONTROLS = controls
-    return controls
-
-
-@contextlib.contextmanager
 def single_thread_blas():
-    """Run the enclosed code with one BLAS thread (the previous counts are restored).
+    """Run the enclosed code in the ``"solve"`` phase of the BLAS policy (one thread unless
+    ``FEMUPDATE_BLAS_THREADS`` says otherwise; :mod:`femupdate._threads`).
 
     SuperLU's solve with several right-hand sides calls BLAS on every (small) supernode, and
     OpenBLAS's thread hand-off then dominates: on a 35,000-dof frame a 30-column solve takes
-    4.1 s with two threads and 0.49 s with one.  ``threadpoolctl`` is used when installed;
-    otherwise the OpenBLAS libraries loaded in the process are found (Linux ``/proc``) and set
-    directly; elsewhere this does nothing.
+    4.1 s with two threads and 0.49 s with one.
     """
-    global _THREADPOOL_LIMITS
-    if _THREADPOOL_LIMITS is None:
-        try:
-            from threadpoolctl import threadpool_limits as _THREADPOOL_LIMITS
-        except ImportError:
-            _THREADPOOL_LIMITS = False
-    threadpool_limits = _THREADPOOL_LIMITS
-    if threadpool_limits:
-        with threadpool_limits(limits=1, user_api="blas"):
-            yield
-        return
-    controls = _blas_controls()
-    saved = [get() for get, _ in controls]
-    for _, set_ in controls:
-        set_(1)
-    try:
-        yield
-    finally:
-        for (_, set_), n in zip(controls, saved):
-            set_(max(int(n), 1))
+    return blas_phase("solve")
 
 
 def solve(lu, B: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import InputError
-from ..modal import factorize, nearly_singular
+from ..modal import NotPositiveDefinite, factorize, nearly_singular
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 
 
@@ -162,10 +162,10 @@ def shifted_factor(K, M, sigma=None):
     """
     if sigma is None:
         try:
-            lu = factorize(K)
+            lu = factorize(K, definite=True)
             if not nearly_singular(lu):
                 return lu, 0.0
-        except RuntimeError:
+        except (RuntimeError, NotPositiveDefinite):
             pass
         d = K.diagonal()
         if not np.any(d > 0):

@@ -84,7 +84,7 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
             Z = sp.diags_array(keep)
             A = Z @ (K - lam * M) @ Z + sp.coo_array(([1.0], ([k], [k])), shape=(n, n))
             try:
-                lu = factorize(A)
+                lu = factorize(A, definite=False)  # K - lam M bordered: indefinite
             except RuntimeError as exc:
                 raise NumericalError(f"Nelson's method: the modified matrix of mode {i + 1} is singular ({exc})") from None
             V = lu.solve(F)

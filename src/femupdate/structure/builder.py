@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -16,6 +17,7 @@ from ..dofs import Node, canonical, canonical_all, describe, dof, node_id, parse
 from ..model import Model, Parameter
 from .groups import BENDING, NODE_DIRS, PROPS, ElementGroup, mass_kind, merge_groups, per_element, triplets
 from .tables import structure_from_dict
+from .units import parameter_units
 
 
 def _is_integer_text(v: str) -> bool:
@@ -82,7 +84,7 @@ class Structure:
             raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {bounds!r}") from None
         if len(b) != 2:
             raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {list(b)}")
-        self.parameters[name] = Parameter(name, value, b, fixed, prior)
+        self.parameters[name] = Parameter(name, value, b, fixed, prior=prior)
 
     def node(self, node_id: int, xyz: Sequence[float]) -> None:
         """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0).
@@ -500,9 +502,11 @@ class Structure:
         zero = sp.csr_array((n, n))
         K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
         M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
+        units = parameter_units(groups, pnames)
         return Model(
             dofs=tuple(dofs), K0=K0, M0=M0,
-            parameters=tuple(self.parameters[p] for p in pnames),
+            parameters=tuple(par if par.unit else replace(par, unit=units[par.name])
+                             for par in (self.parameters[p] for p in pnames)),
             dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
             name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
             positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),

@@ -170,7 +170,8 @@ class Problem(Parametrisation):
         ``"mac"`` and ``"dynamic"`` do not depend on how the shapes are scaled: they take
         ``shape_scaling="unit"`` and no ``ref_dof``, and need the shapes (``use_shapes``).
     reuse : bool, default True
-        Models above :data:`femupdate.modal.DENSE_LIMIT` dofs (sparse eigen-solutions): reuse
+        Models solved by the sparse eigensolver (from :data:`femupdate.modal.SPARSE_FROM` dofs,
+        :func:`femupdate.modal.eigensolver_for`): reuse
         from one evaluation to the next what does not change — the model's factorisation
         workspace (ordering and factorisation route, :mod:`femupdate.workspace`) — and start
         the eigensolver from the previous evaluation's modes (ARPACK's starting vector, and a

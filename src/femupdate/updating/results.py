@@ -218,6 +218,9 @@ class UpdateResult(RunResult):
         With the dynamic formulation, each test mode's full shape at the solution (column k in
         the model's dof order): the measured entries the test shape scaled to unit length over
         them, the unmeasured ones those that minimise the mode's dynamic residual; else None.
+    solver : str
+        How the model's modes were computed at the solution (:attr:`femupdate.Modes.solver`:
+        dense, or sparse with the factorisation used); empty without modes.
     """
 
     history: list[dict]
@@ -234,6 +237,7 @@ class UpdateResult(RunResult):
     pairing: dict = field(default_factory=dict)
     formulation: str = ""
     expanded_shapes: np.ndarray | None = None
+    solver: str = ""  # how the model's modes were computed at the solution (Modes.solver)
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))

@@ -15,7 +15,7 @@ from functools import partial
 import numpy as np
 
 from .._errors import FemupdateError, InputError
-from ..dask_cluster import collect, connect
+from ..dask_cluster import collect, connect, task
 from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult
 from .combined import DATA_KINDS, data_kinds
@@ -286,7 +286,7 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
     client = connect(address, timeout)
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(timed, runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
+        futures = {client.submit(task, timed, runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
                    for k, x in enumerate(X0)}
         runs: list = [None] * len(futures)
 

@@ -212,11 +212,13 @@ class _RawMode:
     label: str
     eigenvalue: float
     values: dict[tuple[int, str], complex | float]
+    damping_ratio: float | None = None
 
 
-def _read_mode(dset: dict, where: str, nodes: _Nodes) -> _RawMode | None:
-    """One dataset 55 record -> its values at (node, direction) as the file gives them (None for
-    records that are not modes)."""
+def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawMode | None:
+    """One dataset 55 record -> its values at (node, direction) as the file gives them, and its
+    damping ratio (None for records that are not modes): analysis type 2's viscous damping ratio
+    (0: not stated), or -Re(s)/|s| of a complex mode's eigenvalue s."""
     analysis = int(dset.get("analysis_type", 0))
     if analysis not in (2, 3, 7):
         log.warning("%s: analysis type %d is not a mode (2, 3 or 7); record skipped", where, analysis)
@@ -260,16 +262,38 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes) -> _RawMode | None:
             if not math.isfinite(freq) or freq < 0:
                 raise InputError(f"frequency {freq!r} Hz must be finite and >= 0")
             lam = (2 * math.pi * freq) ** 2
+            zeta = _number_or_zero(dset.get("modal_damp_vis"))  # viscous damping ratio; 0: not stated
+            damping = zeta if zeta else None
+            if damping is None and _number_or_zero(dset.get("modal_damp_his")):
+                notes.append(f"{where}: the hysteretic damping value {float(dset['modal_damp_his']):g} is not "
+                             "read as a damping ratio (its convention varies between writers); give damping_ratio "
+                             "in test-data JSON")
         else:
             eig = complex(dset["eig"])  # s = -zeta*omega_n + i*omega_d, rad/s
             if not (math.isfinite(eig.real) and math.isfinite(eig.imag)):
                 raise InputError(f"complex eigenvalue {eig!r} is not finite")
             lam = abs(eig) ** 2
+            damping = -eig.real / abs(eig) if abs(eig) > 0 else None  # ζ = -Re(s)/|s|
+            if damping is not None and not 0 <= damping < 1:
+                notes.append(f"{where}: the complex eigenvalue {eig:g} gives no damping ratio in [0, 1) "
+                             f"({damping:g}); the mode is read without one")
+                damping = None
+        if damping is not None and not 0 <= damping < 1:
+            raise InputError(f"viscous damping ratio {damping:g} is not in [0, 1)")
     except KeyError as exc:
         raise InputError(f"{where}: missing field {exc} for analysis type {analysis}") from None
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
-    return _RawMode(where, label, lam, values)
+    return _RawMode(where, label, lam, values, damping)
+
+
+def _number_or_zero(v) -> float:
+    """A record's optional real field as a float (0 for a missing or non-finite one)."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return 0.0
+    return x if math.isfinite(x) else 0.0
 
 
 def _is_zero(v) -> bool:
@@ -381,7 +405,7 @@ def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, Syst
             trans = np.array([parse_dof(lab)[1] in DIRECTIONS[:3] for lab in labels])
             shape = np.where(trans, shape / length, shape)
         try:
-            modes.append(MeasuredMode(r.eigenvalue, labels, shape, r.label))
+            modes.append(MeasuredMode(r.eigenvalue, labels, shape, r.label, damping_ratio=r.damping_ratio))
         except InputError as exc:
             raise InputError(f"{r.where}: {exc}") from None
     if sensors is not None:
@@ -534,8 +558,11 @@ def read_uff(
         * Dataset 55, analysis type 2 (normal mode): the eigenvalue is
           :math:`\lambda = (2\pi f)^2` from the record's frequency :math:`f` in Hz.
           Analysis types 3 and 7 (complex modes): the record's complex eigenvalue
-          :math:`s = -\zeta\omega_n + i\omega_d` (rad/s) gives :math:`\lambda = |s|^2 = \omega_n^2`;
+          :math:`s = -\zeta\omega_n + i\omega_d` (rad/s) gives :math:`\lambda = |s|^2 = \omega_n^2`
+          and the damping ratio :math:`\zeta = -\mathrm{Re}(s)/|s|`;
           shapes stay complex, labelled node by node ``x y z`` or ``x y z rx ry rz``.
+          A normal mode's viscous damping ratio (``modal_damp_vis``) is its ``damping_ratio``
+          when it is not 0; a hysteretic value alone is not converted (a note says so).
         * Dataset 58, function type 4 (FRF; other function types are skipped): the records are
           grouped by excitation (reference) dof into one :class:`FRFData` each (a roving-hammer
           or multi-reference test gives several), every record of a group on one frequency
@@ -601,7 +628,7 @@ def read_uff(
     for t, k, dset in records:
         where = f"{name}: dataset {t} record {k}"
         if t == 55:
-            m = _read_mode(dset, where, nodes)
+            m = _read_mode(dset, where, nodes, notes)
             if m is not None:
                 raws.append(m)
         elif t == 58:
