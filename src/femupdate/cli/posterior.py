@@ -181,9 +181,10 @@ def _print(c, model, res, data, checkpoint) -> None:
                     f"{res.diagnostics.get('evaluations', 0)} evaluations, {res.seconds:.1f} s)")
     for col in ("parameter", "prior", "median", "mean", "std", f"{res.level:.0%} interval"):
         t.add_column(col, justify="left" if col in ("parameter", "prior") else "right")
+    units = {p.name: p.unit for p in model.parameters}
     for n in names:
         lo, hi = res.interval[n]
-        t.add_row(n, res.prior.get(n, ""), fmt(res.median[n]), fmt(res.mean[n]), fmt(res.std[n]),
+        t.add_row(f"{n} [{units[n]}]" if units.get(n) else n, res.prior.get(n, ""), fmt(res.median[n]), fmt(res.mean[n]), fmt(res.std[n]),
                   f"[{fmt(lo)}, {fmt(hi)}]")
     c.print(t)
     if len(names) > 1:
