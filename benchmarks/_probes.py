@@ -60,6 +60,18 @@ class Phase:
 BLAS_VARIABLES = ("OPENBLAS_CORETYPE", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+def pin_blas(threads: int) -> dict:
+    """Pin the BLAS to ``threads`` threads through the environment (0: leave it as found); call it
+    before NumPy is imported.  Returns the variables as found."""
+    import os
+
+    found = {k: os.environ.get(k) for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    if threads > 0:
+        for key in found:
+            os.environ[key] = str(threads)
+    return found
+
+
 def environment(**extra) -> dict:
     """Versions, machine, BLAS variables, load and date of a benchmark run (plus ``extra``)."""
     import os

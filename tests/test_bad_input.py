@@ -79,6 +79,7 @@ def test_every_float_option_is_finite():
 
 @pytest.mark.parametrize("args", [
     ["update", "{two}", "{freq}", "--starts", "3", "--seed", "-1"],
+    ["posterior", "{two}", "{freq}", "--seed", "-1"],
     ["uniqueness", "{two}", "--seed", "-1"],
     ["frf", "{two}", "--force", "1:x", "--omega", "1,2", "--noise", "0.01", "--seed", "-1"],
     ["frf-update", "{two}", "{frf}", "--starts", "2", "--seed", "-5"],

@@ -67,3 +67,11 @@ def test_uniqueness_and_reduce_run_on_the_examples(ex, capsys):
     assert verdicts[(1, 2)] is False and verdicts[(2, 2)] is True  # one sensor, two modes: two solutions
     res = run(["reduce", str(ex / "truss.toml"), "--keep", "4:x,4:y,104:x,104:y,3:y,103:y", "--json", "-"], capsys)
     assert len(res["K"]) == 6
+
+
+def test_posterior_example_gives_both_solutions_equal_probability(ex, capsys):
+    pytest.importorskip("emcee")
+    res = run(["posterior", str(ex / "two_dof.toml"), str(ex / "two_dof_frequencies.json"), "--std-eigenvalue", "0.002",
+               "--method", "tmcmc", "--samples", "1000", "--json", "-"], capsys)
+    probs = sorted((round(s["parameters"]["k1"], 6), round(s["probability"], 6)) for s in res["solutions"])
+    assert probs == [(8.0, 0.5), (9.0, 0.5)] and res["success"]

@@ -11,12 +11,14 @@ The verbs a user reaches for are here, at the top level::
     result = fu.update(model, data)                # iterative, incomplete modal data
     print(result.summary())
     study = fu.multistart(model, data, starts=40)  # random starts, distinct solutions
+    post = fu.posterior(model, data, method="tmcmc")  # how far to trust it: samples, solutions, evidence
 
 Names are imported on first use, so ``import femupdate`` stays light (it loads neither SciPy's
 solvers nor numba, matplotlib, SymPy or Dask).  Modules whose names start with an underscore are
 internal; the sub-packages (:mod:`femupdate.updating`, :mod:`femupdate.sensitivity`,
 :mod:`femupdate.reduction`, :mod:`femupdate.frf`, :mod:`femupdate.uniqueness`,
-:mod:`femupdate.fullfield`, :mod:`femupdate.damage`, :mod:`femupdate.io`) hold the rest.
+:mod:`femupdate.fullfield`, :mod:`femupdate.damage`, :mod:`femupdate.bayes`, :mod:`femupdate.io`) hold the
+rest.
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ _LAZY = {
     "Problem": "updating", "update": "updating", "UpdateResult": "updating", "Diagnostics": "updating",
     "multistart": "updating", "MultiStartResult": "updating",
     "frf_update": "updating", "frf_multistart": "updating", "global_search": "updating", "simulate_frf": "frf", "update_configurations": "updating.multiconfig",
+    # Bayesian updating
+    "posterior": "bayes", "PosteriorResult": "bayes", "Prior": "priors",
     # identifiability, reduction, damage
     "counting_criteria": "uniqueness", "exact_solutions": "uniqueness", "define_study": "uniqueness",
     "run_study": "uniqueness", "reduce": "reduction", "expand": "reduction", "detect_damage": "damage",
@@ -88,3 +92,5 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .updating import (Diagnostics, MultiStartResult, Problem, UpdateResult, frf_multistart, frf_update,
                            global_search, multistart, update)
     from .updating.multiconfig import update_configurations
+    from .bayes import PosteriorResult, posterior
+    from .priors import Prior

@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
+from .priors import Prior, parse_prior
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
 
@@ -53,6 +54,10 @@ class Parameter:
         :meth:`Structure.build <femupdate.Structure.build>` sets it from the element properties
         the parameter stands for (SI: :mod:`femupdate.structure.units`); femupdate converts no
         units.
+    prior : Prior, str or mapping, optional
+        Its prior distribution for Bayesian updating (:mod:`femupdate.priors`: ``"uniform"``,
+        ``"normal(MEAN, STD)"``, ``"lognormal(MEDIAN, STD_LOG)"``, or the model file's inline
+        table), truncated to ``bounds``; None (default): uniform within finite bounds.
     """
 
     name: str
@@ -60,6 +65,7 @@ class Parameter:
     bounds: tuple[float, float] = (-math.inf, math.inf)
     fixed: bool = False
     unit: str = ""
+    prior: Prior | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -84,6 +90,10 @@ class Parameter:
         object.__setattr__(self, "fixed", bool(self.fixed))
         if not isinstance(self.unit, str):
             raise InputError(f"parameter {self.name!r}: unit must be a string, got {self.unit!r}")
+        if self.prior is not None:
+            prior = parse_prior(self.prior, f"parameter {self.name!r}: prior")
+            prior.check(self.name, (lo, hi))
+            object.__setattr__(self, "prior", prior)
 
 
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:

@@ -24,6 +24,7 @@ from .direct import direct
 from .frf import frf_command, frf_select_command, frf_update_command, surface_command
 from .modes import correlate, modes
 from .paper import paper
+from .posterior import posterior
 from .reduce import reduce
 from .report import report
 from .uniqueness import uniqueness
@@ -41,7 +42,7 @@ def cli(verbose: int) -> None:
 
 
 # in this order (the order of `cli.commands`; `femupdate --help` lists them sorted by name)
-for _command in (modes, direct, update, correlate, paper, demo,
+for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
                  reduce, uniqueness, convert_data, report):

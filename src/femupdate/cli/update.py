@@ -21,6 +21,109 @@ from ..updating.results import pairing_warnings
 from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
 
+def problem_options(command):
+    """The options of the updating problem that ``update`` and ``posterior`` share: the updated
+    parameters, the residuals and pairing of the modes, the kinds of data, their standard
+    deviations and the FRF residuals (:func:`problem_setup` reads them)."""
+    for option in reversed((
+        click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed)."),
+        click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True),
+        click.option("--ref-dof", default=None,
+                     help="Reference dof for --shape-scaling ref, a label or #N (default: first measured dof)."),
+        click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative",
+                     show_default=True),
+        click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
+                     help="Pairing threshold: the MAC a pair of shaped modes must reach (--pairing mac), or that "
+                          "confirms a pairing (auto)."),
+        click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto",
+                     show_default=True,
+                     help="How test modes pair with model modes: auto (by frequency order until the shapes show a "
+                          "swap, then by MAC; never abandons a start), mac (a test mode below --min-mac fails), order, "
+                          "or frequency (nearest frequency, MAC deciding within 10 %)."),
+        click.option("--n-modes", type=click.IntRange(min=1), default=None,
+                     help="Model modes computed and paired among (default max(2T, T + 6) for T test modes)."),
+        click.option("--formulation", type=click.Choice(["shapes", "mac", "dynamic"]), default="shapes",
+                     show_default=True,
+                     help="Residuals of the measured modes: shapes (relative eigenvalue errors and scaled shape "
+                          "differences), mac (relative eigenvalue errors and 1 - MAC terms), or dynamic (the modal "
+                          "dynamic residual (K - lambda M) phi of every dof, the unmeasured shape entries as unknowns; "
+                          "every mode needs a shape)."),
+        click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only)."),
+        measured_dofs_option,
+        click.option("--use", "use_text", default=None, metavar="KINDS",
+                     help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold)."),
+        click.option("--std-eigenvalue", "std_eigenvalue", default=None, metavar="S|S1,S2,...",
+                     help="Relative std of the measured eigenvalues (for the covariance): one value, or one per test "
+                          "mode; replaces the test data's std_frequency / std_eigenvalue."),
+        click.option("--std-shape", "std_shape", default=None, metavar="S|S1,S2,...",
+                     help="Std of the scaled shape entries (for the covariance): one value, or one per test mode; "
+                          "replaces the test data's std_shape."),
+        click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None,
+                     help="Std of the FRF residual entries (weights FRFs against other data)."),
+        click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None,
+                     help="Std of measured static deflections, m (weights them)."),
+        frf_line_options,
+        reciprocity_option,
+    )):
+        command = option(command)
+    return command
+
+
+#: the parameters of :func:`problem_options`, as the commands' functions receive them
+PROBLEM_PARAMS = ("params_text", "shape_scaling", "ref_dof", "parametrisation", "min_mac", "pairing", "n_modes",
+                  "formulation", "eigenvalues_only", "use_text", "std_eigenvalue", "std_shape", "std_frf", "std_static",
+                  "residual", "lines_text", "select", "resonance", "resonance_tol", "damping_text", "reciprocity")
+
+
+def problem_from_command_line(model, data):
+    """:func:`problem_setup` with the options of :func:`problem_options` as the running command was
+    given them."""
+    params = click.get_current_context().params
+    return problem_setup(model, data, **{k: params[k] for k in PROBLEM_PARAMS})
+
+
+def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes,
+                  formulation, eigenvalues_only, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual,
+                  lines_text, select, resonance, resonance_tol, damping_text, reciprocity):
+    """The updated parameters, the test data (regrouped by ``--reciprocity``), the kinds of data used,
+    the problem's keyword options (as :func:`femupdate.update` takes them) and the ``--damping``
+    given (:func:`~femupdate.cli.frf.parse_damping`; with modes alone it is compared with their
+    damping ratios) from the options of :func:`problem_options`.
+
+    Raises
+    ------
+    InputError
+        A reference dof, standard deviations or FRF options that do not fit the data (named).
+    """
+    if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
+        (ref_dof,) = option_dofs([ref_dof], model, "--ref-dof")
+    params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
+    std_eigenvalue = parse_std(std_eigenvalue, "--std-eigenvalue", len(data.modes))
+    std_shape = parse_std(std_shape, "--std-shape", len(data.modes))
+    std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", std_frf),
+                             ("static", std_static)) if v is not None} or None
+    use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
+    from ..updating import data_kinds
+
+    kinds = data_kinds(data, use)
+    if reciprocity and "frf" not in kinds:
+        raise InputError(f"--reciprocity: no FRF data are used ({', '.join(kinds)})")
+    data = apply_reciprocity(data, reciprocity)
+    kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, min_mac=min_mac,
+              pairing=pairing, n_modes=n_modes, use_shapes=not eigenvalues_only, measurement_std=std, use=kinds,
+              formulation=formulation)
+    damping = parse_damping(damping_text, data)  # with modes alone: compared with their damping ratios
+    if "frf" in kinds:
+        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
+    else:
+        given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
+                                    ("--select", select is not None), ("--resonance", resonance != "skip"),
+                                    ("--resonance-tol", resonance_tol != 1e-3)) if v]
+        if given:
+            raise InputError(f"{', '.join(given)}: FRF option(s) given, but no FRF data are used ({', '.join(kinds)})")
+    return params, data, kinds, kw, damping
+
+
 @click.command()
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
@@ -29,43 +132,13 @@ from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, p
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts.")
 @click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
-@click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
-@click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
-@click.option("--ref-dof", default=None,
-              help="Reference dof for --shape-scaling ref, a label or #N (default: first measured dof).")
-@click.option("--parametrisation", type=click.Choice(["relative", "log", "absolute"]), default="relative", show_default=True)
+@problem_options
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
-              help="Pairing threshold: the MAC a pair of shaped modes must reach (--pairing mac), or that confirms a pairing (auto).")
-@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
-              help="How test modes pair with model modes: auto (by frequency order until the shapes show a swap, "
-                   "then by MAC; never abandons a start), mac (a test mode below --min-mac fails), order, or "
-                   "frequency (nearest frequency, MAC deciding within 10 %).")
-@click.option("--n-modes", type=click.IntRange(min=1), default=None,
-              help="Model modes computed and paired among (default max(2T, T + 6) for T test modes).")
-@click.option("--formulation", type=click.Choice(["shapes", "mac", "dynamic"]), default="shapes", show_default=True,
-              help="Residuals of the measured modes: shapes (relative eigenvalue errors and scaled shape differences), "
-                   "mac (relative eigenvalue errors and 1 - MAC terms), or dynamic (the modal dynamic residual "
-                   "(K - lambda M) phi of every dof, the unmeasured shape entries as unknowns; every mode needs a shape).")
 @click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (frequencies only).")
-@measured_dofs_option
 @click.option("--sensitivity", type=click.Choice(["auto", "nelson", "modal", "static", "subspace", "adjoint", "fd"]),
               default="auto", show_default=True,
               help="Route of the eigenvector derivatives (auto: Nelson up to 1,500 dofs, adjoint/subspace above).")
-@click.option("--use", "use_text", default=None, metavar="KINDS",
-              help="Kinds of data to use: modes, frf, static, comma-separated (default: all the data hold).")
-@click.option("--std-eigenvalue", "std_eigenvalue", default=None, metavar="S|S1,S2,...",
-              help="Relative std of the measured eigenvalues (for the covariance): one value, or one per test mode; "
-                   "replaces the test data's std_frequency / std_eigenvalue.")
-@click.option("--std-shape", "std_shape", default=None, metavar="S|S1,S2,...",
-              help="Std of the scaled shape entries (for the covariance): one value, or one per test mode; replaces "
-                   "the test data's std_shape.")
-@click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of the FRF residual entries (weights FRFs against other data).")
-@click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None, help="Std of measured static deflections, m (weights them).")
-@frf_line_options
-@reciprocity_option
 @click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
               help="Write convergence and MAC figures to this folder.")
 @write_model_option
@@ -83,7 +156,6 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
     from ..updating import multistart
-    from ..updating import data_kinds
     from ..updating import update as _update
 
     ctx = Ctx(json_path)
@@ -94,32 +166,9 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, set_text)
     data = load_data(data_path, model, measured_text)
-    if ref_dof is not None and is_index(ref_dof):  # a label is checked, and named, by the updating itself
-        (ref_dof,) = option_dofs([ref_dof], model, "--ref-dof")
-    params = [p.strip() for p in params_text.split(",") if p.strip()] if params_text else None
-    std_eigenvalue = parse_std(std_eigenvalue, "--std-eigenvalue", len(data.modes))
-    std_shape = parse_std(std_shape, "--std-shape", len(data.modes))
-    std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", std_frf),
-                             ("static", std_static)) if v is not None} or None
-    use = tuple(u.strip() for u in use_text.split(",") if u.strip()) if use_text else ("modes", "frf", "static")
-    kinds = data_kinds(data, use)
-    if reciprocity and "frf" not in kinds:
-        raise InputError(f"--reciprocity: no FRF data are used ({', '.join(kinds)})")
-    data = apply_reciprocity(data, reciprocity)
-    kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, method=method,
-              regularization=parse_regularization(reg_text), min_mac=min_mac, pairing=pairing, n_modes=n_modes,
-              max_nfev=max_nfev,
-              use_shapes=not eigenvalues_only, measurement_std=std, values=values, sensitivity=sensitivity,
-              use=kinds, formulation=formulation)
-    damping = parse_damping(damping_text, data)  # with modes alone: compared with their damping ratios
-    if "frf" in kinds:
-        kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
-    else:
-        given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
-                                    ("--select", select is not None), ("--resonance", resonance != "skip"),
-                                    ("--resonance-tol", resonance_tol != 1e-3)) if v]
-        if given:
-            raise InputError(f"{', '.join(given)}: FRF option(s) given, but no FRF data are used ({', '.join(kinds)})")
+    params, data, kinds, kw, damping = problem_from_command_line(model, data)
+    kw.update(method=method, regularization=parse_regularization(reg_text), max_nfev=max_nfev, values=values,
+              sensitivity=sensitivity)
     ms = None
     if starts == 1 and not scheduler:
         res = _update(model, data, params=params, **kw)

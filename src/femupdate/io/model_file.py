@@ -34,6 +34,7 @@ from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
 from .numbers import check_magnitudes, long_integer_line
 from ..model import Model, Parameter
+from ..priors import parse_prior
 from ..structure import Structure
 
 
@@ -230,9 +231,9 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         where = f"{path}: [parameters.{name}]"
         if not isinstance(spec, Mapping) or "value" not in spec:
             raise InputError(f"{where} must be a table with at least 'value'")
-        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "K", "M"})
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "K", "M"})
         if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, K, M)")
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, K, M)")
         if "K" not in spec and "M" not in spec:
             raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices)")
         bounds = spec.get("bounds", [-np.inf, np.inf])
@@ -241,7 +242,8 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         if not isinstance(spec.get("fixed", False), bool):
             raise InputError(f"{where}: fixed must be true or false, got {spec['fixed']!r}")
         try:
-            params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False)))
+            prior = parse_prior(spec["prior"], f"{where} prior") if "prior" in spec else None
+            params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False), prior=prior))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
         dK.append(load_matrix(spec["K"], base, f"{where} K") if "K" in spec else None)

@@ -50,7 +50,7 @@ class Structure:
         self.support_nodes: list[Node] = []
 
     # ------------------------------------------------------------------ declarations
-    def parameter(self, name: str, value: float, bounds=None, fixed: bool = False) -> None:
+    def parameter(self, name: str, value: float, bounds=None, fixed: bool = False, prior=None) -> None:
         """Declare a parameter (see :class:`femupdate.Parameter`).
 
         Parameters
@@ -63,6 +63,10 @@ class Structure:
             Lower and upper bound (default: unbounded).
         fixed : bool, default False
             A known parameter, never updated.
+        prior : Prior, str or mapping, optional
+            Its prior for Bayesian updating (:mod:`femupdate.priors`: ``"uniform"``,
+            ``"normal(MEAN, STD)"``, ``"lognormal(MEDIAN, STD_LOG)"`` or an inline table),
+            truncated to ``bounds``; default uniform within finite bounds.
 
         Raises
         ------
@@ -80,7 +84,7 @@ class Structure:
             raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {bounds!r}") from None
         if len(b) != 2:
             raise InputError(f"parameter {name!r}: bounds must be [lower, upper], got {list(b)}")
-        self.parameters[name] = Parameter(name, value, b, fixed)
+        self.parameters[name] = Parameter(name, value, b, fixed, prior=prior)
 
     def node(self, node_id: int, xyz: Sequence[float]) -> None:
         """Add one node with coordinates ``xyz`` (2 or 3 numbers; z defaults to 0).

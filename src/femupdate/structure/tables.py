@@ -7,6 +7,7 @@ from collections.abc import Mapping
 
 from .._errors import InputError
 from ..model import _shown
+from ..priors import Prior, parse_prior
 from .groups import BENDING, ELEMENT_TYPES, PROPS
 
 
@@ -51,13 +52,14 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         where = f"{source}: [parameters.{name}]"
         if not isinstance(spec, Mapping):
             raise InputError(f"{where} must be a table with at least 'value'")
-        unknown = sorted(set(spec) - {"value", "bounds", "fixed"})
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior"})
         if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed)")
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior)")
         if "value" not in spec:
             raise InputError(f"{where} has no 'value'")
+        prior = _prior(spec, f"{where} prior")  # its message names the file and table already
         try:
-            s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False))
+            s.parameter(name, spec["value"], spec.get("bounds"), spec.get("fixed", False), prior)
         except InputError as exc:
             raise InputError(f"{source}: {exc}") from None
     for i, nd in enumerate(list_of_tables(data, "node", source), start=1):
@@ -210,3 +212,8 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
 
 
 __all__ = ["structure_from_dict", "list_of_tables", "element_from_dict", "ELEMENT_KEYS", "TYPE_KEYS"]
+
+
+def _prior(spec: Mapping, where: str) -> Prior | None:
+    """The ``prior`` of a ``[parameters.NAME]`` table (:func:`femupdate.priors.parse_prior`), or None."""
+    return parse_prior(spec["prior"], where) if "prior" in spec else None

@@ -225,6 +225,7 @@ class BatchedProblem:
         self.dK = [model.dK[j] if model.dK[j] is not None else zero for j in self.idx]
         self.dM = [model.dM[j] if model.dM[j] is not None else zero for j in self.idx]
         self.M_varies = any(d.nnz for d in self.dM)
+        self._spec = None
         self.mass_error: str | None = None
         self.Cinv = np.eye(n)
         if not self.M_varies:
@@ -238,7 +239,12 @@ class BatchedProblem:
                                        "positive definite (its Cholesky factorisation failed)")
 
     def spec(self):
-        """The :data:`~.spec.Spec` of this batch (compiles nothing)."""
+        """The :data:`~.spec.Spec` of this batch (compiles nothing; built once, then kept)."""
+        if self._spec is None:
+            self._spec = self._build_spec()
+        return self._spec
+
+    def _build_spec(self):
         from ... import rules
 
         def coo(mats):
@@ -289,6 +295,62 @@ class BatchedProblem:
         kernel.evaluate_rows(self.spec(), rows.astype(np.int64), X, out.fun, out.jac, out.eigenvalues, out.pairs,
                              out.macs, err)
         out.messages[:] = [None if err.code[i] == 0 else error_message(err, i, self.min_mac) for i in range(S)]
+        return out
+
+    def residuals(self, X, rows=None, pool: ThreadPoolExecutor | None = None, threads: int = 1) -> Evaluation:
+        """The compiled residuals at solver variables X (S, L) of ``rows`` — :meth:`evaluate`
+        without the Jacobians (``jac`` is empty, shape (S, 0, L)): what a likelihood needs at many
+        points (:mod:`femupdate.bayes`).  Each point's residuals depend on that point alone (not
+        on the others, their order or the threads).
+
+        Parameters
+        ----------
+        X : array_like, shape ``(S, L)``
+            The points.
+        rows : array_like of int, shape ``(S,)``, optional
+            The row (start and data set) of each point (default ``0 .. S-1``).
+        pool : concurrent.futures.ThreadPoolExecutor, optional
+            Threads to spread the points over (``threads`` contiguous parts; the kernel releases
+            the GIL); None: this thread.
+        threads : int, default 1
+            Number of parts with ``pool``.
+
+        Returns
+        -------
+        Evaluation
+        """
+        from . import kernel
+
+        X = np.array(X, dtype=float, ndmin=2)
+        rows = np.arange(X.shape[0], dtype=np.int64) if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+        S, L = X.shape
+        m, T = int(self.n_residuals.max(initial=1)), int(np.max(self.sets.T, initial=1))
+        out = Evaluation(np.zeros((S, m)), np.zeros((S, 0, L)), np.zeros((S, self.n)), np.zeros((S, T), np.int64),
+                         np.full((S, T), np.nan), [None] * S)
+        if self.mass_error:
+            out.messages[:] = [self.mass_error] * S
+            return out
+        err = new_report(S, T)
+        if not S:
+            return out
+        _announce_first_use()
+        spec = self.spec()
+
+        def part(ab):
+            a, b = ab
+            kernel.residual_rows(spec, rows[a:b], X[a:b], out.fun[a:b], out.eigenvalues[a:b], out.pairs[a:b],
+                                 out.macs[a:b], type(err)(*(f[a:b] for f in err)))
+
+        cuts = np.linspace(0, S, max(1, min(threads if pool is not None else 1, S)) + 1).astype(int)
+        ranges = [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+        if pool is None or len(ranges) == 1:
+            for ab in ranges:
+                part(ab)
+        else:
+            list(pool.map(part, ranges))
+        bad = np.flatnonzero(err.code)
+        for i in map(int, bad):
+            out.messages[i] = error_message(err, i, self.min_mac)
         return out
 
     def solve(self, progress: Callable[[int, int], None] | None = None, history: bool = True,

@@ -407,7 +407,19 @@ def evaluate_rows(sp_, rows, X, F, J, LAM, PAIRS, PMAC, err):
         err.code[i] = code
 
 
-_fresh_cache([solve_rows, evaluate_rows, trf.rows_propose])
+@jit
+def residual_rows(sp_, rows, X, F, LAM, PAIRS, PMAC, err):
+    """:func:`evaluate_rows` without the Jacobians: residuals F (S, m), eigenvalues LAM (S, n),
+    pairs and their MAC (S, T) of ``rows`` at X (S, L) — what a likelihood needs at many points
+    (:mod:`femupdate.bayes`)."""
+    n = sp_.model.K_const.shape[0]
+    Phi = np.zeros((n, n))
+    for i in range(rows.size):
+        err.code[i] = evaluate_row(sp_, rows[i], X[i], F[i], LAM[i], Phi, PAIRS[i], PMAC[i], err.ints[i], err.floats[i],
+                                   err.modes[i])
+
+
+_fresh_cache([solve_rows, evaluate_rows, residual_rows, trf.rows_propose])
 
 
 def cached() -> bool:
@@ -465,4 +477,4 @@ def build(sp_, cores: int) -> None:
         log.debug("the second compiling process failed (exit %s): %s", child.returncode, err[-2000:])
 
 
-__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "cached", "build"]
+__all__ = ["evaluate_row", "jacobian_row", "solve_rows", "evaluate_rows", "residual_rows", "cached", "build"]

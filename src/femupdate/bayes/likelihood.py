@@ -1,0 +1,537 @@
+r"""The posterior density of the updated parameters: the updating core's residuals as a Gaussian
+likelihood, times the parameters' priors.
+
+The residuals are exactly those :func:`femupdate.update` minimises — the same
+:class:`~femupdate.updating.Problem` (or :class:`~femupdate.updating.CombinedProblem` for FRFs,
+static deflections and mixes), the same pairing, weights and stated standard deviations — so that
+with stated standard deviations every residual is a standard normal variable at the truth:
+
+.. math::  \log L(\theta) = -\tfrac12 Q(\theta) - \tfrac m2 \log 2\pi, \qquad Q = \lVert r(\theta)\rVert^2
+
+(``noise="stated"``; m residuals).  When the data do not state a standard deviation for every
+residual, a common noise scale s multiplies them all, with Jeffreys' prior p(s) ∝ 1/s, and is
+integrated out analytically (``noise="estimate"``):
+
+.. math::  L(\theta) = \int_0^\infty (2\pi s^2)^{-m/2} e^{-Q/(2s^2)} \frac{ds}{s}
+           = \tfrac12\,\Gamma(\tfrac m2)\,(\pi Q)^{-m/2},
+
+and given θ, s² is inverse-gamma with shape m/2 and scale Q/2.  The likelihood is the density of
+the weighted residuals: a log-evidence built on it compares models (parametrisations) of the
+*same* data and standard deviations; the data's own scaling adds the same constant to both.
+
+Several data sets — repeated tests of the same structure — multiply their likelihoods (their
+residuals are stacked).  Priors (:mod:`femupdate.priors`) come from the model's parameters or the
+caller, truncated to the bounds; the density is that of the sampler's variables x (the
+problem's parametrisation: relative, log or absolute), the Jacobian |dp/dx| included.
+
+Evaluation takes the compiled route (:meth:`femupdate.updating.batched.BatchedProblem.residuals`,
+many points at once, the same rules) for modal data of small models, as multi-start does; the
+local route evaluates the problems point by point otherwise.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .._errors import FemupdateError, InputError
+from ..priors import Prior, parse_prior
+from ..testdata import TestData
+from ..updating.combined import DATA_KINDS, CombinedProblem, combined_problem, data_kinds
+from ..updating.problem import Problem
+
+log = logging.getLogger(__name__)
+
+#: how the noise is treated: from the stated standard deviations, or a scale estimated with them
+NOISE = ("auto", "stated", "estimate")
+#: evaluation routes: compiled (many points at once), local (one problem evaluation per point)
+ROUTES = ("auto", "compiled", "local")
+#: fewer points than this are evaluated on one thread (the threads' start-up costs more than they gain)
+PARALLEL_POINTS = 96
+#: options of the modal problem a posterior takes (as :func:`femupdate.update`)
+MODAL_OPTIONS = ("shape_scaling", "ref_dof", "weights", "min_mac", "pairing", "n_modes", "use_shapes", "sensitivity",
+                 "formulation", "reuse")
+
+
+def data_sets(data) -> list[TestData]:
+    """``data`` as a list of test data sets: one :class:`~femupdate.TestData`, or several (repeated
+    tests of the same structure, whose likelihoods multiply).
+
+    Raises
+    ------
+    InputError
+        No data set, or an entry that is not test data.
+    """
+    sets = [data] if isinstance(data, TestData) else list(data)
+    if not sets:
+        raise InputError("no test data given")
+    for k, d in enumerate(sets, start=1):
+        if not isinstance(d, TestData):
+            raise InputError(f"test data set {k}: expected TestData, got {type(d).__name__}")
+    return sets
+
+
+class Posterior:
+    """The log posterior density of the updated parameters of ``model`` given ``data``.
+
+    Parameters
+    ----------
+    model : Model
+        The model; its parameters' ``prior`` (and bounds) give the priors not given in ``priors``.
+    data : TestData or sequence of TestData
+        The test data (several sets: repeated tests, likelihoods multiplied).
+    params : sequence of str, optional
+        The updated parameters (default: every parameter not ``fixed``).
+    priors : mapping of str to Prior or str, optional
+        Priors that replace the model's, by parameter name (``"normal(8, 1)"``, ...).
+    noise : {"auto", "stated", "estimate"}, default ``"auto"``
+        ``"stated"``: every residual is divided by a stated standard deviation (an
+        :class:`InputError` otherwise); ``"estimate"``: a common scale s on the residuals as
+        weighted, Jeffreys' prior, integrated out; ``"auto"``: stated when every residual has a
+        standard deviation, else estimated (with a note).
+    values : optional
+        Values of the parameters that are not updated (default nominal).
+    x0 : mapping, optional
+        The reference values of the updated parameters (the parametrisation's scale; default
+        nominal).
+    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
+        The sampler's variables x (:class:`~femupdate.updating.Parametrisation`).
+    use : sequence of str, default all kinds
+        Kinds of data to use (``modes``, ``frf``, ``static``).
+    measurement_std : mapping, optional
+        Standard deviations by kind, as :func:`femupdate.update` takes them.
+    frf_options : mapping, optional
+        Options of the FRF block.
+    route : {"auto", "compiled", "local"}, default ``"auto"``
+        How likelihoods are evaluated: ``"auto"`` compiled when the batched route supports the
+        model and options (modal data, at most 200 dofs, formulation ``shapes``), else local.
+    threads : int, optional
+        Threads of the compiled route (default: the cores this process may use).
+    **modal_options
+        Options of the modal problem (:data:`MODAL_OPTIONS`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The updated parameters.
+    n_residuals : int
+        m, the residuals of all data sets together.
+    noise : str
+        ``"stated"`` or ``"estimate"`` (resolved).
+    route : str
+        ``"compiled"`` or ``"local"``.
+    priors : list of Prior or None
+        Per updated parameter; None: flat (uniform within finite bounds, improper otherwise).
+    improper : list of str
+        Parameters with an improper flat prior (an infinite bound and no declared prior).
+    lo, hi : numpy.ndarray, shape ``(L,)``
+        Their bounds.
+    notes : list of str
+        What the user should know (how the noise is treated, improper priors, ...).
+    evaluations : int
+        Likelihood evaluations so far; ``failures`` counts those that failed, by message.
+
+    Raises
+    ------
+    InputError
+        Bad options or data (as :func:`femupdate.update`); a prior for a parameter that is not
+        updated; ``noise="stated"`` without a standard deviation for every residual; a noise scale
+        to estimate from no more residuals than parameters.
+    """
+
+    def __init__(self, model, data, params: Sequence[str] | None = None, *, priors: Mapping | None = None,
+                 noise: str = "auto", values=None, x0: Mapping | None = None, parametrisation: str = "relative",
+                 use: Sequence[str] = DATA_KINDS, measurement_std: Mapping | None = None,
+                 frf_options: Mapping | None = None, route: str = "auto", threads: int | None = None,
+                 **modal_options):
+        if noise not in NOISE:
+            raise InputError(f"unknown noise treatment {noise!r}: use {', '.join(NOISE)}")
+        if route not in ROUTES:
+            raise InputError(f"unknown route {route!r}: use {', '.join(ROUTES)}")
+        unknown = sorted(set(modal_options) - set(MODAL_OPTIONS))
+        if unknown:
+            raise InputError(f"unknown option(s) {', '.join(unknown)}")
+        self.model = model
+        self.sets = data_sets(data)
+        #: the keyword arguments that rebuild this posterior from (model, data) — on a Dask worker
+        self.definition = dict(params=params, priors=priors, noise=noise, values=values, x0=x0,
+                               parametrisation=parametrisation, use=use, measurement_std=measurement_std,
+                               frf_options=frf_options, route=route, **modal_options)
+        names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+        if not names:
+            raise InputError("no parameters to update: every parameter is fixed")
+        idx = model.parameter_indices(names, "updated parameters (--params)")
+        given = {}
+        for name, spec in dict(priors or {}).items():
+            if name not in names:
+                raise InputError(f"prior given for {name!r}, which is not an updated parameter (updated: "
+                                 f"{', '.join(names)})")
+            given[name] = parse_prior(spec, f"prior of {name}")
+        self.lo = np.array([model.parameters[j].bounds[0] for j in idx], float)
+        self.hi = np.array([model.parameters[j].bounds[1] for j in idx], float)
+        self.priors: list[Prior | None] = []
+        self.improper: list[str] = []
+        for j, (name, k) in enumerate(zip(names, idx)):
+            pr = given.get(name, model.parameters[k].prior)
+            if pr is not None:
+                pr.check(name, (self.lo[j], self.hi[j]))
+            elif not (math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])):
+                self.improper.append(name)
+            self.priors.append(pr)
+        informative = all(p is not None and p.kind != "uniform" for p in self.priors)
+        self.kinds = data_kinds(self.sets[0], use)
+        self.options = dict(params=names, use=use, values=values, x0=x0, parametrisation=parametrisation,
+                            measurement_std=measurement_std, frf_options=frf_options, **modal_options)
+        self.problems: list[CombinedProblem] = []
+        for k, d in enumerate(self.sets, start=1):
+            try:
+                self.problems.append(combined_problem(
+                    model, d, names, use=self.kinds, x0=x0, values=values, parametrisation=parametrisation,
+                    measurement_std=measurement_std, frf_options=frf_options, regularized=informative,
+                    **modal_options))
+            except InputError as exc:
+                raise InputError(f"test data set {k}: {exc}" if len(self.sets) > 1 else str(exc)) from None
+        first = self.problems[0]
+        self.param = first  # the parametrisation (names, idx, scale, maps)
+        self.names = tuple(first.names)
+        self.L = len(self.names)
+        self.n_residuals = int(sum(p.n_residuals for p in self.problems))
+        self.notes: list[str] = []
+        for p in self.problems:
+            for n in [*p.notes, *(p.modal.notes if p.modal is not None else [])]:
+                if n not in self.notes:
+                    self.notes.append(n)
+        stated = all(_stated(p) for p in self.problems)
+        if noise == "stated" and not stated:
+            raise InputError("noise 'stated' (--noise stated) needs a standard deviation for every residual: state "
+                             "the eigenvalues' and, when shapes are compared, the shapes' (--std-eigenvalue, --std-shape; "
+                             "std_frequency, std_shape in the test data), and --std-frf / --std-static for FRFs and "
+                             "static deflections; or use --noise estimate")
+        self.noise = "stated" if (noise == "stated" or (noise == "auto" and stated)) else "estimate"
+        if self.noise == "estimate":
+            if self.n_residuals <= self.L:
+                raise InputError(f"{self.n_residuals} residuals for {self.L} parameters: a noise scale cannot be "
+                                 "estimated from the fit; state the measurement standard deviations (--std-eigenvalue, "
+                                 "--std-shape, ...; std_frequency, std_shape in the test data)")
+            self.notes.append(
+                ("the residuals are divided by the stated standard deviations, and a common scale s on them is "
+                 "estimated" if stated else
+                 "no measurement standard deviation is stated for every residual: a common noise scale s on the "
+                 "residuals as weighted (for modes the relative eigenvalue errors and the scaled shape entries) is "
+                 "estimated")
+                + " with Jeffreys' prior p(s) ∝ 1/s, integrated out (the likelihood is ∝ ‖r‖^-m); state the test's "
+                  "standard deviations to use its own uncertainty")
+        if self.improper:
+            self.notes.append(f"improper flat prior on {', '.join(self.improper)} (an infinite bound and no prior "
+                              "declared): the posterior is proper only if the data confine them, and the evidence is "
+                              "not defined")
+        self.route = self._choose_route(route, modal_options)
+        self.threads = max(1, int(threads)) if threads else _cores()
+        self._pool: ThreadPoolExecutor | None = None
+        self.evaluations = 0
+        self.failures: Counter = Counter()
+        self._log_prior_const = self._prior_constant()
+        #: the parameters without a declared prior, and their flat density's log (uniform within finite
+        #: bounds; an improper prior's constant is taken as 1)
+        self._flat = np.array([j for j, pr in enumerate(self.priors) if pr is None], dtype=np.intp)
+        self._log_flat = -float(sum(math.log(self.hi[j] - self.lo[j]) for j in self._flat
+                                    if math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])))
+
+    # ------------------------------------------------------------------ setup
+    def _choose_route(self, route: str, modal_options: Mapping) -> str:
+        from ..updating.batched import unsupported
+
+        reason = None
+        if self.kinds != ("modes",):
+            reason = f"the data used are {', '.join(self.kinds)} (the compiled route takes modal data only)"
+        else:
+            opts = {k: v for k, v in modal_options.items() if v is not None}
+            opts.update(parametrisation=self.param.param)
+            reason = unsupported(self.model, opts, explicit=route == "compiled")
+        if route == "compiled" and reason:
+            raise InputError(f"route 'compiled': {reason}; use route 'local'")
+        if route == "local" or reason:
+            return "local"
+        from ..updating.batched import BatchedProblem
+
+        first = self.problems[0].modal
+        assert first is not None
+        starts = np.tile(first.start, (len(self.problems), 1))
+        targets = []
+        for p in self.problems:
+            assert p.modal is not None
+            targets.append(p.modal.targets)
+        self.batched = BatchedProblem(self.model, self.names, starts, targets, np.arange(len(targets)),
+                                      values=first.p_base.copy(), parametrisation=first.param,
+                                      shape_scaling=first.scaling, min_mac=first.min_mac, pairing=first.pairing)
+        return "compiled"
+
+    def _prior_constant(self) -> float:
+        """Σ log |dp/dx| of a linear parametrisation (constant), 0 for ``log`` (it varies)."""
+        if self.param.param == "relative":
+            return float(np.sum(np.log(self.param.scale)))
+        return 0.0
+
+    def close(self) -> None:
+        """Release the compiled route's threads (a later evaluation starts them again)."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_pool"] = None
+        return state
+
+    # ------------------------------------------------------------------ variables
+    def to_p(self, X) -> np.ndarray:
+        """The updated parameters' values (S, L) at the variables X (S, L)."""
+        X = np.asarray(X, float)
+        kind = self.param.param
+        if kind == "relative":
+            return X * self.param.scale
+        if kind == "log":
+            with np.errstate(over="ignore"):
+                return np.exp(X)
+        return X.copy()
+
+    def from_p(self, P) -> np.ndarray:
+        """The variables X of the updated parameters' values P (S, L)."""
+        from ..updating.parametrisation import x_of_p
+
+        return x_of_p(self.param.param, np.asarray(P, float), self.param.scale)
+
+    def bounds_x(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the variables x (L,)."""
+        return self.param.bounds_x(self.lo, self.hi)
+
+    # ------------------------------------------------------------------ prior
+    def log_prior(self, X) -> np.ndarray:
+        """log prior density of the variables X (S, L) (−inf outside the bounds or support),
+        the Jacobian |dp/dx| included; (S,)."""
+        X = np.atleast_2d(np.asarray(X, float))
+        P = self.to_p(X)
+        out = np.full(X.shape[0], self._log_prior_const + self._log_flat)
+        if self.param.param == "log":
+            out += X.sum(axis=1)
+        flat = self._flat
+        if flat.size:  # the parameters without a declared prior: flat within the bounds, all at once
+            Pf = P[:, flat]
+            out[~np.all((Pf >= self.lo[flat]) & (Pf <= self.hi[flat]), axis=1)] = -np.inf
+        for j, pr in enumerate(self.priors):
+            if pr is not None:
+                out += pr.logpdf(P[:, j], self.lo[j], self.hi[j])
+        out[~np.all(np.isfinite(X), axis=1)] = -np.inf
+        return out
+
+    def prior_derivatives(self, x) -> tuple[float, np.ndarray, np.ndarray]:
+        """The log prior density at x (L,), its gradient (L,) and its Hessian (L, L; diagonal) in x."""
+        x = np.asarray(x, float)
+        lp = float(self.log_prior(x[None, :])[0])
+        p = self.to_p(x[None, :])[0]
+        dpdx = self.param.dp_dx(x)
+        d2pdx2 = p if self.param.param == "log" else np.zeros(self.L)
+        g = np.ones(self.L) if self.param.param == "log" else np.zeros(self.L)
+        h = np.zeros(self.L)
+        for j, pr in enumerate(self.priors):
+            if pr is None:
+                continue
+            d1, d2 = pr.derivatives(p[j:j + 1])
+            g[j] += d1[0] * dpdx[j]
+            h[j] += d2[0] * dpdx[j] ** 2 + d1[0] * d2pdx2[j]
+        return lp, g, np.diag(h)
+
+    def sample_prior(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` draws of the variables x from the prior (n, L).
+
+        Raises
+        ------
+        InputError
+            A parameter with an improper prior.
+        """
+        if self.improper:
+            raise InputError(f"drawing from the prior needs a proper prior for every parameter; "
+                             f"{', '.join(self.improper)} have an infinite bound and no prior: give bounds or a "
+                             "normal / lognormal prior (--prior NAME=normal(MEAN,STD))")
+        P = np.empty((n, self.L))
+        for j, pr in enumerate(self.priors):
+            P[:, j] = (pr or Prior("uniform")).sample(rng, n, self.lo[j], self.hi[j])
+        return self.from_p(P)
+
+    # ------------------------------------------------------------------ likelihood
+    def sum_of_squares(self, X) -> tuple[np.ndarray, list]:
+        """Q = ‖r‖² over every data set at the variables X (S, L): (S,) (NaN where the model
+        cannot be evaluated), and per point None or the failure's message."""
+        X = np.atleast_2d(np.asarray(X, float))
+        S = X.shape[0]
+        Q = np.zeros(S)
+        messages: list = [None] * S
+        if not S:
+            return Q, messages
+        if self.route == "compiled":
+            n = len(self.problems)
+            rows = np.repeat(np.arange(n, dtype=np.int64), S)
+            threads = self.threads if n * S >= PARALLEL_POINTS else 1
+            if self._pool is None and threads > 1:
+                self._pool = ThreadPoolExecutor(self.threads)
+            ev = self.batched.residuals(np.tile(X, (n, 1)), rows, pool=self._pool if threads > 1 else None,
+                                        threads=threads)
+            sq = np.einsum("ij,ij->i", ev.fun, ev.fun).reshape(n, S)
+            Q = sq.sum(axis=0)
+            for i, msg in enumerate(ev.messages):
+                if msg is not None and messages[i % S] is None:
+                    messages[i % S] = msg
+        else:
+            for i, x in enumerate(X):
+                for prob in self.problems:
+                    try:
+                        r = prob.residuals(x)
+                    except FemupdateError as exc:
+                        messages[i] = f"{type(exc).__name__}: {exc}"
+                        break
+                    Q[i] += float(r @ r)
+        bad = [i for i, m in enumerate(messages) if m is not None]
+        Q[bad] = np.nan
+        self.evaluations += S
+        for i in bad:
+            self.failures[messages[i]] += 1
+        return Q, messages
+
+    def log_likelihood_of(self, Q) -> np.ndarray:
+        """log L from Q = ‖r‖² (NaN: −inf), by the noise treatment (module docstring)."""
+        Q = np.asarray(Q, float)
+        m = self.n_residuals
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.noise == "stated":
+                ll = -0.5 * Q - 0.5 * m * math.log(2 * math.pi)
+            else:
+                ll = math.lgamma(0.5 * m) - math.log(2.0) - 0.5 * m * np.log(math.pi * Q)
+        return np.where(np.isnan(Q), -np.inf, ll)
+
+    def log_likelihood(self, X) -> np.ndarray:
+        """log L at the variables X (S, L); −inf where the model cannot be evaluated."""
+        Q, _ = self.sum_of_squares(X)
+        return self.log_likelihood_of(Q)
+
+    def log_posterior(self, X, with_likelihood: bool = False):
+        """log prior + log likelihood at X (S, L) — the likelihood evaluated only where the prior is
+        positive; with ``with_likelihood`` also the log likelihoods (−inf where not evaluated)."""
+        X = np.atleast_2d(np.asarray(X, float))
+        lp = self.log_prior(X)
+        ll = np.full(X.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if ok.any():
+            ll[ok] = self.log_likelihood(X[ok])
+        out = lp + ll
+        return (out, ll) if with_likelihood else out
+
+    # ------------------------------------------------------------------ exact local derivatives
+    def residuals_and_jacobian(self, x) -> tuple[np.ndarray, np.ndarray]:
+        """The stacked residuals r (m,) and exact Jacobian ∂r/∂x (m, L) of every data set at x (local
+        route: the problems' own derivative routes)."""
+        rs, Js = [], []
+        for prob in self.problems:
+            rs.append(prob.residuals(x))
+            Js.append(prob.jacobian(x))
+        return np.concatenate(rs), np.vstack(Js)
+
+    def objective(self, x, exact_hessian: bool = False) -> tuple[float, np.ndarray, np.ndarray, float]:
+        """f = −log posterior at x, its gradient and Gauss–Newton Hessian in x, and Q = ‖r‖².
+
+        Stated noise: f = Q/2 + m/2 log 2π − log π(x), Hessian JᵀJ − ∇² log π.  Estimated noise:
+        f = m/2 log(πQ) − log Γ(m/2) + log 2 − log π(x), gradient (m/Q) Jᵀr − ∇ log π, Hessian
+        (m/Q) JᵀJ − ∇² log π, and with ``exact_hessian`` the term −(2m/Q²)(Jᵀr)(Jᵀr)ᵀ of the
+        Gauss–Newton Hessian of m/2 log Q, which vanishes where Jᵀr = 0.
+
+        Raises
+        ------
+        NumericalError
+            The model cannot be evaluated at x.
+        """
+        r, J = self.residuals_and_jacobian(x)
+        Q = float(r @ r)
+        m = self.n_residuals
+        lp, gp, hp = self.prior_derivatives(x)
+        Jr = J.T @ r
+        if self.noise == "stated":
+            f = 0.5 * Q + 0.5 * m * math.log(2 * math.pi)
+            g, H = Jr, J.T @ J
+        else:
+            f = 0.5 * m * math.log(math.pi * Q) - math.lgamma(0.5 * m) + math.log(2.0) if Q > 0 else -math.inf
+            g, H = (m / Q) * Jr, (m / Q) * (J.T @ J)
+            if exact_hessian:
+                H = H - (2 * m / Q ** 2) * np.outer(Jr, Jr)
+        return f - lp, g - gp, H - hp, Q
+
+    # ------------------------------------------------------------------ noise scale and predictions
+    def noise_scale(self, Q, rng: np.random.Generator) -> np.ndarray | None:
+        """Draws of the noise scale s given each sample's Q (estimated noise; None when stated):
+        s² = Q / (2 g) with g ~ Gamma(m/2, 1), its conditional posterior under Jeffreys' prior."""
+        if self.noise == "stated":
+            return None
+        Q = np.asarray(Q, float)
+        g = rng.gamma(0.5 * self.n_residuals, 1.0, size=Q.shape)
+        return np.sqrt(Q / (2.0 * g))
+
+    def modal_problem(self) -> Problem | None:
+        """The first data set's modal problem (None without measured modes)."""
+        return self.problems[0].modal
+
+    def predict(self, X) -> dict | None:
+        """The paired modes' frequencies (Hz) and MACs of the first data set at the variables X
+        (S, L): ``{"frequencies_hz": (S, T), "mac": (S, T), "eigenvalue_std": (T,)}`` (NaN where
+        the model cannot be evaluated; ``eigenvalue_std`` the relative standard deviation of a new
+        measurement of each eigenvalue in the likelihood's units, before the noise scale);
+        None without measured modes."""
+        modal = self.modal_problem()
+        if modal is None:
+            return None
+        X = np.atleast_2d(np.asarray(X, float))
+        tg = modal.targets
+        S, T = X.shape[0], tg.n_test
+        freq = np.full((S, T), np.nan)
+        macs = np.full((S, T), np.nan)
+        if self.route == "compiled":
+            ev = self.batched.residuals(X, np.zeros(S, np.int64))
+            for i in range(S):
+                if ev.messages[i] is None:
+                    lam = ev.eigenvalues[i, ev.pairs[i, :T]]
+                    freq[i] = np.sqrt(np.clip(lam, 0, None)) / (2 * math.pi)
+                    macs[i] = ev.macs[i, :T]
+        else:
+            for i, x in enumerate(X):
+                try:
+                    _, modes, pairs = modal.evaluate(x)
+                except FemupdateError:
+                    continue
+                for k, j, mac in pairs:
+                    freq[i, k] = modes.frequencies_hz[j]
+                    macs[i, k] = mac if np.isfinite(mac) else modal.mac_of_pair(modes, k, j)
+        with np.errstate(divide="ignore"):
+            std = np.where(tg.w_lam > 0, 1.0 / tg.w_lam, np.inf)
+        return {"frequencies_hz": freq, "mac": macs, "eigenvalue_std": std}
+
+
+def _stated(prob: CombinedProblem) -> bool:
+    """Whether every residual of ``prob`` is divided by a stated standard deviation."""
+    for b in prob.blocks:
+        if isinstance(b.problem, Problem):
+            if b.problem.sigma is None:
+                return False
+        elif b.weighting != "stated std":
+            return False
+    return True
+
+
+def _cores() -> int:
+    from ..updating.batched.driver import _cores as cores
+
+    return cores()
+
+
+__all__ = ["Posterior", "data_sets", "NOISE", "ROUTES", "MODAL_OPTIONS"]

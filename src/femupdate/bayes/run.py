@@ -1,0 +1,333 @@
+"""The Bayesian updating verb: :func:`posterior` — the Laplace approximation at each solution, the
+ensemble MCMC sampler or TMCMC, with the summaries, diagnostics and predictions of
+:class:`~femupdate.bayes.results.PosteriorResult`."""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from .._errors import InputError
+from .checkpoint import RunCheckpoint, run_key
+from .diagnostics import MIN_ESS, RHAT_LIMIT, effective_sample_size, split_rhat
+from .laplace import assign, candidates, laplace_modes, log_evidence, mixture_draws
+from .likelihood import Posterior
+from .mcmc import run_mcmc, stream
+from .results import PosteriorResult, predictive_summary, summarise
+from .tasks import Runner
+from .tmcmc import run_tmcmc
+
+log = logging.getLogger(__name__)
+
+#: the three levels of answer
+METHODS = ("laplace", "mcmc", "tmcmc")
+#: a solution more probable than this (Laplace) counts as one the ensemble sampler should visit
+SEVERAL_SOLUTIONS = 0.01
+#: below this acceptance rate of TMCMC's last stage its samples barely move from the resampled points
+MIN_ACCEPTANCE = 0.05
+
+
+def _count(value, name: str, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | None = None,
+              priors: Mapping | None = None, noise: str = "auto", starts: int = 20, seed: int | None = 0,
+              samples: int = 4000, walkers: int | None = None, ensembles: int = 2, steps: int = 2000,
+              burn: int | None = None, segment: int = 250, target_ess: float | None = None, tmcmc_steps: int = 5,
+              target_cov: float = 1.0, chunks: int = 8, level: float = 0.95, predictive: int = 200,
+              scheduler: str | None = None, connect_timeout: float = 10.0, checkpoint=None,
+              progress: Callable[[str, int, int], None] | None = None, route: str = "auto",
+              threads: int | None = None, rel_tol: float = 1e-4, **options) -> PosteriorResult:
+    """The posterior of the updated parameters given the test data: how far to trust the updated
+    model.
+
+    The likelihood is built on the updating core's residuals (those :func:`femupdate.update`
+    minimises, with the same pairing, weights and standard deviations;
+    :class:`~femupdate.bayes.likelihood.Posterior`), the priors are the parameters' own (model
+    file, :class:`~femupdate.Structure`) or ``priors``.  Every method first looks for the distinct
+    solutions by multi-start and gives each its Laplace approximation and probability; then
+
+    * ``"laplace"``: the posterior is that mixture of Gaussians (samples drawn from it);
+    * ``"mcmc"``: ``ensembles`` emcee ensembles of ``walkers`` walkers started from it run
+      ``steps`` steps (the first ``burn`` discarded), or until every parameter's effective sample
+      size reaches ``target_ess``; diagnosed by the effective sample size and split R-hat;
+    * ``"tmcmc"``: ``samples`` samples moved from the prior to the posterior (Ching & Chen 2007),
+      each stage's chains ``tmcmc_steps`` Metropolis moves long; the log-evidence for comparing
+      parametrisations; the one to use when several solutions are probable.
+
+    Parameters
+    ----------
+    model : Model
+        The model (its parameters' bounds and priors).
+    data : TestData or sequence of TestData
+        The test data; several sets are repeated tests whose likelihoods multiply.
+    method : {"laplace", "mcmc", "tmcmc"}, default ``"laplace"``
+    params : sequence of str, optional
+        The updated parameters (default: the free ones).
+    priors : mapping, optional
+        {name: prior} replacing the model's (:mod:`femupdate.priors`: ``"normal(8, 1)"``, ...).
+    noise : {"auto", "stated", "estimate"}, default ``"auto"``
+        The stated standard deviations, or a noise scale estimated (Jeffreys' prior, integrated
+        out); ``"auto"``: stated when every residual has one.
+    starts : int, default 20
+        Random starts of the search for solutions (1: one update from the nominal values).
+    seed : int or None, default 0
+        Seed of every random stream (None: a fresh one, recorded in the result).
+    samples : int, default 4000
+        Laplace draws, or TMCMC's population.
+    walkers : int, optional
+        MCMC walkers per ensemble, even (default max(64, 8 L) on the compiled route, whose
+        likelihood of a half-ensemble costs little more than of one walker; max(32, 4 L) on the
+        local route).
+    ensembles : int, default 2
+        Independent MCMC ensembles (one Dask task each).
+    steps, burn, segment : int
+        MCMC steps per walker (default 2000), of which the first ``burn`` are discarded (default a
+        quarter: of ``steps``, or with ``target_ess`` of the steps done); a checkpoint (and a Dask
+        round) every ``segment`` steps.
+    target_ess : float, optional
+        Stop MCMC once every parameter's effective sample size reaches this.
+    tmcmc_steps : int, default 5
+        Metropolis moves per chain and TMCMC stage.
+    target_cov : float, default 1.0
+        The coefficient of variation of TMCMC's stage weights.
+    chunks : int, default 8
+        TMCMC's chains in this many pieces (random streams, Dask tasks).
+    level : float, default 0.95
+        Probability of the credible intervals.
+    predictive : int, default 200
+        Posterior draws at which the paired modes are predicted (frequencies, MACs).
+    scheduler : str, optional
+        A Dask scheduler: the multi-start, MCMC ensembles and TMCMC chunks run there, with the
+        samples of a local run.
+    connect_timeout : float, default 10.0
+        Seconds to wait for the scheduler.
+    checkpoint : str or os.PathLike, optional
+        A file keeping the sampler's state after each MCMC segment or TMCMC stage; an existing
+        one of the same run is resumed.
+    progress : callable ``(phase, done, total)``, optional
+        Called as the work advances (phases ``"solutions"``, ``"mcmc"``, ``"tmcmc"``).
+    route : {"auto", "compiled", "local"}, default ``"auto"``
+        Likelihood evaluation (:class:`~femupdate.bayes.likelihood.Posterior`).
+    threads : int, optional
+        Threads of the compiled route.
+    rel_tol : float, default 1e-4
+        Relative distance under which two solutions are one.
+    **options
+        The problem's options, as :func:`femupdate.update` takes them: ``values``, ``x0``,
+        ``parametrisation``, ``use``, ``measurement_std``, ``frf_options``, ``shape_scaling``,
+        ``ref_dof``, ``weights``, ``min_mac``, ``pairing``, ``n_modes``, ``use_shapes``,
+        ``sensitivity``, ``formulation``, ``reuse``.
+
+    Returns
+    -------
+    PosteriorResult
+
+    Raises
+    ------
+    InputError
+        Bad options, data or priors (named); ``"mcmc"`` without emcee; ``"tmcmc"`` with an
+        improper prior; a checkpoint of another run.
+    NumericalError
+        No solution found; no mode with a positive definite Hessian; TMCMC without end.
+    """
+    t0 = time.perf_counter()
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r}: use {', '.join(METHODS)}")
+    starts = _count(starts, "starts")
+    samples = _count(samples, "samples", 2)
+    ensembles = _count(ensembles, "ensembles")
+    steps = _count(steps, "steps", 2)
+    segment = _count(segment, "segment")
+    tmcmc_steps = _count(tmcmc_steps, "tmcmc_steps")
+    chunks = _count(chunks, "chunks")
+    predictive = _count(predictive, "predictive", 0)
+    if not (isinstance(level, (int, float)) and 0 < level < 1):
+        raise InputError(f"level must be a probability between 0 and 1, got {level!r}")
+    if not (isinstance(target_cov, (int, float)) and math.isfinite(target_cov) and target_cov > 0):
+        raise InputError(f"target_cov must be a number > 0, got {target_cov!r}")
+    if target_ess is not None and not (math.isfinite(float(target_ess)) and float(target_ess) > 0):
+        raise InputError(f"target_ess must be a number > 0, got {target_ess!r}")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise InputError(f"seed must be an integer >= 0 (or None), got {seed!r}")
+    fresh = np.random.SeedSequence().entropy
+    entropy = int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
+    post = Posterior(model, data, params, priors=priors, noise=noise, route=route, threads=threads, **options)
+    L = post.L
+    # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
+    walkers = _count(walkers, "walkers", 2) if walkers is not None else (
+        max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
+    if burn is not None:
+        burn = _count(burn, "burn", 0)
+    elif target_ess is None:
+        burn = steps // 4
+    if method == "mcmc" and burn is not None and burn >= steps:
+        raise InputError(f"burn ({burn}) must be smaller than steps ({steps})")
+    if method == "tmcmc" and post.improper:
+        post.sample_prior(np.random.default_rng(0), 1)  # refuses, naming the parameters
+    settings = {"method": method, "samples": samples, "walkers": walkers, "ensembles": ensembles, "steps": steps,
+                "burn": burn, "segment": segment, "target_ess": target_ess, "tmcmc_steps": tmcmc_steps,
+                "target_cov": target_cov, "chunks": chunks, "starts": starts, "rel_tol": rel_tol}
+    key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route, settings,
+                  entropy)
+    ckpt = RunCheckpoint(checkpoint, key, {"method": method, "model": model.name, "parameters": list(post.names)})
+
+    def tell(phase):
+        return (lambda done, total: progress(phase, done, total)) if progress else None
+
+    runner = None
+    try:
+        points, notes = candidates(post, starts, seed, tell("solutions"), scheduler, connect_timeout)
+        modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
+        notes = list(post.notes) + notes + more
+        warnings: list[str] = []
+        diag: dict = {}
+        chain_p = None
+        rng = np.random.Generator(np.random.PCG64(stream(entropy, 6)))
+        if method == "laplace":
+            X, _ = mixture_draws(post, modes, samples, rng)
+            ll = np.full(X.shape[0], np.nan)
+            fractions = [m.probability for m in modes]
+            logz, logz_err = log_evidence(modes), math.nan
+            success = True
+        else:
+            runner = Runner(post, key, scheduler, connect_timeout)
+            t_sample = time.perf_counter()
+            if method == "mcmc":
+                out = run_mcmc(post, runner, modes, walkers=walkers, ensembles=ensembles, steps=steps, burn=burn,
+                               segment=segment, target_ess=target_ess, entropy=entropy, checkpoint=ckpt,
+                               progress=tell("mcmc"))
+                chain = out["chain"]
+                burn = out["burn"]
+                chain_p = post.to_p(chain.reshape(-1, L)).reshape(chain.shape)
+                kept = chain_p[:, burn:]
+                X = chain[:, burn:].reshape(-1, L)
+                ll = out["log_like"][:, burn:].reshape(-1)
+                diag, warnings, success = _mcmc_diagnostics(post, kept, out, walkers, ensembles, burn, modes)
+                diag["mcmc_seconds"] = time.perf_counter() - t_sample
+                logz, logz_err = math.nan, math.nan
+            else:
+                out = run_tmcmc(post, runner, samples=samples, steps=tmcmc_steps, target_cov=target_cov, chunks=chunks,
+                                entropy=entropy, checkpoint=ckpt, progress=tell("tmcmc"))
+                X, ll = out["x"], out["log_like"]
+                diag, warnings, success = _tmcmc_diagnostics(out, samples)
+                diag["tmcmc_seconds"] = time.perf_counter() - t_sample
+                logz, logz_err = out["log_evidence"], out["log_evidence_error"]
+            near = assign(modes, X)
+            fractions = [float(np.mean(near == k)) for k in range(len(modes))]
+        P = post.to_p(X)
+        stats = summarise(P, level)
+        # the predictions and the noise scale at a subset of the samples
+        sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
+        Xs = X[np.sort(sub)]
+        Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
+        scale = post.noise_scale(Q, rng)
+        noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
+        if scale is not None and np.isfinite(scale).any():
+            s = scale[np.isfinite(scale)]
+            a = (1 - level) / 2
+            noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+            noise_info["draws"] = int(s.size)
+        pred = predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
+        diag["evaluations"] = post.evaluations
+        diag["failures"] = dict(post.failures)
+        if post.failures:
+            n_fail = sum(post.failures.values())
+            top = post.failures.most_common(1)[0][0]
+            notes.append(f"{n_fail} of {post.evaluations} likelihood evaluations failed (the model could not be "
+                         f"evaluated there; the posterior density is taken as zero), e.g. {top}")
+        names = post.names
+        prior = {n: _describe(post, j) for j, n in enumerate(names)}
+        return PosteriorResult(
+            method=method, names=tuple(names), samples=P, log_likelihood=ll,
+            mean=dict(zip(names, map(float, stats["mean"]))), median=dict(zip(names, map(float, stats["median"]))),
+            std=dict(zip(names, map(float, stats["std"]))),
+            interval={n: [float(a), float(b)] for n, (a, b) in zip(names, stats["interval"])}, level=float(level),
+            covariance=stats["covariance"], correlation=stats["correlation"], modes=modes, mode_fractions=fractions,
+            log_evidence=float(logz), log_evidence_error=float(logz_err), noise=noise_info, predictive=pred,
+            diagnostics=diag, success=bool(success), warnings=warnings, notes=notes, route=post.route, seed=entropy,
+            seconds=time.perf_counter() - t0, chain=chain_p, prior=prior)
+    finally:
+        if runner is not None:
+            runner.close()
+        post.close()
+
+
+def _describe(post: Posterior, j: int) -> str:
+    pr = post.priors[j]
+    lo, hi = post.lo[j], post.hi[j]
+    if pr is None:
+        return f"uniform on [{lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else \
+            f"flat (improper) on [{lo:g}, {hi:g}]"
+    return f"{pr} on [{lo:g}, {hi:g}]" if pr.kind != "uniform" else f"uniform on [{lo:g}, {hi:g}]"
+
+
+def _mcmc_diagnostics(post: Posterior, kept: np.ndarray, out: dict, walkers: int, ensembles: int, burn: int,
+                      modes) -> tuple[dict, list[str], bool]:
+    """Effective sample size, autocorrelation time, split R-hat (the ensembles as the chains, each
+    split in halves) and acceptance; the warnings when they fail."""
+    names = post.names
+    E, n, W, L = kept.shape
+    warnings: list[str] = []
+    if n < 4:
+        ess = np.zeros(L)
+        tau = np.full(L, np.nan)
+        reliable = np.zeros(L, bool)
+        rhat = np.full(L, np.nan)
+    else:
+        ess, tau, reliable = effective_sample_size(kept)
+        # the chains R-hat compares are the independent ensembles (all walkers' draws, step after step),
+        # each split in halves: their walkers are not independent of one another
+        rhat = np.array([split_rhat(kept[:, :, :, j].reshape(E, n * W).T) for j in range(L)])
+    acceptance = float(out["accepted"].sum() / (out["steps"] * E * W))
+    diag = {"ess": dict(zip(names, map(float, ess))), "tau": dict(zip(names, map(float, tau))),
+            "tau_reliable": dict(zip(names, map(bool, reliable))), "rhat": dict(zip(names, map(float, rhat))),
+            "acceptance": acceptance, "walkers": walkers, "ensembles": ensembles, "steps": out["steps"], "burn": burn,
+            "kept_steps": n, "stopped": out["stopped"], "resumed_steps": out["resumed"],
+            "limits": {"rhat": RHAT_LIMIT, "ess": MIN_ESS}}
+    bad_r = [f"{nm} ({r:.3f})" for nm, r in zip(names, rhat) if not r <= RHAT_LIMIT]
+    if bad_r:
+        warnings.append(f"split R-hat above {RHAT_LIMIT} for {', '.join(bad_r)}: the chains have not mixed; run longer "
+                        "(--steps) or, with several solutions, use tmcmc")
+    bad_e = [f"{nm} ({e:.0f})" for nm, e in zip(names, ess) if not e >= MIN_ESS]
+    if bad_e:
+        warnings.append(f"effective sample size below {MIN_ESS} for {', '.join(bad_e)}: the summaries are noisy; run "
+                        "longer (--steps)")
+    short = [nm for nm, ok in zip(names, reliable) if not ok]
+    if short and not bad_e:
+        warnings.append(f"the chains are shorter than 50 autocorrelation times for {', '.join(short)}: the effective "
+                        "sample size is itself uncertain")
+    probable = [m for m in modes if m.probability > SEVERAL_SOLUTIONS]
+    if len(probable) > 1:
+        warnings.append(f"{len(probable)} solutions are probable: the ensemble sampler does not move between separated "
+                        "solutions, so its shares of them are those of its start (the Laplace probabilities); use "
+                        "tmcmc for their proportions")
+    success = not bad_r and not bad_e
+    return diag, warnings, success
+
+
+def _tmcmc_diagnostics(out: dict, samples: int) -> tuple[dict, list[str], bool]:
+    """The stages, the last stage's acceptance and distinct resampled points; the warnings."""
+    stages = out["stages"]
+    last = stages[-1] if stages else {}
+    diag = {"stages": stages, "n_stages": len(stages), "acceptance": last.get("acceptance", math.nan),
+            "ess": last.get("ess", math.nan), "distinct": last.get("distinct", 0), "samples": samples,
+            "resumed_stages": out["resumed"]}
+    warnings = []
+    success = True
+    if last and last["acceptance"] < MIN_ACCEPTANCE:
+        success = False
+        warnings.append(f"the last stage's Metropolis moves were accepted {last['acceptance']:.1%} of the time (below "
+                        f"{MIN_ACCEPTANCE:.0%}): the samples repeat the resampled points; use more --tmcmc-steps or "
+                        "samples")
+    return diag, warnings, success
+
+
+__all__ = ["posterior", "METHODS"]
