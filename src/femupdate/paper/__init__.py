@@ -186,8 +186,14 @@ def run_sections(out_dir, names=None, figures: bool = True, notes: list | None =
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context(method)) as pool:
+        # Not "fork": a process that has already run an OpenMP region (CHOLMOD's libgomp, with
+        # scikit-sparse) leaves forked children hanging in their next one.  A fork server is
+        # a fresh interpreter forked from before any numerical work; it preloads the package.
+        methods = multiprocessing.get_all_start_methods()
+        ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+        if "forkserver" in methods:
+            ctx.set_forkserver_preload(["femupdate.paper"])
+        with ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
             futures = [pool.submit(_run_group, t, str(out_dir), figures) for t in tasks]
             for f in as_completed(futures):
                 collect(f.result())
