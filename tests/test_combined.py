@@ -55,7 +55,10 @@ def test_static_alone_recovers_the_closed_form_stiffnesses_as_the_direct_solutio
     res = update(model(), data, x0=START)
     assert type(res) is UpdateResult and res.success
     np.testing.assert_allclose(res.x, TRUE, rtol=1e-9)
-    assert [b["kind"] for b in res.blocks] == ["static"] and res.blocks[0]["scale"] == 1.0
+    # alone, the deflections (in m) are divided by their RMS: a dimensionless cost, with a note
+    assert [b["kind"] for b in res.blocks] == ["static"]
+    assert res.blocks[0]["scale"] == pytest.approx(1 / np.sqrt(np.mean(u ** 2)), rel=1e-12)
+    assert len(res.notes) == 1 and "divided by the RMS measured deflection" in res.notes[0]
     direct = direct_update(model(), data)  # the linear route of eq. 10 for static data
     np.testing.assert_allclose([direct.parameters[n] for n in res.names], res.x, rtol=1e-9)
 

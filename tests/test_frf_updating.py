@@ -103,7 +103,7 @@ def test_line_choice_selection_regularisation_and_modal_report():
     assert res.pairs[0][:2] == (0, 0) and res.pairs[0][2] == pytest.approx(1.0)
     np.testing.assert_allclose(res.model_frequencies_hz, modes.frequencies_hz[:1], rtol=1e-8)
     sel = frf_update(m, data, select=3, x0={"k1": 6.0, "k2": 7.0})
-    assert sel.omega.size == 3 and "selected 3 lines" in sel.notes[-1]
+    assert sel.omega.size == 3 and any("selected 3 lines" in n for n in sel.notes)
     mask = np.zeros(12, bool)
     mask[[1, 2]] = True
     reg = frf_update(m, data, lines=mask, regularization="gcv", x0={"k1": 6.0, "k2": 7.0})
