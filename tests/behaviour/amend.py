@@ -136,7 +136,54 @@ AMENDMENTS = {
         and (abs(now - rec) <= 0.01 if m.group(1) in ("changes", "loss")
              else abs(now - rec) <= 0.01 * abs(rec) if m.group(1) == "parameters" else 0 < now < 0.05),
     ),
+    "linear FRF residuals divided by the RMS measured response": (
+        "Without a stated standard deviation the linear FRF residuals (in the data's units) are divided "
+        "by the RMS of the measured responses alone as in a mix, so that the answer does not depend on the "
+        "units (SciPy's gtol is absolute) and the cost is dimensionless; a note says so.  Accepted: every "
+        "cost of one result (final, history, multi-start solutions) and its singular values scaled by one "
+        "factor per result (1/RMS² for costs, 1/RMS for singular values) within 1e-6; the parameters, "
+        "standard deviations, condition number and natural frequencies where the solver stops within "
+        "1e-5 (relative): a stop by gtol becomes a stop by xtol or ftol a few evaluations later (status, "
+        "message, iterations and evaluations within 3); and the note appended to the notes.",
+        lambda path, rec, now: _rms_divided(path, rec, now),
+    ),
 }
+
+#: the factor of the costs of each result seen by the amendment above, by the path of the result
+_COST_FACTOR: dict[str, float] = {}
+RMS_NOTE = "frf: no standard deviation stated; the linear FRF residuals are divided by the RMS measured response"
+
+
+def _rms_divided(path: str, rec, now) -> bool:
+    """The amendment "linear FRF residuals divided by the RMS measured response"."""
+    m = re.search(r"(^|\.)(history\[\d+\]\.|starts\.|solutions\[\d+\]\.|fitting\[\d+\]\.|diagnostics\.|cost$|"
+                  r"status$|message$|iterations$|nfev$|notes$|natural_frequencies_hz|parameters\.|updated\.)", path)
+    if m is None:
+        return False
+    result = path[:m.start()]
+    leaf = path[m.start():].lstrip(".")
+    if result and not result.startswith("sections.modal_vs_frf_convergence.cases.frf "):
+        return False  # a whole frf-update result, or a case of the paper's FRF multi-start study
+    floats = isinstance(rec, float) and isinstance(now, float) and rec > 0 and now > 0
+    if re.fullmatch(r"((history|solutions|fitting)\[\d+\]\.|starts\.solutions\[\d+\]\.)?cost", leaf):
+        if not floats:
+            return False
+        factor = _COST_FACTOR.setdefault(result, now / rec)
+        return abs(now / rec - factor) <= 1e-6 * factor
+    if re.fullmatch(r"diagnostics\.singular_values\[\d+\]", leaf):
+        factor = _COST_FACTOR.get(result)
+        return floats and factor is not None and abs((now / rec) ** 2 - factor) <= 1e-6 * factor
+    if leaf == "message":
+        return "`gtol`" in rec and isinstance(now, str) and re.fullmatch(r"`[fx]tol` .*", now) is not None
+    if leaf == "status":  # 1: gtol; 2, 3, 4: ftol, xtol, both
+        return rec == 1 and now in (2, 3, 4)
+    if leaf in ("iterations", "nfev"):
+        return isinstance(rec, int) and isinstance(now, int) and abs(now - rec) <= 3
+    if leaf == "notes":
+        return (isinstance(rec, list) and isinstance(now, list) and now[:len(rec)] == rec and len(now) == len(rec) + 1
+                and now[-1].startswith(RMS_NOTE))
+    return (isinstance(rec, float) and isinstance(now, float)
+            and abs(now - rec) <= 1e-5 * max(abs(rec), abs(now)))
 
 
 def _canon(sol: dict) -> str:
