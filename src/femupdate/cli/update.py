@@ -18,6 +18,7 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
                       data_fields, damping_fields, print_damping)
 from ..updating.results import pairing_warnings
+from ..updating.run import DEFAULT_RESIDUAL
 from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
 
@@ -114,7 +115,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
     if "frf" in kinds:
         kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
     else:
-        given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
+        given = [opt for opt, v in (("--residual", residual != DEFAULT_RESIDUAL), ("--lines", bool(lines_text)),
                                     ("--select", select is not None), ("--resonance", resonance != "skip"),
                                     ("--resonance-tol", resonance_tol != 1e-3)) if v]
         if given:
