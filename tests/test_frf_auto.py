@@ -48,7 +48,7 @@ def test_auto_reaches_the_linear_best_fit_where_linear_alone_does_not(analyser, 
     np.testing.assert_allclose(res.x, best.x, rtol=1e-6)
     assert res.cost == pytest.approx(best.cost, rel=1e-8)  # the linear residual's cost (divided by the RMS)
     assert res.start == pytest.approx(start(model, factors))  # the caller's start, not the log stage's solution
-    note = res.notes[0]
+    note = res.notes[-1]
     assert note.startswith("residual auto: a log-magnitude stage from the start (") and "then the linear" in note
     log_nfev = int(note.split("(")[1].split(" evaluations")[0])
     linear_nfev = int(note.split("from there (")[1].split(" evaluations")[0])
@@ -88,11 +88,11 @@ def test_auto_falls_back_to_linear_where_log_cannot_run():
     res = frf_update(model, zero, x0=x0, residual="auto")
     lin = frf_update(model, zero, x0=x0, residual="linear")
     np.testing.assert_array_equal(res.x, lin.x)
-    assert res.notes[0].startswith("residual auto: the log-magnitude stage could not run (log-magnitude residuals need")
+    assert res.notes[-1].startswith("residual auto: the log-magnitude stage could not run (log-magnitude residuals need")
     assert res.nfev == lin.nfev
     reg = frf_update(model, data, x0=x0, residual="auto", regularization=1e-3)
     np.testing.assert_array_equal(reg.x, frf_update(model, data, x0=x0, residual="linear", regularization=1e-3).x)
-    assert reg.notes[0].startswith("residual auto with regularization: the linear residual (eq. 34) alone")
+    assert reg.notes[-1].startswith("residual auto with regularization: the linear residual (eq. 34) alone")
 
 
 def test_auto_through_update_with_modes_and_several_excitations(analyser):
@@ -109,10 +109,10 @@ def test_auto_through_update_with_modes_and_several_excitations(analyser):
                                                                                     "damping": DAMPING})
     np.testing.assert_array_equal(res.x, second.x)
     assert [b["kind"] for b in res.blocks] == ["modes", "frf"] and res.nfev == first.nfev + second.nfev
-    assert res.notes[0].startswith("residual auto: a log-magnitude stage")
+    assert res.notes[-1].startswith("residual auto: a log-magnitude stage")
     sets = TestData(frf_sets=(data, simulate(model, data.omega[1:], {"2:x": 1.0}, damping=DAMPING, noise=0.01, seed=2)))
     two = frf_update(model, sets, x0=x0, residual="auto", damping=DAMPING)
-    assert len(two.blocks) == 2 and two.success and two.notes[0].startswith("residual auto: a log-magnitude stage")
+    assert len(two.blocks) == 2 and two.success and two.notes[-1].startswith("residual auto: a log-magnitude stage")
     np.testing.assert_allclose(two.x, best.x, rtol=0.02)
 
 
@@ -128,3 +128,32 @@ def test_auto_in_a_multistart_study_and_a_bad_residual(analyser):
     with pytest.raises(InputError, match="unknown FRF residual 'cubic': use linear, relative, log, auto"):
         update(model, TestData(frf=data), frf_options={"residual": "cubic"})
 
+
+
+def test_auto_is_the_default_of_the_commands(tmp_path, capsys):
+    """frf-update and update run auto unless --residual says otherwise; the JSON names the linear
+    residual (whose cost it reports) and a note the stages."""
+    import json
+
+    from test_cli import TWO_DOF, run
+
+    model = tmp_path / "two.toml"
+    model.write_text(TWO_DOF)
+    data = tmp_path / "d.json"
+    code, _, err = run(["frf", str(model), "--force", "1:x", "--omega", "0.4:2.8:7", "--damping", "eta=0.02",
+                        "--noise", "0.01", "--seed", "1", "--test-data", str(data)], capsys)
+    assert code == 0, err
+    outs = {}
+    for cmd in ("frf-update", "update"):
+        for extra in ([], ["--residual", "linear"]):
+            code, out, err = run([cmd, str(model), str(data), "--set", "k1=6,k2=8", "--damping", "eta=0.02",
+                                  *extra, "--json", "-"], capsys)
+            assert code == 0, err
+            outs[cmd, bool(extra)] = res = json.loads(out)
+            assert res["residual"] == "linear"
+            stages = [n for n in res["notes"] if n.startswith("residual auto: a log-magnitude stage")]
+            assert len(stages) == (0 if extra else 1)
+            assert any(n.startswith("frf: no standard deviation stated; the linear FRF residuals are divided by the "
+                                    "RMS measured response") for n in res["notes"])
+    assert outs["frf-update", False]["parameters"] == outs["update", False]["parameters"]
+    np.testing.assert_allclose([outs["frf-update", False]["parameters"][k] for k in ("k1", "k2")], [8, 6], rtol=0.02)

@@ -147,7 +147,39 @@ AMENDMENTS = {
         "message, iterations and evaluations within 3); and the note appended to the notes.",
         lambda path, rec, now: _rms_divided(path, rec, now),
     ),
+    "the FRF residual auto by default": (
+        "frf-update and update use the FRF residual `auto` by default (a log-magnitude stage from the start, "
+        "then the linear residual from its solution; chosen by benchmarks/bench_frf_residual.py), where "
+        "the baseline ran the linear residual from the start.  Accepted, for a whole frf-update result: "
+        "the same solution (every number of it, singular values included, within 1e-8 relative), the "
+        "counts of iterations and evaluations (both stages), the history of the linear stage (its last "
+        "point the recorded last point within 1e-8, costs decreasing) and the note on the stages "
+        "appended to the notes.",
+        lambda path, rec, now: _auto_default(path, rec, now),
+    ),
 }
+
+AUTO_NOTE = "residual auto: a log-magnitude stage from the start ("
+
+
+def _auto_default(path: str, rec, now) -> bool:
+    """The amendment "the FRF residual auto by default" (whole frf-update results only)."""
+    if path in ("iterations", "nfev"):
+        return isinstance(rec, int) and isinstance(now, int) and now > 0
+    if path == "notes":
+        return isinstance(rec, list) and isinstance(now, list) and now[:-1] == rec and now[-1].startswith(AUTO_NOTE)
+    if path == "history":
+        if not (isinstance(rec, list) and isinstance(now, list) and rec and now
+                and all(isinstance(h, dict) and set(h) == {"iteration", "cost", "parameters"} for h in rec + now)):
+            return False
+        costs = [h["cost"] for h in now]
+        last, got = rec[-1]["parameters"], now[-1]["parameters"]
+        return (all(b <= a for a, b in zip(costs, costs[1:])) and set(last) == set(got)
+                and all(abs(got[k] - last[k]) <= 1e-8 * abs(last[k]) for k in last))
+    return (re.fullmatch(r"(parameters|updated|diagnostics|starts\.solutions\[\d+\]|natural_frequencies_hz|frac)"
+                         r"[.\[].*|cost", path) is not None
+            and isinstance(rec, float) and isinstance(now, float) and abs(now - rec) <= 1e-8 * max(abs(rec), abs(now)))
+
 
 #: the factor of the costs of each result seen by the amendment above, by the path of the result
 _COST_FACTOR: dict[str, float] = {}
