@@ -12,7 +12,7 @@ from dataclasses import replace
 from typing import Any
 
 from .._errors import FemupdateError, InputError
-from ..frf.residuals import RESIDUALS
+from ..frf.residuals import RESIDUALS, check_kind
 from ..testdata import TestData
 from .combined import DATA_KINDS, STD_KEYS, CombinedProblem, split_std, combined_problem, data_kinds
 from ..frf.sensitivity import RESONANCE_TOL
@@ -31,28 +31,6 @@ FRF_RESIDUALS = RESIDUALS + ("auto",)
 #: where log reached its own (biased by the noise floor) from 58 and linear from 15
 #: (``benchmarks/bench_frf_residual.py``)
 DEFAULT_RESIDUAL = "auto"
-
-
-def check_residual(kind: str) -> str:
-    """``kind`` if it names an FRF residual of the updating drivers (:data:`FRF_RESIDUALS`).
-
-    Parameters
-    ----------
-    kind : str
-
-    Returns
-    -------
-    str
-        ``kind`` unchanged.
-
-    Raises
-    ------
-    InputError
-        Any other value.
-    """
-    if kind not in FRF_RESIDUALS:
-        raise InputError(f"unknown FRF residual {kind!r}: use {', '.join(FRF_RESIDUALS)}")
-    return kind
 
 
 def auto_stages(run: Callable[[str, Any, bool], UpdateResult], x0, regularized: bool) -> UpdateResult:
@@ -254,7 +232,8 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         return update_modal(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
                             measurement_std=measurement_std, regularization=regularization, **modal_options,
                             **solver_options)
-    residual = check_residual(dict(frf_options or {}).get("residual", DEFAULT_RESIDUAL)) if "frf" in kinds else ""
+    residual = (check_kind(dict(frf_options or {}).get("residual", DEFAULT_RESIDUAL), FRF_RESIDUALS)
+                if "frf" in kinds else "")
     if residual == "auto" and not (kinds == ("frf",) and data.n_frf_sets == 1):  # one set: frf_update's stages
 
         def stage(kind, start, first):
@@ -422,7 +401,7 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     NumericalError
         A line on a resonance of the model during the iteration, or the solver failed.
     """
-    if check_residual(residual) == "auto":
+    if check_kind(residual, FRF_RESIDUALS) == "auto":
         call = dict(locals())
 
         def stage(kind, start, first):
@@ -469,5 +448,5 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     )
 
 
-__all__ = ["update", "combined_result", "frf_update", "auto_stages", "check_residual", "FRF_RESIDUALS",
+__all__ = ["update", "combined_result", "frf_update", "auto_stages", "FRF_RESIDUALS",
            "DEFAULT_RESIDUAL"]
