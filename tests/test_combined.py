@@ -55,7 +55,10 @@ def test_static_alone_recovers_the_closed_form_stiffnesses_as_the_direct_solutio
     res = update(model(), data, x0=START)
     assert type(res) is UpdateResult and res.success
     np.testing.assert_allclose(res.x, TRUE, rtol=1e-9)
-    assert [b["kind"] for b in res.blocks] == ["static"] and res.blocks[0]["scale"] == 1.0
+    # alone, the deflections (in m) are divided by their RMS: a dimensionless cost, with a note
+    assert [b["kind"] for b in res.blocks] == ["static"]
+    assert res.blocks[0]["scale"] == pytest.approx(1 / np.sqrt(np.mean(u ** 2)), rel=1e-12)
+    assert len(res.notes) == 1 and "divided by the RMS measured deflection" in res.notes[0]
     direct = direct_update(model(), data)  # the linear route of eq. 10 for static data
     np.testing.assert_allclose([direct.parameters[n] for n in res.names], res.x, rtol=1e-9)
 
@@ -70,7 +73,9 @@ def test_noise_free_mixes_recover_the_truth(kinds):
     # no std stated: the blocks with units are made relative, and the notes say so
     for b in res.blocks:
         assert (b["scale"] != 1.0) == (b["kind"] != "modes")
-    assert len(res.notes) == sum(k != "modes" for k in kinds)
+    # and, with FRFs, the residual auto (the default) says what its two stages did
+    assert len(res.notes) == sum(k != "modes" for k in kinds) + ("frf" in kinds)
+    assert res.notes[-1].startswith("residual auto: a log-magnitude stage") == ("frf" in kinds)
 
 
 def test_stacked_jacobian_equals_central_differences():
@@ -218,7 +223,8 @@ def test_cli_update_takes_mixed_data(tmp_path, capsys):
     assert rc == 0
     payload = json.loads(out)
     assert [b["kind"] for b in payload["blocks"]] == ["modes", "frf", "static"]
-    assert len(payload["notes"]) == 2 and "frac" in payload
+    assert len(payload["notes"]) == 3 and "frac" in payload  # the RMS of the FRFs and of the deflections, auto
+    assert payload["notes"][-1].startswith("residual auto: a log-magnitude stage")
     np.testing.assert_allclose([payload["parameters"]["k1"], payload["parameters"]["k2"]], [k1, k2], rtol=2e-3)
     rc, out = run_cli(capsys=capsys, args=["update", str(tmp_path / "m.toml"), str(tmp_path / "d.json"), "--use", "static", "--json", "-"])
     assert rc == 0

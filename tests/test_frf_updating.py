@@ -103,7 +103,7 @@ def test_line_choice_selection_regularisation_and_modal_report():
     assert res.pairs[0][:2] == (0, 0) and res.pairs[0][2] == pytest.approx(1.0)
     np.testing.assert_allclose(res.model_frequencies_hz, modes.frequencies_hz[:1], rtol=1e-8)
     sel = frf_update(m, data, select=3, x0={"k1": 6.0, "k2": 7.0})
-    assert sel.omega.size == 3 and "selected 3 lines" in sel.notes[-1]
+    assert sel.omega.size == 3 and any("selected 3 lines" in n for n in sel.notes)
     mask = np.zeros(12, bool)
     mask[[1, 2]] = True
     reg = frf_update(m, data, lines=mask, regularization="gcv", x0={"k1": 6.0, "k2": 7.0})
@@ -140,7 +140,7 @@ def test_multistart_uses_the_modal_starts_and_format():
 def test_global_search_finds_the_truth_on_the_rough_surface():
     m = window_two_dof()
     data = simulate(m, 0.4 * np.arange(1, 8), {"1:x": 1.0}, response=["2:x"])
-    local = frf_multistart(m, data, starts=20, seed=0, resonance="keep")
+    local = frf_multistart(m, data, starts=20, seed=0, resonance="keep", residual="linear")  # the paper's eq. 34
     local_hits = sum(s.count for s in local.solutions if abs(s.parameters["k1"] - 8) < 1e-6)
     de = global_search(m, data, runs=3, seed=0, resonance="keep")
     assert isinstance(de, GlobalSearchResult) and de.method == "differential_evolution"

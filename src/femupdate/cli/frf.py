@@ -12,6 +12,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
+from ..updating.run import DEFAULT_RESIDUAL, FRF_RESIDUALS
 from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
@@ -120,8 +121,9 @@ def frf_line_options(command):
     """The options of the FRF residuals (``--residual``, ``--lines``, ``--select``, ``--resonance``,
     ``--resonance-tol``, ``--damping``), shared by ``frf-update`` and ``update``."""
     for option in reversed((
-        click.option("--residual", type=click.Choice(["linear", "relative", "log"]), default="linear",
-                     show_default=True, help="FRF residual: linear (eq. 34), relative, or log-magnitude."),
+        click.option("--residual", type=click.Choice(list(FRF_RESIDUALS)), default=DEFAULT_RESIDUAL,
+                     show_default=True, help="FRF residual: linear (eq. 34), relative, log-magnitude, or auto (a "
+                                             "log-magnitude stage from the start, then linear from its solution)."),
         click.option("--lines", "lines_text", default=None, help="FRF lines to use, 1-based (e.g. 1,2,5); default all."),
         click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many FRF lines by conditioning."),
         click.option("--resonance", type=click.Choice(["skip", "error", "keep"]), default="skip", show_default=True,

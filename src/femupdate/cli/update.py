@@ -18,6 +18,7 @@ from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
                       data_fields, damping_fields, print_damping, report_option, write_report_output)
 from ..updating.results import pairing_warnings
+from ..updating.run import DEFAULT_RESIDUAL
 from .frf import apply_reciprocity, frf_fields, frf_line_options, frf_options, parse_damping, reciprocity_option
 
 
@@ -116,7 +117,7 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
     if "frf" in kinds:
         kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
     else:
-        given = [opt for opt, v in (("--residual", residual != "linear"), ("--lines", bool(lines_text)),
+        given = [opt for opt, v in (("--residual", residual != DEFAULT_RESIDUAL), ("--lines", bool(lines_text)),
                                     ("--select", select is not None), ("--resonance", resonance != "skip"),
                                     ("--resonance-tol", resonance_tol != 1e-3)) if v]
         if given:

@@ -22,13 +22,15 @@ RESIDUALS = ("linear", "relative", "log")
 _TINY = np.finfo(float).tiny
 
 
-def check_kind(kind: str) -> str:
+def check_kind(kind: str, allowed: tuple[str, ...] = RESIDUALS) -> str:
     """``kind`` if it names an FRF residual.
 
     Parameters
     ----------
     kind : str
         ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:data:`RESIDUALS`).
+    allowed : tuple of str, default :data:`RESIDUALS`
+        The names accepted (the updating drivers add ``"auto"``).
 
     Returns
     -------
@@ -38,10 +40,10 @@ def check_kind(kind: str) -> str:
     Raises
     ------
     InputError
-        ``kind`` is not one of :data:`RESIDUALS`.
+        ``kind`` is not one of ``allowed``.
     """
-    if kind not in RESIDUALS:
-        raise InputError(f"unknown FRF residual {kind!r}: use {', '.join(RESIDUALS)}")
+    if kind not in allowed:
+        raise InputError(f"unknown FRF residual {kind!r}: use {', '.join(allowed)}")
     return kind
 
 

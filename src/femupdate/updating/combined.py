@@ -21,12 +21,15 @@ The residual vector stacks the blocks, each times a scale:
   and ``"shape"`` for modes, ``"frf"``, ``"static"``) is divided by it — the blocks then weigh
   by their uncertainty (maximum likelihood for independent Gaussian errors) and, when every
   block's is stated, the covariance of the parameters is absolute;
-* without a stated standard deviation, a block of a problem with *one* kind of data keeps its
-  own residuals (the result is that of :func:`update_modal` or
-  :func:`~femupdate.updating.frf_update`); in a *mix*, a block whose residuals carry units
-  (FRF ``"linear"`` residuals, in m/N; static deflections, in m) is divided by the RMS of its
-  measured values, so that every block is dimensionless like the modal one, and a note says so:
-  such weights are a convention, not a statement about the data.
+* without a stated standard deviation, a block whose residuals carry the data's units (FRF
+  ``"linear"`` residuals, in m/N; static deflections, in m) is divided by the RMS of measured
+  values, and a note says so (:func:`~femupdate.updating.frf.unit_scale`): in a *mix*, each
+  block by its own, so that every block is dimensionless like the modal one (such weights are
+  a convention, not a statement about the data); with *one* kind of data, all its blocks by
+  one factor, the RMS of all their measured values, so that the cost and the solver's
+  stopping tests do not depend on the units while the blocks keep their weights against each
+  other (the result is that of :func:`update_modal` or :func:`~femupdate.updating.frf_update`).
+  Dimensionless residuals (modes, ``"relative"`` and ``"log"`` FRF residuals) keep their own.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from .._errors import InputError, NumericalError
 from ..frf.lines import UNDAMPED
 from ..modal import check_static_loads
 from ..testdata import FRFData, TestData
-from .frf import FRFProblem, prepare_problem
+from .frf import ALONE, STD_HINT, FRFProblem, prepare_problem, unit_scale
 from .parametrisation import Parametrisation, start_vector, updated_names
 from .problem import Problem
 from .targets import mode_uncertainty
@@ -66,7 +69,8 @@ class Block:
     problem : Problem or FRFProblem
         Its residuals and Jacobian (a static case: an :class:`FRFProblem` at ω = 0).
     scale : float
-        The factor its residuals are multiplied by (1, or 1 / RMS of the measured values).
+        The factor its residuals are multiplied by (1, or 1 / RMS of the measured values: its own
+        in a mix, those of every block of its kind with one kind of data).
     weighting : str
         Why that factor (``"stated std"``, ``"as given"``, ``"divided by the RMS measured ..."``).
     """
@@ -132,23 +136,6 @@ def split_std(measurement_std: Mapping | None) -> dict[str, dict]:
             raise InputError(f"measurement_std[{key!r}] must be positive and finite")
         out.setdefault(STD_KEYS[key], {})[key] = value
     return out
-
-
-def _weighting(label: str, stated: bool, relative: bool, measured, what: str, quantity: str, unit: str,
-               notes: list[str], key: str = "frf") -> tuple[float, str]:
-    """A block's scale and how it was chosen: 1 with a stated std (already in its weights) or when
-    its residuals are used as they are; 1 / RMS of the measured values when ``relative`` (a mix,
-    residuals with units), with a note."""
-    if stated:
-        return 1.0, "stated std"
-    if not relative:
-        return 1.0, "as given"
-    v = np.abs(np.asarray(measured))
-    rms = float(np.sqrt(np.mean(v ** 2))) if v.size else 0.0
-    notes.append(f"{label}: no standard deviation stated; {what} are divided by the RMS measured {quantity} "
-                 f"({rms:.4g}{unit}) to weigh them against the other data; state it (--std-{key}, or "
-                 f"measurement_std['{key}'] in Python) to weigh by uncertainty")
-    return (1.0 / rms if rms > 0 else 1.0), f"divided by the RMS measured {quantity} ({rms:.4g}{unit})"
 
 
 class CombinedProblem(Parametrisation):
@@ -338,9 +325,10 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     Returns
     -------
     CombinedProblem
-        Blocks in :data:`DATA_KINDS` order (one per static case).  In a mix of kinds, a block
-        without a stated standard deviation whose residuals carry units (linear FRF residuals,
-        static deflections) is divided by the RMS of its measured values, with a note.  ``sigma``
+        Blocks in :data:`DATA_KINDS` order (one per static case).  A block without a stated
+        standard deviation whose residuals carry units (linear FRF residuals, static
+        deflections) is divided by the RMS of measured values, with a note: its own in a mix of
+        kinds, that of all blocks of the kind with one kind of data.  ``sigma``
         is True when every block's standard deviation is stated (for modes with shapes: both
         ``"eigenvalue"`` and ``"shape"`` in a mix).
 
@@ -381,6 +369,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
             given = std.get("frf", {}).get("frf")
             opts = dict(frf_options)
             several = data.n_frf_sets > 1  # a multi-reference test: one block per excitation
+            sets = []
             for fs in data.frf_sets:
                 label = frf_label(fs) if several else "frf"
                 try:
@@ -388,17 +377,27 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                         model, fs, names, x0, opts.get("residual", "linear"), opts.get("weights"), given,
                         opts.get("lines"), opts.get("select"), opts.get("resonance", "skip"),
                         opts.get("resonance_tol", _resonance_tol()), opts.get("damping"), parametrisation, values,
-                        opts.get("solver", "auto"), True, method)
+                        opts.get("solver", "auto"), True, method, scale_units=False)
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}" if several else str(exc)) from None
                 fp.skipped = [dict(s, excitation=label) for s in skipped] if several else skipped
                 notes.extend(f"{label}: {n}" if several else n for n in frf_notes)
                 n_data += CombinedProblem._n(Block("frf", label, fp, 1.0, ""))
-                scale, weighting = _weighting(label, given is not None, mixed and fp.kind == "linear", fp.xe,
-                                              "the linear FRF residuals", "response", "", notes)
+                sets.append((label, fp))
+            # residuals in the data's units (linear): divided by the RMS of the measured responses, each
+            # set's own in a mix, all sets' together alone (their weights against each other unchanged)
+            pooled = None if mixed else _unit_scale_alone("frf", given is not None, sets[0][1].kind == "linear",
+                                                          [fp.xe for _, fp in sets], "the linear FRF residuals",
+                                                          "response", "", notes, "frf", STD_HINT)
+            for label, fp in sets:
+                scale, weighting = pooled or unit_scale(label, given is not None, fp.kind == "linear", fp.xe,
+                                                        "the linear FRF residuals", "response", "", notes)
                 blocks.append(Block("frf", label, fp, scale, weighting))
         else:
             given = std.get("static", {}).get("static")
+            pooled = None if mixed else _unit_scale_alone("static cases", given is not None, True,
+                                                          [c.displacement for c in data.static], "their deflections",
+                                                          "deflection", " m", notes, "static")
             for k, case in enumerate(data.static, start=1):
                 label = f"static case {k}"
                 frf = FRFData(np.zeros(1), case.force, case.dofs, case.displacement[None, :])
@@ -415,8 +414,8 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}") from None
                 n_data += case.displacement.size
-                scale, weighting = _weighting(label, given is not None, mixed, case.displacement, "its deflections",
-                                              "deflection", " m", notes, key="static")
+                scale, weighting = pooled or unit_scale(label, given is not None, True, case.displacement,
+                                                        "its deflections", "deflection", " m", notes, key="static")
                 blocks.append(Block("static", label, prob, scale, weighting))
             check_static_loads(model, values, [(b.label, b.problem.f) for b in blocks
                                                if isinstance(b.problem, FRFProblem) and b.kind == "static"],
@@ -432,6 +431,13 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                          "problem is underdetermined; add data, fix parameters, or use regularization")
     return combined
 
+
+
+def _unit_scale_alone(label, stated, has_units, measured, what, quantity, unit, notes, key, how=None):
+    """:func:`~femupdate.updating.frf.unit_scale` of the blocks of one kind of data used alone: one
+    factor for all of them, from the RMS of all their measured values, and one note."""
+    pooled = np.concatenate([np.abs(np.asarray(m)).ravel() for m in measured])
+    return unit_scale(label, stated, has_units, pooled, what, quantity, unit, notes, key=key, why=ALONE, how=how)
 
 
 def _resonance_tol() -> float:

@@ -39,6 +39,8 @@ from .results import UpdateResult
 log = logging.getLogger(__name__)
 
 RESONANCE_POLICIES = ("skip", "error", "keep")
+#: how a standard deviation of the FRF residual entries is stated, on each route
+STD_HINT = "--std of frf-update, --std-frf of update, or measurement_std in Python"
 # RESONANCE_TOL (from .sensitivity): lines within this relative eigenvalue distance of a resonance
 # of the starting model are skipped (or refused) by default
 
@@ -174,6 +176,11 @@ class FRFProblem(Parametrisation):
         The measured responses at the lines used (real parts when the model's are real).
     skipped : list of dict
         Lines left out (set by the caller that chose them).
+    unit_factor : float
+        The factor folded into the weights ``w`` by :func:`prepare_problem`: 1, or 1 / RMS of
+        the measured responses for linear residuals without a stated standard deviation.
+    weighting : str
+        How ``unit_factor`` was chosen (:func:`unit_scale`).
     nfev : int
         Residual evaluations so far.
 
@@ -205,6 +212,8 @@ class FRFProblem(Parametrisation):
         self.cache_key = None
         self.nfev = 0
         self.skipped: list[dict] = []  # lines left out (set by the caller that chose them)
+        self.unit_factor = 1.0  # folded into w by prepare_problem (1 / RMS of xe for unit-bearing residuals)
+        self.weighting = "as given"
 
     def _evaluate(self, x):
         key = x.tobytes()
@@ -350,8 +359,66 @@ def _select_lines(model, frf: FRFData, p, lines, select, resonance, resonance_to
     return use, skipped
 
 
+def unit_scale(label: str, stated: bool, has_units: bool, measured, what: str, quantity: str, unit: str,
+               notes: list[str], key: str = "frf", why: str = "to weigh them against the other data",
+               how: str | None = None) -> tuple[float, str]:
+    """The factor of residuals that may carry the data's units, and how it was chosen.
+
+    Residuals in the data's units (linear FRF residuals in m/N, static deflections in m) have a
+    size that depends on those units; SciPy's least squares tests its gradient against an
+    absolute ``gtol``, so receptances of 1e-5 m/N make it stop near the start.  Without a stated
+    standard deviation such residuals are divided by the RMS of their measured values, which
+    makes them dimensionless whatever the units (and weighs them against other kinds of data in
+    a mix), and a note says so.
+
+    Parameters
+    ----------
+    label : str
+        How the note names the residuals (``"frf"``, ``"static case 2"``).
+    stated : bool
+        A standard deviation is stated (already folded into the weights): factor 1.
+    has_units : bool
+        The residuals carry the data's units (False: dimensionless, factor 1).
+    measured : array_like
+        The measured values whose RMS (of the magnitudes) is taken.
+    what, quantity, unit : str
+        The note's words: what is divided (``"the linear FRF residuals"``), the measured
+        quantity (``"response"``) and its unit (``" m"``, or ``""``).
+    notes : list of str
+        The note is appended here.
+    key : str, default ``"frf"``
+        The ``measurement_std`` key (and ``--std-KEY`` option) that states the deviation.
+    why : str, default ``"to weigh them against the other data"``
+        Why the residuals are divided (the note's words).
+    how : str, optional
+        How to state the deviation (the note's words); default ``--std-KEY, or
+        measurement_std['KEY'] in Python``.
+
+    Returns
+    -------
+    scale : float
+        1 with a stated deviation or dimensionless residuals; else 1 / RMS (1 when the RMS is 0).
+    weighting : str
+        ``"stated std"``, ``"as given"`` or ``"divided by the RMS measured QUANTITY (VALUE UNIT)"``.
+    """
+    if stated:
+        return 1.0, "stated std"
+    if not has_units:
+        return 1.0, "as given"
+    v = np.abs(np.asarray(measured))
+    rms = float(np.sqrt(np.mean(v ** 2))) if v.size else 0.0
+    how = how or f"--std-{key}, or measurement_std['{key}'] in Python"
+    notes.append(f"{label}: no standard deviation stated; {what} are divided by the RMS measured {quantity} "
+                 f"({rms:.4g}{unit}) {why}; state it ({how}) to weigh by uncertainty")
+    return (1.0 / rms if rms > 0 else 1.0), f"divided by the RMS measured {quantity} ({rms:.4g}{unit})"
+
+
+#: why a problem with one kind of data divides its residuals by the RMS of the measured values
+ALONE = "so that the cost is dimensionless and the solver's stopping tests do not depend on the data's units"
+
+
 def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
-             damping, parametrisation, values, solver, regularized, method="trf"):
+             damping, parametrisation, values, solver, regularized, method="trf", scale_units=True):
     """Checks, line choice and the :class:`FRFProblem` (shared by local and global FRF updating).
 
     Parameters
@@ -376,6 +443,12 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
         A regularisation will be added: fewer residuals than parameters are allowed.
     method : {"trf", "dogbox", "lm"}, default ``"trf"``
         Only checked.
+    scale_units : bool, default True
+        Without ``measurement_std``, divide the ``"linear"`` residuals by the RMS of the
+        measured responses on the lines used (:func:`unit_scale`, with a note), so that neither
+        the cost nor the solver's stopping tests depend on the data's units.  False: leave them
+        in the data's units (:func:`~femupdate.updating.combined.combined_problem` scales its
+        blocks itself).
 
     Returns
     -------
@@ -423,6 +496,11 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
                      "dead channel?): left out of the residual")
     use, skipped = _select_lines(model, frf, p_nominal, lines, select, resonance, resonance_tol, names, damping, notes)
     prob = FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
+    if scale_units:
+        prob.unit_factor, prob.weighting = unit_scale("frf", sigma is not None, prob.kind == "linear", prob.xe,
+                                                "the linear FRF residuals", "response", "", notes, why=ALONE,
+                                                how=STD_HINT)
+        prob.w = prob.w * prob.unit_factor
     n_res = prob.xe.size * (2 if np.iscomplexobj(prob.xe) and residual != "log" else 1)
     if n_res < len(names) and not regularized:
         raise InputError(f"{len(names)} parameters but only {n_res} residuals from {use.size} line(s) at "

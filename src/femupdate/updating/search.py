@@ -33,7 +33,7 @@ from .._errors import FemupdateError, InputError
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .clustering import cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, prepare_problem
-from .run import frf_update
+from .run import DEFAULT_RESIDUAL, frf_update
 from .results import MultiStartResult, UpdateResult
 from .starts import run_starts
 
@@ -159,7 +159,8 @@ def _run_global(model, data, names, seed, kwargs) -> tuple:
     method = kwargs.get("method", "differential_evolution")
     opts = dict(kwargs.get("options") or {})
     local = {k: v for k, v in kwargs.items() if k in _LOCAL_KEYS}
-    local["residual"] = kwargs.get("global_residual") or local.get("residual", "linear")
+    stage = kwargs.get("global_residual") or local.get("residual", DEFAULT_RESIDUAL)
+    local["residual"] = "log" if stage == "auto" else stage  # "auto" finds the basin with log magnitudes
     seed = int(np.ravel(seed)[0])
     lo, hi = _bounds(model, names)
     try:
@@ -247,7 +248,8 @@ def global_search(model, data, *, method: str = "differential_evolution", params
         Residual form of the global stage (``"log"``: log-magnitudes; the polish uses
         ``residual``).  On the linear scale the spikes of lines near resonances span tens of
         decades and mislead population methods; logarithms compress them, with the same
-        minimiser for noise-free data.  ``None``: the polish's residual throughout.
+        minimiser for noise-free data.  ``None``: the polish's residual throughout (``"log"``
+        when it is ``"auto"``).
     progress : callable, optional
         Called as ``progress(done, total)`` after each run.
     connect_timeout : float, default 10.0
