@@ -145,6 +145,8 @@ def test_global_search_finds_the_truth_on_the_rough_surface():
     de = global_search(m, data, runs=3, seed=0, resonance="keep")
     assert isinstance(de, GlobalSearchResult) and de.method == "differential_evolution"
     assert de.solutions[0].count == 3 and de.best.x == pytest.approx([8.0, 6.0], rel=1e-8)
+    # the solution at the truth fits the data (it used to be listed as a local minimum, fit_cost NaN)
+    assert de.solutions[0].fits and len(de.fitting) == 1 and de.local_minima == [] and np.isfinite(de.fit_cost)
     assert local_hits < 10  # most local starts fail on this surface (the paper's point)
     bh = global_search(m, data, method="basinhopping", runs=1, seed=1, resonance="keep", options={"niter": 15})
     assert len(bh.optimizer[0]["minima"]) >= 2  # the random walk visits several local minima

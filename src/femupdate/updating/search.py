@@ -31,7 +31,7 @@ from scipy import optimize
 
 from .._errors import FemupdateError, InputError
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
-from .clustering import cluster, converged_solutions, parameter_scale
+from .clustering import classify, cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, prepare_problem
 from .run import DEFAULT_RESIDUAL, frf_update
 from .results import MultiStartResult, UpdateResult
@@ -287,4 +287,5 @@ def global_search(model, data, *, method: str = "differential_evolution", params
     ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None
     starts = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
-    return GlobalSearchResult(best, solutions, results, starts, names, runs, len(ok), seed, method, infos)
+    # marked as fitting or not, as multi-start results are (else every run is listed as a local minimum)
+    return classify(GlobalSearchResult(best, solutions, results, starts, names, runs, len(ok), seed, method, infos))
