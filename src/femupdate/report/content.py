@@ -824,7 +824,7 @@ def build_paper(doc: Document, result: dict, model, data, rec, segments, kind: s
                 for line in (v if isinstance(v, list) else [v]):
                     sec.add(Text(str(line), "note"))
         v = _paper_verdict(s)
-        sec.add(Text(_VERDICT_TEXT[v][2], {"agree": "", "differ": "warning"}.get(v, "note")))
+        sec.add(Text(_VERDICT_TEXT[v][2], {"agree": "", "differ": "warning"}.get(v or "", "note")))
         if s.get("explanation"):
             sec.add(Text(f"Why: {s['explanation']}", "note"))
         for img in (images or {}).get(name, []):

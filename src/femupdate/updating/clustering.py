@@ -4,6 +4,8 @@ one (:func:`fit_threshold`), and local minima (:func:`classify`)."""
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 from collections.abc import Sequence
 
 import numpy as np
@@ -13,6 +15,8 @@ import math
 
 from ..distinct import cluster
 from .results import MultiStartResult, Solution
+
+_Result = TypeVar("_Result", bound=MultiStartResult)
 
 
 def parameter_scale(model, names: Sequence[str]) -> np.ndarray:
@@ -108,7 +112,7 @@ def fit_threshold(best) -> float:
     return float(best.cost + 0.5 * chi2.ppf(0.95, L) * var + floor)
 
 
-def classify(ms: MultiStartResult) -> MultiStartResult:
+def classify(ms: _Result) -> _Result:
     """``ms`` with each solution marked as fitting the data (:func:`fit_threshold` of the best run)
     or not, and ordered: the fitting ones first (most frequent first, then lowest cost), then the
     local minima (lowest cost first).
