@@ -364,3 +364,15 @@ def test_objects_that_are_no_library_result_are_named():
         from_sdypy_ema({"nat_freq": [1.0]}, list(DOFS))
     with pytest.raises(InputError, match="identification: shapes: expected numbers, got Python objects"):
         modal_test_data([1.0], [[{}]], ["1:x"])
+
+
+def test_the_identification_extras_install_their_library_alone():
+    """The merge of the report work put the browser test's websocket-client into the 'ema' extra."""
+    import tomllib
+    from pathlib import Path
+
+    extras = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]
+    names = {k: [re.split(r"[<>=\[ ]", r)[0].lower() for r in v] for k, v in extras.items()}
+    assert names["oma"] == ["pyoma-2"] and names["ema"] == ["sdypy-ema"]
+    assert "websocket-client" in names["test"]
