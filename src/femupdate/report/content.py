@@ -251,15 +251,23 @@ def _shapes_section(model, data, rec, segments, pairs) -> Section | None:
         items = [(int(k), int(j), m) for k, j, m in pairs]
     else:
         items = [(None, j, None) for j in range(min(len(modes.eigenvalues), 4))]
+    beyond = [j + 1 for _, j, _ in items if j >= modes.shapes.shape[1]]
+    if beyond:  # a model mode the recomputation did not reach
+        sec.add(Text(f"Model mode(s) {', '.join(map(str, beyond))} of the pairs are beyond the {modes.shapes.shape[1]} "
+                     "modes recomputed and are not drawn.", "note"))
+        items = [it for it in items if it[1] < modes.shapes.shape[1]]
     for k, j, mac in items[:MAX_SHAPES]:
         test = None
-        if k is not None and data is not None and k < len(data.modes) and len(data.modes[k].dofs):
+        f_t = None
+        if k is not None and data is not None and k < len(data.modes):
             tm = data.modes[k]
-            test = dict(zip(tm.dofs, np.asarray(tm.shape)))
+            f_t = tm.frequency_hz
+            if len(tm.dofs):
+                test = dict(zip(tm.dofs, np.asarray(tm.shape)))
         f_m = float(modes.frequencies_hz[j])
-        title = (f"test mode {k + 1} ↔ model mode {j + 1}: {num(data.frequencies_hz[k], 5)} / {num(f_m, 5)} Hz"
-                 + (f", MAC {mac:.4f}" if mac is not None and _fin(mac) else "")) if k is not None else \
-            f"model mode {j + 1}: {num(f_m, 5)} Hz"
+        title = (f"test mode {k + 1} ↔ model mode {j + 1}: " + (f"{num(f_t, 5)} / " if f_t is not None else "")
+                 + f"{num(f_m, 5)} Hz" + (f", MAC {mac:.4f}" if mac is not None and _fin(mac) else "")) \
+            if k is not None else f"model mode {j + 1}: {num(f_m, 5)} Hz"
         sec.add(Figure(figs.mode_shape_figure(model, modes.shapes[:, j], test, title, segments)))
     if len(items) > MAX_SHAPES:
         sec.add(Text(f"The first {MAX_SHAPES} of {len(items)} paired modes are drawn.", "note"))
