@@ -170,3 +170,35 @@ def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsy
     code, _, err = run(["frf-update", ex / "two_dof.toml", ex / "two_dof_frf.json", "--damping", "fit"], capsys)
     assert code == 2 and "--damping fit: fits Rayleigh damping to the test modes' damping ratios and needs two or " \
                          "more; the test data give 0" in err
+
+
+def test_surface_takes_damping_fit_and_commands_without_test_data_say_so(ex, tmp_path, capsys):
+    """surface reads test data but refused --damping fit with 'the test data give 0' whatever the
+    data held; frf, which reads none, said the same."""
+    true = Damping(alpha=0.02, beta=0.03)
+    model = two_dof()
+    mm = model_modes(model)
+    zeta = true.modal_damping_ratio(np.sqrt(mm.eigenvalues))
+    from femupdate.frf import simulate
+
+    w = 0.4 * np.arange(1, 8)
+    frf = simulate(model, w, {"1:x": 1.0}, damping=true)
+    data = {"modes": [{"eigenvalue": float(lam), "damping_ratio": float(zeta[r])} for r, lam in enumerate(mm.eigenvalues)],
+            "frf": {"omega_rad_s": list(w), "force": {"1:x": 1.0},
+                    "response": {d: [[float(v.real), float(v.imag)] for v in frf.response[:, j]]
+                                 for j, d in enumerate(frf.dofs)}}}
+    (tmp_path / "f.json").write_text(json.dumps(data))
+    grid = ["--params", "k1,k2", "--x", "6:10:5", "--y", "4:8:5"]
+    outs = []
+    for damping in ("fit", "alpha=0.02,beta=0.03"):
+        code, _, err = run(["surface", ex / "two_dof.toml", tmp_path / "f.json", *grid, "--damping", damping,
+                            "--json", tmp_path / "s.json"], capsys)
+        assert code == 0, err
+        outs.append(json.loads((tmp_path / "s.json").read_text()))
+    a, b = (np.array(o["values"], float) for o in outs)
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-30)
+    assert outs[0]["minimum"]["k1"] == 8 and outs[0]["minimum"]["k2"] == 6  # the truth, on the grid
+    assert a.min() < 1e-20  # the fitted damping is the true one
+    code, _, err = run(["frf", ex / "two_dof.toml", "--force", "1:x", "--omega", "1,2", "--damping", "fit"], capsys)
+    assert code == 2 and "--damping fit: fits Rayleigh damping to the test modes' damping ratios, and this command " \
+                         "reads no test data" in err
