@@ -107,6 +107,20 @@ def test_universal_file_damping(tmp_path):
     assert data.modes[2].frequency_hz == pytest.approx(30.0, rel=1e-5)
 
 
+def test_universal_file_nan_damping_is_refused_not_dropped(tmp_path):
+    """A NaN viscous damping ratio was read as 'not stated', without a word."""
+    pyuff = pytest.importorskip("pyuff")
+    from femupdate.io.uff import read_uff
+
+    path = tmp_path / "m.uff"
+    pyuff.UFF(str(path)).write_sets(pyuff.prepare_55(
+        analysis_type=2, data_type=2, r1=np.array([1.0, 0.5]), r2=np.zeros(2), r3=np.zeros(2), mode_n=1, freq=10.0,
+        modal_m=1.0, modal_damp_vis=float("nan"), modal_damp_his=0.0, model_type=1, id1="t", data_ch=2,
+        spec_data_type=8, n_data_per_node=3, load_case=1, node_nums=np.array([1, 2])), mode="overwrite")
+    with pytest.raises(InputError, match=r"m\.uff: dataset 55 record 1: viscous damping ratio nan is not a finite"):
+        read_uff(path)
+
+
 @pytest.fixture(scope="module")
 def ex(tmp_path_factory):
     d = tmp_path_factory.mktemp("ex")
