@@ -313,3 +313,25 @@ def test_a_result_that_is_no_object_or_too_deep_names_the_file(tmp_path, capsys)
     path.write_text("[" * 100000 + "]" * 100000)
     code, err = _report([path, "-o", tmp_path / "r.html"], capsys)
     assert code == 2 and f"{path}: JSON nested too deeply" in err
+
+
+def test_update_report_shows_the_damping_ratios_of_the_run(ex, tmp_path, capsys):
+    """update's JSON holds damping_ratio (measured, std, model, Rayleigh fit) for damped test
+    modes; the report left it out."""
+    test = json.loads((ex / "figure2_test.json").read_text())
+    for k, m in enumerate(test["modes"]):
+        m.update(damping_ratio=0.01 * (k + 1), std_damping_ratio=0.001 * (k + 1))
+    data = tmp_path / "d.json"
+    data.write_text(json.dumps(test))
+    js, out = tmp_path / "u.json", tmp_path / "u.html"
+    with pytest.raises(SystemExit) as e:
+        main(["update", str(ex / "figure2.toml"), str(data), "--damping", "alpha=0.1,beta=0.001", "--json", str(js),
+              "--report", str(out)])
+    assert e.value.code == 0
+    result = json.loads(js.read_text())
+    html = out.read_text()
+    assert ">Modal damping</h2>" in html and "Rayleigh damping fitted to the 3 measured ratios" in html
+    for i in range(3):
+        for side in ("test", "std", "model"):
+            assert f'data-key="/damping_ratio/{side}/{i}"' in html
+    assert check_numbers(html, result) >= 9 + 8

@@ -27,7 +27,8 @@ _OBJ, _LIST, _NUM, _STR = "an object", "a list", "a number", "a text"
 RESULT_KEYS: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(("start", "standard_error", "baseline", "changes", "bounds", "parameter_units", "frequencies_hz",
                      "diagnostics", "pairing", "verification", "units", "truth", "sections", "confidence",
-                     "conditioning", "frac", "descriptions", "criteria_agreement", "baseline_check"), (_OBJ,)),
+                     "conditioning", "frac", "descriptions", "criteria_agreement", "baseline_check", "damping_ratio"),
+                    (_OBJ,)),
     **dict.fromkeys(("pairs", "updated", "flags", "history", "notes", "omega_rad_s", "located", "cases",
                      "configurations", "natural_frequencies_hz", "frequency_change", "doubts"), (_LIST,)),
     **dict.fromkeys(("condition_number", "cost", "iterations", "nfev", "n_equations"), (_NUM,)),

@@ -274,6 +274,37 @@ def _shapes_section(model, data, rec, segments, pairs) -> Section | None:
     return sec
 
 
+def _damping_section(result: dict) -> Section | None:
+    """The measured modal damping ratios against the model's (the result's ``damping_ratio``:
+    ``update`` with damped test modes or ``--damping``) and the Rayleigh damping fitted to them."""
+    dr = result.get("damping_ratio")
+    if not isinstance(dr, dict) or not dr.get("test"):
+        return None
+    test, std, model = dr.get("test") or [], dr.get("std") or [], dr.get("model") or []
+    sec = Section("damping", "Modal damping")
+    t = Table("damping ratio ζ of each test mode (fraction of critical): measured, its standard deviation, the "
+              "model's modal damping at its paired mode, and the difference",
+              ["test mode", f"ζ test [{NONE}]", f"std [{NONE}]", f"ζ model [{NONE}]", f"model − test [{NONE}]"])
+    for i, zt in enumerate(test):
+        sd = std[i] if i < len(std) else None
+        zm = model[i] if i < len(model) else None
+        t.rows.append([Cell(str(i + 1)), numcell(zt, f"/damping_ratio/test/{i}", 4),
+                       numcell(sd, f"/damping_ratio/std/{i}", 3), numcell(zm, f"/damping_ratio/model/{i}", 4),
+                       Cell(num(zm - zt, 3) if _fin(zm) and _fin(zt) else "–")])
+    sec.add(t)
+    md = dr.get("model_damping")
+    if isinstance(md, dict):
+        sec.add(Text(f"The model's damping (--damping): α = {num(md.get('alpha'))} 1/s, β = {num(md.get('beta'))} s, "
+                     f"η = {num(md.get('eta'))} (modal ratio α/2ω + βω/2 + η/2)."))
+    fit = dr.get("rayleigh_fit")
+    if isinstance(fit, dict):
+        sec.add(Text(f"Rayleigh damping fitted to the {fit.get('n_modes')} measured ratios: α = {num(fit.get('alpha'))} "
+                     f"1/s, β = {num(fit.get('beta'))} s (rms misfit {num(fit.get('rms_error'), 3)}); --damping fit "
+                     "uses it for FRFs. Damping ratios are compared, not updated: the model has no damping "
+                     "parameters."))
+    return sec
+
+
 def _convergence_section(result: dict) -> Section | None:
     hist = result.get("history") or []
     if not hist:
@@ -468,7 +499,8 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
         std = (result.get("diagnostics") or {}).get("std")
         doc.sections.append(Section("parameters", "Parameters").add(
             _parameter_table(result, names, result.get("start"), std, "start and updated values")))
-    for sec in (_correlation_section(result, rec), _shapes_section(model, data, rec, segments, result.get("pairs")),
+    for sec in (_correlation_section(result, rec), _damping_section(result),
+                _shapes_section(model, data, rec, segments, result.get("pairs")),
                 _frf_section(result, rec) if kind == "frf-update" or result.get("omega_rad_s") else None,
                 _convergence_section(result), _identifiability_section(result), _starts_section(result)):
         if sec is not None:
