@@ -376,3 +376,15 @@ def test_the_identification_extras_install_their_library_alone():
     names = {k: [re.split(r"[<>=\[ ]", r)[0].lower() for r in v] for k, v in extras.items()}
     assert names["oma"] == ["pyoma-2"] and names["ema"] == ["sdypy-ema"]
     assert "websocket-client" in names["test"]
+
+
+def test_convert_data_does_not_write_over_its_source(tmp_path, capsys):
+    """convert-data r.npz r.npz wrote the JSON over the identification result it read."""
+    np.savez(tmp_path / "r.npz", channels=np.array(DOFS), **pyoma2_arrays())
+    before = (tmp_path / "r.npz").read_bytes()
+    for args in (["r.npz", "r.npz"], ["r.npz", "o.json", "--json", "r.npz"], ["r.npz", "./sub/../r.npz"]):
+        (tmp_path / "sub").mkdir(exist_ok=True)
+        with pytest.raises(SystemExit) as e:
+            main(["convert-data", *[a if a.startswith("-") else str(tmp_path / a) for a in args]])
+        assert e.value.code == 2 and "is SOURCE itself" in capsys.readouterr().err
+        assert (tmp_path / "r.npz").read_bytes() == before
