@@ -157,9 +157,9 @@ def test_correlate_and_update_report_damping(ex, tmp_path, capsys):
     assert "damping_ratio" not in json.loads((tmp_path / "n.json").read_text()) and "damping" not in out
 
 
-def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsys):
-    """frf-update --damping fit on a file holding FRFs and damped modes equals --damping with the
-    fitted coefficients written out."""
+def damped_frf_file(path):
+    """Test data of the two-dof system with Rayleigh damping alpha=0.02, beta=0.03: its modes with
+    their damping ratios and its receptances at 7 lines (exact)."""
     true = Damping(alpha=0.02, beta=0.03)
     model = two_dof()
     mm = model_modes(model)
@@ -172,7 +172,13 @@ def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsy
             "frf": {"omega_rad_s": list(w), "force": {"1:x": 1.0},
                     "response": {d: [[float(v.real), float(v.imag)] for v in frf.response[:, j]]
                                  for j, d in enumerate(frf.dofs)}}}
-    (tmp_path / "f.json").write_text(json.dumps(data))
+    path.write_text(json.dumps(data))
+
+
+def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsys):
+    """frf-update --damping fit on a file holding FRFs and damped modes equals --damping with the
+    fitted coefficients written out."""
+    damped_frf_file(tmp_path / "f.json")
     code, _, err = run(["frf-update", ex / "two_dof.toml", tmp_path / "f.json", "--damping", "fit",
                         "--json", tmp_path / "a.json"], capsys)
     assert code == 0, err
@@ -189,19 +195,7 @@ def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsy
 def test_surface_takes_damping_fit_and_commands_without_test_data_say_so(ex, tmp_path, capsys):
     """surface reads test data but refused --damping fit with 'the test data give 0' whatever the
     data held; frf, which reads none, said the same."""
-    true = Damping(alpha=0.02, beta=0.03)
-    model = two_dof()
-    mm = model_modes(model)
-    zeta = true.modal_damping_ratio(np.sqrt(mm.eigenvalues))
-    from femupdate.frf import simulate
-
-    w = 0.4 * np.arange(1, 8)
-    frf = simulate(model, w, {"1:x": 1.0}, damping=true)
-    data = {"modes": [{"eigenvalue": float(lam), "damping_ratio": float(zeta[r])} for r, lam in enumerate(mm.eigenvalues)],
-            "frf": {"omega_rad_s": list(w), "force": {"1:x": 1.0},
-                    "response": {d: [[float(v.real), float(v.imag)] for v in frf.response[:, j]]
-                                 for j, d in enumerate(frf.dofs)}}}
-    (tmp_path / "f.json").write_text(json.dumps(data))
+    damped_frf_file(tmp_path / "f.json")
     grid = ["--params", "k1,k2", "--x", "6:10:5", "--y", "4:8:5"]
     outs = []
     for damping in ("fit", "alpha=0.02,beta=0.03"):
