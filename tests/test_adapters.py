@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 
 import numpy as np
 import pytest
@@ -265,3 +266,125 @@ def test_object_arrays_are_not_unpickled(tmp_path, capsys):
     assert e.value.code == 2
     assert "--channels: 2 entries for 4 channels" in capsys.readouterr().err
     assert not (tmp_path / "o.json").exists()
+
+
+# ---------------------------------------------------------------------------------- hostile input
+@pytest.mark.parametrize("key, value, fragment", [
+    ("Fn", np.array(["19.5", "53.1", "93.2", "116.1"]), r"r.npz: Fn: expected numbers, got text \('19.5'"),
+    ("Phi", np.full((4, 4), "a"), "r.npz: Phi: expected numbers, got text"),
+    ("Xi", np.array(["x"] * 4), "r.npz: Xi: expected numbers"),
+    ("Fn_std", np.array(["x"] * 4), "r.npz: Fn_std: expected numbers"),
+    ("Phi_std", np.full((4, 4), "a"), "r.npz: Phi_std: expected numbers"),
+    ("Fn", np.array([19.5, 53.1, 93.2, 116.1]) * (1 + 0.1j), "r.npz: Fn: complex values; expected real numbers"),
+    ("Xi", np.full(4, 0.02 + 0.01j), "r.npz: Xi: complex values"),
+    ("Fn", np.ones(4, dtype=bool), r"r.npz: Fn: booleans \(True/False\), not numbers"),
+    ("Phi", np.ones((4, 4), dtype=bool), "r.npz: Phi: booleans"),
+])
+def test_arrays_that_are_not_numbers_are_refused_by_key(tmp_path, capsys, key, value, fragment):
+    """Text, booleans or complex frequencies in a saved result: before, a traceback (text), the
+    imaginary part dropped with NumPy's warning (Fn) or |Xi| taken, or True read as 1 Hz."""
+    arrays = dict(pyoma2_arrays(), **{key: value})
+    np.savez(tmp_path / "r.npz", channels=np.array(DOFS), **arrays)
+    with pytest.raises(InputError, match=fragment):
+        read_identification(tmp_path / "r.npz")
+    with pytest.raises(SystemExit) as e:
+        main(["convert-data", str(tmp_path / "r.npz"), str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "Traceback" not in err and "Warning" not in err
+    assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("content, fragment", [
+    (b"hello, not a result", r"not a \.npz file of arrays \(not a zip archive\)"),
+    (b"", r"\(an empty file\)"),
+    (None, r"\(one array saved with numpy\.save \(\.npy\)\)"),
+])
+def test_files_that_are_no_npz_archive_are_named_for_what_they_are(tmp_path, content, fragment):
+    """A text file used to be refused as 'an array of Python objects' (np.load tried to unpickle it)."""
+    path = tmp_path / "r.npz"
+    if content is None:
+        with open(path, "wb") as fh:
+            np.save(fh, np.ones(3))
+    else:
+        path.write_bytes(content)
+    with pytest.raises(InputError, match=fragment):
+        read_identification(path)
+
+
+@pytest.mark.parametrize("entry", ["--2:x", "+-2:x", "-"])
+def test_a_channel_with_two_signs_or_a_sign_alone_is_refused_as_written(entry):
+    """'--2:x' was read as a sensor along -x (both signs stripped, one applied)."""
+    with pytest.raises(InputError, match=re.escape(f"channel 1: '{entry}' is not a dof label with at most one sign")):
+        channel_map(["1:x", entry, "3:x"], 3)
+
+
+def test_a_files_own_channel_map_is_named_with_the_file(tmp_path, capsys):
+    np.savez(tmp_path / "r.npz", channels=np.array(["1:x", "1:x", "3:x", "4:x"]), **pyoma2_arrays())
+    with pytest.raises(InputError, match=r"r\.npz: channels: channels 0 and 1 both measure 1:x"):
+        read_identification(tmp_path / "r.npz")
+    np.savez(tmp_path / "n.npz", channels=np.array(DOFS), channel_names=np.array(["a", "b"]), **pyoma2_arrays())
+    with pytest.raises(InputError, match=r"n\.npz: channel_names: 2 names for 4 channels"):
+        read_identification(tmp_path / "n.npz")
+    with pytest.raises(SystemExit):  # a map given on the command line is named as the option
+        main(["convert-data", str(tmp_path / "r.npz"), str(tmp_path / "o.json"), "--channels", "1:x,1:x,3:x,4:x"])
+    assert "error: --channels: channels 0 and 1 both measure 1:x" in capsys.readouterr().err
+
+
+def test_negative_zero_and_huge_shape_standard_deviations(tmp_path):
+    """A negative Phi_std was taken by its magnitude; a zero one was noted as 'not finite'; a
+    huge one overflowed with NumPy's warning before it was refused."""
+    arrays = pyoma2_arrays()
+    phi_std = arrays["Phi_std"].copy()
+    phi_std[:, 1] = -0.01
+    fn_std = arrays["Fn_std"].copy()
+    fn_std[2] = 0.0
+    data = modal_test_data(arrays["Fn"], arrays["Phi"], list(DOFS), frequency_std_hz=fn_std, shape_std=phi_std)
+    assert [m.std_shape is None for m in data.modes] == [False, True, False, False]
+    assert [m.std_eigenvalue is None for m in data.modes] == [False, False, True, False]
+    assert any("no finite positive shape standard deviation for mode(s) 2" in n for n in data.notes)
+    assert any("no finite positive frequency standard deviation for mode(s) 3" in n for n in data.notes)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError, match=r"std_shape: .* is outside \[1e-150, 1e\+150\]"):
+            modal_test_data(arrays["Fn"], arrays["Phi"], list(DOFS), shape_std=np.full((4, 4), 1e200))
+
+
+def test_objects_that_are_no_library_result_are_named():
+    class Ragged:
+        Fn = [[1.0, 2.0], [3.0]]
+        Phi = None
+
+    with pytest.raises(InputError, match="pyOMA2: expected a pyOMA2 result .* got object"):
+        from_pyoma2(object(), list(DOFS))
+    with pytest.raises(InputError, match="pyOMA2: Fn: not an array of numbers"):
+        from_pyoma2(Ragged(), list(DOFS))
+    with pytest.raises(InputError, match="sdypy-EMA: expected an sdypy-EMA Model .* got dict"):
+        from_sdypy_ema({"nat_freq": [1.0]}, list(DOFS))
+    with pytest.raises(InputError, match="identification: shapes: expected numbers, got Python objects"):
+        modal_test_data([1.0], [[{}]], ["1:x"])
+
+
+def test_the_identification_extras_install_their_library_alone():
+    """The merge of the report work put the browser test's websocket-client into the 'ema' extra."""
+    import tomllib
+    from pathlib import Path
+
+    extras = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]
+    names = {k: [re.split(r"[<>=\[ ]", r)[0].lower() for r in v] for k, v in extras.items()}
+    assert names["oma"] == ["pyoma-2"] and names["ema"] == ["sdypy-ema"]
+    assert "websocket-client" in names["test"]
+
+
+def test_convert_data_does_not_write_over_its_source(tmp_path, capsys):
+    """convert-data r.npz r.npz wrote the JSON over the identification result it read."""
+    np.savez(tmp_path / "r.npz", channels=np.array(DOFS), **pyoma2_arrays())
+    before = (tmp_path / "r.npz").read_bytes()
+    for args in (["r.npz", "r.npz"], ["r.npz", "o.json", "--json", "r.npz"], ["r.npz", "./sub/../r.npz"]):
+        (tmp_path / "sub").mkdir(exist_ok=True)
+        with pytest.raises(SystemExit) as e:
+            main(["convert-data", *[a if a.startswith("-") else str(tmp_path / a) for a in args]])
+        assert e.value.code == 2 and "is SOURCE itself" in capsys.readouterr().err
+        assert (tmp_path / "r.npz").read_bytes() == before

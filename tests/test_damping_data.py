@@ -107,6 +107,20 @@ def test_universal_file_damping(tmp_path):
     assert data.modes[2].frequency_hz == pytest.approx(30.0, rel=1e-5)
 
 
+def test_universal_file_nan_damping_is_refused_not_dropped(tmp_path):
+    """A NaN viscous damping ratio was read as 'not stated', without a word."""
+    pyuff = pytest.importorskip("pyuff")
+    from femupdate.io.uff import read_uff
+
+    path = tmp_path / "m.uff"
+    pyuff.UFF(str(path)).write_sets(pyuff.prepare_55(
+        analysis_type=2, data_type=2, r1=np.array([1.0, 0.5]), r2=np.zeros(2), r3=np.zeros(2), mode_n=1, freq=10.0,
+        modal_m=1.0, modal_damp_vis=float("nan"), modal_damp_his=0.0, model_type=1, id1="t", data_ch=2,
+        spec_data_type=8, n_data_per_node=3, load_case=1, node_nums=np.array([1, 2])), mode="overwrite")
+    with pytest.raises(InputError, match=r"m\.uff: dataset 55 record 1: viscous damping ratio nan is not a finite"):
+        read_uff(path)
+
+
 @pytest.fixture(scope="module")
 def ex(tmp_path_factory):
     d = tmp_path_factory.mktemp("ex")
@@ -143,9 +157,9 @@ def test_correlate_and_update_report_damping(ex, tmp_path, capsys):
     assert "damping_ratio" not in json.loads((tmp_path / "n.json").read_text()) and "damping" not in out
 
 
-def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsys):
-    """frf-update --damping fit on a file holding FRFs and damped modes equals --damping with the
-    fitted coefficients written out."""
+def damped_frf_file(path):
+    """Test data of the two-dof system with Rayleigh damping alpha=0.02, beta=0.03: its modes with
+    their damping ratios and its receptances at 7 lines (exact)."""
     true = Damping(alpha=0.02, beta=0.03)
     model = two_dof()
     mm = model_modes(model)
@@ -158,7 +172,13 @@ def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsy
             "frf": {"omega_rad_s": list(w), "force": {"1:x": 1.0},
                     "response": {d: [[float(v.real), float(v.imag)] for v in frf.response[:, j]]
                                  for j, d in enumerate(frf.dofs)}}}
-    (tmp_path / "f.json").write_text(json.dumps(data))
+    path.write_text(json.dumps(data))
+
+
+def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsys):
+    """frf-update --damping fit on a file holding FRFs and damped modes equals --damping with the
+    fitted coefficients written out."""
+    damped_frf_file(tmp_path / "f.json")
     code, _, err = run(["frf-update", ex / "two_dof.toml", tmp_path / "f.json", "--damping", "fit",
                         "--json", tmp_path / "a.json"], capsys)
     assert code == 0, err
@@ -170,3 +190,23 @@ def test_damping_fit_is_the_fitted_rayleigh_damping_for_frfs(ex, tmp_path, capsy
     code, _, err = run(["frf-update", ex / "two_dof.toml", ex / "two_dof_frf.json", "--damping", "fit"], capsys)
     assert code == 2 and "--damping fit: fits Rayleigh damping to the test modes' damping ratios and needs two or " \
                          "more; the test data give 0" in err
+
+
+def test_surface_takes_damping_fit_and_commands_without_test_data_say_so(ex, tmp_path, capsys):
+    """surface reads test data but refused --damping fit with 'the test data give 0' whatever the
+    data held; frf, which reads none, said the same."""
+    damped_frf_file(tmp_path / "f.json")
+    grid = ["--params", "k1,k2", "--x", "6:10:5", "--y", "4:8:5"]
+    outs = []
+    for damping in ("fit", "alpha=0.02,beta=0.03"):
+        code, _, err = run(["surface", ex / "two_dof.toml", tmp_path / "f.json", *grid, "--damping", damping,
+                            "--json", tmp_path / "s.json"], capsys)
+        assert code == 0, err
+        outs.append(json.loads((tmp_path / "s.json").read_text()))
+    a, b = (np.array(o["values"], float) for o in outs)
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-30)
+    assert outs[0]["minimum"]["k1"] == 8 and outs[0]["minimum"]["k2"] == 6  # the truth, on the grid
+    assert a.min() < 1e-20  # the fitted damping is the true one
+    code, _, err = run(["frf", ex / "two_dof.toml", "--force", "1:x", "--omega", "1,2", "--damping", "fit"], capsys)
+    assert code == 2 and "--damping fit: fits Rayleigh damping to the test modes' damping ratios, and this command " \
+                         "reads no test data" in err

@@ -250,3 +250,102 @@ def test_every_warning_of_the_run_is_in_the_report():
         assert text in notes, text
     assert "NOT converged" in html and 'class="fact verdict bad"' in html
     assert '<td class=" flag">on a bound</td>' in html  # the flagged parameter's row says so
+
+
+# ---------------------------------------------------------------------------------- hostile input
+def _report(args, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["report", *map(str, args)])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return e.value.code, err
+
+
+def test_report_with_the_model_alone_draws_its_shapes(ex, tmp_path, capsys):
+    """--model without --data (the documented form [--model MODEL [--data DATA]]) ended in an
+    AttributeError: the shape titles read the test frequencies from the missing data."""
+    out = tmp_path / "r.html"
+    code, err = _report([RECORDED / "update_figure2.json", "-o", out, "--model", ex / "figure2.toml"], capsys)
+    assert code == 0, err
+    html = out.read_text()
+    assert ">Mode shapes on the model</h2>" in html and "test mode 1 ↔ model mode 1: " in html
+
+
+def test_report_refuses_a_model_or_data_of_another_run(ex, tmp_path, capsys):
+    """Another model (AttributeError before) or test data with fewer modes than the result pairs
+    (IndexError before) are refused naming the option and the file."""
+    out = tmp_path / "r.html"
+    result = RECORDED / "update_figure2.json"
+    code, err = _report([result, "-o", out, "--model", ex / "two_dof.toml"], capsys)
+    assert code == 2 and f"--model {ex / 'two_dof.toml'}: the model 'two-dof chain (paper Figure 3)' has no " \
+                          "parameter(s) k3, k4 of the result" in err
+    one = tmp_path / "one.json"
+    test = json.loads((ex / "figure2_test.json").read_text())
+    one.write_text(json.dumps({"modes": test["modes"][:1]}))
+    code, err = _report([result, "-o", out, "--model", ex / "figure2.toml", "--data", one], capsys)
+    assert code == 2 and f"--data {one}: the result pairs test mode 3, but the test data hold 1 mode(s)" in err
+    assert not out.exists()
+
+
+def test_report_refuses_a_kind_the_keys_contradict(tmp_path, capsys):
+    """--kind damage on an update result wrote an empty damage report with exit 0."""
+    out = tmp_path / "r.html"
+    result = RECORDED / "update_figure2.json"
+    code, err = _report([result, "-o", out, "--kind", "damage"], capsys)
+    assert code == 2 and "the result of update, not of damage (told from its keys)" in err
+    code, err = _report([result, "-o", out, "--kind", "frf-update"], capsys)  # reported alike
+    assert code == 0 and out.exists()
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda r: r.update(parameters="k1=3"), "/parameters: expected an object or a list, got a text"),
+    (lambda r: r["parameters"].update(k2="2000"), "/parameters/k2: expected a number, got a text"),
+    (lambda r: r["bounds"].update(k1=[0]), r"/bounds/k1: expected \[lower, upper\]"),
+    (lambda r: r["pairs"].__setitem__(1, [1, "x", 0.5]), r"/pairs/1: expected \[test mode, model mode, MAC\]"),
+    (lambda r: r["frequencies_hz"]["test"].__setitem__(0, "2.07"), "/frequencies_hz/test/0: expected a number"),
+    (lambda r: r.update(notes="one note"), "/notes: expected a list, got a text"),
+    (lambda r: r.update(flags=[{}]), "the update result is not as femupdate writes it"),
+    (lambda r: r["history"].__setitem__(0, "x"), "the update result is not as femupdate writes it"),
+    (lambda r: r.update(diagnostics=3), "/diagnostics: expected an object, got a number"),
+])
+def test_an_edited_result_is_refused_naming_the_key(tmp_path, capsys, edit, message):
+    """Each of these ended in a traceback (AttributeError, TypeError, ValueError, KeyError)."""
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    edit(result)
+    path = tmp_path / "u.json"
+    path.write_text(json.dumps(result))
+    code, err = _report([path, "-o", tmp_path / "r.html"], capsys)
+    assert code == 2 and re.search(message, err), err
+    assert f"error: {path}: " in err
+
+
+def test_a_result_that_is_no_object_or_too_deep_names_the_file(tmp_path, capsys):
+    path = tmp_path / "l.json"
+    path.write_text("[1, 2]")
+    code, err = _report([path, "-o", tmp_path / "r.html"], capsys)
+    assert code == 2 and f"{path}: a result must be a JSON object, got a list" in err
+    path.write_text("[" * 100000 + "]" * 100000)
+    code, err = _report([path, "-o", tmp_path / "r.html"], capsys)
+    assert code == 2 and f"{path}: JSON nested too deeply" in err
+
+
+def test_update_report_shows_the_damping_ratios_of_the_run(ex, tmp_path, capsys):
+    """update's JSON holds damping_ratio (measured, std, model, Rayleigh fit) for damped test
+    modes; the report left it out."""
+    test = json.loads((ex / "figure2_test.json").read_text())
+    for k, m in enumerate(test["modes"]):
+        m.update(damping_ratio=0.01 * (k + 1), std_damping_ratio=0.001 * (k + 1))
+    data = tmp_path / "d.json"
+    data.write_text(json.dumps(test))
+    js, out = tmp_path / "u.json", tmp_path / "u.html"
+    with pytest.raises(SystemExit) as e:
+        main(["update", str(ex / "figure2.toml"), str(data), "--damping", "alpha=0.1,beta=0.001", "--json", str(js),
+              "--report", str(out)])
+    assert e.value.code == 0
+    result = json.loads(js.read_text())
+    html = out.read_text()
+    assert ">Modal damping</h2>" in html and "Rayleigh damping fitted to the 3 measured ratios" in html
+    for i in range(3):
+        for side in ("test", "std", "model"):
+            assert f'data-key="/damping_ratio/{side}/{i}"' in html
+    assert check_numbers(html, result) >= 9 + 8

@@ -82,9 +82,12 @@ def parse_damping(text: str | None, data=None):
     if text.strip().lower() == "fit":
         from ._common import fitted_damping
 
-        fit, _ = fitted_damping(data) if data is not None else (None, None)
+        if data is None:
+            raise InputError("--damping fit: fits Rayleigh damping to the test modes' damping ratios, and this command "
+                             "reads no test data; give alpha=A,beta=B,eta=E")
+        fit, _ = fitted_damping(data)
         if fit is None:
-            have = 0 if data is None else sum(m.damping_ratio is not None for m in data.modes)
+            have = sum(m.damping_ratio is not None for m in data.modes)
             raise InputError(f"--damping fit: fits Rayleigh damping to the test modes' damping ratios and needs two or "
                              f"more; the test data give {have}")
         return fit
@@ -473,7 +476,8 @@ def surface_command(model_path, data_path, params_text, x_text, y_text, kind, re
             raise InputError(f"--truth: give a value for {', '.join(missing)}")
         truth = (t[names[0]], t[names[1]])
     if kind == "frf":
-        surf = frf_surface(model, frf_data(data), names, x, y, values, parse_damping(damping_text), residual, truth=truth)
+        surf = frf_surface(model, frf_data(data), names, x, y, values, parse_damping(damping_text, data), residual,
+                           truth=truth)
     else:
         if not data.modes:
             raise InputError(f"{data_path}: no modes for a modal surface")

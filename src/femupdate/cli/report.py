@@ -46,16 +46,13 @@ def _report_model(model_path: Path, result: dict, kind: str):
 def report(result_path, out_path, model_path, data_path, kind, measured_text):
     """Write one self-contained HTML report of RESULT.json (the --json result of direct, update,
     frf-update, update-multi, damage, uniqueness or paper)."""
-    from ..report import build_report, detect_kind, paper_images
-    from ..report.build import _jsonable
+    from ..report import build_report, paper_images
+    from ..report.build import _jsonable, check_kind
     from ..io.results import atomic_write_text
 
     ctx = Ctx(None)
     result = _jsonable(result_path)
-    try:
-        kind = kind or detect_kind(result)
-    except InputError as exc:
-        raise InputError(f"{result_path}: {exc}") from None
+    kind = check_kind(result, kind, f"{result_path}: ")
     if data_path is not None and model_path is None:
         raise InputError("--data needs --model (the test data are read for the model's dofs)")
     if measured_text is not None and data_path is None:
@@ -71,6 +68,9 @@ def report(result_path, out_path, model_path, data_path, kind, measured_text):
             raise InputError(f"--data: a {kind} result is reported from its own file (its data are simulated or "
                              "given per configuration)")
         data = load_data(data_path, model, measured_text)
+    from ..report.build import check_model_and_data
+
+    check_model_and_data(result, kind, model, data, f"--model {model_path}: ", f"--data {data_path}: ")
     images = paper_images(Path(result_path).parent, result) if kind == "paper" else None
     html = build_report(result, model=model, data=data, kind=kind, segments=segments, images=images,
                         source=str(result_path))

@@ -30,8 +30,9 @@ turns into weights and the covariance: ``std_frequency = Fn_std / Fn`` (relative
 ``std_eigenvalue = 2 Fn_std / Fn``), ``std_damping_ratio = Xi_std``, and ``std_shape`` = the RMS of
 ``Phi_std`` over the mapped channels divided by the norm of the mapped shape -- the standard
 deviation of the entries of the unit-length shape that updating compares by default (``--shape-
-scaling unit``), to first order.  A mode whose standard deviation is missing or not finite gets
-none, with a note.
+scaling unit``), to first order.  A mode whose standard deviation is missing, zero, negative or
+not finite gets none, with a note.  Every array must hold numbers (text, booleans and objects are
+refused naming the key); only shapes, modal constants and ``Phi_std`` may be complex.
 """
 
 from __future__ import annotations
@@ -80,7 +81,7 @@ def channel_map(channels, n_channels: int, channel_names: Sequence[str] | None =
     ------
     InputError
         A sequence of another length than the channels; a key that is no channel; a malformed
-        dof; two channels on one dof; no channel mapped.
+        dof or one with two signs; two channels on one dof; no channel mapped.
     """
     names = None if channel_names is None else [str(n) for n in channel_names]
     if names is not None and len(names) != n_channels:
@@ -116,7 +117,11 @@ def channel_map(channels, n_channels: int, channel_names: Sequence[str] | None =
             raise InputError(f"{what}: channel {k}: expected a dof label such as \"3:x\" or \"-3:x\", got {value!r}")
         text = value.strip()
         sign = -1.0 if text.startswith("-") else 1.0
-        text = text.lstrip("+-").strip()
+        if text[:1] in ("+", "-"):
+            text = text[1:].strip()
+        if not text or text[:1] in ("+", "-"):
+            raise InputError(f"{what}: channel {k}: {value!r} is not a dof label with at most one sign, such as "
+                             "\"3:x\" or \"-3:x\"")
         try:
             label = resolve_dof(text, dofs, f"{what}: channel {k}")
         except InputError as exc:
@@ -131,14 +136,40 @@ def channel_map(channels, n_channels: int, channel_names: Sequence[str] | None =
     return out
 
 
-def _per_mode(values, n: int, what: str) -> np.ndarray | None:
-    """An optional per-mode array (None if absent), checked for length."""
+def _numbers(values, what: str, complex_ok: bool = False) -> np.ndarray | None:
+    """``values`` as an array of numbers (None if absent): real (float), or complex where
+    ``complex_ok``; strings, booleans, objects and ragged nestings refused naming ``what``.
+
+    A complex array whose imaginary parts are all zero is taken as real.
+    """
     if values is None:
         return None
-    arr = np.asarray(values)
+    try:
+        arr = np.asarray(values)
+    except (ValueError, TypeError) as exc:  # ragged nestings of lists
+        raise InputError(f"{what}: not an array of numbers ({exc})") from None
+    kind = arr.dtype.kind
     if arr.size == 0:
+        return np.zeros(arr.shape)
+    if kind == "b":
+        raise InputError(f"{what}: booleans (True/False), not numbers")
+    if kind == "c":
+        if not complex_ok and np.any(arr.imag):
+            raise InputError(f"{what}: complex values; expected real numbers")
+        return arr if complex_ok else arr.real.astype(float)
+    if kind not in "iuf":
+        got = {"U": "text", "S": "bytes", "O": "Python objects"}.get(kind, str(arr.dtype))
+        first = ", ".join(repr(v) for v in arr.ravel()[:3].tolist())
+        raise InputError(f"{what}: expected numbers, got {got} ({first}{', ...' if arr.size > 3 else ''})")
+    return arr.astype(float)
+
+
+def _per_mode(values, n: int, what: str) -> np.ndarray | None:
+    """An optional per-mode array of real numbers (None if absent), checked for length."""
+    arr = _numbers(values, what)
+    if arr is None or arr.size == 0:
         return None
-    arr = np.real_if_close(arr).astype(float).ravel() if not np.iscomplexobj(arr) else np.abs(arr).ravel()
+    arr = arr.ravel()
     if arr.size != n:
         raise InputError(f"{what}: {arr.size} values for {n} modes")
     return arr
@@ -177,10 +208,12 @@ def modal_test_data(frequency_hz, shapes, channels, *, damping_ratio=None, frequ
     Raises
     ------
     InputError
-        Arrays of inconsistent sizes; non-finite frequencies or shapes; and as
-        :func:`channel_map` and :class:`~femupdate.testdata.MeasuredMode`.
+        Arrays of inconsistent sizes or that are not numbers (complex frequencies or damping
+        ratios included); non-finite frequencies or shapes; and as :func:`channel_map` and
+        :class:`~femupdate.testdata.MeasuredMode`.
     """
-    f = np.asarray(frequency_hz, dtype=float).ravel()
+    f = _numbers(frequency_hz, f"{source}: frequencies")
+    f = np.zeros(0) if f is None else f.ravel()
     n = f.size
     if n == 0:
         raise InputError(f"{source}: no identified modes")
@@ -188,7 +221,7 @@ def modal_test_data(frequency_hz, shapes, channels, *, damping_ratio=None, frequ
         bad = [str(k + 1) for k in np.flatnonzero(~np.isfinite(f))]
         raise InputError(f"{source}: frequency of mode(s) {', '.join(bad)} is not finite (a pole that was not found?)")
     notes: list[str] = []
-    phi = None if shapes is None else np.asarray(shapes)
+    phi = _numbers(shapes, f"{source}: shapes", complex_ok=True)
     if phi is not None and phi.size == 0:
         phi = None
     mapped: list[tuple[int, str, float]] = []
@@ -205,8 +238,9 @@ def modal_test_data(frequency_hz, shapes, channels, *, damping_ratio=None, frequ
     f_std = _per_mode(frequency_std_hz, n, f"{source}: frequency standard deviations")
     z_std = _per_mode(damping_ratio_std, n, f"{source}: damping-ratio standard deviations")
     p_std = None
-    if shape_std is not None and phi is not None and np.size(shape_std):
-        p_std = np.abs(np.asarray(shape_std, dtype=complex if np.iscomplexobj(shape_std) else float))
+    p_given = _numbers(shape_std, f"{source}: shape standard deviations", complex_ok=True)
+    if p_given is not None and phi is not None and p_given.size:
+        p_std = np.abs(p_given) if np.iscomplexobj(p_given) else p_given  # a real one below 0 is no std
         if p_std.shape != phi.shape:
             raise InputError(f"{source}: shape standard deviations of shape {p_std.shape}, expected {phi.shape}")
     rows = [c for c, _, _ in mapped]
@@ -240,14 +274,15 @@ def modal_test_data(frequency_hz, shapes, channels, *, damping_ratio=None, frequ
         if p_std is not None and shape.size >= 2:
             s = p_std[rows, k]
             norm = float(np.linalg.norm(shape))
-            if np.all(np.isfinite(s)) and np.any(s > 0) and norm > 0:
-                extra["std_shape"] = float(np.sqrt(np.mean(s ** 2)) / norm)
+            if np.all(np.isfinite(s)) and np.all(s >= 0) and np.any(s > 0) and norm > 0:
+                top = float(s.max())  # the RMS scaled by the largest entry: no overflow of the squares
+                extra["std_shape"] = top * float(np.sqrt(np.mean((s / top) ** 2))) / norm
             else:
                 missing.setdefault("shape", []).append(k + 1)
         modes.append(MeasuredMode.from_frequency(float(f[k]), labels if shape.size else (), shape,
                                                  f"{source} mode {k + 1}", **extra))
     for kind, which in missing.items():
-        notes.append(f"{source}: no finite {kind} standard deviation for mode(s) {', '.join(map(str, which))}; "
+        notes.append(f"{source}: no finite positive {kind} standard deviation for mode(s) {', '.join(map(str, which))}; "
                      "those modes carry none")
     if p_std is not None:
         notes.append(f"{source}: std_shape is the RMS of the shape entries' standard deviations over the mapped "
@@ -258,9 +293,14 @@ def modal_test_data(frequency_hz, shapes, channels, *, damping_ratio=None, frequ
     return TestData(modes=tuple(modes), notes=tuple(notes))
 
 
-def _attr(obj, name):
-    value = getattr(obj, name, None)
-    return None if value is None else np.asarray(value)
+#: the arrays that may be complex (shapes, modal constants, their standard deviations)
+_COMPLEX_KEYS = frozenset({"Phi", "Phi_std", "phi", "A"})
+
+
+def _arrays(get, keys, source: str) -> dict[str, np.ndarray | None]:
+    """The library's arrays ``get(key)`` for ``keys``, each checked to hold numbers (messages
+    name the key as the library names it)."""
+    return {k: _numbers(get(k), f"{source}: {k}", complex_ok=k in _COMPLEX_KEYS) for k in keys}
 
 
 def from_pyoma2(result, channels, *, channel_names: Sequence[str] | None = None, dofs: Sequence[str] | None = None,
@@ -291,16 +331,21 @@ def from_pyoma2(result, channels, *, channel_names: Sequence[str] | None = None,
     Raises
     ------
     InputError
-        No ``Fn`` (modal parameters not extracted: run ``mpe`` first); and as
+        An object with neither ``Fn`` nor ``result``; no ``Fn`` (modal parameters not extracted:
+        run ``mpe`` first); arrays that are not numbers (named by attribute); and as
         :func:`modal_test_data`.
     """
+    if not hasattr(result, "Fn") and not hasattr(result, "result"):
+        raise InputError(f"{source}: expected a pyOMA2 result (an object with Fn and Phi) or the algorithm that holds "
+                         f"it, got {type(result).__name__}")
     res = getattr(result, "result", None) if not hasattr(result, "Fn") else result
     if res is None or getattr(res, "Fn", None) is None:
         raise InputError(f"{source}: the result has no natural frequencies (Fn): extract the modes first "
                          "(setup.mpe(name, sel_freq=...))")
-    return modal_test_data(_attr(res, "Fn"), _attr(res, "Phi"), channels, damping_ratio=_attr(res, "Xi"),
-                           frequency_std_hz=_attr(res, "Fn_std"), damping_ratio_std=_attr(res, "Xi_std"),
-                           shape_std=_attr(res, "Phi_std"), channel_names=channel_names, dofs=dofs, source=source)
+    a = _arrays(lambda k: getattr(res, k, None), PYOMA2_KEYS, source)
+    return modal_test_data(a["Fn"], a["Phi"], channels, damping_ratio=a["Xi"], frequency_std_hz=a["Fn_std"],
+                           damping_ratio_std=a["Xi_std"], shape_std=a["Phi_std"], channel_names=channel_names,
+                           dofs=dofs, source=source)
 
 
 def from_sdypy_ema(model, channels, *, channel_names: Sequence[str] | None = None, dofs: Sequence[str] | None = None,
@@ -332,16 +377,19 @@ def from_sdypy_ema(model, channels, *, channel_names: Sequence[str] | None = Non
     Raises
     ------
     InputError
-        No ``nat_freq`` (poles not selected); and as :func:`modal_test_data`.
+        An object with neither ``nat_freq`` nor ``frf``; no ``nat_freq`` (poles not selected);
+        arrays that are not numbers (named by attribute); and as :func:`modal_test_data`.
     """
-    freq = _attr(model, "nat_freq")
+    if not hasattr(model, "nat_freq") and not hasattr(model, "frf"):
+        raise InputError(f"{source}: expected an sdypy-EMA Model (an object with nat_freq after pole selection), got "
+                         f"{type(model).__name__}")
+    a = _arrays(lambda k: getattr(model, k, None), SDYPY_EMA_KEYS, source)
+    freq = a["nat_freq"]
     if freq is None:
         raise InputError(f"{source}: the model has no natural frequencies (nat_freq): select the poles first "
                          "(select_closest_poles or select_poles)")
-    shapes = _attr(model, "phi")
-    if shapes is None:
-        shapes = _attr(model, "A")
-    data = modal_test_data(freq, shapes, channels, damping_ratio=_attr(model, "nat_xi"), channel_names=channel_names,
+    shapes = a["phi"] if a["phi"] is not None else a["A"]
+    data = modal_test_data(freq, shapes, channels, damping_ratio=a["nat_xi"], channel_names=channel_names,
                            dofs=dofs, source=source)
     if shapes is None:
         return TestData(modes=data.modes, notes=(*data.notes, f"{source}: no modal constants (run get_constants "
@@ -371,22 +419,34 @@ def read_identification(path, dofs: Sequence[str] | None = None, channels=None) 
     Raises
     ------
     InputError
-        A missing or unreadable file; object arrays (the file is read without unpickling); keys
-        of neither library; no channel map; and as :func:`modal_test_data`.
+        A missing or unreadable file, or one that is no zip archive of arrays (a ``.npy`` file,
+        text); object arrays (the file is read without unpickling); keys of neither library; no
+        channel map (errors in the file's own map name the file); arrays that are not numbers
+        (named by key); and as :func:`modal_test_data`.
     """
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+        with open(path, "rb") as fh:
+            head = fh.read(6)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise InputError(f"{path}: is a folder, not a .npz file") from None
-    except ValueError as exc:  # object arrays: numpy refuses to unpickle them
+    if not head.startswith(b"PK"):  # numpy.savez writes a zip archive; np.load would try to unpickle the rest
+        what = ("one array saved with numpy.save (.npy)" if head.startswith(b"\x93NUMPY")
+                else "an empty file" if not head else "not a zip archive")
+        raise InputError(f"{path}: not a .npz file of arrays ({what}); save the result with numpy.savez")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except ValueError as exc:
+        if "pickle" not in str(exc) and "Object arrays" not in str(exc):  # not numpy's refusal to unpickle
+            raise InputError(f"{path}: not a readable .npz file ({exc})") from None
         raise InputError(f"{path}: holds an array of Python objects, which femupdate does not unpickle; save "
                          f"plain numeric and string arrays ({exc})") from None
     except Exception as exc:  # a damaged or non-zip file  # noqa: BLE001
         raise InputError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+    map_in_file = channels is None
     if channels is None:
         if "channels" not in arrays:
             raise InputError(f"{path}: no 'channels' array: save the channel map with the result "
@@ -402,19 +462,27 @@ def read_identification(path, dofs: Sequence[str] | None = None, channels=None) 
     name = path.name
     if "Fn" in arrays:
         unknown = sorted(set(arrays) - {*PYOMA2_KEYS, "channels", "channel_names"})
-        source = f"{name} (pyOMA2)"
-        data = modal_test_data(arrays["Fn"], arrays.get("Phi"), channels, damping_ratio=arrays.get("Xi"),
-                               frequency_std_hz=arrays.get("Fn_std"), damping_ratio_std=arrays.get("Xi_std"),
-                               shape_std=arrays.get("Phi_std"), channel_names=names, dofs=dofs, source=source)
     elif "nat_freq" in arrays:
         unknown = sorted(set(arrays) - {*SDYPY_EMA_KEYS, "channels", "channel_names"})
-        source = f"{name} (sdypy-EMA)"
-        shapes = arrays["phi"] if "phi" in arrays else arrays.get("A")
-        data = modal_test_data(arrays["nat_freq"], shapes, channels, damping_ratio=arrays.get("nat_xi"),
-                               channel_names=names, dofs=dofs, source=source)
     else:
         raise InputError(f"{path}: neither a pyOMA2 result (keys Fn, Phi, Xi, Fn_std, Xi_std, Phi_std) nor an "
                          f"sdypy-EMA model (keys nat_freq, nat_xi, phi or A); the file has {', '.join(arrays) or 'none'}")
+    try:
+        if "Fn" in arrays:
+            a = _arrays(arrays.get, PYOMA2_KEYS, name)
+            data = modal_test_data(a["Fn"], a["Phi"], channels, damping_ratio=a["Xi"], frequency_std_hz=a["Fn_std"],
+                                   damping_ratio_std=a["Xi_std"], shape_std=a["Phi_std"], channel_names=names,
+                                   dofs=dofs, source=f"{name} (pyOMA2)")
+        else:
+            a = _arrays(arrays.get, SDYPY_EMA_KEYS, name)
+            shapes = a["phi"] if a["phi"] is not None else a["A"]
+            data = modal_test_data(a["nat_freq"], shapes, channels, damping_ratio=a["nat_xi"], channel_names=names,
+                                   dofs=dofs, source=f"{name} (sdypy-EMA)")
+    except InputError as exc:  # the file's own channel map (and names) are named with the file
+        msg = str(exc)
+        if msg.startswith("channel_names:") or (map_in_file and msg.startswith("channels:")):
+            raise InputError(f"{path}: {msg}") from None
+        raise
     if unknown:
         return TestData(modes=data.modes, notes=(*data.notes, f"{name}: array(s) not read: {', '.join(unknown)}"))
     return data

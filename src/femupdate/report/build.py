@@ -5,18 +5,97 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import json
+import logging
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from .._errors import InputError
+from .._errors import FemupdateError, InputError
 from .._version import __version__
 from .content import BUILDERS, KINDS
 from .document import Document
 
+log = logging.getLogger(__name__)
+
 #: the kinds of result a report is made of: kind -> the command that writes it
 REPORT_KINDS = dict(KINDS)
+
+_OBJ, _LIST, _NUM, _STR = "an object", "a list", "a number", "a text"
+#: the JSON type of each top-level key the report reads, as the commands write it (null is
+#: accepted everywhere: a key that is null or absent leaves its table out)
+RESULT_KEYS: dict[str, tuple[str, ...]] = {
+    **dict.fromkeys(("start", "standard_error", "baseline", "changes", "bounds", "parameter_units", "frequencies_hz",
+                     "diagnostics", "pairing", "verification", "units", "truth", "sections", "confidence",
+                     "conditioning", "frac", "descriptions", "criteria_agreement", "baseline_check", "damping_ratio"),
+                    (_OBJ,)),
+    **dict.fromkeys(("pairs", "updated", "flags", "history", "notes", "omega_rad_s", "located", "cases",
+                     "configurations", "natural_frequencies_hz", "frequency_change", "doubts"), (_LIST,)),
+    **dict.fromkeys(("condition_number", "cost", "iterations", "nfev", "n_equations"), (_NUM,)),
+    **dict.fromkeys(("model", "residual", "message", "formulation", "method", "sensitivity"), (_STR,)),
+    "parameters": (_OBJ, _LIST), "starts": (_OBJ, _NUM), "unknowns": (_LIST, _STR),
+}
+#: {name: value} objects of parameters: what each value must be
+_PER_PARAMETER = {"parameters": (_NUM,), "start": (_NUM,), "standard_error": (_NUM,), "baseline": (_NUM,),
+                  "changes": (_NUM,), "parameter_units": (_STR,), "bounds": (_LIST,)}
+
+
+def _json_type(v) -> str:
+    if isinstance(v, Mapping):
+        return _OBJ
+    if isinstance(v, list):
+        return _LIST
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return _NUM
+    if isinstance(v, str):
+        return _STR
+    return "true/false" if isinstance(v, bool) else type(v).__name__
+
+
+def check_result(result: Mapping) -> None:
+    """Check that the keys a report reads hold what the commands write (docs/file-formats.md):
+    each top-level key's JSON type, the values of the per-parameter objects, the entries of
+    ``pairs``, ``notes``, ``flags`` and ``updated``, and the lists of ``frequencies_hz``.
+
+    Raises
+    ------
+    InputError
+        Naming the key (a JSON pointer such as ``/pairs/2``) and what it holds instead.
+    """
+    def bad(where: str, want: str, v) -> InputError:
+        shown = json.dumps(v)[:60] if not isinstance(v, float) or np.isfinite(v) else repr(v)
+        return InputError(f"{where}: expected {want}, got {_json_type(v)} ({shown}); the report reads the keys as "
+                          "femupdate writes them (docs/file-formats.md)")
+
+    for key, want in RESULT_KEYS.items():
+        v = result.get(key)
+        if v is not None and _json_type(v) not in want:
+            raise bad(f"/{key}", " or ".join(want), v)
+    for key, want in _PER_PARAMETER.items():
+        obj = result.get(key)
+        if isinstance(obj, Mapping):
+            for name, v in obj.items():
+                if v is not None and _json_type(v) not in want:
+                    raise bad(f"/{key}/{name}", " or ".join(want), v)
+                if key == "bounds" and v is not None and (len(v) != 2 or any(
+                        b is not None and _json_type(b) != _NUM for b in v)):
+                    raise bad(f"/bounds/{name}", "[lower, upper] (numbers or null)", v)
+    for i, p in enumerate(result.get("pairs") or []):
+        if not (isinstance(p, list) and len(p) == 3 and all(_json_type(x) == _NUM and float(x).is_integer() and x >= 0
+                                                            for x in p[:2])
+                and (p[2] is None or _json_type(p[2]) == _NUM)):
+            raise bad(f"/pairs/{i}", "[test mode, model mode, MAC] (indices from 0, MAC a number or null)", p)
+    for key, kind in (("notes", _STR), ("updated", _STR), ("flags", _OBJ)):
+        for i, v in enumerate(result.get(key) or []):
+            if _json_type(v) != kind:
+                raise bad(f"/{key}/{i}", kind, v)
+    for side, v in (result.get("frequencies_hz") or {}).items():
+        if side in ("test", "model") and v is not None:
+            if _json_type(v) != _LIST:
+                raise bad(f"/frequencies_hz/{side}", "a list", v)
+            for i, f in enumerate(v):
+                if f is not None and _json_type(f) != _NUM:
+                    raise bad(f"/frequencies_hz/{side}/{i}", "a number or null", f)
 
 
 def detect_kind(result: Mapping) -> str:
@@ -58,6 +137,27 @@ def detect_kind(result: Mapping) -> str:
     raise InputError(f"not the JSON result of {', '.join(REPORT_KINDS)} (its keys: {shown})")
 
 
+def check_kind(result: Mapping, kind: str | None, where: str = "") -> str:
+    """The kind of ``result``: ``kind`` where given and not contradicted by the keys (a result
+    of another command is refused: its report would be empty or wrong), else told from the keys.
+
+    Raises
+    ------
+    InputError
+        ``kind`` None and the keys match no kind; ``kind`` given and the keys are another
+        command's (``update`` and ``frf-update`` are reported alike and taken for each other).
+    """
+    try:
+        told = detect_kind(result)
+    except InputError as exc:
+        if kind is None:
+            raise InputError(f"{where}{exc}") from None
+        return kind  # keys of no known kind: the caller says which it is
+    if kind is not None and BUILDERS[kind] is not BUILDERS[told]:
+        raise InputError(f"{where}the result of {told}, not of {kind} (told from its keys); leave the kind out")
+    return kind or told
+
+
 def paper_images(folder, result: Mapping) -> dict[str, list[dict]]:
     """The figures ``femupdate paper`` wrote beside ``paper.json``, as embedded PNGs per section.
 
@@ -91,8 +191,10 @@ def _jsonable(result) -> dict:
     """The result as its JSON file holds it (NumPy values, NaN and inf converted as ``--json`` does)."""
     from ..io.results import to_jsonable
 
+    where = ""
     if isinstance(result, (str, Path)):
         path = Path(result)
+        where = f"{path}: "
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
@@ -105,8 +207,10 @@ def _jsonable(result) -> dict:
             result = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"{path}: not valid JSON: {exc}") from None
+        except RecursionError:
+            raise InputError(f"{path}: JSON nested too deeply") from None
     if not isinstance(result, Mapping):
-        raise InputError(f"a result must be a JSON object, got {type(result).__name__}")
+        raise InputError(f"{where}a result must be a JSON object, got {_json_type(result)}")
     return to_jsonable(dict(result))
 
 
@@ -166,12 +270,67 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     Raises
     ------
     InputError
-        A result that is not a JSON object or not of a known kind; an unknown ``kind``.
+        A result that is not a JSON object or not of a known kind; an unknown ``kind``, or one
+        its keys contradict; a key that does not hold what the commands write
+        (:func:`check_result`, or the builders failing on it); a model without the result's
+        parameters or test data without its paired test modes (:func:`check_model_and_data`).
     """
     res = _jsonable(result)
-    kind = kind or detect_kind(res)
-    if kind not in BUILDERS:
+    where = f"{source}: " if source else ""
+    if kind is not None and kind not in BUILDERS:
         raise InputError(f"unknown report kind {kind!r}; known: {', '.join(REPORT_KINDS)}")
+    kind = check_kind(res, kind, where)
+    try:
+        check_result(res)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    check_model_and_data(res, kind, model, data)
+    try:
+        return _build(res, kind, model, data, segments, before, damping, images, source, title)
+    except FemupdateError:
+        raise
+    except (KeyError, IndexError, TypeError, ValueError, AttributeError, ArithmeticError) as exc:  # not checked above
+        log.debug("the report failed on the result", exc_info=True)
+        raise InputError(f"{where}the {kind} result is not as femupdate writes it ({type(exc).__name__}: {exc}); was "
+                         "the file edited, or written by another program?") from None
+
+
+def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str = "", data_what: str = "") -> None:
+    """Refuse a model without the result's parameters and test data without the result's test
+    modes (the report would show another model's correlation, or fail on a missing mode).
+
+    Parameters
+    ----------
+    res : mapping
+        The JSON result.
+    kind : str
+        Its kind (:data:`REPORT_KINDS`).
+    model : Model or None
+    data : TestData or None
+    model_what, data_what : str
+        How the messages name the model and the data (e.g. ``"--model m.toml: "``).
+
+    Raises
+    ------
+    InputError
+        A result parameter the model lacks; a paired test mode the data lack.
+    """
+    if model is not None and kind in ("direct", "update", "frf-update", "damage"):
+        given = res.get("changes") if kind == "damage" else res.get("parameters")
+        names = list(given) if isinstance(given, (Mapping, list)) else []
+        missing = [str(n) for n in names if n not in model.parameter_names]
+        if missing:
+            raise InputError(f"{model_what}the model {model.name!r} has no parameter(s) {', '.join(missing[:6])} of the result "
+                             f"(its parameters: {', '.join(model.parameter_names[:6])}): is it the model of this run?")
+    if data is not None and kind in ("direct", "update", "frf-update", "damage"):
+        tested = [int(p[0]) for p in res.get("pairs") or []]
+        if tested and max(tested) >= len(data.modes):
+            raise InputError(f"{data_what}the result pairs test mode {max(tested) + 1}, but the test data hold {len(data.modes)} "
+                             f"mode(s): are they the test data of this run?")
+
+
+def _build(res: dict, kind: str, model, data, segments, before, damping, images, source, title) -> str:
+    """:func:`build_report` once the result is checked."""
     if model is not None and kind != "paper":
         _describe_parameters(res, model)
     rec = None

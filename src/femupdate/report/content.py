@@ -251,18 +251,57 @@ def _shapes_section(model, data, rec, segments, pairs) -> Section | None:
         items = [(int(k), int(j), m) for k, j, m in pairs]
     else:
         items = [(None, j, None) for j in range(min(len(modes.eigenvalues), 4))]
+    beyond = [j + 1 for _, j, _ in items if j >= modes.shapes.shape[1]]
+    if beyond:  # a model mode the recomputation did not reach
+        sec.add(Text(f"Model mode(s) {', '.join(map(str, beyond))} of the pairs are beyond the {modes.shapes.shape[1]} "
+                     "modes recomputed and are not drawn.", "note"))
+        items = [it for it in items if it[1] < modes.shapes.shape[1]]
     for k, j, mac in items[:MAX_SHAPES]:
         test = None
-        if k is not None and data is not None and k < len(data.modes) and len(data.modes[k].dofs):
+        f_t = None
+        if k is not None and data is not None and k < len(data.modes):
             tm = data.modes[k]
-            test = dict(zip(tm.dofs, np.asarray(tm.shape)))
+            f_t = tm.frequency_hz
+            if len(tm.dofs):
+                test = dict(zip(tm.dofs, np.asarray(tm.shape)))
         f_m = float(modes.frequencies_hz[j])
-        title = (f"test mode {k + 1} ↔ model mode {j + 1}: {num(data.frequencies_hz[k], 5)} / {num(f_m, 5)} Hz"
-                 + (f", MAC {mac:.4f}" if mac is not None and _fin(mac) else "")) if k is not None else \
-            f"model mode {j + 1}: {num(f_m, 5)} Hz"
+        title = (f"test mode {k + 1} ↔ model mode {j + 1}: " + (f"{num(f_t, 5)} / " if f_t is not None else "")
+                 + f"{num(f_m, 5)} Hz" + (f", MAC {mac:.4f}" if mac is not None and _fin(mac) else "")) \
+            if k is not None else f"model mode {j + 1}: {num(f_m, 5)} Hz"
         sec.add(Figure(figs.mode_shape_figure(model, modes.shapes[:, j], test, title, segments)))
     if len(items) > MAX_SHAPES:
         sec.add(Text(f"The first {MAX_SHAPES} of {len(items)} paired modes are drawn.", "note"))
+    return sec
+
+
+def _damping_section(result: dict) -> Section | None:
+    """The measured modal damping ratios against the model's (the result's ``damping_ratio``:
+    ``update`` with damped test modes or ``--damping``) and the Rayleigh damping fitted to them."""
+    dr = result.get("damping_ratio")
+    if not isinstance(dr, dict) or not dr.get("test"):
+        return None
+    test, std, model = dr.get("test") or [], dr.get("std") or [], dr.get("model") or []
+    sec = Section("damping", "Modal damping")
+    t = Table("damping ratio ζ of each test mode (fraction of critical): measured, its standard deviation, the "
+              "model's modal damping at its paired mode, and the difference",
+              ["test mode", f"ζ test [{NONE}]", f"std [{NONE}]", f"ζ model [{NONE}]", f"model − test [{NONE}]"])
+    for i, zt in enumerate(test):
+        sd = std[i] if i < len(std) else None
+        zm = model[i] if i < len(model) else None
+        t.rows.append([Cell(str(i + 1)), numcell(zt, f"/damping_ratio/test/{i}", 4),
+                       numcell(sd, f"/damping_ratio/std/{i}", 3), numcell(zm, f"/damping_ratio/model/{i}", 4),
+                       Cell(num(zm - zt, 3) if _fin(zm) and _fin(zt) else "–")])
+    sec.add(t)
+    md = dr.get("model_damping")
+    if isinstance(md, dict):
+        sec.add(Text(f"The model's damping (--damping): α = {num(md.get('alpha'))} 1/s, β = {num(md.get('beta'))} s, "
+                     f"η = {num(md.get('eta'))} (modal ratio α/2ω + βω/2 + η/2)."))
+    fit = dr.get("rayleigh_fit")
+    if isinstance(fit, dict):
+        sec.add(Text(f"Rayleigh damping fitted to the {fit.get('n_modes')} measured ratios: α = {num(fit.get('alpha'))} "
+                     f"1/s, β = {num(fit.get('beta'))} s (rms misfit {num(fit.get('rms_error'), 3)}); --damping fit "
+                     "uses it for FRFs. Damping ratios are compared, not updated: the model has no damping "
+                     "parameters."))
     return sec
 
 
@@ -460,7 +499,8 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
         std = (result.get("diagnostics") or {}).get("std")
         doc.sections.append(Section("parameters", "Parameters").add(
             _parameter_table(result, names, result.get("start"), std, "start and updated values")))
-    for sec in (_correlation_section(result, rec), _shapes_section(model, data, rec, segments, result.get("pairs")),
+    for sec in (_correlation_section(result, rec), _damping_section(result),
+                _shapes_section(model, data, rec, segments, result.get("pairs")),
                 _frf_section(result, rec) if kind == "frf-update" or result.get("omega_rad_s") else None,
                 _convergence_section(result), _identifiability_section(result), _starts_section(result)):
         if sec is not None:

@@ -263,6 +263,8 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
                 raise InputError(f"frequency {freq!r} Hz must be finite and >= 0")
             lam = (2 * math.pi * freq) ** 2
             zeta = _number_or_zero(dset.get("modal_damp_vis"))  # viscous damping ratio; 0: not stated
+            if zeta == 0 and _not_finite(dset.get("modal_damp_vis")):
+                raise InputError(f"viscous damping ratio {dset['modal_damp_vis']!r} is not a finite number")
             damping = zeta if zeta else None
             if damping is None and _number_or_zero(dset.get("modal_damp_his")):
                 notes.append(f"{where}: the hysteretic damping value {float(dset['modal_damp_his']):g} is not "
@@ -285,6 +287,14 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
     return _RawMode(where, label, lam, values, damping)
+
+
+def _not_finite(v) -> bool:
+    """A record's field that is a number but NaN or infinite."""
+    try:
+        return not math.isfinite(float(v))
+    except (TypeError, ValueError):
+        return False
 
 
 def _number_or_zero(v) -> float:
