@@ -306,3 +306,25 @@ def test_reference_dof_is_read_from_test_data_json(tmp_path):
     path.write_text('{"modes": [{"frequency_hz": 2.0, "shape": {"1:x": 0.5}, "reference_dof": "2:x"}]}')
     with pytest.raises(InputError, match=r"modes\[1\]: .*reference_dof 2:x is not among its measured dofs"):
         load_testdata(path)
+
+
+def test_a_cluster_on_this_machine_is_said_to_be_no_faster():
+    """dask_cluster.same_machine_note: every worker here with no more threads than cores gives the
+    note; a worker elsewhere, or more threads than cores, gives none."""
+    import os
+
+    from femupdate.dask_cluster import same_machine_note
+
+    class Client:
+        def __init__(self, workers):
+            self.workers = workers
+
+        def scheduler_info(self):
+            return {"workers": self.workers}
+
+    cores = os.cpu_count() or 1
+    local = {"tcp://127.0.0.1:1": {"host": "127.0.0.1", "nthreads": 1}}
+    assert "runs on this machine" in same_machine_note(Client(local))
+    assert same_machine_note(Client({**local, "tcp://10.9.8.7:1": {"host": "10.9.8.7", "nthreads": 1}})) is None
+    assert same_machine_note(Client({"tcp://127.0.0.1:1": {"host": "127.0.0.1", "nthreads": cores + 1}})) is None
+    assert same_machine_note(Client({})) is None
