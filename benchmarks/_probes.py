@@ -104,3 +104,32 @@ def write_results(res: dict, name: str, quick: bool, output, table, argv) -> Non
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(res, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)) + "\n")
     print(f"\nresults written to {out}")
+
+
+OUTCOMES = ("truth", "other", "not-converged", "failed")
+
+
+def outcomes(ms, truth, rtol: float = 1e-6):
+    """Each multi-start run's outcome — ``truth`` (every parameter within ``rtol`` of ``truth``),
+    ``other`` (converged elsewhere), ``not-converged`` or ``failed`` — and its solution (None when
+    it failed)."""
+    import numpy as np
+
+    cls, sols = [], []
+    for r in ms.runs:
+        if isinstance(r, str):
+            cls.append("failed")
+            sols.append(None)
+        elif not r.success:
+            cls.append("not-converged")
+            sols.append(np.asarray(r.x, float))
+        else:
+            err = float(np.max(np.abs(np.asarray(r.x) / truth - 1)))
+            cls.append("truth" if err < rtol else "other")
+            sols.append(np.asarray(r.x, float))
+    return cls, sols
+
+
+def count(cls) -> dict:
+    """How many runs had each outcome (:data:`OUTCOMES`)."""
+    return {c: cls.count(c) for c in OUTCOMES}

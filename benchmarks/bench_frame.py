@@ -100,6 +100,9 @@ from femupdate import MeasuredMode, TestData, model_modes  # noqa: E402
 from femupdate.generators import frame_lattice  # noqa: E402
 from femupdate.updating import draw_starts, multistart, update  # noqa: E402
 
+sys.path.insert(0, str(HERE))  # the shared probes
+from _probes import count, outcomes  # noqa: E402
+
 NX, NY, NZ = 4, 8, 13  # nodes in plan and levels: 12 storeys, 2,304 free dofs
 SPACING = (4.0, 4.0, 3.0)
 BOUNDS = (0.01, 2.0)  # relative to nominal (= truth)
@@ -139,26 +142,6 @@ def problem():
 
 
 # ------------------------------------------------------------------ outcomes
-def outcomes(ms, truth):
-    cls, sols = [], []
-    for r in ms.runs:
-        if isinstance(r, str):
-            cls.append("failed")
-            sols.append(None)
-        elif not r.success:
-            cls.append("not-converged")
-            sols.append(np.asarray(r.x, float))
-        else:
-            err = float(np.max(np.abs(np.asarray(r.x) / truth - 1)))
-            cls.append("truth" if err < TRUTH_RTOL else "other")
-            sols.append(np.asarray(r.x, float))
-    return cls, sols
-
-
-def count(cls):
-    return {c: cls.count(c) for c in ("truth", "other", "not-converged", "failed")}
-
-
 def agreement(ca, sa, cb, sb):
     same, differ, max_rel = 0, [], 0.0
     for k, (a, b, xa, xb) in enumerate(zip(ca, cb, sa, sb)):
@@ -238,8 +221,8 @@ def main(args) -> int:
     np.testing.assert_array_equal(ms_f.starts, X0)
     ms_b, t_b, c_b = timed(lambda: multistart(model, data, starts=n_base, seed=args.seed, reuse=False))
     np.testing.assert_array_equal(ms_b.starts, X0[:n_base])
-    cls_f, sol_f = outcomes(ms_f, truth)
-    cls_b, sol_b = outcomes(ms_b, truth)
+    cls_f, sol_f = outcomes(ms_f, truth, TRUTH_RTOL)
+    cls_b, sol_b = outcomes(ms_b, truth, TRUTH_RTOL)
     same, differ, max_rel = agreement(cls_f[:n_base], sol_f[:n_base], cls_b, sol_b)
     res["seconds"] = {"f_reuse": t_f, "b_per_start_no_reuse": t_b}
     res["cpu_seconds"] = {"f_reuse": c_f, "b_per_start_no_reuse": c_b}
@@ -282,7 +265,7 @@ def main(args) -> int:
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             ms_d, t_d, c_d = timed(lambda: multistart(model, data, starts=n_starts, seed=args.seed,
                                                       scheduler=cluster.scheduler_address))
-        cls_d, sol_d = outcomes(ms_d, truth)
+        cls_d, sol_d = outcomes(ms_d, truth, TRUTH_RTOL)
         same_d, differ_d, max_rel_d = agreement(cls_f, sol_f, cls_d, sol_d)
         res["seconds"]["d_dask_2_workers"] = t_d
         res["cpu_seconds"]["d_dask_2_workers_client_only"] = c_d

@@ -59,6 +59,9 @@ from femupdate.generators import frame_lattice  # noqa: E402
 from femupdate.model import from_matrices  # noqa: E402
 from femupdate.updating import draw_starts, multistart  # noqa: E402
 
+sys.path.insert(0, str(HERE))  # the shared probes
+from _probes import count, outcomes  # noqa: E402
+
 FULL = (10, 10, 172)
 QUICK = (10, 10, 10)
 SPACING = (4.0, 4.8, 3.0)
@@ -98,26 +101,6 @@ def timed(fn):
     t, c = time.perf_counter(), time.process_time()
     out = fn()
     return out, time.perf_counter() - t, time.process_time() - c
-
-
-def outcomes(ms, truth):
-    cls, sols = [], []
-    for r in ms.runs:
-        if isinstance(r, str):
-            cls.append("failed")
-            sols.append(None)
-        elif not r.success:
-            cls.append("not-converged")
-            sols.append(np.asarray(r.x, float))
-        else:
-            err = float(np.max(np.abs(np.asarray(r.x) / truth - 1)))
-            cls.append("truth" if err < TRUTH_RTOL else "other")
-            sols.append(np.asarray(r.x, float))
-    return cls, sols
-
-
-def count(cls):
-    return {c: cls.count(c) for c in ("truth", "other", "not-converged", "failed")}
 
 
 def cholmod_limit(K, M, k):
@@ -188,7 +171,7 @@ def main(argv=None) -> int:
     ms_f, t_f, c_f = timed(lambda: multistart(model, data, starts=n_starts, seed=args.seed))
     X0 = draw_starts(model, model.parameter_names, n_starts, args.seed)
     np.testing.assert_array_equal(ms_f.starts, X0)
-    cls_f, sol_f = outcomes(ms_f, truth)
+    cls_f, sol_f = outcomes(ms_f, truth, TRUTH_RTOL)
     ws = femupdate.workspace._WORKSPACES.get(model)
     res["local"] = {"wall_seconds": t_f, "cpu_seconds": c_f, "per_start_wall": t_f / n_starts,
                     "per_start_over_bare": t_f / n_starts / t_e, "outcomes": count(cls_f), "per_start": cls_f,
@@ -209,7 +192,7 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             ms_d, t_d, c_d = timed(lambda: multistart(model, data, starts=nd, seed=args.seed,
                                                       scheduler=cluster.scheduler_address))
-            cls_d, sol_d = outcomes(ms_d, truth)
+            cls_d, sol_d = outcomes(ms_d, truth, TRUTH_RTOL)
         same = sum(a == b and (xa is None or xb is None or np.max(np.abs(xa - xb) / np.abs(xb)) <= AGREE_RTOL)
                    for a, b, xa, xb in zip(cls_f[:nd], cls_d, sol_f[:nd], sol_d))
         res["dask"] = {"wall_seconds": t_d, "starts": nd, "per_start_wall": t_d / nd,
