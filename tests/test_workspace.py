@@ -271,3 +271,25 @@ def test_rigid_body_modes_and_updating_through_each_backend_and_route(backend, p
     on = update(tower, data, x0=x0)
     assert on.success and workspace._WORKSPACES[tower].route == ("band" if prefer is None else backend)
     np.testing.assert_allclose(on.x, truth, rtol=1e-6)
+
+
+def test_starts_in_local_processes_give_the_runs_of_one_process(tower):
+    """multistart's per-start route on two local processes (the default for a model of this size on
+    a machine with two cores or more) gives the runs of the sequential route, start by start."""
+    from femupdate.updating import multistart
+    from femupdate.updating.starts import local_jobs
+
+    truth = tower.values * np.array([0.8, 1.25, 0.9])
+    sensors = [f"{n}:{d}" for n in range(10, 271, 18) for d in ("x", "y")]
+    mm = model_modes(tower, truth, n_modes=6, reuse=False)
+    pos = tower.dof_index(sensors)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], sensors, mm.shapes[pos, j]) for j in range(3)))
+    one = multistart(tower, data, starts=4, seed=3, jobs=1)
+    two = multistart(tower, data, starts=4, seed=3, jobs=2)
+    np.testing.assert_array_equal(one.starts, two.starts)
+    assert len(two.runs) == 4 and all(not isinstance(r, str) for r in two.runs)
+    for a, b in zip(one.runs, two.runs):
+        assert a.success == b.success
+        np.testing.assert_allclose(b.x, a.x, rtol=1e-8)
+    assert [s.count for s in one.solutions] == [s.count for s in two.solutions]
+    assert local_jobs(tower, 1) == 1  # one start: no pool

@@ -133,6 +133,9 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts.")
 @click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help="Run the starts on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
+@click.option("--jobs", type=click.IntRange(min=1, max=256), default=None,
+              help="Local processes for the starts of large models (default: one per core when a start is worth "
+                   "a process; 1: this process). The compiled route of small models uses threads instead.")
 @problem_options
 @click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True)
 @click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it.")
@@ -149,7 +152,7 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
 @report_option
 @set_option
 @json_option
-def update(model_path, data_path, starts, seed, scheduler, connect_timeout, params_text, shape_scaling, ref_dof, parametrisation,
+def update(model_path, data_path, starts, seed, scheduler, connect_timeout, jobs, params_text, shape_scaling, ref_dof, parametrisation,
            method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, reciprocity, plot_dir,
            write_model_path, csv_dir, uff_path, report_path, set_text, json_path):
@@ -179,7 +182,7 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, para
         with Progress(console=ctx.console, transient=True, disable=json_path == "-" or not ctx.console.is_terminal) as bar:
             task = bar.add_task("starts", total=starts)
             ms = multistart(model, data, starts=starts, seed=seed, params=params, scheduler=scheduler,
-                            connect_timeout=connect_timeout,
+                            connect_timeout=connect_timeout, jobs=jobs,
                             progress=lambda done, total: bar.update(task, completed=done), **kw)
         if ms.best is None:
             failed = {"model": model.name, "success": False, "starts": starts_payload(ms)}

@@ -111,7 +111,8 @@ def timed(runner, model, data, names, start, kwargs):
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
                scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
                log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
-               connect_timeout: float = 10.0, batched: bool | None = None, **kwargs) -> MultiStartResult:
+               connect_timeout: float = 10.0, batched: bool | None = None, jobs: int | None = None,
+               **kwargs) -> MultiStartResult:
     """Run :func:`femupdate.update` from ``starts`` random starting points (any data it takes;
     modal data of small models on the compiled route).
 
@@ -148,6 +149,11 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
         one :func:`update` per start) — locally,
         or in chunks on the Dask cluster at ``scheduler``, with the same results; ``False``: one
         :func:`update` per start; ``True``: batched, or an :class:`InputError`.
+    jobs : int, optional
+        Local worker processes of the per-start route (:func:`run_starts`); default
+        (:func:`local_jobs`): one per usable core when the model has at least
+        :data:`femupdate.modal.SPARSE_FROM` dofs and there are at least two starts per process,
+        else the starts run in this process.  Ignored with ``scheduler`` and on the compiled route.
     **kwargs
         Options of :func:`update` (not ``x0``).
 
@@ -200,7 +206,7 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
                                   progress=progress, scheduler=scheduler, connect_timeout=connect_timeout, **kwargs)
     # ---- end of the batched path ----------------------------------------------------------------
     return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
-                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout)
+                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout, jobs=jobs)
 
 
 def _check_once(model, data, names, kwargs) -> None:
@@ -219,7 +225,7 @@ def _check_once(model, data, names, kwargs) -> None:
 
 
 def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=1e-4, cost_tol=None, progress=None,
-               connect_timeout=10.0, runner=None) -> MultiStartResult:
+               connect_timeout=10.0, runner=None, jobs=None) -> MultiStartResult:
     """``runner(model, data, names, X0[k], kwargs)`` (default: :func:`update` from start k) for every
     start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions.
 
@@ -249,7 +255,13 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
         Seconds to wait for the scheduler.
     runner : callable, optional
         ``runner(model, data, names, start, kwargs)``; default: :func:`run_with` of :func:`update`.
-        On Dask it must be picklable; each task is retried up to twice.
+        On Dask, and with local worker processes, it must be picklable; each Dask task is retried
+        up to twice.
+    jobs : int, optional
+        Local worker processes (without ``scheduler``): :func:`local_jobs` by default; 1 runs the
+        starts in this process.  Each start is independent of the others, so the runs are those
+        of the sequential route (to round-off: each process chooses its model's factorisation
+        route at its own first evaluation).
 
     Returns
     -------
@@ -268,17 +280,74 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
     if scheduler:
         pairs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
     else:
-        pairs = []
-        for k, x in enumerate(X0):
-            pairs.append(timed(runner, model, data, names, x, kwargs))
-            if progress:
-                progress(k + 1, len(X0))
+        jobs = local_jobs(model, len(X0)) if jobs is None else max(1, min(int(jobs), len(X0)))
+        if jobs > 1:
+            pairs = _run_processes(jobs, model, data, names, X0, kwargs, progress, runner)
+        else:
+            pairs = []
+            for k, x in enumerate(X0):
+                pairs.append(timed(runner, model, data, names, x, kwargs))
+                if progress:
+                    progress(k + 1, len(X0))
     runs = [r for r, _ in pairs]
     seconds = [float(s) for _, s in pairs]
     ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
     return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed,
                                      seconds=seconds))
+
+
+def local_jobs(model, n_starts: int) -> int:
+    """Local worker processes for ``n_starts`` starts of the per-start route: one per usable core
+    when a start is worth a process — the model has at least :data:`femupdate.modal.SPARSE_FROM`
+    dofs (an evaluation takes milliseconds or more) — and every process gets two starts or more;
+    else 1 (this process)."""
+    import os
+
+    from ..modal import SPARSE_FROM
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        cores = os.cpu_count() or 1
+    if model.n_dofs < SPARSE_FROM or cores < 2:
+        return 1
+    return max(1, min(cores, n_starts // 2))
+
+
+_SHARED: dict = {}
+
+
+def _share(model, data, runner) -> None:
+    """A worker process's copy of what every start shares (sent once per process)."""
+    _SHARED.update(model=model, data=data, runner=runner)
+
+
+def _start_in_worker(names, x, kwargs):
+    from .._threads import blas_phase, parallel_work
+
+    with parallel_work(), blas_phase("solve"):  # the other cores run the other starts
+        return timed(_SHARED["runner"], _SHARED["model"], _SHARED["data"], names, x, kwargs)
+
+
+def _run_processes(jobs, model, data, names, X0, kwargs, progress, runner):
+    """Every start in a pool of ``jobs`` local processes (started from a fork server: a process
+    forked after OpenMP or BLAS threads have run can hang), the model and data sent once to each."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    methods = multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    if "forkserver" in methods:
+        ctx.set_forkserver_preload(["femupdate.updating"])
+    pairs: list = [None] * len(X0)
+    with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_share, initargs=(model, data, runner)) as pool:
+        futures = {pool.submit(_start_in_worker, names, x, kwargs): k for k, x in enumerate(X0)}
+        for done, f in enumerate(as_completed(futures), 1):
+            pairs[futures[f]] = f.result()
+            if progress:
+                progress(done, len(X0))
+    return pairs
 
 
 def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner):
