@@ -133,3 +133,17 @@ def outcomes(ms, truth, rtol: float = 1e-6):
 def count(cls) -> dict:
     """How many runs had each outcome (:data:`OUTCOMES`)."""
     return {c: cls.count(c) for c in OUTCOMES}
+
+
+def multistart_cpu(ms, parent_cpu: float, model, scheduler: bool = False) -> tuple[float, int]:
+    """CPU seconds of a multi-start run and the local processes it used: ``parent_cpu`` (this
+    process's CPU time over the run) plus, when the starts ran in local worker processes
+    (:func:`femupdate.updating.starts.local_jobs`), the CPU seconds each worker recorded for its
+    starts — this process's clock does not see them.  On Dask the workers' CPU is not counted
+    (``scheduler=True``: this process only)."""
+    from femupdate.updating.starts import local_jobs
+
+    jobs = 1 if scheduler else local_jobs(model, ms.total)
+    if jobs > 1 and ms.cpu_seconds is not None:
+        return parent_cpu + float(sum(ms.cpu_seconds)), jobs
+    return parent_cpu, jobs

@@ -26,7 +26,9 @@ parametrisation, trf, tolerances 1e-10):
     (:mod:`femupdate.workspace`: band Cholesky in the given order, chosen because its storage
     is below SuperLU's fill) and the eigensolver warm-started from the previous iterate (ARPACK's
     starting vector, shift 0.9 x the previous lowest eigenvalue, which also shortens the
-    sensitivities' series);
+    sensitivities' series); the starts run in local worker processes, one per core
+    (:func:`femupdate.updating.starts.local_jobs`: two on this machine), as ``multistart`` does
+    by default for models of 300 dofs or more;
 (b) the baseline: the same ``multistart`` with ``reuse=False`` — femupdate's per-start route as
     it was before the workspace existed (SuperLU factorisation with its own ordering at every
     evaluation, shift 0, ARPACK from its fixed random vector; what does not depend on ``reuse``,
@@ -44,8 +46,9 @@ outcome of every start (truth / other / not converged / failed), and whether (f)
 start by start on their common starts (the same outcome and solution within 1e-8).  With
 ``--profile`` (default on, off with ``--no-profile``), one extra start of each route is
 profiled and the time split into the eigen-solution (factorisation, ARPACK), the
-sensitivities (their series' solves) and the rest.  CPU time is the process's own (for (d),
-the workers' CPU is not in it: its wall time is the figure).
+sensitivities (their series' solves) and the rest.  CPU time is this process's plus what each
+local worker process recorded for its starts (for (d), the Dask workers' CPU is not in it: its
+wall time is the figure).
 
 BLAS threads are pinned to ``--blas-threads`` (default 1) before NumPy is imported (the
 factorisations and solves are single-threaded kernels; a second BLAS thread only competes with
@@ -101,7 +104,7 @@ from femupdate.generators import frame_lattice  # noqa: E402
 from femupdate.updating import draw_starts, multistart, update  # noqa: E402
 
 sys.path.insert(0, str(HERE))  # the shared probes
-from _probes import count, outcomes  # noqa: E402
+from _probes import count, multistart_cpu, outcomes  # noqa: E402
 
 NX, NY, NZ = 4, 8, 13  # nodes in plan and levels: 12 storeys, 2,304 free dofs
 SPACING = (4.0, 4.0, 3.0)
@@ -221,11 +224,14 @@ def main(args) -> int:
     np.testing.assert_array_equal(ms_f.starts, X0)
     ms_b, t_b, c_b = timed(lambda: multistart(model, data, starts=n_base, seed=args.seed, reuse=False))
     np.testing.assert_array_equal(ms_b.starts, X0[:n_base])
+    c_f, jobs_f = multistart_cpu(ms_f, c_f, model)  # the local worker processes' CPU included
+    c_b, jobs_b = multistart_cpu(ms_b, c_b, model)
     cls_f, sol_f = outcomes(ms_f, truth, TRUTH_RTOL)
     cls_b, sol_b = outcomes(ms_b, truth, TRUTH_RTOL)
     same, differ, max_rel = agreement(cls_f[:n_base], sol_f[:n_base], cls_b, sol_b)
     res["seconds"] = {"f_reuse": t_f, "b_per_start_no_reuse": t_b}
     res["cpu_seconds"] = {"f_reuse": c_f, "b_per_start_no_reuse": c_b}
+    res["local_processes"] = {"f_reuse": jobs_f, "b_per_start_no_reuse": jobs_b}
     res["seconds_per_start"] = {"f_reuse": t_f / n_starts, "b_per_start_no_reuse": t_b / n_base}
     res["cpu_seconds_per_start"] = {"f_reuse": c_f / n_starts, "b_per_start_no_reuse": c_b / n_base}
     res["speedup_per_start_b_over_f"] = (t_b / n_base) / (t_f / n_starts)
@@ -241,9 +247,11 @@ def main(args) -> int:
                           for sol in ms_f.solutions]
     res["target_met_locally"] = bool(count(cls_f)["truth"] >= 0.97 * n_starts and t_f <= 120.0 * n_starts / 100)
     print(f"{model.n_dofs} dofs, {len(names)} parameters, {len(s)} sensors, {N_MODES} modes; {n_starts} starts", flush=True)
-    print(f"(f) reuse:    {t_f:7.1f} s wall, {c_f:7.1f} s CPU, {t_f / n_starts:.3f} s/start; outcomes {count(cls_f)}",
+    print(f"(f) reuse:    {t_f:7.1f} s wall, {c_f:7.1f} s CPU, {t_f / n_starts:.3f} s/start ({jobs_f} processes); "
+          f"outcomes {count(cls_f)}",
           flush=True)
-    print(f"(b) no reuse: {t_b:7.1f} s wall, {c_b:7.1f} s CPU, {t_b / n_base:.3f} s/start over {n_base} starts; "
+    print(f"(b) no reuse: {t_b:7.1f} s wall, {c_b:7.1f} s CPU, {t_b / n_base:.3f} s/start over {n_base} starts "
+          f"({jobs_b} processes); "
           f"outcomes {count(cls_b)}", flush=True)
     print(f"per-start speed-up b/f: {res['speedup_per_start_b_over_f']:.2f} wall, "
           f"{res['cpu_speedup_per_start_b_over_f']:.2f} CPU; agree on {same}/{n_base} common starts "

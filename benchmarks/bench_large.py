@@ -21,11 +21,13 @@ Measured in one run:
     its time is the unit of the per-start figures;
 (c) where scikit-sparse is installed, the best practice for that one solution: CHOLMOD's
     analysed factor of K behind ARPACK (``OPinv``), one BLAS thread;
-(f) ``multistart(model, data, starts=N, seed=...)`` locally, with femupdate's default options;
+(f) ``multistart(model, data, starts=N, seed=...)`` locally, with femupdate's default options
+    (the starts in local worker processes, one per core: two here);
 (d) optionally (``--dask``) route (f) on a local Dask cluster of two single-threaded workers,
     through femupdate's ``scheduler=`` option.
 
-Reported: wall-clock and CPU seconds of each, seconds per start and their ratio to (e), the
+Reported: wall-clock and CPU seconds of each (with the local worker processes' CPU), seconds
+per start (the run's wall time over its starts, and each start's own duration) and their ratio to (e), the
 outcome of every start (truth / other / not converged / failed), whether (f) and (d) agree start
 by start, the factorisation route the workspace chose, and the load average before and after
 (the machine may be shared: the figures say what it was doing).  Results go to
@@ -60,7 +62,7 @@ from femupdate.model import from_matrices  # noqa: E402
 from femupdate.updating import draw_starts, multistart  # noqa: E402
 
 sys.path.insert(0, str(HERE))  # the shared probes
-from _probes import count, outcomes  # noqa: E402
+from _probes import count, multistart_cpu, outcomes  # noqa: E402
 
 FULL = (10, 10, 172)
 QUICK = (10, 10, 10)
@@ -172,16 +174,20 @@ def main(argv=None) -> int:
     X0 = draw_starts(model, model.parameter_names, n_starts, args.seed)
     np.testing.assert_array_equal(ms_f.starts, X0)
     cls_f, sol_f = outcomes(ms_f, truth, TRUTH_RTOL)
+    c_f, jobs_f = multistart_cpu(ms_f, c_f, model)
     ws = femupdate.workspace._WORKSPACES.get(model)
-    res["local"] = {"wall_seconds": t_f, "cpu_seconds": c_f, "per_start_wall": t_f / n_starts,
+    mean_start = float(np.mean(ms_f.seconds)) if ms_f.seconds else float("nan")
+    res["local"] = {"wall_seconds": t_f, "cpu_seconds": c_f, "processes": jobs_f, "per_start_wall": t_f / n_starts,
                     "per_start_over_bare": t_f / n_starts / t_e, "outcomes": count(cls_f), "per_start": cls_f,
-                    "start_seconds": list(ms_f.seconds or []),
+                    "mean_start_seconds": mean_start, "mean_start_over_bare": mean_start / t_e,
+                    "start_seconds": list(ms_f.seconds or []), "start_cpu_seconds": list(ms_f.cpu_seconds or []),
                     "route": getattr(ws, "route", None), "bandwidth": getattr(ws, "bandwidth", None),
                     "solver": next((r.solver for r in ms_f.runs if not isinstance(r, str)), None),
                     "sensitivity": next((r.sensitivity for r in ms_f.runs if not isinstance(r, str)), None),
                     "evaluations": [int(r.nfev) for r in ms_f.runs if not isinstance(r, str)]}
-    print(f"(f) local: {t_f:.1f} s wall ({t_f / n_starts:.1f} s per start = {t_f / n_starts / t_e:.1f} bare "
-          f"eigen-solutions), {count(cls_f)}", flush=True)
+    print(f"(f) local, {jobs_f} processes: {t_f:.1f} s wall, {c_f:.1f} s CPU ({t_f / n_starts:.1f} s per start = "
+          f"{t_f / n_starts / t_e:.1f} bare eigen-solutions; each start {mean_start:.1f} s on average = "
+          f"{mean_start / t_e:.1f}), {count(cls_f)}", flush=True)
 
     if args.dask:
         import distributed

@@ -215,6 +215,8 @@ def test_each_start_records_its_time_on_the_per_start_route():
     local = multistart(model, data, starts=4, seed=3, batched=False)
     assert local.batch_seconds is None and len(local.seconds) == 4 and all(s > 0 for s in local.seconds)
     assert [rec["seconds"] for rec in local.records()] == local.seconds
+    assert len(local.cpu_seconds) == 4 and all(c > 0 for c in local.cpu_seconds)
+    assert [rec["cpu_seconds"] for rec in local.records()] == local.cpu_seconds
     compiled = multistart(model, data, starts=4, seed=3, batched=True)
     assert compiled.seconds is None and compiled.batch_seconds > 0
-    assert all(rec["seconds"] is None for rec in compiled.records())
+    assert all(rec["seconds"] is None and rec["cpu_seconds"] is None for rec in compiled.records())

@@ -292,4 +292,5 @@ def test_starts_in_local_processes_give_the_runs_of_one_process(tower):
         assert a.success == b.success
         np.testing.assert_allclose(b.x, a.x, rtol=1e-8)
     assert [s.count for s in one.solutions] == [s.count for s in two.solutions]
+    assert all(c > 0 for c in two.cpu_seconds)  # recorded by the worker processes, which this one's clock misses
     assert local_jobs(tower, 1) == 1  # one start: no pool

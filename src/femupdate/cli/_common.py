@@ -608,7 +608,8 @@ def starts_payload(ms) -> dict:
         "failures": ms.failures,
         "runs": ms.records(),
         "seconds": {"compiled_batch": ms.batch_seconds,
-                    "per_start_total": None if ms.seconds is None else float(sum(ms.seconds))},
+                    "per_start_total": None if ms.seconds is None else float(sum(ms.seconds)),
+                    "per_start_cpu_total": None if ms.cpu_seconds is None else float(sum(ms.cpu_seconds))},
     }
 
 

@@ -340,6 +340,9 @@ class MultiStartResult:
     seconds : list of float or None
         Wall-clock seconds of each start on the per-start route (locally or on a Dask worker);
         None on the compiled route, where the starts advance together (``batch_seconds`` then).
+    cpu_seconds : list of float or None
+        CPU seconds of each start on the per-start route (of the process that ran it, BLAS
+        threads included); None on the compiled route.
     batch_seconds : float or None
         The compiled route's wall-clock seconds for all the starts together (None per start).
 
@@ -357,6 +360,7 @@ class MultiStartResult:
     seed: int | None
     fit_cost: float = field(default=math.nan, kw_only=True)
     seconds: list | None = field(default=None, kw_only=True)
+    cpu_seconds: list | None = field(default=None, kw_only=True)
     batch_seconds: float | None = field(default=None, kw_only=True)
 
     @property
@@ -389,13 +393,14 @@ class MultiStartResult:
         (``"fits"``, ``"local minimum"``, ``"not converged"``, ``"failed"``, or ``"rejected"``
         when above ``cost_tol``), ``cost``, ``iterations``, ``nfev``, ``solution`` (index into
         ``solutions``, or None), ``message``, ``seconds`` (wall-clock seconds of the start on the
-        per-start route, None on the compiled route) and ``pairing`` (the rule that made the final pairs:
+        per-start route, None on the compiled route), ``cpu_seconds`` (its CPU seconds, likewise) and ``pairing`` (the rule that made the final pairs:
         ``"mac"``, ``"order"`` or ``"frequency"``; None for a failed start)."""
         where = {k: i for i, s in enumerate(self.solutions) for k in s.starts}
         out = []
         for k, run in enumerate(self.runs):
             rec: dict = {"start": dict(zip(self.names, map(float, self.starts[k]))), "solution": where.get(k),
-                         "seconds": None if self.seconds is None else self.seconds[k]}
+                         "seconds": None if self.seconds is None else self.seconds[k],
+                         "cpu_seconds": None if self.cpu_seconds is None else self.cpu_seconds[k]}
             if isinstance(run, str):
                 rec.update(outcome="failed", cost=None, iterations=None, nfev=None, message=run, pairing=None)
             else:

@@ -102,10 +102,12 @@ def _run_one(model, data, names, start, kwargs):
 
 
 def timed(runner, model, data, names, start, kwargs):
-    """``(runner(model, data, names, start, kwargs), wall-clock seconds)`` (a Dask task)."""
-    t = time.perf_counter()
+    """``(runner(model, data, names, start, kwargs), wall-clock seconds, CPU seconds)`` (a Dask
+    task).  The CPU seconds are those of the process that ran the start (its BLAS threads
+    included; on a Dask worker also whatever else that worker ran meanwhile)."""
+    t, c = time.perf_counter(), time.process_time()
     out = runner(model, data, names, start, kwargs)
-    return out, time.perf_counter() - t
+    return out, time.perf_counter() - t, time.process_time() - c
 
 
 def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
@@ -289,12 +291,13 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
                 pairs.append(timed(runner, model, data, names, x, kwargs))
                 if progress:
                     progress(k + 1, len(X0))
-    runs = [r for r, _ in pairs]
-    seconds = [float(s) for _, s in pairs]
+    runs = [p[0] for p in pairs]
+    seconds = [float(p[1]) for p in pairs]
+    cpu = [float(p[2]) for p in pairs]
     ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
     return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed,
-                                     seconds=seconds))
+                                     seconds=seconds, cpu_seconds=cpu))
 
 
 def local_jobs(model, n_starts: int) -> int:
