@@ -169,7 +169,7 @@ def timed(fn):
 PROFILE_GROUPS = {
     # (file suffix, function name) -> group; cumulative times, outermost first
     "eigen-solution": [("modal.py", "solve_modes")],
-    "  factorisation": [("workspace.py", "factor"), ("modal.py", "factorize")],
+    "  factorisation": [("workspace.py", "factor"), ("workspace.py", "factorize"), ("modal.py", "factorize")],
     "  ARPACK (with its solves)": [("arpack.py", "eigsh")],
     "sensitivities": [("jacobian.py", "jacobian")],
     "  series solves": [("factor.py", "solve")],
