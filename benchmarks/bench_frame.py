@@ -23,15 +23,15 @@ parametrisation, trf, tolerances 1e-10):
 
 (f) ``multistart(model, data, starts=N, seed=...)``: the per-start route (one :func:`update` per
     start) with ``reuse=True`` (the default): each model's factorisation workspace
-    (:mod:`femupdate.workspace`: band Cholesky in the given order, chosen because its storage
-    is below SuperLU's fill) and the eigensolver warm-started from the previous iterate (ARPACK's
+    (:mod:`femupdate.workspace`: band Cholesky in the given order, chosen by its operation count
+    against the sparse factor's, :func:`femupdate.workspace.band_wins`) and the eigensolver warm-started from the previous iterate (ARPACK's
     starting vector, shift 0.9 x the previous lowest eigenvalue, which also shortens the
     sensitivities' series); the starts run in local worker processes, one per core
     (:func:`femupdate.updating.starts.local_jobs`: two on this machine), as ``multistart`` does
     by default for models of 300 dofs or more;
 (b) the baseline: the same ``multistart`` with ``reuse=False`` — femupdate's per-start route as
-    it was before the workspace existed (SuperLU factorisation with its own ordering at every
-    evaluation, shift 0, ARPACK from its fixed random vector; what does not depend on ``reuse``,
+    it was before the workspace existed (the backend's factorisation afresh at every evaluation — CHOLMOD where
+    scikit-sparse is installed, else SuperLU — shift 0, ARPACK from its fixed random vector; what does not depend on ``reuse``,
     the one series sweep for all modes and the kept Jacobian of the last point, serves both:
     measured apart, the code before any of it took the same time per start) — on the first
     ``--baseline-starts`` (default 10) of the same starts (``draw_starts`` fills row by row, so they are the same

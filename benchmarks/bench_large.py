@@ -29,7 +29,8 @@ Measured in one run:
 Reported: wall-clock and CPU seconds of each (with the local worker processes' CPU), seconds
 per start (the run's wall time over its starts, and each start's own duration) and their ratio to (e), the
 outcome of every start (truth / other / not converged / failed), whether (f) and (d) agree start
-by start, the factorisation route the workspace chose, and the load average before and after
+by start, the eigen-solver the starts report (``solver``; ``route`` and ``bandwidth`` are
+null when the starts ran in worker processes, whose workspaces this process does not see), and the load average before and after
 (the machine may be shared: the figures say what it was doing).  Results go to
 ``benchmarks/results/bench_large.json`` (``bench_large_quick.json`` with ``--quick``: a 5,400-dof
 tower (10 x 10 x 10), 3 starts, for a smoke test).  A start of 10 groups takes about 5 minutes

@@ -29,7 +29,7 @@ subset of the floors (5, 7, 10 floors, evenly spread from the first to the top: 
 (p) optionally (``--per-start``) femupdate's own per-start path, ``multistart(..., batched=False)``.
 
 Before the sizes, one tiny batched run loads femupdate's compiled code (numba's disk cache, or a
-build of some 20 s on a fresh install); its time is reported as ``first_call_seconds``.
+build of about 13 s on a fresh install); its time is reported as ``first_call_seconds``.
 Reported per size: wall-clock and CPU (process) seconds of each route, the ratios a/f (target
 >= 20; on a machine shared with other jobs the CPU-time ratio is the steadier figure), and the
 outcome of every start in each route: converged to the truth (max relative parameter error
@@ -56,7 +56,7 @@ import sys
 def _parse(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one 6-storey building, 12 starts (smoke test)")
-    ap.add_argument("--sizes", type=int, nargs="+", default=None, help="numbers of storeys (default 10 20 30)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=None, help="numbers of storeys (default 10 18 30)")
     ap.add_argument("--starts", type=int, default=None, help="random starts per size (default 100)")
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--per-start", action="store_true", help="also time femupdate's per-start path")
@@ -282,7 +282,7 @@ def main(args) -> int:
         "sizes": [],
     }
     # warm-up: the first batched call of a process loads femupdate's compiled code from numba's
-    # disk cache (or compiles it, some 20 s, on a fresh install); timed and reported apart
+    # disk cache (or compiles it, about 13 s, on a fresh install); timed and reported apart
     wm, wd, *_ = problem(4)
     t = time.perf_counter()
     multistart(wm, wd, starts=2, seed=0, batched=True)

@@ -15,7 +15,7 @@ Phases (each timed as the best of ``--repeat`` runs, wall and CPU seconds):
 
 Each phase runs under ``FEMUPDATE_BLAS_THREADS=1``, ``=2`` and with the policy (the variable
 unset), first with the machine as found, then with a busy-loop process started on every other
-core (``--busy``, the default; ``--no-busy`` skips it).  Reported per phase and load: the times,
+core (the default; ``--no-busy`` skips it).  Reported per phase and load: the times,
 the ratio of two threads and of the policy to one thread.  The issue's goals: no phase slower
 with two cores than with one; with the second core busy, no phase more than 1.5 times slower
 under the policy than pinned to one thread.  Results go to ``benchmarks/results/bench_threads.json``.
