@@ -53,6 +53,13 @@ def test_an_empty_scheduler_address_is_refused(ex, capsys):
     assert code == 2 and "'--scheduler'" in out and "empty" in out
 
 
+def test_jobs_with_a_scheduler_is_refused(ex, capsys):
+    # local processes and a cluster exclude each other: the option that would be ignored is refused
+    code, out = run(["update", str(ex / "two_dof.toml"), str(ex / "two_dof_frequencies.json"), "--starts", "2",
+                     "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], capsys)
+    assert code == 2 and "--jobs 2 with --scheduler" in out and "Traceback" not in out
+
+
 def test_a_parameter_listed_twice_is_refused_everywhere():
     model = two_dof()
     data = TestData(modes=tuple(MeasuredMode(lam) for lam in model_modes(model).eigenvalues))

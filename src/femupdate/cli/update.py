@@ -162,6 +162,8 @@ def update(model_path, data_path, starts, seed, scheduler, connect_timeout, jobs
     from ..updating import multistart
     from ..updating import update as _update
 
+    if jobs is not None and scheduler:
+        raise InputError(f"--jobs {jobs} with --scheduler: the starts run on the cluster's workers; give one of the two")
     ctx = Ctx(json_path)
     model = load_model(model_path)
     if uff_path is not None:
