@@ -93,17 +93,26 @@ def environment(**extra) -> dict:
 def write_results(res: dict, name: str, quick: bool, output, table, argv) -> None:
     """Attach the environment and argv to ``res``, print ``table(res)`` and write the JSON to ``output``
     (default ``benchmarks/results/<name>[_quick].json``)."""
-    import json
     from pathlib import Path
 
     res["environment"] = environment()
     res["argv"] = sys.argv[1:] if argv is None else list(argv)
     print(table(res))
     here = Path(__file__).resolve().parent
-    out = Path(output) if output else here / "results" / (f"{name}_quick.json" if quick else f"{name}.json")
+    out = save_json(res, Path(output) if output else here / "results" / (f"{name}_quick.json" if quick else f"{name}.json"))
+    print(f"\nresults written to {out}")
+
+
+def save_json(res: dict, out):
+    """Write ``res`` as indented JSON to ``out`` (its folder made; NumPy values as lists or
+    floats); returns the path."""
+    import json
+    from pathlib import Path
+
+    out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(res, indent=2, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)) + "\n")
-    print(f"\nresults written to {out}")
+    return out
 
 
 OUTCOMES = ("truth", "other", "not-converged", "failed")

@@ -84,7 +84,6 @@ if ARGS is not None and ARGS.blas_threads > 0:  # must precede the NumPy import
 
 import cProfile  # noqa: E402
 import dataclasses  # noqa: E402
-import json  # noqa: E402
 import platform  # noqa: E402
 import pstats  # noqa: E402
 import time  # noqa: E402
@@ -104,7 +103,7 @@ from femupdate.generators import frame_lattice  # noqa: E402
 from femupdate.updating import draw_starts, multistart, update  # noqa: E402
 
 sys.path.insert(0, str(HERE))  # the shared probes
-from _probes import count, multistart_cpu, outcomes  # noqa: E402
+from _probes import count, multistart_cpu, outcomes, save_json  # noqa: E402
 
 NX, NY, NZ = 4, 8, 13  # nodes in plan and levels: 12 storeys, 2,304 free dofs
 SPACING = (4.0, 4.0, 3.0)
@@ -286,9 +285,7 @@ def main(args) -> int:
               f"agree with (f) on {same_d}/{n_starts}", flush=True)
 
     res["environment"]["load_average_after"] = list(os.getloadavg()) if hasattr(os, "getloadavg") else None
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2, default=float) + "\n")
-    print(f"wrote {out}")
+    print(f"wrote {save_json(res, out)}")
     return 0
 
 

@@ -42,7 +42,6 @@ time for precision.  With 16 groups a start needs 70 evaluations or more.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import sys
@@ -65,7 +64,7 @@ from femupdate.model import from_matrices  # noqa: E402
 from femupdate.updating import draw_starts, multistart  # noqa: E402
 
 sys.path.insert(0, str(HERE))  # the shared probes
-from _probes import count, multistart_cpu, outcomes  # noqa: E402
+from _probes import count, multistart_cpu, outcomes, save_json  # noqa: E402
 
 FULL = (10, 10, 172)
 QUICK = (10, 10, 10)
@@ -215,9 +214,7 @@ def main(argv=None) -> int:
         print(f"(d) Dask, 2 workers: {t_d:.1f} s wall for {nd} starts ({t_d / nd:.1f} s per start = "
               f"{t_d / nd / t_e:.1f} bare eigen-solutions), {count(cls_d)}, {same}/{nd} the same as locally", flush=True)
     res["environment"]["load_average_after"] = list(os.getloadavg())
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
-    print(f"results written to {out}")
+    print(f"results written to {save_json(res, out)}")
     return 0
 
 

@@ -24,7 +24,6 @@ under the policy than pinned to one thread.  Results go to ``benchmarks/results/
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import os
 import platform
@@ -172,10 +171,10 @@ def main(argv=None) -> int:
             for p in spinners:
                 p.join(5)
             os.environ.pop(THREADS_VARIABLE, None)
-    out = Path(args.output) if args.output else HERE / "results" / "bench_threads.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=2) + "\n")
-    print(f"results written to {out}")
+    sys.path.insert(0, str(HERE))
+    from _probes import save_json
+
+    print(f"results written to {save_json(res, Path(args.output) if args.output else HERE / 'results' / 'bench_threads.json')}")
     return 0
 
 
