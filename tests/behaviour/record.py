@@ -213,6 +213,34 @@ def _cli(argv: list[str]) -> None:
         main(argv)
 
 
+# ---------------------------------------------------------------------------------- environment
+def environment() -> dict:
+    """What the recorded round-off depends on besides femupdate: the processor (numba compiles for
+    the host's instruction set, OpenBLAS picks its kernels by it), Python and the numerical
+    libraries.  ``tests/test_behaviour.py`` compares bit for bit (1e-12) only where this equals
+    the manifest's ``environment``."""
+    import platform
+
+    import llvmlite
+    import numba
+    import numpy
+    import scipy
+    import scipy.linalg  # noqa: F401  (SciPy's own BLAS is listed once loaded)
+    from threadpoolctl import threadpool_info
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            cpu = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), cpu)
+    except OSError:
+        pass
+    blas = sorted({f"{i.get('internal_api')} {i.get('version')} {i.get('architecture')}" for i in threadpool_info()
+                   if i.get("user_api") == "blas"})
+    return {"cpu": cpu, "machine": platform.machine(), "python": platform.python_version(),
+            "numpy": numpy.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
+            "llvmlite": llvmlite.__version__, "blas": blas}
+
+
 # ---------------------------------------------------------------------------------- fixed inputs
 def write_inputs(directory: Path = INPUTS) -> None:
     """The full-field inputs the example files lack (a 12-element cantilever in four segments and a
@@ -273,7 +301,8 @@ def record(output_dir: Path, work_dir: Path, only: list[str] | None = None) -> d
 
     src = Path(femupdate.__file__).resolve().parent
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=src).stdout.strip()
-    manifest = {"recorded_from_commit": commit or None, "arpack_start_vector": "pinned: np.random.default_rng(0)",
+    manifest = {"recorded_from_commit": commit or None, "environment": environment(),
+                "arpack_start_vector": "pinned: np.random.default_rng(0)",
                 "placeholders": {
         "{ex}": "folder written by 'python -m femupdate demo --write-files {ex}'",
         "{inputs}": "tests/behaviour/inputs", "{work}": "scratch folder of the command", "{out}": "the --json file"},
