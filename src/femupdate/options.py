@@ -220,17 +220,35 @@ def gather(where: str, shorthand: Mapping[str, Any], **slots: tuple[type[Options
     InputError
         A field's value is out of range (named).
     """
+    objs, rest = gather_some(where, shorthand, **slots)
+    if rest:
+        key = next(iter(rest))
+        known = ", ".join(f"{cls.__name__} ({name}=)" for name, (cls, _) in slots.items())
+        raise TypeError(f"{where}() got an unexpected keyword argument {key!r} (its options: {known})")
+    return objs
+
+
+def gather_some(where: str, shorthand: Mapping[str, Any], **slots: tuple[type[Options], Any]
+                ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`gather` for the slots given, and the keywords none of them has (for a function that
+    passes them on: ``multistart`` passes the update's options to :func:`femupdate.update`).
+
+    Returns
+    -------
+    (dict, dict)
+        ``{name: options object}`` and the keywords left over, in their order.
+    """
     objs = {name: cls.coerce(given, f"{where}({name}=...)") for name, (cls, given) in slots.items()}
     routed: dict[str, dict[str, Any]] = {name: {} for name in slots}
+    rest: dict[str, Any] = {}
     for key, value in shorthand.items():
         for name, (cls, _) in slots.items():
             if key in cls.aliases or key in cls.field_names():
                 routed[name][key] = value
                 break
         else:
-            known = ", ".join(f"{cls.__name__} ({name}=)" for name, (cls, _) in slots.items())
-            raise TypeError(f"{where}() got an unexpected keyword argument {key!r} (its options: {known})")
-    return {name: (objs[name].replace(**routed[name]) if routed[name] else objs[name]) for name in slots}
+            rest[key] = value
+    return {name: (objs[name].replace(**routed[name]) if routed[name] else objs[name]) for name in slots}, rest
 
 
 # ---------------------------------------------------------------------------------- updating
@@ -351,7 +369,7 @@ class NoiseOptions(Options):
             allowed = STD_KEYS if name == "std" else ("eigenvalue", "shape")
             bad = [k for k in v if k not in allowed]
             if bad:
-                raise InputError(f"{'measurement_std' if name == 'std' else name}: unknown kind {bad[0]!r}: use "
+                raise InputError(f"unknown {'measurement_std' if name == 'std' else name} key {bad[0]!r}: use "
                                  f"{', '.join(allowed)}")
             self.set(name, dict(v))
 
@@ -435,7 +453,7 @@ class FRFOptions(Options):
     solver: str = "auto"
 
     def check(self) -> None:
-        choice(self.residual, FRF_RESIDUALS, "residual")
+        choice(self.residual, FRF_RESIDUALS, "FRF residual")
         choice(self.resonance, RESONANCE_POLICIES, "resonance policy")
         choice(self.solver, FRF_SOLVERS, "FRF solver")
         self.set("select", count(self.select, "select", allow_none=True))
@@ -474,6 +492,8 @@ class StartsOptions(Options):
     rel_tol: float = 1e-4
     cost_tol: float | None = None
     batched: bool | None = None
+
+    main: ClassVar[str | None] = "starts"
 
     def check(self) -> None:
         self.set("starts", count(self.starts, "starts"))
@@ -519,7 +539,163 @@ class ExecutionOptions(Options):
                              "the two")
 
 
-__all__ = ["Options", "PairingOptions", "ModalOptions", "NoiseOptions", "SolverOptions", "FRFOptions",
+#: the posterior's methods (:class:`SamplerOptions`)
+SAMPLER_METHODS = ("laplace", "mcmc", "tmcmc")
+#: how likelihoods are evaluated (:class:`SamplerOptions`)
+LIKELIHOOD_ROUTES = ("auto", "compiled", "local")
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class SamplerOptions(Options):
+    """How the posterior is explored (:func:`femupdate.posterior`).
+
+    Attributes
+    ----------
+    method : {"laplace", "mcmc", "tmcmc"}, default ``"laplace"``
+        ``"laplace"``: a mixture of Gaussians at the distinct solutions (samples drawn from it);
+        ``"mcmc"``: ``ensembles`` emcee ensembles of ``walkers`` walkers started from it run
+        ``steps`` steps; ``"tmcmc"``: ``samples`` samples moved from the prior to the posterior
+        (Ching & Chen 2007), with the log-evidence — the one to use when several solutions are
+        probable.
+    samples : int, default 4000
+        Laplace draws, or TMCMC's population.
+    walkers : int, optional
+        MCMC walkers per ensemble, even (default max(64, 8 L) on the compiled route, whose
+        likelihood of a half-ensemble costs little more than of one walker; max(32, 4 L) on the
+        local route).
+    ensembles : int, default 2
+        Independent MCMC ensembles (one Dask task each).
+    steps : int, default 2000
+        MCMC steps per walker.
+    burn : int, optional
+        MCMC steps discarded (default a quarter: of ``steps``, or with ``target_ess`` of the
+        steps done).
+    segment : int, default 250
+        MCMC steps between checkpoints (and Dask rounds).
+    target_ess : float, optional
+        Stop MCMC once every parameter's effective sample size reaches this.
+    tmcmc_steps : int, default 5
+        Metropolis moves per chain and TMCMC stage.
+    target_cov : float, default 1.0
+        The coefficient of variation of TMCMC's stage weights.
+    chunks : int, default 8
+        TMCMC's chains in this many pieces (random streams, Dask tasks).
+    level : float, default 0.95
+        Probability of the credible intervals.
+    predictive : int, default 200
+        Posterior draws at which the paired modes are predicted (frequencies, MACs).
+    route : {"auto", "compiled", "local"}, default ``"auto"``
+        How likelihoods are evaluated: ``"auto"`` compiled when the batched route supports the
+        model and options (modal data, at most 200 dofs, formulation ``shapes``), else local.
+    """
+
+    method: str = "laplace"
+    samples: int = 4000
+    walkers: int | None = None
+    ensembles: int = 2
+    steps: int = 2000
+    burn: int | None = None
+    segment: int = 250
+    target_ess: float | None = None
+    tmcmc_steps: int = 5
+    target_cov: float = 1.0
+    chunks: int = 8
+    level: float = 0.95
+    predictive: int = 200
+    route: str = "auto"
+
+    main: ClassVar[str | None] = "method"
+
+    def check(self) -> None:
+        choice(self.method, SAMPLER_METHODS, "method")
+        choice(self.route, LIKELIHOOD_ROUTES, "route")
+        for name, low in (("samples", 2), ("ensembles", 1), ("steps", 2), ("segment", 1), ("tmcmc_steps", 1),
+                          ("chunks", 1), ("predictive", 0)):
+            self.set(name, count(getattr(self, name), name, low=low))
+        self.set("walkers", count(self.walkers, "walkers", low=2, allow_none=True))
+        self.set("burn", count(self.burn, "burn", low=0, allow_none=True))
+        self.set("level", number(self.level, "level", low=0.0, high=1.0, low_open=True, high_open=True))
+        self.set("target_cov", number(self.target_cov, "target_cov", low=0.0, low_open=True))
+        if self.target_ess is not None:
+            self.set("target_ess", number(self.target_ess, "target_ess", low=0.0, low_open=True))
+        if self.method == "mcmc" and self.burn is not None and self.burn >= self.steps:
+            raise InputError(f"burn ({self.burn}) must be smaller than steps ({self.steps})")
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class UpdateOptions(Options):
+    """Everything that defines one update besides the model, the data and the start: the kinds
+    of data used and the option objects of :func:`femupdate.update`.  What a multi-start study, a
+    posterior or a uniqueness study hands to every update it runs.
+
+    Attributes
+    ----------
+    use : tuple of str, default ``("modes", "frf", "static")``
+        The kinds of data to use, of those the data hold.
+    modal : ModalOptions
+    pairing : PairingOptions
+    noise : NoiseOptions
+    solver : SolverOptions
+    frf : FRFOptions
+    """
+
+    use: tuple[str, ...] = DATA_KINDS
+    modal: ModalOptions = dataclasses.field(default_factory=ModalOptions)
+    pairing: PairingOptions = dataclasses.field(default_factory=PairingOptions)
+    noise: NoiseOptions = dataclasses.field(default_factory=NoiseOptions)
+    solver: SolverOptions = dataclasses.field(default_factory=SolverOptions)
+    frf: FRFOptions = dataclasses.field(default_factory=FRFOptions)
+
+    #: the option objects, in the order shorthand keywords are matched
+    PARTS: ClassVar[dict[str, type[Options]]] = {"modal": ModalOptions, "pairing": PairingOptions,
+                                                 "noise": NoiseOptions, "solver": SolverOptions, "frf": FRFOptions}
+
+    def check(self) -> None:
+        use = (self.use,) if isinstance(self.use, str) else self.use
+        try:
+            use = tuple(use)
+        except TypeError:
+            raise InputError(f"use must be a sequence of the kinds of data ({', '.join(DATA_KINDS)}), got "
+                             f"{self.use!r}") from None
+        unknown = [u for u in use if u not in DATA_KINDS]
+        if unknown:
+            raise InputError(f"unknown data kind(s) {', '.join(map(str, unknown))}: use {', '.join(DATA_KINDS)}")
+        self.set("use", use)
+        for name, cls in self.PARTS.items():
+            self.set(name, cls.coerce(getattr(self, name), f"UpdateOptions({name}=...)"))
+
+    @classmethod
+    def of(cls, where: str, shorthand: Mapping[str, Any], *, options: UpdateOptions | None = None,
+           use=None, **parts) -> UpdateOptions:
+        """The update's options from a call: ``options`` (or the defaults), its parts replaced by
+        the objects given in ``parts`` (``modal=``, ``pairing=``, ...; None leaves a part as it
+        is), then changed by the shorthand keywords (fields of the parts; ``frf_options``, a
+        mapping of FRF fields, is the older spelling of ``frf``).
+
+        Raises
+        ------
+        TypeError
+            A keyword no part has (named).
+        """
+        base = options if options is not None else cls()
+        shorthand = dict(shorthand)
+        if "frf_options" in shorthand:
+            if parts.get("frf") is not None:
+                raise TypeError(f"{where}(): give frf or frf_options, not both")
+            parts["frf"] = shorthand.pop("frf_options")
+        if "use" in shorthand:
+            use = shorthand.pop("use")
+        slots = {name: (pcls, getattr(base, name) if parts.get(name) is None else parts[name])
+                 for name, pcls in cls.PARTS.items()}
+        objs = gather(where, shorthand, **slots)
+        return cls(use=base.use if use is None else use, **objs)
+
+    def keywords(self) -> dict[str, Any]:
+        """The parts as :func:`femupdate.update` takes them (``use=``, ``modal=``, ...)."""
+        return {"use": self.use, **{name: getattr(self, name) for name in self.PARTS}}
+
+
+__all__ = ["Options", "UpdateOptions", "SamplerOptions", "gather_some", "SAMPLER_METHODS", "LIKELIHOOD_ROUTES", "PairingOptions", "ModalOptions", "NoiseOptions", "SolverOptions", "FRFOptions",
            "StartsOptions", "ExecutionOptions", "gather", "choice", "number", "count", "flag",
            "PAIRING_RULES", "FORMULATIONS", "SHAPE_SCALINGS", "SENSITIVITY_ROUTES", "PARAMETRISATIONS",
            "LSQ_METHODS", "REGULARIZATION_RULES", "FRF_RESIDUALS", "RESONANCE_POLICIES", "FRF_SOLVERS",

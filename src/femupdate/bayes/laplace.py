@@ -102,9 +102,7 @@ def candidates(post: Posterior, starts: int, seed: int | None, progress=None, sc
     from ..updating import multistart, update
 
     model, data = post.model, post.sets[0]
-    opts = {k: v for k, v in post.options.items() if k not in ("params", "x0")}
-    if opts.get("values") is None:
-        opts.pop("values", None)
+    opts = {"values": post.options["values"], "options": post.options["options"]}
     notes: list[str] = []
     if len(post.sets) > 1:
         notes.append(f"the solutions are searched on the first of the {len(post.sets)} data sets, then refined to the "

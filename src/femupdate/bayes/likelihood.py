@@ -42,7 +42,8 @@ import numpy as np
 from .._errors import FemupdateError, InputError
 from ..priors import Prior, parse_prior
 from ..testdata import TestData
-from ..updating.combined import DATA_KINDS, CombinedProblem, combined_problem, data_kinds
+from ..options import FRFOptions, UpdateOptions
+from ..updating.combined import CombinedProblem, combined_problem, data_kinds
 from ..updating.problem import Problem
 
 log = logging.getLogger(__name__)
@@ -53,9 +54,6 @@ NOISE = ("auto", "stated", "estimate")
 ROUTES = ("auto", "compiled", "local")
 #: fewer points than this are evaluated on one thread (the threads' start-up costs more than they gain)
 PARALLEL_POINTS = 96
-#: options of the modal problem a posterior takes (as :func:`femupdate.update`)
-MODAL_OPTIONS = ("shape_scaling", "ref_dof", "weights", "min_mac", "pairing", "n_modes", "use_shapes", "sensitivity",
-                 "formulation", "reuse")
 
 
 def data_sets(data) -> list[TestData]:
@@ -89,31 +87,25 @@ class Posterior:
         The updated parameters (default: every parameter not ``fixed``).
     priors : mapping of str to Prior or str, optional
         Priors that replace the model's, by parameter name (``"normal(8, 1)"``, ...).
-    noise : {"auto", "stated", "estimate"}, default ``"auto"``
-        ``"stated"``: every residual is divided by a stated standard deviation (an
-        :class:`InputError` otherwise); ``"estimate"``: a common scale s on the residuals as
-        weighted, Jeffreys' prior, integrated out; ``"auto"``: stated when every residual has a
-        standard deviation, else estimated (with a note).
     values : optional
         Values of the parameters that are not updated (default nominal).
     x0 : mapping, optional
         The reference values of the updated parameters (the parametrisation's scale; default
         nominal).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        The sampler's variables x (:class:`~femupdate.updating.Parametrisation`).
-    use : sequence of str, default all kinds
-        Kinds of data to use (``modes``, ``frf``, ``static``).
-    measurement_std : mapping, optional
-        Standard deviations by kind, as :func:`femupdate.update` takes them.
-    frf_options : mapping, optional
-        Options of the FRF block.
     route : {"auto", "compiled", "local"}, default ``"auto"``
         How likelihoods are evaluated: ``"auto"`` compiled when the batched route supports the
         model and options (modal data, at most 200 dofs, formulation ``shapes``), else local.
     threads : int, optional
         Threads of the compiled route (default: the cores this process may use).
-    **modal_options
-        Options of the modal problem (:data:`MODAL_OPTIONS`).
+    options : UpdateOptions, optional
+        The updating problem whose residuals make the likelihood (as :func:`femupdate.update`
+        takes it; its solver's parametrisation gives the sampler's variables x).  Its
+        ``noise.basis``: ``"stated"``: every residual is divided by a stated standard deviation
+        (an :class:`InputError` otherwise); ``"estimate"``: a common scale s on the residuals as
+        weighted, Jeffreys' prior, integrated out; ``"auto"``: stated when every residual has a
+        standard deviation, else estimated (with a note).
+    **shorthand
+        Fields of its option objects as keywords (``noise="estimate"``, ``min_mac=0.8``, ...).
 
     Attributes
     ----------
@@ -145,23 +137,16 @@ class Posterior:
     """
 
     def __init__(self, model, data, params: Sequence[str] | None = None, *, priors: Mapping | None = None,
-                 noise: str = "auto", values=None, x0: Mapping | None = None, parametrisation: str = "relative",
-                 use: Sequence[str] = DATA_KINDS, measurement_std: Mapping | None = None,
-                 frf_options: Mapping | None = None, route: str = "auto", threads: int | None = None,
-                 **modal_options):
-        if noise not in NOISE:
-            raise InputError(f"unknown noise treatment {noise!r}: use {', '.join(NOISE)}")
+                 values=None, x0: Mapping | None = None, route: str = "auto", threads: int | None = None,
+                 options: UpdateOptions | None = None, **shorthand):
+        o = UpdateOptions.of("Posterior", shorthand, options=options)
+        noise = o.noise.basis
         if route not in ROUTES:
             raise InputError(f"unknown route {route!r}: use {', '.join(ROUTES)}")
-        unknown = sorted(set(modal_options) - set(MODAL_OPTIONS))
-        if unknown:
-            raise InputError(f"unknown option(s) {', '.join(unknown)}")
         self.model = model
         self.sets = data_sets(data)
         #: the keyword arguments that rebuild this posterior from (model, data) — on a Dask worker
-        self.definition = dict(params=params, priors=priors, noise=noise, values=values, x0=x0,
-                               parametrisation=parametrisation, use=use, measurement_std=measurement_std,
-                               frf_options=frf_options, route=route, **modal_options)
+        self.definition = dict(params=params, priors=priors, values=values, x0=x0, route=route, options=o)
         names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
@@ -184,16 +169,14 @@ class Posterior:
                 self.improper.append(name)
             self.priors.append(pr)
         informative = all(p is not None and p.kind != "uniform" for p in self.priors)
-        self.kinds = data_kinds(self.sets[0], use)
-        self.options = dict(params=names, use=use, values=values, x0=x0, parametrisation=parametrisation,
-                            measurement_std=measurement_std, frf_options=frf_options, **modal_options)
+        self.kinds = data_kinds(self.sets[0], o.use)
+        #: what the search for solutions passes to :func:`femupdate.update` besides the names
+        self.options = dict(values=values, x0=x0, options=o)
         self.problems: list[CombinedProblem] = []
         for k, d in enumerate(self.sets, start=1):
             try:
-                self.problems.append(combined_problem(
-                    model, d, names, use=self.kinds, x0=x0, values=values, parametrisation=parametrisation,
-                    measurement_std=measurement_std, frf_options=frf_options, regularized=informative,
-                    **modal_options))
+                self.problems.append(combined_problem(model, d, names, x0=x0, values=values,
+                                                      options=o.replace(use=self.kinds), regularized=informative))
             except InputError as exc:
                 raise InputError(f"test data set {k}: {exc}" if len(self.sets) > 1 else str(exc)) from None
         first = self.problems[0]
@@ -230,7 +213,7 @@ class Posterior:
             self.notes.append(f"improper flat prior on {', '.join(self.improper)} (an infinite bound and no prior "
                               "declared): the posterior is proper only if the data confine them, and the evidence is "
                               "not defined")
-        self.route = self._choose_route(route, modal_options)
+        self.route = self._choose_route(route, o)
         self.threads = max(1, int(threads)) if threads else _cores()
         self._pool: ThreadPoolExecutor | None = None
         self.evaluations = 0
@@ -243,16 +226,14 @@ class Posterior:
                                     if math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])))
 
     # ------------------------------------------------------------------ setup
-    def _choose_route(self, route: str, modal_options: Mapping) -> str:
+    def _choose_route(self, route: str, o: UpdateOptions) -> str:
         from ..updating.batched import unsupported
 
         reason = None
         if self.kinds != ("modes",):
             reason = f"the data used are {', '.join(self.kinds)} (the compiled route takes modal data only)"
         else:
-            opts = {k: v for k, v in modal_options.items() if v is not None}
-            opts.update(parametrisation=self.param.param)
-            reason = unsupported(self.model, opts, explicit=route == "compiled")
+            reason = unsupported(self.model, o.replace(frf=FRFOptions()), explicit=route == "compiled")
         if route == "compiled" and reason:
             raise InputError(f"route 'compiled': {reason}; use route 'local'")
         if route == "local" or reason:
@@ -534,4 +515,4 @@ def _cores() -> int:
     return cores()
 
 
-__all__ = ["Posterior", "data_sets", "NOISE", "ROUTES", "MODAL_OPTIONS"]
+__all__ = ["Posterior", "data_sets", "NOISE", "ROUTES"]

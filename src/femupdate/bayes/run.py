@@ -12,6 +12,8 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from .._errors import InputError
+from ..options import (SAMPLER_METHODS, ExecutionOptions, SamplerOptions, StartsOptions, UpdateOptions,
+                       gather_some)
 from .checkpoint import RunCheckpoint, run_key
 from .diagnostics import MIN_ESS, RHAT_LIMIT, effective_sample_size, split_rhat
 from .laplace import assign, candidates, laplace_modes, log_evidence, mixture_draws
@@ -24,27 +26,18 @@ from .tmcmc import run_tmcmc
 log = logging.getLogger(__name__)
 
 #: the three levels of answer
-METHODS = ("laplace", "mcmc", "tmcmc")
+METHODS = SAMPLER_METHODS
 #: a solution more probable than this (Laplace) counts as one the ensemble sampler should visit
 SEVERAL_SOLUTIONS = 0.01
 #: below this acceptance rate of TMCMC's last stage its samples barely move from the resampled points
 MIN_ACCEPTANCE = 0.05
 
 
-def _count(value, name: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | None = None,
-              priors: Mapping | None = None, noise: str = "auto", starts: int = 20, seed: int | None = 0,
-              samples: int = 4000, walkers: int | None = None, ensembles: int = 2, steps: int = 2000,
-              burn: int | None = None, segment: int = 250, target_ess: float | None = None, tmcmc_steps: int = 5,
-              target_cov: float = 1.0, chunks: int = 8, level: float = 0.95, predictive: int = 200,
-              scheduler: str | None = None, connect_timeout: float = 10.0, checkpoint=None,
-              progress: Callable[[str, int, int], None] | None = None, route: str = "auto",
-              threads: int | None = None, rel_tol: float = 1e-4, **options) -> PosteriorResult:
+def posterior(model, data, *, params: Sequence[str] | None = None, values=None, x0: Mapping | None = None,
+              priors: Mapping | None = None, sampler: SamplerOptions | str | None = None,
+              starts: StartsOptions | int | None = None, execution: ExecutionOptions | None = None, checkpoint=None,
+              progress: Callable[[str, int, int], None] | None = None, options: UpdateOptions | None = None,
+              **shorthand) -> PosteriorResult:
     """The posterior of the updated parameters given the test data: how far to trust the updated
     model.
 
@@ -68,63 +61,40 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
         The model (its parameters' bounds and priors).
     data : TestData or sequence of TestData
         The test data; several sets are repeated tests whose likelihoods multiply.
-    method : {"laplace", "mcmc", "tmcmc"}, default ``"laplace"``
     params : sequence of str, optional
         The updated parameters (default: the free ones).
+    values : None, mapping of str to float, or array_like, optional
+        Values of the fixed parameters (default nominal).
+    x0 : mapping of str to float, optional
+        The reference values of the updated parameters (the parametrisation's scale, and the
+        start of the search for solutions with one start; default nominal).
     priors : mapping, optional
         {name: prior} replacing the model's (:mod:`femupdate.priors`: ``"normal(8, 1)"``, ...).
-    noise : {"auto", "stated", "estimate"}, default ``"auto"``
-        The stated standard deviations, or a noise scale estimated (Jeffreys' prior, integrated
-        out); ``"auto"``: stated when every residual has one.
-    starts : int, default 20
-        Random starts of the search for solutions (1: one update from the nominal values).
-    seed : int or None, default 0
-        Seed of every random stream (None: a fresh one, recorded in the result).
-    samples : int, default 4000
-        Laplace draws, or TMCMC's population.
-    walkers : int, optional
-        MCMC walkers per ensemble, even (default max(64, 8 L) on the compiled route, whose
-        likelihood of a half-ensemble costs little more than of one walker; max(32, 4 L) on the
-        local route).
-    ensembles : int, default 2
-        Independent MCMC ensembles (one Dask task each).
-    steps, burn, segment : int
-        MCMC steps per walker (default 2000), of which the first ``burn`` are discarded (default a
-        quarter: of ``steps``, or with ``target_ess`` of the steps done); a checkpoint (and a Dask
-        round) every ``segment`` steps.
-    target_ess : float, optional
-        Stop MCMC once every parameter's effective sample size reaches this.
-    tmcmc_steps : int, default 5
-        Metropolis moves per chain and TMCMC stage.
-    target_cov : float, default 1.0
-        The coefficient of variation of TMCMC's stage weights.
-    chunks : int, default 8
-        TMCMC's chains in this many pieces (random streams, Dask tasks).
-    level : float, default 0.95
-        Probability of the credible intervals.
-    predictive : int, default 200
-        Posterior draws at which the paired modes are predicted (frequencies, MACs).
-    scheduler : str, optional
-        A Dask scheduler: the multi-start, MCMC ensembles and TMCMC chunks run there, with the
-        samples of a local run.
-    connect_timeout : float, default 10.0
-        Seconds to wait for the scheduler.
+    sampler : SamplerOptions or str, optional
+        The method and its settings (:class:`~femupdate.options.SamplerOptions`; a string is the
+        method: ``"laplace"``, ``"mcmc"`` or ``"tmcmc"``).
+    starts : StartsOptions or int, optional
+        The search for solutions (:class:`~femupdate.options.StartsOptions`: random starts — 20
+        by default, 1: one update from the nominal values —, ``rel_tol`` under which two
+        solutions are one, and ``seed``, the seed of every random stream of the run: None draws
+        a fresh one, recorded in the result).
+    execution : ExecutionOptions, optional
+        A Dask scheduler for the multi-start, MCMC ensembles and TMCMC chunks (with the samples
+        of a local run), and the compiled route's ``threads``
+        (:class:`~femupdate.options.ExecutionOptions`).
     checkpoint : str or os.PathLike, optional
         A file keeping the sampler's state after each MCMC segment or TMCMC stage; an existing
         one of the same run is resumed.
     progress : callable ``(phase, done, total)``, optional
         Called as the work advances (phases ``"solutions"``, ``"mcmc"``, ``"tmcmc"``).
-    route : {"auto", "compiled", "local"}, default ``"auto"``
-        Likelihood evaluation (:class:`~femupdate.bayes.likelihood.Posterior`).
-    threads : int, optional
-        Threads of the compiled route.
-    rel_tol : float, default 1e-4
-        Relative distance under which two solutions are one.
-    **options
-        The problem's options, as :func:`femupdate.update` takes them: ``values``, ``x0``,
-        ``parametrisation``, ``use``, ``measurement_std``, ``frf_options``, ``shape_scaling``,
-        ``ref_dof``, ``weights``, ``min_mac``, ``pairing``, ``n_modes``, ``use_shapes``,
-        ``sensitivity``, ``formulation``, ``reuse``.
+    options : UpdateOptions, optional
+        The updating problem whose residuals make the likelihood, as :func:`femupdate.update`
+        takes it; its ``noise.basis`` (shorthand ``noise=``) says whether the standard deviations
+        are the stated ones (``"stated"``), a noise scale estimated under Jeffreys' prior and
+        integrated out (``"estimate"``), or ``"auto"``: stated when every residual has one.
+    **shorthand
+        Fields of any of those option objects as keywords (``method="tmcmc"``, ``samples=2000``,
+        ``seed=3``, ``noise="estimate"``, ``min_mac=0.8``, ...).
 
     Returns
     -------
@@ -139,42 +109,29 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
         No solution found; no mode with a positive definite Hessian; TMCMC without end.
     """
     t0 = time.perf_counter()
-    if method not in METHODS:
-        raise InputError(f"unknown method {method!r}: use {', '.join(METHODS)}")
-    starts = _count(starts, "starts")
-    samples = _count(samples, "samples", 2)
-    ensembles = _count(ensembles, "ensembles")
-    steps = _count(steps, "steps", 2)
-    segment = _count(segment, "segment")
-    tmcmc_steps = _count(tmcmc_steps, "tmcmc_steps")
-    chunks = _count(chunks, "chunks")
-    predictive = _count(predictive, "predictive", 0)
-    if not (isinstance(level, (int, float)) and 0 < level < 1):
-        raise InputError(f"level must be a probability between 0 and 1, got {level!r}")
-    if not (isinstance(target_cov, (int, float)) and math.isfinite(target_cov) and target_cov > 0):
-        raise InputError(f"target_cov must be a number > 0, got {target_cov!r}")
-    if target_ess is not None and not (math.isfinite(float(target_ess)) and float(target_ess) > 0):
-        raise InputError(f"target_ess must be a number > 0, got {target_ess!r}")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise InputError(f"seed must be an integer >= 0 (or None), got {seed!r}")
+    given, rest = gather_some("posterior", shorthand, sampler=(SamplerOptions, sampler),
+                              starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
+    so, st, ex = given["sampler"], given["starts"], given["execution"]
+    uo = UpdateOptions.of("posterior", rest, options=options)
+    method, samples, ensembles, steps, burn = so.method, so.samples, so.ensembles, so.steps, so.burn
+    segment, target_ess, tmcmc_steps, target_cov, chunks = so.segment, so.target_ess, so.tmcmc_steps, so.target_cov, so.chunks
+    level, predictive = so.level, so.predictive
+    starts_n, seed, rel_tol = st.starts, st.seed, st.rel_tol
+    scheduler, connect_timeout = ex.scheduler, ex.connect_timeout
     fresh = np.random.SeedSequence().entropy
     entropy = int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
-    post = Posterior(model, data, params, priors=priors, noise=noise, route=route, threads=threads, **options)
+    post = Posterior(model, data, params, priors=priors, values=values, x0=x0, route=so.route, threads=ex.threads,
+                     options=uo)
     L = post.L
     # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
-    walkers = _count(walkers, "walkers", 2) if walkers is not None else (
-        max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
-    if burn is not None:
-        burn = _count(burn, "burn", 0)
-    elif target_ess is None:
+    walkers = so.walkers if so.walkers is not None else (max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
+    if burn is None and target_ess is None:
         burn = steps // 4
-    if method == "mcmc" and burn is not None and burn >= steps:
-        raise InputError(f"burn ({burn}) must be smaller than steps ({steps})")
     if method == "tmcmc" and post.improper:
         post.sample_prior(np.random.default_rng(0), 1)  # refuses, naming the parameters
     settings = {"method": method, "samples": samples, "walkers": walkers, "ensembles": ensembles, "steps": steps,
                 "burn": burn, "segment": segment, "target_ess": target_ess, "tmcmc_steps": tmcmc_steps,
-                "target_cov": target_cov, "chunks": chunks, "starts": starts, "rel_tol": rel_tol}
+                "target_cov": target_cov, "chunks": chunks, "starts": starts_n, "rel_tol": rel_tol}
     key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route, settings,
                   entropy)
     ckpt = RunCheckpoint(checkpoint, key, {"method": method, "model": model.name, "parameters": list(post.names)})
@@ -184,7 +141,7 @@ def posterior(model, data, *, method: str = "laplace", params: Sequence[str] | N
 
     runner = None
     try:
-        points, notes = candidates(post, starts, seed, tell("solutions"), scheduler, connect_timeout)
+        points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
         modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
         notes = list(post.notes) + notes + more
         warnings: list[str] = []

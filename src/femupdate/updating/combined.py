@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import InputError, NumericalError
+from ..options import DATA_KINDS, STD_KEYS, FRFOptions, UpdateOptions
 from ..frf.lines import UNDAMPED
 from ..modal import check_static_loads
 from ..testdata import FRFData, TestData
@@ -48,12 +49,8 @@ from .parametrisation import Parametrisation, start_vector, updated_names
 from .problem import Problem
 from .targets import mode_uncertainty
 
-#: the kinds of test data, in the order their blocks are stacked
-DATA_KINDS = ("modes", "frf", "static")
-#: the keys of ``measurement_std``, by kind
-STD_KEYS = {"eigenvalue": "modes", "shape": "modes", "frf": "frf", "static": "static"}
-#: options of the FRF block (``frf_options``), as :func:`~femupdate.updating.frf_update` takes them
-FRF_OPTIONS = ("residual", "weights", "lines", "select", "resonance", "resonance_tol", "damping", "solver")
+#: options of the FRF block (:class:`~femupdate.options.FRFOptions`' fields)
+FRF_OPTIONS = FRFOptions.field_names()
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,11 +281,9 @@ class CombinedProblem(Parametrisation):
 
 
 def combined_problem(model, data: TestData, params: Sequence[str] | None = None, *,
-                     use: Sequence[str] = DATA_KINDS, x0: Mapping[str, float] | None = None, values=None,
-                     parametrisation: str = "relative", measurement_std: Mapping | None = None,
-                     frf_options: Mapping | None = None, regularized: bool = False, method: str = "trf",
-                     **modal_options) -> CombinedProblem:
-    """The :class:`CombinedProblem` of every kind of data in ``data`` that ``use`` names.
+                     x0: Mapping[str, float] | None = None, values=None, options: UpdateOptions | None = None,
+                     regularized: bool = False, **shorthand) -> CombinedProblem:
+    """The :class:`CombinedProblem` of every kind of data in ``data`` that the options' ``use`` names.
 
     Parameters
     ----------
@@ -298,29 +293,23 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         The test data.
     params : sequence of str, optional
         Names of the parameters to update (default: every parameter not ``fixed``).
-    use : sequence of str, default :data:`DATA_KINDS`
-        Kinds of data to use (those the data hold; :func:`data_kinds`).
     x0 : mapping of str to float, optional
         Starting values {name: value} (default: nominal, or ``values``).
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
         Values of the fixed parameters (default nominal).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        As :func:`update`.
-    measurement_std : mapping, optional
-        {"eigenvalue": relative std of λ, "shape": std of scaled shape entries, "frf": std of
-        the FRF residual entries (scalar or broadcastable to the response), "static": std of the
-        measured deflections (m; scalar, or an array broadcastable to each case's measured
-        dofs)}; a block with its standard deviation stated is divided by it.
-    frf_options : mapping, optional
-        Options of the FRF block (keys :data:`FRF_OPTIONS`, as :func:`~.frf.frf_update`).
+    options : UpdateOptions, optional
+        The kinds of data used (those the data hold; :func:`data_kinds`), the modal block's
+        options, the standard deviations by kind (``noise.std``: {"eigenvalue", "shape",
+        "frf": std of the FRF residual entries, scalar or broadcastable to the response,
+        "static": std of the measured deflections (m; scalar, or broadcastable to each case's
+        measured dofs)}; a block with its standard deviation stated is divided by it), the
+        FRF block's options (its residual ``"auto"`` is the linear one here: a problem has one
+        residual; :func:`~femupdate.updating.update` runs the log stage first), the
+        parametrisation and the method (checked with the FRF block) of its ``solver``.
     regularized : bool, default False
         A regularisation will be added (the count of data is not checked).
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        The least-squares method (checked with the FRF block).
-    **modal_options
-        Options of the modal block (:class:`~femupdate.updating.Problem`: ``shape_scaling``,
-        ``ref_dof``, ``weights``, ``min_mac``, ``pairing``, ``n_modes``, ``use_shapes``,
-        ``sensitivity``, ``formulation``).
+    **shorthand
+        Fields of the option objects as keywords (as :func:`femupdate.update`).
 
     Returns
     -------
@@ -340,12 +329,12 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     NumericalError
         As :class:`~femupdate.updating.Problem` (a test shape with a zero scaling entry).
     """
-    kinds = data_kinds(data, use)
-    std = split_std(measurement_std)
-    frf_options = dict(frf_options or {})
-    bad = sorted(set(frf_options) - set(FRF_OPTIONS))
-    if bad:
-        raise InputError(f"unknown FRF option(s) {', '.join(bad)}: use {', '.join(FRF_OPTIONS)}")
+    o = UpdateOptions.of("combined_problem", shorthand, options=options)
+    kinds = data_kinds(data, o.use)
+    std = split_std(o.noise.std)
+    parametrisation, method = o.solver.parametrisation, o.solver.method
+    frf_options = o.frf.changed()
+    residual = "linear" if o.frf.residual == "auto" else o.frf.residual
     if frf_options and "frf" not in kinds:
         raise InputError(f"FRF options ({', '.join(sorted(frf_options))}) given, but no FRF data are used")
     mixed = len(kinds) > 1
@@ -357,27 +346,25 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
         prob: Problem | FRFProblem
         if kind == "modes":
             # the caller's standard deviations, completed by the data's per-mode ones
-            _, given = mode_uncertainty(data, modal_options.get("weights"), std.get("modes"),
-                                        modal_options.get("use_shapes", True)
-                                        and modal_options.get("formulation", "shapes") != "dynamic")
-            prob = Problem(model, data, names, x0=x0, values=values, parametrisation=parametrisation,
-                           measurement_std=given, **modal_options)
+            _, given = mode_uncertainty(data, o.noise.weights, std.get("modes"),
+                                        o.modal.use_shapes and o.modal.formulation != "dynamic")
+            prob = Problem(model, data, names, x0=x0, values=values, parametrisation=parametrisation, modal=o.modal,
+                           pairing=o.pairing, noise=o.noise.replace(std=given))
             n_data += prob.targets.n_independent
             weighting = "stated std" if given else "dimensionless (relative eigenvalues, scaled shapes)"
             blocks.append(Block("modes", "modes", prob, 1.0, weighting))
         elif kind == "frf":
             given = std.get("frf", {}).get("frf")
-            opts = dict(frf_options)
+            f = o.frf
             several = data.n_frf_sets > 1  # a multi-reference test: one block per excitation
             sets = []
             for fs in data.frf_sets:
                 label = frf_label(fs) if several else "frf"
                 try:
                     fp, _, skipped, frf_notes = prepare_problem(
-                        model, fs, names, x0, opts.get("residual", "linear"), opts.get("weights"), given,
-                        opts.get("lines"), opts.get("select"), opts.get("resonance", "skip"),
-                        opts.get("resonance_tol", _resonance_tol()), opts.get("damping"), parametrisation, values,
-                        opts.get("solver", "auto"), True, method, scale_units=False)
+                        model, fs, names, x0, residual, f.weights, given, f.lines, f.select, f.resonance,
+                        f.resonance_tol, f.damping, parametrisation, values, f.solver, True, method,
+                        scale_units=False)
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}" if several else str(exc)) from None
                 fp.skipped = [dict(s, excitation=label) for s in skipped] if several else skipped
@@ -438,12 +425,6 @@ def _unit_scale_alone(label, stated, has_units, measured, what, quantity, unit, 
     factor for all of them, from the RMS of all their measured values, and one note."""
     pooled = np.concatenate([np.abs(np.asarray(m)).ravel() for m in measured])
     return unit_scale(label, stated, has_units, pooled, what, quantity, unit, notes, key=key, why=ALONE, how=how)
-
-
-def _resonance_tol() -> float:
-    from ..frf.sensitivity import RESONANCE_TOL
-
-    return RESONANCE_TOL
 
 
 __all__ = ["combined_problem", "split_std", "frf_label", "CombinedProblem", "Block", "data_kinds", "DATA_KINDS",

@@ -31,35 +31,32 @@ from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, st
                               x_of_p)
 from .dynamic import DynamicResidual
 from .targets import TARGETS_PER_MODE, TARGETS_PER_POSITION, Targets, build_targets, modal_weights, mode_uncertainty
-SHAPE_SCALINGS = tuple(rules.SCALINGS)  #: ``("unit", "ref", "max")``
-#: the residual formulations of the modal problem (:class:`Problem`), the default first
-FORMULATIONS = ("shapes", "mac", "dynamic")
+from ..options import FORMULATIONS, SHAPE_SCALINGS, ModalOptions, NoiseOptions, PairingOptions, gather
 SENSITIVITY_CHOICES = SENSITIVITY_METHODS  #: ``"auto"``, ``"nelson"``, ``"modal"``, ... (the Jacobian's route)
 #: the route of the dynamic formulation's Jacobian, as ``sensitivity_used`` and results report it
 DYNAMIC_ROUTE = "dynamic residual (exact, no eigen-solution)"
 
 
-def check_formulation(formulation: str, *, shape_scaling: str = "unit", ref_dof: str | None = None,
-                      use_shapes: bool = True, sensitivity: str = "auto", weights: Mapping | None = None,
-                      measurement_std: Mapping | None = None) -> None:
-    """Refuse a formulation that is not one of :data:`FORMULATIONS`, or options it does not take.
+def check_formulation(modal: ModalOptions, noise: NoiseOptions | None = None) -> None:
+    """Refuse options the formulation of ``modal`` does not take.
 
     Parameters
     ----------
-    formulation : str
-        ``"shapes"``, ``"mac"`` or ``"dynamic"``.
-    shape_scaling, ref_dof, use_shapes, sensitivity, weights, measurement_std
-        As :class:`Problem` takes them.
+    modal : ModalOptions
+        The formulation and the other residual options.
+    noise : NoiseOptions, optional
+        The weights and standard deviations.
 
     Raises
     ------
     InputError
-        An unknown formulation; ``"mac"`` or ``"dynamic"`` with a shape scaling other than
-        ``"unit"``, a ``ref_dof`` or without shapes; ``"dynamic"`` with a sensitivity route other
-        than ``"auto"`` or a shape weight or standard deviation.
+        ``"mac"`` or ``"dynamic"`` with a shape scaling other than ``"unit"``, a ``ref_dof`` or
+        without shapes; ``"dynamic"`` with a sensitivity route other than ``"auto"`` or a shape
+        weight or standard deviation.
     """
-    if formulation not in FORMULATIONS:
-        raise InputError(f"unknown formulation {formulation!r}: use {', '.join(FORMULATIONS)}")
+    formulation, shape_scaling, ref_dof = modal.formulation, modal.shape_scaling, modal.ref_dof
+    use_shapes, sensitivity = modal.use_shapes, modal.sensitivity
+    weights, measurement_std = (noise.weights, noise.std) if noise is not None else (None, None)
     if formulation == "shapes":
         return
     if not use_shapes:
@@ -123,61 +120,22 @@ class Problem(Parametrisation):
         Starting values ``{name: value}`` (default: the model's nominal values, or ``values``).
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
         Values of the parameters that are not updated (default: nominal).
-    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
-        ``"unit"`` (unit length over the measured dofs), ``"ref"`` (1 at ``ref_dof``: the
-        paper's eq. 33) or ``"max"`` (1 at the largest entry).
-    ref_dof : str, optional
-        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode).
-    weights, measurement_std : mapping, optional
-        See :func:`modal_weights`; each entry a single value or one per test mode.  The test
-        data's per-mode ``std_eigenvalue``, ``std_shape`` and ``weight`` fill the keys not given
-        (:func:`mode_uncertainty`).
-    min_mac : float, default 0.5
-        Pairing threshold in [0, 1]: with ``pairing="mac"`` a test mode with a shape must reach
-        it with its model mode; with ``"auto"`` a pairing whose shapes all reach it correlates.
-    n_modes : int, optional
-        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes,
-        capped at the model's dofs).
     parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
         See :class:`Parametrisation`.
-    use_shapes : bool, default True
-        False: frequencies only.
-    sensitivity : str, default ``"auto"``
-        The derivative route of the local Jacobian (:data:`SENSITIVITY_CHOICES`,
-        :func:`femupdate.sensitivity.jacobian`; the compiled route always uses the exact
-        complete modal method).
-    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+    modal : ModalOptions, optional
+        The residuals (:class:`~femupdate.options.ModalOptions`: formulation, shape scaling,
+        reference dof, shapes used, derivative route — the compiled route always uses the exact
+        complete modal method —, reuse of the factorisation).
+    pairing : PairingOptions or str, optional
         How test modes are paired with model modes at each evaluation
-        (:func:`femupdate.rules.pair_modes`): ``"auto"`` by frequency order until the shapes show
-        a swap (then by MAC), never abandoning a start; ``"mac"`` by MAC, a test mode below
-        ``min_mac`` failing; ``"order"`` by frequency order; ``"frequency"`` by the nearest
-        frequency, MAC deciding within 10 %.
-    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
-        The residuals of each test mode (:data:`FORMULATIONS`):
-
-        * ``"shapes"``: w_λ (λ_A − λ_E)/λ_E and the scaled shape differences w_ψ (ψ_A − ψ_E) at
-          the measured dofs (:func:`femupdate.rules.shape_residuals`);
-        * ``"mac"``: w_λ (λ_A − λ_E)/λ_E and the MAC residuals w_ψ (I − ê êᵀ) â
-          (:func:`femupdate.rules.mac_residuals`), whose squared norm is w_ψ² (1 − MAC): the
-          MAC term of the literature in a form smooth at MAC = 1, independent of the shapes'
-          scaling;
-        * ``"dynamic"``: the modal dynamic residual w_λ (K − λ_E M) φ / c of every dof, the
-          measured entries of φ the test shape and the unmeasured ones unknowns solved for at
-          each point (:mod:`femupdate.updating.dynamic`); no eigen-solution, every test mode
-          needs a shape, the eigenvalue's weight and standard deviation weigh the mode's
-          residual and the shape's have nothing to weigh (the measured entries are held).
-
-        ``"mac"`` and ``"dynamic"`` do not depend on how the shapes are scaled: they take
-        ``shape_scaling="unit"`` and no ``ref_dof``, and need the shapes (``use_shapes``).
-    reuse : bool, default True
-        Models solved by the sparse eigensolver (from :data:`femupdate.modal.SPARSE_FROM` dofs,
-        :func:`femupdate.modal.eigensolver_for`): reuse
-        from one evaluation to the next what does not change — the model's factorisation
-        workspace (ordering and factorisation route, :mod:`femupdate.workspace`) — and start
-        the eigensolver from the previous evaluation's modes (ARPACK's starting vector, and a
-        shift below their lowest eigenvalue, which also shortens the sensitivities' series).
-        The same modes and derivatives to round-off.  False: every evaluation as a first one
-        (SuperLU afresh, shift 0).
+        (:class:`~femupdate.options.PairingOptions`; a string is its rule).
+    noise : NoiseOptions, optional
+        Standard deviations and weights (:class:`~femupdate.options.NoiseOptions`; see
+        :func:`modal_weights`), each entry a single value or one per test mode.  The test data's
+        per-mode ``std_eigenvalue``, ``std_shape`` and ``weight`` fill the keys not given
+        (:func:`mode_uncertainty`).
+    **shorthand
+        Fields of those option objects as keywords (``min_mac=0.8``, ``formulation="mac"``, ...).
 
     Attributes
     ----------
@@ -221,25 +179,19 @@ class Problem(Parametrisation):
     """
 
     def __init__(self, model, data: TestData, params: Sequence[str] | None = None, *,
-                 x0: Mapping[str, float] | None = None, values=None, shape_scaling: str = "unit",
-                 ref_dof: str | None = None, weights: Mapping | None = None, measurement_std: Mapping | None = None,
-                 min_mac: float = 0.5, n_modes: int | None = None, parametrisation: str = "relative",
-                 use_shapes: bool = True, sensitivity: str = "auto", pairing: str = "auto",
-                 formulation: str = "shapes", reuse: bool = True):
-        if shape_scaling not in rules.SCALINGS:
-            raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
-        if sensitivity not in SENSITIVITY_CHOICES:
-            raise InputError(f"unknown sensitivity method {sensitivity!r}: use {', '.join(SENSITIVITY_CHOICES)}")
-        try:
-            min_mac = float(min_mac)
-        except (TypeError, ValueError):
-            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
-        if not 0.0 <= min_mac <= 1.0:
-            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
-        if pairing not in rules.PAIRINGS:
-            raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
-        check_formulation(formulation, shape_scaling=shape_scaling, ref_dof=ref_dof, use_shapes=use_shapes,
-                          sensitivity=sensitivity, weights=weights, measurement_std=measurement_std)
+                 x0: Mapping[str, float] | None = None, values=None, parametrisation: str = "relative",
+                 modal: ModalOptions | None = None, pairing: PairingOptions | str | None = None,
+                 noise: NoiseOptions | None = None, **shorthand):
+        o = gather("Problem", shorthand, modal=(ModalOptions, modal), pairing=(PairingOptions, pairing),
+                   noise=(NoiseOptions, noise))
+        modal, pairing_options, noise = o["modal"], o["pairing"], o["noise"]
+        #: the option objects the problem was made with
+        self.options = {"modal": modal, "pairing": pairing_options, "noise": noise}
+        formulation, shape_scaling, ref_dof = modal.formulation, modal.shape_scaling, modal.ref_dof
+        use_shapes, sensitivity, reuse = modal.use_shapes, modal.sensitivity, modal.reuse
+        rule, min_mac, n_modes = pairing_options.rule, pairing_options.min_mac, pairing_options.n_modes
+        weights, measurement_std = noise.weights, noise.std
+        check_formulation(modal, noise)
         self.formulation = formulation
         dynamic = formulation == "dynamic"
         super().__init__(model, updated_names(model, params), parametrisation, start_vector(model, values, x0))
@@ -256,7 +208,7 @@ class Problem(Parametrisation):
         self.scaling = shape_scaling
         self.scaling_code = rules.SCALINGS[shape_scaling]
         self.min_mac = float(min_mac)
-        self.pairing = pairing
+        self.pairing = rule
         #: the rule that made the last evaluation's pairs (``mac``, ``order`` or ``frequency``)
         self.pairing_used = ""
         self.sensitivity = sensitivity

@@ -18,7 +18,7 @@ from .combined import DATA_KINDS, STD_KEYS, CombinedProblem, split_std, combined
 from ..frf.sensitivity import RESONANCE_TOL
 from . import frf as frf_module
 from .frf import FRFProblem, FRFUpdateResult, frac, frf_data, modal_report, prepare_problem
-from .problem import check_formulation
+from ..options import FRFOptions, ModalOptions, NoiseOptions, PairingOptions, SolverOptions, UpdateOptions, gather
 from .results import UpdateResult
 from .solve import diagnostics, paired_modes, solve, update_modal
 
@@ -114,13 +114,10 @@ class _Once(logging.Filter):
 
 
 def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
-           use: Sequence[str] = DATA_KINDS, shape_scaling: str = "unit", ref_dof: str | None = None,
-           weights: Mapping | None = None, measurement_std: Mapping | None = None, min_mac: float = 0.5,
-           n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
-           ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
-           regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           frf_options: Mapping | None = None, pairing: str = "auto", formulation: str = "shapes",
-           reuse: bool = True) -> UpdateResult:
+           values=None, use: Sequence[str] | None = None, modal: ModalOptions | None = None,
+           pairing: PairingOptions | str | None = None, noise: NoiseOptions | None = None,
+           solver: SolverOptions | None = None, frf: FRFOptions | None = None, options: UpdateOptions | None = None,
+           **shorthand) -> UpdateResult:
     """Update the model's parameters so that it matches the test data: measured modes, FRFs,
     static deflections, or any mix of them, as one least-squares problem.
 
@@ -135,64 +132,35 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         Names of the parameters to update (default: every parameter not ``fixed``).
     x0 : mapping of str to float, optional
         Starting values {name: value} (default: the model's nominal values).
-    use : sequence of str, default ``("modes", "frf", "static")``
-        The kinds of data to use (of those the data hold).
-    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
-        Scaling of the compared shapes (:class:`~femupdate.updating.Problem`).
-    ref_dof : str, optional
-        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode, the
-        paper's eq. 33 convention).
-    weights : mapping, optional
-        Modal weights {"eigenvalue": w or per-mode array, "shape": w or per-mode array}.
-    measurement_std : mapping, optional
-        Standard deviations by kind (:func:`combined_problem`): {"eigenvalue": relative std of
-        λ, "shape": std of scaled shape entries, "frf": std of the FRF residual entries,
-        "static": std of the deflections (m)}; the residuals are divided by them, and the
-        covariance is absolute, not scaled by the residual, when every kind used has one (modes
-        alone: any stated key; modes with shapes in a mix: both ``"eigenvalue"`` and ``"shape"``).
-    min_mac : float, default 0.5
-        Pairing threshold of the modes.
-    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
-        How test modes are paired with model modes (:class:`~femupdate.updating.Problem`):
-        ``"auto"`` by frequency order until the shapes show a swap, then by MAC.
-    n_modes : int, optional
-        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
-    max_nfev : int, default 200
-        Largest number of residual evaluations of :func:`scipy.optimize.least_squares`.
-    ftol, xtol, gtol : float, default 1e-10
-        Tolerances of :func:`scipy.optimize.least_squares`.
-    use_shapes : bool, default True
-        False: frequencies only.
-    regularization : float, {"gcv", "lcurve"} or None, default None
-        A Tikhonov factor α, or the rule choosing it at the start; the residual is augmented
-        with α (x − x_start).
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
         Values of the fixed parameters (default nominal).
-    sensitivity : str, default ``"auto"``
-        Derivative route of the modal Jacobian (:func:`femupdate.sensitivity.jacobian`):
-        ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint or subspace series), ``"nelson"``,
-        ``"modal"``, ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
-    reuse : bool, default True
-        Models above 1,500 dofs (sparse eigen-solutions): reuse from one evaluation to the next
-        the model's factorisation workspace and the previous modes as the eigensolver's start
-        (:class:`~femupdate.updating.Problem`); the same solution to round-off.  False: every
-        evaluation factorises afresh (the route before this option existed).
-    frf_options : mapping, optional
-        Options of the FRF residuals, as :func:`~femupdate.updating.frf_update` takes them:
-        ``residual`` (``"auto"``, the default: the whole problem solved with ``"log"`` FRF
-        residuals, then with ``"linear"`` ones from that solution, :func:`auto_stages`;
-        ``"linear"`` eq. 34, ``"relative"``, ``"log"``), ``weights``, ``lines``, ``select``,
-        ``resonance``, ``resonance_tol``, ``damping``, ``solver``.
-    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
-        The modal residuals (:class:`~femupdate.updating.Problem`): ``"shapes"`` relative
-        eigenvalue errors and scaled shape differences; ``"mac"`` relative eigenvalue errors and
-        MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"`` the modal dynamic residual
-        (K − λ_E M) φ of every dof, the unmeasured shape entries solved for (no eigen-solution;
-        every test mode needs a shape).  Measured modes only.
+    use : sequence of str, default ``("modes", "frf", "static")``
+        The kinds of data to use (of those the data hold).
+    modal : ModalOptions, optional
+        The residuals of measured modes (:class:`~femupdate.options.ModalOptions`: formulation,
+        shape scaling, reference dof, shapes used, derivative route, factorisation reuse).
+    pairing : PairingOptions or str, optional
+        How test modes pair with model modes (:class:`~femupdate.options.PairingOptions`; a
+        string is its rule).
+    noise : NoiseOptions, optional
+        Standard deviations by kind of data and modal weights
+        (:class:`~femupdate.options.NoiseOptions`): each block is divided by its stated standard
+        deviation, and the covariance is absolute, not scaled by the residual, when every kind
+        used has one (modes alone: any stated key; modes with shapes in a mix: both
+        ``"eigenvalue"`` and ``"shape"``).
+    solver : SolverOptions, optional
+        The least-squares solver, its variables and regularisation
+        (:class:`~femupdate.options.SolverOptions`).
+    frf : FRFOptions, optional
+        The FRF residuals (:class:`~femupdate.options.FRFOptions`; ``"auto"`` by default: the
+        whole problem solved with ``"log"`` FRF residuals, then with ``"linear"`` ones from that
+        solution, :func:`auto_stages`).  ``frf_options`` (a mapping) is accepted as before.
+    options : UpdateOptions, optional
+        All of the above in one object (what a multi-start study hands to each start); the
+        arguments above replace its parts.
+    **shorthand
+        Fields of the option objects as keywords (``min_mac=0.8``, ``max_nfev=50``,
+        ``measurement_std={"eigenvalue": 0.01}``, ...).
 
     Returns
     -------
@@ -208,50 +176,49 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     ------
     InputError
         Bad options or data (named).
+    TypeError
+        A keyword no option object has.
     NumericalError
         The model cannot be evaluated (unpaired modes, a singular stiffness for static data,
         ...) or the solver failed.
     """
-    call = dict(locals())
-    if method not in ("trf", "dogbox", "lm"):
-        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
-    kinds = data_kinds(data, use)
-    if formulation != "shapes" and "modes" not in kinds:
-        check_formulation(formulation)  # an unknown one is named first
-        raise InputError(f"formulation {formulation!r} (--formulation) applies to measured modes; the data used are: "
-                         f"{', '.join(kinds)}")
-    modal_options: dict[str, Any] = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights, min_mac=min_mac,
-                         n_modes=n_modes, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
-                         formulation=formulation, reuse=reuse)
-    solver_options: dict[str, Any] = dict(method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
-    unused = sorted({STD_KEYS[k] for k in dict(measurement_std or {}) if k in STD_KEYS} - set(kinds))
+    o = UpdateOptions.of("update", shorthand, options=options, use=use, modal=modal, pairing=pairing, noise=noise,
+                         solver=solver, frf=frf)
+    return update_with(model, data, o, params=params, x0=x0, values=values)
+
+
+def update_with(model, data: TestData, options: UpdateOptions, *, params: Sequence[str] | None = None,
+                x0: Mapping[str, float] | None = None, values=None) -> UpdateResult:
+    """:func:`update` with its options in one :class:`~femupdate.options.UpdateOptions`."""
+    o = options
+    kinds = data_kinds(data, o.use)
+    if o.modal.formulation != "shapes" and "modes" not in kinds:
+        raise InputError(f"formulation {o.modal.formulation!r} (--formulation) applies to measured modes; the data "
+                         f"used are: {', '.join(kinds)}")
+    unused = sorted({STD_KEYS[k] for k in dict(o.noise.std or {}) if k in STD_KEYS} - set(kinds))
     if unused:
         raise InputError(f"standard deviations given for {', '.join(unused)} data (--std-{unused[0]}), but the data "
                          f"used are: {', '.join(kinds)}")
-    if kinds == ("modes",) and not frf_options:
-        return update_modal(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
-                            measurement_std=measurement_std, regularization=regularization, **modal_options,
-                            **solver_options)
-    residual = (check_kind(dict(frf_options or {}).get("residual", DEFAULT_RESIDUAL), FRF_RESIDUALS)
-                if "frf" in kinds else "")
+    if kinds == ("modes",) and not o.frf.changed():
+        return update_modal(model, data, params=params, x0=x0, values=values, modal=o.modal, pairing=o.pairing,
+                            noise=o.noise, solver=o.solver)
+    residual = o.frf.residual if "frf" in kinds else ""
+    regularized = o.solver.regularization is not None
     if residual == "auto" and not (kinds == ("frf",) and data.n_frf_sets == 1):  # one set: frf_update's stages
 
         def stage(kind, start, first):
-            std = {k: v for k, v in dict(measurement_std or {}).items() if not (first and k == "frf")}
-            return update(**dict(call, x0=start, measurement_std=std or None,
-                                 frf_options=dict(frf_options or {}, residual=kind)))
+            std = {k: v for k, v in dict(o.noise.std or {}).items() if not (first and k == "frf")}
+            staged = o.replace(noise=o.noise.replace(std=std or None), frf=o.frf.replace(residual=kind))
+            return update_with(model, data, staged, params=params, x0=start, values=values)
 
-        return auto_stages(stage, x0, regularization is not None)
+        return auto_stages(stage, x0, regularized)
     if kinds == ("frf",) and data.n_frf_sets == 1:
-        std = split_std(measurement_std)
-        return frf_update(model, data, params=params, x0=x0, values=values, parametrisation=parametrisation,
-                          measurement_std=std.get("frf", {}).get("frf"), regularization=regularization,
-                          **dict(frf_options or {}), **solver_options)
-    combined = combined_problem(model, data, params, use=kinds, x0=x0, values=values, parametrisation=parametrisation,
-                            measurement_std=measurement_std, frf_options=frf_options,
-                            regularized=regularization is not None, method=method, **modal_options)
-    sol, history, reg = solve(combined, model.bounds, regularization=regularization, **solver_options)
-    return combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
+        return frf_update(model, data, params=params, x0=x0, values=values, noise=o.noise, solver=o.solver,
+                          frf=o.frf)
+    combined = combined_problem(model, data, params, x0=x0, values=values, options=o.replace(use=kinds),
+                                regularized=regularized)
+    sol, history, reg = solve(combined, model.bounds, o.solver)
+    return combined_result(combined, data, sol.x, sol, history, reg, bounded=o.solver.method != "lm")
 
 
 def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=None, reg=None,
@@ -341,11 +308,8 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
 
 
 def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
-               residual: str = DEFAULT_RESIDUAL, weights=None, measurement_std=None, lines=None, select: int | None = None,
-               resonance: str = "skip", resonance_tol: float = RESONANCE_TOL, damping=None,
-               parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
-               xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None, values=None,
-               solver: str = "auto") -> FRFUpdateResult:
+               values=None, noise: NoiseOptions | None = None, solver: SolverOptions | None = None,
+               frf: FRFOptions | None = None, **shorthand) -> FRFUpdateResult:
     """Update the model's parameters so that its FRFs match measured ones (eqs. 30-32).
 
     Parameters
@@ -361,33 +325,23 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
         Names of the parameters to update (default: every parameter not ``fixed``).
     x0 : mapping of str to float, optional
         Starting values {name: value} (default: the model's values, or ``values``).
-    residual : {"auto", "linear", "relative", "log"}, default ``"auto"``
-        ``"linear"`` (eq. 34), ``"relative"``, ``"log"`` (log-magnitude), or ``"auto"``: a
-        log-magnitude stage from the start, then the linear residual from its solution
-        (:func:`auto_stages`).  Without ``measurement_std`` the linear residuals are divided by
-        the RMS of the measured responses (a note says so): the cost is dimensionless, and
-        neither it nor the solver's stopping tests depend on the data's units.
-    weights : array_like, optional
-        Broadcastable to the data's (n_lines, n_dofs), multiplying the residuals.
-    measurement_std : float or array_like, optional
-        Standard deviation of the residual entries (scalar or broadcastable array); the
-        residuals are divided by it and the covariance is absolute.
-    lines : array_like of int or bool, optional
-        Indices (0-based) or a boolean mask of the data's lines to use (default all).
-    select : int, optional
-        Choose this many of the lines by conditioning of the sensitivity matrix.
-    resonance : {"skip", "error", "keep"}, default ``"skip"``
-        What to do with lines within ``resonance_tol`` of a resonance of the model at ``values``
-        (the nominal model: the same lines for every start of a multi-start study).
-    resonance_tol : float, default 1e-3
-        Relative eigenvalue distance within which a line is near a resonance.
-    damping : Damping or mapping, optional
-        :class:`~femupdate.frf.Damping` of the model, or ``{alpha, beta, eta}`` (default
-        undamped: real responses).
-    parametrisation, method, max_nfev, ftol, xtol, gtol, regularization, values
-        As in :func:`femupdate.updating.update`.
-    solver : {"auto", "dense", "sparse"}, default ``"auto"``
-        Solver of the line systems.
+    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
+        Values of the fixed parameters (default nominal).
+    noise : NoiseOptions, optional
+        ``std={"frf": s}``: the standard deviation of the residual entries (scalar or
+        broadcastable array); the residuals are divided by it and the covariance is absolute.
+        Without it the linear residuals are divided by the RMS of the measured responses (a note
+        says so): the cost is dimensionless, and neither it nor the solver's stopping tests
+        depend on the data's units.  The shorthand ``measurement_std=s`` is that std.
+    solver : SolverOptions, optional
+        As :func:`femupdate.update`.
+    frf : FRFOptions, optional
+        The residual (``"auto"`` by default: a log-magnitude stage from the start, then the
+        linear residual from its solution, :func:`auto_stages`), weights, lines, line selection,
+        resonances, damping and line solver (:class:`~femupdate.options.FRFOptions`).
+    **shorthand
+        Fields of those option objects as keywords (``residual="log"``, ``max_nfev=50``, ...;
+        ``weights`` are the FRF weights).
 
     Returns
     -------
@@ -398,42 +352,50 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     ------
     InputError
         As :func:`prepare_problem`, or a start outside the bounds.
+    TypeError
+        A keyword no option object has.
     NumericalError
         A line on a resonance of the model during the iteration, or the solver failed.
     """
-    if check_kind(residual, FRF_RESIDUALS) == "auto":
-        call = dict(locals())
+    std_given = shorthand.get("measurement_std")
+    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
+        shorthand = dict(shorthand, measurement_std={"frf": std_given})
+    o = gather("frf_update", shorthand, frf=(FRFOptions, frf), noise=(NoiseOptions, noise),
+               solver=(SolverOptions, solver))
+    frf, noise, solver = o["frf"], o["noise"], o["solver"]
+    regularized = solver.regularization is not None
+    if frf.residual == "auto":
 
         def stage(kind, start, first):
-            return frf_update(**dict(call, x0=start, residual=kind, measurement_std=None if first else measurement_std))
+            return frf_update(model, data, params=params, x0=start, values=values,
+                              noise=noise.replace(std=None) if first else noise, solver=solver,
+                              frf=frf.replace(residual=kind))
 
-        res = auto_stages(stage, x0, regularization is not None)
+        res = auto_stages(stage, x0, regularized)
         assert isinstance(res, FRFUpdateResult)
         return res
     if isinstance(data, TestData) and data.n_frf_sets > 1:  # a multi-reference test: one block per excitation
-
-        opts = dict(residual=residual, weights=weights, lines=lines, select=select, resonance=resonance,
-                    resonance_tol=resonance_tol, damping=damping, solver=solver)
-        combined = combined_problem(model, data, params, use=("frf",), x0=x0, values=values,
-                                    parametrisation=parametrisation,
-                                    measurement_std=None if measurement_std is None else {"frf": measurement_std},
-                                    frf_options=opts, regularized=regularization is not None, method=method)
-        sol, history, reg = solve(combined, model.bounds, regularization=regularization, method=method, ftol=ftol,
-                                  xtol=xtol, gtol=gtol, max_nfev=max_nfev)
-        res = combined_result(combined, data, sol.x, sol, history, reg, bounded=method != "lm")
+        combined = combined_problem(model, data, params, x0=x0, values=values,
+                                    options=UpdateOptions(use=("frf",), noise=noise, solver=solver, frf=frf),
+                                    regularized=regularized)
+        sol, history, reg = solve(combined, model.bounds, solver)
+        res = combined_result(combined, data, sol.x, sol, history, reg, bounded=solver.method != "lm")
         assert isinstance(res, FRFUpdateResult)
         return res
-    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select,
-                                           resonance, resonance_tol, damping, parametrisation, values, solver,
-                                           regularization is not None, method)
+    unknown = sorted(set(dict(noise.std or {})) - {"frf"})
+    if unknown:
+        raise InputError(f"measurement_std: frf_update takes the std of the FRF entries ('frf'), not {unknown[0]!r}")
+    measurement_std = dict(noise.std or {}).get("frf")
+    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, frf.residual, frf.weights, measurement_std,
+                                                  frf.lines, frf.select, frf.resonance, frf.resonance_tol, frf.damping,
+                                                  solver.parametrisation, values, frf.solver, regularized, solver.method)
     names = prob.names
-    frf = frf_data(data)
-    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
-                               xtol=xtol, gtol=gtol, max_nfev=max_nfev)
+    frf_set = frf_data(data)
+    sol, history, reg = solve(prob, model.bounds, solver)
     p_final = prob.to_p(sol.x)
     r = prob.residuals(sol.x)
     J = prob.jacobian(sol.x)
-    diag = diagnostics(prob, sol.x, r, J, sigma, bounds=None if method == "lm" else model.bounds)
+    diag = diagnostics(prob, sol.x, r, J, sigma, bounds=None if solver.method == "lm" else model.bounds)
     xa = prob.responses(sol.x)
     pairs, f_test, f_model, natural = modal_report(model, data, p_final)
     return FRFUpdateResult(
@@ -443,10 +405,10 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
         njev=int(sol.njev or 0), iterations=max(len(history) - 1, int(sol.njev or 0)), history=history,
         pairs=pairs, test_frequencies_hz=f_test, model_frequencies_hz=f_model, swaps=[], diagnostics=diag,
         regularization=reg, start=dict(zip(names, map(float, prob.p_base[prob.idx]))), sensitivity="brandon",
-        omega=prob.omega, skipped=skipped, residual=residual, frac=dict(zip(frf.dofs, frac(prob.xe, xa))),
+        omega=prob.omega, skipped=skipped, residual=frf.residual, frac=dict(zip(frf_set.dofs, frac(prob.xe, xa))),
         natural_frequencies_hz=natural, notes=notes + diag.notes,
     )
 
 
-__all__ = ["update", "combined_result", "frf_update", "auto_stages", "FRF_RESIDUALS",
+__all__ = ["update", "update_with", "combined_result", "frf_update", "auto_stages", "FRF_RESIDUALS",
            "DEFAULT_RESIDUAL"]

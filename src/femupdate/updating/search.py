@@ -23,13 +23,14 @@ counted), locally or on an existing Dask cluster (``scheduler``).
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize
 
 from .._errors import FemupdateError, InputError
+from ..options import ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, gather, gather_some
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .clustering import classify, cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, prepare_problem
@@ -40,8 +41,19 @@ from .starts import run_starts
 log = logging.getLogger(__name__)
 
 METHODS = ("differential_evolution", "basinhopping", "dual_annealing")
-_LOCAL_KEYS = ("residual", "weights", "measurement_std", "lines", "select", "resonance", "resonance_tol", "damping",
-               "values", "solver")
+
+
+@dataclass(frozen=True)
+class _GlobalJob:
+    """What every run of a global search needs besides the model, data, names and seed."""
+
+    method: str
+    method_options: dict
+    global_residual: str | None
+    frf: FRFOptions
+    noise: NoiseOptions
+    solver: SolverOptions
+    values: object = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,29 +99,28 @@ def _bounds(model, names):
 class _Cost:
     """½ r² of the FRF problem at parameter points (batched for small models)."""
 
-    def __init__(self, model, data, names, local):
-        prob, _, _, _ = prepare_problem(model, data, names, None, local.get("residual", "linear"), local.get("weights"),
-                                 local.get("measurement_std"), local.get("lines"), local.get("select"),
-                                 local.get("resonance", "skip"), local.get("resonance_tol", 1e-3), local.get("damping"),
-                                 "absolute", local.get("values"), local.get("solver", "auto"), False)
+    def __init__(self, model, data, names, frf: FRFOptions, std, values):
+        prob, _, _, _ = prepare_problem(model, data, names, None, frf.residual, frf.weights, std, frf.lines, frf.select,
+                                        frf.resonance, frf.resonance_tol, frf.damping, "absolute", values, frf.solver,
+                                        False)
+        self.values, self.damping = values, frf.damping
         self.prob = prob
-        frf = frf_data(data)
+        measured = frf_data(data)
         from ..testdata import FRFData
 
-        self.sub = FRFData(prob.omega, dict(frf.force), frf.dofs, prob.xe)
+        self.sub = FRFData(prob.omega, dict(measured.force), measured.dofs, prob.xe)
         self.batched = model.n_dofs <= SURFACE_DENSE_LIMIT
         self.model, self.names = model, list(names)
-        self.stack = AffineStack(model, names, local.get("values")) if self.batched else None
+        self.stack = AffineStack(model, names, values) if self.batched else None
         self.w = prob.w if prob.kind != "relative" else prob.w * np.abs(prob.xe)  # frf_r2 re-applies 1/|x_E|
-        self.local = local
         self.nfev = 0
 
     def population(self, P: np.ndarray) -> np.ndarray:
         """Costs of the points ``P`` ``(G, L)`` (inf where singular)."""
         self.nfev += P.shape[0]
         if self.batched:
-            r2 = frf_r2(self.model, self.sub, self.names, P, self.local.get("values"), self.local.get("damping"),
-                        self.prob.kind, self.w, stack=self.stack)
+            r2 = frf_r2(self.model, self.sub, self.names, P, self.values, self.damping, self.prob.kind, self.w,
+                        stack=self.stack)
             return 0.5 * r2
         out = np.empty(P.shape[0])
         for g, x in enumerate(P):
@@ -154,17 +165,17 @@ class _BoundedStep:
         return np.clip(x + step, self.lo, self.hi)
 
 
-def _run_global(model, data, names, seed, kwargs) -> tuple:
+def _run_global(model, data, names, seed, job: _GlobalJob) -> tuple:
     """One global run + local polish; returns (FRFUpdateResult or error message, optimiser info)."""
-    method = kwargs.get("method", "differential_evolution")
-    opts = dict(kwargs.get("options") or {})
-    local = {k: v for k, v in kwargs.items() if k in _LOCAL_KEYS}
-    stage = kwargs.get("global_residual") or local.get("residual", DEFAULT_RESIDUAL)
-    local["residual"] = "log" if stage == "auto" else stage  # "auto" finds the basin with log magnitudes
+    method = job.method
+    opts = dict(job.method_options or {})
+    stage = job.global_residual or job.frf.residual
+    stage = "log" if stage == "auto" else stage  # "auto" finds the basin with log magnitudes
     seed = int(np.ravel(seed)[0])
     lo, hi = _bounds(model, names)
     try:
-        cost = _Cost(model, data, names, local)
+        cost = _Cost(model, data, names, job.frf.replace(residual=stage), dict(job.noise.std or {}).get("frf"),
+                     job.values)
     except FemupdateError as exc:
         return f"{type(exc).__name__}: {exc}", {"seed": seed}
     info: dict = {"seed": seed}
@@ -202,23 +213,23 @@ def _run_global(model, data, names, seed, kwargs) -> tuple:
         raise InputError(f"unknown global method {method!r}: use {', '.join(METHODS)}")
     info.update({"x": dict(zip(names, map(float, res.x))), "cost": float(res.fun), "nfev": int(cost.nfev),
                  "nit": int(getattr(res, "nit", 0)), "message": str(getattr(res, "message", ""))})
-    polish = {k: v for k, v in kwargs.items() if k not in ("method", "options", "global_residual")}
     run: FRFUpdateResult | str
     try:
-        run = frf_update(model, data, params=names, x0=dict(zip(names, np.clip(res.x, lo, hi))), **polish)
+        run = frf_update(model, data, params=names, x0=dict(zip(names, np.clip(res.x, lo, hi))), values=job.values,
+                         noise=job.noise, solver=job.solver, frf=job.frf)
     except FemupdateError as exc:
         run = f"{type(exc).__name__}: {exc}"
     return run, info
 
 
 def _runner(model, data, names, seed, kwargs):
-    return _run_global(model, data, names, seed, kwargs)
+    return _run_global(model, data, names, seed, kwargs["job"])
 
 
-def global_search(model, data, *, method: str = "differential_evolution", params: Sequence[str] | None = None,
-                  runs: int = 1, seed: int = 0, scheduler: str | None = None, rel_tol: float = 1e-4,
-                  cost_tol: float | None = None, options: dict | None = None, global_residual: str | None = "log",
-                  progress=None, connect_timeout: float = 10.0, **kwargs) -> GlobalSearchResult:
+def global_search(model, data, *, method: str = "differential_evolution", method_options: dict | None = None,
+                  global_residual: str | None = "log", params: Sequence[str] | None = None, values=None,
+                  starts: StartsOptions | int | None = None, execution: ExecutionOptions | None = None,
+                  progress=None, **shorthand) -> GlobalSearchResult:
     """Global minimisation of the FRF residual within the bounds, then a local polish.
 
     Parameters
@@ -227,36 +238,35 @@ def global_search(model, data, *, method: str = "differential_evolution", params
         As for :func:`femupdate.updating.frf_update` (finite bounds needed).
     method : {"differential_evolution", "basinhopping", "dual_annealing"}, default ``"differential_evolution"``
         The SciPy global optimiser (module docstring).
-    params : sequence of str, optional
-        Names of the parameters searched (default every parameter not ``fixed``).
-    runs : int, default 1
-        Independent runs with seeds ``seed .. seed + runs - 1``.
-    seed : int, default 0
-        Seed of the first run.
-    scheduler : str, optional
-        Address of an existing Dask scheduler: the runs go to the cluster (default: locally, one
-        after another).
-    rel_tol : float, default 1e-4
-        Relative tolerance of the clustering of the polished solutions, as in multi-start studies.
-    cost_tol : float, optional
-        Largest cost of a polished solution counted (default: any converged one).
-    options : dict, optional
+    method_options : dict, optional
         Passed to the SciPy optimiser (e.g. ``{"popsize": 30, "maxiter": 500}``; defaults
         popsize 50, maxiter 300, tol 1e-10 for differential evolution, niter 60 and stepsize
-        0.25 of the bound widths for basin hopping, maxiter 500 for dual annealing).
+        0.25 of the bound widths for basin hopping, maxiter 500 for dual annealing).  The
+        keyword ``options`` is its older name.
     global_residual : {"log", "linear", "relative"} or None, default ``"log"``
         Residual form of the global stage (``"log"``: log-magnitudes; the polish uses
         ``residual``).  On the linear scale the spikes of lines near resonances span tens of
         decades and mislead population methods; logarithms compress them, with the same
         minimiser for noise-free data.  ``None``: the polish's residual throughout (``"log"``
         when it is ``"auto"``).
+    params : sequence of str, optional
+        Names of the parameters searched (default every parameter not ``fixed``).
+    values : None, mapping of str to float, or array_like, optional
+        Values of the fixed parameters (default nominal).
+    starts : StartsOptions or int, optional
+        The runs (:class:`~femupdate.options.StartsOptions`: their number — one by default, an
+        int is that —, with seeds ``seed .. seed + runs - 1``; ``rel_tol`` and ``cost_tol`` of
+        the clustering of the polished solutions, as in multi-start studies).  The keyword
+        ``runs`` is the number.
+    execution : ExecutionOptions, optional
+        A Dask cluster for the runs (``scheduler``, ``connect_timeout``; default: locally, one
+        after another).
     progress : callable, optional
         Called as ``progress(done, total)`` after each run.
-    connect_timeout : float, default 10.0
-        Seconds to wait for the Dask scheduler.
-    **kwargs
-        Passed to :func:`~femupdate.updating.frf_update` (``residual``, ``weights``,
-        ``lines``, ``damping``, ...), for the cost and for the polish.
+    **shorthand
+        Fields of those option objects and the options of :func:`~femupdate.updating.frf_update`
+        (``residual``, ``weights``, ``lines``, ``damping``, ``noise=``, ``solver=``, ...) as
+        keywords, for the cost and for the polish.
 
     Returns
     -------
@@ -268,24 +278,42 @@ def global_search(model, data, *, method: str = "differential_evolution", params
         An unknown method; fewer than one run; no parameters; a searched parameter without
         finite bounds; an unreachable scheduler.  A run that fails is recorded in ``runs`` as
         a message, not raised.
+    TypeError
+        A keyword no option object has.
     """
+    shorthand = dict(shorthand)
+    runs_given = shorthand.pop("runs", None)
+    if "options" in shorthand:
+        method_options = shorthand.pop("options")
+    if starts is None and runs_given is not None:
+        starts = runs_given
+    given, rest = gather_some("global_search", shorthand, starts=(StartsOptions, 1 if starts is None else starts),
+                              execution=(ExecutionOptions, execution))
+    st, ex = given["starts"], given["execution"]
+    std_given = rest.get("measurement_std")
+    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
+        rest["measurement_std"] = {"frf": std_given}
+    o = gather("global_search", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
+               frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
+               solver=(SolverOptions, rest.get("solver")))
     if method not in METHODS:
         raise InputError(f"unknown global method {method!r}: use {', '.join(METHODS)}")
-    if runs < 1:
-        raise InputError("the number of runs must be at least 1")
+    runs, seed = st.starts, (0 if st.seed is None else st.seed)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     if not names:
         raise InputError("no parameters to search: every parameter is fixed")
     _bounds(model, names)
     seeds = (int(seed) + np.arange(runs))[:, None]
-    kw = dict(kwargs, method=method, options=options, global_residual=global_residual)
-    pairs = run_starts(model, data, names, seeds, kw, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
-                       cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout, runner=_runner).runs
+    job = _GlobalJob(method, dict(method_options or {}), global_residual, o["frf"], o["noise"], o["solver"], values)
+    pairs = run_starts(model, data, names, seeds, {"job": job}, seed=seed, scheduler=ex.scheduler, rel_tol=st.rel_tol,
+                       cost_tol=st.cost_tol, progress=progress, connect_timeout=ex.connect_timeout,
+                       runner=_runner).runs
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
 
-    ok, solutions = converged_solutions(results, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
+    ok, solutions = converged_solutions(results, names, UpdateResult, st.cost_tol, st.rel_tol,
+                                        parameter_scale(model, names))
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None
-    starts = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
+    starts_x = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
     # marked as fitting or not, as multi-start results are (else every run is listed as a local minimum)
-    return classify(GlobalSearchResult(best, solutions, results, starts, names, runs, len(ok), seed, method, infos))
+    return classify(GlobalSearchResult(best, solutions, results, starts_x, names, runs, len(ok), seed, method, infos))

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .._errors import InputError, NumericalError
+from ..options import ModalOptions, NoiseOptions, PairingOptions, SolverOptions, gather
 from ..testdata import TestData
 from .parametrisation import start_error, x_bounds
 from .problem import Problem, check_determined
@@ -162,8 +163,7 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
                        relative_std=rel)
 
 
-def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float, gtol: float,
-           max_nfev: int):
+def solve(prob, bounds, solver: SolverOptions | None = None, **shorthand):
     """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base`` (paper eq. 20).
 
     Shared by every iterative updating problem (modal, FRF, combined, multi-configuration): the
@@ -178,15 +178,14 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
         :class:`~femupdate.updating.problem.Parametrisation` maps.
     bounds : tuple of numpy.ndarray, each shape ``(n_parameters,)``
         The model's full ``(lo, hi)`` (physical units); ignored by ``"lm"``.
-    regularization : float, {"gcv", "lcurve"} or None
-        Tikhonov factor α >= 0, or the rule choosing it from the residuals and Jacobian at the
-        start (:func:`femupdate.regularization.choose_alpha`); None: no regularisation.
-    method : {"trf", "dogbox", "lm"}
-        Method of :func:`scipy.optimize.least_squares` (``x_scale="jac"`` except for ``"lm"``).
-    ftol, xtol, gtol : float
-        Tolerances of :func:`scipy.optimize.least_squares`.
-    max_nfev : int
-        Largest number of residual evaluations.
+    solver : SolverOptions, optional
+        The method, tolerances, evaluations and regularisation
+        (:class:`~femupdate.options.SolverOptions`; a Tikhonov rule chooses α from the residuals
+        and Jacobian at the start, :func:`femupdate.regularization.choose_alpha`; the method's
+        ``x_scale`` is ``"jac"`` except for ``"lm"``).  Its ``parametrisation`` is the problem's
+        own and is not read here.
+    **shorthand
+        :class:`~femupdate.options.SolverOptions` fields as keywords.
 
     Returns
     -------
@@ -207,8 +206,8 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
     NumericalError
         The problem cannot be evaluated, or the solver failed.
     """
-    if method not in ("trf", "dogbox", "lm"):
-        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
+    solver = gather("solve", shorthand, solver=(SolverOptions, solver))["solver"]
+    method, regularization = solver.method, solver.regularization
     names = prob.names
     parametrisation = prob.param
     lo, hi = bounds
@@ -234,12 +233,7 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
             alpha = float(choice.alpha)
             reg = {"rule": regularization, "alpha": alpha}
         else:
-            try:
-                alpha = float(regularization)
-            except (TypeError, ValueError):
-                raise InputError(f"regularization must be a number >= 0, 'gcv' or 'lcurve', got {regularization!r}") from None
-            if not (alpha >= 0 and np.isfinite(alpha)):
-                raise InputError("the regularization factor must be finite and >= 0")
+            alpha = float(regularization)  # checked by SolverOptions: finite and >= 0
             reg = {"rule": "fixed", "alpha": alpha}
 
     def fun(x):
@@ -262,7 +256,8 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
                     "parameters": dict(zip(names, map(float, p_start)))})
     try:
         sol = least_squares(fun, x_start, jac=jac, bounds=bounds, method=method, x_scale="jac" if method != "lm" else 1.0,
-                            ftol=ftol, xtol=xtol, gtol=gtol, max_nfev=max_nfev, callback=callback if method != "lm" else None)
+                            ftol=solver.ftol, xtol=solver.xtol, gtol=solver.gtol, max_nfev=solver.max_nfev,
+                            callback=callback if method != "lm" else None)
     except NumericalError:
         raise
     except (ValueError, np.linalg.LinAlgError) as exc:
@@ -271,12 +266,9 @@ def solve(prob, bounds, *, regularization, method: str, ftol: float, xtol: float
 
 
 def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
-           shape_scaling: str = "unit", ref_dof: str | None = None, weights: Mapping | None = None,
-           measurement_std: Mapping | None = None, min_mac: float = 0.5, n_modes: int | None = None,
-           parametrisation: str = "relative", method: str = "trf", max_nfev: int = 200,
-           ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10, use_shapes: bool = True,
-           regularization: float | str | None = None, values=None, sensitivity: str = "auto",
-           pairing: str = "auto", formulation: str = "shapes", reuse: bool = True) -> UpdateResult:
+                 values=None, modal: ModalOptions | None = None, pairing: PairingOptions | str | None = None,
+                 noise: NoiseOptions | None = None, solver: SolverOptions | None = None,
+                 **shorthand) -> UpdateResult:
     """Update the model's parameters so that its modes match the measured ones (the modal case of
     :func:`femupdate.update`, which takes FRFs and static deflections too).
 
@@ -290,55 +282,21 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         Names of the parameters to update (default: every parameter not ``fixed``).
     x0 : mapping of str to float, optional
         Starting values {name: value} (default: the model's nominal values).
-    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
-        Scaling of the shapes compared (:class:`~femupdate.updating.Problem`).
-    ref_dof : str, optional
-        Reference dof of ``"ref"`` scaling (default: the first measured dof of each mode, the
-        paper's eq. 33 convention).
-    weights : mapping, optional
-        ``{"eigenvalue": w or per-mode array, "shape": w or per-mode array}``.
-    measurement_std : mapping, optional
-        ``{"eigenvalue": relative std of λ, "shape": std of scaled shape entries}``; when given
-        the residuals are divided by them (weights = 1/std) and the covariance is absolute, not
-        scaled by the residual.
-    min_mac : float, default 0.5
-        Pairing threshold.
-    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
-        How test modes are paired with model modes (:class:`~femupdate.updating.Problem`):
-        ``"auto"`` by frequency order until the shapes show a swap, then by MAC.
-    n_modes : int, optional
-        Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
-    max_nfev : int, default 200
-        Largest number of residual evaluations.
-    ftol, xtol, gtol : float, default 1e-10
-        Tolerances of :func:`scipy.optimize.least_squares`.
-    use_shapes : bool, default True
-        False: frequencies only.
-    regularization : float, {"gcv", "lcurve"} or None, default None
-        A Tikhonov factor α, or the rule choosing it at the start; the residual is augmented
-        with α (x − x_start), pulling the scaled parameters toward the starting model.
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
         Values of the fixed parameters (default nominal).
-    sensitivity : str, default ``"auto"``
-        Derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`):
-        ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint series when there are fewer
-        measured dofs than parameters, else the subspace series), ``"nelson"``, ``"modal"``,
-        ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
-    formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
-        The modal residuals (:class:`~femupdate.updating.Problem`): ``"shapes"`` relative
-        eigenvalue errors and scaled shape differences; ``"mac"`` relative eigenvalue errors and
-        MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"`` the modal dynamic residual
-        (K − λ_E M) φ of every dof, the unmeasured shape entries solved for (no eigen-solution;
-        every test mode needs a shape).
-    reuse : bool, default True
-        Models above 1,500 dofs (sparse eigen-solutions): reuse from one evaluation to the next
-        the model's factorisation workspace and the previous modes as the eigensolver's start
-        (:class:`~femupdate.updating.Problem`); the same solution to round-off.  False: every
-        evaluation factorises afresh (the route before this option existed).
+    modal : ModalOptions, optional
+        The residuals of the modes (:class:`~femupdate.options.ModalOptions`).
+    pairing : PairingOptions or str, optional
+        How test modes pair with model modes (:class:`~femupdate.options.PairingOptions`).
+    noise : NoiseOptions, optional
+        Standard deviations and weights (:class:`~femupdate.options.NoiseOptions`): with standard
+        deviations the residuals are divided by them and the covariance is absolute, not scaled
+        by the residual.
+    solver : SolverOptions, optional
+        The least-squares solver, its variables and regularisation
+        (:class:`~femupdate.options.SolverOptions`).
+    **shorthand
+        Fields of those option objects as keywords (``min_mac=0.8``, ``max_nfev=50``, ...).
 
     Returns
     -------
@@ -350,41 +308,35 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
     Raises
     ------
     InputError
-        An unknown method or option, bad weights or data (as :class:`~femupdate.updating.Problem`),
-        a start outside the bounds, or fewer independent data than parameters without
-        ``regularization``.
+        An unknown option value, bad weights or data (as :class:`~femupdate.updating.Problem`),
+        a start outside the bounds, or fewer independent data than parameters without a
+        regularisation.
+    TypeError
+        A keyword that no option object has.
     NumericalError
         The model cannot be evaluated (unpaired modes, non-finite residuals) or the solver failed.
     """
-    if method not in ("trf", "dogbox", "lm"):
-        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
-    prob = Problem(model, data, params, x0=x0, values=values, shape_scaling=shape_scaling, ref_dof=ref_dof,
-                   weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                   parametrisation=parametrisation, use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing,
-                   formulation=formulation, reuse=reuse)
-    return solve_problem(prob, method=method, max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol,
-                         regularization=regularization)
+    o = gather("update_modal", shorthand, modal=(ModalOptions, modal), pairing=(PairingOptions, pairing),
+               noise=(NoiseOptions, noise), solver=(SolverOptions, solver))
+    prob = Problem(model, data, params, x0=x0, values=values, parametrisation=o["solver"].parametrisation,
+                   modal=o["modal"], pairing=o["pairing"], noise=o["noise"])
+    return solve_problem(prob, o["solver"])
 
 
-def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ftol: float = 1e-10,
-                  xtol: float = 1e-10, gtol: float = 1e-10, regularization: float | str | None = None) -> UpdateResult:
+def solve_problem(prob: Problem, solver: SolverOptions | None = None, **shorthand) -> UpdateResult:
     """Solve the modal updating problem ``prob`` from its starting point (:func:`update_modal` on a
-    :class:`Problem` already built); options as :func:`update`.
+    :class:`Problem` already built).
 
     Parameters
     ----------
     prob : Problem
         The modal problem (its start, bounds from ``prob.model.bounds``).
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        Method of :func:`scipy.optimize.least_squares` (not checked here: SciPy refuses an unknown
-        one, reported as a :class:`~femupdate.NumericalError`).
-    max_nfev : int, default 200
-        Largest number of residual evaluations.
-    ftol, xtol, gtol : float, default 1e-10
-        Tolerances of :func:`scipy.optimize.least_squares`.
-    regularization : float, {"gcv", "lcurve"} or None, default None
-        Tikhonov factor α or the rule choosing it (:func:`solve`); None: the problem must be
+    solver : SolverOptions, optional
+        The solver (:class:`~femupdate.options.SolverOptions`; its ``parametrisation`` is the
+        problem's own and is not read here); without a regularisation the problem must be
         determined.
+    **shorthand
+        :class:`~femupdate.options.SolverOptions` fields as keywords.
 
     Returns
     -------
@@ -394,16 +346,16 @@ def solve_problem(prob: Problem, *, method: str = "trf", max_nfev: int = 200, ft
     Raises
     ------
     InputError
-        Fewer independent data than parameters without ``regularization``; and as :func:`solve`.
+        Fewer independent data than parameters without a regularisation; and as :func:`solve`.
     NumericalError
         As :func:`solve`.
     """
+    solver = gather("solve_problem", shorthand, solver=(SolverOptions, solver))["solver"]
     model = prob.model
-    if regularization is None:
+    if solver.regularization is None:
         check_determined(prob)
-    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol,
-                              xtol=xtol, gtol=gtol, max_nfev=max_nfev)
-    return result_at(prob, sol.x, sol, history, reg, bounded=method != "lm")
+    sol, history, reg = solve(prob, model.bounds, solver)
+    return result_at(prob, sol.x, sol, history, reg, bounded=solver.method != "lm")
 
 
 def paired_modes(prob: Problem, modes, pairs) -> dict:

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 
 import numpy as np
 
 from .._errors import FemupdateError, InputError
+from ..options import (ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, UpdateOptions, gather,
+                       gather_some)
 from ..dask_cluster import collect, connect, task
 from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult
@@ -110,13 +112,12 @@ def timed(runner, model, data, names, start, kwargs):
     return out, time.perf_counter() - t, time.process_time() - c
 
 
-def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
-               scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
-               log_uniform: bool = False, progress: Callable[[int, int], None] | None = None,
-               connect_timeout: float = 10.0, batched: bool | None = None, jobs: int | None = None,
-               **kwargs) -> MultiStartResult:
-    """Run :func:`femupdate.update` from ``starts`` random starting points (any data it takes;
-    modal data of small models on the compiled route).
+def multistart(model, data, starts: StartsOptions | int | None = None, *, params: Sequence[str] | None = None,
+               values=None, execution: ExecutionOptions | None = None,
+               progress: Callable[[int, int], None] | None = None, options: UpdateOptions | None = None,
+               **shorthand) -> MultiStartResult:
+    """Run :func:`femupdate.update` from random starting points (any data it takes; modal data of
+    small models on the compiled route).
 
     Parameters
     ----------
@@ -124,40 +125,32 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
         The parametrised model.
     data : TestData, FRFData or other data :func:`update` takes
         The measured data.
-    starts : int, default 20
-        Number of random starts, drawn within the parameters' bounds (uniform, or log-uniform).
-    seed : int or None, default 0
-        Seed of the generator (reproducible studies; None: unreproducible).
+    starts : StartsOptions or int, optional
+        The starts and how solutions are told apart (:class:`~femupdate.options.StartsOptions`:
+        number — an int is that —, seed, log-uniform draws, ``rel_tol``, ``cost_tol`` and the
+        compiled ``batched`` route: ``None`` takes it when only modal data are used, the model
+        has at most :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are
+        supported — the compiled route implements ``formulation="shapes"`` only —, locally or in
+        chunks on the Dask cluster, with the same results; ``False``: one :func:`update` per
+        start; ``True``: batched, or an :class:`InputError`).
     params : sequence of str, optional
         Parameters to update (default: the free ones).
-    scheduler : str, optional
-        Address of an existing Dask scheduler (``tcp://host:port``); local runs otherwise.
-    rel_tol : float, default 1e-4
-        Relative distance under which two solutions are the same.
-    cost_tol : float, optional
-        A run counts as converged when the solver reports success and its cost (½‖r‖²) is at most
-        this (default: no cost limit, i.e. local minima count as converged solutions too).
-    log_uniform : bool, default False
-        Draw the starts log-uniformly instead of uniformly (needs positive lower bounds).
+    values : None, mapping of str to float, or array_like, optional
+        Values of the fixed parameters (default nominal).
+    execution : ExecutionOptions, optional
+        Where the starts run (:class:`~femupdate.options.ExecutionOptions`): an existing Dask
+        cluster (``scheduler``, ``connect_timeout``), or local worker processes of the per-start
+        route (``jobs``; default, :func:`local_jobs`: one per usable core when the model has at
+        least :data:`femupdate.modal.SPARSE_FROM` dofs and there are at least two starts per
+        process, else the starts run in this process; not used on the compiled route).
     progress : callable ``(done, total)``, optional
         Called as starts finish (locally and on Dask).
-    connect_timeout : float, default 10.0
-        Seconds to wait for the scheduler (and its first worker) before giving up.
-    batched : bool or None, default None
-        Advance all starts at once (:mod:`femupdate.updating.batched`, same problem, same answers);
-        ``None``: batched when only modal data are used, the model has at most
-        :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are supported (the
-        compiled route implements ``formulation="shapes"`` only: ``"mac"`` and ``"dynamic"`` run
-        one :func:`update` per start) — locally,
-        or in chunks on the Dask cluster at ``scheduler``, with the same results; ``False``: one
-        :func:`update` per start; ``True``: batched, or an :class:`InputError`.
-    jobs : int, optional
-        Local worker processes of the per-start route (:func:`run_starts`); default
-        (:func:`local_jobs`): one per usable core when the model has at least
-        :data:`femupdate.modal.SPARSE_FROM` dofs and there are at least two starts per process,
-        else the starts run in this process.  Ignored with ``scheduler`` and on the compiled route.
-    **kwargs
-        Options of :func:`update` (not ``x0``).
+    options : UpdateOptions, optional
+        The options of every start's :func:`update`.
+    **shorthand
+        Fields of :class:`~femupdate.options.StartsOptions`, :class:`~femupdate.options.ExecutionOptions`
+        and of the update's option objects as keywords (``seed=3``, ``scheduler=...``,
+        ``min_mac=0.8``, ...); not ``x0``.
 
     Returns
     -------
@@ -168,27 +161,30 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     Raises
     ------
     InputError
-        ``starts`` < 1; ``x0`` given; FRF options given when only modal data are used;
-        ``batched=True`` with non-modal data or options the batched route does not support; a
-        parameter without finite bounds, an unknown parameter, or a bound <= 0 with
-        ``log_uniform`` (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``.
-        The errors of :func:`update` itself (refused input, numerical failure) do not propagate:
-        each start that fails is recorded as its message in ``runs``.
+        ``x0`` given; FRF options given when only modal data are used; ``batched=True`` with
+        non-modal data or options the batched route does not support; a parameter without
+        finite bounds, an unknown parameter, or a bound <= 0 with ``log_uniform``
+        (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``.  The errors of
+        :func:`update` itself (refused input, numerical failure) do not propagate: each start
+        that fails is recorded as its message in ``runs``.
+    TypeError
+        A keyword no option object has.
     """
-    if starts < 1:
-        raise InputError("the number of starts must be at least 1")
-    if "x0" in kwargs:
+    given, rest = gather_some("multistart", shorthand, starts=(StartsOptions, starts),
+                              execution=(ExecutionOptions, execution))
+    st, ex = given["starts"], given["execution"]
+    if "x0" in rest:
         raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
+    uo = UpdateOptions.of("multistart", rest, options=options)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
-    X0 = draw_starts(model, names, starts, seed, log_uniform)
-    kinds = data_kinds(data, kwargs.get("use", DATA_KINDS))
+    X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
+    kinds = data_kinds(data, uo.use)
+    batched = st.batched
     if kinds == ("modes",):
-        if kwargs.get("frf_options"):
-            raise InputError(f"FRF options ({', '.join(sorted(kwargs['frf_options']))}) given, but no FRF data are used")
-        kwargs.pop("use", None)  # modes only: the modal problem, whatever route
-        kwargs.pop("frf_options", None)
-        if kwargs.get("formulation", "shapes") != "shapes":
-            _check_once(model, data, names, kwargs)
+        if uo.frf.changed():
+            raise InputError(f"FRF options ({', '.join(sorted(uo.frf.changed()))}) given, but no FRF data are used")
+        if uo.modal.formulation != "shapes":
+            _check_once(model, data, names, uo, values)
     elif batched:
         raise InputError(f"batched=True takes modal data only; these data use {', '.join(kinds)}: use batched=False")
     else:
@@ -197,32 +193,32 @@ def multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequ
     if batched is None:
         from .batched import supports
 
-        batched = supports(model, kwargs)
+        batched = supports(model, uo)
     if batched:
         from .batched import multistart_batched, unsupported
 
-        reason = unsupported(model, kwargs, explicit=True)
+        reason = unsupported(model, uo, explicit=True)
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
-        return multistart_batched(model, data, names, X0, seed=seed, rel_tol=rel_tol, cost_tol=cost_tol,
-                                  progress=progress, scheduler=scheduler, connect_timeout=connect_timeout, **kwargs)
+        return multistart_batched(model, data, names, X0, seed=st.seed, rel_tol=st.rel_tol, cost_tol=st.cost_tol,
+                                  progress=progress, scheduler=ex.scheduler, connect_timeout=ex.connect_timeout,
+                                  values=values, options=uo)
     # ---- end of the batched path ----------------------------------------------------------------
-    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
-                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout, jobs=jobs)
+    return run_starts(model, data, names, X0, {"options": uo, "values": values}, seed=st.seed, scheduler=ex.scheduler,
+                      rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
+                      connect_timeout=ex.connect_timeout, jobs=ex.jobs)
 
 
-def _check_once(model, data, names, kwargs) -> None:
+def _check_once(model, data, names, o: UpdateOptions, values) -> None:
     """Build the modal problem once, so that input a formulation other than ``"shapes"`` refuses
     (a test mode without a shape for ``"dynamic"``, options it does not take, too few data) is
     refused once, as an :class:`InputError`, rather than recorded as the failure of every start
     (those formulations take the per-start route)."""
-    import inspect
-
     from .problem import Problem, check_determined
 
-    keys = set(inspect.signature(Problem).parameters) - {"model", "data", "params", "x0"}
-    prob = Problem(model, data, names, **{k: v for k, v in kwargs.items() if k in keys})
-    if kwargs.get("regularization") is None:
+    prob = Problem(model, data, names, values=values, parametrisation=o.solver.parametrisation, modal=o.modal,
+                   pairing=o.pairing, noise=o.noise)
+    if o.solver.regularization is None:
         check_determined(prob)
 
 
@@ -373,11 +369,10 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
         client.close()
 
 
-def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: Sequence[str] | None = None,
-                   scheduler: str | None = None, rel_tol: float = 1e-4, cost_tol: float | None = None,
-                   log_uniform: bool = False, progress=None, connect_timeout: float = 10.0, **kwargs):
-    """:func:`frf_update` from ``starts`` random starts within the bounds (the same seeded starts
-    as :func:`femupdate.updating.multistart`), locally or on Dask; a
+def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, params: Sequence[str] | None = None,
+                   values=None, execution: ExecutionOptions | None = None, progress=None, **shorthand):
+    """:func:`frf_update` from random starts within the bounds (the same seeded starts as
+    :func:`femupdate.updating.multistart`), locally or on Dask; a
     :class:`~femupdate.updating.MultiStartResult` in the same format.
 
     Parameters
@@ -386,27 +381,20 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
         The parametrised model.
     data : FRFData or TestData
         The measured FRFs.
-    starts : int, default 20
-        Number of random starts, drawn within the parameters' bounds.
-    seed : int or None, default 0
-        Seed of the starts.
+    starts : StartsOptions or int, optional
+        The starts (:class:`~femupdate.options.StartsOptions`; an int is their number).
     params : sequence of str, optional
         Parameters to update (default: the free ones).
-    scheduler : str, optional
-        Address of a Dask scheduler (``tcp://host:port``); local runs otherwise.
-    rel_tol : float, default 1e-4
-        Relative distance under which two solutions are the same.
-    cost_tol : float, optional
-        A run counts as converged when it reports success and its cost (½‖r‖²) is at most this
-        (default: no limit).
-    log_uniform : bool, default False
-        Draw the starts log-uniformly instead of uniformly.
+    values : None, mapping of str to float, or array_like, optional
+        Values of the fixed parameters (default nominal).
+    execution : ExecutionOptions, optional
+        A Dask cluster to run on (``scheduler``, ``connect_timeout``); local runs otherwise.
     progress : callable ``(done, total)``, optional
         Called as starts finish (locally and on Dask).
-    connect_timeout : float, default 10.0
-        Seconds to wait for the scheduler.
-    **kwargs
-        Options of :func:`frf_update`.
+    **shorthand
+        Fields of :class:`~femupdate.options.StartsOptions` and
+        :class:`~femupdate.options.ExecutionOptions`, and the options of :func:`frf_update`
+        (``frf=``, ``noise=``, ``solver=`` or their fields), as keywords; not ``x0``.
 
     Returns
     -------
@@ -416,15 +404,26 @@ def frf_multistart(model, data, starts: int = 20, seed: int | None = 0, params: 
     Raises
     ------
     InputError
-        Fewer than one start; a parameter without finite bounds, an unknown parameter, or a bound
-        <= 0 with ``log_uniform`` (:func:`draw_starts`); ``x0`` among ``kwargs``; an unreachable
-        scheduler.  The errors of :func:`frf_update` itself (refused input, numerical
-        failure) do not propagate: each start that fails is recorded as its message in ``runs``.
+        A parameter without finite bounds, an unknown parameter, or a bound <= 0 with
+        ``log_uniform`` (:func:`draw_starts`); ``x0`` given; an unreachable scheduler.  The
+        errors of :func:`frf_update` itself (refused input, numerical failure) do not propagate:
+        each start that fails is recorded as its message in ``runs``.
+    TypeError
+        A keyword no option object has.
     """
-    if starts < 1:
-        raise InputError("the number of starts must be at least 1")
+    given, rest = gather_some("frf_multistart", shorthand, starts=(StartsOptions, starts),
+                              execution=(ExecutionOptions, execution))
+    st, ex = given["starts"], given["execution"]
+    if "x0" in rest:
+        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
+    std_given = rest.get("measurement_std")
+    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
+        rest["measurement_std"] = {"frf": std_given}
+    o = gather("frf_multistart", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
+               frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
+               solver=(SolverOptions, rest.get("solver")))
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
-    X0 = draw_starts(model, names, starts, seed, log_uniform)
-    return run_starts(model, data, names, X0, kwargs, seed=seed, scheduler=scheduler, rel_tol=rel_tol,
-                      cost_tol=cost_tol, progress=progress, connect_timeout=connect_timeout,
-                      runner=partial(run_with, frf_update))
+    X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
+    return run_starts(model, data, names, X0, dict(o, values=values), seed=st.seed, scheduler=ex.scheduler,
+                      rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
+                      connect_timeout=ex.connect_timeout, runner=partial(run_with, frf_update))

@@ -38,40 +38,33 @@ from ..problem import Problem, check_determined
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
 from .spec import DataSets, ModelArrays, Spec, concatenate, error_message, new_report
 
+from ...options import UpdateOptions
+
 log = logging.getLogger(__name__)
 
 AUTO_MAX_DOFS = 200  #: models up to this size take the batched route by default
-#: keyword options of :func:`femupdate.update` the batched route implements
-SUPPORTED_OPTIONS = frozenset({
-    "shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes", "parametrisation",
-    "method", "max_nfev", "ftol", "xtol", "gtol", "use_shapes", "regularization", "values", "sensitivity",
-    "formulation",
-    "reuse",  # the sparse path's workspace: nothing to reuse on the dense, compiled route
-})
-PROBLEM_OPTIONS = ("shape_scaling", "ref_dof", "weights", "measurement_std", "min_mac", "pairing", "n_modes",
-                    "parametrisation", "use_shapes", "values", "sensitivity", "formulation")
-SOLVER_OPTIONS = ("max_nfev", "ftol", "xtol", "gtol")
-
-
 # ====================================================================== options
-def unsupported(model, options: Mapping, explicit: bool = False) -> str | None:
+def unsupported(model, options: UpdateOptions | Mapping | None = None, explicit: bool = False) -> str | None:
     """Why the batched route cannot run this study (None when it can).
 
-    ``explicit``: the caller asked for the batched route, so only hard limits apply (dense models
-    up to :data:`femupdate.modal.DENSE_LIMIT` dofs); otherwise the automatic choice also requires
-    at most :data:`AUTO_MAX_DOFS` dofs.
+    ``options``: the update's (:class:`~femupdate.options.UpdateOptions`, or a mapping of its
+    shorthand keywords).  ``explicit``: the caller asked for the batched route, so only hard
+    limits apply (dense models up to :data:`femupdate.modal.DENSE_LIMIT` dofs); otherwise the
+    automatic choice also requires at most :data:`AUTO_MAX_DOFS` dofs.
     """
-    extra = sorted(set(options) - SUPPORTED_OPTIONS)
-    if extra:
-        return f"option(s) {', '.join(extra)} are not implemented by the batched route"
-    if options.get("method", "trf") != "trf":
-        return f"method={options['method']!r}: the batched route implements trf only"
-    if options.get("regularization") is not None:
+    if not isinstance(options, UpdateOptions):
+        options = UpdateOptions.of("unsupported", {k: v for k, v in dict(options or {}).items() if k != "values"})
+    o = options
+    if o.frf.changed():
+        return f"FRF option(s) {', '.join(o.frf.changed())} are not implemented by the batched route"
+    if o.solver.method != "trf":
+        return f"method={o.solver.method!r}: the batched route implements trf only"
+    if o.solver.regularization is not None:
         return "regularization: the batched route solves the unregularised problem only"
-    if options.get("sensitivity", "auto") != "auto":
-        return f"sensitivity={options['sensitivity']!r}: the batched route uses exact derivatives (sensitivity='auto')"
-    if options.get("formulation", "shapes") != "shapes":
-        return (f"formulation={options['formulation']!r}: the batched route implements the 'shapes' formulation only "
+    if o.modal.sensitivity != "auto":
+        return f"sensitivity={o.modal.sensitivity!r}: the batched route uses exact derivatives (sensitivity='auto')"
+    if o.modal.formulation != "shapes":
+        return (f"formulation={o.modal.formulation!r}: the batched route implements the 'shapes' formulation only "
                 "(the other formulations run one start at a time)")
     limit = DENSE_LIMIT if explicit else AUTO_MAX_DOFS
     if model.n_dofs > limit:
@@ -83,7 +76,7 @@ def unsupported(model, options: Mapping, explicit: bool = False) -> str | None:
     return None
 
 
-def supports(model, options: Mapping) -> bool:
+def supports(model, options: UpdateOptions | Mapping | None = None) -> bool:
     """True when :func:`femupdate.updating.multistart` should take the batched route by itself."""
     return unsupported(model, options) is None
 
@@ -427,5 +420,5 @@ def _announce_first_use() -> None:
                     "15 s on two cores; later runs load it from the cache")
 
 
-__all__ = ["AUTO_MAX_DOFS", "SUPPORTED_OPTIONS", "PROBLEM_OPTIONS", "SOLVER_OPTIONS", "BatchedProblem",
+__all__ = ["AUTO_MAX_DOFS", "BatchedProblem",
            "concatenate", "supports", "unsupported", "Evaluation"]

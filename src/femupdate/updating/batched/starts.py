@@ -16,7 +16,8 @@ from ..clustering import classify, converged_solutions, parameter_scale
 from ..problem import Problem
 from ..results import MultiStartResult, RunResult, UpdateResult
 from ..solve import pairing_record, result_at, update_modal
-from .driver import PROBLEM_OPTIONS, SOLVER_OPTIONS, BatchedProblem, unsupported
+from ...options import UpdateOptions
+from .driver import BatchedProblem, unsupported
 from .lsq import FAILED
 
 log = logging.getLogger(__name__)
@@ -59,7 +60,7 @@ def pairing_of(problem: Problem, pairs, macs) -> dict:
     return pairing_record(problem, macs, rules.pairing_rule(problem.pairing, pairs, problem.targets.lam_e))
 
 
-def batched_runs(model, data, names: Sequence[str], starts, options: dict,
+def batched_runs(model, data, names: Sequence[str], starts, options: UpdateOptions, values=None,
                  progress: Callable[[int, int], None] | None = None) -> list:
     """Every start of ``starts`` run to the end in compiled code: per start a :class:`BatchRun`,
     or the message (str) of its failure, exactly as the local route reports it.
@@ -73,7 +74,9 @@ def batched_runs(model, data, names: Sequence[str], starts, options: dict,
     model, data : as :func:`femupdate.update`.
     names : updated parameters.
     starts : (R, L) starting values.
-    options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
+    options : the update's options (:class:`~femupdate.options.UpdateOptions`; :func:`unsupported`
+        says which the route takes).
+    values : the fixed parameters' values, as :func:`femupdate.update` takes them.
     progress : ``progress(finished, R)``.
 
     Returns
@@ -84,11 +87,11 @@ def batched_runs(model, data, names: Sequence[str], starts, options: dict,
     names = tuple(names)
     X0 = np.array(starts, dtype=float, ndmin=2)
     R = X0.shape[0]
-    prob_kw = {k: options[k] for k in PROBLEM_OPTIONS if k in options}
-    solver_kw = {k: options[k] for k in SOLVER_OPTIONS if k in options}
+    o = options
     try:
-        problem = Problem(model, data, names, **prob_kw)
-        bp = BatchedProblem.from_problem(problem, X0, **solver_kw)
+        problem = _problem(model, data, names, o, values)
+        bp = BatchedProblem.from_problem(problem, X0, max_nfev=o.solver.max_nfev, ftol=o.solver.ftol,
+                                         xtol=o.solver.xtol, gtol=o.solver.gtol)
     except FemupdateError as exc:  # update() would refuse every start alike
         return [f"{type(exc).__name__}: {exc}"] * R
     res = bp.solve(progress=progress)
@@ -119,7 +122,12 @@ def batched_runs(model, data, names: Sequence[str], starts, options: dict,
     return runs
 
 
-def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, progress) -> list:
+def _problem(model, data, names, o: UpdateOptions, values, x0=None) -> Problem:
+    return Problem(model, data, names, x0=x0, values=values, parametrisation=o.solver.parametrisation, modal=o.modal,
+                   pairing=o.pairing, noise=o.noise)
+
+
+def _dask_runs(model, data, names, X0, options, values, scheduler: str, timeout: float, progress) -> list:
     """:func:`batched_runs` in chunks, one task each, on the Dask cluster at ``scheduler``."""
     from ...dask_cluster import collect, connect, task
 
@@ -129,7 +137,8 @@ def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, 
         n_chunks = max(1, min(R, 2 * sum(client.nthreads().values())))
         chunks = [c for c in np.array_split(np.arange(R), n_chunks) if c.size]
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(task, batched_runs, m_f, d_f, tuple(names), X0[c], options, pure=False, retries=2): k
+        futures = {client.submit(task, batched_runs, m_f, d_f, tuple(names), X0[c], options, values, pure=False,
+                                   retries=2): k
                    for k, c in enumerate(chunks)}
         parts: list = [None] * len(chunks)
 
@@ -146,7 +155,8 @@ def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, 
 
 def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
                        cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
-                       polish: bool = True, scheduler: str | None = None, connect_timeout: float = 10.0, **options):
+                       polish: bool = True, scheduler: str | None = None, connect_timeout: float = 10.0,
+                       values=None, options: UpdateOptions | None = None, **shorthand):
     """Multi-start updating with every start run in compiled code; same result as the local route.
 
     Parameters
@@ -165,7 +175,9 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
         compiled route (:func:`batched_runs`), with results bit-identical to a local run; the
         clustering and the polish run here.
     connect_timeout : seconds to wait for the scheduler and its first worker.
-    **options : options of :func:`~femupdate.update` (see :data:`SUPPORTED_OPTIONS`).
+    values : the fixed parameters' values, as :func:`femupdate.update` takes them.
+    options, **shorthand : the update's options (:class:`~femupdate.options.UpdateOptions`, or
+        its fields as keywords; :func:`unsupported` says which the route takes).
 
     Returns
     -------
@@ -176,24 +188,24 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     names = tuple(names)
     X0 = np.array(starts, dtype=float, ndmin=2)
     R = X0.shape[0]
+    options = UpdateOptions.of("multistart_batched", shorthand, options=options)
     reason = unsupported(model, options, explicit=True)
     if reason:
         raise InputError(f"batched multi-start: {reason}")
     t0 = time.perf_counter()
     if scheduler:
-        runs = _dask_runs(model, data, names, X0, options, scheduler, connect_timeout, progress)
+        runs = _dask_runs(model, data, names, X0, options, values, scheduler, connect_timeout, progress)
     else:
-        runs = batched_runs(model, data, names, X0, options, progress=progress)
+        runs = batched_runs(model, data, names, X0, options, values, progress=progress)
     batch_seconds = time.perf_counter() - t0
     ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol, parameter_scale(model, names))
     best = None
     if ok:
         k_best = min(ok, key=lambda k: runs[k].cost)
-        best = _polish(model, data, names, runs[k_best], options) if polish else None
+        best = _polish(model, data, names, runs[k_best], options, values) if polish else None
         if best is None:  # not asked for, or the polish failed: the full result at the batched solution
             run = runs[k_best]
-            prob_kw = {k: options[k] for k in PROBLEM_OPTIONS if k in options}
-            at = Problem(model, data, names, **dict(prob_kw, x0=run.start))
+            at = _problem(model, data, names, options, values, x0=run.start)
             best = dataclasses.replace(result_at(at, at.from_p(run.x), sol=run, history=run.history), swaps=[])
     log.info("batched multi-start: %d starts, %d converged, %d solutions, %d evaluations in total",
              R, len(ok), len(solutions), sum(r.nfev for r in runs if isinstance(r, BatchRun)))
@@ -204,10 +216,11 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed, batch_seconds=batch_seconds))
 
 
-def _polish(model, data, names, run: BatchRun, options) -> UpdateResult | None:
+def _polish(model, data, names, run: BatchRun, o: UpdateOptions, values) -> UpdateResult | None:
     """One full :func:`update` from a batched solution: diagnostics, swaps and a final check."""
     try:
-        res = update_modal(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), **options)
+        res = update_modal(model, data, params=list(names), x0=dict(zip(names, map(float, run.x))), values=values,
+                           modal=o.modal, pairing=o.pairing, noise=o.noise, solver=o.solver)
     except FemupdateError as exc:
         log.warning("polishing the best batched solution failed: %s", exc)
         return None

@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..._errors import InputError
+from ...options import ModalOptions, NoiseOptions, PairingOptions, SolverOptions, gather
 from ...model import Model
 from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, solve
 from ..parametrisation import start_vector
@@ -55,9 +56,8 @@ class Stacked(Parametrisation):
         configuration).
     """
 
-    def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, shape_scaling="unit",
-                 ref_dof=None, weights=None, measurement_std=None, min_mac=0.5, n_modes=None, use_shapes=True,
-                 sensitivity="auto", pairing="auto"):
+    def __init__(self, model, configurations, cms, names, *, parametrisation, p_base, modal: ModalOptions,
+                 pairing: PairingOptions, noise: NoiseOptions):
         if parametrisation not in PARAMETRISATIONS:
             raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
         super().__init__(model, names, parametrisation, p_base)
@@ -69,10 +69,8 @@ class Stacked(Parametrisation):
             cols = np.array([self.names.index(n) for n in mine], dtype=np.intp)
             pb = config_values(model, cm, c.modification, p_base)
             try:
-                prob = Problem(cm, c.data, mine, values=pb, shape_scaling=shape_scaling, ref_dof=ref_dof,
-                               weights=weights, measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                               parametrisation="absolute", use_shapes=use_shapes, sensitivity=sensitivity,
-                               pairing=pairing)
+                prob = Problem(cm, c.data, mine, values=pb, parametrisation="absolute", modal=modal, pairing=pairing,
+                               noise=noise)
             except InputError as exc:
                 raise InputError(f"configuration {c.label!r}: {exc}") from None
             self.subs.append((c.label, prob, cols))
@@ -177,12 +175,9 @@ class Stacked(Parametrisation):
 
 
 def update_configurations(model: Model, configurations: Sequence[Configuration], *, params: Sequence[str] | None = None,
-                          x0: Mapping[str, float] | None = None, shape_scaling: str = "unit", ref_dof: str | None = None,
-                          weights: Mapping | None = None, measurement_std: Mapping | None = None, min_mac: float = 0.5,
-                          n_modes: int | None = None, parametrisation: str = "relative", method: str = "trf",
-                          max_nfev: int = 200, ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10,
-                          use_shapes: bool = True, values=None, sensitivity: str = "auto",
-                          regularization: float | str | None = None, pairing: str = "auto") -> MultiConfigResult:
+                          x0: Mapping[str, float] | None = None, values=None, modal: ModalOptions | None = None,
+                          pairing: PairingOptions | str | None = None, noise: NoiseOptions | None = None,
+                          solver: SolverOptions | None = None, **shorthand) -> MultiConfigResult:
     """Iterative joint updating of several configurations from (incomplete) modal data.
 
     The residuals of every configuration (relative eigenvalue errors and scaled shape
@@ -200,33 +195,17 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
         The unknown parameters (default: every parameter not fixed).
     x0 : mapping of str to float, optional
         Starting values (default: ``values``, else nominal).
-    shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
-        Scaling of the shapes; ``ref_dof`` (``"node:dir"``) for ``"ref"``.
-    ref_dof : str, optional
-    weights : mapping, optional
-        ``{"eigenvalue": w or per-mode array, "shape": w}``.
-    measurement_std : mapping, optional
-        ``{"eigenvalue": relative std of λ, "shape": std of scaled shape entries}``.
-    min_mac : float, default 0.5
-        Pairing threshold.
-    n_modes : int, optional
-        Model modes computed per configuration (as :class:`femupdate.updating.Problem`).
-    parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-    max_nfev : int, default 200
-    ftol, xtol, gtol : float, default 1e-10
-        Options of :func:`scipy.optimize.least_squares`.
-    use_shapes : bool, default True
-        Include the shape residuals.
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
         Values of the known parameters (default nominal).
-    sensitivity : str, default ``"auto"``
-        Derivative route of the Jacobian (:func:`femupdate.sensitivity.jacobian`).
-    regularization : float, {"gcv", "lcurve"} or None, default None
-        Tikhonov factor, or the rule choosing it, pulling the scaled parameters toward the start.
-    pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
-        How each configuration's test modes are paired with its model modes
-        (:class:`femupdate.updating.Problem`).
+    modal, pairing, noise : option objects, optional
+        Each configuration's modal residuals, pairing and weighting, as :func:`femupdate.update`
+        takes them (:class:`~femupdate.options.ModalOptions` — the ``"shapes"`` formulation —,
+        :class:`~femupdate.options.PairingOptions`, :class:`~femupdate.options.NoiseOptions`).
+    solver : SolverOptions, optional
+        The solver, its variables and regularisation (a Tikhonov term pulls the scaled parameters
+        toward the start).
+    **shorthand
+        Fields of the option objects as keywords.
 
     Returns
     -------
@@ -242,22 +221,24 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     NumericalError
         As :func:`femupdate.updating.update`.
     """
+    o = gather("update_configurations", shorthand, modal=(ModalOptions, modal), pairing=(PairingOptions, pairing),
+               noise=(NoiseOptions, noise), solver=(SolverOptions, solver))
+    solver = o["solver"]
+    method = solver.method
+    if o["modal"].formulation != "shapes":
+        raise InputError(f"formulation {o['modal'].formulation!r}: joint updating of configurations takes the "
+                         "'shapes' formulation only")
     names = check_unknowns(model, params)
-    if method not in ("trf", "dogbox", "lm"):
-        raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     cms = prepare(model, configurations, names)
     p_base = start_vector(model, values, x0)
-    prob = Stacked(model, configurations, cms, names, parametrisation=parametrisation, p_base=p_base,
-                    shape_scaling=shape_scaling, ref_dof=ref_dof, weights=weights,
-                    measurement_std=measurement_std, min_mac=min_mac, n_modes=n_modes,
-                    use_shapes=use_shapes, sensitivity=sensitivity, pairing=pairing)
+    prob = Stacked(model, configurations, cms, names, parametrisation=solver.parametrisation, p_base=p_base,
+                   modal=o["modal"], pairing=o["pairing"], noise=o["noise"])
     n_data = prob.n_data()
-    if n_data < len(names) and regularization is None:
+    if n_data < len(names) and solver.regularization is None:
         raise InputError(f"{len(names)} parameters but only {n_data} independent data over all configurations "
                          "(eigenvalues and scaled shape entries): add configurations or data, fix parameters, "
                          "or use regularization")
-    sol, history, reg = solve(prob, model.bounds, regularization=regularization, method=method, ftol=ftol, xtol=xtol,
-                               gtol=gtol, max_nfev=max_nfev)
+    sol, history, reg = solve(prob, model.bounds, solver)
     p_final = prob.to_p(sol.x)
     blocks = prob.residual_blocks(sol.x)
     r = np.concatenate(blocks)

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..._errors import InputError
 from ...correlation import mac
+from ...options import ModalOptions, NoiseOptions, PairingOptions
 from ...model import Model
 from .configurations import Configuration, Modification, check_unknowns, prepare, simulate
 from .iterative import Stacked
@@ -164,8 +165,9 @@ def rank_modifications(model: Model, candidates: Sequence[Modification], measure
     configs = [Configuration(simulate(model, m, measured_dofs, n_modes, values), m) for m in mods]
     cms = prepare(model, configs, names)
     p = model.resolve(values)
-    prob = Stacked(model, configs, cms, names, parametrisation="relative", p_base=p, shape_scaling=shape_scaling,
-                    use_shapes=use_shapes, sensitivity=sensitivity)
+    prob = Stacked(model, configs, cms, names, parametrisation="relative", p_base=p,
+                   modal=ModalOptions(shape_scaling=shape_scaling, use_shapes=use_shapes, sensitivity=sensitivity),
+                   pairing=PairingOptions(), noise=NoiseOptions())
     x = prob.from_p(p[prob.idx])
     S = prob.normalised_blocks(x)
     base = _information(S[0])
