@@ -53,6 +53,7 @@ _LAZY = {
     # identifiability, reduction, damage
     "counting_criteria": "uniqueness", "exact_solutions": "uniqueness", "define_study": "uniqueness",
     "run_study": "uniqueness", "reduce": "reduction", "expand": "reduction", "detect_damage": "damage",
+    "DamageOptions": "damage",
 }
 _RENAMED = {"load_test_data": "load_testdata", "simulate_frf": "simulate"}
 
@@ -75,7 +76,7 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .correlation import Correlation, correlate, mac
     from .dask_cluster import ClusterError
-    from .damage import detect_damage
+    from .damage import DamageOptions, detect_damage
     from .direct import DirectResult, direct_update
     from .frf import simulate as simulate_frf  # type: ignore[no-redef]  # frf.simulate is also a module
     from .io.model_file import load_model

@@ -131,98 +131,27 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
            allow_increase, min_change, iterations, refine, level, max_located, bootstrap, noise_frequency, noise_shape,
            seed, max_frequency_error, min_mac, localise_min_mac, measured_text, report_path, set_text, json_path):
     """Localise, refine and verify damage in DATA from the validated BASELINE_MODEL."""
-    from ..damage import damage_unknowns, detect_damage
+    from ..damage import DamageOptions, detect_damage
 
     ctx = Ctx(json_path)
-    structure, model = _load_structure(baseline_path)
-    notes = []
-    if structure is not None:
-        values = parse_set(set_text)
-        check_set(model, values)
-        du = damage_unknowns(structure, values, unknowns_kind)
-        model, kind, descriptions = du.model, du.kind, du.descriptions
-        notes += du.notes
-    else:
-        values = model_values(model, set_text)
-        model = model.with_values(values) if values is not None else model
-        kind, descriptions = "parameters", {}
-        if unknowns_kind == "elements":
-            raise InputError(f"{baseline_path}: a [matrices] model has no elements; its parameters are the unknowns "
-                             "(--unknowns parameters)")
-        notes.append("matrix model: its parameters are the unknowns")
+    structure, model, kind, descriptions, notes = _damage_model(baseline_path, unknowns_kind, set_text)
     data = load_data(data_path, model, measured_text)
     undamaged = load_data(undamaged_path, model, measured_text) if undamaged_path is not None else None
     notes = [*data.notes, *(undamaged.notes if undamaged is not None else ()), *notes]
     if undamaged is None:
         notes.append("no --undamaged data: the baseline was not checked against the undamaged structure")
+    options = DamageOptions(method=method, alpha=alpha, expansion=expansion, n_basis=n_basis,
+                            allow_increase=allow_increase, min_change=min_change, iterations=iterations,
+                            bootstrap=bootstrap, seed=seed, localise_min_mac=localise_min_mac,
+                            max_frequency_error=max_frequency_error, min_mac=min_mac, refine=refine, level=level,
+                            max_located=max_located)
     noise = {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
-    res = detect_damage(model, data, undamaged=undamaged, elements=_names(elements_text), method=method, alpha=alpha,
-                        expansion=expansion, n_basis=n_basis, allow_increase=allow_increase, min_change=min_change,
-                        iterations=iterations, bootstrap=bootstrap, noise=noise, seed=seed,
-                        localise_min_mac=localise_min_mac, max_frequency_error=max_frequency_error, min_mac=min_mac,
-                        refine=refine, level=level, max_located=max_located, descriptions=descriptions)
-    c = ctx.console
-    what = "element stiffnesses" if kind == "elements" else "stiffness parameters"
-    t = Table(title=f"{model.name}: {len(res.changes)} {what}, {len(data.modes)} measured modes")
-    for col in ("test mode", "baseline mode", "MAC", "frequency change"):
-        t.add_column(col, justify="right")
-    for (k, j, m), fc in zip(res.pairs, res.frequency_change):
-        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
-    c.print(t)
-    confirmed = res.status == "confirmed"
-    if res.localised:
-        head = {"confirmed": "located and verified", "doubtful": "located, DOUBTFUL",
-                "unverified": "located, NOT verified (--no-refine)"}[res.status]
-        t = Table(title=f"{head} (localisation {res.method}, alpha {res.alpha:.3g})")
-        cols = ["unknown", "what", "change", "std. error", "misfit without it", "selected in replicates"]
-        for col in cols:
-            t.add_column(col, justify="left" if col in ("unknown", "what") else "right")
-        sel = res.confidence.get("selection_frequency", {})
-        se = res.confidence.get("standard_error", {})
-        ev = res.confidence.get("evidence", {})
-        for n in res.located:
-            t.add_row(n, res.descriptions.get(n, ""), f"{res.changes[n] * 100:+.1f} %", _pct(se.get(n)),
-                      "-" if n not in ev else f"{ev[n]:.3g}",
-                      f"{sel[n] * 100:.0f} %" if confirmed and n in sel and np.isfinite(sel[n]) else "-")
-        if res.located:
-            c.print(t)
-        else:
-            c.print("no unknown changed by more than the threshold")
-        v = res.verification
-        if v:
-            c.print(f"verification: chi-square {v['chi2']:.4g} for a limit of {v['limit']:.4g} ({v['dof']} degrees of "
-                    f"freedom, level {v['level']:g}; noise: frequency {v['noise']['frequency']:g}, shape "
-                    f"{v['noise']['shape']:g}): the located set reproduces the data"
-                    + ("" if res.located else " (the baseline does)"))
-        if confirmed and res.confidence.get("bootstrap"):
-            c.print(f"bootstrap: {res.confidence['bootstrap']} replicates simulated from the identified model, each "
-                    f"re-localised, refined and verified: {res.confidence['same_set'] * 100:.0f} % locate exactly this set")
-        if res.status == "unverified":
-            c.print("warning: not verified: the localisation step's answer was not checked against the data "
-                    "(--no-refine); its bootstrap varies the noise only", markup=False)
-        for d in res.doubts:
-            c.print(f"warning: doubtful: {d}", markup=False)
-        if res.tikhonov:
-            c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} unknown(s) by more than "
-                    f"{min_change * 100:g} %")
-    else:
-        c.print(f"[bold]not localised[/bold]: {res.reason}")
-    rate = res.confidence.get("false_positive_rate")
-    if rate:
-        c.print(_fp_line(rate), markup=False)
+    res = detect_damage(model, data, undamaged=undamaged, elements=_names(elements_text), noise=noise,
+                        descriptions=descriptions, options=options)
+    _print_damage(ctx.console, res, model, data, kind, options.min_change)
     for n in notes + res.notes:
-        c.print(f"note: {n}", markup=False)
-    payload = {
-        "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
-        "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
-        "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
-        "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
-        "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
-        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
-        "status": res.status, "doubts": res.doubts, "verification": res.verification,
-        "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
-        **parameter_fields(model, list(res.changes)),
-    }
+        ctx.console.print(f"note: {n}", markup=False)
+    payload = _damage_payload(model, data, res, kind, notes)
     emit(ctx, payload)
     if report_path is not None:
         from ..fullfield import structure_segments
@@ -233,6 +162,100 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
         click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
     if not res.localised:
         raise NumericalError(f"damage not localised: {res.reason}")
+
+
+def _damage_model(path: Path, unknowns_kind: str, set_text):
+    """(structure or None, model, kind of unknowns, their descriptions, notes) of the baseline file."""
+    from ..damage import damage_unknowns
+
+    structure, model = _load_structure(path)
+    if structure is not None:
+        values = parse_set(set_text)
+        check_set(model, values)
+        du = damage_unknowns(structure, values, unknowns_kind)
+        return structure, du.model, du.kind, du.descriptions, list(du.notes)
+    values = model_values(model, set_text)
+    model = model.with_values(values) if values is not None else model
+    if unknowns_kind == "elements":
+        raise InputError(f"{path}: a [matrices] model has no elements; its parameters are the unknowns "
+                         "(--unknowns parameters)")
+    return None, model, "parameters", {}, ["matrix model: its parameters are the unknowns"]
+
+
+def _located_table(res) -> Table:
+    """The located unknowns: change, standard error, evidence and share of the replicates."""
+    confirmed = res.status == "confirmed"
+    head = {"confirmed": "located and verified", "doubtful": "located, DOUBTFUL",
+            "unverified": "located, NOT verified (--no-refine)"}[res.status]
+    t = Table(title=f"{head} (localisation {res.method}, alpha {res.alpha:.3g})")
+    cols = ["unknown", "what", "change", "std. error", "misfit without it", "selected in replicates"]
+    for col in cols:
+        t.add_column(col, justify="left" if col in ("unknown", "what") else "right")
+    sel = res.confidence.get("selection_frequency", {})
+    se = res.confidence.get("standard_error", {})
+    ev = res.confidence.get("evidence", {})
+    for n in res.located:
+        t.add_row(n, res.descriptions.get(n, ""), f"{res.changes[n] * 100:+.1f} %", _pct(se.get(n)),
+                  "-" if n not in ev else f"{ev[n]:.3g}",
+                  f"{sel[n] * 100:.0f} %" if confirmed and n in sel and np.isfinite(sel[n]) else "-")
+    return t
+
+
+def _print_located(c, res, min_change: float) -> None:
+    """The located set, its verification, bootstrap, doubts and the Tikhonov comparison."""
+    if res.located:
+        c.print(_located_table(res))
+    else:
+        c.print("no unknown changed by more than the threshold")
+    v = res.verification
+    if v:
+        c.print(f"verification: chi-square {v['chi2']:.4g} for a limit of {v['limit']:.4g} ({v['dof']} degrees of "
+                f"freedom, level {v['level']:g}; noise: frequency {v['noise']['frequency']:g}, shape "
+                f"{v['noise']['shape']:g}): the located set reproduces the data"
+                + ("" if res.located else " (the baseline does)"))
+    if res.status == "confirmed" and res.confidence.get("bootstrap"):
+        c.print(f"bootstrap: {res.confidence['bootstrap']} replicates simulated from the identified model, each "
+                f"re-localised, refined and verified: {res.confidence['same_set'] * 100:.0f} % locate exactly this set")
+    if res.status == "unverified":
+        c.print("warning: not verified: the localisation step's answer was not checked against the data "
+                "(--no-refine); its bootstrap varies the noise only", markup=False)
+    for d in res.doubts:
+        c.print(f"warning: doubtful: {d}", markup=False)
+    if res.tikhonov:
+        c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} unknown(s) by more than "
+                f"{min_change * 100:g} %")
+
+
+def _print_damage(c, res, model, data, kind: str, min_change: float) -> None:
+    """The pairing with the baseline, then the located set (or why there is none) and the benchmark's rate."""
+    what = "element stiffnesses" if kind == "elements" else "stiffness parameters"
+    t = Table(title=f"{model.name}: {len(res.changes)} {what}, {len(data.modes)} measured modes")
+    for col in ("test mode", "baseline mode", "MAC", "frequency change"):
+        t.add_column(col, justify="right")
+    for (k, j, m), fc in zip(res.pairs, res.frequency_change):
+        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
+    c.print(t)
+    if res.localised:
+        _print_located(c, res, min_change)
+    else:
+        c.print(f"[bold]not localised[/bold]: {res.reason}")
+    rate = res.confidence.get("false_positive_rate")
+    if rate:
+        c.print(_fp_line(rate), markup=False)
+
+
+def _damage_payload(model, data, res, kind: str, notes: list[str]) -> dict:
+    return {
+        "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
+        "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
+        "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
+        "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
+        "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
+        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
+        "status": res.status, "doubts": res.doubts, "verification": res.verification,
+        "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
+        **parameter_fields(model, list(res.changes)),
+    }
 
 
 # ---------------------------------------------------------------------------------- update-multi

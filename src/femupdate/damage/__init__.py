@@ -7,8 +7,10 @@
 :func:`check_baseline`                    the baseline against the undamaged structure's data
                                           (:mod:`.baseline`)
 :func:`detect_damage`                     damage from a validated baseline: localise
-                                          (expansion, sparse regularisation), refine and
-                                          verify (:mod:`.refine`), bootstrap; :mod:`.detect`
+                                          (expansion, sparse regularisation; :mod:`.localise`),
+                                          refine and verify (:mod:`.refine`, :mod:`.verify`),
+                                          bootstrap (:mod:`.bootstrap`), judge; :mod:`.detect`
+:class:`DamageOptions`                    its method's knobs, checked (:mod:`.options`)
 :func:`~.rates.comparable_rate`           the benchmark's false-positive rate for comparable
                                           noise, sensors and modes (:mod:`.rates`)
 :func:`l1_solve`, :func:`~.solvers.tikhonov`  the regularised solvers (:mod:`.solvers`)
@@ -20,8 +22,9 @@ full-field scans in :mod:`femupdate.fullfield`.
 
 from .baseline import BaselineCheck, check_baseline
 from .detect import DamageResult, detect_damage
+from .options import DamageOptions
 from .parameters import DamageUnknowns, damage_unknowns, element_parameters
 from .solvers import l1_solve
 
 __all__ = ["element_parameters", "damage_unknowns", "DamageUnknowns", "check_baseline", "BaselineCheck", "detect_damage",
-           "DamageResult", "l1_solve"]
+           "DamageResult", "DamageOptions", "l1_solve"]
