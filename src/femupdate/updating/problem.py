@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import rules
 from .._errors import InputError, NumericalError
+from ..correlation import check_pairing, pair
 from ..modal import Modes, model_modes
 from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
@@ -148,7 +149,7 @@ class Problem(Parametrisation):
         complete modal method).
     pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
         How test modes are paired with model modes at each evaluation
-        (:func:`femupdate.rules.pair_modes`): ``"auto"`` by frequency order until the shapes show
+        (:func:`femupdate.correlation.pair`, strict): ``"auto"`` by frequency order until the shapes show
         a swap (then by MAC), never abandoning a start; ``"mac"`` by MAC, a test mode below
         ``min_mac`` failing; ``"order"`` by frequency order; ``"frequency"`` by the nearest
         frequency, MAC deciding within 10 %.
@@ -230,14 +231,7 @@ class Problem(Parametrisation):
             raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SHAPE_SCALINGS)}")
         if sensitivity not in SENSITIVITY_CHOICES:
             raise InputError(f"unknown sensitivity method {sensitivity!r}: use {', '.join(SENSITIVITY_CHOICES)}")
-        try:
-            min_mac = float(min_mac)
-        except (TypeError, ValueError):
-            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
-        if not 0.0 <= min_mac <= 1.0:
-            raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
-        if pairing not in rules.PAIRINGS:
-            raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+        min_mac = check_pairing(pairing, min_mac)
         check_formulation(formulation, shape_scaling=shape_scaling, ref_dof=ref_dof, use_shapes=use_shapes,
                           sensitivity=sensitivity, weights=weights, measurement_std=measurement_std)
         self.formulation = formulation
@@ -341,24 +335,19 @@ class Problem(Parametrisation):
         tg = self.targets
         T, nm = tg.n_test, min(tg.nm, modes.n_modes)
         shaped = tg.shaped
-        MAC = np.zeros((T, max(nm, 1)))
+        MAC = np.zeros((T, nm))
         for k in map(int, np.flatnonzero(shaped)):
             sl = tg.measured(k)
-            rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k, :nm])
-        pairs = np.zeros(T, np.int64)
-        bad = np.zeros(T, np.bool_)
-        code, i, used = rules.pair_modes(rules.PAIRINGS[self.pairing], MAC, shaped, modes.eigenvalues, tg.lam_e,
-                                         nm, self.min_mac, pairs, bad)
-        if code != rules.OK:
-            raise NumericalError(rules.message(code, i, modes=np.flatnonzero(bad), min_mac=self.min_mac))
-        out = [(k, int(pairs[k]), float(MAC[k, pairs[k]]) if shaped[k] else math.nan) for k in range(T)]
-        for k, j, _ in out:
+            rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k])
+        pg = pair(MAC, rule=self.pairing, min_mac=self.min_mac, shaped=shaped, model_eigenvalues=modes.eigenvalues,
+                  test_eigenvalues=tg.lam_e, strict=True)
+        for k, j, _ in pg.pairs:
             if k in self._pairs_seen and self._pairs_seen[k] != j:
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
-                                   "to_model_mode": j, "rule": rules.PAIRING_NAMES[used]})
+                                   "to_model_mode": j, "rule": pg.used})
             self._pairs_seen[k] = j
-        self.pairing_used = rules.PAIRING_NAMES[used]
-        return out
+        self.pairing_used = pg.used
+        return list(pg.pairs)
 
     def residuals(self, x) -> np.ndarray:
         """The residual vector at x: per test mode its eigenvalue residual
