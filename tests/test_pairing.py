@@ -275,6 +275,9 @@ def test_pair_refuses_bad_input_naming_it():
         pair_entry(M, rule="mac", shaped=[True, True, False])
     with pytest.raises(InputError, match="1 model and 2 test eigenvalues"):
         pair_entry(M, rule="order", model_eigenvalues=[1.0], test_eigenvalues=[1.0, 2.0])
+    with pytest.raises(NumericalError, match=r"non-finite MAC of test mode\(s\) \[2\]"):
+        pair_entry([[1.0, 0.0], [np.nan, 0.5]], rule="mac")
+    assert pair_entry([[1.0, 0.0], [np.nan, 0.5]], rule="mac", shaped=[True, False]).pairs[0] == (0, 0, 1.0)
 
 
 def test_correlate_keeps_the_pairing_it_made():

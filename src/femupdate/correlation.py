@@ -219,7 +219,8 @@ def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, m
         An unknown ``rule``; ``min_mac`` not in [0, 1]; a MAC matrix that is not 2-D; ``shaped``
         or the eigenvalues of the wrong length, or missing where ``rule`` needs them.
     NumericalError
-        ``strict`` and a test mode cannot be paired (the message names it).
+        ``strict`` and a test mode cannot be paired (the message names it); a non-finite MAC of a
+        test mode with a shape.
     """
     min_mac = check_pairing(rule, min_mac)
     M = np.asarray(mac_matrix, dtype=float)
@@ -230,6 +231,9 @@ def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, m
     if shaped.shape != (T,):
         raise InputError(f"pair: shaped has {shaped.size} entries for {T} test modes")
     lam, lam_e = _eigenvalues(rule, model_eigenvalues, test_eigenvalues, T, nm)
+    bad_rows = np.flatnonzero(shaped & ~np.isfinite(M).all(axis=1))
+    if bad_rows.size:
+        raise NumericalError(f"pair: non-finite MAC of test mode(s) {[int(k) + 1 for k in bad_rows]}")
     if nm == 0:  # the rules read a first column
         M = np.zeros((T, 1))
     policy = PAIRINGS[rule]
@@ -240,7 +244,8 @@ def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, m
     if code != OK:
         if strict:
             raise NumericalError(message(code, i, modes=np.flatnonzero(bad), min_mac=min_mac))
-        assign(-M, T, nm, cols)  # the assignment of largest total MAC of those there are
+        # the assignment of largest total MAC of those there are (a mode without shape at MAC 0)
+        assign(-np.where(shaped[:, None], M, 0.0), T, nm, cols)
         used = PAIR_MAC
     pairs = [(k, int(cols[k]), float(M[k, cols[k]]) if shaped[k] else math.nan) for k in range(T) if cols[k] >= 0]
     if policy == PAIR_MAC and not strict:
