@@ -53,7 +53,7 @@ if (HERE.parent / "src" / "femupdate").is_dir():  # benchmark the checked-out so
     sys.path.insert(0, str(HERE.parent / "src"))
 from _probes import Phase, write_results  # noqa: E402
 from femupdate import Structure, model_modes  # noqa: E402
-from femupdate.correlation import mac, pair_modes  # noqa: E402
+from femupdate.correlation import mac, pair  # noqa: E402
 from femupdate.generators import chs_section  # noqa: E402
 from femupdate.sensitivity import buffered_modes, jacobian, scaled_shape  # noqa: E402
 from femupdate.sensitivity.factor import prepare_factor  # noqa: E402
@@ -201,7 +201,7 @@ def run(size) -> dict:
     h = FD_STEP * abs(p0[j_fd])
     sides = []
     for pert in solutions[:2]:
-        pairs = {t: q for t, q, _ in pair_modes(mac(base, pert.shapes), min_mac=0.0)}
+        pairs = {t: q for t, q, _ in pair(mac(base, pert.shapes), rule="mac", min_mac=0.0).pairs}
         lam_p = np.array([pert.eigenvalues[pairs[r]] for r in range(N_MODES)])
         shp = np.column_stack([pert.shapes[:, pairs[r]] for r in range(N_MODES)])
         shp *= np.sign(np.sum(shp * base, axis=0))

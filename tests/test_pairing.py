@@ -1,13 +1,19 @@
 """Pairing of test modes with model modes (femupdate.rules.pair_modes): the policies mac, order,
 frequency and auto, the same on the local and the compiled route, and what each does for a start
-far from the data (issue: pairing that never throws a start away)."""
+far from the data (issue: pairing that never throws a start away); the one assignment and the one
+MAC against SciPy and the closed form, and the entry point femupdate.correlation.pair."""
 
+import dataclasses
+import itertools
 import json
 
 import numpy as np
 import pytest
+from scipy.optimize import linear_sum_assignment
 
-from femupdate import MeasuredMode, NumericalError, Structure, TestData, model_modes, rules
+from femupdate import InputError, MeasuredMode, NumericalError, Structure, TestData, model_modes, rules
+from femupdate.correlation import Pairing, correlate, mac, pair_modes
+from femupdate.correlation import pair as pair_entry
 from femupdate.generators import shear_building
 from femupdate.updating import multistart, update
 
@@ -97,6 +103,191 @@ def test_pairing_rule_names_what_made_the_pairs():
     assert rules.pairing_rule("auto", [1, 0], [2.0, 1.0]) == "order"
     assert rules.pairing_rule("auto", [7, 6], [2.0, 1.0]) == "order"  # after six rigid-body modes
     assert rules.pairing_rule("frequency", [0, 1], [1.0, 2.0]) == "frequency"
+
+
+# ------------------------------------------------------------------ the one assignment, against SciPy
+def mac_matrices(n=400, seed=7):
+    """Random MAC-like matrices, rectangular either way, many with ties: continuous values, values
+    from a few levels (exact in binary, so equal totals are equal), repeated columns, zero rows."""
+    rng = np.random.default_rng(seed)
+    for c in range(n):
+        nr, nc = rng.integers(1, 7, size=2)
+        kind = c % 4
+        if kind == 0:
+            M = rng.random((nr, nc))
+        elif kind == 1:
+            M = rng.choice([0.0, 0.25, 0.5, 0.75, 1.0], size=(nr, nc))
+        elif kind == 2:  # repeated columns
+            base = rng.random((nr, rng.integers(1, nc + 1)))
+            M = base[:, rng.integers(0, base.shape[1], size=nc)]
+        else:
+            M = rng.choice([0.0, 0.5, 1.0], size=(nr, nc))
+            M[rng.integers(0, nr)] = 0.0
+        yield np.ascontiguousarray(M, dtype=float)
+
+
+def optimum(M):
+    """Every assignment's total MAC by brute force: the best total, and whether only one assignment
+    reaches it (then SciPy's pairs are the pairs)."""
+    nr, nc = M.shape
+    if nr <= nc:
+        totals = np.array([M[np.arange(nr), list(cols)].sum() for cols in itertools.permutations(range(nc), nr)])
+    else:
+        totals = np.array([M[list(rows), np.arange(nc)].sum() for rows in itertools.permutations(range(nr), nc)])
+    best = totals.max()
+    return best, int(np.sum(totals >= best - 1e-12)) == 1
+
+
+def scipy_pairs(M):
+    rows, cols = linear_sum_assignment(M, maximize=True)
+    return sorted((int(r), int(c)) for r, c in zip(rows, cols))
+
+
+def _assign_py(C, nr, nc, out):
+    rules.assign(C, nr, nc, out)
+
+
+def _compiled_assign():
+    import numba
+
+    import femupdate.updating.batched.kernel  # noqa: F401  (registers the rules with numba)
+
+    @numba.njit(error_model="numpy")
+    def assign_c(C, nr, nc, out):
+        rules.assign(C, nr, nc, out)
+
+    return assign_c
+
+
+@pytest.mark.parametrize("route", ["python", "compiled"])
+def test_the_assignment_kernel_agrees_with_scipy(route):
+    """rules.assign on -MAC, both routes, rectangular either way, with ties: every row of the
+    smaller side assigned, distinct, at SciPy's (and the brute-force) total; SciPy's very pairs
+    wherever the optimum is unique."""
+    assign = _assign_py if route == "python" else _compiled_assign()
+    unique = 0
+    for M in mac_matrices():
+        nr, nc = M.shape
+        out = np.full(nr, -7, np.int64)
+        assign(np.ascontiguousarray(-M), nr, nc, out)
+        got = sorted((r, int(c)) for r, c in enumerate(out) if c >= 0)
+        assert len(got) == min(nr, nc) and np.all((out >= -1) & (out < nc))
+        assert len({c for _, c in got}) == len(got)
+        ref = scipy_pairs(M)
+        best, only = optimum(M)
+        total = sum(M[r, c] for r, c in got)
+        assert total == pytest.approx(best, abs=1e-12) and sum(M[r, c] for r, c in ref) == pytest.approx(best, abs=1e-12)
+        if only:
+            unique += 1
+            assert got == ref, M
+    assert unique > 100  # the comparison of pairs is not vacuous
+
+
+def test_the_entry_point_pairs_by_mac_as_scipy_does():
+    """pair(rule="mac", min_mac=0) — the policy rule (its shortcut when each best match is clear,
+    else the assignment), and the assignment of those there are when test modes outnumber model
+    modes — gives SciPy's total, and SciPy's pairs wherever the optimum is unique; the old
+    pair_modes is its alias."""
+    for M in mac_matrices(seed=11):
+        got = pair_entry(M, rule="mac", min_mac=0.0)
+        best, only = optimum(M)
+        assert len(got.pairs) == min(M.shape) and got.used == "mac" and not got.unconfirmed
+        assert sum(m for _, _, m in got.pairs) == pytest.approx(best, abs=1e-12)
+        assert [k for k, _, _ in got.pairs] == sorted(k for k, _, _ in got.pairs)
+        assert set(got.unpaired) == set(range(M.shape[0])) - {k for k, _, _ in got.pairs}
+        if only:
+            assert [(k, j) for k, j, _ in got.pairs] == scipy_pairs(M)
+        assert pair_modes(M, 0.3) == [p for p in got.pairs if p[2] >= 0.3]
+
+
+# ------------------------------------------------------------------ the one MAC
+def test_mac_matrix_and_the_compiled_rule_share_one_formula(rng):
+    A, B = rng.standard_normal((7, 3)), rng.standard_normal((7, 5))
+    B[:, 2] = 0.0  # a zero shape: MAC 0, not NaN
+    closed = np.array([[(a @ b) ** 2 / ((a @ a) * (b @ b)) if b @ b > 0 else 0.0 for b in B.T] for a in A.T])
+    np.testing.assert_allclose(mac(A, B), closed, rtol=1e-13, atol=0)
+    for r in range(3):
+        out = np.full(5, -1.0)
+        rules.mac_vector(A[:, r], B, out)
+        np.testing.assert_allclose(out, closed[r], rtol=1e-13, atol=0)
+    Z = A + 1j * rng.standard_normal((7, 3))  # complex: |aᴴb|² / (aᴴa bᴴb)
+    want = np.array([[abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * (b @ b)) if b @ b > 0 else 0.0 for b in B.T]
+                     for a in Z.T])
+    np.testing.assert_allclose(mac(Z, B), want, rtol=1e-13, atol=0)
+    assert rules.mac_value(4.0, 2.0, 2.0) == 1.0 and rules.mac_value(4.0 + 1e-12, 2.0, 2.0) == 1.0  # clipped
+    assert rules.mac_value(0.0, 0.0, 1.0) == 0.0
+
+
+# ------------------------------------------------------------------ the entry point
+def hz2lam(f):
+    return (2 * np.pi * np.asarray(f, float)) ** 2
+
+
+def test_pairing_says_what_it_did():
+    f_model, f_test = [5.0, 9.8, 10.3, 30.0], [10.0, 5.2, 24.0]
+    M = np.array([[0.1, 0.2, 0.95, 0.0],   # test 1 (10 Hz): model 3 (10.3 Hz) by shape
+                  [0.97, 0.1, 0.0, 0.0],   # test 2 (5.2 Hz): model 1
+                  [0.0, 0.1, 0.0, 0.3]])   # test 3 (24 Hz): nearest is model 4 (30 Hz), a low MAC
+    kw = dict(model_eigenvalues=hz2lam(f_model), test_eigenvalues=hz2lam(f_test))
+    pg = pair_entry(M, rule="frequency", min_mac=0.5, **kw)
+    assert isinstance(pg, Pairing) and (pg.rule, pg.used) == ("frequency", "frequency")
+    assert [(k, j) for k, j, _ in pg.pairs] == [(0, 2), (1, 0), (2, 3)] and [m for *_, m in pg.pairs] == [0.95, 0.97, 0.3]
+    expected = [(10.3 - 10.0) / 10.0, (5.0 - 5.2) / 5.2, (30.0 - 24.0) / 24.0]
+    np.testing.assert_allclose(pg.frequency_error, expected, rtol=1e-12)
+    assert pg.unconfirmed == (2,) and pg.large_change == (2,) and pg.unpaired == ()
+    # order pairs 5.2 Hz with 5 Hz, 10 Hz with 9.8 Hz, 24 Hz with 10.3 Hz: the shapes confirm only one pair
+    order = pair_entry(M, rule="order", min_mac=0.5, **kw)
+    assert [(k, j) for k, j, _ in order.pairs] == [(0, 1), (1, 0), (2, 2)] and order.unconfirmed == (0, 2)
+    assert order.large_change == (2,)
+    # auto: the shapes show no clear swap for every mode (test 3's best is 0.3): order
+    assert pair_entry(M, rule="auto", min_mac=0.5, **kw).used == "order"
+    # by MAC, leniently (as correlate): test 3 is left unpaired; strictly (as update): a failure naming it
+    lenient = pair_entry(M, rule="mac", min_mac=0.5)
+    assert [(k, j) for k, j, _ in lenient.pairs] == [(0, 2), (1, 0)] and lenient.unpaired == (2,)
+    assert np.isnan(lenient.frequency_error).all() and lenient.large_change == ()
+    with pytest.raises(NumericalError, match=r"test mode\(s\) \[3\] pair with no model mode"):
+        pair_entry(M, rule="mac", min_mac=0.5, strict=True)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        pg.used = "mac"  # type: ignore[misc]
+
+
+def test_more_test_modes_than_model_modes():
+    M = np.array([[0.9, 0.1], [0.2, 0.8], [0.95, 0.3]])
+    kw = dict(model_eigenvalues=[1.0, 4.0], test_eigenvalues=[1.0, 4.0, 1.1])
+    pg = pair_entry(M, rule="order", **kw)  # order runs out of model modes: the best MAC assignment of those there are
+    assert [(k, j) for k, j, _ in pg.pairs] == [(1, 1), (2, 0)] and pg.unpaired == (0,) and pg.used == "mac"
+    with pytest.raises(NumericalError, match="no model mode left"):
+        pair_entry(M, rule="order", strict=True, **kw)
+    assert pair_entry(np.zeros((2, 0)), rule="mac").unpaired == (0, 1)
+
+
+def test_pair_refuses_bad_input_naming_it():
+    M = np.eye(2)
+    with pytest.raises(InputError, match="unknown pairing 'nearest'"):
+        pair_entry(M, rule="nearest")
+    with pytest.raises(InputError, match="min_mac must be a number between 0 and 1, got 1.5"):
+        pair_entry(M, rule="mac", min_mac=1.5)
+    with pytest.raises(InputError, match="pairing 'auto' needs the eigenvalues"):
+        pair_entry(M)
+    with pytest.raises(InputError, match="2-D"):
+        pair_entry(np.ones(3), rule="mac")
+    with pytest.raises(InputError, match="shaped has 3 entries for 2 test modes"):
+        pair_entry(M, rule="mac", shaped=[True, True, False])
+    with pytest.raises(InputError, match="1 model and 2 test eigenvalues"):
+        pair_entry(M, rule="order", model_eigenvalues=[1.0], test_eigenvalues=[1.0, 2.0])
+    with pytest.raises(NumericalError, match=r"non-finite MAC of test mode\(s\) \[2\]"):
+        pair_entry([[1.0, 0.0], [np.nan, 0.5]], rule="mac")
+    assert pair_entry([[1.0, 0.0], [np.nan, 0.5]], rule="mac", shaped=[True, False]).pairs[0] == (0, 0, 1.0)
+
+
+def test_correlate_keeps_the_pairing_it_made():
+    model = free_chain()
+    mm = model_modes(model)
+    data = TestData(modes=tuple(MeasuredMode(mm.eigenvalues[j], model.dofs, mm.shapes[:, j]) for j in (2, 1)))
+    corr = correlate(data, mm)
+    assert corr.pairing is not None and corr.pairing.rule == "auto" and corr.pairing.used == "order"
+    assert corr.pairs == list(corr.pairing.pairs) and [(k, j) for k, j, _ in corr.pairs] == [(0, 2), (1, 1)]
+    np.testing.assert_allclose(corr.pairing.frequency_error, 0.0, atol=1e-12)
 
 
 # ------------------------------------------------------------------ updating

@@ -630,5 +630,7 @@ def test_degenerate_inputs_fail_cleanly(impl):
     out = np.zeros(3)
     assert int(f["shape_residuals"](rules.UNIT, np.zeros(3), np.array([1.0, 0.0, 0.0]), -1, 1.0, out)) >= 0
     cols = np.zeros(2, np.int64)
-    f["assign"](np.ones((2, 1)), 2, 1, cols)
-    assert list(cols) == [-1, -1]
+    f["assign"](np.ones((2, 1)), 2, 1, cols)  # the one column takes one row, the other row is left over
+    assert sorted(cols.tolist()) == [-1, 0]
+    f["assign"](np.ones((2, 0)), 2, 0, cols)  # no column at all
+    assert cols.tolist() == [-1, -1]

@@ -35,7 +35,8 @@ _LAZY = {
     "Model": "model", "Parameter": "model", "from_matrices": "model", "Structure": "structure",
     # modal solution and correlation
     "Modes": "modal", "model_modes": "modal", "solve_modes": "modal", "normalise": "modal",
-    "Correlation": "correlation", "correlate": "correlation", "mac": "correlation",
+    "Correlation": "correlation", "correlate": "correlation", "mac": "correlation", "pair": "correlation",
+    "Pairing": "correlation",
     # data
     "FRFData": "testdata", "MeasuredMode": "testdata", "StaticData": "testdata", "TestData": "testdata",
     # files
@@ -74,7 +75,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
-    from .correlation import Correlation, correlate, mac
+    from .correlation import Correlation, Pairing, correlate, mac, pair
     from .dask_cluster import ClusterError
     from .damage import DamageOptions, detect_damage
     from .direct import DirectResult, direct_update

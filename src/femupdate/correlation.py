@@ -1,5 +1,11 @@
 r"""Correlation of test and model modes: MAC, pairing, frequency errors, COMAC.
 
+:func:`pair` is femupdate's one entry point for pairing test modes with model modes: every
+pairing outside the compiled kernels goes through it (``correlate``, ``update``'s
+:class:`~femupdate.updating.Problem`, finite-difference sensitivities, reduction metrics, the
+report), and it returns a :class:`Pairing` that says what it did.  It and the compiled route
+share the rules of :mod:`femupdate.pairing_rules` (the MAC, the assignment, the policies).
+
 All functions that take labelled shapes compare them on the dofs they have in common, by
 label, never by index.
 """
@@ -11,10 +17,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-from ._errors import InputError
+from ._errors import InputError, NumericalError
+from ._rulebase import OK, message
 from .dofs import canonical_all
+from .pairing_rules import FREQUENCY_WINDOW, PAIR_MAC, PAIRING_NAMES, PAIRINGS, assign, mac_value, pair_modes as _kernel
 
 
 def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -22,7 +29,9 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
     .. math:: \mathrm{MAC}_{rs} = |a_r^H b_s|^2 / ((a_r^H a_r)(b_s^H b_s))
 
-    Real or complex; independent of each column's scaling.
+    Real or complex; independent of each column's scaling.  The inner products are BLAS's, the
+    formula (with its 0 for a zero shape and its clipping) the rule
+    :func:`femupdate.pairing_rules.mac_value` that the compiled route applies.
 
     Parameters
     ----------
@@ -50,10 +59,10 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     if A.shape[0] != B.shape[0]:
         raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs")
     num = np.abs(A.conj().T @ B) ** 2
-    den = np.outer(np.sum(np.abs(A) ** 2, axis=0), np.sum(np.abs(B) ** 2, axis=0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
-    return np.clip(out.real, 0.0, 1.0)
+    aa = np.sum(np.abs(A) ** 2, axis=0).tolist()
+    bb = np.sum(np.abs(B) ** 2, axis=0).tolist()
+    return np.array([[mac_value(n, a, b) for n, b in zip(row, bb)] for row, a in zip(num.tolist(), aa)],
+                    float).reshape(num.shape)
 
 
 def common_dofs(dofs_a: Sequence[str], dofs_b: Sequence[str]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
@@ -87,12 +96,194 @@ def common_dofs(dofs_a: Sequence[str], dofs_b: Sequence[str]) -> tuple[np.ndarra
     return np.array(ia), np.array([pos_b[d] for d in common]), common
 
 
-def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, int, float]]:
-    """Pair test modes (rows) with model modes (columns) by MAC.
+def check_pairing(rule: str, min_mac) -> float:
+    """Check a pairing rule and threshold as the user gave them.
 
-    An optimal assignment (Hungarian algorithm, :func:`scipy.optimize.linear_sum_assignment`)
-    maximises the total MAC, so one model mode is never paired twice; pairs whose MAC is below
-    ``min_mac`` are dropped.
+    Parameters
+    ----------
+    rule : str
+        A name of :data:`femupdate.pairing_rules.PAIRINGS`.
+    min_mac : float
+        The threshold, a number in [0, 1].
+
+    Returns
+    -------
+    float
+        ``min_mac`` as a float.
+
+    Raises
+    ------
+    InputError
+        An unknown ``rule``, or ``min_mac`` not a number in [0, 1] (named as given).
+    """
+    try:
+        value = float(min_mac)
+    except (TypeError, ValueError):
+        raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
+    if rule not in PAIRINGS:
+        raise InputError(f"unknown pairing {rule!r}: use {', '.join(PAIRINGS)}")
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class Pairing:
+    """What :func:`pair` did: the pairs of test modes (the MAC matrix's rows) with model modes
+    (its columns), the rule that made them, and the pairs to doubt.
+
+    Parameters
+    ----------
+    pairs : tuple of (int, int, float)
+        ``(test mode, model mode, MAC)``, 0-based, sorted by test mode; the MAC is NaN for a test
+        mode without a shape.
+    rule : str
+        The rule asked for: ``"auto"``, ``"mac"``, ``"order"`` or ``"frequency"``.
+    used : str
+        The rule that made the pairs: ``"mac"``, ``"order"`` or ``"frequency"``; ``"mac"`` too
+        when the rule asked for could not pair every test mode (more test modes than model modes)
+        and the pairs are the assignment of largest total MAC of those there are.
+    min_mac : float
+        The threshold the pairs were held against.
+    unpaired : tuple of int
+        Test modes left without a model mode.
+    unconfirmed : tuple of int
+        Paired test modes with a shape whose pair's MAC is below ``min_mac``: the shapes do not
+        confirm the pair (under ``strict`` pairing by ``"mac"`` there are none).
+    frequency_error : numpy.ndarray of float, shape ``(len(pairs),)``
+        Relative error (f_model − f_test) / f_test of each pair; NaN for a test mode at 0 Hz, and
+        for every pair when no eigenvalues were given.
+    large_change : tuple of int
+        Paired test modes whose pair crosses a large frequency change: |frequency error| above
+        ``max_change`` (empty without eigenvalues).
+    max_change : float
+        The relative frequency change that counts as large.
+    """
+
+    pairs: tuple[tuple[int, int, float], ...]
+    rule: str
+    used: str
+    min_mac: float
+    unpaired: tuple[int, ...]
+    unconfirmed: tuple[int, ...]
+    frequency_error: np.ndarray
+    large_change: tuple[int, ...]
+    max_change: float
+
+
+def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, model_eigenvalues=None,
+         test_eigenvalues=None, strict: bool = False, max_change: float = FREQUENCY_WINDOW) -> Pairing:
+    """Pair test modes (rows of ``mac_matrix``) with model modes (its columns) by ``rule``.
+
+    The rules are those of :func:`femupdate.pairing_rules.pair_modes`, which the compiled route
+    calls too: ``"mac"`` the assignment of largest total MAC (Hungarian algorithm), test modes
+    without a shape taking the lowest free model modes in order; ``"order"`` by frequency order
+    (rigid-body modes only with test modes at 0 Hz); ``"frequency"`` the nearest frequency, MAC
+    deciding within 10 %; ``"auto"`` by order unless the shapes show a swap clearly, then by MAC.
+
+    What happens to a test mode that cannot be paired depends on ``strict``.  Strict (as
+    ``update`` pairs): every test mode must be paired, by ``"mac"`` at a MAC of at least
+    ``min_mac``, or :class:`NumericalError`.  Otherwise (as ``correlate`` pairs): by ``"mac"`` a
+    test mode with a shape whose MAC stays below ``min_mac`` is left unpaired; by the other rules
+    it is paired and listed as unconfirmed; and when the rule cannot pair every test mode (more
+    test modes than model modes) the pairs are the assignment of largest total MAC of those there
+    are.
+
+    Parameters
+    ----------
+    mac_matrix : array_like of float, shape ``(n_test, n_model)``
+        MAC of each test mode with each model mode (:func:`mac`), read only where ``shaped``.
+    rule : {"auto", "mac", "order", "frequency"}, default ``"auto"``
+        The pairing rule; all but ``"mac"`` need the eigenvalues.
+    min_mac : float, default 0.5
+        The threshold in [0, 1]: the smallest MAC of a pair by ``"mac"``, or of a pair the shapes
+        confirm.
+    shaped : array_like of bool, shape ``(n_test,)``, optional
+        Which test modes have a shape (default: all).
+    model_eigenvalues : array_like of float, shape ``(≥ n_model,)``, optional
+        The model modes' eigenvalues (rad²/s²), ascending, rigid-body ones exactly 0.
+    test_eigenvalues : array_like of float, shape ``(n_test,)``, optional
+        The measured eigenvalues (rad²/s²).
+    strict : bool, default False
+        Fail rather than leave a test mode unpaired (see above).
+    max_change : float, default 0.1
+        The relative frequency error above which a pair is listed in ``large_change``.
+
+    Returns
+    -------
+    Pairing
+
+    Raises
+    ------
+    InputError
+        An unknown ``rule``; ``min_mac`` not in [0, 1]; a MAC matrix that is not 2-D; ``shaped``
+        or the eigenvalues of the wrong length, or missing where ``rule`` needs them.
+    NumericalError
+        ``strict`` and a test mode cannot be paired (the message names it); a non-finite MAC of a
+        test mode with a shape.
+    """
+    min_mac = check_pairing(rule, min_mac)
+    M = np.asarray(mac_matrix, dtype=float)
+    if M.ndim != 2:
+        raise InputError(f"pair: the MAC matrix must be 2-D (test modes x model modes), got shape {M.shape}")
+    T, nm = M.shape
+    shaped = np.ones(T, bool) if shaped is None else np.asarray(shaped, bool)
+    if shaped.shape != (T,):
+        raise InputError(f"pair: shaped has {shaped.size} entries for {T} test modes")
+    lam, lam_e = _eigenvalues(rule, model_eigenvalues, test_eigenvalues, T, nm)
+    bad_rows = np.flatnonzero(shaped & ~np.isfinite(M).all(axis=1))
+    if bad_rows.size:
+        raise NumericalError(f"pair: non-finite MAC of test mode(s) {[int(k) + 1 for k in bad_rows]}")
+    if nm == 0:  # the rules read a first column
+        M = np.zeros((T, 1))
+    policy = PAIRINGS[rule]
+    cols, bad = np.zeros(T, np.int64), np.zeros(T, bool)
+    code, i, used = _kernel(policy, M, shaped, np.zeros(nm) if lam is None else lam,
+                            np.zeros(T) if lam_e is None else lam_e, nm,
+                            0.0 if policy == PAIR_MAC and not strict else min_mac, cols, bad)
+    if code != OK:
+        if strict:
+            raise NumericalError(message(code, i, modes=np.flatnonzero(bad), min_mac=min_mac))
+        # the assignment of largest total MAC of those there are (a mode without shape at MAC 0)
+        assign(-np.where(shaped[:, None], M, 0.0), T, nm, cols)
+        used = PAIR_MAC
+    pairs = [(k, int(cols[k]), float(M[k, cols[k]]) if shaped[k] else math.nan) for k in range(T) if cols[k] >= 0]
+    if policy == PAIR_MAC and not strict:
+        pairs = [p for p in pairs if not (shaped[p[0]] and p[2] < min_mac)]
+    err = np.full(len(pairs), np.nan)
+    if lam is not None and lam_e is not None:
+        f_t = np.sqrt(np.clip(lam_e, 0.0, None)) / (2 * np.pi)
+        f_a = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+        err = np.array([(f_a[j] - f_t[k]) / f_t[k] if f_t[k] > 0 else np.nan for k, j, _ in pairs], float)
+    paired = {k for k, _, _ in pairs}
+    return Pairing(tuple(pairs), rule, PAIRING_NAMES[used], min_mac,
+                   unpaired=tuple(k for k in range(T) if k not in paired),
+                   unconfirmed=tuple(k for k, _, m in pairs if shaped[k] and m < min_mac),
+                   frequency_error=err, max_change=float(max_change),
+                   large_change=tuple(k for (k, _, _), e in zip(pairs, err) if abs(e) > max_change))
+
+
+def _eigenvalues(rule, model_eigenvalues, test_eigenvalues, T: int, nm: int):
+    """The eigenvalues :func:`pair` was given, as float arrays (the model's lowest ``nm``), or None."""
+    if model_eigenvalues is None or test_eigenvalues is None:
+        if rule != "mac":
+            raise InputError(f"pairing {rule!r} needs the eigenvalues of the model and of the test modes")
+        return None, None
+    lam = np.asarray(model_eigenvalues, dtype=float).ravel()
+    lam_e = np.asarray(test_eigenvalues, dtype=float).ravel()
+    if lam.size < nm or lam_e.size != T:
+        raise InputError(f"pair: {lam.size} model and {lam_e.size} test eigenvalues for a MAC matrix of {T} test "
+                         f"and {nm} model modes")
+    return lam[:nm], lam_e
+
+
+def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, int, float]]:
+    """Pair test modes (rows) with model modes (columns) by MAC alone: a thin alias of
+    :func:`pair`, ``list(pair(mac_matrix, rule="mac", min_mac=min_mac).pairs)``.
+
+    The assignment maximises the total MAC (Hungarian algorithm), so one model mode is never
+    paired twice; with more rows than columns the rows of largest MAC take the columns; pairs
+    whose MAC is below ``min_mac`` are dropped.
 
     Parameters
     ----------
@@ -106,10 +297,7 @@ def pair_modes(mac_matrix: np.ndarray, min_mac: float = 0.5) -> list[tuple[int, 
     list of (int, int, float)
         ``[(test, model, mac)]`` with 0-based mode indices, sorted by test mode.
     """
-    mm = np.asarray(mac_matrix, dtype=float)
-    rows, cols = linear_sum_assignment(mm, maximize=True)
-    pairs = [(int(r), int(c), float(mm[r, c])) for r, c in zip(rows, cols) if mm[r, c] >= min_mac]
-    return sorted(pairs)
+    return list(pair(mac_matrix, rule="mac", min_mac=min_mac).pairs)
 
 
 def modal_scale_factor(test: np.ndarray, model: np.ndarray) -> np.ndarray:
@@ -193,6 +381,9 @@ class Correlation:
         Test modes left without a model mode.
     unconfirmed : list of int
         Paired test modes whose pair's MAC is below ``min_mac`` (the shapes do not confirm it).
+    pairing : Pairing or None
+        What :func:`pair` did (the rule asked for and used, frequency changes); None when built
+        by hand.
     """
 
     dofs: tuple[str, ...]
@@ -204,14 +395,15 @@ class Correlation:
     comac: np.ndarray
     unpaired_test: list[int]
     unconfirmed: list[int] = field(default_factory=list)
+    pairing: Pairing | None = None
 
 
 def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") -> Correlation:
     """Correlate :class:`~femupdate.TestData` modes with :class:`~femupdate.Modes`.
 
-    Test and model modes are paired by the rule that :func:`femupdate.update` uses
-    (:func:`femupdate.rules.pair_modes`, the policy ``pairing``), on each test mode's MAC over
-    its own measured dofs: the same data and model give the same pairs here as in ``update``.
+    Test and model modes are paired by :func:`pair` with the rule that :func:`femupdate.update`
+    uses (the policy ``pairing``), on each test mode's MAC over its own measured dofs: the same
+    data and model give the same pairs here as in ``update``.
     With ``pairing="mac"`` a shaped test mode whose best MAC stays below ``min_mac`` is left
     unpaired; with the other policies every test mode is paired and such a pair is listed in
     ``unconfirmed``.  COMAC is computed on the dofs every paired shape was measured at.
@@ -234,12 +426,10 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
     Raises
     ------
     InputError
-        An unknown ``pairing``; a test shape with no dof in common with the model.
+        An unknown ``pairing``; ``min_mac`` not in [0, 1]; a test shape with no dof in common with
+        the model.
     """
-    from . import rules
-
-    if pairing not in rules.PAIRINGS:
-        raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+    min_mac = check_pairing(pairing, min_mac)
     modes = test.modes
     T = len(modes)
     f_t = test.frequencies_hz
@@ -258,20 +448,9 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         rt, ra = map(list, zip(*rows))
         M[k] = mac(np.asarray(m.shape)[rt], model_modes.shapes[ra])[0]
         shaped[k] = True
-    lam_e = np.array([m.eigenvalue for m in modes], float)
-    pairs_arr, bad = np.zeros(T, np.int64), np.zeros(T, bool)
-    policy = rules.PAIRINGS[pairing]
-    code, _, _ = rules.pair_modes(rules.PAIR_ORDER if policy == rules.PAIR_AUTO and not shaped.any() else policy,
-                                  M, shaped, np.asarray(model_modes.eigenvalues, float), lam_e, nm,
-                                  0.0 if policy == rules.PAIR_MAC else float(min_mac), pairs_arr, bad)
-    if code != rules.OK:  # more test modes than model modes: the best assignment of those there are
-        pairs = [(k, j, float(M[k, j]) if shaped[k] else math.nan) for k, j, _ in pair_modes(M, 0.0)]
-    else:
-        pairs = [(k, int(pairs_arr[k]), float(M[k, pairs_arr[k]]) if shaped[k] else math.nan) for k in range(T)]
-    if policy == rules.PAIR_MAC:
-        pairs = [p for p in pairs if not (shaped[p[0]] and p[2] < min_mac)]
-    unconfirmed = [k for k, _, m in pairs if shaped[k] and m < min_mac]
-    err = np.array([(f_a[j] - f_t[i]) / f_t[i] if f_t[i] > 0 else np.nan for i, j, _ in pairs])
+    pg = pair(M, rule=pairing, min_mac=min_mac, shaped=shaped, model_eigenvalues=model_modes.eigenvalues,
+              test_eigenvalues=[m.eigenvalue for m in modes])
+    pairs = list(pg.pairs)
     tdofs, Phi_t = test.shape_matrix()
     common: tuple[str, ...] = ()
     cm = np.zeros(0)
@@ -283,5 +462,4 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         keep = ~np.isnan(Pt.real if np.iscomplexobj(Pt) else Pt).any(axis=1)  # dofs every paired shape has
         common = tuple(d for d, k in zip(common, keep) if k)
         cm = comac(Pt[keep], model_modes.shapes[ia][keep][:, [j for _, j in shaped_pairs]]) if keep.any() else cm
-    unpaired = sorted(set(range(T)) - {p[0] for p in pairs})
-    return Correlation(common, M, pairs, f_t, f_a, err, cm, unpaired, unconfirmed)
+    return Correlation(common, M, pairs, f_t, f_a, pg.frequency_error, cm, list(pg.unpaired), list(pg.unconfirmed), pg)

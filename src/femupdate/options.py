@@ -278,8 +278,9 @@ class PairingOptions(Options):
     main: ClassVar[str | None] = "rule"
 
     def check(self) -> None:
-        choice(self.rule, PAIRING_RULES, "pairing")
-        self.set("min_mac", number(self.min_mac, "min_mac", low=0.0, high=1.0))
+        from .correlation import check_pairing  # the one check of a pairing rule and threshold
+
+        self.set("min_mac", check_pairing(self.rule, self.min_mac))
         self.set("n_modes", count(self.n_modes, "n_modes", allow_none=True))
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import InputError
-from ..correlation import mac, pair_modes
+from ..correlation import mac, pair
 from .projection import Transformation, reduced_matrices, reduced_modes
 
 
@@ -188,8 +188,7 @@ def tam_metrics(model, t: Transformation, n_modes: int | None = None, test_shape
     K_r, M_r = reduced_matrices(model, t)
     lam_r, V = reduced_modes(K_r, M_r)
     MAC = mac(phi_a, V)
-    pairs = pair_modes(MAC, 0.0)
-    pairs = sorted(pairs)[:m]
+    pairs = pair(MAC, rule="mac", min_mac=0.0).pairs  # every one of the m full-model modes (m <= a)
     f_full = fm.frequencies_hz[:m]
     f_red = np.full(m, np.nan)
     macs = np.zeros(m)
@@ -207,7 +206,7 @@ def tam_metrics(model, t: Transformation, n_modes: int | None = None, test_shape
             raise InputError(f"tam_metrics: test shapes must have shape ({a}, m) (rows = retained dofs), got {X.shape}")
         X = np.real(X) if not np.iscomplexobj(X) else np.real(X * np.exp(-1j * np.angle(X[np.argmax(np.abs(X), axis=0), np.arange(X.shape[1])])))
         self_o = orthogonality(X, X, M_r)
-        tp = pair_modes(mac(X, phi_a), 0.0)
+        tp = pair(mac(X, phi_a), rule="mac", min_mac=0.0).pairs
         rows = [i for i, _, _ in tp]
         cols = [j for _, j, _ in tp]
         cross = orthogonality(X[:, rows], phi_a[:, cols], M_r)

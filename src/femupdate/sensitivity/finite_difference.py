@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..correlation import mac, pair_modes
+from ..correlation import mac, pair
 from ..modal import model_modes
 from ._common import resolve_params, resolve_which
 
@@ -65,7 +65,7 @@ def finite_difference(model, values=None, which=None, params=None, n_modes=None,
             p = p0.copy()
             p[j] += sgn * h
             pert = model_modes(model, p, n_modes=n_modes, normalisation=normalisation)
-            pairs = {t: m for t, m, _ in pair_modes(mac(base.shapes[:, which], pert.shapes), min_mac=0.0)}
+            pairs = {t: m for t, m, _ in pair(mac(base.shapes[:, which], pert.shapes), rule="mac", min_mac=0.0).pairs}
             lam = np.array([pert.eigenvalues[pairs[r]] for r in range(which.size)])
             shp = np.column_stack([pert.shapes[:, pairs[r]] for r in range(which.size)])
             shp *= np.sign(np.sum(shp * base.shapes[:, which], axis=0))

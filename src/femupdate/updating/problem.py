@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import rules
 from .._errors import InputError, NumericalError
+from ..correlation import pair
 from ..modal import Modes, model_modes
 from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
@@ -293,24 +294,19 @@ class Problem(Parametrisation):
         tg = self.targets
         T, nm = tg.n_test, min(tg.nm, modes.n_modes)
         shaped = tg.shaped
-        MAC = np.zeros((T, max(nm, 1)))
+        MAC = np.zeros((T, nm))
         for k in map(int, np.flatnonzero(shaped)):
             sl = tg.measured(k)
-            rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k, :nm])
-        pairs = np.zeros(T, np.int64)
-        bad = np.zeros(T, np.bool_)
-        code, i, used = rules.pair_modes(rules.PAIRINGS[self.pairing], MAC, shaped, modes.eigenvalues, tg.lam_e,
-                                         nm, self.min_mac, pairs, bad)
-        if code != rules.OK:
-            raise NumericalError(rules.message(code, i, modes=np.flatnonzero(bad), min_mac=self.min_mac))
-        out = [(k, int(pairs[k]), float(MAC[k, pairs[k]]) if shaped[k] else math.nan) for k in range(T)]
-        for k, j, _ in out:
+            rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k])
+        pg = pair(MAC, rule=self.pairing, min_mac=self.min_mac, shaped=shaped, model_eigenvalues=modes.eigenvalues,
+                  test_eigenvalues=tg.lam_e, strict=True)
+        for k, j, _ in pg.pairs:
             if k in self._pairs_seen and self._pairs_seen[k] != j:
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
-                                   "to_model_mode": j, "rule": rules.PAIRING_NAMES[used]})
+                                   "to_model_mode": j, "rule": pg.used})
             self._pairs_seen[k] = j
-        self.pairing_used = rules.PAIRING_NAMES[used]
-        return out
+        self.pairing_used = pg.used
+        return list(pg.pairs)
 
     def residuals(self, x) -> np.ndarray:
         """The residual vector at x: per test mode its eigenvalue residual

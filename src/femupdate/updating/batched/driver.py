@@ -32,6 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..._errors import InputError
+from ...correlation import check_pairing
 from ...modal import DENSE_LIMIT
 from ..parametrisation import Parametrisation, start_error, x_bounds, x_of_p
 from ..problem import Problem, check_determined
@@ -142,11 +143,7 @@ class BatchedProblem:
         self.p_fixed = model.resolve(values)
         self.param = parametrisation
         self.scaling = shape_scaling
-        self.min_mac = float(min_mac)
-        from ... import rules
-
-        if pairing not in rules.PAIRINGS:
-            raise InputError(f"unknown pairing {pairing!r}: use {', '.join(rules.PAIRINGS)}")
+        self.min_mac = check_pairing(pairing, min_mac)
         self.pairing = pairing
         # per start: the parametrisation of the local route from that start
         self.idx = Parametrisation(model, names, parametrisation, self.p_fixed).idx

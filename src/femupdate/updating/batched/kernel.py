@@ -86,7 +86,8 @@ def _fresh_cache(dispatchers) -> None:
     (numba watches only the file that defines a function, not the functions it calls in other
     files).  The cache is wherever numba keeps it: beside the package, under
     ``NUMBA_CACHE_DIR``, or in the user's cache directory for a read-only install."""
-    sources = [Path(rules.__file__)] + sorted(Path(__file__).parent.glob("*.py"))
+    rule_modules = sorted({rules.__name__, rules.dot.__module__, *(fn.__module__ for fn in rules.RULES)})
+    sources = [Path(str(sys.modules[m].__file__)) for m in rule_modules] + sorted(Path(__file__).parent.glob("*.py"))
     stamp = hashlib.sha256(b"".join(p.read_bytes() for p in sources)).hexdigest()
     dirs = {Path(__file__).parent / "__pycache__"}
     for d in dispatchers:
