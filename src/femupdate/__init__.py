@@ -51,6 +51,10 @@ _LAZY = {
     "frf_update": "updating", "frf_multistart": "updating", "global_search": "updating", "simulate_frf": "frf", "update_configurations": "updating.multiconfig",
     # Bayesian updating
     "posterior": "bayes", "PosteriorResult": "bayes", "Prior": "priors",
+    # options and results
+    "ModalOptions": "options", "PairingOptions": "options", "NoiseOptions": "options", "SolverOptions": "options",
+    "FRFOptions": "options", "StartsOptions": "options", "ExecutionOptions": "options", "SamplerOptions": "options",
+    "UpdateOptions": "options", "load_result": "serialise", "write_report": "report",
     # identifiability, reduction, damage
     "counting_criteria": "uniqueness", "exact_solutions": "uniqueness", "define_study": "uniqueness",
     "run_study": "uniqueness", "reduce": "reduction", "expand": "reduction", "detect_damage": "damage",
@@ -96,3 +100,7 @@ if TYPE_CHECKING:  # the names as static type checkers and IDEs see them
     from .updating.multiconfig import update_configurations
     from .bayes import PosteriorResult, posterior
     from .priors import Prior
+    from .options import (ExecutionOptions, FRFOptions, ModalOptions, NoiseOptions, PairingOptions, SamplerOptions,
+                          SolverOptions, StartsOptions, UpdateOptions)
+    from .report import write_report
+    from .serialise import load_result

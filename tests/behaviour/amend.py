@@ -57,6 +57,16 @@ AMENDMENTS = {
         lambda path, rec, now: isinstance(rec, dict) and isinstance(now, dict) and set(now) - set(rec) == {"notes"}
         and set(rec) <= set(now) and now["notes"] == [] and _same(rec, {k: now[k] for k in rec}),
     ),
+    "results name their kind and schema version": (
+        "Results serialise themselves (issue 33: `to_json()` of the result objects, the same JSON from Python "
+        "and the command line) and say what they are: every JSON result opens with `kind` (the command that "
+        "writes it: update, frf-update, ...) and `schema_version` (1), so a report or a program reading it "
+        "need not guess the kind from the keys.  The two keys are new; every recorded value is unchanged.",
+        lambda path, rec, now: path == "" and isinstance(rec, dict) and isinstance(now, dict)
+        and set(now) - set(rec) == {"kind", "schema_version"} and set(rec) <= set(now)
+        and isinstance(now["kind"], str) and now["kind"] in KNOWN_KINDS and now["schema_version"] == 1
+        and _same(rec, {k: now[k] for k in rec}),
+    ),
     "BLAS on one thread": (
         "femupdate now runs BLAS on one thread by default (its threading policy, femupdate._threads: two "
         "OpenBLAS threads made every phase 2-12 times slower when another process kept the second core "
@@ -446,6 +456,12 @@ PREPARATIONS = {
         _damage_verified,
     ),
 }
+
+
+#: the kinds of result the commands write (``kind``)
+KNOWN_KINDS = frozenset({"modes", "direct", "update", "frf-update", "posterior", "correlate", "paper", "demo", "damage",
+                         "update-multi", "rank-modifications", "fullfield", "frf", "frf-select", "surface", "reduce",
+                         "uniqueness"})
 
 
 def _same(expected, actual) -> bool:

@@ -351,10 +351,11 @@ def model_segments(model_path):
     return segs if len(segs) else None
 
 
-def write_report_output(ctx: Ctx, report_path, payload: dict, *, model=None, data=None, model_path=None,
+def write_report_output(ctx: Ctx, report_path, payload, *, model=None, data=None, model_path=None,
                         before=None, damping=None, kind: str | None = None, segments=None) -> None:
-    """Write the run's HTML report (``--report``) from its JSON payload, with the model and the
-    data for what needs recomputing (:func:`femupdate.report.write_report`), and name it."""
+    """Write the run's HTML report (``--report``) from its result object (or its JSON payload,
+    with the model and the data for what needs recomputing; :func:`femupdate.report.write_report`),
+    and name it."""
     if report_path is None:
         return
     from ..report import write_report

@@ -12,9 +12,10 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_DIR, OUTPUT_FILE, SCHEDULER, SEED, Ctx, FiniteFloat, OutputPath, connect_timeout_option,
-                      data_fields, emit, fmt, json_option, load_data, model_values, set_option)
-from .update import problem_from_command_line, problem_options
+from ._common import OUTPUT_FILE, Ctx, OutputPath, data_fields, fmt, load_data, model_values
+from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
+from .outputs import Outputs, outputs_group, phased_progress
+from .problem import ProblemSpec, problem_group
 
 
 def _default_checkpoint(json_path, method: str):
@@ -70,92 +71,53 @@ def posterior_payload(model, res, data_sets) -> dict:
     }
 
 
-@click.command()
+@click.command(cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--method", type=click.Choice(["laplace", "mcmc", "tmcmc"]), default="laplace", show_default=True,
-              help="laplace: a Gaussian at each solution, with its probability; mcmc: ensemble sampler (emcee) for "
-                   "one solution; tmcmc: transitional MCMC for several solutions, with the log-evidence.")
+@sampler_group()
 @click.option("--prior", "prior_items", multiple=True, metavar="NAME=SPEC",
               help="A parameter's prior, replacing the model file's: uniform, normal(MEAN,STD) or "
                    "lognormal(MEDIAN,STD_LOG); repeat for several (default: uniform within the bounds).")
 @click.option("--noise", type=click.Choice(["auto", "stated", "estimate"]), default="auto", show_default=True,
               help="stated: the test data's (or --std-*) standard deviations; estimate: a common noise scale on the "
                    "residuals, estimated (Jeffreys' prior, integrated out); auto: stated when every residual has one.")
-@click.option("--starts", type=click.IntRange(min=1), default=20, show_default=True,
-              help="Random starts of the search for distinct solutions (1: one update from the model's values).")
-@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of every random stream.")
-@click.option("--samples", type=click.IntRange(min=2), default=4000, show_default=True,
-              help="Laplace draws, or the TMCMC population.")
-@click.option("--walkers", type=click.IntRange(min=2), default=None, help="MCMC walkers per ensemble (default max(64, 8 L) on the compiled route, max(32, 4 L) "
-                   "otherwise).")
-@click.option("--ensembles", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Independent MCMC ensembles (one Dask task each).")
-@click.option("--steps", type=click.IntRange(min=2), default=2000, show_default=True, help="MCMC steps per walker.")
-@click.option("--burn", type=click.IntRange(min=0), default=None, help="MCMC steps discarded (default steps / 4).")
-@click.option("--segment", type=click.IntRange(min=1), default=250, show_default=True,
-              help="MCMC steps between checkpoints (one Dask round).")
-@click.option("--target-ess", type=FiniteFloat(min=1), default=None,
-              help="Stop MCMC once every parameter's effective sample size reaches this.")
-@click.option("--tmcmc-steps", type=click.IntRange(min=1), default=5, show_default=True,
-              help="Metropolis moves per chain and TMCMC stage.")
-@click.option("--chunks", type=click.IntRange(min=1), default=8, show_default=True,
-              help="TMCMC's chains in this many pieces (random streams; Dask tasks).")
-@click.option("--level", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.95, show_default=True,
-              help="Probability of the credible intervals.")
-@click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR",
-              help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask cluster (tcp://host:port).")
-@connect_timeout_option
+@starts_group(default=20, starts_help="Random starts of the search for distinct solutions (1: one update from the "
+                                      "model's values).", seed_help="Seed of every random stream.",
+              title="Search for solutions")
+@execution_group(jobs=False, scheduler_help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask "
+                                            "cluster (tcp://host:port).")
 @click.option("--checkpoint", "checkpoint_path", type=OUTPUT_FILE, default=None,
               help="The sampler's state after each MCMC segment or TMCMC stage, resumed by a re-run (default: next "
                    "to the --json output; none with --json - or without --json).")
-@problem_options
+@problem_group()
 @click.option("--samples-out", "samples_path", type=OutputPath("file", suffixes=(".csv", ".npz"), why="its format"),
               default=None, metavar="FILE.csv|.npz", help="Write the posterior samples (CSV or NumPy .npz).")
-@click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
-              help="Write corner, trace and predictive figures to this folder.")
-@set_option
-@json_option
-def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, samples, walkers, ensembles, steps, burn,
-              segment, target_ess, tmcmc_steps, chunks, level, scheduler, connect_timeout, checkpoint_path, params_text,
-              shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes, formulation, eigenvalues_only,
-              measured_text, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual, lines_text, select,
-              resonance, resonance_tol, damping_text, reciprocity, samples_path, plot_dir, set_text, json_path):
+@outputs_group(plot="Write corner, trace and predictive figures to this folder.", report=False)
+def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execution, checkpoint_path,
+              problem: ProblemSpec, samples_path, outputs: Outputs):
     """The posterior of MODEL's parameters given the test data in DATA (several files: repeated tests,
     their likelihoods multiplied): how far to trust the updated model."""
     from ..bayes import posterior as _posterior
     from ..io.model_file import load_model
 
-    ctx = Ctx(json_path)
+    ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
-    values = model_values(model, set_text)
+    values = model_values(model, outputs.set_text)
     priors = parse_priors(prior_items)
-    sets = []
-    kw: dict = {}
+    sets, run = [], None
     for path in data_paths:
-        data = load_data(path, model, measured_text)
-        params, data, kinds, kw, _ = problem_from_command_line(model, data)
-        sets.append(data)
-    checkpoint = checkpoint_path if checkpoint_path is not None else _default_checkpoint(json_path, method)
+        run = problem.resolve(model, load_data(path, model, problem.measured_text))
+        sets.append(run.data)
+    assert run is not None
+    options = run.options.replace(noise=run.options.noise.replace(basis=noise))
+    checkpoint = checkpoint_path if checkpoint_path is not None else _default_checkpoint(outputs.json_path,
+                                                                                         sampler.method)
     c = ctx.console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f} %"),
-                  TimeRemainingColumn(), console=c, transient=True,
-                  disable=json_path == "-" or not c.is_terminal) as bar:
-        tasks: dict = {}
-
-        def progress(phase, done, total):
-            label = {"solutions": "searching solutions", "mcmc": "MCMC steps", "tmcmc": "TMCMC (tempering)"}[phase]
-            if phase not in tasks:
-                tasks[phase] = bar.add_task(label, total=total)
-            bar.update(tasks[phase], completed=done, total=total)
-
-        res = _posterior(model, sets if len(sets) > 1 else sets[0], method=method, params=params, priors=priors,
-                         noise=noise, starts=starts, seed=seed, samples=samples, walkers=walkers, ensembles=ensembles,
-                         steps=steps, burn=burn, segment=segment, target_ess=target_ess, tmcmc_steps=tmcmc_steps,
-                         chunks=chunks, level=level, scheduler=scheduler, connect_timeout=connect_timeout,
-                         checkpoint=checkpoint, progress=progress, values=values, **kw)
+    labels = {"solutions": "searching solutions", "mcmc": "MCMC steps", "tmcmc": "TMCMC (tempering)"}
+    with phased_progress(labels, console=c, quiet=outputs.json_path == "-") as tick:
+        res = _posterior(model, sets if len(sets) > 1 else sets[0], params=run.params, values=values, priors=priors,
+                         sampler=sampler, starts=starts, execution=execution, checkpoint=checkpoint, progress=tick,
+                         options=options)
     _print(c, model, res, sets[0], checkpoint)
     payload = posterior_payload(model, res, sets)
     payload.update(data_fields(sets[0]))
@@ -165,14 +127,15 @@ def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, 
 
         write_samples(samples_path, res)
         c.print(f"wrote {res.samples.shape[0]} samples to {samples_path}")
-    if plot_dir is not None:
+    if outputs.plot_dir is not None:
         from ..plot.posterior import save_posterior_figures
 
-        names = save_posterior_figures(plot_dir, res, sets[0].frequencies_hz if sets[0].modes else None)
-        c.print(f"figures: {', '.join(str(plot_dir / n) for n in names)}")
-    emit(ctx, payload)
+        names = save_posterior_figures(outputs.plot_dir, res, sets[0].frequencies_hz if sets[0].modes else None)
+        c.print(f"figures: {', '.join(str(outputs.plot_dir / n) for n in names)}")
+    outputs.emit(ctx, payload)
     if not res.success:
-        raise NumericalError(f"the {method} sampler's checks failed (see the warnings): the posterior is doubtful")
+        raise NumericalError(f"the {sampler.method} sampler's checks failed (see the warnings): the posterior is "
+                             "doubtful")
 
 
 def _print(c, model, res, data, checkpoint) -> None:

@@ -223,14 +223,19 @@ def write_json(path, obj) -> None:
     path : str or os.PathLike
         Destination file, or ``"-"`` for standard output.
     obj : object
-        Converted by :func:`to_jsonable` (NaN/inf become ``null``), then written indented by 2
-        with a final newline.
+        A result object (:mod:`femupdate.serialise`: its :meth:`to_json`), or nested dicts, lists
+        and numbers converted by :func:`to_jsonable` (NaN/inf become ``null``); written indented
+        by 2 with a final newline.
 
     Raises
     ------
     ValueError, TypeError
         From :func:`json.dumps`, for objects that :func:`to_jsonable` leaves unconvertible.
     """
+    from ..serialise import Serialisable
+
+    if isinstance(obj, Serialisable):
+        obj = obj.to_json()
     text = json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n"
     if str(path) == "-":
         sys.stdout.write(text)

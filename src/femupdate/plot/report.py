@@ -23,7 +23,7 @@ from .shapes import mode_shape_axes, needs_3d  # noqa: E402
 from .uniqueness import uniqueness_axes  # noqa: E402
 from .updating import mac_axes  # noqa: E402
 
-_SVG_RC: dict = {"svg.fonttype": "path", "svg.hashsalt": None}
+_SVG_RC: dict = {"svg.fonttype": "path", "svg.hashsalt": "femupdate"}  # the same run draws the same SVG
 
 
 def embed(fig: Figure, fmt: str = "svg") -> dict:
@@ -43,10 +43,10 @@ def embed(fig: Figure, fmt: str = "svg") -> dict:
     """
     buf = io.BytesIO()
     if fmt == "png":
-        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight", metadata={"Software": None})
         return {"png": "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")}
     with matplotlib.rc_context(_SVG_RC):
-        fig.savefig(buf, format="svg", bbox_inches="tight")
+        fig.savefig(buf, format="svg", bbox_inches="tight", metadata={"Date": None})
     text = buf.getvalue().decode("utf-8")
     return {"svg": text[text.index("<svg"):]}
 

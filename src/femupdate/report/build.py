@@ -32,7 +32,8 @@ RESULT_KEYS: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(("pairs", "updated", "flags", "history", "notes", "omega_rad_s", "located", "cases",
                      "configurations", "natural_frequencies_hz", "frequency_change", "doubts"), (_LIST,)),
     **dict.fromkeys(("condition_number", "cost", "iterations", "nfev", "n_equations"), (_NUM,)),
-    **dict.fromkeys(("model", "residual", "message", "formulation", "method", "sensitivity"), (_STR,)),
+    **dict.fromkeys(("model", "residual", "message", "formulation", "method", "sensitivity", "kind"), (_STR,)),
+    "schema_version": (_NUM,),
     "parameters": (_OBJ, _LIST), "starts": (_OBJ, _NUM), "unknowns": (_LIST, _STR),
 }
 #: {name: value} objects of parameters: what each value must be
@@ -117,6 +118,8 @@ def detect_kind(result: Mapping) -> str:
         The keys match no command a report is made of (the message lists them).
     """
     keys = set(result)
+    if result.get("kind") in REPORT_KINDS:  # written by femupdate with its kind
+        return str(result["kind"])
     if {"sections", "paper"} <= keys:
         return "paper"
     if "cases" in keys and "criteria_agreement" in keys or "cases" in keys and "study_key" in keys:
@@ -237,8 +240,10 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
 
     Parameters
     ----------
-    result : mapping, str or os.PathLike
-        The run's JSON result (as ``--json`` writes it), or the path of its file.
+    result : result object, mapping, str or os.PathLike
+        The run's result: a result object (:mod:`femupdate.serialise`: its JSON, and by default
+        the model, data, starting values and damping it carries), its JSON (as ``--json`` writes
+        it), or the path of its file.
     model : Model, optional
         The model of the run (for a ``damage`` run: the element-wise model the result names,
         :func:`femupdate.damage.damage_unknowns`).  With ``data``: the correlation before the
@@ -275,6 +280,15 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         (:func:`check_result`, or the builders failing on it); a model without the result's
         parameters or test data without its paired test modes (:func:`check_model_and_data`).
     """
+    from ..serialise import Serialisable
+
+    if isinstance(result, Serialisable):  # a typed result: its JSON, and the model and data it carries
+        ctx = result.run_context
+        model = model if model is not None else ctx.model
+        data = data if data is not None else ctx.data
+        before = before if before is not None else ctx.before
+        damping = damping if damping is not None else ctx.damping
+        result = result.to_json()
     res = _jsonable(result)
     where = f"{source}: " if source else ""
     if kind is not None and kind not in BUILDERS:

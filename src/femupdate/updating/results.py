@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
+
+from ..serialise import RunContext, Serialisable
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,7 +176,7 @@ def pairing_warnings(res) -> list[str]:
 
 
 @dataclass(frozen=True, eq=False)
-class UpdateResult(RunResult):
+class UpdateResult(RunResult, Serialisable):
     """Result of :func:`femupdate.update`, in the spirit of :class:`scipy.optimize.OptimizeResult`:
     the fields of :class:`RunResult`, and
 
@@ -221,7 +224,13 @@ class UpdateResult(RunResult):
     solver : str
         How the model's modes were computed at the solution (:attr:`femupdate.Modes.solver`:
         dense, or sparse with the factorisation used); empty without modes.
+    context : RunContext, optional
+        The model and data the result was computed from (:mod:`femupdate.serialise`): what
+        :meth:`to_json` and :meth:`write_report` take from them.
     """
+
+    kind: ClassVar[str] = "update"
+    kinds: ClassVar[tuple[str, ...]] = ("update", "frf-update")
 
     history: list[dict]
     pairs: list[tuple[int, int, float]]
@@ -238,6 +247,19 @@ class UpdateResult(RunResult):
     formulation: str = ""
     expanded_shapes: np.ndarray | None = None
     solver: str = ""  # how the model's modes were computed at the solution (Modes.solver)
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .record import frf_update_kind, update_kind
+
+        ctx = self.run_context
+        return frf_update_kind(self, ctx) if self.result_kind == "frf-update" else update_kind(self, ctx)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import update_from
+
+        return update_from(obj)
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.x))
@@ -311,7 +333,7 @@ class Solution:
 
 
 @dataclass(frozen=True, eq=False)
-class MultiStartResult:
+class MultiStartResult(Serialisable):
     """The result of a multi-start study (:func:`~femupdate.updating.multistart`).
 
     Attributes
@@ -362,6 +384,31 @@ class MultiStartResult:
     seconds: list | None = field(default=None, kw_only=True)
     cpu_seconds: list | None = field(default=None, kw_only=True)
     batch_seconds: float | None = field(default=None, kw_only=True)
+    context: RunContext | None = field(default=None, kw_only=True, compare=False, repr=False)
+
+    kind: ClassVar[str] = "update"
+    kinds: ClassVar[tuple[str, ...]] = ()  # read back as the best run's result (UpdateResult.from_json)
+
+    def payload(self) -> dict:
+        from .record import multistart_kind
+
+        return multistart_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        """The best run's result (an :class:`UpdateResult`; the study's ``starts`` kept as read)."""
+        return UpdateResult.from_payload(obj)
+
+    def solution_records(self) -> list[dict]:
+        """One record per distinct solution: its parameters, cost, the starts that reached it and
+        whether it fits the data as well as the best (:meth:`to_frame`'s rows)."""
+        return [{**s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits} for s in self.solutions]
+
+    def to_frame(self):
+        """The distinct solutions as a :class:`pandas.DataFrame` (:meth:`solution_records`)."""
+        import pandas as pd
+
+        return pd.DataFrame.from_records(self.solution_records())
 
     @property
     def fitting(self) -> list[Solution]:
@@ -413,6 +460,31 @@ class MultiStartResult:
         return out
 
 
+def attach(result, model, data, kind: str = "", **context):
+    """``result`` with its :class:`~femupdate.serialise.RunContext`: the model, the test data
+    (:class:`~femupdate.TestData` only) and the kind of result the verb makes; a multi-start
+    result's best run gets the same context.
+
+    Parameters
+    ----------
+    result : UpdateResult or MultiStartResult
+    model : Model
+    data : TestData or other data
+    kind : str, optional
+        ``"update"`` or ``"frf-update"`` (default: the class's).
+    **context
+        Further :class:`~femupdate.serialise.RunContext` fields (``damping=``, ``before=``).
+    """
+    import dataclasses
+
+    from ..testdata import TestData
+
+    ctx = RunContext(model=model, data=data if isinstance(data, TestData) else None, kind=kind, **context)
+    if isinstance(result, MultiStartResult) and result.best is not None:
+        result = dataclasses.replace(result, best=dataclasses.replace(result.best, context=ctx))
+    return dataclasses.replace(result, context=ctx)
+
+
 def failure_reason(message: str) -> str:
     """The head of a failure message with its numbers as ``#``, so that starts failing alike count
     together: ``"NumericalError: test mode(s) [3] pair with no model mode (MAC below 0.5 ...): check
@@ -424,4 +496,5 @@ def failure_reason(message: str) -> str:
     return re.sub(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", head)[:200]
 
 
-__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult", "failure_reason", "pairing_warnings"]
+__all__ = ["Diagnostics", "RunResult", "UpdateResult", "Solution", "MultiStartResult", "failure_reason", "pairing_warnings",
+           "attach"]

@@ -19,7 +19,7 @@ from ..frf.sensitivity import RESONANCE_TOL
 from . import frf as frf_module
 from .frf import FRFProblem, FRFUpdateResult, frac, frf_data, modal_report, prepare_problem
 from ..options import FRFOptions, ModalOptions, NoiseOptions, PairingOptions, SolverOptions, UpdateOptions, gather
-from .results import UpdateResult
+from .results import UpdateResult, attach
 from .solve import diagnostics, paired_modes, solve, update_modal
 
 
@@ -184,7 +184,17 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     """
     o = UpdateOptions.of("update", shorthand, options=options, use=use, modal=modal, pairing=pairing, noise=noise,
                          solver=solver, frf=frf)
-    return update_with(model, data, o, params=params, x0=x0, values=values)
+    res = update_with(model, data, o, params=params, x0=x0, values=values)
+    return attach(res, model, data, "update", damping=_damping_of(o))
+
+
+def _damping_of(o: UpdateOptions):
+    """The model damping of the FRF options (compared with the data's damping ratios), or None."""
+    if o.frf.damping is None:
+        return None
+    from ..frf.lines import as_damping
+
+    return as_damping(o.frf.damping)
 
 
 def update_with(model, data: TestData, options: UpdateOptions, *, params: Sequence[str] | None = None,
@@ -213,8 +223,7 @@ def update_with(model, data: TestData, options: UpdateOptions, *, params: Sequen
 
         return auto_stages(stage, x0, regularized)
     if kinds == ("frf",) and data.n_frf_sets == 1:
-        return frf_update(model, data, params=params, x0=x0, values=values, noise=o.noise, solver=o.solver,
-                          frf=o.frf)
+        return frf_update_with(model, data, o.frf, o.noise, o.solver, params=params, x0=x0, values=values)
     combined = combined_problem(model, data, params, x0=x0, values=values, options=o.replace(use=kinds),
                                 regularized=regularized)
     sol, history, reg = solve(combined, model.bounds, o.solver)
@@ -362,14 +371,21 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
         shorthand = dict(shorthand, measurement_std={"frf": std_given})
     o = gather("frf_update", shorthand, frf=(FRFOptions, frf), noise=(NoiseOptions, noise),
                solver=(SolverOptions, solver))
-    frf, noise, solver = o["frf"], o["noise"], o["solver"]
+    res = frf_update_with(model, data, o["frf"], o["noise"], o["solver"], params=params, x0=x0, values=values)
+    return attach(res, model, data, "frf-update")
+
+
+def frf_update_with(model, data, frf: FRFOptions, noise: NoiseOptions, solver: SolverOptions, *,
+                    params: Sequence[str] | None = None, x0: Mapping[str, float] | None = None,
+                    values=None) -> FRFUpdateResult:
+    """:func:`frf_update` with its options as objects, without the result's context (what each
+    start of a multi-start study runs: its result travels back without the model and data)."""
     regularized = solver.regularization is not None
     if frf.residual == "auto":
 
         def stage(kind, start, first):
-            return frf_update(model, data, params=params, x0=start, values=values,
-                              noise=noise.replace(std=None) if first else noise, solver=solver,
-                              frf=frf.replace(residual=kind))
+            return frf_update_with(model, data, frf.replace(residual=kind), noise.replace(std=None) if first else noise,
+                                   solver, params=params, x0=start, values=values)
 
         res = auto_stages(stage, x0, regularized)
         assert isinstance(res, FRFUpdateResult)
@@ -410,5 +426,5 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     )
 
 
-__all__ = ["update", "update_with", "combined_result", "frf_update", "auto_stages", "FRF_RESIDUALS",
+__all__ = ["update", "update_with", "frf_update_with", "combined_result", "frf_update", "auto_stages", "FRF_RESIDUALS",
            "DEFAULT_RESIDUAL"]

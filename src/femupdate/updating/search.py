@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from scipy import optimize
@@ -34,8 +35,8 @@ from ..options import ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions,
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .clustering import classify, cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, prepare_problem
-from .run import DEFAULT_RESIDUAL, frf_update
-from .results import MultiStartResult, UpdateResult
+from .run import DEFAULT_RESIDUAL, frf_update_with
+from .results import MultiStartResult, UpdateResult, attach
 from .starts import run_starts
 
 log = logging.getLogger(__name__)
@@ -76,6 +77,8 @@ class GlobalSearchResult(MultiStartResult):
         The first run's seed.
     method : str
         The global optimiser.
+    global_residual : str or None
+        The residual of the global stage (``None``: the polish's).
     optimizer : list of dict
         Per run ``{seed, x {name: value}, cost, nfev, nit, message}``, and for basin hopping
         ``minima``: the distinct local minima it visited, clustered, each
@@ -84,6 +87,9 @@ class GlobalSearchResult(MultiStartResult):
 
     method: str = ""
     optimizer: list = field(default_factory=list)
+    global_residual: str | None = "log"
+
+    kind: ClassVar[str] = "frf-update"
 
 
 def _bounds(model, names):
@@ -215,8 +221,8 @@ def _run_global(model, data, names, seed, job: _GlobalJob) -> tuple:
                  "nit": int(getattr(res, "nit", 0)), "message": str(getattr(res, "message", ""))})
     run: FRFUpdateResult | str
     try:
-        run = frf_update(model, data, params=names, x0=dict(zip(names, np.clip(res.x, lo, hi))), values=job.values,
-                         noise=job.noise, solver=job.solver, frf=job.frf)
+        run = frf_update_with(model, data, job.frf, job.noise, job.solver, params=names,
+                              x0=dict(zip(names, np.clip(res.x, lo, hi))), values=job.values)
     except FemupdateError as exc:
         run = f"{type(exc).__name__}: {exc}"
     return run, info
@@ -316,4 +322,5 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None
     starts_x = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
     # marked as fitting or not, as multi-start results are (else every run is listed as a local minimum)
-    return classify(GlobalSearchResult(best, solutions, results, starts_x, names, runs, len(ok), seed, method, infos))
+    return attach(classify(GlobalSearchResult(best, solutions, results, starts_x, names, runs, len(ok), seed, method,
+                                              infos, global_residual=global_residual)), model, data, "frf-update")

@@ -19,10 +19,9 @@ from ..options import (ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions
                        gather_some)
 from ..dask_cluster import collect, connect, task
 from .clustering import classify, converged_solutions, parameter_scale
-from .results import MultiStartResult, UpdateResult
+from .results import MultiStartResult, UpdateResult, attach
 from .combined import DATA_KINDS, data_kinds
-from .run import update
-from .run import frf_update
+from .run import frf_update, frf_update_with, update, update_with
 
 log = logging.getLogger(__name__)
 
@@ -99,8 +98,19 @@ def run_with(fn, model, data, names, start, kwargs):
         return f"{type(exc).__name__}: {exc}"
 
 
+def _update_start(model, data, *, params, x0, options, values):
+    """One start of a multi-start study: :func:`update` without the result's context (the model
+    and data need not travel back from a worker with every run)."""
+    return update_with(model, data, options, params=params, x0=x0, values=values)
+
+
+def _frf_update_start(model, data, *, params, x0, frf, noise, solver, values):
+    """One start of :func:`frf_multistart`: :func:`frf_update` without the result's context."""
+    return frf_update_with(model, data, frf, noise, solver, params=params, x0=x0, values=values)
+
+
 def _run_one(model, data, names, start, kwargs):
-    return run_with(update, model, data, names, start, kwargs)
+    return run_with(_update_start, model, data, names, start, kwargs)
 
 
 def timed(runner, model, data, names, start, kwargs):
@@ -200,13 +210,17 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         reason = unsupported(model, uo, explicit=True)
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
-        return multistart_batched(model, data, names, X0, seed=st.seed, rel_tol=st.rel_tol, cost_tol=st.cost_tol,
-                                  progress=progress, scheduler=ex.scheduler, connect_timeout=ex.connect_timeout,
-                                  values=values, options=uo)
+        ms = multistart_batched(model, data, names, X0, seed=st.seed, rel_tol=st.rel_tol, cost_tol=st.cost_tol,
+                                progress=progress, scheduler=ex.scheduler, connect_timeout=ex.connect_timeout,
+                                values=values, options=uo)
     # ---- end of the batched path ----------------------------------------------------------------
-    return run_starts(model, data, names, X0, {"options": uo, "values": values}, seed=st.seed, scheduler=ex.scheduler,
-                      rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
-                      connect_timeout=ex.connect_timeout, jobs=ex.jobs)
+    else:
+        ms = run_starts(model, data, names, X0, {"options": uo, "values": values}, seed=st.seed,
+                        scheduler=ex.scheduler, rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
+                        connect_timeout=ex.connect_timeout, jobs=ex.jobs)
+    from .run import _damping_of
+
+    return attach(ms, model, data, "update", damping=_damping_of(uo))
 
 
 def _check_once(model, data, names, o: UpdateOptions, values) -> None:
@@ -424,6 +438,7 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
                solver=(SolverOptions, rest.get("solver")))
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
-    return run_starts(model, data, names, X0, dict(o, values=values), seed=st.seed, scheduler=ex.scheduler,
-                      rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
-                      connect_timeout=ex.connect_timeout, runner=partial(run_with, frf_update))
+    ms = run_starts(model, data, names, X0, dict(o, values=values), seed=st.seed, scheduler=ex.scheduler,
+                    rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress, connect_timeout=ex.connect_timeout,
+                    runner=partial(run_with, _frf_update_start))
+    return attach(ms, model, data, "frf-update")

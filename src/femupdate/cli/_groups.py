@@ -1,0 +1,168 @@
+"""Option groups: each group of command-line options builds one object (an option object of
+:mod:`femupdate.options`, or a small specification the command resolves against its model and
+data), so that a command's function takes a handful of objects instead of forty keywords, and
+``--help`` lists the options under their group's heading.
+
+A group is a decorator made by :func:`option_group`::
+
+    @click.command(cls=GroupedCommand)
+    @starts_group()           # --starts, --seed         -> starts: StartsOptions
+    @execution_group()        # --scheduler, --jobs, ... -> execution: ExecutionOptions
+    def update(model_path, data_path, starts, execution, ...): ...
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import click
+
+from ..options import ExecutionOptions, SamplerOptions, SolverOptions, StartsOptions
+from ._common import SCHEDULER, SEED, FiniteFloat, connect_timeout_option
+
+
+class GroupedCommand(click.Command):
+    """A command whose ``--help`` lists its options under the headings of their groups."""
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        sections: dict[str, list[tuple[str, str]]] = {}
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is not None:
+                sections.setdefault(getattr(param, "group", None) or "Other options", []).append(record)
+        for title, rows in sections.items():
+            with formatter.section(title):
+                formatter.write_dl(rows)
+
+
+def option_group(title: str, target: str, build: Callable[..., Any], *options: Callable) -> Callable:
+    """A decorator that adds ``options`` (click option decorators, listed as they appear in
+    ``--help``) to a command under the heading ``title`` and passes ``build(**their values)`` to
+    the command's function as the keyword ``target`` instead of the values themselves.
+
+    Parameters
+    ----------
+    title : str
+        The heading of the group in ``--help``.
+    target : str
+        The keyword the built object is passed as.
+    build : callable
+        Called with the group's parameters by name; returns the object.
+    *options : click option decorators
+    """
+    def probe() -> None:  # pragma: no cover - never called
+        pass
+
+    for option in reversed(options):
+        probe = option(probe)
+    params = list(getattr(probe, "__click_params__", []))
+    names = [p.name for p in params]
+    for p in params:
+        setattr(p, "group", title)
+
+    def decorator(f: Callable) -> Callable:
+        @functools.wraps(f)
+        def wrapper(*args, **kwargs):
+            values = {n: kwargs.pop(n) for n in names}
+            kwargs[target] = build(**values)
+            return f(*args, **kwargs)
+
+        wrapper.__click_params__ = list(getattr(f, "__click_params__", [])) + params  # type: ignore[attr-defined]
+        return wrapper
+
+    return decorator
+
+
+# ---------------------------------------------------------------------------------- groups
+def starts_group(default: int = 1, starts_help: str | None = None, seed_help: str = "Seed of the random starts.",
+                 title: str = "Starts") -> Callable:
+    """``--starts``, ``--seed`` -> ``starts``: :class:`~femupdate.options.StartsOptions`."""
+    return option_group(
+        title, "starts", lambda starts, seed: StartsOptions(starts=starts, seed=seed),
+        click.option("--starts", type=click.IntRange(min=1), default=default, show_default=True,
+                     help=starts_help or "1: start from the model's values; R > 1: R random starts within the bounds."),
+        click.option("--seed", type=SEED, default=0, show_default=True, help=seed_help),
+    )
+
+
+def execution_group(jobs: bool = True, scheduler_help: str = "Run the starts on an existing Dask cluster "
+                                                              "(tcp://host:port).") -> Callable:
+    """``--scheduler``, ``--connect-timeout`` (and ``--jobs``) -> ``execution``:
+    :class:`~femupdate.options.ExecutionOptions`."""
+    options = [
+        click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR", help=scheduler_help),
+        connect_timeout_option,
+    ]
+    if jobs:
+        options.append(click.option(
+            "--jobs", type=click.IntRange(min=1, max=256), default=None,
+            help="Local processes for the starts of large models (default: one per core when a start is worth a "
+                 "process; 1: this process). The compiled route of small models uses threads instead."))
+
+    def build(scheduler, connect_timeout, jobs=None):
+        if jobs is not None and scheduler:
+            from .._errors import InputError
+
+            raise InputError(f"--jobs {jobs} with --scheduler: the starts run on the cluster's workers; give one of "
+                             "the two")
+        return ExecutionOptions(scheduler=scheduler, connect_timeout=connect_timeout, jobs=jobs)
+
+    return option_group("Where it runs", "execution", build, *options)
+
+
+def solver_group() -> Callable:
+    """``--method``, ``--regularization``, ``--max-nfev`` -> ``solver``:
+    :class:`~femupdate.options.SolverOptions` (its ``parametrisation`` is set by the problem's
+    options, :func:`femupdate.cli.update.problem_options`)."""
+    from ._common import parse_regularization
+
+    return option_group(
+        "Solver", "solver",
+        lambda method, reg_text, max_nfev: SolverOptions(method=method, regularization=parse_regularization(reg_text),
+                                                         max_nfev=max_nfev),
+        click.option("--method", type=click.Choice(["trf", "dogbox", "lm"]), default="trf", show_default=True,
+                     help="SciPy's least-squares method (lm: Levenberg-Marquardt, which ignores the bounds)."),
+        click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve to choose it."),
+        click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True,
+                     help="The most residual evaluations."),
+    )
+
+
+def sampler_group() -> Callable:
+    """The posterior's sampler options -> ``sampler``: :class:`~femupdate.options.SamplerOptions`."""
+    def build(method, samples, walkers, ensembles, steps, burn, segment, target_ess, tmcmc_steps, chunks, level):
+        return SamplerOptions(method=method, samples=samples, walkers=walkers, ensembles=ensembles, steps=steps,
+                              burn=burn, segment=segment, target_ess=target_ess, tmcmc_steps=tmcmc_steps,
+                              chunks=chunks, level=level)
+
+    return option_group(
+        "Sampler", "sampler", build,
+        click.option("--method", type=click.Choice(["laplace", "mcmc", "tmcmc"]), default="laplace", show_default=True,
+                     help="laplace: a Gaussian at each solution, with its probability; mcmc: ensemble sampler (emcee) "
+                          "for one solution; tmcmc: transitional MCMC for several solutions, with the log-evidence."),
+        click.option("--samples", type=click.IntRange(min=2), default=4000, show_default=True,
+                     help="Laplace draws, or the TMCMC population."),
+        click.option("--walkers", type=click.IntRange(min=2), default=None,
+                     help="MCMC walkers per ensemble (default max(64, 8 L) on the compiled route, max(32, 4 L) "
+                          "otherwise)."),
+        click.option("--ensembles", type=click.IntRange(min=1), default=2, show_default=True,
+                     help="Independent MCMC ensembles (one Dask task each)."),
+        click.option("--steps", type=click.IntRange(min=2), default=2000, show_default=True,
+                     help="MCMC steps per walker."),
+        click.option("--burn", type=click.IntRange(min=0), default=None, help="MCMC steps discarded (default steps / 4)."),
+        click.option("--segment", type=click.IntRange(min=1), default=250, show_default=True,
+                     help="MCMC steps between checkpoints (one Dask round)."),
+        click.option("--target-ess", type=FiniteFloat(min=1), default=None,
+                     help="Stop MCMC once every parameter's effective sample size reaches this."),
+        click.option("--tmcmc-steps", type=click.IntRange(min=1), default=5, show_default=True,
+                     help="Metropolis moves per chain and TMCMC stage."),
+        click.option("--chunks", type=click.IntRange(min=1), default=8, show_default=True,
+                     help="TMCMC's chains in this many pieces (random streams; Dask tasks)."),
+        click.option("--level", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.95, show_default=True,
+                     help="Probability of the credible intervals."),
+    )
+
+
+__all__ = ["GroupedCommand", "option_group", "starts_group", "execution_group", "solver_group", "sampler_group"]
