@@ -158,7 +158,7 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
     n_modes : int, optional
         Model modes computed and paired among (default ``max(2T, T + 6)`` for T test modes).
     parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        ``"relative"`` (x = p / |p_start|), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
+        ``"relative"`` (x = p / ``|p_start|``), ``"log"`` (x = ln p) or ``"absolute"`` (x = p).
     method : {"trf", "dogbox", "lm"}, default ``"trf"``
         ``"lm"``: Levenberg–Marquardt, which ignores the bounds.
     max_nfev : int, default 200
