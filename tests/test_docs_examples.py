@@ -11,6 +11,7 @@ failing (``femupdate: error:``) must fail.  Blocks that cannot run here are mark
 
 from __future__ import annotations
 
+import re
 import runpy
 import shutil
 import sys
@@ -107,3 +108,27 @@ def test_the_pages_have_examples_and_every_not_run_block_says_why():
     assert any(p.name == "README.md" for p in PAGES) and len(ALL) > 20
     for b in ALL:
         assert b.not_run is None or len(b.not_run) > 10, f"{b.where}: give the reason in words"
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading (MyST's myst_heading_anchors makes the same)."""
+    text = re.sub(r"[^\w\- ]", "", heading.strip().lower().replace("`", ""))
+    return text.replace(" ", "-")
+
+
+def test_links_of_the_readme_lead_to_files_and_headings_that_exist():
+    """The README is not part of the built site (whose build checks its own links): check its links
+    here, each to a file of the repository and, for a page, to one of its headings."""
+    from docs_blocks import ROOT
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    links = re.findall(r"\]\(([^)\s]+)\)", readme)
+    assert len(links) > 10
+    for link in links:
+        assert not re.match(r"[a-z]+://", link), f"README.md links outside the repository: {link}"
+        path, _, anchor = link.partition("#")
+        target = ROOT / path
+        assert target.exists(), f"README.md: {link}: no such file"
+        if anchor:
+            headings = re.findall(r"^#+ (.+)$", target.read_text(encoding="utf-8"), flags=re.M)
+            assert anchor in {_slug(h) for h in headings}, f"README.md: {link}: no such heading"
