@@ -190,7 +190,7 @@ def test_singular_evaluation_is_a_numerical_error():
 
 
 def test_readme_example():
-    """The Python example of the README's FRF section, as printed there."""
+    """The FRF example of docs/python-api.md, as printed there (tests/test_docs_examples.py runs the page too)."""
     from femupdate.examples import two_dof
     from femupdate.frf import receptance_sensitivity, simulate
     from femupdate.updating import frf_update, global_search

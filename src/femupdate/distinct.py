@@ -24,7 +24,7 @@ def cluster(points: np.ndarray, costs: np.ndarray, rel_tol: float = 1e-4, scale=
     costs : array_like, shape ``(n_points,)``
         Their costs (the order in which they are taken).
     rel_tol : float, default 1e-4
-        Point q is near representative p when |q_j − p_j| <= rel_tol max(|p_j|, scale_j) for every
+        Point q is near representative p when ``|q_j − p_j|`` <= rel_tol max(``|p_j|``, scale_j) for every
         j.
     scale : array_like, shape ``(L,)``, optional
         A typical magnitude of each parameter: below it the distance is absolute

@@ -23,7 +23,7 @@ Element dof orders
 * ``frame3d``, ``frame3d_terms``: ``x, y, z, rx, ry, rz`` at node a, then node b.
 
 Local frame of ``frame3d``: local x runs from node a to node b; the ``orientation`` vector v
-lies in the local x-y plane: local z = x × v / |x × v|, local y = z × x.  ``Iz`` is the second
+lies in the local x-y plane: local z = x × v / ``|x × v|``, local y = z × x.  ``Iz`` is the second
 moment for bending in the local x-y plane (about local z), ``Iy`` for the local x-z plane.
 """
 

@@ -2,7 +2,7 @@
 
 The paper gives the 2-dof system's values (m1 = 2, m2 = 4, k1 = 8, k2 = 6, eq. 11 onwards) but
 no values for the 3-dof systems of Figures 1 and 2; the defaults chosen here are documented in
-each function and in the README.
+each function and in docs/paper.md.
 """
 
 from __future__ import annotations

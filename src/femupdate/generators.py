@@ -94,8 +94,8 @@ def frame_lattice(
     Storey ``s = 1 .. nz-1`` holds the columns from level ``s-1`` to ``s`` and the beams at level
     ``s`` (the base beams at level 0, present only when ``support="none"``, belong to storey 1).
 
-    Sizes
-    -----
+    Sizes:
+
     * free dofs: ``6 nx ny (nz - 1)`` with ``support="base"`` (all six dofs of the
       ``nx ny`` nodes at z = 0 are fixed), ``6 nx ny nz`` with ``support="none"`` (free–free,
       six rigid-body modes).  ``frame_lattice(30, 30, 20)`` has 102,600 free dofs.
@@ -219,8 +219,8 @@ def truss_lattice(
     the chords of row ``s`` (the chords of row 0, present only when ``support="none"``,
     belong to storey 1).
 
-    Sizes
-    -----
+    Sizes:
+
     * free dofs: ``2 nx (ny - 1)`` with ``support="base"`` (both dofs of the ``nx`` nodes at
       y = 0 are fixed: pinned), ``2 nx ny`` free–free (three rigid-body modes).
     * rods: ``(nx - 1)`` chords per row (rows ``1 .. ny-1``, plus row 0 when unsupported),
@@ -317,8 +317,8 @@ def shear_building(
     With uniform ``k`` and ``m`` the eigenvalues are
     :math:`\lambda_r = 4 (k/m) \sin^2\!\big((2r - 1)\pi / (2 (2n + 1))\big)`.
 
-    Sizes
-    -----
+    Sizes:
+
     ``n`` dofs; ``L = n`` parameters ``k_1 .. k_n`` (``"storey"``), ``2n`` parameters
     ``k_1, m_1, k_2, m_2, ...`` (``"storey_mass"``) or none (``"none"``).
 

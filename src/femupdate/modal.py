@@ -402,14 +402,14 @@ def solve_modes(
     return Modes(lam, Phi, dofs, normalisation, int(rigid.sum()), factor)
 
 
-#: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
+#: a mode whose strain energy ``|φᵀKφ|`` exceeds this fraction of ``|φ|ᵀ|K||φ|`` is elastic, however small
 #: its eigenvalue is next to the pencil's largest single-dof quotient (the compiled route's
 #: :func:`femupdate.rules.restore_elastic` uses the same)
 RIGID_ENERGY_TOL = rules.RIGID_ENERGY_TOL
 
 
 def strain_energy_ratio(K, phi) -> float:
-    """|φᵀKφ| / (|φ|ᵀ|K||φ|): round-off (about 1e-16 to 1e-14) for a rigid-body mode, whose
+    """``|φᵀKφ| / (|φ|ᵀ|K||φ|)``: round-off (about 1e-16 to 1e-14) for a rigid-body mode, whose
     element energies cancel; far above for an elastic mode, even next to penalty stiffnesses.
 
     Parameters

@@ -389,7 +389,7 @@ class SolverOptions(Options):
     ftol, xtol, gtol : float, default 1e-10
         The solver's tolerances.
     parametrisation : {"relative", "log", "absolute"}, default ``"relative"``
-        The solver's variables: x = p / |p_start|, x = ln p, or x = p.
+        The solver's variables: x = p / ``|p_start|``, x = ln p, or x = p.
     regularization : float, {"gcv", "lcurve"} or None, default None
         A Tikhonov factor α ≥ 0, or the rule that chooses it at the start (generalised
         cross-validation, the L-curve's corner); the residual is augmented with α (x − x_start).

@@ -6,7 +6,7 @@ Every route that evaluates the modal updating problem — one local solve
 these functions for:
 
 * the map between the optimiser's variables x and the physical parameters p
-  (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / |p_start|, ``log`` x = ln p, ``absolute``);
+  (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / ``|p_start|``, ``log`` x = ln p, ``absolute``);
 * the checks of a computed spectrum (:func:`check_spectrum`: no negative eigenvalue, rigid-body
   eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`);
 * the pairing of test modes with model modes (:func:`pair_modes`, by the policy in
@@ -72,7 +72,7 @@ PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
 REPEATED_TOL = 1e-8
 #: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
 RIGID_TOL = 1e-12
-#: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
+#: a mode whose strain energy ``|φᵀKφ|`` exceeds this fraction of ``|φ|ᵀ|K||φ|`` is elastic, however small
 #: its eigenvalue is next to the pencil's largest single-dof quotient (:func:`restore_elastic`)
 RIGID_ENERGY_TOL = 1e-11
 
@@ -83,7 +83,7 @@ RIGID_ENERGY_TOL = 1e-11
 @rule
 def to_p(code, x, scale):
     """Physical values of the updated parameters at the optimiser's variables ``x`` (L,);
-    ``scale`` (L,) the |starting values| of the relative parametrisation.
+    ``scale`` (L,) the ``|starting values|`` of the relative parametrisation.
 
     Parameters
     ----------
@@ -93,7 +93,7 @@ def to_p(code, x, scale):
     x : numpy.ndarray of float, shape ``(L,)``
         The optimiser's variables.
     scale : numpy.ndarray of float, shape ``(L,)``
-        |starting values| of the parameters (in their own units, e.g. N/m or kg); read only for
+        ``|starting values|`` of the parameters (in their own units, e.g. N/m or kg); read only for
         ``RELATIVE``.
 
     Returns
@@ -118,7 +118,7 @@ def dp_dx(code, x, scale):
     x : numpy.ndarray of float, shape ``(L,)``
         The optimiser's variables.
     scale : numpy.ndarray of float, shape ``(L,)``
-        |starting values| of the parameters; read only for ``RELATIVE``.
+        ``|starting values|`` of the parameters; read only for ``RELATIVE``.
 
     Returns
     -------
@@ -138,10 +138,10 @@ def dp_dx(code, x, scale):
 @rule
 def check_spectrum(lam, nm, pencil_scale):
     """Checks of the lowest ``nm`` eigenvalues ``lam`` (ascending); rigid-body ones set to 0 in
-    place.  ``pencil_scale``: the largest single-dof Rayleigh quotient max |K_ii| / M_ii.
+    place.  ``pencil_scale``: the largest single-dof Rayleigh quotient max ``|K_ii|`` / M_ii.
 
     Returns ``(code, value)``: ``E_NEGATIVE`` and the lowest eigenvalue when one lies below
-    −1e-12 of the scale max(|λ|, pencil_scale), else ``OK``.
+    −1e-12 of the scale max(``|λ|``, pencil_scale), else ``OK``.
 
     Parameters
     ----------
@@ -152,7 +152,7 @@ def check_spectrum(lam, nm, pencil_scale):
     nm : int
         How many eigenvalues (the lowest) to check.
     pencil_scale : float
-        max_i |K_ii| / M_ii (rad²/s²); the scale is max(pencil_scale, 1e-300, max |λ|).
+        max_i ``|K_ii|`` / M_ii (rad²/s²); the scale is max(pencil_scale, 1e-300, max ``|λ|``).
 
     Returns
     -------
@@ -179,7 +179,7 @@ def restore_elastic(K, Phi, lam, computed, nm):
     """Undo :func:`check_spectrum`'s zero for each mode whose strain energy says it is elastic:
     the pencil's scale, max K_ii / M_ii, can be dominated by one penalty stiffness (a rigid link
     exported as a 1e10 spring) next to which a genuine first mode looks like round-off.  A
-    rigid-body mode's strain energy φᵀKφ is round-off of its terms, |φ|ᵀ|K||φ| times about
+    rigid-body mode's strain energy φᵀKφ is round-off of its terms, ``|φ|ᵀ|K||φ|`` times about
     1e-16; an elastic mode's is far above :data:`RIGID_ENERGY_TOL` of it.
 
     Parameters

@@ -9,7 +9,7 @@ size and the rank-normalised split :math:`\hat R`.
 * :func:`effective_sample_size` — N / τ over all draws of all ensembles.
 * :func:`split_rhat` — Vehtari, Gelman, Simpson, Carpenter & Bürkner (2021): every chain split in
   halves, the draws replaced by their normal scores (ranks), the potential scale reduction of the
-  bulk and of the folded draws |θ − median|, the larger of the two.  Values above
+  bulk and of the folded draws ``|θ − median|``, the larger of the two.  Values above
   :data:`RHAT_LIMIT` = 1.01 say the chains have not mixed (e.g. walkers left in different modes).
 
 Plain NumPy (and SciPy's normal quantile); used by the samplers of :mod:`femupdate.bayes` and

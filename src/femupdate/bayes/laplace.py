@@ -13,7 +13,7 @@ solution by
 c_k the fraction of that Gaussian within the bounds (estimated from its draws).  The solutions'
 relative probabilities are Z_k / Σ Z, and log Σ Z approximates the log-evidence.  Two solutions
 that fit the data equally well (equal likelihood) and sit under a flat prior weigh as
-|H_k|^{-1/2}: the less sensitive solution, whose neighbourhood fits as well over a larger volume,
+``|H_k|^{-1/2}``: the less sensitive solution, whose neighbourhood fits as well over a larger volume,
 is the more probable one.
 
 The approximation is made in the sampler's variables x (the parametrisation: relative, log or
@@ -306,7 +306,7 @@ def mixture_draws(post: Posterior, modes: list[Mode], n: int, rng: np.random.Gen
 
 def assign(modes: list[Mode], X: np.ndarray) -> np.ndarray:
     """The solution each sample belongs to (S,): the mode whose Laplace Gaussian (in x, equal
-    weights) has the highest density there, −½ (x − x_k)ᵀ H_k (x − x_k) + ½ log |H_k| (−1 when no
+    weights) has the highest density there, −½ (x − x_k)ᵀ H_k (x − x_k) + ½ log ``|H_k|`` (−1 when no
     mode has a Gaussian)."""
     usable = [k for k, m in enumerate(modes) if math.isfinite(m.log_weight)]
     if not usable:

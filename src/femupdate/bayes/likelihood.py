@@ -22,7 +22,7 @@ the weighted residuals: a log-evidence built on it compares models (parametrisat
 Several data sets — repeated tests of the same structure — multiply their likelihoods (their
 residuals are stacked).  Priors (:mod:`femupdate.priors`) come from the model's parameters or the
 caller, truncated to the bounds; the density is that of the sampler's variables x (the
-problem's parametrisation: relative, log or absolute), the Jacobian |dp/dx| included.
+problem's parametrisation: relative, log or absolute), the Jacobian ``|dp/dx|`` included.
 
 Evaluation takes the compiled route (:meth:`femupdate.updating.batched.BatchedProblem.residuals`,
 many points at once, the same rules) for modal data of small models, as multi-start does; the
@@ -294,7 +294,7 @@ class Posterior:
     # ------------------------------------------------------------------ prior
     def log_prior(self, X) -> np.ndarray:
         """log prior density of the variables X (S, L) (−inf outside the bounds or support),
-        the Jacobian |dp/dx| included; (S,)."""
+        the Jacobian ``|dp/dx|`` included; (S,)."""
         X = np.atleast_2d(np.asarray(X, float))
         P = self.to_p(X)
         out = np.full(X.shape[0], self._log_prior_const + self._log_flat)

@@ -1,20 +1,20 @@
 """Damage detection from a validated baseline.
 
-=======================================  =====================================================
-:func:`damage_unknowns`                   the model and its unknowns: its own stiffness
-                                          parameters or one per element (:mod:`.parameters`)
-:func:`element_parameters`                one stiffness parameter per element (:mod:`.parameters`)
-:func:`check_baseline`                    the baseline against the undamaged structure's data
-                                          (:mod:`.baseline`)
-:func:`detect_damage`                     damage from a validated baseline: localise
-                                          (expansion, sparse regularisation; :mod:`.localise`),
-                                          refine and verify (:mod:`.refine`, :mod:`.verify`),
-                                          bootstrap (:mod:`.bootstrap`), judge; :mod:`.detect`
-:class:`DamageOptions`                    its method's knobs, checked (:mod:`.options`)
-:func:`~.rates.comparable_rate`           the benchmark's false-positive rate for comparable
-                                          noise, sensors and modes (:mod:`.rates`)
-:func:`l1_solve`, :func:`~.solvers.tikhonov`  the regularised solvers (:mod:`.solvers`)
-=======================================  =====================================================
+==============================================  =====================================================
+:func:`damage_unknowns`                         the model and its unknowns: its own stiffness
+                                                parameters or one per element (:mod:`.parameters`)
+:func:`element_parameters`                      one stiffness parameter per element (:mod:`.parameters`)
+:func:`check_baseline`                          the baseline against the undamaged structure's data
+                                                (:mod:`.baseline`)
+:func:`detect_damage`                           damage from a validated baseline: localise
+                                                (expansion, sparse regularisation; :mod:`.localise`),
+                                                refine and verify (:mod:`.refine`, :mod:`.verify`),
+                                                bootstrap (:mod:`.bootstrap`), judge; :mod:`.detect`
+:class:`DamageOptions`                          its method's knobs, checked (:mod:`.options`)
+:func:`~.rates.comparable_rate`                 the benchmark's false-positive rate for comparable
+                                                noise, sensors and modes (:mod:`.rates`)
+:func:`l1_solve`, :func:`~.solvers.tikhonov`    the regularised solvers (:mod:`.solvers`)
+==============================================  =====================================================
 
 Multi-configuration (perturbed-boundary) updating is in :mod:`femupdate.updating.multiconfig`,
 full-field scans in :mod:`femupdate.fullfield`.

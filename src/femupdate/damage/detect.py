@@ -122,8 +122,8 @@ class DamageResult:
         refined and verified — that locate it}, ``same_set`` (fraction locating exactly
         ``located``), ``standard_error`` {unknown: bootstrap spread of its change},
         ``evidence`` {unknown: rise of the chi-square misfit when it is left out},
-        ``separation`` (the localisation step's smallest located |change| over the largest other
-        |change|), ``bootstrap`` (replicates), ``noise`` (levels used), and
+        ``separation`` (the localisation step's smallest located ``|change|`` over the largest other
+        ``|change|``), ``bootstrap`` (replicates), ``noise`` (levels used), and
         ``false_positive_rate``: the benchmark's measured rate for comparable noise, sensors and
         modes (:func:`femupdate.damage.rates.comparable_rate`; None without a comparable row).
     localised : bool

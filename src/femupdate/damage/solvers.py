@@ -163,7 +163,7 @@ def l1_path(A, r, lower, upper, threshold, alpha=None) -> L1Fit:
     lower, upper : float
         Bounds of every δ.
     threshold : float
-        Smallest |δ| counted as located (:func:`support_of`).
+        Smallest ``|δ|`` counted as located (:func:`support_of`).
     alpha : float, optional
         α as a fraction of α_max (default: chosen on the path).
 

@@ -69,7 +69,7 @@ def prepare(xe: np.ndarray, kind: str, weights, real: bool = False) -> tuple[np.
     Returns
     -------
     w : numpy.ndarray of float, shape ``xe.shape``
-        The weights; for ``"relative"`` divided by max(|x_E|, 1e-12 · max |x_E|).
+        The weights; for ``"relative"`` divided by max(``|x_E|``, 1e-12 · max ``|x_E|``).
     target : numpy.ndarray, shape ``xe.shape``
         ln|x_E| for ``"log"``, else ``xe`` (its real part when ``real``).
 
@@ -137,7 +137,7 @@ def values(xa: np.ndarray, target: np.ndarray, w: np.ndarray, kind: str) -> np.n
     Returns
     -------
     numpy.ndarray of float
-        ``"log"``: w (ln max(|x_A|, tiny) − target), shape ``(..., n_lines, n_dofs)``; else
+        ``"log"``: w (ln max(``|x_A|``, tiny) − target), shape ``(..., n_lines, n_dofs)``; else
         w (x_A − target), real of that shape, or, when complex, shape ``(..., 2, n_lines, n_dofs)``
         (real part, then imaginary part).
     """

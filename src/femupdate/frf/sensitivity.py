@@ -305,7 +305,7 @@ class FirstOrderCheck:
     estimate : numpy.ndarray, shape ``(n_lines,)``
         A-priori estimate δ|s|/d of that error.
     distance : numpy.ndarray, shape ``(n_lines,)``
-        Relative distance d = |ω² − λ| / max(λ, ω²) of each line to the nearest resonance.
+        Relative distance d = ``|ω² − λ|`` / max(λ, ω²) of each line to the nearest resonance.
     """
 
     omega: np.ndarray

@@ -1,4 +1,6 @@
-"""Full-field scan files (JSON): points by coordinates, measured translation components per point::
+"""Full-field scan files (JSON).
+
+Points by coordinates, measured translation components per point::
 
     {"points": [[x, y, z], ...],
      "modes": [{"frequency_hz": 8.1, "values": {"y": [v_1, ..., v_n]}}],

@@ -2,7 +2,7 @@
 
 :class:`ScanData` holds the points and, per mode (:class:`ScanMode`) or FRF line
 (:class:`ScanFRF`), the measured components at every point; :mod:`.mapping` maps them onto a
-model's dofs, :mod:`.files` reads them from JSON.
+model's dofs, :mod:`femupdate.fullfield.files` reads them from JSON.
 """
 
 from __future__ import annotations

@@ -106,7 +106,7 @@ class TamMetrics:
 
     @property
     def max_frequency_error(self) -> float:
-        """Largest |frequency_error|."""
+        """Largest ``|frequency_error|``."""
         return float(np.max(np.abs(self.frequency_error)))
 
     @property
@@ -116,22 +116,22 @@ class TamMetrics:
 
     @property
     def pseudo_max_offdiag(self) -> float:
-        """Largest |off-diagonal| of the pseudo-orthogonality (0 for a 1 × 1 matrix)."""
+        """Largest ``|off-diagonal|`` of the pseudo-orthogonality (0 for a 1 × 1 matrix)."""
         return _offdiag_max(self.pseudo_orthogonality)
 
     @property
     def self_max_offdiag(self) -> float | None:
-        """Largest |off-diagonal| of the self-orthogonality (None without test shapes)."""
+        """Largest ``|off-diagonal|`` of the self-orthogonality (None without test shapes)."""
         return None if self.self_orthogonality is None else _offdiag_max(self.self_orthogonality)
 
     @property
     def cross_max_offdiag(self) -> float | None:
-        """Largest |off-diagonal| of the cross-orthogonality (None without test shapes)."""
+        """Largest ``|off-diagonal|`` of the cross-orthogonality (None without test shapes)."""
         return None if self.cross_orthogonality is None else _offdiag_max(self.cross_orthogonality)
 
     @property
     def cross_min_diag(self) -> float | None:
-        """Smallest |diagonal| of the cross-orthogonality (None without test shapes)."""
+        """Smallest ``|diagonal|`` of the cross-orthogonality (None without test shapes)."""
         if self.cross_orthogonality is None:
             return None
         return float(np.min(np.abs(np.diag(self.cross_orthogonality))))

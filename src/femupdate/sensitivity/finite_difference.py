@@ -13,7 +13,7 @@ def finite_difference(model, values=None, which=None, params=None, n_modes=None,
                       normalisation: str = "mass") -> tuple[np.ndarray, np.ndarray]:
     """Central differences of eigenvalues and shapes, with mode tracking by MAC.
 
-    Each parameter is perturbed by ±``rel_step``·max(|p_j|, 1e-12) and the model re-solved
+    Each parameter is perturbed by ±``rel_step``·max(``|p_j|``, 1e-12) and the model re-solved
     (two eigensolutions per parameter: what the paper calls perturbation, and what open
     peers use).  Perturbed modes are paired to the base modes by MAC and their signs aligned.
     The truncation error is O(h²), the round-off error O(ε/h): ``rel_step`` ≈ ε^(1/3).
@@ -34,7 +34,7 @@ def finite_difference(model, values=None, which=None, params=None, n_modes=None,
     n_modes : int, optional
         Modes computed per eigensolution (default as :func:`femupdate.model_modes`).
     rel_step : float, default 1e-5
-        Step relative to max(|p_j|, 1e-12).
+        Step relative to max(``|p_j|``, 1e-12).
     normalisation : {"mass", "unit", "max"}, default "mass"
         Normalisation of the shapes whose derivatives are taken.
 

@@ -16,7 +16,7 @@ DENSE_LIMIT = 1500
 def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvalue and mass-normalised eigenvector derivatives by Nelson's method.
 
-    For mode i, with A = K − λ_i M and the dof k of largest |φ_k|, the singular system
+    For mode i, with A = K − λ_i M and the dof k of largest ``|φ_k|``, the singular system
     A v = f is made regular by fixing v_k = 0 (row and column k of A replaced by the unit
     vector); then φ' = v + c φ with c = −½ φᵀM'φ − φᵀ M v restores mass normalisation.
     The modified matrix keeps A's sparsity (banded stays banded) and is factorised once per

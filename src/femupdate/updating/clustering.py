@@ -20,7 +20,7 @@ _Result = TypeVar("_Result", bound=MultiStartResult)
 
 
 def parameter_scale(model, names: Sequence[str]) -> np.ndarray:
-    """A typical magnitude of each of the parameters ``names`` (L,): |nominal value|, or, for a
+    """A typical magnitude of each of the parameters ``names`` (L,): ``|nominal value|``, or, for a
     nominal value of zero, the width of the finite bounds (else 1) — below it, solutions are
     compared by absolute distance (:func:`femupdate.distinct.cluster`).
 

@@ -29,7 +29,7 @@ Normalisation: :math:`c_k = \lambda_k \|M(p_0)\,\varphi_k^0\|`, with p_0 the nom
 values (the model's, or the fixed ``values``; not the start, so that every start of a
 multi-start study solves the same problem) and φ_k^0 the test shape expanded on the nominal
 model.  A model whose shape matches the test shape exactly but whose eigenvalue is
-λ_A = (1 + δ) λ_k then has ‖r_k‖ = |δ| ‖Mφ‖/‖M_0φ^0‖ ≈ |δ|: the dynamic residual is
+λ_A = (1 + δ) λ_k then has ‖r_k‖ = ``|δ|`` ‖Mφ‖/‖M_0φ^0‖ ≈ ``|δ|``: the dynamic residual is
 dimensionless and of the size of the relative eigenvalue error of the other formulations, and
 does not depend on how the test shape is scaled.
 """

@@ -110,7 +110,7 @@ def frf_data(data) -> FRFData:
 
 
 def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
-    """Frequency response assurance criterion per dof (columns): |x_Eᴴ x_A|² / (|x_E|² |x_A|²).
+    """Frequency response assurance criterion per dof (columns): ``|x_Eᴴ x_A|² / (|x_E|² |x_A|²)``.
 
     Parameters
     ----------

@@ -23,7 +23,7 @@ class Parametrisation:
     names : sequence of str
         The updated parameters, in the order of x (L of them).
     kind : {"relative", "log", "absolute"}
-        ``"relative"`` (x = p / |p_start|, the default of every driver), ``"log"`` (x = ln p)
+        ``"relative"`` (x = p / ``|p_start|``, the default of every driver), ``"log"`` (x = ln p)
         or ``"absolute"`` (x = p).
     p_base : array_like, shape ``(n_parameters,)``
         Full parameter vector: the starting values of ``names`` and the values of every other
@@ -40,7 +40,7 @@ class Parametrisation:
     p_base : numpy.ndarray, shape ``(n_parameters,)``
         The full parameter vector at the start (float copy).
     scale : numpy.ndarray, shape ``(L,)``
-        |p_start| of each updated parameter (1 where the start is 0): the divisor of the
+        ``|p_start|`` of each updated parameter (1 where the start is 0): the divisor of the
         ``"relative"`` parametrisation.
 
     Raises
@@ -142,7 +142,7 @@ class Parametrisation:
 
 def x_of_p(kind: str, p, scale) -> np.ndarray:
     """The optimiser's variables of the values ``p`` of the updated parameters, for any shape
-    that broadcasts with ``scale`` (|start| of each parameter; one row per start if 2-D).
+    that broadcasts with ``scale`` (``|start|`` of each parameter; one row per start if 2-D).
 
     Parameters
     ----------
@@ -151,7 +151,7 @@ def x_of_p(kind: str, p, scale) -> np.ndarray:
     p : array_like, shape ``(L,)`` or ``(n_starts, L)``
         Parameter values (physical units).
     scale : array_like, shape ``(L,)``
-        |p_start| of each parameter (used by ``"relative"`` only).
+        ``|p_start|`` of each parameter (used by ``"relative"`` only).
 
     Returns
     -------
@@ -177,7 +177,7 @@ def x_bounds(kind: str, lo, hi, scale) -> tuple[np.ndarray, np.ndarray]:
     lo, hi : array_like, shape ``(L,)``
         Lower and upper bounds of the parameters (physical units; may be infinite).
     scale : array_like, shape ``(L,)``
-        |p_start| of each parameter (used by ``"relative"`` only).
+        ``|p_start|`` of each parameter (used by ``"relative"`` only).
 
     Returns
     -------

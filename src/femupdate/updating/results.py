@@ -23,7 +23,7 @@ class Diagnostics:
     Attributes
     ----------
     singular_values : numpy.ndarray, shape ``(min(m, L_free),)``
-        Singular values, descending, of the normalised sensitivity matrix S = ∂r/∂(p/|p|)
+        Singular values, descending, of the normalised sensitivity matrix S = ∂r/∂(p/``|p|``)
         (columns scaled by the parameter values, so units do not matter) over the free
         parameters' columns.
     condition_number : float
@@ -129,8 +129,8 @@ class RunResult:
         differences, times their weights).
     jac : numpy.ndarray, shape ``(m, L)``
         ∂r/∂x, the Jacobian in the optimiser's variables x — with the default ``"relative"``
-        parametrisation x = p / |p_start|, so column j is the change of the residuals per unit
-        relative change of parameter j (∂r/∂p_j · |p_start,j|); with ``"log"`` per unit change
+        parametrisation x = p / ``|p_start|``, so column j is the change of the residuals per unit
+        relative change of parameter j (∂r/∂p_j · ``|p_start,j|``); with ``"log"`` per unit change
         of ln p_j; with ``"absolute"`` per unit of p_j.
     nfev, njev, iterations : int
         Counts of the solver: residual evaluations, Jacobian evaluations, iterations.

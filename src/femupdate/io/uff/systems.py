@@ -28,7 +28,7 @@ from ..._errors import InputError
 
 __all__ = ["System", "read_2420", "read_18", "resolve_18", "aligned_axis", "ORTHO_TOL", "ALIGN_TOL"]
 
-#: |R Rᵀ − I| above this: not a rotation (16-digit matrices meet 1e-12; 6-digit ones about 1e-5)
+#: ``|R Rᵀ − I|`` above this: not a rotation (16-digit matrices meet 1e-12; 6-digit ones about 1e-5)
 ORTHO_TOL = 1e-4
 #: entries of R below this in magnitude are zero: a direction within 1e-6 of an axis lies along it
 ALIGN_TOL = 1e-6

@@ -42,7 +42,7 @@ class Solution(_MultiStartSolution):
         ``max_rel_error`` within the study's ``rel_tol``.
     """
 
-    max_rel_error: float = math.nan  #: largest |p / p_true − 1| over the unknowns
+    max_rel_error: float = math.nan  #: largest ``|p / p_true − 1|`` over the unknowns
     is_truth: bool = False
 
 

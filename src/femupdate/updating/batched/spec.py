@@ -30,7 +30,7 @@ class ModelArrays(NamedTuple):
     sptr: np.ndarray  #: (L + 1,) pointers into ``sidx``
     sidx: np.ndarray  #: rows where K_j or M_j is nonzero
     pcode: int  #: parametrisation (:data:`femupdate.rules.PARAMETRISATIONS`)
-    pscale: np.ndarray  #: (R, L) |start| of each row, for the relative parametrisation
+    pscale: np.ndarray  #: (R, L) ``|start|`` of each row, for the relative parametrisation
 
 
 class DataSets(NamedTuple):

@@ -154,7 +154,7 @@ class Stacked(Parametrisation):
         return sum(prob.targets.n_independent for _, prob, _ in self.subs)
 
     def normalised_blocks(self, x, blocks=None):
-        """Per configuration ∂r_c/∂(p/|p|): unit-free sensitivity blocks.
+        """Per configuration ∂r_c/∂(p/``|p|``): unit-free sensitivity blocks.
 
         Parameters
         ----------
@@ -166,7 +166,7 @@ class Stacked(Parametrisation):
         Returns
         -------
         list of numpy.ndarray, each shape ``(m_c, L)``
-            Column j scaled by |p_j| (1 for a zero value) / (∂p_j/∂x_j).
+            Column j scaled by ``|p_j|`` (1 for a zero value) / (∂p_j/∂x_j).
         """
         p = self.to_p(x)[self.idx]
         d = self.dp_dx(x)
