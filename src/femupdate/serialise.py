@@ -211,8 +211,10 @@ def _checked(obj: dict, kind: str) -> dict:
         raise InputError(f"schema_version {version!r}: this femupdate reads results of schema {SCHEMA_VERSION} and "
                          "older; a newer femupdate wrote it")
     from .report.build import check_result
+    from .schema import check
 
     check_result(obj)
+    check(obj, kind)
     return obj
 
 

@@ -1,0 +1,79 @@
+"""The kinds ``update`` and ``frf-update`` (:mod:`femupdate.updating.record`)."""
+
+from __future__ import annotations
+
+from . import ARRAY, BOOLEAN, INTEGER, NUMBER, OBJECT, STRING, Key, Kind, register
+
+_DIAGNOSTICS = (
+    "`singular_values`, `condition_number`, `rank` (of the normalised sensitivity matrix over the free parameters: "
+    "those not on a bound), `poorly_determined` (the parameters the data cannot move), `std` `{name: value}` (`null` "
+    "on a bound), `covariance`, `n_residuals`, `n_parameters`; `absolute` (the covariance comes from stated standard "
+    "deviations), `at_bounds` `{name: \"lower\" \\| \"upper\"}` (parameters held by a bound), `n_at_bounds`, `free` "
+    "(the parameters the figures describe), `poorly_determined_reasons` `{name: reason}`, `relative_std` "
+    "`{name: std / \\|value\\|}` (docs/cli.md, \"What the diagnostics say\")")
+
+UPDATE_KEYS = (
+    Key("kind", "string", "`update` (the command that wrote it; `frf-update` for `frf-update`)", (STRING,), True),
+    Key("schema_version", "integer", "the version of the results' schema (1)", (INTEGER,), True),
+    Key("model", "string", "", (STRING,)),
+    Key("parameters", "`{name: value}`", "every parameter after the (best) update", (OBJECT,), True),
+    Key("updated", "list", "the parameters updated", (ARRAY,)),
+    Key("start", "`{name: value}`", "the starting point of the run reported", (OBJECT,)),
+    Key("success", "bool", "the optimiser converged", (BOOLEAN,), True),
+    Key("status, message", "integer, string", "SciPy's termination status and message"),
+    Key("cost", "number", "½ Σ r² at the end", (NUMBER,), True),
+    Key("iterations", "integer", "", (NUMBER,), True),
+    Key("nfev", "integer", "residual evaluations", (NUMBER,)),
+    Key("pairs", "`[[test, model, mac]]`", "final pairing; `mac` is `null` for frequency-only modes", (ARRAY,), True),
+    Key("frequencies_hz", "`{test, model}`", "per pair", (OBJECT,), True),
+    Key("swaps", "list of `{evaluation, test_mode, from_model_mode, to_model_mode}`",
+        "mode swaps met during the iteration", (ARRAY,)),
+    Key("pairing", "object", "how the modes were paired at the solution: `policy` (asked for), `used` (the rule that "
+        "made the pairs), `min_mac`, `low_mac` (test modes whose pair's MAC is below it)", (OBJECT,)),
+    Key("history", "list of `{iteration, cost, parameters}`", "", (ARRAY,)),
+    Key("regularization", "`{rule, alpha}` or `{}`", "Tikhonov factor used", (OBJECT,)),
+    Key("sensitivity", "string", "the derivative route used (e.g. `fox-kapoor`, `nelson`; `dynamic residual (exact, no "
+        "eigen-solution)` for `--formulation dynamic`)", (STRING,)),
+    Key("formulation", "string or `null`", "the residuals of the measured modes: `shapes` (default), `mac` or "
+        "`dynamic`; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
+    Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
+        "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
+    Key("expanded_shapes", "list of `{dof: value}`", "with `--formulation dynamic`: the full shape of each test mode "
+        "at the solution, its measured entries the test shape scaled to unit length over them", (ARRAY,)),
+    Key("notes", "list", "what the user should know: first what the reader of the test data decided, then the run's "
+        "own notes", (ARRAY,)),
+    Key("flags", "list", "as `direct`: updated values on or outside their bounds, or not > 0 where they must be",
+        (ARRAY,)),
+    Key("parameter_units, bounds", "objects", "as `direct`", (OBJECT,)),
+    Key("diagnostics", "object", _DIAGNOSTICS, (OBJECT,)),
+    Key("blocks", "list", "with more than one kind of data: per block `{kind, label, n_residuals, scale, weighting, "
+        "cost}`", (ARRAY,)),
+    Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),
+    Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
+    Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
+        "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
+        "`--scheduler` also `seed`, `fitting`, `fit_cost`, `failed` (messages of failed starts), `failures` "
+        "`{reason: count}`, `runs` (one record per start: `start`, `outcome`, `cost`, `iterations`, `nfev`, "
+        "`solution`, `message`, `seconds`, `cpu_seconds`, `pairing`) and `seconds`", (OBJECT,), True),
+)
+
+register(Kind(
+    "update", UPDATE_KEYS,
+    intro="The result of `femupdate update`, `femupdate.update` and `femupdate.multistart` "
+          "(`result.to_json()`).",
+    outro="When no start converges the file holds only `kind`, `schema_version`, `model`, `success` (`false`) and "
+          "`starts`.  With FRF data the keys of `frf-update` below are added.",
+    may_add="frf-update"))
+
+register(Kind(
+    "frf-update",
+    (Key("omega_rad_s", "list", "the lines used", (ARRAY,)),
+     Key("skipped", "list of `{line, omega_rad_s, reason}`", "lines left out (e.g. at a resonance)", (ARRAY,)),
+     Key("residual", "string", "`linear`, `relative` or `log`", (STRING,)),
+     Key("frac", "`{dof: value}`", "frequency response assurance criterion per response dof", (OBJECT,)),
+     Key("natural_frequencies_hz", "list", "of the updated model", (ARRAY,)),
+     Key("global", "`{method, runs, residual, optimizer}`", "with `--global`", (OBJECT,))),
+    intro="The result of `femupdate frf-update` and `femupdate.updating.frf_update`: the keys of `update` (except "
+          "`formulation`, `solver` and `expanded_shapes`; `kind` is `frf-update`), plus:",
+    outro="`pairs` and `frequencies_hz` are empty lists for FRF updating unless the test data hold modes too.",
+    extends="update"))

@@ -1,0 +1,56 @@
+"""The JSON results' schema is the one place their keys are described: the documentation is
+generated from it, and the results write exactly the keys it describes, with the types it says."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import femupdate as fu
+from femupdate import schema
+from femupdate.cli import main
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "file-formats.md"
+
+
+def test_the_documentation_is_the_schema():
+    text = DOCS.read_text(encoding="utf-8")
+    assert schema.rewrite(text) == text, "docs/file-formats.md: run python -m femupdate.schema docs/file-formats.md"
+    for name in schema.kinds():
+        assert f"<!-- schema: {name} -->" in text, f"kind {name} is not in docs/file-formats.md"
+
+
+@pytest.fixture(scope="module")
+def ex(tmp_path_factory):
+    d = tmp_path_factory.mktemp("ex")
+    with pytest.raises(SystemExit):
+        main(["demo", "--write-files", str(d)])
+    return d
+
+
+def _results(ex):
+    two = fu.load_model(ex / "two_dof.toml")
+    fig2 = fu.load_model(ex / "figure2.toml")
+    yield fu.update(fig2, fu.load_test_data(ex / "figure2_test.json", fig2))
+    yield fu.update(fig2, fu.load_test_data(ex / "figure2_test.json", fig2), formulation="dynamic")
+    yield fu.multistart(two, fu.load_test_data(ex / "two_dof_frequencies.json", two), starts=6)
+    yield fu.frf_update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
+    yield fu.update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
+
+
+def test_results_write_the_keys_the_schema_describes(ex):
+    for result in _results(ex):
+        obj = json.loads(json.dumps(result.to_json()))
+        kind = schema.kinds()[obj["kind"]]
+        described = {n.strip() for k in (*schema.COMMON, *kind.all_keys()) for n in k.name.split(",")}
+        assert set(obj) <= described, (obj["kind"], sorted(set(obj) - described))
+        schema.check(obj, obj["kind"])  # every key holds the type the schema says
+
+
+def test_a_key_of_the_wrong_type_is_named():
+    with pytest.raises(fu.InputError, match="/success: expected boolean, got string"):
+        schema.check({"kind": "update", "success": "yes"}, "update")
+    with pytest.raises(fu.InputError, match="/frac: expected object"):
+        schema.check({"kind": "frf-update", "frac": [1, 2]}, "frf-update")
