@@ -154,7 +154,7 @@ class Pairing:
         Relative error (f_model − f_test) / f_test of each pair; NaN for a test mode at 0 Hz, and
         for every pair when no eigenvalues were given.
     large_change : tuple of int
-        Paired test modes whose pair crosses a large frequency change: |frequency error| above
+        Paired test modes whose pair crosses a large frequency change: ``|frequency error|`` above
         ``max_change`` (empty without eigenvalues).
     max_change : float
         The relative frequency change that counts as large.

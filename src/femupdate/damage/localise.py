@@ -523,7 +523,7 @@ class Localisation:
     tikhonov : dict
         For comparison (L1 only): ``changes``, ``alpha``, ``n_above_threshold``.
     separation : float
-        The smallest located |change| over the largest other |change| of the L1 solution (NaN
+        The smallest located ``|change|`` over the largest other ``|change|`` of the L1 solution (NaN
         when nothing is located, inf when nothing else changes).
     record : dict
         ``method``, ``located`` (largest first), ``changes`` (of the located).
