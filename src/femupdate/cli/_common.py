@@ -667,13 +667,17 @@ def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
 # ---------------------------------------------------------------------------------- entry point
 def run(group: click.Group, argv=None) -> None:
     """Run ``group``, turning femupdate errors into one message and an exit code."""
-    from .. import dask_cluster
+    import os
 
+    from .. import dask_cluster, settings
     from .._threads import blas_phase
+    from ._environment import settings_from
 
     dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
     try:
-        with blas_phase("solve"):  # BLAS threads by phase (femupdate._threads); a bad FEMUPDATE_BLAS_THREADS exits 2
+        # the environment read once (FEMUPDATE_FACTORISATION, FEMUPDATE_BLAS_THREADS; a bad value exits 2), the
+        # command run under those settings (restored after it), BLAS threads by phase (femupdate._threads)
+        with settings.using(settings_from(os.environ)), blas_phase("solve"):
             rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
     except click.exceptions.Abort:
         click.echo("femupdate: interrupted", err=True)

@@ -121,7 +121,7 @@ def batched_runs(model, data, names: Sequence[str], starts, options: dict,
 
 def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, progress) -> list:
     """:func:`batched_runs` in chunks, one task each, on the Dask cluster at ``scheduler``."""
-    from ...dask_cluster import collect, connect, task
+    from ...dask_cluster import Task, collect, connect
 
     client = connect(scheduler, timeout)
     try:
@@ -129,7 +129,7 @@ def _dask_runs(model, data, names, X0, options, scheduler: str, timeout: float, 
         n_chunks = max(1, min(R, 2 * sum(client.nthreads().values())))
         chunks = [c for c in np.array_split(np.arange(R), n_chunks) if c.size]
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(task, batched_runs, m_f, d_f, tuple(names), X0[c], options, pure=False, retries=2): k
+        futures = {client.submit(Task(batched_runs), m_f, d_f, tuple(names), X0[c], options, pure=False, retries=2): k
                    for k, c in enumerate(chunks)}
         parts: list = [None] * len(chunks)
 
