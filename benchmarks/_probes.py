@@ -78,7 +78,7 @@ def settings_from_environment():
     import os
 
     from femupdate import settings
-    from femupdate.cli._environment import settings_from
+    from femupdate.cli._entry import settings_from
 
     chosen = settings_from(os.environ)
     settings.install(chosen)

@@ -18,8 +18,7 @@ import scipy.sparse as sp
 import femupdate
 from femupdate import InputError, _threads, settings, workspace
 from femupdate.cli import main
-from femupdate.cli._common import run
-from femupdate.cli._environment import FACTORISATION_VARIABLE, THREADS_VARIABLE, settings_from
+from femupdate.cli._entry import FACTORISATION_VARIABLE, THREADS_VARIABLE, run, settings_from
 from femupdate.generators import frame_lattice
 
 SRC = Path(femupdate.__file__).resolve().parent

@@ -10,7 +10,7 @@ import pytest
 from threadpoolctl import threadpool_info
 
 from femupdate import InputError, _threads, settings
-from femupdate.cli._environment import THREADS_VARIABLE, settings_from
+from femupdate.cli._entry import THREADS_VARIABLE, settings_from
 
 
 def blas_threads() -> set[int]:

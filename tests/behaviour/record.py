@@ -182,7 +182,7 @@ def pinned_arpack(seed: int = 0):
     from scipy.sparse.linalg._eigen.arpack import arpack
 
     from femupdate import settings
-    from femupdate.cli._environment import FACTORISATION_VARIABLE as BACKEND_VARIABLE
+    from femupdate.cli._entry import FACTORISATION_VARIABLE as BACKEND_VARIABLE
 
     saved_backend = os.environ.get(BACKEND_VARIABLE)
     os.environ[BACKEND_VARIABLE] = "superlu"

@@ -1,5 +1,6 @@
-"""The environment variables of the command line, read once per command into the library's
-:class:`~femupdate.settings.Settings` (the library itself reads no environment variable).
+"""The entry point of every command (:func:`run`): the environment read once into the library's
+:class:`~femupdate.settings.Settings` (the library itself reads no environment variable), the
+command run under them, its errors turned into one message and an exit code.
 
 ``FEMUPDATE_FACTORISATION``: ``auto`` (default), ``cholmod`` or ``superlu``, the sparse
 factorisation backend.  ``FEMUPDATE_BLAS_THREADS``: a positive integer or ``keep``, overriding the
@@ -8,12 +9,15 @@ BLAS threading policy.  A bad value exits 2 with one message naming the variable
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 
-from .._errors import InputError
+import click
+
+from .._errors import FemupdateError, InputError
 from ..settings import FACTORISATIONS, Settings
 
-__all__ = ["FACTORISATION_VARIABLE", "THREADS_VARIABLE", "settings_from"]
+__all__ = ["FACTORISATION_VARIABLE", "THREADS_VARIABLE", "settings_from", "run"]
 
 #: chooses the sparse factorisation backend (:attr:`Settings.factorisation`)
 FACTORISATION_VARIABLE = "FEMUPDATE_FACTORISATION"
@@ -60,3 +64,39 @@ def settings_from(environ: Mapping[str, str]) -> Settings:
             raise InputError(f"{THREADS_VARIABLE}={raw!r}: give a positive number of threads, or keep")
         threads = int(text)
     return Settings(factorisation=choice, blas_threads=threads)
+
+
+# ---------------------------------------------------------------------------------- entry point
+def run(group: click.Group, argv=None) -> None:
+    """Run ``group``, turning femupdate errors into one message and an exit code."""
+    import os
+
+    from .. import dask_cluster, settings
+    from .._threads import blas_phase
+
+    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
+    try:
+        # the environment read once (FEMUPDATE_FACTORISATION, FEMUPDATE_BLAS_THREADS; a bad value exits 2), the
+        # command run under those settings (restored after it), BLAS threads by phase (femupdate._threads)
+        with settings.using(settings_from(os.environ)), blas_phase("solve"):
+            rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("femupdate: interrupted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except FemupdateError as exc:
+        click.echo(f"femupdate: error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        click.echo("femupdate: interrupted", err=True)
+        sys.exit(130)
+    except OSError as exc:  # e.g. an output folder that cannot be created or written
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)
+        sys.exit(2)
+    except MemoryError:
+        click.echo("femupdate: error: out of memory (try fewer modes or a smaller model)", err=True)
+        sys.exit(1)
+    sys.exit(rv if isinstance(rv, int) else 0)
