@@ -72,6 +72,19 @@ def pin_blas(threads: int) -> dict:
     return found
 
 
+def settings_from_environment():
+    """Install femupdate's settings from ``FEMUPDATE_FACTORISATION`` and ``FEMUPDATE_BLAS_THREADS``
+    as the command line reads them (the library reads no environment variable); returns them."""
+    import os
+
+    from femupdate import settings
+    from femupdate.cli._entry import settings_from
+
+    chosen = settings_from(os.environ)
+    settings.install(chosen)
+    return chosen
+
+
 def environment(**extra) -> dict:
     """Versions, machine, BLAS variables, load and date of a benchmark run (plus ``extra``)."""
     import os

@@ -119,11 +119,16 @@ def main(argv=None) -> int:
     ap.add_argument("--output", default=None)
     args = ap.parse_args(argv)
     sizes = QUICK if args.quick else SIZES
+    sys.path.insert(0, str(HERE))
+    from _probes import settings_from_environment
+
+    chosen = settings_from_environment()  # FEMUPDATE_FACTORISATION, FEMUPDATE_BLAS_THREADS as the command line reads them
     res = {"benchmark": "bench_factor", "environment": {
         "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
         "femupdate": femupdate.__version__, "backend": femupdate.workspace.backend(),
         "load_average_before": list(os.getloadavg()), "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "FEMUPDATE_BLAS_THREADS": os.environ.get("FEMUPDATE_BLAS_THREADS")}, "rows": [], "exponents": {}}
+        "FEMUPDATE_BLAS_THREADS": os.environ.get("FEMUPDATE_BLAS_THREADS"), "settings": dataclasses.asdict(chosen)},
+        "rows": [], "exponents": {}}
     for geometry in args.geometry or list(sizes):
         rows = []
         for size in sizes[geometry]:

@@ -137,6 +137,10 @@ def main(argv=None) -> int:
     size = QUICK if args.quick else FULL
     n_starts = args.starts or (3 if args.quick else 20)
     out = Path(args.output) if args.output else HERE / "results" / ("bench_large_quick.json" if args.quick else "bench_large.json")
+    sys.path.insert(0, str(HERE))
+    from _probes import settings_from_environment
+
+    settings_from_environment()  # FEMUPDATE_FACTORISATION, FEMUPDATE_BLAS_THREADS as the command line reads them
     res: dict = {"benchmark": "bench_large", "quick": bool(args.quick), "environment": {
         "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
         "femupdate": femupdate.__version__, "cpu_count": os.cpu_count(), "load_average_before": list(os.getloadavg()),

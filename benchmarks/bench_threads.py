@@ -13,8 +13,8 @@ Phases (each timed as the best of ``--repeat`` runs, wall and CPU seconds):
 * ``reduction 10k``    — Guyan reduction of a 10,800-dof frame to 192 retained dofs (the
   192-column solve with K_oo's factor).
 
-Each phase runs under ``FEMUPDATE_BLAS_THREADS=1``, ``=2`` and with the policy (the variable
-unset), first with the machine as found, then with a busy-loop process started on every other
+Each phase runs under ``Settings(blas_threads=1)``, ``=2`` (what ``FEMUPDATE_BLAS_THREADS=1`` and
+``=2`` set for a command) and with the policy (``blas_threads=None``), first with the machine as found, then with a busy-loop process started on every other
 core (the default; ``--no-busy`` skips it).  Reported per phase and load: the times,
 the ratio of two threads and of the policy to one thread.  The issue's goals: no phase slower
 with two cores than with one; with the second core busy, no phase more than 1.5 times slower
@@ -39,10 +39,11 @@ import numpy as np  # noqa: E402
 
 import femupdate  # noqa: E402
 from femupdate import model_modes  # noqa: E402
-from femupdate._threads import THREADS_VARIABLE, blas_phase  # noqa: E402
+from femupdate import settings  # noqa: E402
+from femupdate._threads import blas_phase  # noqa: E402
 from femupdate.generators import frame_lattice  # noqa: E402
 
-SETTINGS = {"1 thread": "1", "2 threads": "2", "policy": None}
+SETTINGS = {"1 thread": 1, "2 threads": 2, "policy": None}
 
 
 def _spin(stop):
@@ -153,11 +154,7 @@ def main(argv=None) -> int:
             for name, (_, run) in table.items():
                 row = {}
                 for label, value in SETTINGS.items():
-                    if value is None:
-                        os.environ.pop(THREADS_VARIABLE, None)
-                    else:
-                        os.environ[THREADS_VARIABLE] = value
-                    with blas_phase("solve"):  # as the command line runs every command
+                    with settings.using(blas_threads=value), blas_phase("solve"):  # as the command line runs every command
                         w, c = measure(run, states[name], args.repeat)
                     row[label] = {"wall": w, "cpu": c}
                 row["2 threads / 1"] = row["2 threads"]["wall"] / row["1 thread"]["wall"]
@@ -170,7 +167,6 @@ def main(argv=None) -> int:
             stop.set()
             for p in spinners:
                 p.join(5)
-            os.environ.pop(THREADS_VARIABLE, None)
     sys.path.insert(0, str(HERE))
     from _probes import save_json
 

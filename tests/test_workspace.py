@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from femupdate import MeasuredMode, TestData, model_modes
+from femupdate import MeasuredMode, TestData, model_modes, settings
 from femupdate.generators import frame_lattice
 from femupdate.modal import DENSE_LIMIT, solve_modes
 from femupdate.sensitivity import jacobian
@@ -53,13 +53,14 @@ def same_modes(a, b, rtol=1e-9):
 
 
 @pytest.fixture(params=["superlu", "cholmod"])
-def backend(request, monkeypatch):
-    """Each factorisation backend in turn (CHOLMOD skipped where scikit-sparse is missing)."""
+def backend(request):
+    """Each factorisation backend in turn, installed as the process's setting (CHOLMOD skipped
+    where scikit-sparse is missing)."""
     if request.param == "cholmod":
         pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
-    monkeypatch.setenv(workspace.BACKEND_VARIABLE, request.param)
-    assert workspace.backend() == request.param
-    return request.param
+    with settings.using(factorisation=request.param):
+        assert workspace.backend() == request.param
+        yield request.param
 
 
 SPARSE_KIND = {"superlu": OrderedLU, "cholmod": CholmodFactor}
@@ -115,12 +116,18 @@ def test_a_cholmod_factor_solves_and_reports_singularity(backend):
     np.testing.assert_allclose(indefinite @ lu.solve(b), b, rtol=1e-14)
 
 
-def test_an_unknown_backend_is_refused_by_name(monkeypatch):
+def test_an_unknown_backend_is_refused_by_name():
     from femupdate import InputError
 
-    monkeypatch.setenv(workspace.BACKEND_VARIABLE, "mumps")
-    with pytest.raises(InputError, match="FEMUPDATE_FACTORISATION='mumps'"):
-        workspace.backend()
+    with pytest.raises(InputError, match="factorisation 'mumps': not a factorisation backend"):
+        workspace.backend("mumps")
+    with pytest.raises(InputError, match="factorisation='mumps': not a factorisation backend"):
+        settings.Settings(factorisation="mumps")
+    K = sp.csc_array(np.diag([2.0, 3.0]))
+    with pytest.raises(InputError, match="'mumps'"):
+        workspace.factorize(K, backend="mumps")
+    with pytest.raises(InputError, match="'mumps'"):
+        SparseWorkspace(K, K, backend="mumps")
 
 
 @pytest.mark.parametrize("which", ["tower", "slab"])
@@ -211,15 +218,15 @@ def test_updating_with_and_without_reuse_reaches_the_same_solution(tower):
 
 
 def test_blocked_multi_column_solves_equal_the_column_by_column_ones(tower, monkeypatch):
-    from femupdate import workspace
+    from femupdate.workspace import band
 
-    monkeypatch.setattr(workspace, "BLOCKED_MIN_BANDWIDTH", 16)  # the tower's band (58) goes by blocks too
+    monkeypatch.setattr(band, "BLOCKED_MIN_BANDWIDTH", 16)  # the tower's band (58) goes by blocks too
     p = tower.values * np.array([0.7, 1.3, 1.1])
     K, M = tower.K(p), tower.M(p)
     ws = SparseWorkspace(K, M)
     ws.factor(K, M, 0.0)
     lu = ws.factor(K, M, 1.0)
-    assert isinstance(lu, BandCholesky) and lu.c.shape[0] - 1 >= workspace.BLOCKED_MIN_BANDWIDTH
+    assert isinstance(lu, BandCholesky) and lu.c.shape[0] - 1 >= band.BLOCKED_MIN_BANDWIDTH
     B = np.random.default_rng(2).standard_normal((tower.n_dofs, workspace.BLOCKED_MIN_COLUMNS + 3))
     X = lu.solve(B)  # by blocks
     assert lu._blk is not None
@@ -294,3 +301,132 @@ def test_starts_in_local_processes_give_the_runs_of_one_process(tower):
     assert [s.count for s in one.solutions] == [s.count for s in two.solutions]
     assert all(c > 0 for c in two.cpu_seconds)  # recorded by the worker processes, which this one's clock misses
     assert local_jobs(tower, 1) == 1  # one start: no pool
+
+
+# ---------------------------------------------------------------------------------- the route classes
+def random_pencil(n=60, seed=0, arrow=False):
+    """A random sparse SPD K (diagonally dominant) and SPD M whose pattern differs from K's (a
+    diagonal and a few couplings of their own), so that K − σM lives on the union pattern;
+    ``arrow``: K couples dof 0 to every other (a wide band, a sparse factor without fill)."""
+    rng = np.random.default_rng(seed)
+    if arrow:
+        A = sp.coo_array((rng.uniform(0.1, 1.0, n - 1), (np.zeros(n - 1, int), np.arange(1, n))), shape=(n, n))
+    else:
+        A = sp.random_array((n, n), density=0.06, random_state=rng) + sp.diags_array(rng.uniform(0.1, 1, n - 1), offsets=1)
+    A = sp.csr_array(A + A.T)
+    K = sp.csr_array(A + sp.diags_array(np.abs(A).sum(axis=1) + 2.0))
+    C = sp.random_array((n, n), density=0.02, random_state=rng) * 0.1
+    M = sp.csr_array(C + C.T + sp.diags_array(rng.uniform(1.0, 2.0, n)))
+    K.sort_indices()
+    M.sort_indices()
+    return K, M
+
+
+def route_of(kind, K, M):
+    """A route of ``kind`` made directly (not by the chooser), and the pattern."""
+    from femupdate.workspace import band, routes
+
+    pattern = routes.Pattern(K, M)
+    union = pattern.union()
+    perm, b = band.band_order(union, pattern.n)
+    if kind == "band":
+        return routes.BandRoute(pattern, perm, b)
+    if kind == "superlu":
+        return routes.SuperLURoute(pattern, union, workspace.superlu(K).perm_c, b)
+    pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD route needs scikit-sparse (femupdate[cholmod])")
+    return routes.CholmodRoute.analyse(pattern, b, K, M, 0.0)[0]
+
+
+@pytest.mark.parametrize("kind, name", [("band", "band Cholesky"), ("superlu", "SuperLU"),
+                                        ("cholmod", "CHOLMOD Cholesky")])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_each_route_solves_as_a_dense_solve(kind, name, seed):
+    K, M = random_pencil(seed=seed)
+    route = route_of(kind, K, M)
+    assert route.name == kind
+    B = np.random.default_rng(10 + seed).standard_normal((K.shape[0], 5))
+    for sigma in (0.0, 0.3, -0.5):
+        A = (K - sigma * M).toarray()
+        f = route.factor(K, M, sigma)
+        assert isinstance(f, workspace.Factor) and f.name == name == workspace.factor_name(f)
+        X = np.linalg.solve(A, B)
+        np.testing.assert_allclose(f.solve(B), X, rtol=0, atol=1e-12 * np.max(np.abs(X)))
+        np.testing.assert_allclose(f.solve(B[:, 2]), X[:, 2], rtol=0, atol=1e-12 * np.max(np.abs(X)))
+        assert not f.nearly_singular()
+
+
+@pytest.mark.parametrize("backend_name", ["superlu", "cholmod"])
+def test_each_factorisation_of_one_matrix_solves_as_a_dense_solve(backend_name):
+    if backend_name == "cholmod":
+        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    K, M = random_pencil(seed=3)
+    B = np.random.default_rng(4).standard_normal((K.shape[0], 3))
+    f = workspace.factorize(K, definite=True, backend=backend_name)
+    assert isinstance(f, workspace.Factor)
+    assert f.name == ("CHOLMOD Cholesky" if backend_name == "cholmod" else "SuperLU")
+    np.testing.assert_allclose(f.solve(B), np.linalg.solve(K.toarray(), B), rtol=1e-12, atol=0)
+    Z = (K - 40.0 * M).toarray()  # indefinite: LU whatever the backend
+    lu = workspace.factorize(sp.csc_array(Z), definite=False, backend=backend_name)
+    assert lu.name == "SuperLU"
+    np.testing.assert_allclose(lu.solve(B), np.linalg.solve(Z, B), rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("backend_name", ["superlu", "cholmod"])
+@pytest.mark.parametrize("arrow, chosen", [(False, "band"), (True, "sparse")])
+def test_the_chooser_takes_the_route_the_operation_counts_say(backend_name, arrow, chosen):
+    """The first factorisation chooses once, by band_wins on the band ordering's bandwidth and the
+    backend's fill: a narrow pattern goes to the band, an arrow (wide band, no fill) stays sparse."""
+    from femupdate.workspace import band
+
+    if backend_name == "cholmod":
+        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    K, M = random_pencil(n=200, seed=2, arrow=arrow)
+    n = K.shape[0]
+    _, b = band.band_order(sp.csr_array(K + M), n)
+    sparse = workspace.factorize(K, definite=True, backend=backend_name)
+    nnz_l = sparse.nnz if backend_name == "cholmod" else (sparse.nnz + n) // 2
+    expected = "band" if workspace.band_wins(n, b, nnz_l) else backend_name
+    assert expected == ("band" if chosen == "band" else backend_name)
+    ws = SparseWorkspace(K, M, backend=backend_name)
+    assert ws.route is None
+    first = ws.factor(K, M, 0.0)
+    assert first.name == sparse.name  # the backend's own factor made the choice
+    assert (ws.route, ws.bandwidth, ws.backend) == (expected, b, backend_name)
+    # imposed routes, and the band refused beyond its storage limit whatever is preferred
+    for prefer, route in (("band", "band"), ("sparse", backend_name)):
+        imposed = SparseWorkspace(K, M, prefer=prefer, backend=backend_name)
+        imposed.factor(K, M, 0.0)
+        assert imposed.route == route
+
+
+def test_the_band_is_refused_beyond_its_storage_limit_even_when_preferred(monkeypatch):
+    from femupdate.workspace import routes
+
+    K, M = random_pencil()
+    monkeypatch.setattr(routes, "MAX_BAND_ENTRIES", K.shape[0] - 1)
+    ws = SparseWorkspace(K, M, prefer="band", backend="superlu")
+    ws.factor(K, M, 0.0)
+    assert ws.route == "superlu"
+
+
+def test_the_route_is_chosen_once_and_refactorises_with_new_values(monkeypatch):
+    from femupdate.workspace import routes
+
+    calls = []
+
+    def counted(*args):
+        calls.append(args[-2:])
+        return routes.choose_route(*args)
+
+    monkeypatch.setattr(workspace, "choose_route", counted)
+    K, M = random_pencil(seed=5)
+    ws = SparseWorkspace(K, M, backend="superlu")
+    ws.factor(K, M, 0.0)
+    route = ws._route
+    B = np.random.default_rng(6).standard_normal(K.shape[0])
+    for scale, sigma in ((1.5, 0.2), (0.7, -1.0)):
+        K2 = K.copy()
+        K2.data = K.data * scale  # new values, the same pattern
+        f = ws.factor(K2, M, sigma)
+        np.testing.assert_allclose(f.solve(B), np.linalg.solve((K2 - sigma * M).toarray(), B), rtol=1e-11)
+    assert calls == [("superlu", None)] and ws._route is route and ws.n_factorisations == 3

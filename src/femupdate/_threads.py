@@ -20,10 +20,11 @@ The policy (:func:`threads_for`):
   the kernel (this process counts for one); one thread on a busy machine, or inside parallel
   work (a Dask worker, a start among others).
 
-``FEMUPDATE_BLAS_THREADS`` overrides the policy: a positive integer is used for every phase;
-``keep`` leaves BLAS as it is found (the caller's own setting).  The limits are applied with
-threadpoolctl, which finds every BLAS library loaded in the process; nested phases cost one
-integer comparison.
+:attr:`femupdate.settings.Settings.blas_threads` overrides the policy: a positive integer is used
+for every phase; ``"keep"`` leaves BLAS as it is found (the caller's own setting).  The command
+line sets it from ``FEMUPDATE_BLAS_THREADS``; the library reads no environment variable.  The
+limits are applied with threadpoolctl, which finds every BLAS library loaded in the process;
+nested phases cost one integer comparison.
 """
 
 from __future__ import annotations
@@ -32,10 +33,9 @@ import contextlib
 import os
 import threading
 
-__all__ = ["THREADS_VARIABLE", "LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work"]
+from . import settings
 
-#: environment variable overriding the policy: a positive integer, or "keep"
-THREADS_VARIABLE = "FEMUPDATE_BLAS_THREADS"
+__all__ = ["LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work"]
 
 #: dense eigen-solutions of at least this many dofs may use every free core
 LARGE_DENSE = 800
@@ -73,22 +73,12 @@ def threads_for(phase: str) -> int | None:
     Returns
     -------
     int or None
-
-    Raises
-    ------
-    InputError
-        ``FEMUPDATE_BLAS_THREADS`` is neither a positive integer nor ``keep``.
+        The override of :attr:`femupdate.settings.Settings.blas_threads` if one is installed
+        (None for ``"keep"``), else the policy's count.
     """
-    text = os.environ.get(THREADS_VARIABLE, "").strip().lower()
-    if text:
-        if text == "keep":
-            return None
-        if not text.isdigit() or int(text) < 1:
-            from ._errors import InputError
-
-            raise InputError(f"{THREADS_VARIABLE}={os.environ.get(THREADS_VARIABLE)!r}: give a positive number of "
-                             "threads, or keep")
-        return int(text)
+    override = settings.current().blas_threads
+    if override is not None:
+        return None if override == "keep" else int(override)
     if phase == "dense" and not in_parallel_work():
         return _free_cores()
     return 1

@@ -167,14 +167,42 @@ def same_machine_note(client) -> str | None:
     return None
 
 
-def task(fn: Callable, *args, **kwargs):
-    """Run ``fn(*args, **kwargs)`` as one of a cluster's parallel tasks: BLAS on one thread
-    (:func:`femupdate._threads.parallel_work`), since the worker's other tasks use the other
-    cores.  Submit ``task`` with the function as its first argument."""
-    from ._threads import blas_phase, parallel_work
+class Task:
+    """``fn`` as a Dask task: submit ``Task(fn)`` with ``fn``'s arguments.
 
-    with parallel_work(), blas_phase("solve"):
-        return fn(*args, **kwargs)
+    The task runs under the settings of the process that made it (:mod:`femupdate.settings`: the
+    factorisation backend, the BLAS threads), installed on the worker when it runs (a worker keeps
+    the settings of its last task); with ``parallel`` (the default) as one of a cluster's parallel
+    tasks, BLAS on one thread (:func:`femupdate._threads.parallel_work`), since the worker's
+    other tasks use the other cores.
+
+    Parameters
+    ----------
+    fn : callable
+        A picklable function.
+    parallel : bool, default True
+        Run ``fn`` as parallel work (else under the worker's BLAS policy as it stands).
+    """
+
+    def __init__(self, fn: Callable, parallel: bool = True):
+        from . import settings
+
+        self.fn, self.parallel, self.settings = fn, parallel, settings.current()
+
+    def __call__(self, *args, **kwargs):
+        from . import settings
+        from ._threads import blas_phase, parallel_work
+
+        settings.install(self.settings)
+        if not self.parallel:
+            return self.fn(*args, **kwargs)
+        with parallel_work(), blas_phase("solve"):
+            return self.fn(*args, **kwargs)
+
+
+def task(fn: Callable, *args, **kwargs):
+    """Run ``fn(*args, **kwargs)`` here as a :class:`Task` runs it on a worker."""
+    return Task(fn)(*args, **kwargs)
 
 
 def collect(client, futures: Mapping, address: str, timeout: float, on_result: Callable[[Hashable, object], None],

@@ -173,16 +173,20 @@ def pinned_arpack(seed: int = 0):
 
     The sparse factorisation backend is pinned too: SuperLU, with which the baseline was recorded
     (the CHOLMOD backend, where scikit-sparse is installed, gives the same eigenpairs to round-off,
-    not bit for bit; tests/test_workspace.py compares the two)."""
+    not bit for bit; tests/test_workspace.py compares the two) — through ``FEMUPDATE_FACTORISATION``,
+    which every command reads as it starts (in this process or in a subprocess), and through the
+    library's settings for anything called directly."""
     import os
 
     import numpy as np
     from scipy.sparse.linalg._eigen.arpack import arpack
 
-    from femupdate.workspace import BACKEND_VARIABLE
+    from femupdate import settings
+    from femupdate.cli._entry import FACTORISATION_VARIABLE as BACKEND_VARIABLE
 
     saved_backend = os.environ.get(BACKEND_VARIABLE)
     os.environ[BACKEND_VARIABLE] = "superlu"
+    saved_settings = settings.configure(factorisation="superlu")
     saved = {}
     for cls in (arpack._SymmetricArpackParams, arpack._UnsymmetricArpackParams):
         init = cls.__init__
@@ -199,6 +203,7 @@ def pinned_arpack(seed: int = 0):
     finally:
         for cls, init in saved.items():
             cls.__init__ = init
+        settings.install(saved_settings)
         if saved_backend is None:
             os.environ.pop(BACKEND_VARIABLE, None)
         else:

@@ -71,10 +71,11 @@ class Runner:
         """``[fn(post, *a) for a in args]``, in order — locally, or one Dask task per entry."""
         if self.client is None:
             return [fn(self.post, *a) for a in args]
-        from ..dask_cluster import collect
+        from ..dask_cluster import Task, collect
 
         m_f, d_f = self._scattered
-        futures = {self.client.submit(remote, fn, self.key, m_f, d_f, self.post.definition, *a, pure=False, retries=2): k
+        piece = Task(remote, parallel=False)  # under this process's settings (femupdate.settings)
+        futures = {self.client.submit(piece, fn, self.key, m_f, d_f, self.post.definition, *a, pure=False, retries=2): k
                    for k, a in enumerate(args)}
         out: list = [None] * len(args)
 

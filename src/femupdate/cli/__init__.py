@@ -4,10 +4,11 @@ Every command prints a readable summary and, with ``--json PATH`` (``-`` = stdou
 machine-readable result atomically.  Exit codes: 0 success, 2 bad input, 1 numerical failure;
 errors are one clear message on stderr, never a traceback.
 
-Layout (imports run one way, from the model code to here): :mod:`._common` holds what the
-commands share (console and JSON output, common options, tables, error handling); each other
-module defines one command or one family of commands; this module imports them explicitly and
-adds them to the :func:`cli` group.
+Layout (imports run one way, from the model code to here): :mod:`._entry` is the entry point
+(the environment read once into the library's settings, error handling); :mod:`._common` holds
+what the commands share (console and JSON output, common options, tables); each other module
+defines one command or one family of commands; this module imports them explicitly and adds
+them to the :func:`cli` group.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import logging
 
 import click
 
-from ._common import run
+from ._entry import run
 from .damage import damage, fullfield, rank_modifications, update_multi
 from .data import convert_data
 from .demo import demo

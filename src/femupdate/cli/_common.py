@@ -1,6 +1,6 @@
 """What every ``femupdate`` command shares: the console and JSON output, the common options,
-parsing of ``--set`` and ``--regularization``, the tables and payloads of several commands, and
-the error handling of the entry point.
+parsing of ``--set`` and ``--regularization``, and the tables and payloads of several commands
+(the entry point, with its error handling: :mod:`._entry`).
 
 Exit codes: 0 success, 2 bad input, 1 numerical failure; errors are one clear message on
 stderr, never a traceback.  Keep module-level imports light: heavy libraries are imported
@@ -663,36 +663,3 @@ def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
         t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
-
-
-# ---------------------------------------------------------------------------------- entry point
-def run(group: click.Group, argv=None) -> None:
-    """Run ``group``, turning femupdate errors into one message and an exit code."""
-    from .. import dask_cluster
-
-    from .._threads import blas_phase
-
-    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
-    try:
-        with blas_phase("solve"):  # BLAS threads by phase (femupdate._threads); a bad FEMUPDATE_BLAS_THREADS exits 2
-            rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
-    except click.exceptions.Abort:
-        click.echo("femupdate: interrupted", err=True)
-        sys.exit(130)
-    except click.ClickException as exc:
-        exc.show()
-        sys.exit(exc.exit_code)
-    except FemupdateError as exc:
-        click.echo(f"femupdate: error: {exc}", err=True)
-        sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        click.echo("femupdate: interrupted", err=True)
-        sys.exit(130)
-    except OSError as exc:  # e.g. an output folder that cannot be created or written
-        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)
-        sys.exit(2)
-    except MemoryError:
-        click.echo("femupdate: error: out of memory (try fewer modes or a smaller model)", err=True)
-        sys.exit(1)
-    sys.exit(rv if isinstance(rv, int) else 0)

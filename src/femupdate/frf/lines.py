@@ -422,7 +422,7 @@ def factor(Z, where: str):
 
     Returns
     -------
-    scipy.sparse.linalg.SuperLU
+    femupdate.workspace.SuperLUFactor
         The factor (:func:`femupdate.modal.factorize`).
 
     Raises
@@ -559,7 +559,7 @@ class LineSystems:
         ------
         i : int
             0-based line index.
-        lu : scipy.sparse.linalg.SuperLU or None
+        lu : femupdate.workspace.SuperLUFactor or None
             The factor of :meth:`Z` ``(i)``.
 
         Raises
@@ -583,7 +583,7 @@ def lu_apply(lu, B: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    lu : scipy.sparse.linalg.SuperLU
+    lu : femupdate.workspace.SuperLUFactor or scipy.sparse.linalg.SuperLU
         The factor of Z, shape ``(n, n)``.
     B : numpy.ndarray, shape ``(n,)`` or ``(n, k)``
         Right-hand sides, real or complex.
@@ -789,7 +789,7 @@ def nearest_mode(K, M, s: float, lu, where: str) -> tuple[float, np.ndarray]:
         Stiffness (N/m) and mass (kg).
     s : float
         The shift ω² (rad²/s²).
-    lu : scipy.sparse.linalg.SuperLU
+    lu : femupdate.workspace.SuperLUFactor or scipy.sparse.linalg.SuperLU
         Real factor of K − sM (:func:`factor`).
     where : str
         The line's name in messages.

@@ -193,7 +193,10 @@ def run_sections(out_dir, names=None, figures: bool = True, notes: list | None =
         ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
         if "forkserver" in methods:
             ctx.set_forkserver_preload(["femupdate.paper"])
-        with ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+        from .. import settings
+
+        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=settings.install,
+                                 initargs=(settings.current(),)) as pool:
             futures = [pool.submit(_run_group, t, str(out_dir), figures) for t in tasks]
             for f in as_completed(futures):
                 collect(f.result())

@@ -23,7 +23,7 @@ __all__ = ["single_thread_blas", "solve", "check_modes", "prepare_factor"]
 # ---------------------------------------------------------------------------------------------
 def single_thread_blas():
     """Run the enclosed code in the ``"solve"`` phase of the BLAS policy (one thread unless
-    ``FEMUPDATE_BLAS_THREADS`` says otherwise; :mod:`femupdate._threads`).
+    :attr:`femupdate.settings.Settings.blas_threads` says otherwise; :mod:`femupdate._threads`).
 
     SuperLU's solve with several right-hand sides calls BLAS on every (small) supernode, and
     OpenBLAS's thread hand-off then dominates: on a 35,000-dof frame a 30-column solve takes
@@ -100,7 +100,7 @@ def prepare_factor(K, M, modes, sigma=None, lu=None):
     Returns
     -------
     lu : factorisation
-        SuperLU object (or the ``lu`` given).
+        :class:`femupdate.workspace.Factor` (or the ``lu`` given).
     sigma : float
         The shift, rad²/s².
 

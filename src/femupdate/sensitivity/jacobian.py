@@ -185,7 +185,7 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         there cannot be scaled to it (:class:`NumericalError`): give a reference per mode.
     relative_eigenvalues : bool, default True
         Divide ∂λ_i/∂p_j by λ_i (paper eq. 19).
-    lu : scipy.sparse.linalg.SuperLU or callable, optional
+    lu : femupdate.workspace.Factor, scipy.sparse.linalg.SuperLU or callable, optional
         Factorisation of K − σM to reuse (``subspace``, ``adjoint``, ``static``).
     sigma : float, optional
         Its shift σ, rad²/s² (default 0, or a small negative shift for singular K).

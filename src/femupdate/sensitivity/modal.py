@@ -150,7 +150,7 @@ def shifted_factor(K, M, sigma=None):
 
     Returns
     -------
-    lu : scipy.sparse.linalg.SuperLU
+    lu : femupdate.workspace.Factor
         Factorisation of K − σM.
     sigma : float
         The shift used.

@@ -17,7 +17,7 @@ import numpy as np
 from .._errors import FemupdateError, InputError
 from ..options import (ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, UpdateOptions, gather,
                        gather_some)
-from ..dask_cluster import collect, connect, task
+from ..dask_cluster import Task, collect, connect
 from .clustering import classify, converged_solutions, parameter_scale
 from .results import MultiStartResult, UpdateResult, attach
 from .combined import DATA_KINDS, data_kinds
@@ -331,8 +331,12 @@ def local_jobs(model, n_starts: int) -> int:
 _SHARED: dict = {}
 
 
-def _share(model, data, runner) -> None:
-    """A worker process's copy of what every start shares (sent once per process)."""
+def _share(model, data, runner, settings) -> None:
+    """A worker process's copy of what every start shares (sent once per process), and the
+    caller's settings (:mod:`femupdate.settings`) installed."""
+    from .. import settings as _settings
+
+    _settings.install(settings)
     _SHARED.update(model=model, data=data, runner=runner)
 
 
@@ -349,12 +353,15 @@ def _run_processes(jobs, model, data, names, X0, kwargs, progress, runner):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    from .. import settings
+
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
     if "forkserver" in methods:
         ctx.set_forkserver_preload(["femupdate.updating"])
     pairs: list = [None] * len(X0)
-    with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_share, initargs=(model, data, runner)) as pool:
+    with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_share,
+                             initargs=(model, data, runner, settings.current())) as pool:
         futures = {pool.submit(_start_in_worker, names, x, kwargs): k for k, x in enumerate(X0)}
         for done, f in enumerate(as_completed(futures), 1):
             pairs[futures[f]] = f.result()
@@ -368,7 +375,7 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
     client = connect(address, timeout)
     try:
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(task, timed, runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
+        futures = {client.submit(Task(timed), runner, m_f, d_f, names, x, kwargs, pure=False, retries=2): k
                    for k, x in enumerate(X0)}
         runs: list = [None] * len(futures)
 

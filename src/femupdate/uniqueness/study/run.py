@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import cast
 
 from ..._errors import InputError
-from ...dask_cluster import collect, connect, task
+from ...dask_cluster import Task, collect, connect
 from ..checkpoint import Checkpoint
 from .definition import Study
 from .results import StudyResult, summarise
@@ -86,7 +86,7 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
             # the study travels inside each task (not scattered): a task lost with its worker can
             # always be recomputed, even if every copy of a scattered object were lost with it
             key = study.key()[:16]
-            futures = {client.submit(task, solve_unit, study, i, key=f"femupdate-uniqueness-{key}-unit-{i}", retries=2): i
+            futures = {client.submit(Task(solve_unit), study, i, key=f"femupdate-uniqueness-{key}-unit-{i}", retries=2): i
                        for i in todo}
             finished = [done]
 

@@ -129,7 +129,7 @@ def _problem(model, data, names, o: UpdateOptions, values, x0=None) -> Problem:
 
 def _dask_runs(model, data, names, X0, options, values, scheduler: str, timeout: float, progress) -> list:
     """:func:`batched_runs` in chunks, one task each, on the Dask cluster at ``scheduler``."""
-    from ...dask_cluster import collect, connect, task
+    from ...dask_cluster import Task, collect, connect
 
     client = connect(scheduler, timeout)
     try:
@@ -137,8 +137,8 @@ def _dask_runs(model, data, names, X0, options, values, scheduler: str, timeout:
         n_chunks = max(1, min(R, 2 * sum(client.nthreads().values())))
         chunks = [c for c in np.array_split(np.arange(R), n_chunks) if c.size]
         m_f, d_f = client.scatter([model, data], broadcast=True)
-        futures = {client.submit(task, batched_runs, m_f, d_f, tuple(names), X0[c], options, values, pure=False,
-                                   retries=2): k
+        futures = {client.submit(Task(batched_runs), m_f, d_f, tuple(names), X0[c], options, values, pure=False,
+                                 retries=2): k
                    for k, c in enumerate(chunks)}
         parts: list = [None] * len(chunks)
 
