@@ -61,3 +61,17 @@ def test_phases_each_under_their_label():
             tick("tmcmc", k, 5)
     text = out.getvalue()
     assert "searching solutions 20/20" in text and "TMCMC 5/5" in text
+
+
+def test_the_first_build_notice_gives_a_measured_estimate(tmp_path, monkeypatch):
+    from femupdate.updating.batched import driver
+
+    monkeypatch.setattr(driver, "_record_path", lambda: tmp_path / driver.BUILD_RECORD)
+    # no build recorded here: the idle figure, scaled by the load (two processes share the cores)
+    idle = driver.build_estimate(cores=2, load=0.0)
+    busy = driver.build_estimate(cores=2, load=6.0)
+    assert f"about {driver.BUILD_SECONDS_IDLE:.0f} s on an idle machine" in idle
+    assert f"about {driver.BUILD_SECONDS_IDLE * 4:.0f} s at the current load (6.0 on 2 cores)" in busy
+    # once a build has been timed here, its own time
+    driver._record_build(47.2)
+    assert driver.build_estimate(cores=2, load=0.0).startswith("the last build here took 47 s")

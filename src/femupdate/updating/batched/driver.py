@@ -21,12 +21,16 @@ numba's user cache when that is read-only); later processes load it.
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
+import time
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from concurrent.futures import ThreadPoolExecutor
+
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -372,7 +376,8 @@ class BatchedProblem:
         if progress and done:
             progress(done, R)
         if todo.size:
-            _announce_first_use()
+            building = _announce_first_use()
+            t_build = time.perf_counter()
             spec = self.spec()
             kernel.build(spec, _cores())
             threads = max(1, min(_cores(), todo.size))
@@ -381,6 +386,9 @@ class BatchedProblem:
                     parts = np.array_split(todo[a:a + chunk], threads)
                     list(pool.map(lambda rows: kernel.solve_rows(spec, st, rows, o["gtol"], o["ftol"], o["xtol"],
                                                                  max_nfev, err), [p for p in parts if p.size]))
+                    if building:  # the first chunk waited for the build: that is its time
+                        _record_build(time.perf_counter() - t_build)
+                        building = False
                     done += int(sum(p.size for p in parts))
                     if progress:
                         progress(done, R)
@@ -399,22 +407,74 @@ def _cores() -> int:
 
 
 _ANNOUNCED = False
+#: seconds the first build took on an idle two-core machine (benchmarks/bench_first_use.py)
+BUILD_SECONDS_IDLE = 13.0
+#: the file in numba's cache folder where the last build's measured time is kept
+BUILD_RECORD = "femupdate-build.json"
 
 
-def _announce_first_use() -> None:
+def _announce_first_use() -> bool:
     """Say once per process, before the compiled solver is first needed, whether it is loaded
-    from numba's disk cache or built — which, once after installation, takes a while."""
+    from numba's disk cache or built — which, once after installation, takes a while — with the
+    time it is expected to take (:func:`build_estimate`).  True when a build is coming."""
     global _ANNOUNCED
     if _ANNOUNCED:
-        return
+        return False
     _ANNOUNCED = True
     from . import kernel
 
     if kernel.cached():
         log.info("loading the compiled batched solver from numba's cache")
-    else:
-        log.warning("femupdate: building the compiled batched solver with numba - once after installation, about "
-                    "15 s on two cores; later runs load it from the cache")
+        return False
+    log.warning("femupdate: building the compiled batched solver with numba - once after installation, %s; later "
+                "runs load it from the cache", build_estimate())
+    return True
+
+
+def _load() -> float:
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):  # pragma: no cover - not on Unix
+        return 0.0
+
+
+def _record_path() -> Path | None:
+    from . import kernel
+
+    cache = getattr(getattr(kernel.solve_rows, "_cache", None), "_cache_path", None)
+    return Path(str(cache)) / BUILD_RECORD if cache else None
+
+
+def build_estimate(cores: int | None = None, load: float | None = None) -> str:
+    """How long the build should take here: the last build's measured time on this machine where
+    one is recorded, else :data:`BUILD_SECONDS_IDLE` (idle, two cores) scaled by the machine's
+    load — the build's two processes get about C / (L + C) of C cores under a load L (at load 6 on
+    two cores: about 52 s; 50-72 s were measured)."""
+    cores = _cores() if cores is None else cores
+    load = _load() if load is None else load
+    path = _record_path()
+    try:
+        last = json.loads(path.read_text()) if path is not None and path.is_file() else None
+    except (OSError, ValueError):
+        last = None
+    if isinstance(last, dict) and isinstance(last.get("seconds"), (int, float)):
+        return (f"the last build here took {last['seconds']:.0f} s (at load {last.get('load', 0):.1f} on "
+                f"{last.get('cores', '?')} cores)")
+    base = BUILD_SECONDS_IDLE * 2 / max(1, min(cores, 2))
+    expected = base * (load + max(cores, 1)) / max(cores, 1)
+    return (f"about {base:.0f} s on an idle machine, about {expected:.0f} s at the current load ({load:.1f} on {cores} "
+            f"core{'s' if cores != 1 else ''})")
+
+
+def _record_build(seconds: float) -> None:
+    """Keep the measured build time beside numba's cache (for the next notice)."""
+    path = _record_path()
+    if path is None:
+        return
+    try:
+        path.write_text(json.dumps({"seconds": round(seconds, 1), "cores": _cores(), "load": round(_load(), 2)}))
+    except OSError:
+        log.debug("cannot record the build time in %s", path)
 
 
 __all__ = ["AUTO_MAX_DOFS", "BatchedProblem",
