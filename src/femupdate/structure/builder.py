@@ -351,9 +351,8 @@ class Structure:
         props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
         self._frame("frame3d", nodes, props, orientation, mass, where)
 
-    def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, k12=None, k6=None, k2=None,
-                      k12_y=None, k6_y=None, k2_y=None, k12_z=None, k6_z=None, k2_z=None,
-                      mass: str = "consistent", where: str = "frame3d_terms") -> None:
+    def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, *, mass: str = "consistent",
+                      where: str = "frame3d_terms", **bending) -> None:
         """Space frame with the Appendix's independent stiffness terms as properties.
 
         Give ``k12, k6, k2`` (shared by both bending planes: Iy = Iz, the Appendix's five
@@ -369,25 +368,30 @@ class Structure:
             Density, area and polar moment of area, for the mass matrix.
         orientation : array_like, shape ``(3,)`` or ``(n_el, 3)``
             A vector in each member's local x-y plane.
-        k12, k6, k2 : float, str or sequence, optional
-            Bending terms 12EI/l³, 6EI/l², 2EI/l shared by both planes.
-        k12_y, k6_y, k2_y, k12_z, k6_z, k2_z : float, str or sequence, optional
-            The same terms per bending plane (instead of ``k12, k6, k2``).
         mass : str, default ``"consistent"``
             ``"consistent"`` or ``"lumped"``.
         where : str, default ``"frame3d_terms"``
             Name of the element(s) in messages.
+        **bending : float, str or sequence
+            The bending terms, as the model file names them: ``k12``, ``k6``, ``k2`` (12EI/l³,
+            6EI/l², 2EI/l) shared by both planes, or per bending plane ``k12_y``, ``k6_y``,
+            ``k2_y``, ``k12_z``, ``k6_z``, ``k2_z``.
 
         Every property is a number, parameter name, or a sequence of either with one entry per element.
 
         Raises
         ------
         InputError
-            A bending term given both shared and per plane, or neither; and as :meth:`frame3d`.
+            A bending term given both shared and per plane, or neither, or a property that is not
+            a bending term; and as :meth:`frame3d`.
         """
         props = {"EA_l": EA_l, "GJ_l": GJ_l, "rho": rho, "A": A, "Ip": Ip}
-        given = {"k12": k12, "k6": k6, "k2": k2, "k12_y": k12_y, "k6_y": k6_y, "k2_y": k2_y,
-                 "k12_z": k12_z, "k6_z": k6_z, "k2_z": k2_z}
+        names = [b + side for b in BENDING for side in ("", "_y", "_z")]
+        unknown = sorted(set(bending) - set(names))
+        if unknown:
+            raise InputError(f"{where}: unknown property {unknown[0]!r} of frame3d_terms (its bending terms: "
+                             f"{', '.join(names)})")
+        given = {n: bending.get(n) for n in names}
         for b in BENDING:
             both, y, z = given[b], given[b + "_y"], given[b + "_z"]
             if both is not None and (y is not None or z is not None):
