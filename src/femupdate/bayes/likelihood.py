@@ -43,15 +43,16 @@ from .._errors import FemupdateError, InputError
 from ..priors import Prior, parse_prior
 from ..testdata import TestData
 from ..options import FRFOptions, UpdateOptions
+from ..options.choices import LIKELIHOOD_ROUTES, NOISE_BASES
 from ..updating.combined import CombinedProblem, combined_problem, data_kinds
 from ..updating.problem import Problem
 
 log = logging.getLogger(__name__)
 
 #: how the noise is treated: from the stated standard deviations, or a scale estimated with them
-NOISE = ("auto", "stated", "estimate")
+NOISE = NOISE_BASES
 #: evaluation routes: compiled (many points at once), local (one problem evaluation per point)
-ROUTES = ("auto", "compiled", "local")
+ROUTES = LIKELIHOOD_ROUTES
 #: fewer points than this are evaluated on one thread (the threads' start-up costs more than they gain)
 PARALLEL_POINTS = 96
 

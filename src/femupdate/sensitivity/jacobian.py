@@ -26,6 +26,7 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical
+from ..options.choices import SENSITIVITY_ROUTES
 from ..modal import DENSE_LIMIT  # models up to this size take Nelson's method under "auto"
 from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
 from .adjoint import adjoint_details, resolve_sensors
@@ -37,7 +38,7 @@ from .scaling import scaled_shape
 from .series import DEFAULT_TOL, omitted_modes_series
 from .subspace import subspace_details
 
-METHODS = ("auto", "nelson", "modal", "static", "subspace", "adjoint", "fd")
+METHODS = SENSITIVITY_ROUTES  #: the derivative routes (femupdate.options.SENSITIVITY_ROUTES)
 SCALINGS = ("ref", "max", "unit", "mass")
 
 
