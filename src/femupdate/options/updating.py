@@ -52,10 +52,23 @@ class ModalOptions(Options):
     Attributes
     ----------
     formulation : {"shapes", "mac", "dynamic"}, default ``"shapes"``
-        ``"shapes"``: relative eigenvalue errors and scaled shape differences; ``"mac"``: relative
-        eigenvalue errors and MAC residuals (cost w² (1 − MAC) / 2 per mode); ``"dynamic"``: the
-        modal dynamic residual (K − λ_E M) φ of every dof, the unmeasured shape entries solved for
-        (no eigen-solution; every test mode needs a shape).
+        The residuals of each test mode:
+
+        * ``"shapes"``: w_λ (λ_A − λ_E)/λ_E and the scaled shape differences w_ψ (ψ_A − ψ_E) at
+          the measured dofs (:func:`femupdate.rules.shape_residuals`);
+        * ``"mac"``: w_λ (λ_A − λ_E)/λ_E and the MAC residuals w_ψ (I − ê êᵀ) â
+          (:func:`femupdate.rules.mac_residuals`), whose squared norm is w_ψ² (1 − MAC): the MAC
+          term of the literature in a form smooth at MAC = 1, independent of the shapes' scaling;
+        * ``"dynamic"``: the modal dynamic residual w_λ (K − λ_E M) φ / c of every dof, the
+          measured entries of φ the test shape and the unmeasured ones unknowns solved for at each
+          point (:mod:`femupdate.updating.dynamic`); no eigen-solution, every test mode needs a
+          shape, the eigenvalue's weight and standard deviation weigh the mode's residual and the
+          shape's have nothing to weigh (the measured entries are held).
+
+        ``"mac"`` and ``"dynamic"`` do not depend on how the shapes are scaled: they take
+        ``shape_scaling="unit"`` and no ``ref_dof``, and need the shapes (``use_shapes``);
+        ``"dynamic"`` takes ``sensitivity="auto"``
+        (:func:`femupdate.updating.problem.check_formulation`).
     shape_scaling : {"unit", "ref", "max"}, default ``"unit"``
         How the compared shapes are scaled (``"shapes"`` only): unit norm over the measured dofs,
         1 at a reference dof (eq. 33), or 1 at the largest entry.
@@ -68,9 +81,13 @@ class ModalOptions(Options):
         ``"auto"`` (Nelson up to 1,500 dofs; above, the adjoint or subspace series), ``"nelson"``,
         ``"modal"``, ``"static"``, ``"subspace"``, ``"adjoint"`` or ``"fd"``.
     reuse : bool, default True
-        Sparse models: keep the factorisation workspace and the last modes (the eigensolver's
-        start) from one evaluation to the next (the same solution to round-off); False factorises
-        afresh every time.
+        Models solved by the sparse eigensolver (:func:`femupdate.modal.eigensolver_for`): reuse
+        from one evaluation to the next what does not change — the model's factorisation
+        workspace (ordering and factorisation route, :mod:`femupdate.workspace`) — and start the
+        eigensolver from the previous evaluation's modes (ARPACK's starting vector, and a shift
+        below their lowest eigenvalue, which also shortens the sensitivities' series).  The same
+        modes and derivatives to round-off.  False: every evaluation as a first one (the backend's
+        factorisation afresh, shift 0).
     """
 
     formulation: str = "shapes"
