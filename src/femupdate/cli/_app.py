@@ -1,14 +1,5 @@
-"""The ``femupdate`` command line (docs/cli.md).
-
-Every command prints a readable summary and, with ``--json PATH`` (``-`` = stdout), writes the
-machine-readable result atomically.  Exit codes: 0 success, 2 bad input, 1 numerical failure;
-errors are one clear message on stderr, never a traceback.
-
-Layout (imports run one way, from the model code to here): :mod:`._common` holds what the
-commands share (console and JSON output, common options, tables, error handling); each other
-module defines one command or one family of commands; this module imports them explicitly and
-adds them to the :func:`cli` group.
-"""
+"""The click group :data:`cli` of the ``femupdate`` command line, with every command added
+(imported by :func:`femupdate.cli.main`, see :mod:`femupdate.cli`)."""
 
 from __future__ import annotations
 
@@ -16,7 +7,6 @@ import logging
 
 import click
 
-from ._common import run
 from .damage import damage, fullfield, rank_modifications, update_multi
 from .data import convert_data
 from .demo import demo
@@ -30,7 +20,7 @@ from .report import report
 from .uniqueness import uniqueness
 from .update import update
 
-__all__ = ["cli", "main"]
+__all__ = ["cli"]
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -38,7 +28,18 @@ __all__ = ["cli", "main"]
 @click.option("-v", "--verbose", count=True, help="Log progress (-v info, -vv debug).")
 def cli(verbose: int) -> None:
     """femupdate: update finite-element models so that they match vibration test data."""
+    from ..io.outputs import run_files
+
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2), format="%(levelname)s %(name)s: %(message)s")
+    ctx = click.get_current_context()
+    files = ctx.with_resource(run_files())  # the run's inputs and outputs (femupdate.io.outputs), until it ends
+    ctx.call_on_close(lambda: _say_replaced(files))
+
+
+def _say_replaced(files) -> None:
+    """One line on stderr per existing file the run replaced."""
+    for note in files.replaced_notes():
+        click.echo(f"note: {note}", err=True)
 
 
 # in this order (the order of `cli.commands`; `femupdate --help` lists them sorted by name)
@@ -48,8 +49,3 @@ for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  reduce, uniqueness, convert_data, report):
     cli.add_command(_command)
 del _command
-
-
-def main(argv=None) -> None:
-    """Entry point: run the CLI, turning femupdate errors into one message and an exit code."""
-    run(cli, argv)

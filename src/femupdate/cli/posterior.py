@@ -12,7 +12,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_DIR, OUTPUT_FILE, SCHEDULER, SEED, Ctx, FiniteFloat, OutputPath, connect_timeout_option,
+from ._common import (INPUT_FILE, CHECKPOINT_FILE, OUTPUT_DIR, SCHEDULER, SEED, Ctx, FiniteFloat, OutputPath, connect_timeout_option,
                       data_fields, emit, fmt, json_option, load_data, model_values, set_option)
 from .update import problem_from_command_line, problem_options
 
@@ -71,8 +71,8 @@ def posterior_payload(model, res, data_sets) -> dict:
 
 
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=INPUT_FILE)
 @click.option("--method", type=click.Choice(["laplace", "mcmc", "tmcmc"]), default="laplace", show_default=True,
               help="laplace: a Gaussian at each solution, with its probability; mcmc: ensemble sampler (emcee) for "
                    "one solution; tmcmc: transitional MCMC for several solutions, with the log-evidence.")
@@ -106,7 +106,7 @@ def posterior_payload(model, res, data_sets) -> dict:
 @click.option("--scheduler", type=SCHEDULER, default=None, metavar="ADDR",
               help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask cluster (tcp://host:port).")
 @connect_timeout_option
-@click.option("--checkpoint", "checkpoint_path", type=OUTPUT_FILE, default=None,
+@click.option("--checkpoint", "checkpoint_path", type=CHECKPOINT_FILE, default=None,
               help="The sampler's state after each MCMC segment or TMCMC stage, resumed by a re-run (default: next "
                    "to the --json output; none with --json - or without --json).")
 @problem_options

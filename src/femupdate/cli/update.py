@@ -12,7 +12,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import is_index
-from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, csv_option,
+from ._common import (INPUT_FILE, SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, csv_option,
                       fitting_table, print_starts, starts_payload, emit, print_diagnostics, print_flags, fmt, json_option,
                       model_values, option_dofs, parse_regularization, parse_std, set_option, update_parameter_table,
                       update_payload, write_model_option, write_model_outputs, measured_dofs_option, load_data,
@@ -126,8 +126,8 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
 
 
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the random starts.")
