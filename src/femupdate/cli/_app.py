@@ -30,7 +30,10 @@ def cli(verbose: int) -> None:
     """femupdate: update finite-element models so that they match vibration test data."""
     from ..io.outputs import run_files
 
+    from .. import dask_cluster
+
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2), format="%(levelname)s %(name)s: %(message)s")
+    dask_cluster.QUIET_LIBRARY_LOGS = not verbose  # a lost cluster: one message, the library's logs only with -v
     ctx = click.get_current_context()
     files = ctx.with_resource(run_files())  # the run's inputs and outputs (femupdate.io.outputs), until it ends
     ctx.call_on_close(lambda: _say_replaced(files))
