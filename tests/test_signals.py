@@ -213,12 +213,18 @@ def test_ctrl_c_at_any_moment_of_a_short_run(tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="signals by PID")
-def test_sigterm_is_exit_143_and_keeps_the_checkpoint(tmp_path):
-    (tmp_path / "two_dof.toml").write_text(example_files()["two_dof.toml"])
-    ck = tmp_path / "study.checkpoint.json"
-    proc = start(["uniqueness", "two_dof.toml", "--starts", "100000", "--checkpoint", ck], tmp_path, tmp_path / "run")
+@pytest.mark.parametrize("command, checkpoint, said", [
+    (["uniqueness", "two_dof.toml", "--starts", "100000"], "study.checkpoint.json", "finished units are in"),
+    (["posterior", "two_dof.toml", "two_dof_frequencies.json", "--std-eigenvalue", "0.01", "--method", "mcmc",
+      "--steps", "20000", "--segment", "500"], "post.checkpoint.npz", "the finished steps are in"),
+], ids=["uniqueness", "posterior"])
+def test_sigterm_is_exit_143_and_keeps_the_checkpoint(tmp_path, command, checkpoint, said):
+    for name in ("two_dof.toml", "two_dof_frequencies.json"):
+        (tmp_path / name).write_text(example_files()[name])
+    ck = tmp_path / checkpoint
+    proc = start([*command, "--checkpoint", ck], tmp_path, tmp_path / "run")
     try:
-        wait_for(ck.exists, 300, "the first unit in the checkpoint")
+        wait_for(ck.exists, 300, "the first piece of work in the checkpoint")
         time.sleep(0.5)
         os.kill(proc.pid, signal.SIGTERM)
         assert proc.wait(60) == 143  # was -15: killed, the clean-up skipped
@@ -227,9 +233,13 @@ def test_sigterm_is_exit_143_and_keeps_the_checkpoint(tmp_path):
     err = (tmp_path / "run.err").read_text()
     out = (tmp_path / "run.out").read_text()
     assert err.strip().endswith("femupdate: terminated") and "Traceback" not in err, err
-    assert f"finished units are in {ck}" in out.replace("\n", "")
-    doc = json.loads(ck.read_text())  # whole: written atomically, and never left half-written
-    assert doc and [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+    assert f"{said} {ck}" in out.replace("\n", ""), out
+    if ck.suffix == ".json":  # whole: written atomically, never left half-written
+        assert json.loads(ck.read_text())
+    else:
+        with np.load(ck, allow_pickle=False) as z:
+            assert "meta" in z.files
+    assert [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
 
 
 # ---------------------------------------------------------------------------------- 6: a lost Dask scheduler

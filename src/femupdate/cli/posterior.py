@@ -151,11 +151,18 @@ def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, 
                 tasks[phase] = bar.add_task(label, total=total)
             bar.update(tasks[phase], completed=done, total=total)
 
-        res = _posterior(model, sets if len(sets) > 1 else sets[0], method=method, params=params, priors=priors,
-                         noise=noise, starts=starts, seed=seed, samples=samples, walkers=walkers, ensembles=ensembles,
-                         steps=steps, burn=burn, segment=segment, target_ess=target_ess, tmcmc_steps=tmcmc_steps,
-                         chunks=chunks, level=level, scheduler=scheduler, connect_timeout=connect_timeout,
-                         checkpoint=checkpoint, progress=progress, values=values, **kw)
+        try:
+            res = _posterior(model, sets if len(sets) > 1 else sets[0], method=method, params=params, priors=priors,
+                             noise=noise, starts=starts, seed=seed, samples=samples, walkers=walkers,
+                             ensembles=ensembles, steps=steps, burn=burn, segment=segment, target_ess=target_ess,
+                             tmcmc_steps=tmcmc_steps, chunks=chunks, level=level, scheduler=scheduler,
+                             connect_timeout=connect_timeout, checkpoint=checkpoint, progress=progress, values=values,
+                             **kw)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the checkpoint holds the finished steps
+            if checkpoint is not None and method != "laplace" and Path(checkpoint).exists():
+                c.print(f"interrupted: the finished steps are in {checkpoint}; run the same command again to resume",
+                        markup=False)
+            raise
     _print(c, model, res, sets[0], checkpoint)
     payload = posterior_payload(model, res, sets)
     payload.update(data_fields(sets[0]))
