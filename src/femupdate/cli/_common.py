@@ -297,7 +297,10 @@ class OutputPath(click.ParamType):
             if self.dash:
                 return "-"
             self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
-        what = param.opts[0] if param is not None and param.opts else "output"
+        if param is None:
+            what = "output"
+        else:  # an option as typed (--json), an argument by its metavar (OUT)
+            what = param.opts[0] if isinstance(param, click.Option) else (param.metavar or param.name or "output").upper()
         if self.suffixes and Path(text).suffix.lower() not in self.suffixes:
             ends = f"one of {', '.join(self.suffixes)}" if len(self.suffixes) > 1 else self.suffixes[0]
             self.fail(f"{text}: the file name must end in {ends} ({self.why})", param, ctx)

@@ -32,7 +32,7 @@ import scipy.sparse as sp
 
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
-from .numbers import check_magnitudes, long_integer_line
+from .numbers import check_magnitudes, long_integer_line, parse_float
 from .outputs import note_input
 from ..model import Model, Parameter
 from ..priors import parse_prior
@@ -63,7 +63,7 @@ def read_toml(path) -> dict:
     try:
         with open(path, "rb") as fh:
             text = fh.read().decode("utf-8")
-        data = tomllib.loads(text)
+        data = tomllib.loads(text, parse_float=parse_float)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:

@@ -99,11 +99,10 @@ def _receptance(h: np.ndarray, omega: np.ndarray, kind: str, where: str) -> np.n
     if kind == "displacement":
         return h
     what = "mobility" if kind == "velocity" else "accelerance"
-    divisor = 1j * omega if kind == "velocity" else -(omega ** 2)
-    if np.any(divisor == 0):
+    if np.any(omega == 0):
         raise InputError(f"{where}: a {what} cannot be converted to receptance at zero frequency")
     with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
-        out = h / divisor
+        out = h / (1j * omega) if kind == "velocity" else h / (-(omega ** 2))
     if not np.all(np.isfinite(out)):
         raise InputError(f"{where}: a {what} too large for its frequencies to be converted to receptance "
                          "(a value overflows)")

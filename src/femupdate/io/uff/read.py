@@ -14,6 +14,7 @@ import numpy as np
 import pyuff
 
 from ..._errors import InputError
+from ..._limits import MAX_MAGNITUDE
 from ...dofs import DIRECTIONS, canonical_all, describe, dof, parse_dof
 from ...testdata import FRFData, MeasuredMode, TestData
 from .conventions import AXIS_RTOL, NODE_SETS, READ_SETS, UNIT_SYSTEMS, direction_of_code
@@ -244,6 +245,8 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
             freq = float(dset["freq"])
             if not math.isfinite(freq) or freq < 0:
                 raise InputError(f"frequency {freq!r} Hz must be finite and >= 0")
+            if freq > MAX_MAGNITUDE:  # its eigenvalue (2π f)² would overflow
+                raise InputError(f"frequency {freq:g} Hz is above {MAX_MAGNITUDE:g}")
             lam = (2 * math.pi * freq) ** 2
             zeta = _number_or_zero(dset.get("modal_damp_vis"))  # viscous damping ratio; 0: not stated
             if zeta == 0 and _not_finite(dset.get("modal_damp_vis")):
@@ -257,6 +260,9 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
             eig = complex(dset["eig"])  # s = -zeta*omega_n + i*omega_d, rad/s
             if not (math.isfinite(eig.real) and math.isfinite(eig.imag)):
                 raise InputError(f"complex eigenvalue {eig!r} is not finite")
+            if max(abs(eig.real), abs(eig.imag)) > MAX_MAGNITUDE:  # |s|² would overflow
+                raise InputError(f"complex eigenvalue {eig.real:g}{eig.imag:+g}j rad/s is above {MAX_MAGNITUDE:g} in "
+                                 "magnitude")
             lam = abs(eig) ** 2
             damping = -eig.real / abs(eig) if abs(eig) > 0 else None  # ζ = -Re(s)/|s|
             if damping is not None and not 0 <= damping < 1:
@@ -396,7 +402,11 @@ def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, Syst
         shape = np.array([vals[lab] for lab in labels]) if labels else np.zeros(0)
         if length != 1.0 and labels:  # translations file units -> m; rotations are radians
             trans = np.array([parse_dof(lab)[1] in DIRECTIONS[:3] for lab in labels])
-            shape = np.where(trans, shape / length, shape)
+            with np.errstate(over="ignore", under="ignore"):
+                shape = np.where(trans, shape / length, shape)
+            if not np.all(np.isfinite(shape)):
+                raise InputError(f"{r.where}: shape value(s) too large to convert to SI (divided by the length unit "
+                                 f"factor {length:g} of dataset 164, they overflow)")
         try:
             modes.append(MeasuredMode(r.eigenvalue, labels, shape, r.label, damping_ratio=r.damping_ratio))
         except InputError as exc:
