@@ -54,7 +54,7 @@ def main(argv=None) -> None:
     try:
         previous = _catch_sigterm()
         from ._app import cli
-        from ._common import run
+        from ._entry import run
 
         run(cli, argv)
     except KeyboardInterrupt as exc:  # before run() could catch it: while the commands were imported

@@ -1,10 +1,11 @@
 """What every ``femupdate`` command shares: the console and JSON output, the common options,
-parsing of ``--set`` and ``--regularization``, the tables and payloads of several commands, and
-the error handling of the entry point.
+parsing of ``--set`` and ``--regularization``, the tables and payloads of several commands; and,
+from the modules beside it, the input and output paths (:mod:`._paths`), the damping fields
+(:mod:`._damping`) and the error handling of the entry point (:mod:`._entry`).
 
-Exit codes: 0 success, 2 bad input, 1 numerical failure; errors are one clear message on
-stderr, never a traceback.  Keep module-level imports light: heavy libraries are imported
-inside the functions that need them.
+Exit codes: 0 success, 2 bad input, 1 numerical failure, 130 Ctrl-C, 143 SIGTERM; errors are one
+clear message on stderr, never a traceback.  Keep module-level imports light: heavy libraries
+are imported inside the functions that need them.
 """
 
 from __future__ import annotations
@@ -20,6 +21,11 @@ from rich.table import Table
 
 from .._errors import FemupdateError, InputError
 from .._limits import MAX_MAGNITUDE
+# what the commands import from here, defined beside: output and input paths, damping, the entry point
+from ._damping import damping_fields, fitted_damping, print_damping  # noqa: F401
+from ._entry import run  # noqa: F401
+from ._paths import (CHECKPOINT_FILE, INPUT_FILE, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, REPORT_FILE,  # noqa: F401
+                     InputPath, OutputPath, with_output_notes)
 
 
 class Ctx:
@@ -250,99 +256,9 @@ def emit(ctx: Ctx, payload: dict) -> None:
         write_json(ctx.json_path, with_output_notes(payload))
 
 
-def with_output_notes(payload: dict) -> dict:
-    """``payload`` with one note per output of the run that replaces an existing file, when it
-    has ``notes`` (:meth:`femupdate.io.outputs.RunFiles.declared_existing_notes`)."""
-    from ..io.outputs import active
-
-    run = active()
-    notes = payload.get("notes") if isinstance(payload, dict) else None
-    if run is None or not isinstance(notes, list):
-        return payload
-    extra = [n for n in run.declared_existing_notes() if n not in notes]
-    return {**payload, "notes": notes + extra} if extra else payload
-
-
 def fmt(v: float) -> str:
     return f"{v:.6g}"
 
-
-class OutputPath(click.ParamType):
-    """A path the command will write — a file (``"-"``: standard output where ``dash``) or a
-    folder — checked when the command line is read, before any computation
-    (:func:`femupdate.io.outputs.check_output`): a folder given for a file, a file for a folder, a
-    socket or a block device, a place that cannot be written, an input of the run or a file given
-    to another output are refused at once, naming the option (:mod:`femupdate.io.outputs`)."""
-
-    name = "path"
-
-    def __init__(self, kind: str = "file", dash: bool = False, suffixes: tuple[str, ...] = (),
-                 why: str = "the figure's format", note: bool = True):
-        self.kind = kind
-        self.dash = dash
-        self.suffixes = suffixes
-        self.why = why
-        self.note = note  # False: rewritten by design (a checkpoint), not noted as replaced
-
-    def convert(self, value, param, ctx):
-        from ..io.outputs import check_output, declare_output
-
-        if value is None or isinstance(value, Path):
-            text = value
-        else:
-            text = str(value)
-        if text is None:
-            return None
-        if str(text) == "-":
-            if self.dash:
-                return "-"
-            self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
-        if param is None:
-            what = "output"
-        else:  # an option as typed (--json), an argument by its metavar (OUT)
-            what = param.opts[0] if isinstance(param, click.Option) else (param.metavar or param.name or "output").upper()
-        if self.suffixes and Path(text).suffix.lower() not in self.suffixes:
-            ends = f"one of {', '.join(self.suffixes)}" if len(self.suffixes) > 1 else self.suffixes[0]
-            self.fail(f"{text}: the file name must end in {ends} ({self.why})", param, ctx)
-        try:
-            check_output(text, what, self.kind)
-        except FemupdateError as exc:
-            self.fail(str(exc).removeprefix(f"{what} "), param, ctx)
-        declare_output(text, what, self.kind, self.note)  # an input of the run: InputError, naming both
-        return Path(text)
-
-
-class InputPath(click.Path):
-    """A file the command reads (click's ``Path``, folders refused), noted as an input of the run
-    (:func:`femupdate.io.outputs.note_input`) so that no output can be written over it."""
-
-    def __init__(self):
-        super().__init__(dir_okay=False, path_type=Path)
-
-    def convert(self, value, param, ctx):
-        from ..io.outputs import note_input
-
-        path = super().convert(value, param, ctx)
-        if param is None:
-            what = "an input"
-        elif isinstance(param, click.Option):
-            what = f"the input of {param.opts[0]}"
-        else:
-            what = f"the input {(param.metavar or param.name or '').upper()}".rstrip()
-        note_input(path, what)
-        return path
-
-
-#: a file the command reads (:class:`InputPath`)
-INPUT_FILE = InputPath()
-
-OUTPUT_FILE = OutputPath("file")
-OUTPUT_DIR = OutputPath("dir")
-#: ``--checkpoint``: written after each piece of work and read back to resume
-CHECKPOINT_FILE = OutputPath("file", note=False)
-#: a figure file: its suffix chooses the format (those matplotlib writes without extra packages)
-OUTPUT_FIGURE = OutputPath("file", suffixes=(".png", ".pdf", ".svg", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff",
-                                             ".webp"))
 
 json_option = click.option("--json", "json_path", metavar="PATH", default=None, type=OutputPath("file", dash=True),
                            help="Write the machine-readable result to PATH ('-' = stdout).")
@@ -375,7 +291,6 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
 #: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
-REPORT_FILE = OutputPath("file", suffixes=(".html", ".htm"), why="an HTML report")
 report_option = click.option("--report", "report_path", type=REPORT_FILE, default=None, metavar="FILE.html",
                              help="Write one self-contained HTML report of the run (tables, figures, mode shapes on "
                                   "the model, notes); it opens offline.")
@@ -424,73 +339,6 @@ def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, va
     if csv_dir is not None and res is not None:
         written = write_result_tables(csv_dir, model, res, damping)
         ctx.console.print("wrote " + ", ".join(str(p) for p in written))
-
-
-# ---------------------------------------------------------------------------------- damping
-def fitted_damping(data):
-    """The Rayleigh damping (α, β ≥ 0) that fits the test modes' damping ratios
-    (:meth:`femupdate.frf.Damping.rayleigh_fit`, weighted by their standard deviations when every
-    one has one): ``(Damping, {"alpha", "beta", "rms_error", "n_modes"})``, or ``(None, None)``
-    when fewer than two modes carry a damping ratio."""
-    from ..frf import Damping
-
-    use = [m for m in data.modes if m.damping_ratio is not None and m.eigenvalue > 0]
-    if len(use) < 2:
-        return None, None
-    std = [m.std_damping_ratio for m in use]
-    fit, resid = Damping.rayleigh_fit([np.sqrt(m.eigenvalue) for m in use], [m.damping_ratio for m in use],
-                                      None if any(v is None for v in std) else std)
-    return fit, {"alpha": fit.alpha, "beta": fit.beta, "rms_error": float(np.sqrt(np.mean(resid ** 2))),
-                 "n_modes": len(use)}
-
-
-def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
-    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
-    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
-    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
-    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
-    or more); None when neither the data nor the model have damping.
-
-    Parameters
-    ----------
-    data : TestData
-        The test modes.
-    paired_hz : dict of int to float
-        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
-    damping : Damping, optional
-        The model's damping (``--damping``).
-    """
-    zeta = data.damping_ratios
-    damped = damping is not None and not damping.undamped
-    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
-        return None
-    model: list[float | None] = [None] * len(data.modes)
-    if damped:
-        for i, f in paired_hz.items():
-            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
-    _, fit = fitted_damping(data)
-    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
-            "std": [m.std_damping_ratio for m in data.modes], "model": model,
-            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
-
-
-def print_damping(console, data, fields: dict | None) -> None:
-    """The damping table (test ratio ± std, the model's, the difference) and the Rayleigh fit."""
-    if not fields:
-        return
-    t = Table(title="modal damping ratios")
-    for col in ("test", "f test [Hz]", "ζ test", "std", "ζ model", "model - test"):
-        t.add_column(col, justify="right")
-    f = data.frequencies_hz
-    for i, (zt, sd, zm) in enumerate(zip(fields["test"], fields["std"], fields["model"])):
-        t.add_row(str(i + 1), fmt(f[i]), "-" if zt is None else f"{zt:.4g}", "-" if sd is None else f"{sd:.2g}",
-                  "-" if zm is None else f"{zm:.4g}", "-" if zt is None or zm is None else f"{zm - zt:+.3g}")
-    console.print(t)
-    fit = fields["rayleigh_fit"]
-    if fit:
-        console.print(f"Rayleigh damping fitted to the {fit['n_modes']} measured damping ratios: alpha={fit['alpha']:.6g}, "
-                      f"beta={fit['beta']:.6g} (rms misfit {fit['rms_error']:.3g}); use it for FRFs with --damping "
-                      "fit", markup=False)
 
 
 # ---------------------------------------------------------------------------------- tables and payloads
@@ -707,44 +555,3 @@ def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
         t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
     return t
-
-
-# ---------------------------------------------------------------------------------- entry point
-def _interrupted(exc: BaseException) -> None:
-    """Exit 143 after SIGTERM (:class:`femupdate._errors.Terminated`), 130 after Ctrl-C."""
-    from .._errors import Terminated
-
-    terminated = isinstance(exc, Terminated) or isinstance(exc.__cause__, Terminated)
-    click.echo(f"femupdate: {'terminated' if terminated else 'interrupted'}", err=True)
-    sys.exit(143 if terminated else 130)
-
-
-def run(group: click.Group, argv=None) -> None:
-    """Run ``group``, turning femupdate errors into one message and an exit code (2 bad input, 1
-    numerical failure, 130 Ctrl-C, 143 SIGTERM)."""
-    from .. import dask_cluster
-
-    from .._threads import blas_phase
-
-    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message (with -v: the logs too, cli._app)
-    try:
-        with blas_phase("solve"):  # BLAS threads by phase (femupdate._threads); a bad FEMUPDATE_BLAS_THREADS exits 2
-            rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
-    except click.exceptions.Abort as exc:  # click's name for a KeyboardInterrupt (its cause)
-        _interrupted(exc)
-    except click.ClickException as exc:
-        exc.show()
-        sys.exit(exc.exit_code)
-    except FemupdateError as exc:
-        click.echo(f"femupdate: error: {exc}", err=True)
-        sys.exit(exc.exit_code)
-    except KeyboardInterrupt as exc:
-        _interrupted(exc)
-    except OSError as exc:  # e.g. an output folder that cannot be created or written
-        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)
-        sys.exit(2)
-    except MemoryError:
-        click.echo("femupdate: error: out of memory (try fewer modes or a smaller model)", err=True)
-        sys.exit(1)
-    sys.exit(rv if isinstance(rv, int) else 0)

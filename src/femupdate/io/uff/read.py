@@ -17,7 +17,7 @@ from ..._errors import InputError
 from ..._limits import MAX_MAGNITUDE
 from ...dofs import DIRECTIONS, canonical_all, describe, dof, parse_dof
 from ...testdata import FRFData, MeasuredMode, TestData
-from .conventions import AXIS_RTOL, NODE_SETS, READ_SETS, UNIT_SYSTEMS, direction_of_code
+from .conventions import AXIS_RTOL, NODE_SETS, READ_SETS, UNIT_SYSTEMS
 from .conventions import check_nodes as _check_nodes, node_id as _node_id
 from .frf_records import FRFSet, add_frf_record, frf_sets_of
 from .systems import System, read_18, read_2420, resolve_18
