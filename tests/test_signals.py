@@ -150,6 +150,41 @@ def test_workers_end_within_a_second_of_their_parent(tower_files, tmp_path, sig,
         proc.wait(10)
 
 
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the process table in /proc")
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")],
+                         ids=["SIGINT", "SIGTERM"])
+def test_a_signal_to_the_process_group_while_the_pool_starts(tower_files, tmp_path, sig, code, word):
+    """Ctrl-C at a terminal (or a scheduler's SIGTERM) reaches every process of the group: the
+    fork server importing its preloaded modules, a worker receiving its start-up data. None
+    prints a traceback (they used to: 'KeyboardInterrupt' in the fork server's imports, 'pickle
+    data was truncated' in a worker), and the run ends with its one line."""
+    if len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("one core: multi-start runs its starts in process, without a pool")
+    proc = start(["update", "tower.toml", "data.json", "--starts", "40"], tower_files, tmp_path / "run")
+    tree: list[int] = []
+    try:
+        wait_for(lambda: any("forkserver" in _cmdline(c) for c in descendants(proc.pid)), 120, "the fork server")
+        tree = descendants(proc.pid)
+        os.killpg(proc.pid, sig)
+        assert proc.wait(60) == code
+        tree += descendants(proc.pid)
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 1.0 and any(running(p) for p in tree):
+            time.sleep(0.01)
+        assert not [p for p in tree if running(p)]
+        err = (tmp_path / "run.err").read_text()
+        assert err.strip() == f"femupdate: {word}", err
+    finally:
+        kill_all([proc.pid, *tree])
+
+
 def test_a_pool_ends_its_workers_when_its_owner_raises():
     """In process: an exception inside the pool cancels the queue and ends the workers at once (the
     executor's own exit waits for every task already queued)."""

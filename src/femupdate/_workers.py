@@ -12,7 +12,8 @@ paper's sections) ends with its owner however the owner ends:
   worker ends it within :data:`WATCH_SECONDS` when its parent or its owner is gone.
 
 Workers ignore SIGINT: Ctrl-C at a terminal reaches the whole process group, and the owner ends
-its workers itself (a worker interrupted between two tasks would print a traceback).
+its workers itself (a worker interrupted between two tasks would print a traceback); the fork
+server starts with SIGINT blocked for the same reason.
 
 :func:`bind_to_owner` does the same for any child process (the compiling process of
 :mod:`femupdate.updating.batched.kernel`).  This module imports only the standard library.
@@ -109,6 +110,50 @@ def _stop(pool) -> None:
             os.kill(pid, signal.SIGKILL)
 
 
+def _start_fork_server() -> None:
+    """Start the fork server (and multiprocessing's resource tracker) with SIGINT blocked, a mask
+    they inherit: Ctrl-C at a terminal reaches the whole process group, and a fork server
+    interrupted while it imports its preloaded modules prints a traceback.  They end with this
+    process (the fork server when its pipe closes); a Ctrl-C that arrives meanwhile is delivered
+    to this process when the mask is restored."""
+    from multiprocessing import forkserver, resource_tracker
+
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        forkserver.ensure_running()
+        return
+    resource_tracker.ensure_running()  # first: it unblocks SIGINT after starting its own process
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM while the workers start (about a second: the fork server imports
+    the preloaded modules), then act on the first that came, as its handler would have — also
+    when the start failed meanwhile (a SIGTERM sent to the whole process group ends the fork
+    server too, and the next launch meets a broken pipe: the signal is what happened)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    signals = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.signal(s, lambda signum, frame: held.append(signum)) for s in signals}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if held:
+            handler = previous[held[0]]
+            if callable(handler):
+                handler(held[0], None)  # raises KeyboardInterrupt, or Terminated under the command line
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), held[0])
+
+
 @contextlib.contextmanager
 def process_pool(jobs: int, preload: tuple[str, ...] = (), initializer=None, initargs: tuple = ()):
     """A :class:`concurrent.futures.ProcessPoolExecutor` of ``jobs`` workers that end with this
@@ -132,15 +177,19 @@ def process_pool(jobs: int, preload: tuple[str, ...] = (), initializer=None, ini
     concurrent.futures.ProcessPoolExecutor
     """
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ProcessPoolExecutor, wait
 
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    if "forkserver" in methods and preload:
-        ctx.set_forkserver_preload(list(preload))
+    if "forkserver" in methods:
+        if preload:
+            ctx.set_forkserver_preload(list(preload))
+        _start_fork_server()
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_start_worker,
                                initargs=(os.getpid(), initializer, initargs))
     try:
+        with _signals_held():  # a worker whose start is cut short prints a traceback ('pickle data was truncated')
+            wait([pool.submit(os.getpid) for _ in range(jobs)])  # every worker started and initialised
         yield pool
     except BaseException:
         _stop(pool)

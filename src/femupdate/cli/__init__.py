@@ -63,6 +63,9 @@ def main(argv=None) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not interrupt the goodbye
         terminated = isinstance(exc, Terminated)
         sys.stderr.write(f"femupdate: {'terminated' if terminated else 'interrupted'}\n")
+        if owned:  # nothing is written yet; and an interrupt inside a library's exec() of a string
+            sys.stderr.flush()  # marks the interpreter to end by SIGINT (-2) however it is handled
+            os._exit(143 if terminated else 130)
         sys.exit(143 if terminated else 130)
     finally:
         if previous is not None:
