@@ -92,6 +92,8 @@ def test_the_issue_example_in_decibels_no_longer_converges_to_a_wrong_answer(tmp
     (1, {"units": "mm/N"}, lambda w: 1e3 + 0 * w, "general type in mm/N"),
     (11, {"units": "mm/s", "denominator": "N"}, lambda w: 1e3j * w, "mobility, force in the denominator's label"),
     (8, {"units": "m/kN"}, lambda w: 1e3 + 0 * w, "per kilonewton"),
+    (12, {"units": "g"}, lambda w: -(w ** 2) / G_N, "numerator alone in g, force in the file's unit (N)"),
+    (12, {"units": "mm/s^2"}, lambda w: -(w ** 2) * 1e3, "numerator alone in mm/s^2"),
 ], ids=lambda v: v if isinstance(v, str) else None)
 def test_linear_units_labels_are_converted_to_si(tmp_path, spec, kw, scale, kind):
     H = receptance(eta=0.02)
@@ -110,6 +112,18 @@ def test_a_units_label_wins_over_dataset_164_and_says_so(tmp_path):
     data = read_uff(write(tmp_path / "h.uff", units, *both(H, lambda h: h * 1e3, units="mm/N")))
     np.testing.assert_allclose(data.frf.response, H, rtol=1e-10)
     assert any("ordinate in mm/N" in n and "record 9, field 6" in n for n in data.notes), data.notes
+
+
+def test_a_numerator_in_g_over_the_force_unit_of_dataset_164(tmp_path):
+    """Accelerance in g per millinewton: the label gives the numerator, dataset 164 the force."""
+    units = pyuff.prepare_164(units_code=9, units_description="g per mN", temp_mode=1, length=1.0, force=1000.0,
+                              temp=1.0, temp_offset=273.15)
+    H = receptance(eta=0.02)
+    file_values = H * (-(OMEGA ** 2) / G_N / 1000.0)[:, None]  # x in g, F in mN
+    data = read_uff(write(tmp_path / "h.uff", units, *[record(n, file_values[:, n - 1], spec=12, units="g")
+                                                          for n in (1, 2)]))
+    np.testing.assert_allclose(data.frf.response, H, rtol=3e-5)
+    assert any("ordinate in g per the file's force unit" in n for n in data.notes), data.notes
 
 
 @pytest.mark.parametrize("spec, units", [(8, "m/s^2/N"), (12, "m/N"), (11, "g/N")])

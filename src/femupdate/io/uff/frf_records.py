@@ -140,8 +140,8 @@ def read_frf_record(dset: dict, where: str, nodes, systems: Mapping[int, System]
     ref, ref_sign = _frf_dof(ref_node, ref_dir, ref_sign, nodes, systems, where, "reference (excitation)")
     # H measured between transducers oriented s_rsp, s_ref: H_+ = s_rsp * s_ref * H_measured
     h = h * (rsp_sign * ref_sign)
-    if ordinate.factor is not None:
-        factor = ordinate.factor  # the record's own units label: dataset 164 does not apply to its ordinate
+    if ordinate.factor is not None:  # the record's own units label: dataset 164's length does not apply
+        factor = ordinate.factor * (float(units["force"]) if ordinate.file_force and units else 1.0)
     else:
         factor = _si_factor(units, rsp_dir, ref_dir) if units else 1.0
     if factor != 1.0:

@@ -55,11 +55,14 @@ _ROT_ONLY = re.compile(r"^(rad|radians?)$")
 class Ordinate:
     """How to read a record's ordinate: ``kind`` (``"displacement"``, ``"velocity"`` or
     ``"acceleration"``) and, when a units label gave it, ``factor`` (file values -> SI of that
-    kind per newton); None: dataset 164's factors apply.  ``note``: what was decided, or None."""
+    kind per newton); None: dataset 164's factors apply.  ``file_force``: the label named the
+    numerator only, the force is in the file's units (dataset 164's force factor still applies).
+    ``note``: what was decided, or None."""
 
     kind: str
     factor: float | None = None
     note: str | None = None
+    file_force: bool = False
 
 
 def _label(dset: dict, key: str) -> str:
@@ -71,23 +74,26 @@ def _unit(text: str) -> str:
     return re.sub(r"[\s()\[\]]", "", text)
 
 
-def _ratio(units: str, denominator: str) -> tuple[str, float] | None:
-    """(kind, factor to SI per N) of a units label such as ``mm/s^2/N``, ``g/N``, ``(m/s)/N`` or
-    ``m/s`` with ``N`` as the denominator's label; None when it is not one."""
+def _ratio(units: str, denominator: str) -> tuple[str, float, bool] | None:
+    """(kind, factor to SI, force in the file's units) of a units label such as ``mm/s^2/N``,
+    ``g/N``, ``(m/s)/N``, ``m/s`` with ``N`` as the denominator's label (factors per newton), or a
+    numerator alone, ``g`` or ``mm/s^2``, over the file's force unit; None when it is not one."""
     text = _unit(units)
     head, sep, force = text.rpartition("/")
+    file_force = False
     if sep and force in _FORCE and _NUMERATOR.match(head):
         numerator, f = head, _FORCE[force]
-    elif _NUMERATOR.match(text) and _unit(denominator) in _FORCE:
-        numerator, f = text, _FORCE[_unit(denominator)]
+    elif _NUMERATOR.match(text):
+        numerator, f = text, _FORCE.get(_unit(denominator), 1.0)
+        file_force = _unit(denominator) not in _FORCE
     else:
         return None
     m = _NUMERATOR.match(numerator)
     assert m is not None
     if m.group("g"):
-        return "acceleration", G_N / f
+        return "acceleration", G_N / f, file_force
     kind = "displacement" if "/s" not in numerator else ("acceleration" if m.group("sq") else "velocity")
-    return kind, _LENGTH[m.group("len")] / f
+    return kind, _LENGTH[m.group("len")] / f, file_force
 
 
 def read_ordinate(dset: dict, where: str, complex_values: bool) -> Ordinate:
@@ -139,15 +145,17 @@ def read_ordinate(dset: dict, where: str, complex_values: bool) -> Ordinate:
         note = (f"{where}: ordinate units label {units!r} (record 9, field 6) not recognised as an FRF unit: the values "
                 f"are read as {_FRF[declared or 'displacement']} in the file's units (dataset 164, else SI)") if units else None
         return Ordinate(declared or "displacement", None, note)
-    kind, factor = ratio
+    kind, factor, file_force = ratio
     if declared is not None and kind != declared:
         raise InputError(f"{where}: ordinate units label {units!r} (record 9, field 6) is {_FRF[kind]}, but the "
                          f"ordinate specific data type (record 9, field 1) is {spec} ({declared}): the record "
                          "contradicts itself; correct one of the two")
+    per = "" if "/" in _unit(units) and not file_force else (" per the file's force unit" if file_force else
+                                                             f" per {denom}")
     note = None if factor == 1.0 and declared else (
-        f"{where}: ordinate in {units}{'' if units.count('/') or not denom else ' per ' + denom} (its units label, "
-        f"record 9, field 6): read as {_FRF[kind]} and converted to SI" + (f" (x {factor:g})" if factor != 1.0 else ""))
-    return Ordinate(kind, factor, note)
+        f"{where}: ordinate in {units}{per} (its units label, record 9, field 6): read as {_FRF[kind]} and "
+        "converted to SI" + (f" (x {factor:g})" if factor != 1.0 else ""))
+    return Ordinate(kind, factor, note, file_force)
 
 
 __all__ = ["Ordinate", "read_ordinate", "G_N"]
