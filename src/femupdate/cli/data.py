@@ -3,8 +3,6 @@ result, a universal file, test-data JSON) written as test-data JSON."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 from rich.table import Table
 
@@ -32,10 +30,6 @@ def convert_data(source, out_path, channels_text, model_path, measured_text, jso
 
     if json_path == "-" and out_path == "-":
         raise InputError("convert-data: OUT and --json cannot both be '-' (standard output)")
-    for what, path in (("OUT", out_path), ("--json", json_path)):
-        if path not in (None, "-") and Path(path).resolve() == source.resolve():
-            raise InputError(f"convert-data: {what} {path} is SOURCE itself: the test data would be written over "
-                             "the file they are read from; give another file")
     ctx = Ctx(json_path)
     if out_path == "-":
         ctx.console.quiet = True
