@@ -3,9 +3,14 @@ files of atomic writes never outlive the process that wrote them."""
 
 import json
 import os
+import shutil
+import socket
+import stat
 import subprocess
 import sys
 import textwrap
+import threading
+from pathlib import Path
 
 import pytest
 
@@ -101,3 +106,193 @@ def test_the_temporary_file_of_a_live_writer_is_left_alone(tmp_path):
         sleeper.kill()
         sleeper.wait()
     assert remove_stale_temporaries(target) == [live]
+
+
+# ------------------------------------------------------------------------------ what an output path is (issue 34)
+def update_args(files, *extra):
+    return ["update", str(files / "two_dof.toml"), str(files / "two_dof_frequencies.json"), *map(str, extra)]
+
+
+@pytest.fixture
+def null_device(tmp_path):
+    """A private node of the null device (1, 3): a regression must not replace the machine's /dev/null."""
+    p = tmp_path / "null"
+    try:
+        os.mknod(p, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+    except (PermissionError, AttributeError):
+        pytest.skip("this process may not create a device node")
+    return p
+
+
+def test_a_device_stays_a_device(files, capsys, null_device):
+    code, out = run(update_args(files, "--json", null_device), capsys)
+    assert code == 0, out
+    assert stat.S_ISCHR(os.stat(null_device).st_mode)  # was replaced by a regular file holding the JSON
+
+
+def test_json_to_dev_stdout_reaches_standard_output_and_keeps_a_redirected_file(files, tmp_path):
+    # /dev/stdout is a link to /proc/self/fd/1; a private one, so that a regression replaces it, not the machine's
+    stdout = tmp_path / "stdout"
+    stdout.symlink_to("/proc/self/fd/1")
+    proc = subprocess.run([sys.executable, "-m", "femupdate", *update_args(files, "--json", stdout)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout[proc.stdout.index("{\n"):])["success"]  # a pipe: the JSON after the tables
+    log = tmp_path / "log.txt"
+    with open(log, "w") as fh:  # stdout redirected to a file: the same file receives both, nothing is replaced
+        inode = os.fstat(fh.fileno()).st_ino
+        proc = subprocess.run([sys.executable, "-m", "femupdate", *update_args(files, "--json", stdout)],
+                              stdout=fh, stderr=subprocess.PIPE, text=True)
+    assert proc.returncode == 0, proc.stderr
+    text = log.read_text()
+    assert os.stat(log).st_ino == inode and "iterative update" in text and json.loads(text[text.index("{\n"):])
+
+
+def test_a_fifo_is_written_and_stays_a_fifo(files, capsys, tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()), daemon=True)
+    reader.start()
+    code, out = run(update_args(files, "--json", fifo), capsys)
+    reader.join(10)
+    assert code == 0, out
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and json.loads(got[0])["success"]
+
+
+def test_a_symbolic_link_is_followed_and_stays_a_link(files, capsys, tmp_path):
+    (tmp_path / "results").mkdir()
+    target = tmp_path / "results" / "out.json"
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    code, out = run(update_args(files, "--json", link), capsys)
+    assert code == 0, out
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert json.loads(target.read_text())["success"]
+    assert f"--json {link}: replaced the existing file" in out
+    dangling = tmp_path / "dangling.json"
+    dangling.symlink_to(tmp_path / "results" / "new.json")
+    code, out = run(update_args(files, "--json", dangling), capsys)
+    assert code == 0 and dangling.is_symlink() and json.loads((tmp_path / "results" / "new.json").read_text())
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda p: socket.socket(socket.AF_UNIX).bind(str(p)), "is a socket"),
+    (lambda p: os.mknod(p, 0o600 | stat.S_IFBLK, os.makedev(7, 250)), "is a block device"),
+    (lambda p: p.mkdir(), "is a folder"),
+], ids=["socket", "block device", "folder"])
+def test_sockets_block_devices_and_folders_are_refused_by_name(files, capsys, no_computation, tmp_path, make,
+                                                               fragment):
+    p = tmp_path / "special"
+    try:
+        make(p)
+    except PermissionError:
+        pytest.skip("this process may not create the special file")
+    for option in ("--json", "--uff"):
+        code, out = run(update_args(files, option, p), capsys)
+        assert code == 2 and option in out and fragment in out and "Traceback" not in out, out
+    link = tmp_path / "link"
+    link.symlink_to(p)  # through a link too, with the link's target named
+    code, out = run(update_args(files, "--json", link), capsys)
+    assert code == 2 and fragment in out and str(p) in out, out
+
+
+def test_writers_refuse_a_socket_even_without_the_command_line(tmp_path):
+    from femupdate import InputError
+    from femupdate.io.results import atomic_write_bytes
+
+    p = tmp_path / "s"
+    sock = socket.socket(socket.AF_UNIX)
+    sock.bind(str(p))
+    with pytest.raises(InputError, match="is a socket"):
+        atomic_write_bytes(p, b"x")
+    assert stat.S_ISSOCK(os.stat(p).st_mode)
+
+
+def test_an_existing_file_replaced_is_said_on_the_terminal_and_in_the_json(files, capsys, tmp_path):
+    out_json, uff = tmp_path / "out.json", tmp_path / "modes.uff"
+    code, out = run(update_args(files, "--json", out_json, "--uff", uff), capsys)
+    assert code == 0 and "replaced the existing file" not in out  # new files: nothing to say
+    code, out = run(update_args(files, "--json", out_json, "--uff", uff), capsys)
+    assert code == 0
+    assert f"note: --json {out_json}: replaced the existing file" in out
+    assert f"note: --uff {uff}: replaced the existing file" in out
+    notes = json.loads(out_json.read_text())["notes"]
+    assert f"--json {out_json}: replaced the existing file" in notes and f"--uff {uff}: replaced the existing file" in notes
+
+
+def test_a_replaced_file_keeps_its_owner(files, capsys, tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("only root may give a file to another user")
+    p = tmp_path / "out.json"
+    p.write_text("old")
+    os.chown(p, 65534, 65534)
+    p.chmod(0o640)
+    code, out = run(update_args(files, "--json", p), capsys)
+    st = os.stat(p)
+    assert code == 0 and (st.st_uid, st.st_gid) == (65534, 65534) and stat.S_IMODE(st.st_mode) == 0o640
+
+
+# ------------------------------------------------------------------------------ as a user permissions apply to
+UNPRIVILEGED = textwrap.dedent("""
+    import json, os, stat, sys
+    from femupdate.cli import main
+
+    def run(args):
+        try:
+            main([str(a) for a in args])
+        except SystemExit as exc:
+            return exc.code
+        return None
+
+    d, model, data = sys.argv[1:4]
+    run(["modes", model, "--json", os.path.join(d, "warm.json")])  # imports what the command needs, as root
+    run(["modes", model, "--json", d])  # and what a refusal needs
+    os.setgroups([])
+    os.setgid(65534)
+    os.setuid(65534)  # nobody, from here on
+    out = {}
+    for name, path in [("read-only file", os.path.join(d, "readonly.json")), ("locked folder", os.path.join(d, "locked", "x.json")),
+                       ("link into a locked folder", os.path.join(d, "link.json")), ("device", "/dev/null"),
+                       ("own file", os.path.join(d, "mine.json"))]:
+        out[name] = run(["modes", model, "--json", path])
+    out["/dev/null"] = stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    out["read-only kept"] = open(os.path.join(d, "readonly.json")).read() == "keep"
+    out["mine"] = json.load(open(os.path.join(d, "mine.json")))["model"]
+    print("RESULT" + json.dumps(out))
+""")
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() != 0, reason="drops from root to the user nobody")
+def test_outputs_as_an_unprivileged_user(files):
+    """Root bypasses permission bits: a refusal of what may not be written is only seen by a user
+    they apply to (os.setuid in a child process, after the imports that read root's files)."""
+    import tempfile
+
+    d = Path(tempfile.mkdtemp(prefix="femupdate-nobody-", dir="/tmp"))
+    try:
+        d.chmod(0o777)
+        for name in ("two_dof.toml", "two_dof_frequencies.json"):
+            (d / name).write_text((files / name).read_text())
+            (d / name).chmod(0o644)
+        (d / "readonly.json").write_text("keep")
+        (d / "readonly.json").chmod(0o444)
+        (d / "locked").mkdir(mode=0o755)  # root's: nobody may not create files in it
+        (d / "locked" / "open.json").write_text("{}")
+        (d / "locked" / "open.json").chmod(0o666)  # writable, but not replaceable beside it
+        (d / "link.json").symlink_to(d / "locked" / "open.json")
+        (d / "mine.json").write_text("old")
+        os.chown(d / "mine.json", 65534, 65534)
+        proc = subprocess.run([sys.executable, "-c", UNPRIVILEGED, str(d), str(d / "two_dof.toml"),
+                               str(d / "two_dof_frequencies.json")], capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        res = json.loads(proc.stdout.split("RESULT", 1)[1])
+        assert res["read-only file"] == 2 and "the file is not writable" in proc.stderr
+        assert res["locked folder"] == 2 and res["link into a locked folder"] == 2
+        assert f"cannot write in {d / 'locked'} (permission denied)" in proc.stderr
+        assert res["device"] == 0 and res["/dev/null"]  # used to be refused: 'cannot write in /dev'
+        assert res["own file"] == 0 and res["mine"] == "two-dof chain (paper Figure 3)"
+        assert res["read-only kept"]
+    finally:
+        shutil.rmtree(d, ignore_errors=True)

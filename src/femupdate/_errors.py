@@ -35,3 +35,12 @@ class NumericalError(FemupdateError, ArithmeticError):
     def __init__(self, message: str, partial=None):
         super().__init__(message)
         self.partial = partial
+
+
+class Terminated(KeyboardInterrupt):
+    """The process received SIGTERM (a job scheduler or a time limit ending it).
+
+    The command line turns the signal into this exception, a :class:`KeyboardInterrupt`, so that
+    what runs on Ctrl-C runs too — worker processes end, finished work stays in the checkpoints —
+    and then exits with code 143.
+    """

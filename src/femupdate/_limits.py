@@ -10,3 +10,8 @@ from __future__ import annotations
 
 #: largest magnitude accepted for a number in an input file
 MAX_MAGNITUDE = 1e150
+
+#: largest weighted residual accepted at the start of a least-squares solve: the solver's sums of
+#: squares and products of the residuals and their Jacobian (up to fourth powers) stay finite;
+#: residuals normalised by the data or their standard deviations are of order 1 to 1e6
+MAX_START_RESIDUAL = 1e50

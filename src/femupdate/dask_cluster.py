@@ -24,8 +24,8 @@ from collections.abc import Callable, Hashable, Mapping
 
 from ._errors import FemupdateError, InputError
 
-#: set by the command line: library log records of a lost connection are not shown (the run ends
-#: with one message of its own)
+#: set by the command line without ``-v``: library log records of a lost connection are not shown
+#: (the run ends with one message of its own); with ``-v`` they stay in the verbose log
 QUIET_LIBRARY_LOGS = False
 _NOISY = ("distributed", "tornado", "asyncio")
 
@@ -36,10 +36,14 @@ class ClusterError(FemupdateError):
     exit_code = 1
 
 
-def _quiet() -> None:
+def quiet_library_logs() -> None:
+    """Silence Dask's, Tornado's and asyncio's loggers (see :data:`QUIET_LIBRARY_LOGS`): every one
+    of their loggers, since Dask gives some of its own (``distributed.client``...) a level of their
+    own, which a level on ``distributed`` would not override."""
     if QUIET_LIBRARY_LOGS:
-        for name in _NOISY:
-            logging.getLogger(name).setLevel(logging.CRITICAL)
+        existing = [n for n in list(logging.root.manager.loggerDict) if n.split(".", 1)[0] in _NOISY]
+        for name in (*_NOISY, *existing):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _refused(address: str, timeout: float) -> str | None:
@@ -122,7 +126,7 @@ def connect(address: str, timeout: float, what: str = "--scheduler"):
         from dask.distributed import Client
     except ImportError:
         raise InputError(f"{what} needs dask.distributed: pip install 'femupdate[dask]'") from None
-    _quiet()
+    quiet_library_logs()
     if not isinstance(address, str) or not address.strip():
         raise InputError(f"{what}: give the scheduler's address (tcp://host:port)")
     client = _client_within(Client, address, timeout, what)
@@ -267,4 +271,4 @@ def collect(client, futures: Mapping, address: str, timeout: float, on_result: C
                            f"{n - len(remaining)} of {n} tasks had finished") from None
 
 
-__all__ = ["connect", "collect", "ClusterError", "QUIET_LIBRARY_LOGS"]
+__all__ = ["connect", "collect", "ClusterError", "QUIET_LIBRARY_LOGS", "quiet_library_logs"]

@@ -1,10 +1,11 @@
 """What every ``femupdate`` command shares: the console and JSON output, the common options,
-parsing of ``--set`` and ``--regularization``, and the tables and payloads of several commands
-(the entry point, with its error handling: :mod:`._entry`).
+parsing of ``--set`` and ``--regularization``, the tables and payloads of several commands; and,
+from the modules beside it, the input and output paths (:mod:`._paths`), the damping fields
+(:mod:`._damping`) and the error handling of the entry point (:mod:`._entry`).
 
-Exit codes: 0 success, 2 bad input, 1 numerical failure; errors are one clear message on
-stderr, never a traceback.  Keep module-level imports light: heavy libraries are imported
-inside the functions that need them.
+Exit codes: 0 success, 2 bad input, 1 numerical failure, 130 Ctrl-C, 143 SIGTERM; errors are one
+clear message on stderr, never a traceback.  Keep module-level imports light: heavy libraries
+are imported inside the functions that need them.
 """
 
 from __future__ import annotations
@@ -20,6 +21,11 @@ from rich.table import Table
 
 from .._errors import FemupdateError, InputError
 from .._limits import MAX_MAGNITUDE
+# what the commands import from here, defined beside: output and input paths, damping, the entry point
+from ._damping import damping_fields, fitted_damping, print_damping  # noqa: F401
+from ._entry import run  # noqa: F401
+from ._paths import (CHECKPOINT_FILE, INPUT_FILE, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, REPORT_FILE,  # noqa: F401
+                     InputPath, OutputPath, with_output_notes)
 
 
 class Ctx:
@@ -247,57 +253,12 @@ def emit(ctx: Ctx, payload: dict) -> None:
     if ctx.json_path:
         from ..io.results import write_json
 
-        write_json(ctx.json_path, payload)
+        write_json(ctx.json_path, with_output_notes(payload))
 
 
 def fmt(v: float) -> str:
     return f"{v:.6g}"
 
-
-class OutputPath(click.ParamType):
-    """A path the command will write — a file (``"-"``: standard output where ``dash``) or a
-    folder — checked when the command line is read, before any computation
-    (:func:`femupdate.io.results.check_output`): a folder given for a file, a file for a folder, or
-    a place that cannot be written is refused at once, naming the option."""
-
-    name = "path"
-
-    def __init__(self, kind: str = "file", dash: bool = False, suffixes: tuple[str, ...] = (),
-                 why: str = "the figure's format"):
-        self.kind = kind
-        self.dash = dash
-        self.suffixes = suffixes
-        self.why = why
-
-    def convert(self, value, param, ctx):
-        from ..io.results import check_output
-
-        if value is None or isinstance(value, Path):
-            text = value
-        else:
-            text = str(value)
-        if text is None:
-            return None
-        if str(text) == "-":
-            if self.dash:
-                return "-"
-            self.fail("'-' (standard output) is not accepted here; give a path", param, ctx)
-        what = param.opts[0] if param is not None and param.opts else "output"
-        if self.suffixes and Path(text).suffix.lower() not in self.suffixes:
-            ends = f"one of {', '.join(self.suffixes)}" if len(self.suffixes) > 1 else self.suffixes[0]
-            self.fail(f"{text}: the file name must end in {ends} ({self.why})", param, ctx)
-        try:
-            check_output(text, what, self.kind)
-        except FemupdateError as exc:
-            self.fail(str(exc).removeprefix(f"{what} "), param, ctx)
-        return Path(text)
-
-
-OUTPUT_FILE = OutputPath("file")
-OUTPUT_DIR = OutputPath("dir")
-#: a figure file: its suffix chooses the format (those matplotlib writes without extra packages)
-OUTPUT_FIGURE = OutputPath("file", suffixes=(".png", ".pdf", ".svg", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff",
-                                             ".webp"))
 
 json_option = click.option("--json", "json_path", metavar="PATH", default=None, type=OutputPath("file", dash=True),
                            help="Write the machine-readable result to PATH ('-' = stdout).")
@@ -330,7 +291,6 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
 #: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
-REPORT_FILE = OutputPath("file", suffixes=(".html", ".htm"), why="an HTML report")
 report_option = click.option("--report", "report_path", type=REPORT_FILE, default=None, metavar="FILE.html",
                              help="Write one self-contained HTML report of the run (tables, figures, mode shapes on "
                                   "the model, notes); it opens offline.")
@@ -380,73 +340,6 @@ def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, va
     if csv_dir is not None and res is not None:
         written = write_result_tables(csv_dir, model, res, damping)
         ctx.console.print("wrote " + ", ".join(str(p) for p in written))
-
-
-# ---------------------------------------------------------------------------------- damping
-def fitted_damping(data):
-    """The Rayleigh damping (α, β ≥ 0) that fits the test modes' damping ratios
-    (:meth:`femupdate.frf.Damping.rayleigh_fit`, weighted by their standard deviations when every
-    one has one): ``(Damping, {"alpha", "beta", "rms_error", "n_modes"})``, or ``(None, None)``
-    when fewer than two modes carry a damping ratio."""
-    from ..frf import Damping
-
-    use = [m for m in data.modes if m.damping_ratio is not None and m.eigenvalue > 0]
-    if len(use) < 2:
-        return None, None
-    std = [m.std_damping_ratio for m in use]
-    fit, resid = Damping.rayleigh_fit([np.sqrt(m.eigenvalue) for m in use], [m.damping_ratio for m in use],
-                                      None if any(v is None for v in std) else std)
-    return fit, {"alpha": fit.alpha, "beta": fit.beta, "rms_error": float(np.sqrt(np.mean(resid ** 2))),
-                 "n_modes": len(use)}
-
-
-def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
-    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
-    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
-    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
-    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
-    or more); None when neither the data nor the model have damping.
-
-    Parameters
-    ----------
-    data : TestData
-        The test modes.
-    paired_hz : dict of int to float
-        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
-    damping : Damping, optional
-        The model's damping (``--damping``).
-    """
-    zeta = data.damping_ratios
-    damped = damping is not None and not damping.undamped
-    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
-        return None
-    model: list[float | None] = [None] * len(data.modes)
-    if damped:
-        for i, f in paired_hz.items():
-            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
-    _, fit = fitted_damping(data)
-    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
-            "std": [m.std_damping_ratio for m in data.modes], "model": model,
-            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
-
-
-def print_damping(console, data, fields: dict | None) -> None:
-    """The damping table (test ratio ± std, the model's, the difference) and the Rayleigh fit."""
-    if not fields:
-        return
-    t = Table(title="modal damping ratios")
-    for col in ("test", "f test [Hz]", "ζ test", "std", "ζ model", "model - test"):
-        t.add_column(col, justify="right")
-    f = data.frequencies_hz
-    for i, (zt, sd, zm) in enumerate(zip(fields["test"], fields["std"], fields["model"])):
-        t.add_row(str(i + 1), fmt(f[i]), "-" if zt is None else f"{zt:.4g}", "-" if sd is None else f"{sd:.2g}",
-                  "-" if zm is None else f"{zm:.4g}", "-" if zt is None or zm is None else f"{zm - zt:+.3g}")
-    console.print(t)
-    fit = fields["rayleigh_fit"]
-    if fit:
-        console.print(f"Rayleigh damping fitted to the {fit['n_modes']} measured damping ratios: alpha={fit['alpha']:.6g}, "
-                      f"beta={fit['beta']:.6g} (rms misfit {fit['rms_error']:.3g}); use it for FRFs with --damping "
-                      "fit", markup=False)
 
 
 # ---------------------------------------------------------------------------------- tables and payloads

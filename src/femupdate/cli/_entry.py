@@ -1,6 +1,8 @@
 """The entry point of every command (:func:`run`): the environment read once into the library's
 :class:`~femupdate.settings.Settings` (the library itself reads no environment variable), the
-command run under them, its errors turned into one message and an exit code.
+command run under them, its errors, interrupts and signals turned into one message on stderr and
+an exit code (0 success, 2 bad input, 1 numerical failure, 130 Ctrl-C, 143 SIGTERM), never a
+traceback.
 
 ``FEMUPDATE_FACTORISATION``: ``auto`` (default), ``cholmod`` or ``superlu``, the sparse
 factorisation backend.  ``FEMUPDATE_BLAS_THREADS``: a positive integer or ``keep``, overriding the
@@ -67,31 +69,39 @@ def settings_from(environ: Mapping[str, str]) -> Settings:
 
 
 # ---------------------------------------------------------------------------------- entry point
+def _interrupted(exc: BaseException) -> None:
+    """Exit 143 after SIGTERM (:class:`femupdate._errors.Terminated`), 130 after Ctrl-C."""
+    from .._errors import Terminated
+
+    terminated = isinstance(exc, Terminated) or isinstance(exc.__cause__, Terminated)
+    click.echo(f"femupdate: {'terminated' if terminated else 'interrupted'}", err=True)
+    sys.exit(143 if terminated else 130)
+
+
 def run(group: click.Group, argv=None) -> None:
-    """Run ``group``, turning femupdate errors into one message and an exit code."""
+    """Run ``group``, turning femupdate errors into one message and an exit code (2 bad input, 1
+    numerical failure, 130 Ctrl-C, 143 SIGTERM)."""
     import os
 
     from .. import dask_cluster, settings
     from .._threads import blas_phase
 
-    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message, not the library's logs
+    dask_cluster.QUIET_LIBRARY_LOGS = True  # a lost cluster ends with one message (with -v: the logs too, cli._app)
     try:
         # the environment read once (FEMUPDATE_FACTORISATION, FEMUPDATE_BLAS_THREADS; a bad value exits 2), the
         # command run under those settings (restored after it), BLAS threads by phase (femupdate._threads)
         with settings.using(settings_from(os.environ)), blas_phase("solve"):
             rv = group.main(args=argv, prog_name="femupdate", standalone_mode=False)
-    except click.exceptions.Abort:
-        click.echo("femupdate: interrupted", err=True)
-        sys.exit(130)
+    except click.exceptions.Abort as exc:  # click's name for a KeyboardInterrupt (its cause)
+        _interrupted(exc)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
     except FemupdateError as exc:
         click.echo(f"femupdate: error: {exc}", err=True)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        click.echo("femupdate: interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as exc:
+        _interrupted(exc)
     except OSError as exc:  # e.g. an output folder that cannot be created or written
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         click.echo(f"femupdate: error: {where}{exc.strerror or exc}", err=True)

@@ -20,13 +20,13 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, parameter_fields,
+from ._common import (INPUT_FILE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, parameter_fields,
                       print_flags,
                       print_identifiability, fmt, json_option, model_values, option_dofs,
                       parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option,
                       write_model_option, write_model_outputs, report_option, write_report_output)
 
-_path = click.Path(dir_okay=False, path_type=Path)
+_path = INPUT_FILE
 
 
 def _load_structure(path: Path):

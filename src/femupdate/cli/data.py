@@ -3,23 +3,21 @@ result, a universal file, test-data JSON) written as test-data JSON."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import OutputPath, Ctx, emit, fmt, json_option, measured_dofs_option, print_data_notes
+from ._common import INPUT_FILE, OutputPath, Ctx, emit, fmt, json_option, measured_dofs_option, print_data_notes
 
 
 @click.command("convert-data")
-@click.argument("source", metavar="SOURCE", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("source", metavar="SOURCE", type=INPUT_FILE)
 @click.argument("out_path", metavar="OUT", type=OutputPath("file", dash=True))
 @click.option("--channels", "channels_text", default=None, metavar="DOFS",
               help="Channel map of an identification result (.npz): one dof per channel in the library's order, "
                    "comma-separated ('-3:x' for a sensor along -x, an empty entry leaves a channel out); replaces "
                    "the file's 'channels'.")
-@click.option("--model", "model_path", default=None, type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--model", "model_path", default=None, type=INPUT_FILE,
               help="Check the data's dofs against this model (and read #N as its N-th dof).")
 @measured_dofs_option
 @json_option
@@ -32,10 +30,6 @@ def convert_data(source, out_path, channels_text, model_path, measured_text, jso
 
     if json_path == "-" and out_path == "-":
         raise InputError("convert-data: OUT and --json cannot both be '-' (standard output)")
-    for what, path in (("OUT", out_path), ("--json", json_path)):
-        if path not in (None, "-") and Path(path).resolve() == source.resolve():
-            raise InputError(f"convert-data: {what} {path} is SOURCE itself: the test data would be written over "
-                             "the file they are read from; give another file")
     ctx = Ctx(json_path)
     if out_path == "-":
         ctx.console.quiet = True

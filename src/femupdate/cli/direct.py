@@ -10,7 +10,7 @@ from rich.table import Table
 
 from .._errors import NumericalError
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, correlation_table, csv_option, data_fields, direct_payload, emit, fmt, json_option,
+from ._common import (INPUT_FILE, OUTPUT_FILE, Ctx, correlation_table, csv_option, data_fields, direct_payload, emit, fmt, json_option,
                       load_data, measured_dofs_option, model_values, print_flags, report_option, set_option,
                       write_model_option, write_model_outputs, write_report_output)
 
@@ -26,8 +26,8 @@ def _correlation_rows(data, model, values):
 
 
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @click.option("--use", default="modes,frf,static", show_default=True, help="Kinds of data to use.")
 @click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
 @click.option("--bounded", is_flag=True, help="Honour parameter bounds (bounded least squares).")

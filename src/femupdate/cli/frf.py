@@ -13,7 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..updating.run import DEFAULT_RESIDUAL, FRF_RESIDUALS
-from ._common import (SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
+from ._common import (INPUT_FILE, SCHEDULER, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, connect_timeout_option, fitting_table, option_dofs,
                       print_starts, starts_payload, emit, print_diagnostics, print_flags, csv_option, write_model_option, write_model_outputs, fmt, json_option, model_values, parse_regularization,
                       parse_set, set_option,
                       update_parameter_table, update_payload, data_fields, report_option, write_report_output)
@@ -178,7 +178,7 @@ def frf_fields(res) -> dict:
 
 # ---------------------------------------------------------------------------------- frf
 @click.command("frf")
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...",
               help="Excitation (unit force by default); a dof is a label or #N, the N-th model dof.")
 @click.option("--omega", "omega_text", default=None, metavar="LIST|START:STOP:N", help="Lines in rad/s.")
@@ -267,8 +267,8 @@ def _frf_payload(model, data, res, ms, extra=None):
 
 
 @click.command("frf-update")
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed).")
 @click.option("--starts", type=click.IntRange(min=1), default=1, show_default=True,
               help="1: start from the model's values; R > 1: R random starts within the bounds.")
@@ -387,7 +387,7 @@ def frf_update_command(model_path, data_path, params_text, starts, seed, schedul
 
 # ---------------------------------------------------------------------------------- frf-select
 @click.command("frf-select")
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.option("--force", "force_text", required=True, metavar="DOF[=AMP],...")
 @click.option("--candidates", "cand_text", required=True, metavar="LIST|START:STOP:N", help="Candidate lines, rad/s.")
 @click.option("--lines", "n_lines", type=click.IntRange(min=1), required=True, help="How many lines to choose.")
@@ -432,8 +432,8 @@ def _range(text: str, what: str) -> np.ndarray:
 
 
 @click.command("surface")
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @click.option("--params", "params_text", required=True, metavar="P1,P2", help="The two parameters of the grid.")
 @click.option("--x", "x_text", required=True, metavar="START:STOP:N", help="Grid of the first parameter.")
 @click.option("--y", "y_text", required=True, metavar="START:STOP:N", help="Grid of the second parameter.")

@@ -8,7 +8,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import (OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, damping_fields, data_fields, emit, fmt,
+from ._common import (INPUT_FILE, OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, damping_fields, data_fields, emit, fmt,
                       json_option, load_data, measured_dofs_option, model_values, option_dofs, print_damping,
                       print_data_notes, set_option)
 from .frf import damping_option, parse_damping
@@ -16,7 +16,7 @@ from .frf import damping_option, parse_damping
 
 # ---------------------------------------------------------------------------------- modes
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.option("--n-modes", type=click.IntRange(min=1), default=None, help="Number of modes (default all for small models, 10 for large).")
 @click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
               help="mass | unit | max | ref:<dof> (a label, or #N: the N-th model dof)")
@@ -68,8 +68,8 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
 
 # ---------------------------------------------------------------------------------- correlate
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
               help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not confirmed.")
 @click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,

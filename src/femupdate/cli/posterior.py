@@ -12,7 +12,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import OUTPUT_FILE, Ctx, OutputPath, data_fields, fmt, load_data, model_values
+from ._common import CHECKPOINT_FILE, INPUT_FILE, Ctx, OutputPath, data_fields, fmt, load_data, model_values
 from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
 from .outputs import Outputs, outputs_group, phased_progress
 from .problem import ProblemSpec, problem_group
@@ -72,8 +72,8 @@ def posterior_payload(model, res, data_sets) -> dict:
 
 
 @click.command(cls=GroupedCommand)
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=INPUT_FILE)
 @sampler_group()
 @click.option("--prior", "prior_items", multiple=True, metavar="NAME=SPEC",
               help="A parameter's prior, replacing the model file's: uniform, normal(MEAN,STD) or "
@@ -86,7 +86,7 @@ def posterior_payload(model, res, data_sets) -> dict:
               title="Search for solutions")
 @execution_group(jobs=False, scheduler_help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask "
                                             "cluster (tcp://host:port).")
-@click.option("--checkpoint", "checkpoint_path", type=OUTPUT_FILE, default=None,
+@click.option("--checkpoint", "checkpoint_path", type=CHECKPOINT_FILE, default=None,
               help="The sampler's state after each MCMC segment or TMCMC stage, resumed by a re-run (default: next "
                    "to the --json output; none with --json - or without --json).")
 @problem_group()
@@ -115,9 +115,15 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
     c = ctx.console
     labels = {"solutions": "searching solutions", "mcmc": "MCMC steps", "tmcmc": "TMCMC (tempering)"}
     with phased_progress(labels, console=c, quiet=outputs.json_path == "-") as tick:
-        res = _posterior(model, sets if len(sets) > 1 else sets[0], params=run.params, values=values, priors=priors,
-                         sampler=sampler, starts=starts, execution=execution, checkpoint=checkpoint, progress=tick,
-                         options=options)
+        try:
+            res = _posterior(model, sets if len(sets) > 1 else sets[0], params=run.params, values=values,
+                             priors=priors, sampler=sampler, starts=starts, execution=execution, checkpoint=checkpoint,
+                             progress=tick, options=options)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the checkpoint holds the finished steps
+            if checkpoint is not None and sampler.method != "laplace" and Path(checkpoint).exists():
+                c.print(f"interrupted: the finished steps are in {checkpoint}; run the same command again to resume",
+                        markup=False)
+            raise
     _print(c, model, res, sets[0], checkpoint)
     payload = posterior_payload(model, res, sets)
     payload.update(data_fields(sets[0]))

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from ._common import Ctx, emit, fmt, json_option, model_values, option_dofs, set_option
+from ._common import INPUT_FILE, Ctx, emit, fmt, json_option, model_values, option_dofs, set_option
 
 METHOD_CHOICES = ["guyan", "irs", "modal", "hybrid", "serep"]
 
@@ -22,7 +22,7 @@ def _keep_list(text: str) -> list[str]:
 
 
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.option("--keep", "keep_text", required=True, metavar="DOFS", help="Dofs to retain, comma-separated labels or #N (e.g. 2:x,4:x or #2,#4).")
 @click.option("--method", type=click.Choice(METHOD_CHOICES), default="guyan", show_default=True)
 @click.option("--n-modes", type=click.IntRange(min=1), default=None,

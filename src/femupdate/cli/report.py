@@ -7,9 +7,9 @@ from pathlib import Path
 import click
 
 from .._errors import InputError
-from ._common import REPORT_FILE, Ctx, load_data, measured_dofs_option, model_segments
+from ._common import INPUT_FILE, REPORT_FILE, Ctx, load_data, measured_dofs_option, model_segments
 
-_path = click.Path(dir_okay=False, path_type=Path)
+_path = INPUT_FILE
 
 
 def _report_model(model_path: Path, result: dict, kind: str):

@@ -9,7 +9,7 @@ import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import SCHEDULER, OUTPUT_DIR, OUTPUT_FILE, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, parameter_fields, report_option, write_report_output, model_values, set_option
+from ._common import INPUT_FILE, CHECKPOINT_FILE, SCHEDULER, OUTPUT_DIR, SEED, Ctx, FiniteFloat, connect_timeout_option, emit, json_option, parameter_fields, report_option, write_report_output, model_values, set_option
 
 
 def _default_checkpoint(json_path):
@@ -44,7 +44,7 @@ def _exact_for(model, names, case, truth):
 
 
 @click.command()
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.option("--measured-dofs", "dofs_text", default=None, metavar="SETS",
               help="Measured dof sets, ';' between sets, ',' within, labels or #N: \"1:x,2:x;1:x\". "
                    "Default: the paper's plans, the first n model dofs for n = 1..N.")
@@ -59,7 +59,7 @@ def _exact_for(model, names, case, truth):
 @click.option("--params", "params_text", default=None, help="Unknown parameters (default: all not fixed).")
 @click.option("--noise", "noise_text", default=None, metavar="LIST",
               help="Relative noise levels to study as well, e.g. 0.001,0.01.")
-@click.option("--checkpoint", "checkpoint_path", type=OUTPUT_FILE, default=None,
+@click.option("--checkpoint", "checkpoint_path", type=CHECKPOINT_FILE, default=None,
               help="Checkpoint file (default: next to the --json output; none with --json - or without --json).")
 @click.option("--unit-rows", type=click.IntRange(min=1), default=4096, show_default=True,
               help="Rows (case x start) solved together per work unit: one checkpoint step, one Dask task "

@@ -10,7 +10,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (Ctx, fitting_table, fmt, load_data, model_values, print_diagnostics, print_damping, print_flags,
+from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, load_data, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
@@ -20,8 +20,8 @@ from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 
 
 @click.command(cls=GroupedCommand)
-@click.argument("model_path", metavar="MODEL", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("data_path", metavar="DATA", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
+@click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @starts_group()
 @execution_group()
 @problem_group(sensitivity=True)

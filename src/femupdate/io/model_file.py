@@ -32,7 +32,8 @@ import scipy.sparse as sp
 
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
-from .numbers import check_magnitudes, long_integer_line
+from .numbers import check_magnitudes, long_integer_line, parse_float
+from .outputs import note_input
 from ..model import Model, Parameter
 from ..priors import parse_prior
 from ..structure import Structure
@@ -58,10 +59,11 @@ def read_toml(path) -> dict:
         1e150 in magnitude (the field named); arrays or tables nested too deeply.
     """
     path = Path(path)
+    note_input(path, "a TOML file")
     try:
         with open(path, "rb") as fh:
             text = fh.read().decode("utf-8")
-        data = tomllib.loads(text)
+        data = tomllib.loads(text, parse_float=parse_float)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except IsADirectoryError:
@@ -149,6 +151,7 @@ def load_matrix(spec: str, base: Path, what: str):
     p = (base / name) if not Path(name).is_absolute() else Path(name)
     if not p.exists():
         raise InputError(f"{what}: matrix file {p} not found")
+    note_input(p, f"the matrix file of {what}")
     suffix = p.suffix.lower()
     try:
         if suffix == ".mtx":
@@ -190,6 +193,23 @@ def load_matrix(spec: str, base: Path, what: str):
     return A
 
 
+def _read_dofs_file(p: Path, src: str) -> list[str]:
+    """The dof labels of a dofs file: one per line, blank lines and ``#`` comments skipped; UTF-8,
+    with or without a byte-order mark (as editors on Windows write it)."""
+    if p.is_dir():
+        raise InputError(f"{src}: dofs file {p} is a folder; give the file of dof labels (one per line)")
+    if not p.exists():
+        raise InputError(f"{src}: dofs file {p} not found")
+    note_input(p, f"the dofs file of {src}")
+    try:
+        text = p.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError(f"{src}: dofs file {p} is not UTF-8 text (one dof label per line)") from None
+    except OSError as exc:
+        raise InputError(f"{src}: dofs file {p} cannot be read ({exc.strerror or exc})") from None
+    return [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+
+
 def _matrix_model(data: Mapping, path: Path) -> Model:
     base = path.parent
     mt = data["matrices"]
@@ -207,14 +227,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         raise InputError(f"{path}: a [matrices] model cannot also have {', '.join(other)}")
     dofs = mt["dofs"]
     if isinstance(dofs, str):
-        p = base / dofs
-        if not p.is_file():
-            raise InputError(f"{src}: dofs file {p} not found")
-        try:
-            text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise InputError(f"{src}: dofs file {p} is not UTF-8 text (one dof label per line)") from None
-        dofs = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+        dofs = _read_dofs_file(base / dofs, src)
     elif not isinstance(dofs, list) or not all(isinstance(d, str) for d in dofs):
         raise InputError(f"{src}: dofs must be a file name or a list of dof labels such as [\"1:x\", \"1:y\"], "
                          f"got {dofs!r}")

@@ -41,6 +41,25 @@ def _pairs(pairs):
     return marked
 
 
+class _Overflow(float):
+    """A number literal beyond the largest float (``1e400``: Python reads it as inf)."""
+
+    text: str
+
+    def __new__(cls, text):
+        obj = super().__new__(cls, "inf")
+        obj.text = text
+        return obj
+
+
+def parse_float(text: str):
+    """A float literal of a JSON or TOML file (their readers' ``parse_float``): one that overflows
+    to infinity (``1e400``; not a literal ``inf``) is marked, for :func:`check_magnitudes` to
+    refuse it as written."""
+    v = float(text)
+    return _Overflow(text) if math.isinf(v) and "inf" not in text.lower() else v
+
+
 def _int(text: str):
     # Python refuses to convert integer strings above 4,300 digits (ValueError); a few hundred
     # digits already overflow a float: both are refused by check_magnitudes, naming the field
@@ -76,13 +95,16 @@ def check_magnitudes(tree, source: str, loc=None) -> None:
     elif isinstance(tree, list):
         for i, v in enumerate(tree, start=1):
             check_magnitudes(v, source, loc + [i])
+    elif isinstance(tree, _Overflow):
+        raise InputError(f"{source}: {_where(loc)}: {tree.text} is too large (beyond the largest floating-point "
+                         f"number; numbers must be at most {MAX_MAGNITUDE:g} in magnitude)")
     elif isinstance(tree, _TooLong):
         raise InputError(f"{source}: {_where(loc)}: an integer of {tree.digits} digits is too large "
                          f"(numbers must be at most {MAX_MAGNITUDE:g} in magnitude)")
     elif isinstance(tree, (int, float)) and not isinstance(tree, bool):
         too_large = abs(tree) > MAX_MAGNITUDE if isinstance(tree, int) else (math.isfinite(tree) and abs(tree) > MAX_MAGNITUDE)
         if too_large:
-            shown = f"{float(tree):.3g}" if abs(tree) < 1e308 else f"an integer of {len(str(abs(tree)))} digits"
+            shown = f"an integer of {len(str(abs(tree)))} digits" if isinstance(tree, int) else f"{tree:.3g}"
             raise InputError(f"{source}: {_where(loc)}: {shown} is too large "
                              f"(numbers must be at most {MAX_MAGNITUDE:g} in magnitude)")
 
@@ -97,7 +119,7 @@ def loads_json(text: str, source: str):
         Malformed JSON, a duplicate key (named with its object's path), a too-large number.
     """
     try:
-        raw = json.loads(text, object_pairs_hook=_pairs, parse_int=_int)
+        raw = json.loads(text, object_pairs_hook=_pairs, parse_int=_int, parse_float=parse_float)
         check_magnitudes(raw, source)
     except json.JSONDecodeError as exc:
         raise InputError(f"{source}: malformed JSON: {exc}") from None

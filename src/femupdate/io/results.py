@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import check_output  # noqa: F401  (its home before femupdate.io.outputs)
+
 
 def to_jsonable(obj):
     """Convert numpy scalars/arrays, tuples and non-finite floats (-> None) recursively.
@@ -57,32 +59,78 @@ def _mode_for(path: Path) -> int:
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, flushed to
-    disk, then renamed over ``path`` (readers see the old file or the new one, never a part).
+    """Write ``data`` to ``path`` without ever destroying what the path is
+    (:func:`femupdate.io.outputs.resolve_output`).
 
-    The parent folders are created; the file keeps the permissions of the one it replaces (a
-    new file gets 0o666 less the umask).
+    A regular file (or a new name) is written atomically: a temporary file in the same folder,
+    flushed to disk, then renamed over the file (readers see the old file or the new one, never a
+    part); the missing parent folders are created; the file keeps the permissions (and, where this
+    process may set them, the owner) of the one it replaces; a new file gets 0o666 less the umask.
+    A symbolic link is followed: its target is written that way, beside the target, and the link
+    stays.  ``"-"`` and any name of this process's standard output or error are written to that
+    stream; a character device or a FIFO is written directly.  During a command-line run, a file
+    that is one of the run's inputs is refused (:class:`femupdate.io.outputs.RunFiles`).
 
     Parameters
     ----------
     path : str or os.PathLike
-        Destination file.
+        Destination.
     data : bytes
         Contents.
+
+    Raises
+    ------
+    InputError
+        A socket, a block device or a folder; an input of the running command.
+    OSError
+        The file cannot be written (named as given).
     """
-    path = Path(path)
+    from . import outputs
+
+    target = outputs.resolve_output(path)
+    run = outputs.active()
+    if run is not None:
+        run.check_write(target, path)
+    if target.kind == outputs.STREAM:
+        _write_stream(sys.stdout if target.fd == 1 else sys.stderr, data)
+        return
+    if target.kind == outputs.DEVICE:
+        try:
+            with open(target.real, "wb") as fh:
+                fh.write(data)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
+        return
+    _replace_atomically(target.real, data, str(path))
+    if run is not None:
+        run.note_written(target, path)
+
+
+def _write_stream(stream, data: bytes) -> None:
+    stream.flush()
+    buffer = getattr(stream, "buffer", None)
+    if buffer is not None:
+        buffer.write(data)
+        buffer.flush()
+    else:  # a text stream without bytes underneath (io.StringIO)
+        stream.write(data.decode("utf-8", "replace"))
+        stream.flush()
+
+
+def _replace_atomically(path: Path, data: bytes, shown: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f"{_temp_prefix(path)}{os.getpid()}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:  # name the file the user asked for, not the temporary one
-        raise OSError(exc.errno, exc.strerror, str(path)) from None
+        raise OSError(exc.errno, exc.strerror, shown) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, _mode_for(path))
+        _keep_owner(tmp, path)
         os.replace(tmp, path)
     except BaseException as exc:
         try:
@@ -90,8 +138,22 @@ def atomic_write_bytes(path, data: bytes) -> None:
         except FileNotFoundError:
             pass
         if isinstance(exc, OSError):
-            raise OSError(exc.errno, exc.strerror, str(path)) from None
+            raise OSError(exc.errno, exc.strerror, shown) from None
         raise
+
+
+def _keep_owner(tmp: str, path: Path) -> None:
+    """The replacement keeps the owner and group of the file it replaces (root writing another
+    user's file would otherwise hand it to root); nothing happens where that is not allowed."""
+    try:
+        st = path.stat()
+    except OSError:
+        return
+    if (st.st_uid, st.st_gid) != (os.geteuid(), os.getegid()):
+        try:
+            os.chown(tmp, st.st_uid, st.st_gid)
+        except OSError:
+            pass
 
 
 def _temp_prefix(path: Path) -> str:
@@ -146,60 +208,6 @@ def remove_stale_temporaries(path) -> list[Path]:
         except OSError:
             pass
     return removed
-
-
-def check_output(path, what: str, kind: str = "file") -> Path | None:
-    """Check, before any computation, that an output can be written at ``path``.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        A file (``kind="file"``; ``"-"`` is standard output and always accepted) or a folder
-        (``kind="dir"``, created later if missing).
-    what : str
-        How the user named it (an option such as ``--json``), for the message.
-    kind : ``"file"`` or ``"dir"``
-
-    Returns
-    -------
-    pathlib.Path or None
-        The path (None for ``"-"``).
-
-    Raises
-    ------
-    InputError
-        A file path that is a folder, a folder path that is a file, a parent that is a file, or a
-        place the process may not write in — named, with the option.
-    """
-    from .._errors import InputError
-
-    if kind == "file" and str(path) == "-":
-        return None
-    p = Path(path)
-    if any(len(part.encode()) > 255 for part in p.parts):
-        raise InputError(f"{what} {p}: a name in the path is longer than 255 bytes")
-    if kind == "file" and p.is_dir():
-        raise InputError(f"{what} {p}: is a folder; give a file name")
-    if kind == "dir" and p.exists() and not p.is_dir():
-        raise InputError(f"{what} {p}: is a file; give a folder")
-    if kind == "file" and p.exists() and not os.access(p, os.W_OK):
-        raise InputError(f"{what} {p}: the file is not writable")
-    here = p if kind == "dir" else p.parent
-    while not here.exists():  # the nearest existing folder, where the missing ones would be created
-        if here.parent == here:
-            break
-        here = here.parent
-    if here.exists() and not here.is_dir():
-        raise InputError(f"{what} {p}: {here} is a file, not a folder")
-    if not os.access(here, os.W_OK | os.X_OK):
-        raise InputError(f"{what} {p}: cannot write in {here} (permission denied)")
-    try:  # a real probe: permissions do not stop root, but a read-only or virtual file system does
-        fd, probe = tempfile.mkstemp(prefix=".femupdate-probe-", dir=here)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as exc:
-        raise InputError(f"{what} {p}: cannot write in {here} ({exc.strerror or exc})") from None
-    return p
 
 
 def atomic_write_text(path, text: str) -> None:

@@ -9,6 +9,7 @@ from .._errors import InputError
 from ..structure.tables import list_of_tables
 from .model_file import read_toml
 from .numbers import loads_json
+from .outputs import note_input
 
 
 def read_table_file(path) -> dict:
@@ -33,6 +34,7 @@ def read_table_file(path) -> dict:
     path = Path(path)
     if path.suffix.lower() == ".toml":
         return read_toml(path)
+    note_input(path, "a JSON file")
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: expected a .toml or .json file")
     try:

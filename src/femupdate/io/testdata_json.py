@@ -12,6 +12,7 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
 from .numbers import loads_json
+from .outputs import note_input
 from ..testdata import FRFData, MeasuredMode, StaticData, TestData, check_damping_ratio, positive
 
 UFF_SUFFIXES = (".uff", ".unv")
@@ -65,6 +66,7 @@ def load_testdata(path, model=None, numbering=None, sensors=None, channels=None)
         model's dof count), or without a model; with ``model``, a dof not in the model.
     """
     path = Path(path)
+    note_input(path, "the test data")
     if numbering is None and model is not None:
         numbering = model.dofs
     if channels is not None and path.suffix.lower() != ".npz":

@@ -183,20 +183,17 @@ def run_sections(out_dir, names=None, figures: bool = True, notes: list | None =
         for t in tasks:
             collect(_run_group(t, out_dir, figures))
     else:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures import as_completed
+
+        from .._workers import process_pool
 
         # Not "fork": a process that has already run an OpenMP region (CHOLMOD's libgomp, with
         # scikit-sparse) leaves forked children hanging in their next one.  A fork server is
         # a fresh interpreter forked from before any numerical work; it preloads the package.
-        methods = multiprocessing.get_all_start_methods()
-        ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-        if "forkserver" in methods:
-            ctx.set_forkserver_preload(["femupdate.paper"])
         from .. import settings
 
-        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=settings.install,
-                                 initargs=(settings.current(),)) as pool:
+        # The workers end with this process, however it ends (femupdate._workers), under the caller's settings.
+        with process_pool(jobs, ("femupdate.paper",), settings.install, (settings.current(),)) as pool:
             futures = [pool.submit(_run_group, t, str(out_dir), figures) for t in tasks]
             for f in as_completed(futures):
                 collect(f.result())

@@ -198,6 +198,9 @@ def _jsonable(result) -> dict:
     if isinstance(result, (str, Path)):
         path = Path(result)
         where = f"{path}: "
+        from ..io.outputs import note_input
+
+        note_input(path, "the result file")
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:

@@ -122,6 +122,11 @@ def frac(xe: np.ndarray, xa: np.ndarray) -> np.ndarray:
     numpy.ndarray, shape ``(n_dofs,)``
         FRAC per dof in [0, 1]; NaN where either response is zero.
     """
+    # FRAC does not depend on the scale of either column: each is divided by its largest value
+    # first, so that data of extreme magnitude neither overflow nor underflow the sums of squares
+    se, sa = np.max(np.abs(xe), axis=0), np.max(np.abs(xa), axis=0)
+    xe = xe / np.where(se > 0, se, 1.0)
+    xa = xa / np.where(sa > 0, sa, 1.0)
     num = np.abs(np.sum(np.conj(xe) * xa, axis=0)) ** 2
     den = np.sum(np.abs(xe) ** 2, axis=0) * np.sum(np.abs(xa) ** 2, axis=0)
     return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)

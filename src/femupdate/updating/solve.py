@@ -163,6 +163,28 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
                        relative_std=rel)
 
 
+def check_start_residuals(r: np.ndarray) -> None:
+    """Refuse residuals at the start too large for the least-squares solver (above
+    :data:`femupdate._limits.MAX_START_RESIDUAL`: its sums of squares and products would overflow,
+    with RuntimeWarnings and a meaningless answer).  They arise when the test data and the model
+    differ by tens of orders of magnitude — data in other units, or a standard deviation far too
+    small.
+
+    Raises
+    ------
+    InputError
+        Naming the largest residual and what to check.
+    """
+    from .._limits import MAX_START_RESIDUAL
+
+    with np.errstate(invalid="ignore"):
+        largest = float(np.max(np.abs(r))) if np.size(r) else 0.0
+    if not largest <= MAX_START_RESIDUAL:
+        raise InputError(f"the weighted residuals at the starting values reach {largest:.3g}, too large to compute with "
+                         f"(above {MAX_START_RESIDUAL:g}): the test data and the model's responses differ by tens of "
+                         "orders of magnitude; check the units of the test data and the standard deviations given")
+
+
 def solve(prob, bounds, solver: SolverOptions | None = None, **shorthand):
     """Minimise ``prob.residuals`` with SciPy's least squares from ``prob.p_base`` (paper eq. 20).
 
@@ -219,6 +241,7 @@ def solve(prob, bounds, solver: SolverOptions | None = None, **shorthand):
     x_start = prob.from_p(p_start)
     xl, xh = x_bounds(parametrisation, lo, hi, prob.scale)
     history: list[dict] = []
+    check_start_residuals(prob.residuals(x_start))
 
     # regularisation
     reg: dict = {}

@@ -348,20 +348,18 @@ def _start_in_worker(names, x, kwargs):
 
 
 def _run_processes(jobs, model, data, names, X0, kwargs, progress, runner):
-    """Every start in a pool of ``jobs`` local processes (started from a fork server: a process
-    forked after OpenMP or BLAS threads have run can hang), the model and data sent once to each."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    """Every start in a pool of ``jobs`` local processes (:func:`femupdate._workers.process_pool`:
+    started from a fork server, ended with this process however it ends), the model and data sent
+    once to each."""
+    from concurrent.futures import as_completed
+
+    from .._workers import process_pool
 
     from .. import settings
 
-    methods = multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    if "forkserver" in methods:
-        ctx.set_forkserver_preload(["femupdate.updating"])
     pairs: list = [None] * len(X0)
-    with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_share,
-                             initargs=(model, data, runner, settings.current())) as pool:
+    # the workers end with this process, however it ends (femupdate._workers); each gets the caller's settings
+    with process_pool(jobs, ("femupdate.updating",), _share, (model, data, runner, settings.current())) as pool:
         futures = {pool.submit(_start_in_worker, names, x, kwargs): k for k, x in enumerate(X0)}
         for done, f in enumerate(as_completed(futures), 1):
             pairs[futures[f]] = f.result()

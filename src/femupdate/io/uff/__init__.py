@@ -33,8 +33,9 @@ Every malformed or inconsistent file raises :class:`~femupdate.InputError` with 
 names the file and the record (``"test.uff: dataset 55 record 2: ..."``, records counted
 from 1 among the datasets of that type).
 
-Writing goes through a temporary file in the target directory that replaces the target only
-when complete (:func:`os.replace`), so a failed write never leaves a truncated file.
+Writing goes through :func:`femupdate.io.results.atomic_write_bytes`: a regular file is replaced
+only when the new one is complete, so a failed write never leaves a truncated file; devices,
+symbolic links and the inputs of a run are handled as for every output.
 
 Layout: :mod:`.conventions` (dataset numbers, direction and unit codes shared by both ways),
 :mod:`.read` (:func:`read_uff`) and :mod:`.write` (:func:`write_uff_modes`, :func:`write_uff_frf`).

@@ -3,6 +3,9 @@ unit systems and the specific data types of dataset 58."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterable, Mapping
+
 from ..._errors import InputError
 from ...dofs import DIRECTIONS
 
@@ -31,6 +34,27 @@ ORD_ACCELERATION = 12  # accelerance
 DENOM_FORCE = frozenset((0, 1, 9, 13))  # unknown, general, reaction force, excitation force
 
 AXIS_RTOL = 1e-5  # UFF abscissas are single precision (E13.5): equal axes agree to ~5e-6
+
+
+def node_id(value, where: str) -> int:
+    """``value`` as a node number (an integer of at most 10 digits); ``where`` names the record."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{where}: node number {str(value)[:20]!r} is not a number of at most 10 digits") from None
+    if not math.isfinite(v) or v != int(v) or abs(v) > 2**31:
+        raise InputError(f"{where}: node number {value!r} is not an integer (of at most 10 digits)")
+    return int(v)
+
+
+def check_nodes(used: Iterable[int], nodes: Mapping[int, object], where: str) -> None:
+    """Every node of ``used`` is among ``nodes`` (the file's node datasets), when the file has any."""
+    if not nodes:
+        return
+    unknown = sorted({int(n) for n in used} - set(nodes))
+    if unknown:
+        shown = ", ".join(str(n) for n in unknown[:8]) + (f" … ({len(unknown)} in all)" if len(unknown) > 8 else "")
+        raise InputError(f"{where}: unknown node(s) {shown}: not in the file's node datasets (15/2411)")
 
 
 def direction_of_code(code, where: str, node) -> tuple[str, float]:
@@ -89,5 +113,5 @@ def code_of_direction(direction: str) -> int:
     return DIRECTIONS.index(direction) + 1
 
 
-__all__ = ["NODE_SETS", "SYSTEM_SETS", "READ_SETS", "UNIT_SYSTEMS", "ABSCISSA_FREQUENCY", "ORD_DISPLACEMENT", "ORD_VELOCITY",
+__all__ = ["node_id", "check_nodes", "NODE_SETS", "SYSTEM_SETS", "READ_SETS", "UNIT_SYSTEMS", "ABSCISSA_FREQUENCY", "ORD_DISPLACEMENT", "ORD_VELOCITY",
            "ORD_ACCELERATION", "DENOM_FORCE", "AXIS_RTOL", "direction_of_code", "code_of_direction"]

@@ -14,11 +14,13 @@ import numpy as np
 import pyuff
 
 from ..._errors import InputError
+from ..._limits import MAX_MAGNITUDE
 from ...dofs import DIRECTIONS, canonical_all, describe, dof, parse_dof
 from ...testdata import FRFData, MeasuredMode, TestData
-from .conventions import (ABSCISSA_FREQUENCY, AXIS_RTOL, DENOM_FORCE, NODE_SETS, ORD_ACCELERATION, ORD_DISPLACEMENT,
-                          ORD_VELOCITY, READ_SETS, UNIT_SYSTEMS, direction_of_code)
-from .systems import System, aligned_axis, read_18, read_2420, resolve_18
+from .conventions import AXIS_RTOL, NODE_SETS, READ_SETS, UNIT_SYSTEMS
+from .conventions import check_nodes as _check_nodes, node_id as _node_id
+from .frf_records import FRFSet, add_frf_record, frf_sets_of
+from .systems import System, read_18, read_2420, resolve_18
 
 __all__ = ["read_uff"]
 
@@ -26,15 +28,6 @@ log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before t
 
 
 # ---------------------------------------------------------------------------- small helpers
-def _node_id(value, where: str) -> int:
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"{where}: node number {str(value)[:20]!r} is not a number of at most 10 digits") from None
-    if not math.isfinite(v) or v != int(v) or abs(v) > 2**31:
-        raise InputError(f"{where}: node number {value!r} is not an integer (of at most 10 digits)")
-    return int(v)
-
 def _known_dofs(model_dofs, model) -> frozenset[str] | None:
     if model_dofs is not None and model is not None:
         raise InputError("read_uff: give model_dofs or model, not both")
@@ -55,15 +48,6 @@ def _check_in_model(labels: Iterable[str], known: frozenset[str] | None, where: 
     missing = [lab for lab in labels if lab not in known]
     if missing:
         raise InputError(f"{where}: dof(s) not in the model: {describe(missing)}")
-
-
-def _check_nodes(used: Iterable[int], nodes: Mapping[int, object], where: str) -> None:
-    if not nodes:
-        return
-    unknown = sorted({int(n) for n in used} - set(nodes))
-    if unknown:
-        shown = ", ".join(str(n) for n in unknown[:8]) + (f" … ({len(unknown)} in all)" if len(unknown) > 8 else "")
-        raise InputError(f"{where}: unknown node(s) {shown}: not in the file's node datasets (15/2411)")
 
 
 # ---------------------------------------------------------------------------- reading
@@ -261,6 +245,8 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
             freq = float(dset["freq"])
             if not math.isfinite(freq) or freq < 0:
                 raise InputError(f"frequency {freq!r} Hz must be finite and >= 0")
+            if freq > MAX_MAGNITUDE:  # its eigenvalue (2π f)² would overflow
+                raise InputError(f"frequency {freq:g} Hz is above {MAX_MAGNITUDE:g}")
             lam = (2 * math.pi * freq) ** 2
             zeta = _number_or_zero(dset.get("modal_damp_vis"))  # viscous damping ratio; 0: not stated
             if zeta == 0 and _not_finite(dset.get("modal_damp_vis")):
@@ -274,6 +260,9 @@ def _read_mode(dset: dict, where: str, nodes: _Nodes, notes: list[str]) -> _RawM
             eig = complex(dset["eig"])  # s = -zeta*omega_n + i*omega_d, rad/s
             if not (math.isfinite(eig.real) and math.isfinite(eig.imag)):
                 raise InputError(f"complex eigenvalue {eig!r} is not finite")
+            if max(abs(eig.real), abs(eig.imag)) > MAX_MAGNITUDE:  # |s|² would overflow
+                raise InputError(f"complex eigenvalue {eig.real:g}{eig.imag:+g}j rad/s is above {MAX_MAGNITUDE:g} in "
+                                 "magnitude")
             lam = abs(eig) ** 2
             damping = -eig.real / abs(eig) if abs(eig) > 0 else None  # ζ = -Re(s)/|s|
             if damping is not None and not 0 <= damping < 1:
@@ -413,7 +402,11 @@ def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, Syst
         shape = np.array([vals[lab] for lab in labels]) if labels else np.zeros(0)
         if length != 1.0 and labels:  # translations file units -> m; rotations are radians
             trans = np.array([parse_dof(lab)[1] in DIRECTIONS[:3] for lab in labels])
-            shape = np.where(trans, shape / length, shape)
+            with np.errstate(over="ignore", under="ignore"):
+                shape = np.where(trans, shape / length, shape)
+            if not np.all(np.isfinite(shape)):
+                raise InputError(f"{r.where}: shape value(s) too large to convert to SI (divided by the length unit "
+                                 f"factor {length:g} of dataset 164, they overflow)")
         try:
             modes.append(MeasuredMode(r.eigenvalue, labels, shape, r.label, damping_ratio=r.damping_ratio))
         except InputError as exc:
@@ -427,107 +420,6 @@ def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, Syst
     if model_padding:
         notes.append(f"{name}: zero values at dofs the model lacks left out: {describe(list(model_padding), 12)}")
     return modes
-
-
-def _frf_dof(node: int, direction: str, sign: float, nodes: _Nodes, systems: Mapping[int, System], where: str,
-             role: str) -> tuple[str, float]:
-    """The global dof and sign of a transducer along ``direction`` of its node's displacement
-    system; a direction that does not lie along a global axis is refused."""
-    cs = nodes.disp.get(node, 0)
-    if cs == 0:
-        return dof(node, direction), sign
-    s = systems[cs]
-    try:
-        R = s.cartesian(node, "displacement")
-    except InputError as exc:
-        raise InputError(f"{where}: {role}: {exc}") from None
-    j = DIRECTIONS.index(direction)
-    axis = aligned_axis(R[j % 3])
-    if axis is None:
-        raise InputError(f"{where}: {role} node {node}: direction {direction} of {s.describe()} does not lie along "
-                         f"one of the model's axes ({np.round(R[j % 3], 6).tolist()} in global axes): FRFs are read "
-                         "along the model's axes only; give the data in the global system")
-    i, g = axis
-    return dof(node, DIRECTIONS[i + 3 * (j // 3)]), sign * g
-
-
-def _read_frf_record(dset: dict, where: str, nodes: _Nodes, systems: Mapping[int, System], units: Mapping[str, Any]):
-    """One function-type-4 dataset 58 record -> (abscissa in file units, omega, response dof,
-    excitation dof, receptance in SI)."""
-    try:
-        rsp_node = _node_id(dset["rsp_node"], where)
-        ref_node = _node_id(dset["ref_node"], where)
-        rsp_dir, rsp_sign = direction_of_code(dset["rsp_dir"], f"{where}: response", rsp_node)
-        ref_dir, ref_sign = direction_of_code(dset["ref_dir"], f"{where}: reference (excitation)", ref_node)
-        x = np.atleast_1d(np.asarray(dset["x"], dtype=float))
-        y = np.atleast_1d(np.asarray(dset["data"]))
-    except KeyError as exc:
-        raise InputError(f"{where}: missing field {exc}") from None
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{where}: cannot be read ({exc})") from None
-    _check_nodes((rsp_node, ref_node), nodes.xyz, where)
-    n_pts = int(dset.get("num_pts", 0) or 0)
-    if x.size != y.size or (n_pts and y.size != n_pts):
-        raise InputError(
-            f"{where}: header announces {n_pts} points but {y.size} values and {x.size} abscissas "
-            "were read (truncated record?)"
-        )
-    if y.size == 0:
-        raise InputError(f"{where}: no data values")
-    if not np.all(np.isfinite(x)):
-        raise InputError(f"{where}: NaN or infinite abscissa value(s)")
-    if not np.all(np.isfinite(y)):
-        raise InputError(f"{where}: NaN or infinite ordinate value(s) at {int(np.sum(~np.isfinite(y)))} frequencies")
-    abscissa = int(dset.get("abscissa_spec_data_type", 0))
-    if abscissa not in ABSCISSA_FREQUENCY:
-        raise InputError(f"{where}: abscissa specific data type {abscissa} is not frequency (18)")
-    units_label = str(dset.get("abscissa_axis_units_lab", "")).lower().replace(" ", "")
-    omega = x.copy() if "rad" in units_label else 2.0 * np.pi * x
-    if np.any(omega < 0):
-        raise InputError(f"{where}: negative frequencies")
-    ordinate = int(dset.get("ordinate_spec_data_type", 0))
-    denominator = int(dset.get("orddenom_spec_data_type", 0))
-    if denominator not in DENOM_FORCE:
-        raise InputError(f"{where}: ordinate denominator specific data type {denominator} is not a force (13); "
-                         "only receptance, mobility and accelerance FRFs are read")
-    h = y.astype(complex if np.iscomplexobj(y) else float)
-    if ordinate in (ORD_VELOCITY, ORD_ACCELERATION):
-        if np.any(omega == 0):
-            raise InputError(f"{where}: a {'mobility' if ordinate == ORD_VELOCITY else 'accelerance'} "
-                             "cannot be converted to receptance at zero frequency")
-        h = h / (1j * omega) if ordinate == ORD_VELOCITY else h / (-(omega**2))
-    elif ordinate not in ORD_DISPLACEMENT:
-        raise InputError(f"{where}: ordinate specific data type {ordinate} is not displacement (8), "
-                         "velocity (11) or acceleration (12)")
-    rsp, rsp_sign = _frf_dof(rsp_node, rsp_dir, rsp_sign, nodes, systems, where, "response")
-    ref, ref_sign = _frf_dof(ref_node, ref_dir, ref_sign, nodes, systems, where, "reference (excitation)")
-    # H measured between transducers oriented s_rsp, s_ref: H_+ = s_rsp * s_ref * H_measured
-    h = h * (rsp_sign * ref_sign)
-    if units:  # file units -> SI: a length L_file = L_SI * length, a force F_file = F_SI * force
-        factor = float(units["force"])
-        factor /= float(units["length"]) if rsp_dir in DIRECTIONS[:3] else 1.0  # a displacement (a rotation: rad)
-        factor *= float(units["length"]) if ref_dir in DIRECTIONS[3:] else 1.0  # a moment excitation: force x length
-        if factor != 1.0:
-            h = h * factor
-    return x, omega, rsp, ref, h
-
-
-def _same_axis(a: np.ndarray, b: np.ndarray) -> bool:
-    if a.shape != b.shape:
-        return False
-    tol = AXIS_RTOL * np.abs(a) + 1e-12 * max(float(np.max(np.abs(a))), 1e-300)
-    return bool(np.all(np.abs(a - b) <= tol))
-
-
-@dataclass
-class _FRFSet:
-    """The FRF records of one excitation dof."""
-
-    first: str
-    axis: np.ndarray
-    omega: np.ndarray
-    dofs: list[str] = field(default_factory=list)
-    cols: list[np.ndarray] = field(default_factory=list)
 
 
 def read_uff(
@@ -634,7 +526,7 @@ def read_uff(
             _read_nodes(dset, f"{name}: dataset {t} record {k}", nodes, systems)
 
     raws: list[_RawMode] = []
-    sets: dict[str, _FRFSet] = {}
+    sets: dict[str, FRFSet] = {}
     for t, k, dset in records:
         where = f"{name}: dataset {t} record {k}"
         if t == 55:
@@ -642,38 +534,10 @@ def read_uff(
             if m is not None:
                 raws.append(m)
         elif t == 58:
-            func = int(dset.get("func_type", 0))
-            if func != 4:
-                log.info("%s: function type %d is not an FRF (4); record skipped", where, func)
-                continue
-            x, omega, rsp, ref, h = _read_frf_record(dset, where, nodes, systems, units)
-            _check_in_model([rsp, ref], known, where)
-            fs = sets.get(ref)
-            if fs is None:
-                fs = sets[ref] = _FRFSet(f"dataset 58 record {k}", x, omega)
-            elif not _same_axis(fs.axis, x):
-                raise InputError(
-                    f"{where}: frequency axis ({x.size} points, {x[0]:g} .. {x[-1]:g}) differs from that of "
-                    f"{fs.first} ({fs.axis.size} points, {fs.axis[0]:g} .. {fs.axis[-1]:g}), the first record of "
-                    f"excitation dof {ref}"
-                )
-            if rsp in fs.dofs:
-                raise InputError(f"{where}: response dof {rsp} appears in two FRF records of excitation dof {ref}")
-            fs.dofs.append(rsp)
-            fs.cols.append(h)
-
-    frf_sets: list[FRFData] = []
-    for ref, group in sets.items():
-        cplx = any(np.iscomplexobj(c) for c in group.cols)
-        resp = np.column_stack([c.astype(complex) if cplx else c for c in group.cols])
-        try:
-            frf_sets.append(FRFData(group.omega, {ref: 1.0}, tuple(group.dofs), resp))
-        except InputError as exc:
-            raise InputError(f"{name}: datasets 58 of excitation dof {ref}: {exc}") from None
-    if len(frf_sets) > 1:
-        notes.append(f"{name}: datasets 58: {len(frf_sets)} excitation dofs (a roving-hammer or multi-reference "
-                     "test), one FRF set each: " + "; ".join(f"{r} ({len(g.dofs)} response(s))"
-                                                             for r, g in sets.items()))
+            rsp_ref = add_frf_record(sets, dset, where, k, nodes, systems, units, notes)
+            if rsp_ref is not None:
+                _check_in_model(rsp_ref, known, where)
+    frf_sets = frf_sets_of(sets, name, notes)
     if units and (units["length"] != 1.0 or units["force"] != 1.0):
         notes.append(f"{name}: dataset 164: units {units['system']} ({units['description'] or 'no description'}): "
                      f"converted to SI, lengths divided by {units['length']:g} and forces by {units['force']:g} "

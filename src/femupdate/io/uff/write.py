@@ -3,11 +3,11 @@ each with SI units (164) and node coordinates (2411), replaced atomically."""
 
 from __future__ import annotations
 
+import io
 import logging
 import os
 import shutil
 import tempfile
-import uuid
 from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -94,42 +94,36 @@ def _nodes_dataset(nodes: Mapping[int, Sequence[float]], used: Iterable[int], wh
 
 
 def _atomic_write(path: str | os.PathLike, datasets: Sequence[dict]) -> None:
-    """Write ``datasets`` with pyuff into a temporary file next to ``path``, then replace it.
+    """Write ``datasets`` with pyuff, then the whole file at once with
+    :func:`femupdate.io.results.atomic_write_bytes` (a regular file replaced atomically; a device,
+    a symbolic link or an input of the run handled as every output is).
 
     pyuff re-scans the whole file after every dataset it appends, which is quadratic in the
     number of datasets; each dataset is therefore written to a small scratch file and copied.
     """
+    from ..results import atomic_write_bytes
+
     target = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(target))
+    folder = os.path.dirname(os.path.realpath(target))
     if not os.path.isdir(folder):
         raise InputError(f"{target}: cannot write: directory {folder} does not exist")
-    tmp = os.path.join(folder, f".{os.path.basename(target)}.{uuid.uuid4().hex[:12]}.tmp")
     current = None
+    out = io.BytesIO()
     try:
-        with tempfile.TemporaryDirectory(prefix="femupdate-uff-") as scratch_dir, open(tmp, "xb") as out:
+        with tempfile.TemporaryDirectory(prefix="femupdate-uff-") as scratch_dir:
             scratch = os.path.join(scratch_dir, "set.uff")
             for current in datasets:
                 pyuff.UFF(scratch).write_sets(current, mode="overwrite")
                 with open(scratch, "rb") as fh:
                     shutil.copyfileobj(fh, out)
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        _remove(tmp)
-        raise InputError(f"{target}: cannot write: {exc.strerror or exc}") from None
     except Exception as exc:
-        _remove(tmp)
         log.debug("pyuff failed writing %s", target, exc_info=True)
         kind = current.get("type", "?") if isinstance(current, dict) else "?"
         raise InputError(f"{target}: pyuff could not write dataset {kind}: {exc}") from None
-
-
-def _remove(p: str) -> None:
     try:
-        os.remove(p)
-    except OSError:
-        pass
+        atomic_write_bytes(target, out.getvalue())
+    except OSError as exc:
+        raise InputError(f"{target}: cannot write: {exc.strerror or exc}") from None
 
 
 def write_uff_modes(

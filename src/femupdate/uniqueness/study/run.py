@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import cast
 
 from ..._errors import InputError
-from ...dask_cluster import Task, collect, connect
+from ...dask_cluster import Task, collect, connect, quiet_library_logs
 from ..checkpoint import Checkpoint
 from .definition import Study
 from .results import StudyResult, summarise
@@ -27,8 +27,12 @@ def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
         raise InputError("--scheduler / --workers need dask.distributed: pip install 'femupdate[dask]'") from None
     if workers is None:  # run_study starts a local cluster only when workers is given
         raise RuntimeError("internal error: a local Dask cluster was asked for without a number of workers")
+    quiet_library_logs()  # the cluster's own INFO records are for the verbose log (-v) only
+    from ... import dask_cluster
+
+    quiet = {"silence_logs": logging.CRITICAL} if dask_cluster.QUIET_LIBRARY_LOGS else {}  # the workers' own logs
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None)
+                           dashboard_address=None, **quiet)
     return Client(cluster), cluster
 
 

@@ -457,7 +457,9 @@ def build(sp_, cores: int) -> None:
     if cache_dir:  # the same cache as this process's, however it was set
         env["NUMBA_CACHE_DIR"] = cache_dir
     try:
-        child = subprocess.Popen([sys.executable, "-c", "from femupdate.updating.batched import trf; trf.compile_rows()"],
+        code = (f"from femupdate._workers import bind_to_owner; bind_to_owner({os.getpid()}); "  # ends with this process
+                "from femupdate.updating.batched import trf; trf.compile_rows()")
+        child = subprocess.Popen([sys.executable, "-c", code],
                                  env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                  stderr=subprocess.PIPE)
     except OSError as e:

@@ -1,0 +1,54 @@
+"""The click group :data:`cli` of the ``femupdate`` command line, with every command added
+(imported by :func:`femupdate.cli.main`, see :mod:`femupdate.cli`)."""
+
+from __future__ import annotations
+
+import logging
+
+import click
+
+from .damage import damage, fullfield, rank_modifications, update_multi
+from .data import convert_data
+from .demo import demo
+from .direct import direct
+from .frf import frf_command, frf_select_command, frf_update_command, surface_command
+from .modes import correlate, modes
+from .paper import paper
+from .posterior import posterior
+from .reduce import reduce
+from .report import report
+from .uniqueness import uniqueness
+from .update import update
+
+__all__ = ["cli"]
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="femupdate")
+@click.option("-v", "--verbose", count=True, help="Log progress (-v info, -vv debug).")
+def cli(verbose: int) -> None:
+    """femupdate: update finite-element models so that they match vibration test data."""
+    from ..io.outputs import run_files
+
+    from .. import dask_cluster
+
+    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2), format="%(levelname)s %(name)s: %(message)s")
+    dask_cluster.QUIET_LIBRARY_LOGS = not verbose  # a lost cluster: one message, the library's logs only with -v
+    ctx = click.get_current_context()
+    files = ctx.with_resource(run_files())  # the run's inputs and outputs (femupdate.io.outputs), until it ends
+    ctx.call_on_close(lambda: _say_replaced(files))
+
+
+def _say_replaced(files) -> None:
+    """One line on stderr per existing file the run replaced."""
+    for note in files.replaced_notes():
+        click.echo(f"note: {note}", err=True)
+
+
+# in this order (the order of `cli.commands`; `femupdate --help` lists them sorted by name)
+for _command in (modes, direct, update, posterior, correlate, paper, demo,
+                 damage, update_multi, rank_modifications, fullfield,
+                 frf_command, frf_update_command, frf_select_command, surface_command,
+                 reduce, uniqueness, convert_data, report):
+    cli.add_command(_command)
+del _command
