@@ -75,7 +75,7 @@ def parse_damping(text: str | None, data=None):
     """``--damping``: ``alpha=A,beta=B,eta=E`` (any of them; default undamped), or ``fit``: the
     Rayleigh damping fitted to the test modes' damping ratios (needs ``data`` with two or more)."""
     from ..frf import Damping
-    from ..frf.lines import as_damping
+    from ..frf.damping import as_damping
 
     if not text:
         return Damping()

@@ -18,7 +18,8 @@ core: :func:`femupdate.update` (or :func:`femupdate.updating.frf_update` for FRF
 ==========================================  ===================================================
 """
 
-from .lines import Damping, Resonances, resonances
+from .damping import Damping
+from .resonance import Resonances, resonances
 from .selection import ConditionStudy, Selection, condition_study, select_frequencies
 from .sensitivity import ReceptanceSensitivity, brandon, first_order_check, receptance_fd, receptance_sensitivity
 from .simulate import add_noise, convert, frf, from_channels, receptance, simulate

@@ -37,7 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import InputError
-from .lines import LineSystems, as_damping, check_omega, derivative_stack, force_vector, resonances
+from .damping import as_damping
+from .lines import LineSystems, check_omega, derivative_stack, force_vector
+from .resonance import resonances
 from .sensitivity import receptance_sensitivity
 
 log = logging.getLogger(__name__)

@@ -29,7 +29,9 @@ import numpy as np
 from .._errors import InputError
 from ..dofs import canonical_all, describe
 from ..testdata import FRFData
-from .lines import Damping, LineSystems, as_damping, check_omega, force_vector, nonnegative, resonances
+from .damping import Damping, as_damping, nonnegative
+from .lines import LineSystems, check_omega, force_vector
+from .resonance import resonances
 
 log = logging.getLogger(__name__)
 

@@ -36,7 +36,9 @@ from .._errors import InputError
 from ..dofs import canonical
 from ..testdata import FRFData, TestData
 from . import residuals as R
-from .lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
+from .damping import as_damping
+from .lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, force_vector, solve_stacked
+from .resonance import dense_eigen_stack
 
 log = logging.getLogger(__name__)
 

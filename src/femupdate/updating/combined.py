@@ -41,7 +41,7 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..options import DATA_KINDS, STD_KEYS, FRFOptions, UpdateOptions
-from ..frf.lines import UNDAMPED
+from ..frf.damping import UNDAMPED
 from ..modal import check_static_loads
 from ..testdata import FRFData, TestData
 from .frf import ALONE, STD_HINT, FRFProblem, prepare_problem, unit_scale

@@ -30,7 +30,9 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..frf import residuals as R
-from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
+from ..frf.damping import as_damping
+from ..frf.lines import LineSystems, ParameterForms, force_vector
+from ..frf.resonance import resonances
 from ..frf.simulate import check_data_against_model
 from ..testdata import FRFData, TestData
 from .parametrisation import PARAMETRISATIONS, Parametrisation, start_vector, updated_names

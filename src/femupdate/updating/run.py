@@ -192,7 +192,7 @@ def _damping_of(o: UpdateOptions):
     """The model damping of the FRF options (compared with the data's damping ratios), or None."""
     if o.frf.damping is None:
         return None
-    from ..frf.lines import as_damping
+    from ..frf.damping import as_damping
 
     return as_damping(o.frf.damping)
 
