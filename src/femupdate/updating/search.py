@@ -106,9 +106,8 @@ class _Cost:
     """½ r² of the FRF problem at parameter points (batched for small models)."""
 
     def __init__(self, model, data, names, frf: FRFOptions, std, values):
-        prob, _, _, _ = prepare_problem(model, data, names, None, frf.residual, frf.weights, std, frf.lines, frf.select,
-                                        frf.resonance, frf.resonance_tol, frf.damping, "absolute", values, frf.solver,
-                                        False)
+        prob, _, _, _ = prepare_problem(model, data, names, None, frf, SolverOptions(parametrisation="absolute"),
+                                        measurement_std=std, values=values)
         self.values, self.damping = values, frf.damping
         self.prob = prob
         measured = frf_data(data)
