@@ -6,46 +6,20 @@ from __future__ import annotations
 
 import json
 import math
-import re
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import femupdate as fu
-from femupdate.cli import main
 from femupdate.frf import Surface, frf_surface, modal_surface, receptance, select_frequencies
 from femupdate.options import SelectionOptions
 from femupdate.serialise import SCHEMA_VERSION
 from femupdate.uniqueness import define_study, nested_dof_sets, run_study
 
-
-def cli(args, capsys):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return info.value.code or 0, out, err
-
-
-@pytest.fixture(scope="module")
-def ex(tmp_path_factory):
-    d = tmp_path_factory.mktemp("ex")
-    with pytest.raises(SystemExit):
-        main(["demo", "--write-files", str(d)])
-    return d
-
-
-def _plain(obj):
-    """What a JSON file holds (tuples as lists, NaN as null)."""
-    return json.loads(json.dumps(obj))
-
-
-def _timeless(obj):
-    """``obj`` without wall-clock and CPU times (they differ from run to run)."""
-    if isinstance(obj, dict):
-        return {k: _timeless(v) for k, v in obj.items() if k not in ("seconds", "cpu_seconds")}
-    if isinstance(obj, list):
-        return [_timeless(v) for v in obj]
-    return obj
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_helpers import cli, plain, timeless, without_stamp  # noqa: E402
 
 
 def _json_of(args, tmp_path, capsys, code=0):
@@ -57,11 +31,7 @@ def _json_of(args, tmp_path, capsys, code=0):
 
 def _read_back(obj):
     """The JSON of the result read back from ``obj`` (by its kind)."""
-    return _plain(fu.load_result(obj).to_json())
-
-
-def _without_stamp(html: str) -> str:
-    return re.sub(r"\d{4}-\d\d-\d\d \d\d:\d\d UTC", "<stamp>", html)
+    return plain(fu.load_result(obj).to_json())
 
 
 # ---------------------------------------------------------------------------------- frf
@@ -75,7 +45,7 @@ def test_simulated_frfs_write_the_json_of_frf(ex, tmp_path, capsys):
     sim = fu.simulate_frf(model, omega, {"2:x": 2.0}, values={"k1": 7.5}, damping={"alpha": 0.01, "beta": 0.001},
                           noise=0.01, noise_kind="relative", seed=3)
     assert isinstance(sim, fu.FRFData)  # still test data: receptances
-    py = _plain(sim.with_quantity("mobility").to_json())
+    py = plain(sim.with_quantity("mobility").to_json())
     assert py == obj and obj["kind"] == "frf" and obj["quantity"] == "mobility" and obj["schema_version"] == SCHEMA_VERSION
     assert _read_back(obj) == obj
     # a second route: the noise-free mobility is i omega times the receptance Z^-1 f solved column by column
@@ -96,9 +66,9 @@ def test_frf_test_data_and_the_note_near_a_resonance(ex, tmp_path, capsys):
             "--test-data", tmp_path / "data.json"]
     obj = _json_of(args, tmp_path, capsys)
     sim = fu.simulate_frf(model, omega, {"1:x": 1.0}, seed=0)
-    assert _plain(sim.to_json()) == obj
+    assert plain(sim.to_json()) == obj
     assert len(obj["notes"]) == 1 and "line 2" in obj["notes"][0]
-    assert json.loads((tmp_path / "data.json").read_text()) == _plain(sim.test_data())
+    assert json.loads((tmp_path / "data.json").read_text()) == plain(sim.test_data())
     assert _read_back(obj)["notes"] == obj["notes"]  # as read: the model is not at hand
 
 
@@ -112,7 +82,7 @@ def test_selections_write_the_json_of_frf_select(ex, tmp_path, capsys):
     by_keywords = select_frequencies(model, cand, 4, {"1:x": 1.0}, kind="sensitivity", response=["2:x"], margin=0.02)
     by_options = select_frequencies(model, cand, 4, {"1:x": 1.0}, SelectionOptions(equations="sensitivity", margin=0.02),
                                     response=["2:x"])
-    assert _plain(by_keywords.to_json()) == _plain(by_options.to_json()) == obj
+    assert plain(by_keywords.to_json()) == plain(by_options.to_json()) == obj
     assert obj["kind"] == "frf-select" and obj["equations"] == "sensitivity"
     assert obj["lines"] == [int(np.argmin(np.abs(cand - w))) + 1 for w in obj["omega_rad_s"]]
     assert _read_back(obj) == obj
@@ -145,7 +115,7 @@ def test_surfaces_write_the_json_of_surface(ex, tmp_path, capsys, kind):
                            residual="log", truth=(8, 6))
     else:
         surf = modal_surface(model, data, ["k1", "k2"], np.linspace(500, 1500, 11), np.linspace(1500, 2500, 11))
-    assert _plain(surf.to_json()) == obj and obj["kind"] == "surface"
+    assert plain(surf.to_json()) == obj and obj["kind"] == "surface"
     assert obj["residual"] == ("frf (eq. 34, log)" if kind == "frf" else "modal (eq. 33)")
     assert _read_back(obj) == obj
 
@@ -154,7 +124,7 @@ def test_a_singular_grid_point_is_null_and_reads_back_as_inf():
     values = np.arange(12.0).reshape(3, 4) + 1
     values[1, 2] = math.inf
     s = Surface(("a", "b"), np.arange(3.0), np.arange(4.0), values, "test")
-    obj = _plain(s.to_json())
+    obj = plain(s.to_json())
     assert obj["values"][1][2] is None and obj["singular_points"] == 1 and obj["model"] == ""
     back = fu.load_result(obj)
     assert back.values[1, 2] == math.inf and back.summary() == s.summary()
@@ -184,14 +154,14 @@ def test_frf_updates_write_the_json_and_report_of_frf_update(ex, tmp_path, capsy
         result = fu.frf_multistart(model, data, **call)
     else:
         result = fu.frf_update(model, data, **call)
-    assert _timeless(_plain(result.to_json())) == _timeless(obj) and obj["kind"] == "frf-update"
-    assert _timeless(_read_back(obj)) == _timeless(obj)
+    assert timeless(plain(result.to_json())) == timeless(obj) and obj["kind"] == "frf-update"
+    assert timeless(_read_back(obj)) == timeless(obj)
     damping = call.get("damping")
     result = result.with_context(damping=None if damping is None else fu.frf.Damping(**damping),
                                  before=None if "values" not in call else dict(zip(model.parameter_names,
                                                                                    model.resolve(call["values"]))))
     result.write_report(tmp_path / "py.html", source=f"run on {model_path}")
-    assert _without_stamp((tmp_path / "py.html").read_text()) == _without_stamp((tmp_path / "cli.html").read_text())
+    assert without_stamp((tmp_path / "py.html").read_text()) == without_stamp((tmp_path / "cli.html").read_text())
 
 
 def test_an_frf_study_without_a_converged_start(ex, tmp_path, capsys):
@@ -200,7 +170,7 @@ def test_an_frf_study_without_a_converged_start(ex, tmp_path, capsys):
     assert set(obj) == {"kind", "schema_version", "model", "success", "starts"} and obj["success"] is False
     model = fu.load_model(model_path)
     ms = fu.frf_multistart(model, fu.load_test_data(data_path, model), starts=3, max_nfev=1)
-    assert ms.best is None and _timeless(_plain(ms.to_json())) == _timeless(obj)
+    assert ms.best is None and timeless(plain(ms.to_json())) == timeless(obj)
 
 
 # ---------------------------------------------------------------------------------- uniqueness
@@ -213,23 +183,23 @@ def test_a_study_writes_the_json_and_report_of_uniqueness(ex, tmp_path, capsys):
     model = fu.load_model(model_path)
     study = define_study(model, [(s, m) for s in nested_dof_sets(model) for m in (1, 2)], starts=20, seed=3)
     res = run_study(study).with_exact().with_figure(tmp_path / "uniqueness.png")
-    py = _plain(res.to_json())
-    assert _timeless(py) == _timeless(obj) and obj["kind"] == "uniqueness" and obj["figure"].endswith("uniqueness.png")
+    py = plain(res.to_json())
+    assert timeless(py) == timeless(obj) and obj["kind"] == "uniqueness" and obj["figure"].endswith("uniqueness.png")
     # the exact solution sets of the one-sensor, two-mode case: the truth and (39/4, 14/3) (docs/cli.md)
     one_sensor = next(c for c in obj["cases"] if c["n_measured"] == 1 and c["n_modes"] == 2)
     assert {(s["exact"]["k1"], s["exact"]["k2"]) for s in one_sensor["exact"]["solutions"]} == {("7", "13/2"),
                                                                                                 ("39/4", "14/3")}
     back = fu.load_result(tmp_path / "cli.json")
-    assert back.study is None and _plain(back.to_json()) == obj
+    assert back.study is None and plain(back.to_json()) == obj
     assert back.criteria_agreement() == obj["criteria_agreement"] == res.criteria_agreement()
     res.write_report(tmp_path / "py.html", source=f"run on {model_path}")
-    assert _without_stamp((tmp_path / "py.html").read_text()) == _without_stamp((tmp_path / "cli.html").read_text())
+    assert without_stamp((tmp_path / "py.html").read_text()) == without_stamp((tmp_path / "cli.html").read_text())
 
 
 def test_a_study_with_noise_reads_back(ex):
     model = fu.load_model(ex / "figure2.toml")
     study = define_study(model, [(("1:x",), 1), (("1:x", "2:x", "3:x"), 2)], starts=6, seed=5, noise=[0.01])
-    obj = _plain(run_study(study).to_json())
+    obj = plain(run_study(study).to_json())
     assert obj["noise_levels"] == [0.01] and len(obj["cases"][1]["noise"]) == 1
     assert _read_back(obj) == obj
     frame_rows = fu.load_result(obj).records()

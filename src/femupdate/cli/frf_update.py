@@ -26,12 +26,7 @@ class FRFProblemSpec:
     standard deviation of its entries and ``--reciprocity`` (:func:`frf_problem_group`)."""
 
     params_text: str | None
-    residual: str
-    lines_text: str | None
-    select: int | None
-    resonance: str
-    resonance_tol: float
-    damping_text: str | None
+    lines: dict  #: the options of the FRF residual as typed (:func:`~femupdate.cli.frf.frf_line_options`)
     std: float | None
     reciprocity: bool
 
@@ -48,8 +43,7 @@ class FRFProblemSpec:
         from ..options import FRFOptions
 
         params = [p.strip() for p in self.params_text.split(",") if p.strip()] if self.params_text else None
-        frf = FRFOptions(**frf_options(self.residual, self.lines_text, self.select, self.resonance,
-                                       self.resonance_tol, self.damping_text, data))
+        frf = FRFOptions(**frf_options(**self.lines, data=data))
         return params, frf, NoiseOptions(std=None if self.std is None else {"frf": self.std})
 
 
@@ -57,7 +51,8 @@ def frf_problem_group():
     """``--params``, the FRF residual's options, ``--std``, ``--reciprocity`` -> ``problem``:
     :class:`FRFProblemSpec`."""
     return option_group(
-        "Updating problem", "problem", FRFProblemSpec,
+        "Updating problem", "problem",
+        lambda params_text, std, reciprocity, **lines: FRFProblemSpec(params_text, lines, std, reciprocity),
         click.option("--params", "params_text", default=None, help="Parameters to update (default: all not fixed)."),
         frf_line_options,
         click.option("--std", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None,
