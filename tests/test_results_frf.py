@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -206,3 +207,23 @@ def test_a_study_with_noise_reads_back(ex):
     assert [r["verdict"] for r in frame_rows] == [c["verdict"] for c in obj["cases"]]
     with pytest.raises(fu.InputError, match="a result read back from JSON has none"):
         fu.load_result(obj).with_exact()
+
+
+# ---------------------------------------------------------------------------------- progress
+@pytest.mark.parametrize("args, what", [
+    (["uniqueness", "{ex}/two_dof.toml", "--starts", "10"], "updates"),
+    (["frf-update", "{ex}/two_dof.toml", "{ex}/two_dof_frf.json", "--starts", "4"], "starts"),
+    (["frf-update", "{ex}/two_dof.toml", "{ex}/two_dof_frf.json", "--global", "dual_annealing", "--runs", "2"],
+     "dual_annealing runs"),
+])
+def test_long_runs_say_how_far_they_are_when_piped(ex, capsys, monkeypatch, args, what):
+    """Through outputs.progress (here with no quiet start and no rate limit): lines on stderr."""
+    import functools
+
+    from femupdate.cli import outputs
+
+    monkeypatch.setattr(outputs, "progress", functools.partial(outputs.progress, after=0.0, every=0.0))
+    code, _, err = cli([a.format(ex=ex) for a in args], capsys)
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if line.startswith(f"femupdate: {what} ")]
+    assert lines and re.match(rf"femupdate: {what} (\d+)/\1 \(100%\)", lines[-1]), err
