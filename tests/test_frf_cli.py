@@ -47,7 +47,7 @@ def test_frf_json_is_the_interface(model_file, capsys):
     code, out, _ = run(["frf", str(model_file), "--force", "1:x=2", "--omega", "1:2:3", "--kind", "mobility",
                         "--damping", "eta=0.02", "--set", "k1=9", "--json", "-"], capsys)
     res = json.loads(out)
-    assert code == 0 and res["kind"] == "mobility" and res["damping"]["eta"] == 0.02
+    assert code == 0 and res["kind"] == "frf" and res["quantity"] == "mobility" and res["damping"]["eta"] == 0.02
     assert res["parameters"]["k1"] == 9.0 and np.any(np.array(res["response"]["1:x"])[:, 1])
 
 

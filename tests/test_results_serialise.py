@@ -4,7 +4,8 @@ from a result object, reads the JSON back into the typed result, and gets the sa
 from __future__ import annotations
 
 import json
-import re
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,12 +14,8 @@ import femupdate as fu
 from femupdate.cli import main
 from femupdate.serialise import SCHEMA_VERSION, Serialisable
 
-
-def cli(args, capsys):
-    with pytest.raises(SystemExit) as info:
-        main(args)
-    out, err = capsys.readouterr()
-    return info.value.code or 0, out, err
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_helpers import cli, plain as _plain, timeless as _timeless, without_stamp as _without_stamp  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -27,20 +24,6 @@ def ex(tmp_path_factory):
     with pytest.raises(SystemExit):
         main(["demo", "--write-files", str(d)])
     return d
-
-
-def _plain(obj):
-    """What a JSON file holds (tuples as lists, NaN as null)."""
-    return json.loads(json.dumps(obj))
-
-
-def _timeless(obj):
-    """``obj`` without wall-clock and CPU times (they differ from run to run)."""
-    if isinstance(obj, dict):
-        return {k: _timeless(v) for k, v in obj.items() if k not in ("seconds", "cpu_seconds")}
-    if isinstance(obj, list):
-        return [_timeless(v) for v in obj]
-    return obj
 
 
 @pytest.mark.parametrize("example, args, call", [
@@ -100,10 +83,6 @@ def test_frf_results_and_multi_start_read_back(ex, tmp_path):
     obj = _plain(ms.to_json())
     assert obj["starts"]["total"] == 8 and len(obj["starts"]["runs"]) == 8
     assert _plain(fu.load_result(obj).to_json()) == obj  # the study's starts kept as read
-
-
-def _without_stamp(html: str) -> str:
-    return re.sub(r"\d{4}-\d\d-\d\d \d\d:\d\d UTC", "<stamp>", html)
 
 
 def test_python_writes_the_report_the_command_line_writes(ex, tmp_path, capsys):

@@ -38,6 +38,26 @@ def _results(ex):
     yield fu.multistart(two, fu.load_test_data(ex / "two_dof_frequencies.json", two), starts=6)
     yield fu.frf_update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
     yield fu.update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
+    yield from _frf_and_uniqueness_results(ex, two, fig2)
+
+
+def _frf_and_uniqueness_results(ex, two, fig2):
+    """The kinds frf, frf-select, surface, frf-update (multi-start, global) and uniqueness."""
+    import numpy as np
+
+    from femupdate.frf import frf_surface, modal_surface, select_frequencies
+    from femupdate.uniqueness import define_study, run_study
+
+    frf_data = fu.load_test_data(ex / "two_dof_frf.json", two)
+    yield fu.simulate_frf(two, [0.5, 1.0], {"1:x": 1.0}, damping={"eta": 0.02}, noise=0.01, seed=1)
+    yield select_frequencies(two, np.linspace(0.1, 3, 30), 4, {"1:x": 1.0}, kind="sensitivity", response=["2:x"])
+    yield frf_surface(two, frf_data.frf, ["k1", "k2"], [3.0, 8.0, 13.0], [1.0, 6.0, 11.0])
+    yield modal_surface(fig2, fu.load_test_data(ex / "figure2_test.json", fig2), ["k1", "k2"], [500.0, 1000.0],
+                        [1500.0, 2000.0])
+    yield fu.frf_multistart(two, frf_data, starts=4, seed=1)
+    yield fu.global_search(two, frf_data, runs=1, seed=0, method_options={"maxiter": 5})
+    study = define_study(two, [(("1:x",), 2), (("1:x", "2:x"), 1)], starts=8, seed=3, noise=[0.01])
+    yield run_study(study).with_exact().with_figure("uniqueness.png")
 
 
 def test_results_write_the_keys_the_schema_describes(ex):

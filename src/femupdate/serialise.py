@@ -249,7 +249,9 @@ def _import_result_modules() -> None:
 
 
 #: the modules whose result classes :data:`REGISTRY` holds
-RESULT_MODULES = ("femupdate.updating.results",)
+RESULT_MODULES: tuple[str, ...] = ("femupdate.updating.results",)
+RESULT_MODULES += ("femupdate.frf.simulate", "femupdate.frf.selection", "femupdate.frf.surfaces",
+                   "femupdate.uniqueness.study.results")
 
 
 __all__ = ["SCHEMA_VERSION", "RunContext", "Serialisable", "load_result", "REGISTRY"]

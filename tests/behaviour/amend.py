@@ -422,6 +422,26 @@ def _damage_verified(expected, actual) -> bool:
     return changed
 
 
+#: kind -> the key under which results of kinds frf, frf-select and surface name their variant,
+#: now that ``kind`` names the kind of result
+VARIANT_KEYS = {"frf": "quantity", "frf-select": "equations", "surface": "residual"}
+
+
+def _variant_named(expected, actual) -> bool:
+    """Move the recorded top-level ``kind`` of an ``frf``, ``frf-select`` or ``surface`` result
+    (its variant: ``receptance``, ``direct``, ``frf (eq. 34, linear)``, ...) to the key that now
+    holds it, where (and only where) the new run holds the same value there.  Every recorded value
+    is left for the comparison; ``kind`` and ``schema_version`` are then new keys (the amendment
+    "results name their kind and schema version")."""
+    if not (isinstance(expected, dict) and isinstance(actual, dict)):
+        return False
+    key = VARIANT_KEYS.get(actual.get("kind"))  # type: ignore[arg-type]
+    if key is None or key in expected or "kind" not in expected or expected["kind"] != actual.get(key):
+        return False
+    expected[key] = expected.pop("kind")
+    return True
+
+
 #: name -> (reason, prepare(expected, actual) -> changed): rewrites of the recorded JSON applied
 #: before the comparison, each limited to one deliberate change of form
 PREPARATIONS = {
@@ -454,6 +474,14 @@ PREPARATIONS = {
         "parameter is taken element by element, as before, with a note saying so.  The keys are new; the "
         "recorded values are compared unchanged.",
         _damage_verified,
+    ),
+    "FRF results name their variant under its own key": (
+        "Results say what they are under `kind` (issue 33: the kind of result, e.g. `frf`), so the results of "
+        "`frf`, `frf-select` and `surface`, whose `kind` named their variant, now name it under a key of its "
+        "own: `quantity` (receptance, mobility or accelerance), `equations` (direct or sensitivity) and "
+        "`residual` (e.g. `frf (eq. 34, linear)`).  The recorded value moves to that key unchanged; every "
+        "other recorded value is compared unchanged.",
+        _variant_named,
     ),
 }
 

@@ -11,7 +11,8 @@ from .damage import damage, fullfield, rank_modifications, update_multi
 from .data import convert_data
 from .demo import demo
 from .direct import direct
-from .frf import frf_command, frf_select_command, frf_update_command, surface_command
+from .frf import frf_command, frf_select_command, surface_command
+from .frf_update import frf_update_command
 from .modes import correlate, modes
 from .paper import paper
 from .posterior import posterior

@@ -416,47 +416,6 @@ def direct_payload(model, res, data, corr_before=None):
     }
 
 
-def update_payload(model, data, res, ms=None):
-    """JSON of an iterative update (``update`` and, extended, ``frf-update``), with its starts."""
-    d = res.diagnostics
-    out = {
-        "model": model.name,
-        "parameters": res.parameters,
-        "updated": list(res.names),
-        "start": res.start,
-        "success": res.success,
-        "status": res.status,
-        "message": res.message,
-        "cost": res.cost,
-        "iterations": res.iterations,
-        "nfev": res.nfev,
-        "pairs": [[k, j, m] for k, j, m in res.pairs],
-        "frequencies_hz": {"test": res.test_frequencies_hz, "model": res.model_frequencies_hz},
-        "swaps": res.swaps,
-        "pairing": getattr(res, "pairing", {}) or None,
-        "history": res.history,
-        "regularization": res.regularization,
-        "sensitivity": res.sensitivity,
-        "notes": list(res.notes),
-        "flags": flags(model, res.parameters, res.names),
-        **parameter_fields(model),
-        "diagnostics": None if d is None else {
-            "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
-            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
-            "covariance": d.covariance, "n_residuals": d.n_residuals, "n_parameters": d.n_parameters,
-            **diagnostics_extra(res.names, d),
-        },
-    }
-    if res.blocks:
-        out["blocks"] = res.blocks
-    if ms is not None:
-        out["starts"] = starts_payload(ms)
-    else:
-        out["starts"] = {"total": 1, "converged": int(res.success),
-                         "solutions": [{"parameters": {n: res.parameters[n] for n in res.names}, "cost": res.cost, "count": 1}] if res.success else []}
-    return out
-
-
 def diagnostics_extra(names, d) -> dict:
     """The JSON keys of :class:`~femupdate.updating.Diagnostics` added to ``diagnostics`` for the
     bounds and the parameters the data cannot move (the older keys are written by the callers):
@@ -488,23 +447,6 @@ def print_identifiability(console, d) -> None:
                       f"{d.n_parameters}", markup=False)
         for n, why in d.poorly_determined_reasons.items():
             console.print(f"  {n}: {why}", markup=False)
-
-
-def starts_payload(ms) -> dict:
-    """JSON of a multi-start study: counts, distinct solutions (marked ``fits``: they fit the data
-    as well as the best one), failures by reason and one record per start."""
-    return {
-        "total": ms.total, "converged": ms.converged, "seed": ms.seed,
-        "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits}
-                      for s in ms.solutions],
-        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost,
-        "failed": [r for r in ms.runs if isinstance(r, str)],
-        "failures": ms.failures,
-        "runs": ms.records(),
-        "seconds": {"compiled_batch": ms.batch_seconds,
-                    "per_start_total": None if ms.seconds is None else float(sum(ms.seconds)),
-                    "per_start_cpu_total": None if ms.cpu_seconds is None else float(sum(ms.cpu_seconds))},
-    }
 
 
 def fitting_table(ms, what: str = "starts") -> Table:

@@ -76,7 +76,7 @@ def option_group(title: str, target: str, build: Callable[..., Any], *options: C
 
 
 # ---------------------------------------------------------------------------------- groups
-def starts_group(default: int = 1, starts_help: str | None = None, seed_help: str = "Seed of the random starts.",
+def starts_group(default: int = 1, starts_help: str | None = None, seed_help: str | None = "Seed of the random starts.",
                  title: str = "Starts") -> Callable:
     """``--starts``, ``--seed`` -> ``starts``: :class:`~femupdate.options.StartsOptions`."""
     return option_group(

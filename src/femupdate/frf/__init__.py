@@ -18,15 +18,16 @@ core: :func:`femupdate.update` (or :func:`femupdate.updating.frf_update` for FRF
 ==========================================  ===================================================
 """
 
-from .lines import Damping, Resonances, resonances
+from .damping import Damping
+from .resonance import Resonances, resonances
 from .selection import ConditionStudy, Selection, condition_study, select_frequencies
 from .sensitivity import ReceptanceSensitivity, brandon, first_order_check, receptance_fd, receptance_sensitivity
-from .simulate import add_noise, convert, frf, from_channels, receptance, simulate
+from .simulate import SimulatedFRF, add_noise, convert, frf, from_channels, receptance, simulate
 from .surfaces import Surface, distinct_minima, frf_surface, local_minima, modal_surface
 
 __all__ = [
     "Damping", "Resonances", "resonances",
-    "receptance", "frf", "simulate", "convert", "add_noise", "from_channels",
+    "receptance", "frf", "simulate", "SimulatedFRF", "convert", "add_noise", "from_channels",
     "receptance_sensitivity", "brandon", "receptance_fd", "first_order_check", "ReceptanceSensitivity",
     "condition_study", "ConditionStudy", "select_frequencies", "Selection",
     "frf_surface", "modal_surface", "local_minima", "distinct_minima", "Surface",

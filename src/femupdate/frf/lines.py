@@ -1,36 +1,34 @@
-r"""Dynamic stiffness per spectral line, its solves, and the distance of each line to resonance.
+r"""Dynamic stiffness per spectral line and its solves.
 
 The forced, steady-state response at ω (paper eq. 23, with optional damping) is
 
 .. math::  Z(\omega)\,x = f, \qquad
            Z(\omega) = (1 + i\eta + i\omega\beta)\,K(p) + (i\omega a - \omega^2)\,M(p),
 
-undamped (:math:`Z = K - \omega^2 M`, real) unless a :class:`Damping` is given: viscous
-proportional damping :math:`C = aM + bK` (Rayleigh) and/or structural (hysteretic) damping
-:math:`i\eta K`.  Because the model is affine, :math:`\partial Z/\partial p_j = c_K\,K_j + c_M\,M_j`
-with the same two scalars :math:`c_K(\omega) = 1 + i\eta + i\omega b`,
-:math:`c_M(\omega) = i\omega a - \omega^2`.
+undamped (:math:`Z = K - \omega^2 M`, real) unless a :class:`~femupdate.frf.damping.Damping` is
+given: viscous proportional damping :math:`C = aM + bK` (Rayleigh) and/or structural
+(hysteretic) damping :math:`i\eta K` (:mod:`femupdate.frf.damping`).  Because the model is
+affine, :math:`\partial Z/\partial p_j = c_K\,K_j + c_M\,M_j` with the same two scalars
+:math:`c_K(\omega) = 1 + i\eta + i\omega b`, :math:`c_M(\omega) = i\omega a - \omega^2`.
 
 Two solution paths, chosen by size: small models stack every line's dense Z into one
 ``(n_lines, n, n)`` array and solve them in one LAPACK call; large ones factorise each line's
 sparse Z once (SuperLU with a symmetric ordering, :func:`femupdate.modal.factorize`) and reuse the
-factor for every right-hand side.
+factor for every right-hand side.  How far each line lies from a resonance:
+:mod:`femupdate.frf.resonance`.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
 from ..dofs import canonical, describe
-from ..modal import arpack_options
+from .damping import UNDAMPED, Damping, as_damping, nonnegative
 
 log = logging.getLogger(__name__)
 
@@ -38,179 +36,6 @@ log = logging.getLogger(__name__)
 DENSE_LIMIT = 200
 #: bytes allowed for one stacked block of dense dynamic stiffness matrices
 BLOCK_BYTES = 64 * 2**20
-
-
-def nonnegative(value, what: str) -> float:
-    """``value`` as a finite float >= 0, or an :class:`InputError` naming ``what``.
-
-    Parameters
-    ----------
-    value : object
-        Anything :class:`float` converts (a number, a numeric string, a size-1 array).
-    what : str
-        Its name in messages.
-
-    Returns
-    -------
-    float
-        ``float(value)``.
-
-    Raises
-    ------
-    InputError
-        ``value`` is not a number, or is negative, NaN or infinite.
-    """
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{what} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v >= 0):
-        raise InputError(f"{what} = {v!r} must be finite and >= 0")
-    return v
-
-
-@dataclass(frozen=True)
-class Damping:
-    r"""Proportional viscous and structural damping of the FRF model.
-
-    Attributes
-    ----------
-    alpha, beta : float
-        Rayleigh coefficients of :math:`C = \alpha M + \beta K` (1/s and s), >= 0.
-    eta : float
-        Structural (hysteretic) loss factor: stiffness :math:`K(1 + i\eta)`, >= 0.
-
-    The default is undamped (the paper's assumption): receptances are then real.
-    """
-
-    alpha: float = 0.0
-    beta: float = 0.0
-    eta: float = 0.0
-
-    def __post_init__(self):
-        for name in ("alpha", "beta", "eta"):
-            object.__setattr__(self, name, nonnegative(getattr(self, name), f"damping {name}"))
-
-    @property
-    def undamped(self) -> bool:
-        """True when alpha, beta and eta are all 0 (receptances are then real)."""
-        return self.alpha == 0 and self.beta == 0 and self.eta == 0
-
-    def coefficients(self, omega) -> tuple[np.ndarray, np.ndarray]:
-        r"""``(c_K, c_M)`` per line: :math:`Z = c_K K + c_M M` (real when undamped).
-
-        Parameters
-        ----------
-        omega : float or array_like of float, shape ``(n_lines,)``
-            Circular frequencies ω (rad/s).
-
-        Returns
-        -------
-        c_K : numpy.ndarray, shape of ``omega``
-            :math:`1 + i\eta + i\omega\beta` (dimensionless); ones (float) when undamped.
-        c_M : numpy.ndarray, shape of ``omega``
-            :math:`i\omega\alpha - \omega^2` (rad²/s²); :math:`-\omega^2` (float) when undamped.
-        """
-        w = np.asarray(omega, float)
-        if self.undamped:
-            return np.ones_like(w), -(w**2)
-        return 1.0 + 1j * self.eta + 1j * w * self.beta, 1j * w * self.alpha - w**2
-
-    def as_dict(self) -> dict:
-        """``{"alpha": ..., "beta": ..., "eta": ...}`` (the keys :func:`as_damping` takes)."""
-        return {"alpha": self.alpha, "beta": self.beta, "eta": self.eta}
-
-    def modal_damping_ratio(self, omega) -> np.ndarray:
-        r"""The modal damping ratio of an undamped mode of circular frequency ω:
-        :math:`\zeta = \alpha/(2\omega) + \beta\omega/2 + \eta/2` (Rayleigh damping is
-        diagonal in the real modes; a loss factor η is the viscous ratio η/2 at resonance).
-
-        Parameters
-        ----------
-        omega : float or array_like of float
-            The modes' circular frequencies ω = √λ (rad/s), > 0 where ``alpha`` > 0.
-
-        Returns
-        -------
-        numpy.ndarray
-            ζ per mode (infinite at ω = 0 when ``alpha`` > 0).
-        """
-        w = np.asarray(omega, float)
-        with np.errstate(divide="ignore"):
-            mass_term = np.where(w > 0, self.alpha / (2 * np.where(w > 0, w, 1.0)), np.inf if self.alpha else 0.0)
-        return mass_term + self.beta * w / 2 + self.eta / 2
-
-    @classmethod
-    def rayleigh_fit(cls, omega, zeta, std=None) -> tuple[Damping, np.ndarray]:
-        r"""The Rayleigh damping that best fits measured modal damping ratios: α, β ≥ 0
-        minimising :math:`\sum_r ((\alpha/(2\omega_r) + \beta\omega_r/2 - \zeta_r)/\sigma_r)^2`
-        (non-negative least squares).
-
-        Parameters
-        ----------
-        omega : array_like of float, shape ``(n,)``
-            Circular frequencies of the measured modes (rad/s), > 0.
-        zeta : array_like of float, shape ``(n,)``
-            Their measured damping ratios.
-        std : array_like of float, shape ``(n,)``, optional
-            Standard deviations of the ratios (default: equal weights).
-
-        Returns
-        -------
-        damping : Damping
-            α and β (η = 0).
-        residual : numpy.ndarray, shape ``(n,)``
-            The fitted ratio minus the measured one, per mode.
-
-        Raises
-        ------
-        InputError
-            Fewer than one mode, a frequency that is not > 0, or sizes that differ.
-        """
-        from scipy.optimize import nnls
-
-        w = np.asarray(omega, float).ravel()
-        z = np.asarray(zeta, float).ravel()
-        if w.size == 0 or w.shape != z.shape or not np.all(w > 0) or not np.all(np.isfinite(z)):
-            raise InputError("Rayleigh fit: needs at least one mode with a frequency > 0 and a finite damping ratio")
-        s = np.ones_like(z) if std is None else np.asarray(std, float).ravel()
-        A = np.column_stack([1 / (2 * w), w / 2]) / s[:, None]
-        x, _ = nnls(A, z / s)
-        fit = cls(alpha=float(x[0]), beta=float(x[1]))
-        return fit, fit.modal_damping_ratio(w) - z
-
-
-UNDAMPED = Damping()
-
-
-def as_damping(damping) -> Damping:
-    """``None`` (undamped), a :class:`Damping`, or a mapping {alpha, beta, eta}.
-
-    Parameters
-    ----------
-    damping : None, Damping or mapping of str to float
-        A mapping may give any of ``alpha`` (1/s), ``beta`` (s) and ``eta``; the others are 0.
-
-    Returns
-    -------
-    Damping
-        :data:`UNDAMPED` for None, ``damping`` itself for a :class:`Damping`.
-
-    Raises
-    ------
-    InputError
-        An unknown key; a value that is not a finite number >= 0; any other type.
-    """
-    if damping is None:
-        return UNDAMPED
-    if isinstance(damping, Damping):
-        return damping
-    if isinstance(damping, Mapping):
-        unknown = sorted(set(damping) - {"alpha", "beta", "eta"})
-        if unknown:
-            raise InputError(f"damping: unknown key(s) {', '.join(unknown)} (use alpha, beta, eta)")
-        return Damping(**damping)
-    raise InputError(f"damping must be a Damping or a mapping {{alpha, beta, eta}}, got {damping!r}")
 
 
 def check_omega(omega, what: str = "omega") -> np.ndarray:
@@ -687,252 +512,18 @@ class ParameterForms:
         return out
 
 
-# ------------------------------------------------------------------------------- resonances
-@dataclass(frozen=True, eq=False)
-class Resonances:
-    r"""Where each line lies with respect to the model's undamped resonances.
-
-    Attributes
-    ----------
-    omega : ndarray (n_lines,)
-    distance : ndarray (n_lines,)
-        Relative eigenvalue distance to the nearest resonance,
-        :math:`d_i = \min_r |\omega_i^2 - \lambda_r| / \max(\lambda_r, \omega_i^2)`
-        (0: exactly on a resonance; about twice the relative frequency distance when small).
-    nearest : ndarray (n_lines,)
-        That resonance's eigenvalue :math:`\lambda_r` (rad²/s²).
-    mode : ndarray (n_lines,)
-        Its mode number (1-based; -1 when found by a local shift-invert search, whose rank is unknown).
-    sensitivity : ndarray (n_lines, L) or None
-        Relative eigenvalue sensitivity of that mode, :math:`s_{ij} = p_j\,\partial\lambda_r/\partial p_j / \lambda_r`
-        (Fox & Kapoor, eq. 21), when parameters were given.
-    """
-
-    omega: np.ndarray
-    distance: np.ndarray
-    nearest: np.ndarray
-    mode: np.ndarray
-    sensitivity: np.ndarray | None = None
-
-    def near(self, tol: float) -> np.ndarray:
-        """Indices of the lines within ``tol`` (relative eigenvalue distance) of a resonance.
-
-        Parameters
-        ----------
-        tol : float
-            Relative eigenvalue distance (``distance < tol``, strictly).
-
-        Returns
-        -------
-        numpy.ndarray of int
-            0-based line indices, ascending.
-        """
-        return np.flatnonzero(self.distance < tol)
-
-    def first_order_error(self, delta: float) -> np.ndarray:
-        r"""Estimated relative error of a first-order (Brandon) prediction of the receptance for a
-        relative parameter change ``delta``: :math:`|\delta\, s_{ij}| / d_i`, ``(n_lines, L)``
-        (``(n_lines,)`` with the bound :math:`|s| \le 1` when no sensitivities are known).
-
-        Near resonance, where one mode dominates, :math:`\alpha \approx \phi\phi^T / (\lambda - \omega^2)`
-        and the exact change is :math:`-\phi\phi^T\Delta\lambda / ((\lambda-\omega^2)(\lambda+\Delta\lambda-\omega^2))`
-        against the first-order :math:`-\phi\phi^T\Delta\lambda/(\lambda-\omega^2)^2`: their relative
-        difference is :math:`|\Delta\lambda / (\lambda + \Delta\lambda - \omega^2)| \approx \delta\, s / d`.
-
-        Parameters
-        ----------
-        delta : float
-            Relative parameter change Δp/p.
-
-        Returns
-        -------
-        numpy.ndarray of float, shape ``(n_lines, L)`` or ``(n_lines,)``
-            The estimate; a distance of 0 counts as the smallest normal float (a huge error).
-        """
-        d = np.maximum(self.distance, np.finfo(float).tiny)
-        if self.sensitivity is None:
-            return abs(delta) / d
-        return np.abs(delta * self.sensitivity) / d[:, None]
-
-    def describe(self, lines) -> str:
-        """The lines' distances to their resonances, in words, for messages.
-
-        Parameters
-        ----------
-        lines : iterable of int
-            0-based line indices (e.g. from :meth:`near`).
-
-        Returns
-        -------
-        str
-            One ``"line k (omega = ... rad/s) is d (relative) from mode m at ... rad/s"`` per line,
-            joined by ``"; "``.
-        """
-        return "; ".join(
-            f"{line_name(int(i), float(self.omega[i]))} is {self.distance[i]:.2g} (relative) from "
-            f"{'mode ' + str(int(self.mode[i])) if self.mode[i] > 0 else 'a mode'} at "
-            f"{math.sqrt(max(self.nearest[i], 0.0)):.6g} rad/s" for i in lines)
+#: names that moved to :mod:`femupdate.frf.resonance` (still importable from here)
+_MOVED = ("Resonances", "resonances", "collect_resonances", "nearest_mode", "dense_eigen_stack")
 
 
-def _distance(w2: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    scale = np.maximum(np.maximum(lam, w2), np.finfo(float).tiny)
-    return np.abs(w2 - lam) / scale
+def __getattr__(name: str):
+    if name in _MOVED:
+        from . import resonance
+
+        return getattr(resonance, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def nearest_mode(K, M, s: float, lu, where: str) -> tuple[float, np.ndarray]:
-    """The eigenpair of (K, M) nearest ``s`` = ω², by shift-invert Lanczos (k = 1) with the given
-    real factor ``lu`` of K − sM; the vector mass-normalised.
-
-    Parameters
-    ----------
-    K, M : sparse matrix, shape ``(n, n)``
-        Stiffness (N/m) and mass (kg).
-    s : float
-        The shift ω² (rad²/s²).
-    lu : femupdate.workspace.SuperLUFactor or scipy.sparse.linalg.SuperLU
-        Real factor of K − sM (:func:`factor`).
-    where : str
-        The line's name in messages.
-
-    Returns
-    -------
-    lam : float
-        The nearest eigenvalue (rad²/s²).
-    phi : numpy.ndarray of float, shape ``(n,)``
-        Its eigenvector, φᵀMφ = 1.
-
-    Raises
-    ------
-    NumericalError
-        ARPACK does not converge.
-    """
-    op = spla.LinearOperator(K.shape, matvec=lambda v: lu_apply(lu, v), dtype=float)
-    try:
-        lam, vec = spla.eigsh(K, k=1, M=M, sigma=s, which="LM", OPinv=op, tol=1e-8, ncv=min(8, K.shape[0] - 1),
-                              **arpack_options())
-    except spla.ArpackNoConvergence as exc:
-        raise NumericalError(f"{where}: the nearest resonance was not found ({len(exc.eigenvalues)} converged)") from None
-    v = vec[:, 0]
-    return float(lam[0]), v / math.sqrt(float(v @ (M @ v)))
-
-
-def collect_resonances(model, p, w, nearest, Phi, mode_no, params=None) -> Resonances:
-    """:class:`Resonances` from the nearest eigenpair of every line (and Fox–Kapoor sensitivities).
-
-    Parameters
-    ----------
-    model : Model
-        The parametrised model.
-    p : numpy.ndarray of float, shape ``(n_parameters,)``
-        The full parameter vector.
-    w : array_like of float, shape ``(n_lines,)``
-        Circular frequencies of the lines (rad/s).
-    nearest : numpy.ndarray of float, shape ``(n_lines,)``
-        Each line's nearest eigenvalue λ_r (rad²/s²).
-    Phi : numpy.ndarray of float, shape ``(n, n_lines)``
-        The mass-normalised eigenvectors of those modes.
-    mode_no : array_like of int, shape ``(n_lines,)``
-        Their 1-based mode numbers (−1: unknown).
-    params : sequence of int, optional
-        0-based parameter indices: with them, :attr:`Resonances.sensitivity` is
-        p_j (∂λ_r/∂p_j) / λ_r with ∂λ_r/∂p_j = φ_rᵀ (K_j − λ_r M_j) φ_r (0 where λ_r <= 0).
-
-    Returns
-    -------
-    Resonances
-    """
-    n = model.n_dofs
-    sens = None
-    if params is not None and len(params):
-        Ks, Ms = derivative_stack(model, params)
-        L = len(params)
-        dlam = np.einsum("nl,jnl->lj", Phi, (Ks @ Phi).reshape(L, n, -1))
-        if Ms.nnz:
-            dlam = dlam - nearest[:, None] * np.einsum("nl,jnl->lj", Phi, (Ms @ Phi).reshape(L, n, -1))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sens = np.where(nearest[:, None] > 0, dlam * p[np.asarray(params)][None, :] / nearest[:, None], 0.0)
-    return Resonances(np.asarray(w, float), _distance(np.asarray(w, float) ** 2, nearest), nearest, np.asarray(mode_no), sens)
-
-
-def resonances(model, omega, values=None, params=None) -> Resonances:
-    """Distance of every line to the nearest undamped resonance of the model at ``values``.
-
-    Small models (up to :data:`femupdate.modal.DENSE_LIMIT` dofs): every eigenvalue, densely.
-    Large ones: the eigenpair nearest each ω² by shift-invert Lanczos, one factorisation of
-    K − ω²M per line (:func:`nearest_mode`).  With ``params`` (indices), the relative
-    eigenvalue sensitivities of the nearest mode too.
-
-    Parameters
-    ----------
-    model : Model
-        The parametrised model.
-    omega : array_like of float
-        Circular frequencies of the lines (rad/s), checked by :func:`check_omega`.
-    values : None, mapping or array_like, optional
-        Parameter values (:meth:`Model.resolve`; None: nominal).
-    params : sequence of int, optional
-        0-based parameter indices for the sensitivities (:func:`collect_resonances`).
-
-    Returns
-    -------
-    Resonances
-
-    Raises
-    ------
-    InputError
-        A bad frequency axis or bad ``values``; small models: as :func:`femupdate.modal.solve_modes`
-        (e.g. a negative eigenvalue).
-    NumericalError
-        Small models: as :func:`femupdate.modal.solve_modes`; large models: a line exactly on a
-        resonance (K − ω²M singular), or no convergence of the shift-invert search.
-    """
-    from ..modal import DENSE_LIMIT as MODAL_DENSE
-    from ..modal import solve_modes
-
-    w = check_omega(omega)
-    p = model.resolve(values)
-    K, M = model.K(p), model.M(p)
-    if model.n_dofs <= MODAL_DENSE:
-        modes = solve_modes(K, M, dofs=model.dofs, method="dense")
-        lam = modes.eigenvalues
-        r = np.argmin(_distance(w[:, None] ** 2, lam[None, :]), axis=1)
-        return collect_resonances(model, p, w, lam[r], modes.shapes[:, r], r + 1, params)
-    nearest = np.empty(w.size)
-    Phi = np.empty((model.n_dofs, w.size))
-    for i, wi in enumerate(w):
-        where = line_name(i, wi)
-        nearest[i], Phi[:, i] = nearest_mode(K, M, wi**2, factor(sp.csc_array(K - wi**2 * M), where), where)
-    return collect_resonances(model, p, w, nearest, Phi, np.full(w.size, -1), params)
-
-
-def dense_eigen_stack(K: np.ndarray, M: np.ndarray):
-    """Eigenvalues (ascending) and M-orthonormal eigenvectors of a stack of symmetric pencils
-    ``(G, n, n)`` at once: Cholesky M = L Lᵀ, then ``eigh`` of L⁻¹ K L⁻ᵀ (batched LAPACK).
-
-    Parameters
-    ----------
-    K : numpy.ndarray of float, shape ``(G, n, n)``
-        Symmetric stiffness matrices (N/m); any leading axes (or none).
-    M : numpy.ndarray of float, shape ``(G, n, n)``
-        Symmetric positive definite mass matrices (kg).
-
-    Returns
-    -------
-    lam : numpy.ndarray of float, shape ``(G, n)``
-        Eigenvalues ω² (rad²/s²), ascending per member.
-    Phi : numpy.ndarray of float, shape ``(G, n, n)``
-        Eigenvectors as columns, ΦᵀMΦ = I.
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        A mass matrix that is not positive definite (NumPy's error, not a NumericalError).
-    """
-    Lc = np.linalg.cholesky(M)
-    A = np.linalg.solve(Lc, np.swapaxes(np.linalg.solve(Lc, K), -1, -2))
-    A = 0.5 * (A + np.swapaxes(A, -1, -2))
-    lam, Y = np.linalg.eigh(A)
-    Phi = np.linalg.solve(np.swapaxes(Lc, -1, -2), Y)
-    return lam, Phi
-
-
+__all__ = ["DENSE_LIMIT", "BLOCK_BYTES", "Damping", "UNDAMPED", "as_damping", "nonnegative", "check_omega",
+           "force_vector", "use_dense", "line_name", "dense_stack", "solve_stacked", "factor", "LineSystems",
+           "lu_apply", "derivative_stack", "ParameterForms"]

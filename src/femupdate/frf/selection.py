@@ -33,16 +33,21 @@ import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from .._errors import InputError
-from .lines import LineSystems, as_damping, check_omega, derivative_stack, force_vector, resonances
+from ..options import SELECTION_EQUATIONS, SelectionOptions, gather
+from ..serialise import RunContext, Serialisable
+from .damping import as_damping
+from .lines import LineSystems, check_omega, derivative_stack, force_vector
+from .resonance import resonances
 from .sensitivity import receptance_sensitivity
 
 log = logging.getLogger(__name__)
 
-KINDS = ("direct", "sensitivity")
+KINDS = SELECTION_EQUATIONS  #: the equations judged (SelectionOptions.equations)
 
 
 def _unknowns(model, unknowns) -> list[int]:
@@ -219,8 +224,10 @@ def condition_study(model, force: Mapping, spacings, starts=None, n_lines: int =
 
 
 @dataclass(frozen=True, eq=False)
-class Selection:
-    """Chosen spectral lines.
+class Selection(Serialisable):
+    """Chosen spectral lines (:func:`select_frequencies`); a result of kind ``frf-select``
+    (``femupdate frf-select``): :meth:`~femupdate.serialise.Serialisable.to_json` gives the
+    command's JSON.
 
     Attributes
     ----------
@@ -230,10 +237,10 @@ class Selection:
         Their 0-based positions among ``candidates``.
     condition_number : float
         cond of the stacked matrix of the chosen lines (columns scaled when ``scaled``).
-    kind : {"direct", "sensitivity"}
-        The equations judged.
+    equations : {"direct", "sensitivity"}
+        The equations judged (:attr:`SelectionOptions.equations <femupdate.options.SelectionOptions.equations>`).
     candidates : ndarray, shape ``(n_candidates,)``
-        The candidate lines, rad/s, as given.
+        The candidate lines, rad/s, as given (empty when read back from JSON).
     excluded : list of dict
         Candidates left out and why ({line, omega_rad_s, reason}).
     uniform : dict
@@ -242,18 +249,38 @@ class Selection:
     history : list
         The optimum (exhaustive), or per start the condition number after each exchange pass.
     method : str
-        ``"exhaustive"`` or ``"greedy + exchange (...)"``.
+        ``"exhaustive"`` or ``"greedy + exchange (...)"`` (empty when read back from JSON).
+    context : RunContext, optional
+        The model the lines were chosen for (its name goes into the JSON).
     """
 
     omega: np.ndarray
     index: np.ndarray
     condition_number: float
-    kind: str
+    equations: str
     candidates: np.ndarray
     excluded: list = field(default_factory=list)
     uniform: dict = field(default_factory=dict)
     history: list = field(default_factory=list)
     method: str = ""
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    kind: ClassVar[str] = "frf-select"
+
+    def payload(self) -> dict:
+        from .record import selection_fields
+
+        return selection_fields(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import selection_from
+
+        return selection_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per chosen line: ``line`` (1-based among the candidates), ``omega_rad_s``."""
+        return [{"line": int(i) + 1, "omega_rad_s": float(w)} for i, w in zip(self.index, self.omega)]
 
 
 def _logdet(stack: np.ndarray) -> np.ndarray:
@@ -261,10 +288,9 @@ def _logdet(stack: np.ndarray) -> np.ndarray:
     return np.sum(np.log(s**2 + 1e-300), axis=-1)
 
 
-def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind: str = "direct",
+def select_frequencies(model, candidates, n_lines: int, force: Mapping, options: SelectionOptions | None = None, *,
                        response: Sequence[str] | None = None, unknowns: Sequence[str] | None = None, values=None,
-                       damping=None, margin: float = 0.05, scaled: bool = True, max_passes: int = 20,
-                       exhaustive_limit: int = 200_000, restarts: int = 10, seed: int = 0) -> Selection:
+                       damping=None, **shorthand) -> Selection:
     """Choose ``n_lines`` candidate lines that make the updating equations best conditioned.
 
     Parameters
@@ -277,30 +303,22 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
         Number of lines to choose.
     force : mapping of str to float or complex
         Force amplitude (N) per loaded dof of the test.
-    kind : {"direct", "sensitivity"}, default "direct"
-        Complete data (eq. 28), or incomplete data measured at ``response`` (eqs. 31-32).
+    options : SelectionOptions, optional
+        The equations judged (``"direct"``: complete data, eq. 28; ``"sensitivity"``: data
+        measured at ``response``, eqs. 31-32), the margin from resonances and the search
+        (:class:`~femupdate.options.SelectionOptions`; its fields are also accepted as keywords:
+        ``kind="sensitivity"``, ``margin=0.02``, ...).
     response : sequence of str, optional
-        Measured dofs (``kind="sensitivity"``; default every dof).
+        Measured dofs (``"sensitivity"``; default every dof).
     unknowns : sequence of str, optional
         Parameters to identify (default every parameter not ``fixed``).
     values : None, mapping of str to float, or array_like, optional
-        Parameter values of the model (default nominal).
+        Parameter values of the model (default nominal); the resonances kept away from are
+        those of the model at these values.
     damping : Damping or mapping, optional
         Default undamped.
-    margin : float, default 0.05
-        Candidates whose relative eigenvalue distance to a resonance of the model (at ``values``)
-        is below this are excluded (0.05 ≈ 2.5 % in frequency); 0 excludes none.
-    scaled : bool, default True
-        Judge the condition number with the columns scaled to unit length (unit-free).
-    max_passes : int, default 20
-        Exchange passes per start (greedy + exchange only).
-    exhaustive_limit : int, default 200000
-        Up to this many subsets, every one is evaluated (exact optimum); above, greedy + exchange
-        from the greedy set and ``restarts`` random sets.
-    restarts : int, default 10
-        Random starting sets of the exchange.
-    seed : int, default 0
-        Seed of the random starting sets.
+    **shorthand
+        Fields of :class:`~femupdate.options.SelectionOptions` as keywords.
 
     Returns
     -------
@@ -312,9 +330,11 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
         An unknown ``kind``; candidates not finite, negative or repeated; fewer admissible
         candidates than lines, or too few equations for the unknowns; no unknown parameter or an
         unknown name; a malformed force.
+    TypeError
+        A keyword :class:`~femupdate.options.SelectionOptions` does not have.
     """
-    if kind not in KINDS:
-        raise InputError(f"unknown selection kind {kind!r}: use {', '.join(KINDS)}")
+    o = gather("select_frequencies", shorthand, options=(SelectionOptions, options))["options"]
+    kind, margin, scaled = o.equations, o.margin, o.scaled
     cand = check_omega(candidates, "candidates")
     if np.unique(cand).size != cand.size:
         raise InputError("candidates: the same line is listed twice")
@@ -353,7 +373,7 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
         nrm = np.sqrt(np.sum(B[allowed] ** 2, axis=(0, 1)))
         B = B / np.where(nrm > 0, nrm, 1.0)
     n_comb = math.comb(allowed.size, n_lines)
-    if n_comb <= exhaustive_limit:  # every subset, in batched SVDs
+    if n_comb <= o.exhaustive_limit:  # every subset, in batched SVDs
         best, chosen = np.inf, []
         combos = itertools.combinations(allowed.tolist(), n_lines)
         while True:
@@ -366,20 +386,21 @@ def select_frequencies(model, candidates, n_lines: int, force: Mapping, *, kind:
                 best, chosen = float(c[k]), chunk[k].tolist()
         history, how = [best], "exhaustive"
     else:
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(o.seed)
         inits = [_greedy(B, allowed, n_lines, L)] + [rng.choice(allowed, n_lines, replace=False).tolist()
-                                                      for _ in range(restarts)]
+                                                      for _ in range(o.restarts)]
         best, chosen, history = np.inf, [], []
         for init in inits:
-            c, sub, hist = _exchange(B, allowed, list(map(int, init)), L, scaled, max_passes)
+            c, sub, hist = _exchange(B, allowed, list(map(int, init)), L, scaled, o.max_passes)
             history.append(hist)
             if c < best:
                 best, chosen = c, sub
-        how = f"greedy + exchange ({restarts} random restarts)"
+        how = f"greedy + exchange ({o.restarts} random restarts)"
     chosen_arr = np.sort(np.array(chosen))
     even = allowed[np.unique(np.round(np.linspace(0, allowed.size - 1, n_lines)).astype(int))]
     uniform = {"omega_rad_s": cand[even], "condition_number": float(_cond(B[even].reshape(1, -1, L), scaled)[0])}
-    return Selection(cand[chosen_arr], chosen_arr, float(best), kind, cand, excluded, uniform, history, how)
+    return Selection(cand[chosen_arr], chosen_arr, float(best), kind, cand, excluded, uniform, history, how,
+                     context=RunContext(model=model))
 
 
 def _greedy(B, allowed, n_lines, L) -> list[int]:

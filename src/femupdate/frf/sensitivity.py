@@ -38,8 +38,9 @@ import scipy.sparse as sp
 from .. import modal
 from .._errors import InputError
 from ..dofs import canonical_all
-from .lines import (LineSystems, ParameterForms, Resonances, line_name, as_damping, check_omega,
-                     collect_resonances, factor, force_vector, lu_apply, nearest_mode, resonances)
+from .damping import as_damping
+from .lines import LineSystems, ParameterForms, check_omega, factor, force_vector, line_name, lu_apply
+from .resonance import Resonances, collect_resonances, nearest_mode, resonances
 from .simulate import response_dofs
 
 log = logging.getLogger(__name__)

@@ -21,15 +21,21 @@ Noise models (:func:`add_noise`) act on simulated test data:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from .._errors import InputError
 from ..dofs import canonical_all, describe
+from ..serialise import RunContext, Serialisable
 from ..testdata import FRFData
-from .lines import Damping, LineSystems, as_damping, check_omega, force_vector, nonnegative, resonances
+from .damping import Damping, as_damping, nonnegative
+from .lines import LineSystems, check_omega, force_vector
+from .resonance import resonances
 
 log = logging.getLogger(__name__)
 
@@ -246,9 +252,84 @@ def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, val
     return labels, (convert(X, w, kind) if kind != "receptance" else X)
 
 
+@dataclass(frozen=True, eq=False)
+class SimulatedFRF(FRFData, Serialisable):
+    """Simulated FRF test data (:func:`simulate`): receptances, as :class:`~femupdate.FRFData`
+    (ready for updating), with what they were simulated with; a result of kind ``frf``
+    (``femupdate frf``): :meth:`~femupdate.serialise.Serialisable.to_json` gives the command's
+    JSON, the responses in :attr:`quantity`.
+
+    Attributes
+    ----------
+    omega, force, dofs, response
+        As :class:`~femupdate.FRFData` (``response``: receptances).
+    quantity : {"receptance", "mobility", "accelerance"}, default ``"receptance"``
+        What :meth:`responses` and the JSON give (``femupdate frf --kind``); the data stay
+        receptances.  :meth:`with_quantity` changes it.
+    damping : Damping
+        The model's damping.
+    noise : dict
+        ``{"level", "kind", "seed"}`` of the noise added (level 0: exact data).
+    parameters : dict of str to float
+        Every model parameter's value the responses were simulated at.
+    context : RunContext, optional
+        The model (its name goes into the JSON; the note on lines near a resonance is computed
+        from it when the JSON is written).
+    """
+
+    quantity: str = "receptance"
+    damping: Damping = field(default_factory=Damping)
+    noise: dict = field(default_factory=lambda: {"level": 0.0, "kind": "relative", "seed": None})
+    parameters: dict = field(default_factory=dict)
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    kind: ClassVar[str] = "frf"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.quantity not in KINDS:
+            raise InputError(f"unknown FRF quantity {self.quantity!r}: use {', '.join(KINDS)}")
+
+    def responses(self) -> np.ndarray:
+        """The responses in :attr:`quantity` (:func:`convert` of the receptances), ``(n_lines, n_dofs)``."""
+        return convert(self.response, self.omega, self.quantity) if self.quantity != "receptance" else self.response
+
+    def with_quantity(self, quantity: str) -> SimulatedFRF:
+        """A copy whose :meth:`responses` and JSON give ``quantity`` (``"receptance"``,
+        ``"mobility"`` or ``"accelerance"``)."""
+        return dataclasses.replace(self, quantity=quantity)
+
+    def test_data(self) -> dict:
+        """The test-data JSON object of the receptances, ``{"frf": {omega_rad_s, force,
+        response}}`` (``femupdate frf --test-data``), ready for ``frf-update``."""
+        from ..io.results import to_jsonable
+        from .record import pairs
+
+        return to_jsonable({"frf": {"omega_rad_s": self.omega, "force": dict(self.force),
+                                    "response": {d: pairs(self.response[:, k]) for k, d in enumerate(self.dofs)}}})
+
+    def payload(self) -> dict:
+        from .record import simulation_fields
+
+        return simulation_fields(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import simulation_from
+
+        return simulation_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per line and response dof: ``omega_rad_s``, ``dof``, and the response in
+        :attr:`quantity` (``real``, ``imag``)."""
+        H = self.responses()
+        return [{"omega_rad_s": float(w), "dof": d, "real": float(np.real(H[i, k])), "imag": float(np.imag(H[i, k]))}
+                for i, w in enumerate(self.omega) for k, d in enumerate(self.dofs)]
+
+
 def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
              noise: float = 0.0, noise_kind: str = "relative", seed: int | None = None,
-             method: str = "auto") -> FRFData:
+             method: str = "auto") -> SimulatedFRF:
     """Simulated FRF test data (receptances, :class:`~femupdate.FRFData`), optionally noisy.
 
     :func:`frf` (paper eq. 23) at the given lines, then :func:`add_noise` when ``noise`` is
@@ -280,8 +361,11 @@ def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None
 
     Returns
     -------
-    FRFData
-        ``omega``, ``force``, the response dofs and receptances ``(n_lines, n_response)``.
+    SimulatedFRF
+        An :class:`~femupdate.FRFData`: ``omega``, ``force``, the response dofs and receptances
+        ``(n_lines, n_response)``; with the damping, noise and parameter values used, and
+        ``to_json()``, the JSON of ``femupdate frf`` (``with_quantity("mobility")`` for
+        mobilities, as ``--kind mobility``).
 
     Raises
     ------
@@ -290,7 +374,12 @@ def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None
     """
     labels, X = frf(model, omega, force, response, values, damping, method=method)
     data = FRFData(check_omega(omega), dict(force), labels, X)
-    return add_noise(data, noise, noise_kind, seed) if noise else data
+    if noise:
+        data = add_noise(data, noise, noise_kind, seed)
+    return SimulatedFRF(data.omega, data.force, data.dofs, data.response, damping=as_damping(damping),
+                        noise={"level": float(noise), "kind": noise_kind, "seed": seed},
+                        parameters=dict(zip(model.parameter_names, map(float, model.resolve(values)))),
+                        context=RunContext(model=model))
 
 
 def add_noise(data: FRFData, level: float, kind: str = "relative", seed: int | None = None) -> FRFData:

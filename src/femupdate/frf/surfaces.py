@@ -28,15 +28,18 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import ClassVar, cast
 
 import numpy as np
 
 from .._errors import InputError
 from ..dofs import canonical
+from ..serialise import RunContext, Serialisable
 from ..testdata import FRFData, TestData
 from . import residuals as R
-from .lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, as_damping, dense_eigen_stack, force_vector, solve_stacked
+from .damping import as_damping
+from .lines import BLOCK_BYTES, DENSE_LIMIT, LineSystems, force_vector, solve_stacked
+from .resonance import dense_eigen_stack
 
 log = logging.getLogger(__name__)
 
@@ -44,8 +47,9 @@ SURFACE_DENSE_LIMIT = DENSE_LIMIT  # the dense stacked evaluation: the same limi
 
 
 @dataclass(frozen=True, eq=False)
-class Surface:
-    """A residual over a grid of two parameters.
+class Surface(Serialisable):
+    """A residual over a grid of two parameters; a result of kind ``surface`` (``femupdate
+    surface``): :meth:`~femupdate.serialise.Serialisable.to_json` gives the command's JSON.
 
     Each parameter is stored as the attribute of the same name.
 
@@ -56,8 +60,9 @@ class Surface:
         Grid values of the first and second parameter.
     values : ndarray (len(x), len(y))
         The residual (``inf`` where a line lies exactly on a resonance).
-    kind : str
-        ``"modal (eq. 33)"`` or ``"frf (eq. 34)"`` (+ residual form).
+    residual : str
+        Which residual: ``"modal (eq. 33)"`` or ``"frf (eq. 34, FORM)"`` (FORM the residual
+        form: ``linear``, ``relative`` or ``log``).
     truth : (float, float) or None
         The true solution, when known (marked on plots).
     info : dict
@@ -66,16 +71,37 @@ class Surface:
     units : (str, str), default ("", "")
         The two parameters' units (:attr:`Parameter.unit <femupdate.Parameter.unit>`; ``""``
         unknown), for the axes.
+    context : RunContext, optional
+        The model of the surface (its name goes into the JSON).
     """
 
     names: tuple[str, str]
     x: np.ndarray
     y: np.ndarray
     values: np.ndarray
-    kind: str
+    residual: str
     truth: tuple[float, float] | None = None
     info: dict = field(default_factory=dict)
     units: tuple[str, str] = ("", "")
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    kind: ClassVar[str] = "surface"
+
+    def payload(self) -> dict:
+        from .record import surface_fields
+
+        return surface_fields(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import surface_from
+
+        return surface_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per grid point: the two parameters' values and the residual there."""
+        return [{self.names[0]: float(a), self.names[1]: float(b), "value": float(self.values[i, j])}
+                for i, a in enumerate(self.x) for j, b in enumerate(self.y)]
 
     @property
     def minimum(self) -> dict:
@@ -367,7 +393,7 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
                    f"frf (eq. 34, {residual})",
                    None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
                    {"omega_rad_s": data.omega.tolist(), "dofs": list(data.dofs), "force": dict(data.force)},
-                   _units(model, names))
+                   _units(model, names), context=RunContext(model=model))
 
 
 def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, values=None,
@@ -512,7 +538,8 @@ def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None
     out = modal_r2(model, data, names, P, values, ref_dof)
     return Surface(cast("tuple[str, str]", tuple(names)), gx, gy, out.reshape(gx.size, gy.size), "modal (eq. 33)",
                    None if truth is None else cast("tuple[float, float]", tuple(map(float, truth))),
-                   {"eigenvalues": data.eigenvalues.tolist(), "ref_dof": ref_dof}, _units(model, names))
+                   {"eigenvalues": data.eigenvalues.tolist(), "ref_dof": ref_dof}, _units(model, names),
+                   context=RunContext(model=model))
 
 
 def distinct_minima(surface: Surface, residuals, bounds=None, rel_tol: float = 1e-3) -> list[dict]:

@@ -24,8 +24,9 @@ from __future__ import annotations
 from ._base import Options, choice, count, flag, gather, gather_some, number
 from .choices import (DATA_KINDS, FORMULATIONS, FRF_RESIDUALS, FRF_SOLVERS, LIKELIHOOD_ROUTES, LSQ_METHODS, NOISE_BASES,
                       PAIRING_RULES, PARAMETRISATIONS, REGULARIZATION_RULES, RESONANCE_POLICIES, SAMPLER_METHODS,
-                      SENSITIVITY_ROUTES, SHAPE_SCALINGS, STD_KEYS)
+                      SELECTION_EQUATIONS, SENSITIVITY_ROUTES, SHAPE_SCALINGS, STD_KEYS)
 from .runs import ExecutionOptions, SamplerOptions, StartsOptions
+from .selection import SelectionOptions
 from .updating import FRFOptions, ModalOptions, NoiseOptions, PairingOptions, SolverOptions, UpdateOptions
 
 __all__ = ["Options", "UpdateOptions", "PairingOptions", "ModalOptions", "NoiseOptions", "SolverOptions", "FRFOptions",
@@ -33,3 +34,4 @@ __all__ = ["Options", "UpdateOptions", "PairingOptions", "ModalOptions", "NoiseO
            "flag", "PAIRING_RULES", "FORMULATIONS", "SHAPE_SCALINGS", "SENSITIVITY_ROUTES", "PARAMETRISATIONS",
            "LSQ_METHODS", "REGULARIZATION_RULES", "FRF_RESIDUALS", "RESONANCE_POLICIES", "FRF_SOLVERS", "DATA_KINDS",
            "STD_KEYS", "NOISE_BASES", "SAMPLER_METHODS", "LIKELIHOOD_ROUTES"]
+__all__ += ["SelectionOptions", "SELECTION_EQUATIONS"]

@@ -22,6 +22,8 @@ REGULARIZATION_RULES = ("gcv", "lcurve")
 FRF_RESIDUALS = ("linear", "relative", "log", "auto")
 #: what to do with FRF lines near a resonance (:class:`FRFOptions`)
 RESONANCE_POLICIES = ("skip", "error", "keep")
+#: the equations whose conditioning chooses FRF lines (:class:`SelectionOptions`)
+SELECTION_EQUATIONS = ("direct", "sensitivity")
 #: solvers of the FRF line systems (:class:`FRFOptions`)
 FRF_SOLVERS = ("auto", "dense", "sparse")
 #: the kinds of test data, in the order their residual blocks are stacked

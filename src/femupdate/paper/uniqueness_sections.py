@@ -177,20 +177,12 @@ def _trim(case: dict) -> dict:
     return {**case, "n_solutions": len(case["solutions"]), "solutions": case["solutions"][:10]}
 
 
-def six_dof_uniqueness(out_dir, figures=True) -> dict:
-    """The paper's 6-dof, six-spring simulation: every (n, m) for three sensor layouts, 100 random starts per case."""
+def _layout_tables(plans: dict, by_plan: dict, dict_by_plan: dict, N: int) -> dict:
+    """Per sensor layout: the (n, m) table of verdicts, ranks and criteria, the cases where the
+    paper's criterion, the rank bound or the layout criterion disagree with the study, and the
+    cases' records."""
     from ..uniqueness.chain import chain_rank_bound
 
-    model = six_dof_model()
-    N = 6
-    plans = {lay: [(tuple(f"{i}:x" for i in layout_dofs(lay, n, N)), m) for n in range(1, N + 1) for m in range(1, N + 1)]
-             for lay in LAYOUTS}
-    unique_cases = list(dict.fromkeys(c for cs in plans.values() for c in cs))  # one run per distinct plan
-    st = define_study(model, unique_cases, starts=STARTS, seed=SEED)
-    res = run_study(st)
-    by_plan = dict(zip(unique_cases, res.cases))
-    payload = res.to_dict()
-    dict_by_plan = dict(zip(unique_cases, payload["cases"]))
     layouts: dict = {}
     for lay, cs in plans.items():
         table, mismatch, rank_mismatch, crit_mismatch = {}, [], [], []
@@ -215,14 +207,25 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
                         "rank_bound_mismatches": rank_mismatch, "layout_criterion_mismatches": crit_mismatch,
                         "unique_cases": sum(v["verdict"] == "unique" for v in table.values()),
                         "cases": [_trim(dict_by_plan[p]) for p in cs]}
-    ground = layouts["ground"]
-    table = ground["table"]
-    singled = {k: {"condition_number": table[k]["condition_number"], "paper_order": v,
-                   "verdict": table[k]["verdict"], "solutions": table[k]["solutions"],
-                   "by_layout": {lay: {"dofs": layouts[lay]["table"][k]["dofs"], "verdict": layouts[lay]["table"][k]["verdict"],
-                                       "condition_number": layouts[lay]["table"][k]["condition_number"]}
-                                 for lay in LAYOUTS}} for k, v in PAPER_CONDITION.items()}
-    # the same two plans with the sensors anywhere: femupdate's condition number at every placement
+    return layouts
+
+
+def _singled_out(layouts: dict) -> dict:
+    """The paper's two singled-out cases (2x3, 3x2): femupdate's condition number and verdict in
+    every layout, beside the paper's order of magnitude."""
+    table = layouts["ground"]["table"]
+    return {k: {"condition_number": table[k]["condition_number"], "paper_order": v,
+                "verdict": table[k]["verdict"], "solutions": table[k]["solutions"],
+                "by_layout": {lay: {"dofs": layouts[lay]["table"][k]["dofs"], "verdict": layouts[lay]["table"][k]["verdict"],
+                                    "condition_number": layouts[lay]["table"][k]["condition_number"]}
+                              for lay in LAYOUTS}} for k, v in PAPER_CONDITION.items()}
+
+
+def _sensor_placements(model, N: int) -> dict:
+    """The same two plans with the sensors anywhere: femupdate's condition number and the rank
+    bound at every placement."""
+    from ..uniqueness.chain import chain_rank_bound
+
     placements = {}
     for key, (n, m) in SINGLED.items():
         sets = [tuple(f"{i}:x" for i in s) for s in itertools.combinations(range(1, N + 1), n)]
@@ -231,13 +234,15 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
         placements[key] = {"sets": [",".join(s) for s in sets], "condition_number": conds,
                            "singular": [",".join(s) for s, c in zip(sets, conds) if not c < 1e12],
                            "rank_bound": [min(chain_rank_bound(N, [int(d.split(":")[0]) for d in s], m), m * n) for s in sets]}
-    search = condition_search(N)
-    paper_fails = {lay: v["paper_criterion_mismatches"] for lay, v in layouts.items()}
-    crit_holds = all(not v["layout_criterion_mismatches"] and not v["rank_bound_mismatches"] for v in layouts.values())
+    return placements
+
+
+def _condition_explanation(search: dict) -> str:
+    """Why the paper's two condition numbers are not reproduced (from :func:`condition_search`)."""
     fd = search["log10_condition"]["femupdate_six_dof"]["eq17_scaled_perturbation"]
     ms = search["log10_condition"]["femupdate_six_dof"]["eq17_mass_normalised"]
     reproduced = [mt for mt in search["within_half_a_decade_of_both"] if mt["layout"] != "mixed"]
-    cond_expl = (
+    return (
         "The paper's two condition numbers are not reproduced by any one layout and definition "
         f"({len(reproduced)} of {len(LAYOUTS) * len(DEFINITIONS) * 2} layout x definition x system combinations give both "
         "orders). With the exact (analytic) sensitivities the 2x3 and 3x2 plans on consecutive sensors are rank 5 "
@@ -254,7 +259,11 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
            else "No definition gives both orders even with different placements")
         + ": the paper's pair fits a numerically singular 2x3 case beside a full-rank, badly scaled 3x2 case; the "
         "paper states neither its system, its sensor positions nor its definition. condition_search holds every value.")
-    finding = (
+
+
+def _finding(layouts: dict, paper_fails: dict, search: dict) -> str:
+    """What holds for the chain instead of the paper's criterion, and why its condition numbers differ."""
+    return (
         "The paper's criterion mn >= L, n > 1 fails on "
         + "; ".join(f"{lay}: {', '.join(v) if v else 'no case'}" for lay, v in paper_fails.items())
         + ". What holds (for this chain, every layout, every m; checked against the numerical rank of all "
@@ -266,7 +275,30 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
         "absorbing at most its springs (Hall: every group of segments needs m x (measured dofs touching it) >= its "
         "springs). Unique iff that rank is L and n > 1 (one sensor can be full rank and still have several solutions, "
         "the paper's two-dof example). Consecutive from the ground: m + n >= N; from the free end: m + n >= N + 1; "
-        "spread sensors: mn >= L suffices here. " + cond_expl)
+        "spread sensors: mn >= L suffices here. " + _condition_explanation(search))
+
+
+def six_dof_uniqueness(out_dir, figures=True) -> dict:
+    """The paper's 6-dof, six-spring simulation: every (n, m) for three sensor layouts, 100 random starts per case."""
+    model = six_dof_model()
+    N = 6
+    plans = {lay: [(tuple(f"{i}:x" for i in layout_dofs(lay, n, N)), m) for n in range(1, N + 1) for m in range(1, N + 1)]
+             for lay in LAYOUTS}
+    unique_cases = list(dict.fromkeys(c for cs in plans.values() for c in cs))  # one run per distinct plan
+    st = define_study(model, unique_cases, starts=STARTS, seed=SEED)
+    res = run_study(st)
+    by_plan = dict(zip(unique_cases, res.cases))
+    payload = res.to_dict()
+    dict_by_plan = dict(zip(unique_cases, payload["cases"]))
+    layouts = _layout_tables(plans, by_plan, dict_by_plan, N)
+    ground = layouts["ground"]
+    table = ground["table"]
+    placements = _sensor_placements(model, N)
+    search = condition_search(N)
+    paper_fails = {lay: v["paper_criterion_mismatches"] for lay, v in layouts.items()}
+    crit_holds = all(not v["layout_criterion_mismatches"] and not v["rank_bound_mismatches"] for v in layouts.values())
+    fd = search["log10_condition"]["femupdate_six_dof"]["eq17_scaled_perturbation"]
+    finding = _finding(layouts, paper_fails, search)
     out = {
         "equations": "16-20 (iterative solution), Summary",
         "description": f"grounded six-spring chain, springs k1..k6 unknown; cases: n = 1..6 sensors in three layouts "
@@ -280,7 +312,7 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
         "table": table,
         "cases": [dict_by_plan[p] for p in plans["ground"]],
         "layouts": layouts,
-        "singled_out_cases": singled,
+        "singled_out_cases": _singled_out(layouts),
         "sensor_placements": placements,
         "condition_search": search,
         "paper_criterion_mismatches": ground["paper_criterion_mismatches"],

@@ -210,7 +210,7 @@ def surface_figure(surface, point) -> dict:
     contour_axes(surface, ax)
     ax.plot(point[0], point[1], "w*", ms=12, mec="k", label="updated")
     ax.legend(fontsize=8, loc="upper right")
-    ax.set_title(f"residual r² = ‖r‖² ({surface.kind})", fontsize=9)
+    ax.set_title(f"residual r² = ‖r‖² ({surface.residual})", fontsize=9)
     return embed(fig, "png")
 
 

@@ -73,7 +73,8 @@ register(Kind(
      Key("frac", "`{dof: value}`", "frequency response assurance criterion per response dof", (OBJECT,)),
      Key("natural_frequencies_hz", "list", "of the updated model", (ARRAY,)),
      Key("global", "`{method, runs, residual, optimizer}`", "with `--global`", (OBJECT,))),
-    intro="The result of `femupdate frf-update` and `femupdate.updating.frf_update`: the keys of `update` (except "
+    intro="The result of `femupdate frf-update`, `femupdate.updating.frf_update`, `frf_multistart` and "
+          "`global_search`: the keys of `update` (except "
           "`formulation`, `solver` and `expanded_shapes`; `kind` is `frf-update`), plus:",
     outro="`pairs` and `frequencies_hz` are empty lists for FRF updating unless the test data hold modes too.",
     extends="update"))

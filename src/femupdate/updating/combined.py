@@ -41,7 +41,7 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..options import DATA_KINDS, STD_KEYS, FRFOptions, UpdateOptions
-from ..frf.lines import UNDAMPED
+from ..frf.damping import UNDAMPED
 from ..modal import check_static_loads
 from ..testdata import FRFData, TestData
 from .frf import ALONE, STD_HINT, FRFProblem, prepare_problem, unit_scale
@@ -332,7 +332,7 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
     o = UpdateOptions.of("combined_problem", shorthand, options=options)
     kinds = data_kinds(data, o.use)
     std = split_std(o.noise.std)
-    parametrisation, method = o.solver.parametrisation, o.solver.method
+    parametrisation = o.solver.parametrisation
     frf_options = o.frf.changed()
     residual = "linear" if o.frf.residual == "auto" else o.frf.residual
     if frf_options and "frf" not in kinds:
@@ -362,9 +362,8 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                 label = frf_label(fs) if several else "frf"
                 try:
                     fp, _, skipped, frf_notes = prepare_problem(
-                        model, fs, names, x0, residual, f.weights, given, f.lines, f.select, f.resonance,
-                        f.resonance_tol, f.damping, parametrisation, values, f.solver, True, method,
-                        scale_units=False)
+                        model, fs, names, x0, f.replace(residual=residual), o.solver, measurement_std=given,
+                        values=values, regularized=True, scale_units=False)
                 except InputError as exc:
                     raise InputError(f"{label}: {exc}" if several else str(exc)) from None
                 fp.skipped = [dict(s, excitation=label) for s in skipped] if several else skipped

@@ -30,8 +30,11 @@ import numpy as np
 
 from .._errors import InputError, NumericalError
 from ..frf import residuals as R
-from ..frf.lines import LineSystems, ParameterForms, as_damping, force_vector, resonances
+from ..frf.damping import as_damping
+from ..frf.lines import LineSystems, ParameterForms, force_vector
+from ..frf.resonance import resonances
 from ..frf.simulate import check_data_against_model
+from ..options import FRFOptions, SolverOptions
 from ..testdata import FRFData, TestData
 from .parametrisation import PARAMETRISATIONS, Parametrisation, start_vector, updated_names
 from .results import UpdateResult
@@ -422,8 +425,8 @@ def unit_scale(label: str, stated: bool, has_units: bool, measured, what: str, q
 ALONE = "so that the cost is dimensionless and the solver's stopping tests do not depend on the data's units"
 
 
-def prepare_problem(model, data, params, x0, residual, weights, measurement_std, lines, select, resonance, resonance_tol,
-             damping, parametrisation, values, solver, regularized, method="trf", scale_units=True):
+def prepare_problem(model, data, params, x0, frf: FRFOptions, solver: SolverOptions, *, measurement_std=None,
+                    values=None, regularized: bool = False, scale_units: bool = True):
     """Checks, line choice and the :class:`FRFProblem` (shared by local and global FRF updating).
 
     Parameters
@@ -436,18 +439,18 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
         The updated parameters (None: every parameter not ``fixed``).
     x0 : mapping of str to float or None
         Starting values.
-    residual, weights, measurement_std, lines, select, resonance, resonance_tol, damping
-        As :func:`frf_update`.
-    parametrisation : {"relative", "log", "absolute"}
-        The parametrisation.
-    values : None, mapping of str to float, or array_like
+    frf : FRFOptions
+        The residual (one form: ``"linear"``, ``"relative"`` or ``"log"``, not ``"auto"``),
+        weights, lines, line selection, resonance policy and tolerance, damping and line solver
+        (:class:`~femupdate.options.FRFOptions`).
+    solver : SolverOptions
+        Its ``parametrisation`` is the problem's; its ``method`` is only checked.
+    measurement_std : float or array_like, optional
+        The standard deviation of the residual entries (the weights are divided by it).
+    values : None, mapping of str to float, or array_like, optional
         Values of the fixed parameters; the nominal model for the resonance check and ``select``.
-    solver : {"auto", "dense", "sparse"}
-        Solver of the line systems.
-    regularized : bool
+    regularized : bool, default False
         A regularisation will be added: fewer residuals than parameters are allowed.
-    method : {"trf", "dogbox", "lm"}, default ``"trf"``
-        Only checked.
     scale_units : bool, default True
         Without ``measurement_std``, divide the ``"linear"`` residuals by the RMS of the
         measured responses on the lines used (:func:`unit_scale`, with a note), so that neither
@@ -474,33 +477,35 @@ def prepare_problem(model, data, params, x0, residual, weights, measurement_std,
         not positive and finite; bad ``lines``; a line on a resonance with ``"error"``; no line
         left; fewer residuals than parameters unless ``regularized``.
     """
-    frf = frf_data(data)
+    frf_set = frf_data(data)
+    residual, parametrisation, method = frf.residual, solver.parametrisation, solver.method
     if parametrisation not in PARAMETRISATIONS:
         raise InputError(f"unknown parametrisation {parametrisation!r}: use {', '.join(PARAMETRISATIONS)}")
     if method not in ("trf", "dogbox", "lm"):
         raise InputError(f"unknown method {method!r}: use trf, dogbox or lm")
     R.check_kind(residual)
-    damping = as_damping(damping)
-    check_data_against_model(model, frf, damping, residual)
+    damping = as_damping(frf.damping)
+    check_data_against_model(model, frf_set, damping, residual)
     names = updated_names(model, params)
     p_nominal = model.resolve(values)
     p_base = start_vector(model, values, x0)
-    w = weights
+    w = frf.weights
     sigma = None
     if measurement_std is not None:
         sigma = np.asarray(measurement_std, float)
         if not np.all(sigma > 0) or not np.all(np.isfinite(sigma)):
             raise InputError("measurement_std must be positive and finite")
-        w = np.asarray(1.0 if weights is None else weights, float) / sigma
+        w = np.asarray(1.0 if frf.weights is None else frf.weights, float) / sigma
     notes: list[str] = []
-    dead = R.zero_channels(frf.response)
+    dead = R.zero_channels(frf_set.response)
     if dead.all():
         raise InputError("every FRF channel is zero at every line: no response to update with")
     if dead.any():
-        notes.append(f"FRF response(s) at {', '.join(d for d, z in zip(frf.dofs, dead) if z)} zero at every line (a "
+        notes.append(f"FRF response(s) at {', '.join(d for d, z in zip(frf_set.dofs, dead) if z)} zero at every line (a "
                      "dead channel?): left out of the residual")
-    use, skipped = _select_lines(model, frf, p_nominal, lines, select, resonance, resonance_tol, names, damping, notes)
-    prob = FRFProblem(model, frf, names, parametrisation, p_base, residual, w, use, damping, solver)
+    use, skipped = _select_lines(model, frf_set, p_nominal, frf.lines, frf.select, frf.resonance, frf.resonance_tol,
+                                 names, damping, notes)
+    prob = FRFProblem(model, frf_set, names, parametrisation, p_base, residual, w, use, damping, frf.solver)
     if scale_units:
         prob.unit_factor, prob.weighting = unit_scale("frf", sigma is not None, prob.kind == "linear", prob.xe,
                                                 "the linear FRF residuals", "response", "", notes, why=ALONE,

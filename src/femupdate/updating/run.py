@@ -192,7 +192,7 @@ def _damping_of(o: UpdateOptions):
     """The model damping of the FRF options (compared with the data's damping ratios), or None."""
     if o.frf.damping is None:
         return None
-    from ..frf.lines import as_damping
+    from ..frf.damping import as_damping
 
     return as_damping(o.frf.damping)
 
@@ -402,9 +402,8 @@ def frf_update_with(model, data, frf: FRFOptions, noise: NoiseOptions, solver: S
     if unknown:
         raise InputError(f"measurement_std: frf_update takes the std of the FRF entries ('frf'), not {unknown[0]!r}")
     measurement_std = dict(noise.std or {}).get("frf")
-    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, frf.residual, frf.weights, measurement_std,
-                                                  frf.lines, frf.select, frf.resonance, frf.resonance_tol, frf.damping,
-                                                  solver.parametrisation, values, frf.solver, regularized, solver.method)
+    prob, sigma, skipped, notes = prepare_problem(model, data, params, x0, frf, solver, measurement_std=measurement_std,
+                                                  values=values, regularized=regularized)
     names = prob.names
     frf_set = frf_data(data)
     sol, history, reg = solve(prob, model.bounds, solver)

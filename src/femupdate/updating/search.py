@@ -106,9 +106,8 @@ class _Cost:
     """½ r² of the FRF problem at parameter points (batched for small models)."""
 
     def __init__(self, model, data, names, frf: FRFOptions, std, values):
-        prob, _, _, _ = prepare_problem(model, data, names, None, frf.residual, frf.weights, std, frf.lines, frf.select,
-                                        frf.resonance, frf.resonance_tol, frf.damping, "absolute", values, frf.solver,
-                                        False)
+        prob, _, _, _ = prepare_problem(model, data, names, None, frf, SolverOptions(parametrisation="absolute"),
+                                        measurement_std=std, values=values)
         self.values, self.damping = values, frf.damping
         self.prob = prob
         measured = frf_data(data)
@@ -311,9 +310,8 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     _bounds(model, names)
     seeds = (int(seed) + np.arange(runs))[:, None]
     job = _GlobalJob(method, dict(method_options or {}), global_residual, o["frf"], o["noise"], o["solver"], values)
-    pairs = run_starts(model, data, names, seeds, {"job": job}, seed=seed, scheduler=ex.scheduler, rel_tol=st.rel_tol,
-                       cost_tol=st.cost_tol, progress=progress, connect_timeout=ex.connect_timeout,
-                       runner=_runner).runs
+    pairs = run_starts(model, data, names, seeds, {"job": job}, starts=st.replace(seed=seed),
+                       execution=ex.replace(jobs=None), progress=progress, runner=_runner).runs
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
 

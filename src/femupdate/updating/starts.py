@@ -215,9 +215,8 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
                                 values=values, options=uo)
     # ---- end of the batched path ----------------------------------------------------------------
     else:
-        ms = run_starts(model, data, names, X0, {"options": uo, "values": values}, seed=st.seed,
-                        scheduler=ex.scheduler, rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress,
-                        connect_timeout=ex.connect_timeout, jobs=ex.jobs)
+        ms = run_starts(model, data, names, X0, {"options": uo, "values": values}, starts=st, execution=ex,
+                        progress=progress)
     from .run import _damping_of
 
     return attach(ms, model, data, "update", damping=_damping_of(uo))
@@ -236,8 +235,8 @@ def _check_once(model, data, names, o: UpdateOptions, values) -> None:
         check_determined(prob)
 
 
-def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=1e-4, cost_tol=None, progress=None,
-               connect_timeout=10.0, runner=None, jobs=None) -> MultiStartResult:
+def run_starts(model, data, names, X0, kwargs, *, starts: StartsOptions | None = None,
+               execution: ExecutionOptions | None = None, progress=None, runner=None) -> MultiStartResult:
     """``runner(model, data, names, X0[k], kwargs)`` (default: :func:`update` from start k) for every
     start, locally or on the Dask cluster at ``scheduler``; runs clustered into solutions.
 
@@ -253,27 +252,22 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
         The starting values (:func:`draw_starts`).
     kwargs : dict
         Options passed to ``runner`` (neither ``x0`` nor ``params``).
-    seed : int or None
-        The seed the starts were drawn with (recorded in the result).
-    scheduler : str, optional
-        Address of a Dask scheduler; local runs otherwise.
-    rel_tol : float, default 1e-4
-        Relative distance under which two solutions are the same.
-    cost_tol : float, optional
-        Largest cost of a converged run (default: no limit).
+    starts : StartsOptions, optional
+        Its ``seed`` (the seed the starts were drawn with, recorded in the result), ``rel_tol``
+        (relative distance under which two solutions are the same) and ``cost_tol`` (largest
+        cost of a converged run; default no limit); its number of starts is ``len(X0)``.
+    execution : ExecutionOptions, optional
+        ``scheduler`` (a Dask scheduler's address; local runs otherwise), ``connect_timeout``
+        (seconds to wait for it) and ``jobs``: local worker processes (without ``scheduler``;
+        :func:`local_jobs` by default; 1 runs the starts in this process).  Each start is
+        independent of the others, so the runs are those of the sequential route (to round-off:
+        each process chooses its model's factorisation route at its own first evaluation).
     progress : callable ``(done, total)``, optional
         Called as runs finish (locally and on Dask).
-    connect_timeout : float, default 10.0
-        Seconds to wait for the scheduler.
     runner : callable, optional
         ``runner(model, data, names, start, kwargs)``; default: :func:`run_with` of :func:`update`.
         On Dask, and with local worker processes, it must be picklable; each Dask task is retried
         up to twice.
-    jobs : int, optional
-        Local worker processes (without ``scheduler``): :func:`local_jobs` by default; 1 runs the
-        starts in this process.  Each start is independent of the others, so the runs are those
-        of the sequential route (to round-off: each process chooses its model's factorisation
-        route at its own first evaluation).
 
     Returns
     -------
@@ -288,11 +282,12 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
     """
     if "x0" in kwargs or "params" in kwargs:
         raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
+    st, ex = starts or StartsOptions(), execution or ExecutionOptions()
     runner = runner or _run_one
-    if scheduler:
-        pairs = _run_dask(scheduler, model, data, names, X0, kwargs, progress, connect_timeout, runner)
+    if ex.scheduler:
+        pairs = _run_dask(ex.scheduler, model, data, names, X0, kwargs, progress, ex.connect_timeout, runner)
     else:
-        jobs = local_jobs(model, len(X0)) if jobs is None else max(1, min(int(jobs), len(X0)))
+        jobs = local_jobs(model, len(X0)) if ex.jobs is None else max(1, min(int(ex.jobs), len(X0)))
         if jobs > 1:
             pairs = _run_processes(jobs, model, data, names, X0, kwargs, progress, runner)
         else:
@@ -304,9 +299,10 @@ def run_starts(model, data, names, X0, kwargs, *, seed, scheduler=None, rel_tol=
     runs = [p[0] for p in pairs]
     seconds = [float(p[1]) for p in pairs]
     cpu = [float(p[2]) for p in pairs]
-    ok, solutions = converged_solutions(runs, names, UpdateResult, cost_tol, rel_tol, parameter_scale(model, names))
+    ok, solutions = converged_solutions(runs, names, UpdateResult, st.cost_tol, st.rel_tol,
+                                        parameter_scale(model, names))
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
-    return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), seed,
+    return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), st.seed,
                                      seconds=seconds, cpu_seconds=cpu))
 
 
@@ -443,7 +439,6 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
                solver=(SolverOptions, rest.get("solver")))
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
-    ms = run_starts(model, data, names, X0, dict(o, values=values), seed=st.seed, scheduler=ex.scheduler,
-                    rel_tol=st.rel_tol, cost_tol=st.cost_tol, progress=progress, connect_timeout=ex.connect_timeout,
-                    runner=partial(run_with, _frf_update_start))
+    ms = run_starts(model, data, names, X0, dict(o, values=values), starts=st, execution=ex.replace(jobs=None),
+                    progress=progress, runner=partial(run_with, _frf_update_start))
     return attach(ms, model, data, "frf-update")

@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 
 from ..._errors import InputError
+from ...serialise import RunContext, Serialisable
 from ...updating.batched import FAILED
 from ...updating.clustering import cluster
 from ...updating.results import Solution as _MultiStartSolution
@@ -115,6 +117,9 @@ class CaseResult:
         One per noise level.
     failure_examples : list of str, default ``[]``
         Up to three distinct messages of failed starts.
+    exact : dict, optional
+        A single-sensor case's exact solution set from the frequencies
+        (:meth:`StudyResult.with_exact`), as the JSON's ``exact`` holds it.
     """
 
     case: Case
@@ -131,6 +136,7 @@ class CaseResult:
     n_residuals: int
     noise: list[NoiseResult] = field(default_factory=list)
     failure_examples: list[str] = field(default_factory=list)
+    exact: dict | None = None
 
     @property
     def truth_found(self) -> bool:
@@ -162,7 +168,7 @@ class CaseResult:
             May hold NumPy arrays and scalars (convert with :func:`~femupdate.io.results.to_jsonable`
             before writing JSON).
         """
-        return {
+        out = {
             "measured_dofs": list(self.case.measured_dofs), "n_measured": self.case.n_measured,
             "n_modes": self.case.n_modes,
             "criteria": {k: c.satisfied for k, c in self.criteria.items()},
@@ -181,18 +187,23 @@ class CaseResult:
                        "predicted_std": z.predicted_std} for z in self.noise],
             "failure_examples": self.failure_examples,
         }
+        if self.exact is not None:
+            out["exact"] = self.exact
+        return out
 
 
 @dataclass(frozen=True, eq=False)
-class StudyResult:
-    """Result of :func:`run_study`: one :class:`CaseResult` per case, in the study's order.
+class StudyResult(Serialisable):
+    """Result of :func:`run_study`: one :class:`CaseResult` per case, in the study's order; a
+    result of kind ``uniqueness`` (``femupdate uniqueness``): :meth:`~femupdate.serialise.Serialisable.to_json`
+    gives the command's JSON and :meth:`~femupdate.serialise.Serialisable.write_report` its report.
 
     Each parameter is stored as the attribute of the same name.
 
     Parameters
     ----------
-    study : Study
-        The study.
+    study : Study or None
+        The study (None for a result read back from JSON, which keeps the study's keys as read).
     cases : list of CaseResult
         One per case.
     seconds : float
@@ -209,9 +220,13 @@ class StudyResult:
         Largest cost of a converged start.
     raw : list of dict, default ``[]``
         Per-start results of every piece (see :func:`~femupdate.uniqueness.study.units.solve_unit`).
+    figure : str, optional
+        The path of the study's heat map, when one was drawn (:meth:`with_figure`).
+    context : RunContext, optional
+        What a result read back from JSON keeps of the study (:mod:`femupdate.serialise`).
     """
 
-    study: Study
+    study: Study | None
     cases: list[CaseResult]
     seconds: float
     units_computed: int
@@ -220,10 +235,68 @@ class StudyResult:
     rel_tol: float
     cost_tol: float
     raw: list = field(default_factory=list)  #: per-start results of every piece (see :func:`solve_unit`)
+    figure: str | None = None
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    kind: ClassVar[str] = "uniqueness"
+
+    @property
+    def run_context(self) -> RunContext:
+        """The model of the study (for the report), or the study's keys as read back."""
+        if self.context is not None:
+            return self.context
+        return RunContext(model=None if self.study is None else self.study.model, kind=self.kind)
+
+    def payload(self) -> dict:
+        from .record import study_fields
+
+        return study_fields(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import study_from
+
+        return study_from(obj)
+
+    def criteria_agreement(self) -> dict:
+        """Per counting criterion, on how many cases with a verdict its prediction matches the
+        study's: ``{name: {"agrees", "of", "wrong_cases"}}`` (cases named ``NxM``: measured dofs x
+        modes)."""
+        out = {}
+        judged = [c for c in self.cases if c.unique is not None]
+        for name in (judged[0].criteria if judged else {}):
+            hits = sum(c.criteria[name].satisfied == c.unique for c in judged)
+            wrong = [f"{c.case.n_measured}x{c.case.n_modes}" for c in judged if c.criteria[name].satisfied != c.unique]
+            out[name] = {"agrees": hits, "of": len(judged), "wrong_cases": wrong}
+        return out
+
+    def with_exact(self) -> StudyResult:
+        """A copy whose single-sensor cases carry their exact solution sets from the frequencies
+        (:func:`~femupdate.uniqueness.exact.exact_solutions`, SymPy: small models;
+        ``femupdate uniqueness --exact``)."""
+        from .record import exact_entries
+
+        cases = [c if e is None else replace(c, exact=e) for c, e in zip(self.cases, exact_entries(self))]
+        return replace(self, cases=cases)
+
+    def with_figure(self, path) -> StudyResult:
+        """A copy that names its heat map (``figure`` in the JSON; ``--plot``)."""
+        return replace(self, figure=str(path))
+
+    def records(self) -> list[dict]:
+        """One record per case: measured dofs, modes, verdict, distinct solutions, the counts of
+        starts and the condition number at the truth."""
+        return [{"measured_dofs": ",".join(c.case.measured_dofs), "n_modes": c.case.n_modes, "verdict": c.verdict,
+                 "solutions": len(c.solutions), "converged": c.converged, "local_minima": c.local_minima,
+                 "not_converged": c.not_converged, "failed": c.failed, "condition_number": c.condition_number}
+                for c in self.cases]
 
     def to_dict(self) -> dict:
-        """The JSON result of ``femupdate uniqueness`` (docs/file-formats.md, plus extras)."""
+        """The study's part of the JSON result of ``femupdate uniqueness`` (:meth:`to_json` adds
+        the criteria's agreement, the unknowns' units and bounds and the figure)."""
         st = self.study
+        if st is None:
+            raise InputError("a study result read back from JSON has no study: use to_json()")
         return {
             "model": st.model.name, "parameters": list(st.names),
             "truth": dict(zip(st.names, st.truth[[st.model.parameter_index(n) for n in st.names]])),
