@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 import scipy.linalg as sla
@@ -22,6 +23,7 @@ from ._threads import LARGE_DENSE, blas_phase
 from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
 from .dofs import canonical, describe, index_of
 from .modal_sparse import SHIFT_FRACTION, _sparse, _sparse_reused, arpack_options  # noqa: F401  (named here too)
+from .serialise import RunContext, Serialisable
 
 DENSE_LIMIT = 1500  # models up to this many dofs are solved densely when every mode (or no number) is asked for
 
@@ -67,11 +69,13 @@ NORMALISATIONS = ("mass", "unit", "max")
 
 
 @dataclass(frozen=True, eq=False)
-class Modes:
+class Modes(Serialisable):
     """Modes with labelled dofs.
 
     Built by :func:`solve_modes` / :func:`model_modes`; each parameter is stored as the
-    attribute of the same name.
+    attribute of the same name.  A result of kind ``modes`` (:mod:`femupdate.serialise`):
+    ``to_json()`` is what ``femupdate modes --json`` writes (with the model's name and parameter
+    values when made by :func:`model_modes`), ``to_frame()`` one row per mode (:meth:`records`).
 
     Parameters
     ----------
@@ -89,7 +93,12 @@ class Modes:
         The sparse path's factorisation of K − σM (SuperLU) and its shift: the series
         sensitivity routes reuse it instead of factorising again.  None on the dense path.
         It keeps the factor's memory alive as long as these modes are referenced.
+    context : RunContext, optional
+        The model and parameter values the modes were computed at (:func:`model_modes`; not
+        serialised, :mod:`femupdate.serialise`).
     """
+
+    kind: ClassVar[str] = "modes"
 
     eigenvalues: np.ndarray
     shapes: np.ndarray
@@ -97,6 +106,23 @@ class Modes:
     normalisation: str = "mass"
     n_rigid: int = 0
     factor: object = field(default=None, repr=False, compare=False)
+    context: RunContext | None = field(default=None, repr=False, compare=False)
+
+    def payload(self) -> dict:
+        from .modal_record import modes_kind
+
+        return modes_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .modal_record import modes_from
+
+        return modes_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per mode (0-based ``mode``, ``frequency_hz``, ``eigenvalue``): :meth:`to_frame`'s rows."""
+        return [{"mode": r, "frequency_hz": float(f), "eigenvalue": float(v)}
+                for r, (f, v) in enumerate(zip(self.frequencies_hz, self.eigenvalues))]
 
     @property
     def frequencies_hz(self) -> np.ndarray:
@@ -558,24 +584,27 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     Returns
     -------
     Modes
+        With its context: the model and the parameter values (``to_json()`` names them).
 
     Raises
     ------
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
-    K, M = model.K(values), model.M(values)
+    p = model.resolve(values)
+    K, M = model.K(p), model.M(p)
     if (reuse and "workspace" not in kw and kw.get("method", "auto") in ("auto", "sparse")
             and (kw.get("method") == "sparse" or eigensolver_for(model.n_dofs, n_modes) == "sparse")):
         from .workspace import workspace_of
 
         kw["workspace"] = workspace_of(model, K, M)
     try:
-        return solve_modes(K, M, n_modes=n_modes, dofs=model.dofs, normalisation=normalisation, **kw)
+        modes = solve_modes(K, M, n_modes=n_modes, dofs=model.dofs, normalisation=normalisation, **kw)
     except InputError as exc:
         from .flags import suspect_values
 
-        suspects = suspect_values(model, model.resolve(values))
+        suspects = suspect_values(model, p)
         if not suspects or "positive" not in str(exc):
             raise
         raise InputError(f"{exc}; at parameter value(s) {suspects}") from None
+    return replace(modes, context=RunContext(model=model, before=dict(zip(model.parameter_names, p.tolist()))))

@@ -18,10 +18,11 @@ import logging
 import click
 
 from ._entry import run
-from .damage import damage, fullfield, rank_modifications, update_multi
+from .damage import damage, rank_modifications, update_multi
 from .data import convert_data
 from .demo import demo
 from .direct import direct
+from .fullfield import fullfield
 from .frf import frf_command, frf_select_command, frf_update_command, surface_command
 from .modes import correlate, modes
 from .paper import paper

@@ -400,36 +400,6 @@ def fitted_damping(data):
                  "n_modes": len(use)}
 
 
-def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
-    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
-    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
-    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
-    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
-    or more); None when neither the data nor the model have damping.
-
-    Parameters
-    ----------
-    data : TestData
-        The test modes.
-    paired_hz : dict of int to float
-        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
-    damping : Damping, optional
-        The model's damping (``--damping``).
-    """
-    zeta = data.damping_ratios
-    damped = damping is not None and not damping.undamped
-    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
-        return None
-    model: list[float | None] = [None] * len(data.modes)
-    if damped:
-        for i, f in paired_hz.items():
-            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
-    _, fit = fitted_damping(data)
-    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
-            "std": [m.std_damping_ratio for m in data.modes], "model": model,
-            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
-
-
 def print_damping(console, data, fields: dict | None) -> None:
     """The damping table (test ratio ± std, the model's, the difference) and the Rayleigh fit."""
     if not fields:
@@ -500,27 +470,6 @@ def parameter_fields(model, names=None) -> dict:
 def unit_suffix(unit: str | None) -> str:
     """``" [N/m]"`` for a unit, ``""`` without one (for column headings and axis labels)."""
     return f" [{unit}]" if unit else ""
-
-
-def direct_payload(model, res, data, corr_before=None):
-    """JSON of a direct update (``direct`` and ``demo``)."""
-    return {
-        "model": model.name,
-        "parameters": res.parameters,
-        "unknowns": list(res.unknowns),
-        "standard_error": dict(zip(res.unknowns, res.standard_error)),
-        "condition_number": res.condition_number,
-        "condition_number_scaled": res.condition_number_scaled,
-        "residual_norm": res.residual_norm,
-        "relative_residual": res.relative_residual,
-        "rank": res.rank,
-        "unique": res.unique,
-        "n_equations": res.system.n_equations,
-        "bounded": res.bounded,
-        "notes": res.notes,
-        "flags": flags(model, res.parameters, res.unknowns),
-        **parameter_fields(model),
-    }
 
 
 def update_payload(model, data, res, ms=None):
