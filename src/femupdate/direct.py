@@ -146,6 +146,12 @@ class DirectResult(Serialisable):
 
         return direct_from(obj)
 
+    def records(self) -> list[dict]:
+        """One record per parameter (``parameter``, ``value``, ``std`` — the standard error of an
+        unknown —, ``start``, ``unit``): :meth:`to_frame`'s rows."""
+        start = self.run_context.before or {}
+        return [{**r, "start": start.get(r["parameter"], r["start"])} for r in super().records()]
+
     @cached_property
     def identified(self):
         """The identified model's modes and their correlation with the test modes
