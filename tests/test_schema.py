@@ -39,6 +39,7 @@ def _results(ex):
     yield fu.frf_update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
     yield fu.update(two, fu.load_test_data(ex / "two_dof_frf.json", two))
     yield from _frf_and_uniqueness_results(ex, two, fig2)
+    yield from _modal_results(ex)
 
 
 def _frf_and_uniqueness_results(ex, two, fig2):
@@ -58,6 +59,30 @@ def _frf_and_uniqueness_results(ex, two, fig2):
     yield fu.global_search(two, frf_data, runs=1, seed=0, method_options={"maxiter": 5})
     study = define_study(two, [(("1:x",), 2), (("1:x", "2:x"), 1)], starts=8, seed=3, noise=[0.01])
     yield run_study(study).with_exact().with_figure("uniqueness.png")
+
+def _modal_results(ex):
+    """modes, correlate, direct, demo, reduce and fullfield (with damping, units and notes where they can be)."""
+    from femupdate.examples import demo
+    from femupdate.frf import Damping
+    from femupdate.fullfield import full_field_direct, structure_segments
+    from femupdate.fullfield.files import load_scan
+    from femupdate.io.model_file import read_toml
+    from femupdate.reduction import reduce_model
+
+    fig2, truss = fu.load_model(ex / "figure2.toml"), fu.load_model(ex / "truss.toml")
+    data = fu.load_test_data(ex / "figure2_test.json", fig2)
+    yield fu.model_modes(fig2)
+    yield fu.model_modes(truss, n_modes=3, method="sparse")
+    yield fu.correlate(data, fu.model_modes(fig2)).with_context(damping=Damping(alpha=0.5))
+    yield fu.correlate(fu.load_test_data(ex / "truss_damaged.json", truss), fu.model_modes(truss), pairing="mac")
+    yield fu.direct_update(fig2, data)
+    yield fu.direct_update(fig2, data, bounded=True, unknowns=["k1", "k2"])
+    yield demo()
+    yield reduce_model(truss, ["4:x", "4:y", "104:x", "104:y", "3:y", "103:y"])
+    inputs = Path(__file__).resolve().parent / "behaviour" / "inputs"
+    structure = fu.Structure.from_dict(read_toml(inputs / "beam.toml"))
+    yield full_field_direct(structure.build(), load_scan(inputs / "beam_scan.json"),
+                            segments=structure_segments(structure))
 
 
 def test_results_write_the_keys_the_schema_describes(ex):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -22,6 +23,8 @@ from ._errors import InputError, NumericalError
 from ._rulebase import OK, message
 from .dofs import canonical_all
 from .pairing_rules import FREQUENCY_WINDOW, PAIR_MAC, PAIRING_NAMES, PAIRINGS, assign, mac_value, pair_modes as _kernel
+from .serialise import RunContext, Serialisable
+from .testdata import TestData
 
 
 def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -352,8 +355,9 @@ def comac(test: np.ndarray, model: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class Correlation:
-    """Result of :func:`correlate`.
+class Correlation(Serialisable):
+    """Result of :func:`correlate`; a result of kind ``correlate`` (:mod:`femupdate.serialise`:
+    ``to_json()`` is what ``femupdate correlate --json`` writes, ``to_frame()`` one row per pair).
 
     ``mac`` (n_test, n_model) on the common ``dofs``; ``pairs`` [(test, model, mac)];
     ``frequency_error`` relative (model - test) / test per pair; ``comac`` per common dof.
@@ -383,8 +387,14 @@ class Correlation:
         Paired test modes whose pair's MAC is below ``min_mac`` (the shapes do not confirm it).
     pairing : Pairing or None
         What :func:`pair` did (the rule asked for and used, frequency changes); None when built
-        by hand.
+        by hand or read back from JSON.
+    context : RunContext, optional
+        The test data correlated (:func:`correlate`; their notes, units and damping ratios go
+        into the JSON, not the data themselves) and the model's damping they are compared with
+        (``corr.with_context(damping=...)``, as ``--damping``).
     """
+
+    kind: ClassVar[str] = "correlate"
 
     dofs: tuple[str, ...]
     mac: np.ndarray
@@ -396,6 +406,28 @@ class Correlation:
     unpaired_test: list[int]
     unconfirmed: list[int] = field(default_factory=list)
     pairing: Pairing | None = None
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .modal_record import correlate_kind
+
+        return correlate_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .modal_record import correlate_from
+
+        return correlate_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per pair (0-based ``test`` and ``model`` modes, their frequencies in Hz, the
+        relative ``frequency_error`` and the ``mac``), then one per unpaired test mode (``model``
+        None): :meth:`to_frame`'s rows."""
+        out = [{"test": i, "model": j, "test_hz": float(self.test_frequencies_hz[i]),
+                "model_hz": float(self.model_frequencies_hz[j]), "frequency_error": float(e), "mac": float(m)}
+               for (i, j, m), e in zip(self.pairs, self.frequency_error)]
+        return out + [{"test": i, "model": None, "test_hz": float(self.test_frequencies_hz[i]), "model_hz": None,
+                       "frequency_error": None, "mac": None} for i in self.unpaired_test]
 
 
 def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") -> Correlation:
@@ -422,6 +454,7 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
     Returns
     -------
     Correlation
+        With the test data as its context (their notes, units and damping ratios in its JSON).
 
     Raises
     ------
@@ -462,4 +495,5 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         keep = ~np.isnan(Pt.real if np.iscomplexobj(Pt) else Pt).any(axis=1)  # dofs every paired shape has
         common = tuple(d for d, k in zip(common, keep) if k)
         cm = comac(Pt[keep], model_modes.shapes[ia][keep][:, [j for _, j in shaped_pairs]]) if keep.any() else cm
-    return Correlation(common, M, pairs, f_t, f_a, pg.frequency_error, cm, list(pg.unpaired), list(pg.unconfirmed), pg)
+    return Correlation(common, M, pairs, f_t, f_a, pg.frequency_error, cm, list(pg.unpaired), list(pg.unconfirmed), pg,
+                       context=RunContext(data=test if isinstance(test, TestData) else None))

@@ -20,7 +20,9 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,6 +30,7 @@ from scipy.optimize import lsq_linear
 
 from ._errors import InputError, NumericalError
 from .dofs import canonical_all, describe
+from .serialise import RunContext, Serialisable
 from .testdata import FRFData, MeasuredMode, StaticData, TestData
 
 log = logging.getLogger(__name__)
@@ -67,10 +70,13 @@ class LinearSystem:
 
 
 @dataclass(frozen=True, eq=False)
-class DirectResult:
+class DirectResult(Serialisable):
     """Solution of a direct update (built by :func:`solve_system`).
 
-    Each parameter is stored as the attribute of the same name.
+    Each parameter is stored as the attribute of the same name.  A result of kind ``direct``
+    (``demo`` for the demo's, :func:`femupdate.examples.demo`; :mod:`femupdate.serialise`):
+    ``to_json()`` is what ``femupdate direct --json`` writes, ``write_report(path)`` its
+    ``--report``, ``to_frame()`` one row per parameter.
 
     Parameters
     ----------
@@ -103,7 +109,14 @@ class DirectResult:
         Whether the parameters' bounds were enforced (bounded least squares).
     notes : list of str
         Remarks: modes without a shape left out, the undetermined combinations when not unique.
+    context : RunContext, optional
+        The model, the test data and the starting values (:func:`direct_update`; not
+        serialised).  Read back from JSON, ``system``, ``null_space`` and ``singular_values``
+        are empty (the JSON does not hold them).
     """
+
+    kind: ClassVar[str] = "direct"
+    kinds: ClassVar[tuple[str, ...]] = ("direct", "demo")
 
     parameters: dict[str, float]
     unknowns: tuple[str, ...]
@@ -120,6 +133,33 @@ class DirectResult:
     standard_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
     bounded: bool = False
     notes: list[str] = field(default_factory=list)
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .direct_record import direct_kind
+
+        return direct_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .direct_record import direct_from
+
+        return direct_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per parameter (``parameter``, ``value``, ``std`` — the standard error of an
+        unknown —, ``start``, ``unit``): :meth:`to_frame`'s rows."""
+        start = self.run_context.before or {}
+        return [{**r, "start": start.get(r["parameter"], r["start"])} for r in super().records()]
+
+    @cached_property
+    def identified(self):
+        """The identified model's modes and their correlation with the test modes
+        (:class:`~femupdate.direct_record.Identified`; None each without the context's test
+        modes), computed once, when first asked for (the JSON's ``frequencies_hz`` and ``pairs``)."""
+        from .direct_record import identified
+
+        return identified(self, self.run_context)
 
 
 def _complete(model, dofs: Sequence[str], values: np.ndarray, what: str) -> np.ndarray:
@@ -510,6 +550,9 @@ def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "
     Returns
     -------
     DirectResult
+        With its context: the model, the test data and the starting values (``to_json()`` and
+        ``write_report()`` take the units, bounds, flags, notes and the identified model's
+        correlation with the test from them).
 
     Raises
     ------
@@ -522,4 +565,6 @@ def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "
     """
     notes: list[str] = []
     system = build_system(model, data, use, values, unknowns, notes)
-    return solve_system(model, system, values, bounded, notes)
+    res = solve_system(model, system, values, bounded, notes)
+    start = dict(zip(model.parameter_names, map(float, model.resolve(values))))
+    return replace(res, context=RunContext(model=model, data=data if isinstance(data, TestData) else None, before=start))

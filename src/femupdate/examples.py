@@ -225,6 +225,32 @@ def figure2_test_data(noise: float = 0.01, seed: int = 1993) -> dict:
     return {"modes": out}
 
 
+def demo():
+    """The identification ``femupdate demo`` makes: the Figure 2 system (package data
+    ``figure2.toml``, at the wrong starting values ``FIGURE2_START``) identified directly from its
+    built-in test (``figure2_test.json``: three modes at every dof, simulated at ``FIGURE2_TRUE``
+    with 1 % noise on the shapes; :func:`figure2_test_data`).
+
+    Returns
+    -------
+    DirectResult
+        Of kind ``demo``: ``to_json()`` is what ``femupdate demo --json`` writes (the keys of
+        ``direct`` with ``true``, without ``start`` and ``units``); its context holds the model and
+        the test data (``result.run_context.model``, ``.data``).
+    """
+    from importlib import resources
+
+    from .direct import direct_update
+    from .io.model_file import load_model
+    from .io.testdata_json import load_testdata
+
+    data_dir = resources.files("femupdate") / "data"
+    with resources.as_file(data_dir / "figure2.toml") as mpath, resources.as_file(data_dir / "figure2_test.json") as dpath:
+        model = load_model(mpath)
+        data = load_testdata(dpath, model)
+    return direct_update(model, data).with_context(kind="demo")
+
+
 def figure2_model_toml() -> str:
     """TOML text of the Figure 2 model at the (wrong) starting values ``FIGURE2_START``."""
     lines = ['[model]', 'name = "three-dof chain with k4 (paper Figure 2)"', ""]

@@ -3,27 +3,28 @@ r"""Real modes of the undamped structure, :math:`K \phi = \lambda M \phi`.
 Dense (LAPACK ``eigh``) for small models, sparse shift-invert Lanczos (ARPACK through
 :func:`scipy.sparse.linalg.eigsh`) for large ones, chosen by size.  Rigid-body modes of
 free-free structures are found with a negative shift.  Shapes are normalised to unit modal
-mass (default), unit length, unit largest entry, or unit value at a reference dof.
+mass (default), unit length, unit largest entry, or unit value at a reference dof.  The sparse
+path (ARPACK with one factorisation of K − σM) is :mod:`femupdate.modal_sparse`.
 """
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from . import rules
 from ._errors import InputError, NumericalError
 from ._threads import LARGE_DENSE, blas_phase
 from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
 from .dofs import canonical, describe, index_of
-
-log = logging.getLogger(__name__)
+from .modal_sparse import SHIFT_FRACTION, _sparse, _sparse_reused, arpack_options  # noqa: F401  (named here too)
+from .static_loads import check_static_loads  # noqa: F401  (named here too)
+from .serialise import RunContext, Serialisable
 
 DENSE_LIMIT = 1500  # models up to this many dofs are solved densely when every mode (or no number) is asked for
 
@@ -69,11 +70,13 @@ NORMALISATIONS = ("mass", "unit", "max")
 
 
 @dataclass(frozen=True, eq=False)
-class Modes:
+class Modes(Serialisable):
     """Modes with labelled dofs.
 
     Built by :func:`solve_modes` / :func:`model_modes`; each parameter is stored as the
-    attribute of the same name.
+    attribute of the same name.  A result of kind ``modes`` (:mod:`femupdate.serialise`):
+    ``to_json()`` is what ``femupdate modes --json`` writes (with the model's name and parameter
+    values when made by :func:`model_modes`), ``to_frame()`` one row per mode (:meth:`records`).
 
     Parameters
     ----------
@@ -91,7 +94,12 @@ class Modes:
         The sparse path's factorisation of K − σM (SuperLU) and its shift: the series
         sensitivity routes reuse it instead of factorising again.  None on the dense path.
         It keeps the factor's memory alive as long as these modes are referenced.
+    context : RunContext, optional
+        The model and parameter values the modes were computed at (:func:`model_modes`; not
+        serialised, :mod:`femupdate.serialise`).
     """
+
+    kind: ClassVar[str] = "modes"
 
     eigenvalues: np.ndarray
     shapes: np.ndarray
@@ -99,6 +107,23 @@ class Modes:
     normalisation: str = "mass"
     n_rigid: int = 0
     factor: object = field(default=None, repr=False, compare=False)
+    context: RunContext | None = field(default=None, repr=False, compare=False)
+
+    def payload(self) -> dict:
+        from .modal_record import modes_kind
+
+        return modes_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .modal_record import modes_from
+
+        return modes_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per mode (0-based ``mode``, ``frequency_hz``, ``eigenvalue``): :meth:`to_frame`'s rows."""
+        return [{"mode": r, "frequency_hz": float(f), "eigenvalue": float(v)}
+                for r, (f, v) in enumerate(zip(self.frequencies_hz, self.eigenvalues))]
 
     @property
     def frequencies_hz(self) -> np.ndarray:
@@ -478,195 +503,6 @@ def _dense_condensed(Kd, Md, n_modes, dofs, massless):
     return lam, Phi
 
 
-def arpack_options() -> dict:
-    """Keyword arguments of :func:`scipy.sparse.linalg.eigsh` that make its result reproducible:
-    ARPACK's start and restart vectors from a fixed seed (left alone, SciPy draws them from the
-    operating system's entropy, and eigenpairs change by round-off from run to run)."""
-    return {"rng": np.random.default_rng(0)}
-
-
-def _sparse(K, M, n_modes, sigma, tol):
-    """Shift-invert Lanczos with ONE factorisation of K - sigma M, handed to ARPACK."""
-    K = sp.csc_array(K)
-    M = sp.csc_array(M)
-    lu = None
-    if sigma is None:
-        sigma = 0.0
-        try:
-            lu = factorize(K, definite=True)
-            if nearly_singular(lu):
-                raise RuntimeError("nearly singular")
-        except (RuntimeError, NotPositiveDefinite):
-            # rigid-body modes: shift just below zero, relative to the pencil's scale
-            lu = None
-            d, md = K.diagonal(), M.diagonal()
-            both = (d > 0) & (md > 0)
-            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
-            sigma = -1e-6 * s
-            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
-    if lu is None:
-        try:
-            lu = factorize(K - sigma * M)
-        except RuntimeError as exc:
-            raise _arpack_failed(sigma, exc) from None
-    lam, Phi = _arpack(K, M, n_modes, sigma, tol, lu)
-    return lam, Phi, (lu, float(sigma))
-
-
-#: with a previous solution to start from, the shift of shift-invert is this fraction of its lowest
-#: eigenvalue: the omitted modes' series of the sensitivities then converge with ratio
-#: (λ_i − σ)/(λ_{m+1} − σ) instead of λ_i/λ_{m+1}, and ARPACK separates the lowest modes sooner
-SHIFT_FRACTION = 0.9
-
-
-def _arpack(K, M, n_modes, sigma, tol, lu, v0=None):
-    OPinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
-    try:
-        return spla.eigsh(K, k=n_modes, M=M, sigma=sigma, which="LM", tol=tol, OPinv=OPinv, v0=v0, **arpack_options())
-    except spla.ArpackNoConvergence as exc:
-        raise NumericalError(
-            f"the sparse eigensolver did not converge for {n_modes} modes "
-            f"({len(exc.eigenvalues)} converged)", partial=exc.eigenvalues
-        ) from None
-    except RuntimeError as exc:
-        raise _arpack_failed(sigma, exc) from None
-
-
-def _arpack_failed(sigma: float, exc: RuntimeError) -> NumericalError:
-    """The message of a failed shift-invert solution (SuperLU's or ARPACK's error, first line)."""
-    first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} ({first}); for a small model "
-                          "use the dense one (--method dense)")
-
-
-def _is_singular(lu) -> bool:
-    return lu.nearly_singular() if hasattr(lu, "nearly_singular") else nearly_singular(lu)
-
-
-def _mass_operator(M):
-    """M for ARPACK's products: a diagonal M (lumped masses) as an elementwise product (the same
-    numbers as the sparse product, without its per-call overhead), else M in CSC."""
-    Mr = sp.csr_array(M)
-    n = Mr.shape[0]
-    if Mr.nnz <= n and np.array_equal(Mr.indices, np.repeat(np.arange(n), np.diff(Mr.indptr))):
-        d = Mr.diagonal()
-        return spla.LinearOperator(Mr.shape, matvec=lambda x: d * np.ravel(x), dtype=float)
-    return sp.csc_array(M)
-
-
-def _sparse_reused(K, M, n_modes, sigma, tol, ws, start):
-    """:func:`_sparse` with the workspace's factorisation route, warm-started from ``start``.
-
-    The same eigenpairs (to round-off): only the factorisation's ordering and kernel, ARPACK's
-    starting vector and, with ``start``, the shift change.  A shift taken from ``start`` is
-    accepted only when every computed eigenvalue lies above it and the highest at least twice
-    it: any eigenvalue below σ would then lie nearer σ than the highest computed one and have
-    been found, so the modes are the lowest of the model; otherwise the solution is repeated at
-    σ = 0."""
-    Mc = _mass_operator(M)
-    v0 = guess = None
-    if start is not None:
-        lam0, Phi0 = (start.eigenvalues, start.shapes) if isinstance(start, Modes) else start
-        lam0, Phi0 = np.asarray(lam0, float), np.asarray(Phi0, float)
-        if Phi0.ndim == 2 and Phi0.shape[0] == K.shape[0] and Phi0.shape[1] and np.all(np.isfinite(Phi0)):
-            v = Phi0[:, :n_modes].sum(axis=1)
-            if np.any(Mc @ v):
-                v0 = v
-        if sigma is None and lam0.size and np.isfinite(lam0[0]) and lam0[0] > 0:
-            guess = SHIFT_FRACTION * float(lam0[0])
-    if guess is not None:
-        try:
-            lu = ws.factor(K, M, guess)
-        except (NotPositiveDefinite, RuntimeError):
-            lu = None
-        if lu is not None:
-            lam, Phi = _arpack(K, Mc, n_modes, guess, tol, lu, v0)
-            if np.min(lam) > guess and np.max(lam) >= 2.0 * guess:
-                return lam, Phi, (lu, guess)
-            log.debug("shift %.6g from the previous solution rejected (eigenvalues %.6g..%.6g): sigma = 0",
-                      guess, np.min(lam), np.max(lam))
-    lu = None
-    if sigma is None:
-        sigma = 0.0
-        try:
-            lu = ws.factor(K, M, 0.0)
-            if _is_singular(lu):
-                raise RuntimeError("nearly singular")
-        except (NotPositiveDefinite, RuntimeError):
-            lu = None
-            d, md = K.diagonal(), M.diagonal()
-            both = (d > 0) & (md > 0)
-            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
-            sigma = -1e-6 * s
-            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
-    if lu is None:
-        try:
-            lu = ws.factor(K, M, sigma)
-        except NotPositiveDefinite:  # an indefinite K - sigma M: LU with pivoting
-            lu = factorize(K - sigma * M)
-        except RuntimeError as exc:
-            raise NumericalError(f"the sparse eigensolver (ARPACK) failed at shift {sigma:g} (K - sigma M is singular: "
-                                 f"{exc})") from None
-    lam, Phi = _arpack(K, Mc, n_modes, sigma, tol, lu, v0)
-    return lam, Phi, (lu, float(sigma))
-
-
-def check_static_loads(model, values, loads, need_inverse: bool = False) -> None:
-    """Refuse static loads that a model with rigid-body modes cannot carry.
-
-    A free (or partly free) structure can only be loaded by forces in equilibrium: the force must
-    have no component along the rigid-body modes (the null space of K).  Otherwise K u = f has
-    no solution at any parameter values, and a fit to such data is a least-squares compromise
-    that means nothing.  K is factorised once for all the loads (and its modes computed only
-    when it is singular).
-
-    Parameters
-    ----------
-    model : Model
-    values : parameter values at which K is judged (None: nominal).
-    loads : sequence of (str, numpy.ndarray)
-        Each load case's name, as messages give it, and its force vector (n_dofs,), N.
-    need_inverse : bool, default False
-        The caller computes u = K(p)⁻¹ f (iterative updating): any rigid-body mode is refused,
-        a self-equilibrated load too (u is then defined only up to rigid motion).
-
-    Raises
-    ------
-    InputError
-        The model has rigid-body modes and a load is not in equilibrium with respect to them
-        (or, with ``need_inverse``, the model has rigid-body modes at all).
-    """
-    loads = list(loads)
-    if not loads:
-        return
-    p = model.resolve(values)
-    try:
-        if not nearly_singular(factorize(sp.csc_array(model.K(p)), definite=True)):
-            return
-    except (RuntimeError, NotPositiveDefinite):  # exactly singular
-        pass
-    n = model.n_dofs
-    modes = solve_modes(model.K(p), model.M(p), n_modes=min(n, 12) if n > DENSE_LIMIT else None, dofs=model.dofs,
-                        method="dense" if n <= DENSE_LIMIT else "sparse")
-    rigid = modes.shapes[:, modes.eigenvalues == 0.0]
-    if rigid.shape[1] == 0:
-        return
-    if need_inverse:
-        raise InputError(
-            f"{loads[0][0]}: the model has {rigid.shape[1]} rigid-body mode(s): iterative updating computes "
-            "u = K(p)^-1 f, which needs a supported model; support it, or use direct updating with displacements "
-            "at every dof")
-    for what, force in loads:
-        f = np.real(np.asarray(force))
-        along = np.abs(rigid.T @ f)
-        scale = np.linalg.norm(f) * np.linalg.norm(rigid, axis=0)
-        if np.any(along > 1e-8 * np.maximum(scale, np.finfo(float).tiny)):
-            raise InputError(
-                f"{what}: the model has {rigid.shape[1]} rigid-body mode(s) and the load is not in equilibrium with "
-                "them (K u = f has no solution at any parameter values): support the model, or give a "
-                "self-equilibrated load")
-
-
 def model_modes(model, values=None, n_modes: int | None = None, normalisation: str = "mass", reuse: bool = True,
                 **kw) -> Modes:
     """Modes of a :class:`femupdate.Model` at parameter values ``values`` (default nominal).
@@ -693,24 +529,27 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     Returns
     -------
     Modes
+        With its context: the model and the parameter values (``to_json()`` names them).
 
     Raises
     ------
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
-    K, M = model.K(values), model.M(values)
+    p = model.resolve(values)
+    K, M = model.K(p), model.M(p)
     if (reuse and "workspace" not in kw and kw.get("method", "auto") in ("auto", "sparse")
             and (kw.get("method") == "sparse" or eigensolver_for(model.n_dofs, n_modes) == "sparse")):
         from .workspace import workspace_of
 
         kw["workspace"] = workspace_of(model, K, M)
     try:
-        return solve_modes(K, M, n_modes=n_modes, dofs=model.dofs, normalisation=normalisation, **kw)
+        modes = solve_modes(K, M, n_modes=n_modes, dofs=model.dofs, normalisation=normalisation, **kw)
     except InputError as exc:
         from .flags import suspect_values
 
-        suspects = suspect_values(model, model.resolve(values))
+        suspects = suspect_values(model, p)
         if not suspects or "positive" not in str(exc):
             raise
         raise InputError(f"{exc}; at parameter value(s) {suspects}") from None
+    return replace(modes, context=RunContext(model=model, before=dict(zip(model.parameter_names, p.tolist()))))

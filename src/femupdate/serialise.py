@@ -210,10 +210,11 @@ def _checked(obj: dict, kind: str) -> dict:
     if not isinstance(version, int) or isinstance(version, bool) or version > SCHEMA_VERSION:
         raise InputError(f"schema_version {version!r}: this femupdate reads results of schema {SCHEMA_VERSION} and "
                          "older; a newer femupdate wrote it")
-    from .report.build import check_result
+    from .report.build import REPORT_KINDS, check_result
     from .schema import check
 
-    check_result(obj)
+    if kind in REPORT_KINDS:  # the keys a report reads (the other kinds use some of the names otherwise)
+        check_result(obj)
     check(obj, kind)
     return obj
 
@@ -252,6 +253,8 @@ def _import_result_modules() -> None:
 RESULT_MODULES: tuple[str, ...] = ("femupdate.updating.results",)
 RESULT_MODULES += ("femupdate.frf.simulate", "femupdate.frf.selection", "femupdate.frf.surfaces",
                    "femupdate.uniqueness.study.results")
+RESULT_MODULES += ("femupdate.modal", "femupdate.correlation", "femupdate.direct", "femupdate.reduction.study",
+                   "femupdate.fullfield.result")
 
 
 __all__ = ["SCHEMA_VERSION", "RunContext", "Serialisable", "load_result", "REGISTRY"]

@@ -7,7 +7,8 @@ import logging
 
 import click
 
-from .damage import damage, fullfield, rank_modifications, update_multi
+from .damage import damage, rank_modifications, update_multi
+from .fullfield import fullfield
 from .data import convert_data
 from .demo import demo
 from .direct import direct

@@ -395,25 +395,6 @@ def unit_suffix(unit: str | None) -> str:
     return f" [{unit}]" if unit else ""
 
 
-def direct_payload(model, res, data, corr_before=None):
-    """JSON of a direct update (``direct`` and ``demo``)."""
-    return {
-        "model": model.name,
-        "parameters": res.parameters,
-        "unknowns": list(res.unknowns),
-        "standard_error": dict(zip(res.unknowns, res.standard_error)),
-        "condition_number": res.condition_number,
-        "condition_number_scaled": res.condition_number_scaled,
-        "residual_norm": res.residual_norm,
-        "relative_residual": res.relative_residual,
-        "rank": res.rank,
-        "unique": res.unique,
-        "n_equations": res.system.n_equations,
-        "bounded": res.bounded,
-        "notes": res.notes,
-        "flags": flags(model, res.parameters, res.unknowns),
-        **parameter_fields(model),
-    }
 
 
 def diagnostics_extra(names, d) -> dict:

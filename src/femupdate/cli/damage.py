@@ -1,4 +1,4 @@
-"""``femupdate damage``, ``update-multi``, ``rank-modifications`` and ``fullfield``.
+"""``femupdate damage``, ``update-multi`` and ``rank-modifications`` (``fullfield``: :mod:`.fullfield`).
 
 * ``damage BASELINE DATA``: localise stiffness loss from a validated baseline (the model's stiffness
   parameters or one per element; expansion and L1 regularisation), refine the located set by
@@ -7,8 +7,7 @@
 * ``update-multi MODEL --config DATA[:MODIFICATION] ...``: one set of unknowns updated from several
   test configurations (perturbed boundary conditions), directly when every configuration's data
   are complete, iteratively otherwise;
-* ``rank-modifications MODEL CANDIDATES``: pre-test ranking of candidate modifications;
-* ``fullfield MODEL SCAN``: scanning data by coordinates onto the model's dofs, then the direct solution.
+* ``rank-modifications MODEL CANDIDATES``: pre-test ranking of candidate modifications.
 """
 
 from __future__ import annotations
@@ -387,60 +386,3 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
         ctx.console.print("greedy selection: " + " -> ".join(res.selected))
     emit(ctx, {"model": model.name, "criterion": res.criterion, "unknowns": list(res.unknowns), "baseline": res.baseline,
                 "candidates": res.candidates, "selected": res.selected})
-
-
-# ---------------------------------------------------------------------------------- fullfield
-@click.command()
-@click.argument("model_path", metavar="MODEL", type=_path)
-@click.argument("scan_path", metavar="SCAN", type=_path)
-@click.option("--method", type=click.Choice(["rbf", "elements", "local"]), default="rbf", show_default=True,
-              help="Mapping onto the dofs: smoothing spline, element shape functions, or local fits.")
-@click.option("--form", type=click.Choice(["projected", "pointwise"]), default="projected", show_default=True,
-              help="Direct equations projected onto the measured shapes, or pointwise (paper eqs. 4-10).")
-@click.option("--unknowns", default=None, help="Parameters to identify (default: all not fixed).")
-@click.option("--bounded", is_flag=True, help="Honour parameter bounds.")
-@click.option("--write-data", "data_out", type=OUTPUT_FILE, default=None, help="Also write the completed test data (JSON).")
-@set_option
-@json_option
-def fullfield(model_path, scan_path, method, form, unknowns, bounded, data_out, set_text, json_path):
-    """Map a full-field SCAN (points by coordinates) onto MODEL's dofs and identify its parameters directly."""
-    from ..fullfield import full_field_direct, structure_segments
-    from ..fullfield.files import load_scan
-
-    ctx = Ctx(json_path)
-    structure, model = _load_structure(model_path)
-    values = model_values(model, set_text)
-    scan = load_scan(scan_path)
-    res, mp = full_field_direct(model, scan, method=method, form=form, values=values, unknowns=_names(unknowns),
-                                bounded=bounded, segments=structure_segments(structure) if structure is not None else None)
-    c = ctx.console
-    c.print(f"{len(scan.points)} scan points, largest distance from the geometry {mp.max_distance:.3g} (tolerance "
-            f"{mp.tolerance:.3g}); mapped by {mp.method}: interpolation error {mp.interpolation_error * 100:.3g} % of the "
-            f"largest value; rotations inferred: {', '.join(mp.inferred) or 'none'}; zero: {', '.join(mp.zero) or 'none'}")
-    c.print(_parameter_table(f"{model.name}: direct ({form}) from {res.system.n_equations} equations", model, values,
-                             res.unknowns, res.x, res.standard_error))
-    for n in mp.notes + res.notes:
-        c.print(f"note: {n}")
-    found = flags(model, res.parameters, res.unknowns)
-    print_flags(ctx, found)
-    if data_out is not None:
-        from ..io.results import write_json
-
-        write_json(data_out, {"modes": [{"eigenvalue": m.eigenvalue, "label": m.label, "shape": dict(zip(m.dofs, m.shape))}
-                                        for m in mp.data.modes]}
-                   | ({"frf": {"omega_rad_s": mp.data.frf.omega, "force": mp.data.frf.force,
-                               "response": {d: [[complex(v).real, complex(v).imag] for v in mp.data.frf.response[:, j]]
-                                            for j, d in enumerate(mp.data.frf.dofs)}}} if mp.data.frf is not None else {}))
-        c.print(f"completed test data written to {data_out}")
-    emit(ctx, {
-        "model": model.name, "parameters": res.parameters, "unknowns": list(res.unknowns),
-        "standard_error": dict(zip(res.unknowns, res.standard_error)), "condition_number": res.condition_number,
-        "condition_number_scaled": res.condition_number_scaled, "residual_norm": res.residual_norm,
-        "relative_residual": res.relative_residual, "rank": res.rank, "unique": res.unique, "form": form,
-        "mapping": {"method": mp.method, "interpolation_error": mp.interpolation_error, "max_distance": mp.max_distance,
-                    "tolerance": mp.tolerance, "inferred": mp.inferred, "zero": mp.zero, "fields": mp.fields,
-                    "node_gap": mp.node_gap, "notes": mp.notes},
-        "notes": res.notes, "flags": found,
-    })
-    if not res.unique:
-        raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")

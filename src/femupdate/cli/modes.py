@@ -2,46 +2,73 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 
 import click
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import (INPUT_FILE, OUTPUT_FILE, Ctx, FiniteFloat, correlation_table, damping_fields, data_fields, emit, fmt,
-                      json_option, load_data, measured_dofs_option, model_values, option_dofs, print_damping,
-                      print_data_notes, set_option)
-from .frf import damping_option, parse_damping
+from ..options import PairingOptions
+from ._common import INPUT_FILE, Ctx, correlation_table, fmt, model_values, option_dofs, print_damping, print_data_notes
+from ._groups import GroupedCommand, option_group
+from .data_options import DataSpec, pairing_group, test_data_group
+from .outputs import Outputs, outputs_group
+
+
+@dataclasses.dataclass(frozen=True)
+class ModesSpec:
+    """``modes``' options of the eigen-solution, as typed (:func:`modes_group`)."""
+
+    n_modes: int | None
+    normalisation: str
+    method: str
+
+    def normalisation_for(self, model) -> str:
+        """The normalisation, a ``ref:`` dof as the model's label (``#N`` resolved)."""
+        if self.normalisation.startswith("ref:"):
+            return "ref:" + option_dofs([self.normalisation[4:]], model, "--normalise")[0]
+        return self.normalisation
+
+    def check(self, model) -> None:
+        """Refuse more modes than the model has dofs."""
+        if self.n_modes is not None and self.n_modes > model.n_dofs:
+            raise InputError(f"--n-modes {self.n_modes}: the model has only {model.n_dofs} dofs")
+
+
+def modes_group() -> Callable:
+    """``--n-modes``, ``--normalise``, ``--method`` -> ``modal``: :class:`ModesSpec`."""
+    return option_group(
+        "Modes", "modal", lambda **kw: ModesSpec(**kw),
+        click.option("--n-modes", type=click.IntRange(min=1), default=None,
+                     help="Number of modes (default all for small models, 10 for large)."),
+        click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
+                     help="mass | unit | max | ref:<dof> (a label, or #N: the N-th model dof)"),
+        click.option("--method", type=click.Choice(["auto", "dense", "sparse"]), default="auto", show_default=True),
+    )
 
 
 # ---------------------------------------------------------------------------------- modes
-@click.command()
+@click.command(cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
-@click.option("--n-modes", type=click.IntRange(min=1), default=None, help="Number of modes (default all for small models, 10 for large).")
-@click.option("--normalise", "--normalize", "normalisation", default="mass", show_default=True,
-              help="mass | unit | max | ref:<dof> (a label, or #N: the N-th model dof)")
-@click.option("--method", type=click.Choice(["auto", "dense", "sparse"]), default="auto", show_default=True)
-@click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
-              help="Also write the modes as universal file datasets 55 (with nodes 2411).")
-@set_option
-@json_option
-def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_path):
+@modes_group()
+@outputs_group(uff="Also write the modes as universal file datasets 55 (with nodes 2411).", report=False)
+def modes(model_path, modal: ModesSpec, outputs: Outputs):
     """Natural frequencies and mode shapes of MODEL."""
     from ..io.model_file import load_model
     from ..modal import model_modes
 
-    ctx = Ctx(json_path)
+    ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
-    values = model_values(model, set_text)
-    if normalisation.startswith("ref:"):
-        normalisation = "ref:" + option_dofs([normalisation[4:]], model, "--normalise")[0]
-    if uff_path is not None:
+    values = model_values(model, outputs.set_text)
+    normalisation = modal.normalisation_for(model)
+    if outputs.uff_path is not None:
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "modes --uff")  # before the eigen-solution: named nodes cannot be written
-    if n_modes is not None and n_modes > model.n_dofs:
-        raise InputError(f"--n-modes {n_modes}: the model has only {model.n_dofs} dofs")
-    res = model_modes(model, values, n_modes=n_modes, normalisation=normalisation, method=method)
+    modal.check(model)
+    res = model_modes(model, values, n_modes=modal.n_modes, normalisation=normalisation, method=modal.method)
     t = Table(title=f"{model.name}: {model.n_dofs} dofs, {res.n_modes} modes")
     t.add_column("mode", justify="right")
     t.add_column("frequency [Hz]", justify="right")
@@ -52,58 +79,38 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
     if res.n_rigid:
         ctx.console.print(f"{res.n_rigid} rigid-body mode(s)")
     ctx.console.print(f"eigen-solution: {res.solver}")
-    if uff_path is not None:
+    if outputs.uff_path is not None:
         from ..io.uff import write_uff_modes
 
-        write_uff_modes(uff_path, res, nodes=model.nodes, model_name=model.name)
-        ctx.console.print(f"modes written to {uff_path}")
-    emit(ctx, {
-        "model": model.name, "eigenvalues": res.eigenvalues, "frequencies_hz": res.frequencies_hz,
-        "dofs": list(res.dofs), "shapes": res.shapes.T, "normalisation": res.normalisation,
-        "n_rigid": res.n_rigid,
-        "parameters": dict(zip(model.parameter_names, model.resolve(values))),
-        "solver": res.solver,
-    })
+        write_uff_modes(outputs.uff_path, res, nodes=model.nodes, model_name=model.name)
+        ctx.console.print(f"modes written to {outputs.uff_path}")
+    outputs.emit(ctx, res.to_json())
 
 
 # ---------------------------------------------------------------------------------- correlate
-@click.command()
+@click.command(cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.argument("data_path", metavar="DATA", type=INPUT_FILE)
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
-              help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not confirmed.")
-@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
-              help="How test modes pair with model modes: the same rule as update's --pairing.")
-@measured_dofs_option
-@damping_option
-@set_option
-@json_option
-def correlate(model_path, data_path, min_mac, pairing, measured_text, damping_text, set_text, json_path):
+@pairing_group()
+@test_data_group(damping=True)
+@outputs_group(report=False)
+def correlate(model_path, data_path, pairing: PairingOptions, data_spec: DataSpec, outputs: Outputs):
     """Pair test and model modes by MAC; frequency errors and COMAC; measured damping ratios against
     the model's (--damping)."""
     from ..correlation import correlate as _correlate
     from ..io.model_file import load_model
     from ..modal import model_modes
 
-    ctx = Ctx(json_path)
+    ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
-    values = model_values(model, set_text)
-    data = load_data(data_path, model, measured_text)
+    values = model_values(model, outputs.set_text)
+    data = data_spec.load(data_path, model)
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
-    corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing)
+    corr = _correlate(data, mm, min_mac=pairing.min_mac, pairing=pairing.rule)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
-    damping = damping_fields(data, {i: float(corr.model_frequencies_hz[j]) for i, j, _ in corr.pairs},
-                             parse_damping(damping_text, data))
-    print_damping(ctx.console, data, damping)
+    corr = corr.with_context(damping=data_spec.damping(data))
+    print_damping(ctx.console, data, corr.payload().get("damping_ratio"))  # as computed (the JSON's NaN are null)
     print_data_notes(ctx, data)
-    extra = ({"notes": list(data.notes)} if data.notes else {}) | data_fields(data)
-    if damping is not None:
-        extra["damping_ratio"] = damping
-    emit(ctx, {
-        "dofs": list(corr.dofs), "mac": corr.mac, "pairs": [[i, j, m] for i, j, m in corr.pairs],
-        "frequencies_hz": {"test": corr.test_frequencies_hz, "model": corr.model_frequencies_hz},
-        "frequency_error": corr.frequency_error, "comac": dict(zip(corr.dofs, corr.comac)),
-        "unpaired_test": corr.unpaired_test, "unconfirmed": corr.unconfirmed, "pairing": pairing, **extra,
-    })
+    outputs.emit(ctx, corr.to_json())

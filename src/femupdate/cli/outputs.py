@@ -44,9 +44,9 @@ class Outputs:
         return progress(what, total, console=ctx.console, quiet=self.json_path == "-")
 
 
-def outputs_group(plot: bool | str = False, model_out: bool = False, uff: bool = False, report: bool = True) -> Callable:
+def outputs_group(plot: bool | str = False, model_out: bool = False, uff: bool | str = False, report: bool = True) -> Callable:
     """``--json``, ``--set`` and, as asked, ``--report``, ``--plot`` (``plot`` a string: its help),
-    ``--write-model``, ``--csv`` and ``--uff`` -> ``outputs``: :class:`Outputs`."""
+    ``--write-model``, ``--csv`` and ``--uff`` (``uff`` a string: its help) -> ``outputs``: :class:`Outputs`."""
     options: list = []
     if plot:
         options.append(click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
@@ -56,7 +56,8 @@ def outputs_group(plot: bool | str = False, model_out: bool = False, uff: bool =
         options += [write_model_option, csv_option]
     if uff:
         options.append(click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
-                                    help="Write the updated model's modes (with its nodes) as a universal file."))
+                                    help=uff if isinstance(uff, str) else
+                                    "Write the updated model's modes (with its nodes) as a universal file."))
     if report:
         options.append(report_option)
     options += [set_option, json_option]

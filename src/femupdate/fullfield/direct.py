@@ -8,8 +8,10 @@ import numpy as np
 
 from .._errors import InputError
 from ..direct import DirectResult, LinearSystem, build_system, direct_update, solve_system
+from ..serialise import RunContext
 from ..testdata import TestData
-from .mapping import FullFieldMapping, map_scan
+from .mapping import FullFieldMapping, map_scan  # noqa: F401  (FullFieldMapping named here too)
+from .result import FullFieldResult
 from .scan import ScanData
 
 
@@ -128,7 +130,7 @@ def complete_direct(model, data: TestData, *, form: str = "projected", use=("mod
 
 
 def full_field_direct(model, scan: ScanData, *, form: str = "projected", use=("modes", "frf"), values=None, unknowns=None,
-                      bounded: bool = False, **mapping) -> tuple[DirectResult, FullFieldMapping]:
+                      bounded: bool = False, **mapping) -> FullFieldResult:
     """Map the scan onto the model's dofs (:func:`map_scan`) and solve directly.
 
     Parameters
@@ -149,8 +151,9 @@ def full_field_direct(model, scan: ScanData, *, form: str = "projected", use=("m
 
     Returns
     -------
-    result : DirectResult
-    mapping : FullFieldMapping
+    FullFieldResult
+        The direct solution (``.direct``) and the mapping (``.mapping``), with the model as its
+        context; it unpacks as ``result, mapping = full_field_direct(...)``.
 
     Raises
     ------
@@ -163,4 +166,4 @@ def full_field_direct(model, scan: ScanData, *, form: str = "projected", use=("m
     if not kinds:
         raise InputError(f"the scan holds none of the data kinds asked for ({', '.join(use)})")
     res = complete_direct(model, m.data, form=form, use=kinds, values=values, unknowns=unknowns, bounded=bounded)
-    return res, m
+    return FullFieldResult(res, m, form, context=RunContext(model=model))

@@ -11,7 +11,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -116,8 +117,27 @@ def _ranking(values: dict, reverse: bool = False) -> list[str]:
     return sorted(values, key=lambda k: values[k], reverse=reverse)
 
 
-def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, sigma_E: float = 0.1,
-                    model_errors=MODEL_ERRORS) -> dict:
+@dataclass(frozen=True, eq=False)
+class _Truss:
+    """Tan's truss as :func:`reduction_truss` studies it: the model, the kept dofs and their
+    partition, the full model's modes, the criteria and transformations of each scenario."""
+
+    model: Any
+    n_members: int
+    keep: list[str]
+    red: Reducer
+    fm: Any
+    frac: float
+    frac20: float
+    crit: dict
+    trans: dict
+
+    #: scenario -> the number of modes of interest (the global modes; and with the first local one)
+    scenarios: ClassVar[dict[str, int]] = {"global": 5, "with_local": 6}
+
+
+def _truss() -> _Truss:
+    """The truss, its Tan keep-set and every method's transformation per scenario."""
     s, n_members = larc_truss(**TRUSS)
     model = s.build()
     keep = tan_keep(TRUSS["n_bays"])
@@ -125,40 +145,56 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
     fm = red.modes(30)  # cached: the modal and hybrid transformations reuse these
     frac = mass_fraction(model, keep)
     frac20 = mass_fraction(model, truss_keep(TRUSS["n_bays"]))
-    scenarios = {"global": 5, "with_local": 6}
+    scenarios = _Truss.scenarios
     crit = {k: reduction_criteria(model, keep, reducer=red, n_interest=m, f_max_hz=float(fm.frequencies_hz[m - 1]), warn=False)
             for k, m in scenarios.items()}
     trans = {(meth, k): red.transformation(meth, n_modes=m if meth in ("modal", "hybrid") else None)
              for k, m in scenarios.items() for meth in METHODS}
-    # eq. 42 check: printed vs O'Callahan's IRS, frequency errors of the first 5 modes
-    f5 = fm.frequencies_hz[:5]
+    return _Truss(model, n_members, keep, red, fm, frac, frac20, crit, trans)
+
+
+def _eq42(t: _Truss) -> dict:
+    """Eq. 42 as printed against O'Callahan's IRS: the largest frequency error of the first 5 modes."""
+    red = t.red
+    f5 = t.fm.frequencies_hz[:5]
 
     def ferr(T):
         lam = reduced_eigenvalues(project(red.K, T), project(red.M, T))
         return float(np.max(np.abs(np.sqrt(np.clip(lam[:5], 0, None)) / (2 * np.pi) / f5 - 1)))
 
-    eq42 = {"guyan": ferr(trans[("guyan", "global")].T), "irs_corrected": ferr(trans[("irs", "global")].T),
+    return {"guyan": ferr(t.trans[("guyan", "global")].T), "irs_corrected": ferr(t.trans[("irs", "global")].T),
             "irs_as_printed": ferr(irs_as_printed(red))}
-    # test data from perturbed trusses (member moduli ~ N(1, sigma), joint masses x U(0.5, 2), shape noise),
-    # the same seeds at every model error so that only the size of the error changes
-    errors = tuple(sorted(set(model_errors) | {sigma_E}))
+
+
+def _model_error_sweep(t: _Truss, seeds: int, noise: float, errors: tuple) -> dict:
+    """Tan's metrics per model error, scenario and method, averaged over the seeded trusses.
+
+    Test data from perturbed trusses (member moduli ~ N(1, sigma), joint masses x U(0.5, 2), shape
+    noise), the same seeds at every model error so that only the size of the error changes."""
     sweep: dict = {}
     for sig in errors:
-        per: dict[str, dict[str, list[dict]]] = {k: {meth: [] for meth in METHODS} for k in scenarios}
+        per: dict[str, dict[str, list[dict]]] = {k: {meth: [] for meth in METHODS} for k in t.scenarios}
         for seed in range(seeds):
             rng = np.random.default_rng(1000 + seed)
-            eps, jm = rng.standard_normal(n_members), rng.uniform(0.5, 2.0, 4 * TRUSS["n_bays"])
+            eps, jm = rng.standard_normal(t.n_members), rng.uniform(0.5, 2.0, 4 * TRUSS["n_bays"])
             st, _ = larc_truss(**{**TRUSS, "E_factors": 1.0 + sig * eps,
                                   "joint_masses": TRUSS["joint_mass"] * (jm if sig > 0 else np.ones_like(jm))})
             tm = model_modes(st.build(), n_modes=12, method="sparse")
-            for k, m in scenarios.items():
-                X = tm.at(keep)[:, :m]
+            for k, m in t.scenarios.items():
+                X = tm.at(t.keep)[:, :m]
                 X = X + noise * rng.standard_normal(X.shape) * np.abs(X).max(axis=0)
                 for meth in METHODS:
-                    r = tam_metrics(model, trans[(meth, k)], n_modes=m, test_shapes=X, full_modes=fm)
+                    r = tam_metrics(t.model, t.trans[(meth, k)], n_modes=m, test_shapes=X, full_modes=t.fm)
                     per[k][meth].append(r.summary())
         sweep[sig] = {k: {meth: {q: float(np.mean([row[q] for row in rows])) for q in rows[0] if q != "method"}
                           for meth, rows in d.items()} for k, d in per.items()}
+    return sweep
+
+
+def _truss_findings(sweep: dict, errors: tuple, sigma_E: float) -> dict:
+    """Tan's accuracy and robustness claims, judged on the sweep: the table at ``sigma_E``, the
+    rankings, the growth of the self-orthogonality error and which claims hold."""
+    scenarios = _Truss.scenarios
     table = sweep[sigma_E]
     g = table["global"]
     acc_ok = bool(g["guyan"]["max_frequency_error"] > 5 * g["irs"]["max_frequency_error"]
@@ -166,28 +202,37 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
                   < g["irs"]["max_frequency_error"])
     so = "self_orthogonality_max_offdiag"
     rob = {k: {meth: t[meth][so] for meth in METHODS} for k, t in table.items()}
-    rob_ok = {k: bool(min(r["modal"], r["hybrid"]) > 1.2 * max(r["guyan"], r["irs"])) for k, r in rob.items()}
-    modal_worse = {k: bool(r["modal"] > 1.2 * max(r["guyan"], r["irs"])) for k, r in rob.items()}
     # Tan's robustness claims, measured at every model error: ranking (most robust first) and the growth
     # of the self-orthogonality error from the exact model to the largest error
     lo, hi = errors[0], errors[-1]
-    rank_by_error = {str(sig): {k: _ranking({meth: sweep[sig][k][meth][so] for meth in METHODS}) for k in scenarios}
-                     for sig in errors}
     growth = {k: {meth: sweep[hi][k][meth][so] - sweep[lo][k][meth][so] for meth in METHODS} for k in scenarios}
     worst = {k: {meth: sweep[hi][k][meth][so] for meth in METHODS} for k in scenarios}
     tan_order = {k: bool(max(worst[k]["irs"], worst[k]["guyan"]) < min(worst[k]["modal"], worst[k]["hybrid"]))
                  for k in scenarios}
-    irs_over_guyan = all(sweep[sig][k]["irs"][so] <= sweep[sig][k]["guyan"][so] for sig in errors for k in scenarios)
-    modal_fastest = {k: bool(growth[k]["modal"] == max(growth[k].values())) for k in scenarios}
-    reproduced = bool(acc_ok and all(tan_order.values()))
-    loc = "with_local"
-    explanation = (
-        f"Tan's conditions: {len(keep)} retained dofs carrying {frac:.1%} of the mass (Tan: about 5 %), test modes from "
+    return {
+        "table": table, "g": g, "so": so, "lo": lo, "hi": hi, "acc_ok": acc_ok, "growth": growth, "worst": worst,
+        "rob_ok": {k: bool(min(r["modal"], r["hybrid"]) > 1.2 * max(r["guyan"], r["irs"])) for k, r in rob.items()},
+        "modal_worse": {k: bool(r["modal"] > 1.2 * max(r["guyan"], r["irs"])) for k, r in rob.items()},
+        "rank_by_error": {str(sig): {k: _ranking({meth: sweep[sig][k][meth][so] for meth in METHODS})
+                                     for k in scenarios} for sig in errors},
+        "tan_order": tan_order,
+        "irs_over_guyan": all(sweep[sig][k]["irs"][so] <= sweep[sig][k]["guyan"][so] for sig in errors
+                              for k in scenarios),
+        "modal_fastest": {k: bool(growth[k]["modal"] == max(growth[k].values())) for k in scenarios},
+        "reproduced": bool(acc_ok and all(tan_order.values())),
+    }
+
+
+def _truss_explanation(t: _Truss, f: dict, sweep: dict, errors: tuple, seeds: int, noise: float) -> str:
+    """How the truss's figures compare with Tan's findings, in words."""
+    g, so, lo, hi, growth, worst, loc = f["g"], f["so"], f["lo"], f["hi"], f["growth"], f["worst"], "with_local"
+    return (
+        f"Tan's conditions: {len(t.keep)} retained dofs carrying {t.frac:.1%} of the mass (Tan: about 5 %), test modes from "
         f"trusses with member moduli x N(1, sigma) for sigma = {', '.join(f'{e:g}' for e in errors)}, joint masses x "
         f"U(0.5, 2), {noise:.0%} shape noise, {seeds} seeded trusses per sigma. Accuracy ranks as Tan found "
-        f"({'yes' if acc_ok else 'NO'}): Guyan {g['guyan']['max_frequency_error']:.1%}, IRS "
+        f"({'yes' if f['acc_ok'] else 'NO'}): Guyan {g['guyan']['max_frequency_error']:.1%}, IRS "
         f"{g['irs']['max_frequency_error']:.2%}, modal/hybrid exact. Robustness (test self-orthogonality with the "
-        f"reduced mass): IRS is at least as robust as Guyan at every sigma ({'yes' if irs_over_guyan else 'no'}), as Tan "
+        f"reduced mass): IRS is at least as robust as Guyan at every sigma ({'yes' if f['irs_over_guyan'] else 'no'}), as Tan "
         f"found. The modal and hybrid reduced masses are built from the analytical modes (modal: M_r = "
         "pinv(phi_a)' pinv(phi_a)), so their self-orthogonality measures how far the test modes leave the span of "
         "the model's target modes - it grows with the model error, fastest for the modal TAM "
@@ -195,13 +240,27 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
         f"+{growth[loc]['guyan']:.3f} Guyan, +{growth[loc]['irs']:.3f} IRS, +{growth[loc]['hybrid']:.3f} hybrid), which "
         "is Tan's point (robustness depends on the accuracy of the FEM, unknown a priori). Guyan and IRS depend on "
         "stiffness and mass, not on the modes, so they change less. At sigma "
-        f"{hi:g} with the local mode the order (most robust first) is {', '.join(rank_by_error[str(hi)][loc])}"
-        + ("" if tan_order[loc] else f": the modal TAM is the least robust as Tan found, but the hybrid stays between "
+        f"{hi:g} with the local mode the order (most robust first) is {', '.join(f['rank_by_error'][str(hi)][loc])}"
+        + ("" if f["tan_order"][loc] else f": the modal TAM is the least robust as Tan found, but the hybrid stays between "
            f"IRS and Guyan here ({worst[loc]['hybrid']:.3f} vs {worst[loc]['irs']:.3f} / {worst[loc]['guyan']:.3f}), "
            "because its Guyan part carries the modes outside the target span")
         + "; with the global modes only and small model error all four are near the noise floor ("
         + ", ".join(f"{m_} {sweep[lo]['global'][m_][so]:.3f}" for m_ in METHODS) + f" at sigma {lo:g}), so Tan's "
         "separation needs model error and modes outside the analytical target set.")
+
+
+def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, sigma_E: float = 0.1,
+                    model_errors=MODEL_ERRORS) -> dict:
+    """Tan's truss (module docstring): Guyan, IRS, Kammer modal and hybrid compared for accuracy
+    and robustness over the model errors ``model_errors`` (and ``sigma_E``, whose metrics are
+    tabulated), ``seeds`` perturbed trusses each with ``noise`` on the shapes; and eq. 42 checked."""
+    t = _truss()
+    eq42 = _eq42(t)
+    errors = tuple(sorted(set(model_errors) | {sigma_E}))
+    sweep = _model_error_sweep(t, seeds, noise, errors)
+    f = _truss_findings(sweep, errors, sigma_E)
+    explanation = _truss_explanation(t, f, sweep, errors, seeds, noise)
+    g, hi, worst, loc, model, keep, frac = f["g"], f["hi"], f["worst"], "with_local", t.model, t.keep, t.frac
     out = {
         "equations": "35-44",
         "description": "cantilevered 10-bay space truss (stand-in for the NASA LaRC truss of Tan 1993): bays 0.5 m x 0.5 m "
@@ -211,30 +270,30 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
                        f"model error sigma in {list(errors)} (member moduli x N(1, sigma), joint masses x U(0.5, 2)), "
                        f"{noise:.0%} noise on the shapes; metrics averaged; 'metrics' is sigma = {sigma_E}. Scenarios: the 5 "
                        "global modes, and 6 modes that take in the first local member mode",
-        "geometry": TRUSS | {"n_members": n_members, "n_dofs": model.n_dofs},
+        "geometry": TRUSS | {"n_members": t.n_members, "n_dofs": model.n_dofs},
         "keep": keep,
         "retained_mass_fraction": frac,
-        "retained_mass_fraction_20_dof_set": frac20,
+        "retained_mass_fraction_20_dof_set": t.frac20,
         "paper": {"retained_mass_fraction": 0.05,
                   "conclusions": "Guyan: poor accuracy, acceptable robustness; IRS: accuracy much improved, robustness "
                                  "also improved; modal and hybrid: highly accurate, considerably worse robustness than "
                                  "Guyan or IRS"},
-        "full_frequencies_hz": fm.frequencies_hz[:10],
+        "full_frequencies_hz": t.fm.frequencies_hz[:10],
         "criteria": {k: {"grounded_frequency_hz": c.grounded_frequency_hz, "gordis_overlap": c.overlap,
-                         "ratio": c.ratio, "messages": c.messages} for k, c in crit.items()},
+                         "ratio": c.ratio, "messages": c.messages} for k, c in t.crit.items()},
         "eq42_max_frequency_error_first5": eq42,
-        "metrics": table,
+        "metrics": f["table"],
         "model_error_sweep": {str(k): v for k, v in sweep.items()},
-        "robustness_ranking_by_model_error": rank_by_error,
-        "self_orthogonality_growth": growth,
-        "accuracy_ranking_matches": acc_ok,
-        "robustness_ranking_matches": rob_ok,
-        "modal_less_robust": modal_worse,
-        "irs_at_least_as_robust_as_guyan": irs_over_guyan,
-        "modal_degrades_fastest": modal_fastest,
-        "tan_ranking_at_largest_model_error": tan_order,
-        "agrees_with_paper": reproduced,
-        "comparison": "agree" if reproduced else "differ-explained",
+        "robustness_ranking_by_model_error": f["rank_by_error"],
+        "self_orthogonality_growth": f["growth"],
+        "accuracy_ranking_matches": f["acc_ok"],
+        "robustness_ranking_matches": f["rob_ok"],
+        "modal_less_robust": f["modal_worse"],
+        "irs_at_least_as_robust_as_guyan": f["irs_over_guyan"],
+        "modal_degrades_fastest": f["modal_fastest"],
+        "tan_ranking_at_largest_model_error": f["tan_order"],
+        "agrees_with_paper": f["reproduced"],
+        "comparison": "agree" if f["reproduced"] else "differ-explained",
         "explanation": explanation,
         "finding": explanation + " Eq. 42 as printed (minus sign, M_aa^-1 K_aa) is not O'Callahan's IRS and is far "
                                  "less accurate.",
@@ -242,13 +301,13 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
                     f"IRS {g['irs']['max_frequency_error']:.3%}, modal/hybrid {g['modal']['max_frequency_error']:.0e}; "
                     f"self-orth. off-diag (6 modes, model error {hi:g}) "
                     + " ".join(f"{m_[0].upper()} {worst[loc][m_]:.3f}" for m_ in METHODS)
-                    + f"; Tan's robustness order {'reproduced' if tan_order[loc] else 'partly: modal worst, hybrid not'}; "
+                    + f"; Tan's robustness order {'reproduced' if f['tan_order'][loc] else 'partly: modal worst, hybrid not'}; "
                     f"eq. 42 as printed: error {eq42['irs_as_printed']:.1%}"),
     }
     if figures:
         from ..plot.reduction import truss_metrics_figure
 
-        out["figure"] = truss_metrics_figure(out_dir / "reduction_truss.png", table, METHODS,
+        out["figure"] = truss_metrics_figure(out_dir / "reduction_truss.png", f["table"], METHODS,
                                              sweep={k: v[loc] for k, v in sweep.items()})
     return out
 

@@ -7,7 +7,9 @@
 * :mod:`~femupdate.reduction.metrics` — Tan's (1993) accuracy and robustness measures;
 * :mod:`~femupdate.reduction.criteria` — Gordis's and Larsson & Sas's pre-reduction checks;
 * :mod:`~femupdate.reduction.selection` — retained-dof mass fraction, effective independence;
-* :mod:`~femupdate.reduction.superelement` — connectivity-preserving super-elements (Lin 1993).
+* :mod:`~femupdate.reduction.superelement` — connectivity-preserving super-elements (Lin 1993);
+* :func:`reduce_model` — one reduction compared with the full model and the other methods
+  (:class:`ReductionResult`, what ``femupdate reduce`` writes).
 """
 
 from .criteria import ReductionCriteria, reduction_criteria
@@ -16,6 +18,7 @@ from .metrics import TamMetrics, orthogonality, tam_metrics
 from .projection import Transformation, project, reduce, reduced_eigenvalues, reduced_matrices
 from .reducer import METHODS, Reducer, mechanism_dofs
 from .selection import EfiResult, effective_independence, mass_fraction
+from .study import ReductionResult, reduce_model
 from .superelement import assemble, condense, split_structure, superelement_model
 from .transforms import guyan, irs, kammer_hybrid, kammer_modal, serep, transformation
 
@@ -28,4 +31,5 @@ __all__ = [
     "reduction_criteria", "ReductionCriteria",
     "mass_fraction", "effective_independence", "EfiResult",
     "assemble", "condense", "split_structure", "superelement_model",
+    "reduce_model", "ReductionResult",
 ]

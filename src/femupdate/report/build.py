@@ -292,6 +292,8 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         before = before if before is not None else ctx.before
         damping = damping if damping is not None else ctx.damping
         result = result.to_json()
+        if kind is None and result["kind"] not in REPORT_KINDS:
+            kind = _report_kind(result)
     res = _jsonable(result)
     where = f"{source}: " if source else ""
     if kind is not None and kind not in BUILDERS:
@@ -310,6 +312,16 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         log.debug("the report failed on the result", exc_info=True)
         raise InputError(f"{where}the {kind} result is not as femupdate writes it ({type(exc).__name__}: {exc}); was "
                          "the file edited, or written by another program?") from None
+
+
+def _report_kind(result: Mapping) -> str:
+    """The report kind of a typed result whose own kind has no report of its name (a ``demo``
+    result is a ``direct`` one); refused, naming its kind, when there is none."""
+    try:
+        return detect_kind({k: v for k, v in result.items() if k != "kind"})
+    except InputError:
+        raise InputError(f"results of kind {result['kind']!r} have no report (reports are made of the results of "
+                         f"{', '.join(REPORT_KINDS)})") from None
 
 
 def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str = "", data_what: str = "") -> None:

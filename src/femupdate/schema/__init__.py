@@ -78,6 +78,7 @@ KINDS: dict[str, Kind] = {}
 #: the modules that describe kinds
 MODULES: tuple[str, ...] = ("femupdate.schema.update",)
 MODULES += ("femupdate.schema.frf", "femupdate.schema.uniqueness")
+MODULES += ("femupdate.schema.modes", "femupdate.schema.direct", "femupdate.schema.reduction")
 
 
 def register(kind: Kind) -> Kind:
