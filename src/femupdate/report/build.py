@@ -13,7 +13,7 @@ import numpy as np
 
 from .._errors import FemupdateError, InputError
 from .._version import __version__
-from .content import BUILDERS, KINDS
+from .content import BUILDERS, KINDS, WITH_IMAGES
 from .document import Document
 
 log = logging.getLogger(__name__)
@@ -363,15 +363,15 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
         rec = recompute(model, data, _values(model, start), _values(model, after), res, pairing=pairing, damping=damping)
     name = res.get("model") or (model.name if model is not None else "")
     doc = Document(title=title or (f"{name}: {kind}" if name else kind), kind=REPORT_KINDS[kind], source=source)
-    if kind == "paper":
+    if kind in WITH_IMAGES:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind, images=images)  # type: ignore[call-arg]
     else:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind)
     if rec is not None:
         doc.notes.extend(rec.notes)
-    from .content import _notes_section
+    from .parts import notes_section
 
-    doc.sections.append(_notes_section(doc))
+    doc.sections.append(notes_section(doc))
     return _render(doc, res)
 
 
