@@ -249,7 +249,7 @@ def _import_result_modules() -> None:
 
 
 #: the modules whose result classes :data:`REGISTRY` holds
-RESULT_MODULES = ("femupdate.updating.results",)
+RESULT_MODULES = ("femupdate.updating.results", "femupdate.damage.detect", "femupdate.updating.multiconfig")
 
 
 __all__ = ["SCHEMA_VERSION", "RunContext", "Serialisable", "load_result", "REGISTRY"]
