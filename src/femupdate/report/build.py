@@ -126,6 +126,8 @@ def detect_kind(result: Mapping) -> str:
         return "uniqueness"
     if {"located", "changes"} <= keys:
         return "damage"
+    if {"solutions", "interval", "median"} <= keys:
+        return "posterior"
     if {"configurations", "conditioning"} <= keys:
         return "update-multi"
     if "n_equations" in keys and "condition_number" in keys:
@@ -261,7 +263,10 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     damping : mapping, optional
         Damping of an FRF run ({alpha, beta, eta}) for the FRF overlays (default undamped).
     images : mapping, optional
-        For ``paper``: {section: [embedded figure]} (:func:`paper_images`).
+        For ``paper``: {section: [embedded figure]} (:func:`paper_images`); for ``posterior``:
+        the figures of its samples (:func:`femupdate.report.posterior.sample_figures`).  Default:
+        a result object's own (``report_images()``: a paper's figures beside its file, a
+        posterior's samples).
     source : str, optional
         Where the result came from (shown in the header).
     title : str, optional
@@ -288,6 +293,8 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         data = data if data is not None else ctx.data
         before = before if before is not None else ctx.before
         damping = damping if damping is not None else ctx.damping
+        if images is None and hasattr(result, "report_images"):  # figures of what the JSON does not hold
+            images = result.report_images()
         result = result.to_json()
     res = _jsonable(result)
     where = f"{source}: " if source else ""
@@ -348,7 +355,7 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
     if model is not None and kind != "paper":
         _describe_parameters(res, model)
     rec = None
-    if model is not None and kind not in ("paper", "uniqueness", "update-multi"):
+    if model is not None and kind not in ("paper", "uniqueness", "update-multi", "posterior"):
         from .recompute import recompute
 
         after = res.get("parameters") if isinstance(res.get("parameters"), Mapping) else None

@@ -2,7 +2,8 @@
 JSON result (and, when given, what :mod:`.recompute` recomputed from the model and the data).
 
 The parts several kinds share are in :mod:`.parts` and :mod:`.sections`; each kind's builder in
-its module (:mod:`.update`, :mod:`.damage`, :mod:`.uniqueness`, :mod:`.paper`).  A builder is called as ``builder(doc, result, model, data, rec, segments,
+its module (:mod:`.update`, :mod:`.damage`, :mod:`.uniqueness`, :mod:`.paper`,
+:mod:`.posterior`).  A builder is called as ``builder(doc, result, model, data, rec, segments,
 kind)`` (with ``images=`` for the kinds that embed figures of their own) and fills the
 :class:`~.document.Document`.
 """
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 from .damage import build_damage
 from .paper import build_paper
+from .posterior import build_posterior
 from .uniqueness import build_uniqueness
 from .update import build_direct, build_multi, build_update
 
@@ -23,11 +25,13 @@ KINDS = {
     "damage": "femupdate damage (damage localisation)",
     "uniqueness": "femupdate uniqueness (uniqueness study)",
     "paper": "femupdate paper (the reference paper reproduced)",
+    "posterior": "femupdate posterior (Bayesian updating)",
 }
 
 BUILDERS = {"direct": build_direct, "update": build_update, "frf-update": build_update, "update-multi": build_multi,
-            "damage": build_damage, "uniqueness": build_uniqueness, "paper": build_paper}
+            "damage": build_damage, "uniqueness": build_uniqueness, "paper": build_paper,
+            "posterior": build_posterior}
 #: the kinds whose builder takes ``images`` (figures the result carries, or files beside it)
-WITH_IMAGES = ("paper",)
+WITH_IMAGES = ("paper", "posterior")
 
 __all__ = ["KINDS", "BUILDERS", "WITH_IMAGES"]
