@@ -76,7 +76,7 @@ COMMON = (
 #: kind -> its description (filled by the modules of :data:`MODULES`)
 KINDS: dict[str, Kind] = {}
 #: the modules that describe kinds
-MODULES = ("femupdate.schema.update",)
+MODULES = ("femupdate.schema.update", "femupdate.schema.damage", "femupdate.schema.posterior")
 
 
 def register(kind: Kind) -> Kind:
