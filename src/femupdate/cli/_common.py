@@ -20,6 +20,9 @@ from rich.table import Table
 
 from .._errors import FemupdateError, InputError
 from .._limits import MAX_MAGNITUDE
+# the JSON fields several results share, kept importable from here for the commands not yet converted
+from ..recording import (damping_fields, data_fields, diagnostics_extra, fitted_damping, flags,  # noqa: F401
+                         parameter_fields)
 
 
 class Ctx:
@@ -161,12 +164,6 @@ def load_data(path, model, measured_text: str | None = None, numbering=None, opt
             msg = str(exc)
             raise InputError(msg if msg.startswith(option) else f"{option}: {msg}") from None
     return load_testdata(path, model, numbering=numbering, sensors=sensors)
-
-
-def data_fields(data) -> dict:
-    """The JSON keys a result takes from its test data: ``units`` (a universal file's dataset
-    164, or the JSON's ``units``) when the data state them."""
-    return {"units": dict(data.units)} if data.units else {}
 
 
 def print_data_notes(ctx: "Ctx", data) -> None:
@@ -383,53 +380,6 @@ def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, va
 
 
 # ---------------------------------------------------------------------------------- damping
-def fitted_damping(data):
-    """The Rayleigh damping (α, β ≥ 0) that fits the test modes' damping ratios
-    (:meth:`femupdate.frf.Damping.rayleigh_fit`, weighted by their standard deviations when every
-    one has one): ``(Damping, {"alpha", "beta", "rms_error", "n_modes"})``, or ``(None, None)``
-    when fewer than two modes carry a damping ratio."""
-    from ..frf import Damping
-
-    use = [m for m in data.modes if m.damping_ratio is not None and m.eigenvalue > 0]
-    if len(use) < 2:
-        return None, None
-    std = [m.std_damping_ratio for m in use]
-    fit, resid = Damping.rayleigh_fit([np.sqrt(m.eigenvalue) for m in use], [m.damping_ratio for m in use],
-                                      None if any(v is None for v in std) else std)
-    return fit, {"alpha": fit.alpha, "beta": fit.beta, "rms_error": float(np.sqrt(np.mean(resid ** 2))),
-                 "n_modes": len(use)}
-
-
-def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
-    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
-    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
-    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
-    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
-    or more); None when neither the data nor the model have damping.
-
-    Parameters
-    ----------
-    data : TestData
-        The test modes.
-    paired_hz : dict of int to float
-        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
-    damping : Damping, optional
-        The model's damping (``--damping``).
-    """
-    zeta = data.damping_ratios
-    damped = damping is not None and not damping.undamped
-    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
-        return None
-    model: list[float | None] = [None] * len(data.modes)
-    if damped:
-        for i, f in paired_hz.items():
-            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
-    _, fit = fitted_damping(data)
-    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
-            "std": [m.std_damping_ratio for m in data.modes], "model": model,
-            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
-
-
 def print_damping(console, data, fields: dict | None) -> None:
     """The damping table (test ratio ± std, the model's, the difference) and the Rayleigh fit."""
     if not fields:
@@ -466,35 +416,10 @@ def correlation_table(corr, title):
     return t
 
 
-def flags(model, parameters, names) -> list[dict]:
-    """Flags on identified values: not > 0 where they must be, outside or on their bounds
-    (:func:`femupdate.flags.parameter_flags`); the results' JSON lists them under ``flags``."""
-    from ..flags import parameter_flags
-
-    return parameter_flags(model, parameters, names)
-
-
 def print_flags(ctx: Ctx, found: list[dict]) -> None:
     """One ``warning:`` line per flag (printed with the result; the exit code is unchanged)."""
     for f in found:
         ctx.console.print(f"warning: {f['message']}", markup=False)
-
-
-def parameter_fields(model, names=None) -> dict:
-    """The JSON keys that describe a result's parameters beyond their values: ``parameter_units``
-    {name: unit or null} (SI, from the element properties they stand for; null for matrix
-    models) and ``bounds`` {name: [lower, upper]} (null for an infinite bound).
-
-    Parameters
-    ----------
-    model : Model
-    names : sequence of str, optional
-        The parameters to describe (default: all of the model's).
-    """
-    names = model.parameter_names if names is None else names
-    par = {p.name: p for p in model.parameters}
-    return {"parameter_units": {n: par[n].unit or None for n in names},
-            "bounds": {n: list(par[n].bounds) for n in names}}
 
 
 def unit_suffix(unit: str | None) -> str:
@@ -564,16 +489,6 @@ def update_payload(model, data, res, ms=None):
     return out
 
 
-def diagnostics_extra(names, d) -> dict:
-    """The JSON keys of :class:`~femupdate.updating.Diagnostics` added to ``diagnostics`` for the
-    bounds and the parameters the data cannot move (the older keys are written by the callers):
-    ``absolute``, ``at_bounds`` {name: ``"lower"`` | ``"upper"``}, ``n_at_bounds``, ``free``,
-    ``poorly_determined_reasons`` {name: reason}, ``relative_std`` {name: value}."""
-    return {"absolute": d.absolute, "at_bounds": dict(d.at_bounds), "n_at_bounds": d.n_at_bounds,
-            "free": list(d.free), "poorly_determined_reasons": dict(d.poorly_determined_reasons),
-            "relative_std": dict(zip(names, d.relative_std))}
-
-
 def print_diagnostics(console, res) -> None:
     """The diagnostics' lines under an iterative update: convergence, cost and conditioning; the
     count of active bounds (naming them); each poorly determined parameter with its reason."""
@@ -598,20 +513,10 @@ def print_identifiability(console, d) -> None:
 
 
 def starts_payload(ms) -> dict:
-    """JSON of a multi-start study: counts, distinct solutions (marked ``fits``: they fit the data
-    as well as the best one), failures by reason and one record per start."""
-    return {
-        "total": ms.total, "converged": ms.converged, "seed": ms.seed,
-        "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits}
-                      for s in ms.solutions],
-        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost,
-        "failed": [r for r in ms.runs if isinstance(r, str)],
-        "failures": ms.failures,
-        "runs": ms.records(),
-        "seconds": {"compiled_batch": ms.batch_seconds,
-                    "per_start_total": None if ms.seconds is None else float(sum(ms.seconds)),
-                    "per_start_cpu_total": None if ms.cpu_seconds is None else float(sum(ms.cpu_seconds))},
-    }
+    """JSON of a multi-start study (:func:`femupdate.updating.record.starts_fields`)."""
+    from ..updating.record import starts_fields
+
+    return starts_fields(ms)
 
 
 def fitting_table(ms, what: str = "starts") -> Table:
