@@ -116,6 +116,60 @@ def _ranking(values: dict, reverse: bool = False) -> list[str]:
     return sorted(values, key=lambda k: values[k], reverse=reverse)
 
 
+def _criteria_and_transformations(model, keep, red: Reducer, fm, scenarios: dict) -> tuple[dict, dict]:
+    """The reduction criteria of each scenario and the transformation of each method and scenario."""
+    crit = {k: reduction_criteria(model, keep, reducer=red, n_interest=m, f_max_hz=float(fm.frequencies_hz[m - 1]), warn=False)
+            for k, m in scenarios.items()}
+    trans = {(meth, k): red.transformation(meth, n_modes=m if meth in ("modal", "hybrid") else None)
+             for k, m in scenarios.items() for meth in METHODS}
+    return crit, trans
+
+
+def _truss_description(n_dofs: int, n_keep: int, frac: float, seeds: int, errors, noise: float, sigma_E: float) -> str:
+    return ("cantilevered 10-bay space truss (stand-in for the NASA LaRC truss of Tan 1993): bays 0.5 m x 0.5 m "
+            "x 0.4 m, aluminium tubes 25 x 1.5 mm, each member 2 frame elements, 5 g joints; "
+            f"{n_dofs} dofs; {n_keep} retained dofs (x, y at one corner of every second level, "
+            f"alternating corners; {frac:.1%} of the mass, Tan's ~5 %). Test data: {seeds} perturbed trusses per "
+            f"model error sigma in {list(errors)} (member moduli x N(1, sigma), joint masses x U(0.5, 2)), "
+            f"{noise:.0%} noise on the shapes; metrics averaged; 'metrics' is sigma = {sigma_E}. Scenarios: the 5 "
+            "global modes, and 6 modes that take in the first local member mode")
+
+
+def _eq42(red: Reducer, trans: dict, fm) -> dict:
+    """Eq. 42 checked: the largest frequency error of the first 5 modes of Guyan, O'Callahan's IRS and
+    eq. 42 as printed."""
+    f5 = fm.frequencies_hz[:5]
+
+    def ferr(T):
+        lam = reduced_eigenvalues(project(red.K, T), project(red.M, T))
+        return float(np.max(np.abs(np.sqrt(np.clip(lam[:5], 0, None)) / (2 * np.pi) / f5 - 1)))
+
+    return {"guyan": ferr(trans[("guyan", "global")].T), "irs_corrected": ferr(trans[("irs", "global")].T),
+            "irs_as_printed": ferr(irs_as_printed(red))}
+
+
+def _tam_metrics_at(sig: float, model, keep, trans: dict, fm, scenarios: dict, n_members: int, seeds: int,
+                    noise: float) -> dict:
+    """The TAM metrics averaged over ``seeds`` test trusses at model error ``sig`` (member moduli ~ N(1, sig),
+    joint masses x U(0.5, 2), shape noise), per scenario and method; the same seeds at every model error so
+    that only the size of the error changes."""
+    per: dict[str, dict[str, list[dict]]] = {k: {meth: [] for meth in METHODS} for k in scenarios}
+    for seed in range(seeds):
+        rng = np.random.default_rng(1000 + seed)
+        eps, jm = rng.standard_normal(n_members), rng.uniform(0.5, 2.0, 4 * TRUSS["n_bays"])
+        st, _ = larc_truss(**{**TRUSS, "E_factors": 1.0 + sig * eps,
+                              "joint_masses": TRUSS["joint_mass"] * (jm if sig > 0 else np.ones_like(jm))})
+        tm = model_modes(st.build(), n_modes=12, method="sparse")
+        for k, m in scenarios.items():
+            X = tm.at(keep)[:, :m]
+            X = X + noise * rng.standard_normal(X.shape) * np.abs(X).max(axis=0)
+            for meth in METHODS:
+                r = tam_metrics(model, trans[(meth, k)], n_modes=m, test_shapes=X, full_modes=fm)
+                per[k][meth].append(r.summary())
+    return {k: {meth: {q: float(np.mean([row[q] for row in rows])) for q in rows[0] if q != "method"}
+                for meth, rows in d.items()} for k, d in per.items()}
+
+
 def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, sigma_E: float = 0.1,
                     model_errors=MODEL_ERRORS) -> dict:
     s, n_members = larc_truss(**TRUSS)
@@ -126,39 +180,10 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
     frac = mass_fraction(model, keep)
     frac20 = mass_fraction(model, truss_keep(TRUSS["n_bays"]))
     scenarios = {"global": 5, "with_local": 6}
-    crit = {k: reduction_criteria(model, keep, reducer=red, n_interest=m, f_max_hz=float(fm.frequencies_hz[m - 1]), warn=False)
-            for k, m in scenarios.items()}
-    trans = {(meth, k): red.transformation(meth, n_modes=m if meth in ("modal", "hybrid") else None)
-             for k, m in scenarios.items() for meth in METHODS}
-    # eq. 42 check: printed vs O'Callahan's IRS, frequency errors of the first 5 modes
-    f5 = fm.frequencies_hz[:5]
-
-    def ferr(T):
-        lam = reduced_eigenvalues(project(red.K, T), project(red.M, T))
-        return float(np.max(np.abs(np.sqrt(np.clip(lam[:5], 0, None)) / (2 * np.pi) / f5 - 1)))
-
-    eq42 = {"guyan": ferr(trans[("guyan", "global")].T), "irs_corrected": ferr(trans[("irs", "global")].T),
-            "irs_as_printed": ferr(irs_as_printed(red))}
-    # test data from perturbed trusses (member moduli ~ N(1, sigma), joint masses x U(0.5, 2), shape noise),
-    # the same seeds at every model error so that only the size of the error changes
+    crit, trans = _criteria_and_transformations(model, keep, red, fm, scenarios)
+    eq42 = _eq42(red, trans, fm)
     errors = tuple(sorted(set(model_errors) | {sigma_E}))
-    sweep: dict = {}
-    for sig in errors:
-        per: dict[str, dict[str, list[dict]]] = {k: {meth: [] for meth in METHODS} for k in scenarios}
-        for seed in range(seeds):
-            rng = np.random.default_rng(1000 + seed)
-            eps, jm = rng.standard_normal(n_members), rng.uniform(0.5, 2.0, 4 * TRUSS["n_bays"])
-            st, _ = larc_truss(**{**TRUSS, "E_factors": 1.0 + sig * eps,
-                                  "joint_masses": TRUSS["joint_mass"] * (jm if sig > 0 else np.ones_like(jm))})
-            tm = model_modes(st.build(), n_modes=12, method="sparse")
-            for k, m in scenarios.items():
-                X = tm.at(keep)[:, :m]
-                X = X + noise * rng.standard_normal(X.shape) * np.abs(X).max(axis=0)
-                for meth in METHODS:
-                    r = tam_metrics(model, trans[(meth, k)], n_modes=m, test_shapes=X, full_modes=fm)
-                    per[k][meth].append(r.summary())
-        sweep[sig] = {k: {meth: {q: float(np.mean([row[q] for row in rows])) for q in rows[0] if q != "method"}
-                          for meth, rows in d.items()} for k, d in per.items()}
+    sweep = {sig: _tam_metrics_at(sig, model, keep, trans, fm, scenarios, n_members, seeds, noise) for sig in errors}
     table = sweep[sigma_E]
     g = table["global"]
     acc_ok = bool(g["guyan"]["max_frequency_error"] > 5 * g["irs"]["max_frequency_error"]
@@ -204,13 +229,7 @@ def reduction_truss(out_dir, figures=True, seeds: int = 4, noise: float = 0.03, 
         "separation needs model error and modes outside the analytical target set.")
     out = {
         "equations": "35-44",
-        "description": "cantilevered 10-bay space truss (stand-in for the NASA LaRC truss of Tan 1993): bays 0.5 m x 0.5 m "
-                       "x 0.4 m, aluminium tubes 25 x 1.5 mm, each member 2 frame elements, 5 g joints; "
-                       f"{model.n_dofs} dofs; {len(keep)} retained dofs (x, y at one corner of every second level, "
-                       f"alternating corners; {frac:.1%} of the mass, Tan's ~5 %). Test data: {seeds} perturbed trusses per "
-                       f"model error sigma in {list(errors)} (member moduli x N(1, sigma), joint masses x U(0.5, 2)), "
-                       f"{noise:.0%} noise on the shapes; metrics averaged; 'metrics' is sigma = {sigma_E}. Scenarios: the 5 "
-                       "global modes, and 6 modes that take in the first local member mode",
+        "description": _truss_description(model.n_dofs, len(keep), frac, seeds, errors, noise, sigma_E),
         "geometry": TRUSS | {"n_members": n_members, "n_dofs": model.n_dofs},
         "keep": keep,
         "retained_mass_fraction": frac,

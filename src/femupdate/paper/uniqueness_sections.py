@@ -177,10 +177,52 @@ def _trim(case: dict) -> dict:
     return {**case, "n_solutions": len(case["solutions"]), "solutions": case["solutions"][:10]}
 
 
-def six_dof_uniqueness(out_dir, figures=True) -> dict:
-    """The paper's 6-dof, six-spring simulation: every (n, m) for three sensor layouts, 100 random starts per case."""
+def _layout(lay: str, cs, by_plan: dict, dict_by_plan: dict, N: int) -> dict:
+    """One sensor layout's cases of :func:`six_dof_uniqueness`: the table by ``n x m`` (verdict, rank against the
+    flow bound, the criteria) and the cases where the paper's, the rank's and the layout's criteria fail."""
     from ..uniqueness.chain import chain_rank_bound
 
+    table, mismatch, rank_mismatch, crit_mismatch = {}, [], [], []
+    for dofs, m in cs:
+        c = by_plan[(dofs, m)]
+        n = len(dofs)
+        idx = [int(d.split(":")[0]) for d in dofs]
+        bound = min(chain_rank_bound(N, idx, m), m * n)
+        layout_ok = bool(bound == N and n > 1)
+        key = f"{n}x{m}"
+        table[key] = {"n": n, "m": m, "dofs": idx, "verdict": c.verdict, "solutions": len(c.solutions),
+                      "converged": c.converged, "condition_number": c.condition_number, "rank": c.rank,
+                      "rank_bound": bound, "paper_criterion": c.criteria["paper"].satisfied,
+                      "layout_criterion": layout_ok}
+        if c.unique is not None and c.criteria["paper"].satisfied != c.unique:
+            mismatch.append(key)
+        if c.rank != bound:
+            rank_mismatch.append(key)
+        if c.unique is not None and layout_ok != c.unique:
+            crit_mismatch.append(key)
+    return {"description": LAYOUTS[lay], "table": table, "paper_criterion_mismatches": mismatch,
+            "rank_bound_mismatches": rank_mismatch, "layout_criterion_mismatches": crit_mismatch,
+            "unique_cases": sum(v["verdict"] == "unique" for v in table.values()),
+            "cases": [_trim(dict_by_plan[p]) for p in cs]}
+
+
+def _placements(model, N: int) -> dict:
+    """The paper's two singled-out plans with the sensors anywhere: femupdate's condition number at every placement."""
+    from ..uniqueness.chain import chain_rank_bound
+
+    placements = {}
+    for key, (n, m) in SINGLED.items():
+        sets = [tuple(f"{i}:x" for i in s) for s in itertools.combinations(range(1, N + 1), n)]
+        sp = define_study(model, [(s, m) for s in sets], starts=1, seed=SEED)
+        conds = [conditioning(S, m_own)[0] for S, m_own in truth_sensitivities(sp)]
+        placements[key] = {"sets": [",".join(s) for s in sets], "condition_number": conds,
+                           "singular": [",".join(s) for s, c in zip(sets, conds) if not c < 1e12],
+                           "rank_bound": [min(chain_rank_bound(N, [int(d.split(":")[0]) for d in s], m), m * n) for s in sets]}
+    return placements
+
+
+def six_dof_uniqueness(out_dir, figures=True) -> dict:
+    """The paper's 6-dof, six-spring simulation: every (n, m) for three sensor layouts, 100 random starts per case."""
     model = six_dof_model()
     N = 6
     plans = {lay: [(tuple(f"{i}:x" for i in layout_dofs(lay, n, N)), m) for n in range(1, N + 1) for m in range(1, N + 1)]
@@ -191,30 +233,7 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
     by_plan = dict(zip(unique_cases, res.cases))
     payload = res.to_dict()
     dict_by_plan = dict(zip(unique_cases, payload["cases"]))
-    layouts: dict = {}
-    for lay, cs in plans.items():
-        table, mismatch, rank_mismatch, crit_mismatch = {}, [], [], []
-        for dofs, m in cs:
-            c = by_plan[(dofs, m)]
-            n = len(dofs)
-            idx = [int(d.split(":")[0]) for d in dofs]
-            bound = min(chain_rank_bound(N, idx, m), m * n)
-            layout_ok = bool(bound == N and n > 1)
-            key = f"{n}x{m}"
-            table[key] = {"n": n, "m": m, "dofs": idx, "verdict": c.verdict, "solutions": len(c.solutions),
-                          "converged": c.converged, "condition_number": c.condition_number, "rank": c.rank,
-                          "rank_bound": bound, "paper_criterion": c.criteria["paper"].satisfied,
-                          "layout_criterion": layout_ok}
-            if c.unique is not None and c.criteria["paper"].satisfied != c.unique:
-                mismatch.append(key)
-            if c.rank != bound:
-                rank_mismatch.append(key)
-            if c.unique is not None and layout_ok != c.unique:
-                crit_mismatch.append(key)
-        layouts[lay] = {"description": LAYOUTS[lay], "table": table, "paper_criterion_mismatches": mismatch,
-                        "rank_bound_mismatches": rank_mismatch, "layout_criterion_mismatches": crit_mismatch,
-                        "unique_cases": sum(v["verdict"] == "unique" for v in table.values()),
-                        "cases": [_trim(dict_by_plan[p]) for p in cs]}
+    layouts = {lay: _layout(lay, cs, by_plan, dict_by_plan, N) for lay, cs in plans.items()}
     ground = layouts["ground"]
     table = ground["table"]
     singled = {k: {"condition_number": table[k]["condition_number"], "paper_order": v,
@@ -222,15 +241,7 @@ def six_dof_uniqueness(out_dir, figures=True) -> dict:
                    "by_layout": {lay: {"dofs": layouts[lay]["table"][k]["dofs"], "verdict": layouts[lay]["table"][k]["verdict"],
                                        "condition_number": layouts[lay]["table"][k]["condition_number"]}
                                  for lay in LAYOUTS}} for k, v in PAPER_CONDITION.items()}
-    # the same two plans with the sensors anywhere: femupdate's condition number at every placement
-    placements = {}
-    for key, (n, m) in SINGLED.items():
-        sets = [tuple(f"{i}:x" for i in s) for s in itertools.combinations(range(1, N + 1), n)]
-        sp = define_study(model, [(s, m) for s in sets], starts=1, seed=SEED)
-        conds = [conditioning(S, m_own)[0] for S, m_own in truth_sensitivities(sp)]
-        placements[key] = {"sets": [",".join(s) for s in sets], "condition_number": conds,
-                           "singular": [",".join(s) for s, c in zip(sets, conds) if not c < 1e12],
-                           "rank_bound": [min(chain_rank_bound(N, [int(d.split(":")[0]) for d in s], m), m * n) for s in sets]}
+    placements = _placements(model, N)
     search = condition_search(N)
     paper_fails = {lay: v["paper_criterion_mismatches"] for lay, v in layouts.items()}
     crit_holds = all(not v["layout_criterion_mismatches"] and not v["rank_bound_mismatches"] for v in layouts.values())
