@@ -55,7 +55,7 @@ def predictive_summary(pred: dict | None, scale: np.ndarray | None, level: float
 class PosteriorResult(Serialisable):
     """What Bayesian updating found (:func:`femupdate.posterior`); it writes the JSON and report
     of ``femupdate posterior`` (:mod:`femupdate.serialise`: ``to_json``, ``write_json``,
-    ``write_report``; :mod:`.record`).
+    ``write_report``; :mod:`femupdate.bayes.record`).
 
     Attributes
     ----------

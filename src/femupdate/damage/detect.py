@@ -106,7 +106,7 @@ STATUSES = ("confirmed", "doubtful", "not localised", "unverified")
 @dataclass(frozen=True, eq=False)
 class DamageResult(Serialisable):
     """Result of :func:`detect_damage`; it writes the JSON and report of ``femupdate damage``
-    (:mod:`femupdate.serialise`: ``to_json``, ``write_json``, ``write_report``; :mod:`.record`).
+    (:mod:`femupdate.serialise`: ``to_json``, ``write_json``, ``write_report``; :mod:`femupdate.damage.record`).
 
     Attributes
     ----------

@@ -1,11 +1,13 @@
 """The kinds of report and the builder of each: the sections of a report, built from a command's
 JSON result (and, when given, what :mod:`.recompute` recomputed from the model and the data).
 
-The parts several kinds share are in :mod:`.parts` and :mod:`.sections`; each kind's builder in
-its module (:mod:`.update`, :mod:`.damage`, :mod:`.uniqueness`, :mod:`.paper`,
-:mod:`.posterior`).  A builder is called as ``builder(doc, result, model, data, rec, segments,
-kind)`` (with ``images=`` for the kinds that embed figures of their own) and fills the
-:class:`~.document.Document`.
+The parts several kinds share are in :mod:`femupdate.report.parts` and
+:mod:`femupdate.report.sections`; each kind's builder in its module
+(:mod:`femupdate.report.update`, :mod:`femupdate.report.damage`,
+:mod:`femupdate.report.uniqueness`, :mod:`femupdate.report.paper`,
+:mod:`femupdate.report.posterior`).  A builder is called as ``builder(doc, result, model, data,
+rec, segments, kind)`` (with ``images=`` for the kinds that embed figures of their own) and fills
+the :class:`~.document.Document`.
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """The parts several kinds of report share, built from a command's JSON result (and, when
 given, what :mod:`.recompute` recomputed from the model and the data): the model and data summary,
 the notes, the parameter and pair tables, the correlation with the test, the mode shapes and the
-modal damping.  The kinds' own builders are in :mod:`.update`, :mod:`.damage`,
-:mod:`.uniqueness`, :mod:`.paper` and :mod:`.posterior` (:mod:`.content` lists them).
+modal damping.  The kinds' own builders are in :mod:`femupdate.report.update`,
+:mod:`femupdate.report.damage`, :mod:`femupdate.report.uniqueness`, :mod:`femupdate.report.paper`
+and :mod:`femupdate.report.posterior` (:mod:`femupdate.report.content` lists them).
 
 Every builder reads the documented JSON keys (docs/file-formats.md) and shows what the result
 holds; a key that is absent leaves its table or figure out.  Numbers shown from the JSON carry

@@ -1,4 +1,4 @@
-"""Sections of the iterative runs' reports (:mod:`.update`): convergence, identifiability, the
+"""Sections of the iterative runs' reports (:mod:`femupdate.report.update`): convergence, identifiability, the
 multi-start solutions and the FRFs."""
 
 from __future__ import annotations

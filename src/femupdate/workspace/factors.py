@@ -240,7 +240,7 @@ class SuperLUFactor:
         return self.lu.solve(B)
 
     def nearly_singular(self) -> bool:
-        """min |U_ii| <= 1e-11 max |U_ii|."""
+        """``min |U_ii| <= 1e-11 max |U_ii|``."""
         return _superlu_nearly_singular(self.lu)
 
 
@@ -274,7 +274,7 @@ class OrderedLU:
         return out
 
     def nearly_singular(self) -> bool:
-        """min |U_ii| <= 1e-11 max |U_ii|."""
+        """``min |U_ii| <= 1e-11 max |U_ii|``."""
         return _superlu_nearly_singular(self.lu)
 
 

@@ -44,7 +44,7 @@ CRITERIA = ("condition", "logdet", "min_singular")
 @dataclass(frozen=True, eq=False)
 class Ranking(Serialisable):
     """Candidate modifications ranked by the information they add to the baseline test; it writes
-    the JSON of ``femupdate rank-modifications`` (:mod:`femupdate.serialise`; :mod:`.record`).
+    the JSON of ``femupdate rank-modifications`` (:mod:`femupdate.serialise`; :mod:`femupdate.updating.multiconfig.record`).
 
     Attributes
     ----------

@@ -17,7 +17,7 @@ from .. import Diagnostics
 @dataclass(frozen=True, eq=False)
 class MultiConfigResult(Serialisable):
     """Joint update of several configurations; it writes the JSON and report of ``femupdate
-    update-multi`` (:mod:`femupdate.serialise`; :mod:`.record`).
+    update-multi`` (:mod:`femupdate.serialise`; :mod:`femupdate.updating.multiconfig.record`).
 
     Attributes
     ----------
