@@ -133,3 +133,19 @@ def test_paper_result_writes_paper_json_and_its_report(tmp_path, capsys):
     assert "data:image/png;base64," in py_html  # the section's figure, from the folder
     back = fu.load_result(py_dir / "paper.json")
     assert type(back).__name__ == "PaperResult" and _plain(back.to_json()) == on_disk and back.folder is None
+
+
+def test_damage_command_shows_the_bootstrap_progress_when_piped(ex, capsys, monkeypatch):
+    import importlib
+
+    command = importlib.import_module("femupdate.cli.damage")  # the module (the package's name is the command)
+    shown = command.phased_progress
+    monkeypatch.setattr(command, "phased_progress", lambda labels, **kw: shown(labels, after=0.0, every=0.0, **kw))
+    code, out, err = cli(["damage", str(ex / "truss.toml"), str(ex / "truss_damaged.json"), "--bootstrap", "3"], capsys)
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if line.startswith("femupdate: ")]
+    assert lines[0].startswith("femupdate: refining and verifying 0/1")
+    assert [line.split()[3] for line in lines if "bootstrap" in line] == ["1/3", "2/3", "3/3"]
+    code, out, err = cli(["damage", str(ex / "truss.toml"), str(ex / "truss_damaged.json"), "--bootstrap", "3",
+                          "--json", "-"], capsys)
+    assert code == 0 and "femupdate: " not in err and json.loads(out)["kind"] == "damage"  # quiet with --json -
