@@ -234,18 +234,21 @@ def load_result(path_or_obj):
         from .report.build import detect_kind
 
         kind = detect_kind(obj)
-    _import_result_modules()
+    _import_result_modules(kind)
     cls = REGISTRY.get(kind)
     if cls is None:
         raise InputError(f"results of kind {kind!r} have no typed form (known: {', '.join(sorted(REGISTRY))})")
     return cls.from_json(dict(obj, kind=kind))
 
 
-def _import_result_modules() -> None:
-    """Import the modules that define result classes (they register themselves)."""
+def _import_result_modules(kind: str | None = None) -> None:
+    """Import the modules that define result classes (they register themselves), in order, until
+    ``kind`` is registered (all of them without ``kind``)."""
     import importlib
 
     for name in RESULT_MODULES:
+        if kind is not None and kind in REGISTRY:
+            return
         importlib.import_module(name)
 
 
@@ -255,6 +258,8 @@ RESULT_MODULES += ("femupdate.frf.simulate", "femupdate.frf.selection", "femupda
                    "femupdate.uniqueness.study.results")
 RESULT_MODULES += ("femupdate.modal", "femupdate.correlation", "femupdate.direct", "femupdate.reduction.study",
                    "femupdate.fullfield.result")
+RESULT_MODULES += ("femupdate.damage.detect", "femupdate.updating.multiconfig", "femupdate.bayes.results",
+                   "femupdate.paper.result")
 
 
 __all__ = ["SCHEMA_VERSION", "RunContext", "Serialisable", "load_result", "REGISTRY"]

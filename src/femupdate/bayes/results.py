@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
+from ..serialise import RunContext, Serialisable
 from .laplace import Mode
 
 
@@ -50,8 +52,10 @@ def predictive_summary(pred: dict | None, scale: np.ndarray | None, level: float
 
 
 @dataclass(frozen=True, eq=False)
-class PosteriorResult:
-    """What Bayesian updating found (:func:`femupdate.posterior`).
+class PosteriorResult(Serialisable):
+    """What Bayesian updating found (:func:`femupdate.posterior`); it writes the JSON and report
+    of ``femupdate posterior`` (:mod:`femupdate.serialise`: ``to_json``, ``write_json``,
+    ``write_report``; :mod:`femupdate.bayes.record`).
 
     Attributes
     ----------
@@ -104,7 +108,14 @@ class PosteriorResult:
         MCMC: the chains (E, n, W, L) in parameter units, burn-in included (for trace plots).
     prior : dict
         {name: description} of the priors used.
+    data_sets : int
+        The test-data sets (repeated tests) whose likelihoods were multiplied.
+    context : RunContext, optional
+        The model and the first test data set (:mod:`femupdate.serialise`): the JSON's model
+        name, notes and units; the report's measured frequencies.
     """
+
+    kind: ClassVar[str] = "posterior"
 
     method: str
     names: tuple
@@ -132,6 +143,33 @@ class PosteriorResult:
     seconds: float = math.nan
     chain: np.ndarray | None = None
     prior: dict = field(default_factory=dict)
+    data_sets: int = 1
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .record import posterior_kind
+
+        return posterior_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import posterior_from
+
+        return posterior_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per parameter: median, mean, std, the credible interval and the prior
+        (:meth:`to_frame`'s rows)."""
+        return [{"parameter": n, "median": self.median[n], "mean": self.mean[n], "std": self.std[n],
+                 "lower": self.interval[n][0], "upper": self.interval[n][1], "level": self.level,
+                 "prior": self.prior.get(n)} for n in self.names]
+
+    def report_images(self) -> dict:
+        """The figures of the report that need the samples (:mod:`femupdate.report.posterior`):
+        ``corner`` and, for MCMC, ``trace`` (a result read back from JSON has no samples: none)."""
+        from ..report.posterior import sample_figures
+
+        return sample_figures(self)
 
     def __repr__(self) -> str:
         values = ", ".join(f"{n}={self.median[n]:.6g} [{self.interval[n][0]:.4g}, {self.interval[n][1]:.4g}]"

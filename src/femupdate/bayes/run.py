@@ -19,6 +19,7 @@ from .diagnostics import MIN_ESS, RHAT_LIMIT, effective_sample_size, split_rhat
 from .laplace import assign, candidates, laplace_modes, log_evidence, mixture_draws
 from .likelihood import Posterior
 from .mcmc import run_mcmc, stream
+from .record import attach
 from .results import PosteriorResult, predictive_summary, summarise
 from .tasks import Runner
 from .tmcmc import run_tmcmc
@@ -99,6 +100,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     Returns
     -------
     PosteriorResult
+        With its context (the model and the first data set): ``to_json()`` and
+        ``write_report(path)`` give the JSON and report of ``femupdate posterior``.
 
     Raises
     ------
@@ -181,18 +184,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
             fractions = [float(np.mean(near == k)) for k in range(len(modes))]
         P = post.to_p(X)
         stats = summarise(P, level)
-        # the predictions and the noise scale at a subset of the samples
-        sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
-        Xs = X[np.sort(sub)]
-        Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
-        scale = post.noise_scale(Q, rng)
-        noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
-        if scale is not None and np.isfinite(scale).any():
-            s = scale[np.isfinite(scale)]
-            a = (1 - level) / 2
-            noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
-            noise_info["draws"] = int(s.size)
-        pred = predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
+        noise_info, pred = _noise_and_predictions(post, X, level, predictive, rng)
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
         if post.failures:
@@ -202,7 +194,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
                          f"evaluated there; the posterior density is taken as zero), e.g. {top}")
         names = post.names
         prior = {n: _describe(post, j) for j, n in enumerate(names)}
-        return PosteriorResult(
+        return attach(PosteriorResult(
             method=method, names=tuple(names), samples=P, log_likelihood=ll,
             mean=dict(zip(names, map(float, stats["mean"]))), median=dict(zip(names, map(float, stats["median"]))),
             std=dict(zip(names, map(float, stats["std"]))),
@@ -210,11 +202,28 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
             covariance=stats["covariance"], correlation=stats["correlation"], modes=modes, mode_fractions=fractions,
             log_evidence=float(logz), log_evidence_error=float(logz_err), noise=noise_info, predictive=pred,
             diagnostics=diag, success=bool(success), warnings=warnings, notes=notes, route=post.route, seed=entropy,
-            seconds=time.perf_counter() - t0, chain=chain_p, prior=prior)
+            seconds=time.perf_counter() - t0, chain=chain_p, prior=prior, data_sets=len(post.sets)), model, data)
     finally:
         if runner is not None:
             runner.close()
         post.close()
+
+
+def _noise_and_predictions(post: Posterior, X: np.ndarray, level: float, predictive: int,
+                           rng: np.random.Generator) -> tuple[dict, dict | None]:
+    """The result's ``noise`` (with an estimated scale's posterior) and ``predictive``, at a
+    subset of ``predictive`` of the samples X (in the sampler's variables)."""
+    sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
+    Xs = X[np.sort(sub)]
+    Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
+    scale = post.noise_scale(Q, rng)
+    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
+    if scale is not None and np.isfinite(scale).any():
+        s = scale[np.isfinite(scale)]
+        a = (1 - level) / 2
+        noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+        noise_info["draws"] = int(s.size)
+    return noise_info, predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
 
 
 def _describe(post: Posterior, j: int) -> str:

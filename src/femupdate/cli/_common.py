@@ -22,10 +22,13 @@ from rich.table import Table
 from .._errors import FemupdateError, InputError
 from .._limits import MAX_MAGNITUDE
 # what the commands import from here, defined beside: output and input paths, damping, the entry point
-from ._damping import damping_fields, fitted_damping, print_damping  # noqa: F401
+from ._damping import print_damping  # noqa: F401
 from ._entry import run  # noqa: F401
 from ._paths import (CHECKPOINT_FILE, INPUT_FILE, OUTPUT_DIR, OUTPUT_FIGURE, OUTPUT_FILE, REPORT_FILE,  # noqa: F401
                      InputPath, OutputPath, with_output_notes)
+# the JSON fields several results share (femupdate.recording)
+from ..recording import (damping_fields, data_fields, diagnostics_extra, fitted_damping, flags,  # noqa: F401
+                         parameter_fields)
 
 
 class Ctx:
@@ -167,12 +170,6 @@ def load_data(path, model, measured_text: str | None = None, numbering=None, opt
             msg = str(exc)
             raise InputError(msg if msg.startswith(option) else f"{option}: {msg}") from None
     return load_testdata(path, model, numbering=numbering, sensors=sensors)
-
-
-def data_fields(data) -> dict:
-    """The JSON keys a result takes from its test data: ``units`` (a universal file's dataset
-    164, or the JSON's ``units``) when the data state them."""
-    return {"units": dict(data.units)} if data.units else {}
 
 
 def print_data_notes(ctx: "Ctx", data) -> None:
@@ -359,35 +356,10 @@ def correlation_table(corr, title):
     return t
 
 
-def flags(model, parameters, names) -> list[dict]:
-    """Flags on identified values: not > 0 where they must be, outside or on their bounds
-    (:func:`femupdate.flags.parameter_flags`); the results' JSON lists them under ``flags``."""
-    from ..flags import parameter_flags
-
-    return parameter_flags(model, parameters, names)
-
-
 def print_flags(ctx: Ctx, found: list[dict]) -> None:
     """One ``warning:`` line per flag (printed with the result; the exit code is unchanged)."""
     for f in found:
         ctx.console.print(f"warning: {f['message']}", markup=False)
-
-
-def parameter_fields(model, names=None) -> dict:
-    """The JSON keys that describe a result's parameters beyond their values: ``parameter_units``
-    {name: unit or null} (SI, from the element properties they stand for; null for matrix
-    models) and ``bounds`` {name: [lower, upper]} (null for an infinite bound).
-
-    Parameters
-    ----------
-    model : Model
-    names : sequence of str, optional
-        The parameters to describe (default: all of the model's).
-    """
-    names = model.parameter_names if names is None else names
-    par = {p.name: p for p in model.parameters}
-    return {"parameter_units": {n: par[n].unit or None for n in names},
-            "bounds": {n: list(par[n].bounds) for n in names}}
 
 
 def unit_suffix(unit: str | None) -> str:
@@ -395,16 +367,6 @@ def unit_suffix(unit: str | None) -> str:
     return f" [{unit}]" if unit else ""
 
 
-
-
-def diagnostics_extra(names, d) -> dict:
-    """The JSON keys of :class:`~femupdate.updating.Diagnostics` added to ``diagnostics`` for the
-    bounds and the parameters the data cannot move (the older keys are written by the callers):
-    ``absolute``, ``at_bounds`` {name: ``"lower"`` | ``"upper"``}, ``n_at_bounds``, ``free``,
-    ``poorly_determined_reasons`` {name: reason}, ``relative_std`` {name: value}."""
-    return {"absolute": d.absolute, "at_bounds": dict(d.at_bounds), "n_at_bounds": d.n_at_bounds,
-            "free": list(d.free), "poorly_determined_reasons": dict(d.poorly_determined_reasons),
-            "relative_std": dict(zip(names, d.relative_std))}
 
 
 def print_diagnostics(console, res) -> None:

@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -19,11 +21,13 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (INPUT_FILE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, diagnostics_extra, emit, flags, parameter_fields,
-                      print_flags,
-                      print_identifiability, fmt, json_option, model_values, option_dofs,
-                      parse_regularization, parse_set, set_option, data_fields, load_data, measured_dofs_option,
-                      write_model_option, write_model_outputs, report_option, write_report_output)
+from ..options import ModalOptions, PairingOptions, SolverOptions
+from ._common import (INPUT_FILE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, emit, flags, fmt, json_option, load_data,
+                      measured_dofs_option, model_values, option_dofs, parse_regularization, parse_set, print_flags,
+                      print_identifiability, report_option, set_option, write_model_option, write_model_outputs,
+                      write_report_output)
+from ._groups import GroupedCommand, option_group
+from .outputs import Outputs, outputs_group, phased_progress
 
 _path = INPUT_FILE
 
@@ -82,80 +86,114 @@ def _fp_line(rate) -> str:
             + (f", {', '.join(bins)}" if bins else "") + f" (bench_damage.py, {rate['date']})")
 
 
-@click.command()
+@dataclasses.dataclass(frozen=True)
+class DamageData:
+    """The baseline's unknowns and the test data, as the command line gave them (:func:`_data_group`)."""
+
+    undamaged_path: Path | None
+    unknowns_kind: str
+    elements_text: str | None
+    measured_text: str | None
+
+
+def _data_group() -> Callable:
+    """``--undamaged``, ``--unknowns``, ``--elements``, ``--measured-dofs`` -> ``given``: :class:`DamageData`."""
+    return option_group(
+        "Data and unknowns", "given", DamageData,
+        click.option("--undamaged", "undamaged_path", type=_path, default=None,
+                     help="Test data of the undamaged structure: the baseline must match them first."),
+        click.option("--unknowns", "unknowns_kind", type=click.Choice(["auto", "parameters", "elements"]),
+                     default="auto", show_default=True,
+                     help="The model's stiffness parameters as it names them, or one stiffness per element (auto: the "
+                          "parameters, unless the model has fewer than two)."),
+        click.option("--elements", "elements_text", default=None, help="Unknowns that may change (default all)."),
+        measured_dofs_option,
+    )
+
+
+def _method_group() -> Callable:
+    """The method's options -> ``options``: :class:`~femupdate.damage.DamageOptions`."""
+    from ..damage import DamageOptions
+
+    return option_group(
+        "Damage detection", "options", lambda **kw: DamageOptions(**kw),
+        click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True,
+                     help="Regulariser of the localisation step."),
+        click.option("--alpha", type=FiniteFloat(0, 1, min_open=True), default=None,
+                     help="L1 factor as a fraction of alpha_max (default: chosen by BIC)."),
+        click.option("--expansion", type=click.Choice(["serep", "irs", "guyan"]), default="serep", show_default=True),
+        click.option("--n-basis", type=click.IntRange(min=1), default=None,
+                     help="SEREP modes (default: twice the highest paired)."),
+        click.option("--allow-increase", is_flag=True, help="Let stiffness increase too."),
+        click.option("--min-change", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.05,
+                     show_default=True, help="Smallest relative change reported as damage."),
+        click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
+                     help="Expansions of the localisation step (later ones with the damaged estimate)."),
+        click.option("--refine/--no-refine", default=True, show_default=True,
+                     help="Refine the located set by nonlinear updating and verify it against the noise (--no-refine: "
+                          "the localisation step's answer alone, unverified)."),
+        click.option("--level", type=FiniteFloat(0.5, 1, min_open=True, max_open=True), default=0.99,
+                     show_default=True, help="Confidence level of the verification (chi-square test of the misfit)."),
+        click.option("--max-located", type=click.IntRange(min=1), default=None,
+                     help="Largest set of damaged unknowns tried (default 8)."),
+        click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True,
+                     help="Replicates for the confidence, each re-localised, refined and verified."),
+        click.option("--seed", type=SEED, default=0, show_default=True),
+        click.option("--max-frequency-error", type=FiniteFloat(min=0), default=0.02, show_default=True,
+                     help="Baseline check: largest frequency error against --undamaged."),
+        click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True,
+                     help="Baseline check: smallest MAC."),
+        click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
+                     help="A damaged mode pairing with no baseline mode this well stops the localisation."),
+    )
+
+
+def _noise_group() -> Callable:
+    """``--noise-frequency``, ``--noise-shape`` -> ``noise``: the stated noise, as
+    :func:`~femupdate.damage.detect_damage` takes it."""
+    def build(noise_frequency, noise_shape):
+        return {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
+
+    return option_group(
+        "Stated noise", "noise", build,
+        click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True,
+                     help="Relative frequency noise (0: noise-free data)."),
+        click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
+                     help="Shape noise relative to each shape's largest value (default: from the expansion misfit)."),
+    )
+
+
+#: the phases of damage detection, as its progress shows them
+_PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicates"}
+
+
+@click.command(cls=GroupedCommand)
 @click.argument("baseline_path", metavar="BASELINE_MODEL", type=_path)
 @click.argument("data_path", metavar="DATA", type=_path)
-@click.option("--undamaged", "undamaged_path", type=_path, default=None,
-              help="Test data of the undamaged structure: the baseline must match them first.")
-@click.option("--unknowns", "unknowns_kind", type=click.Choice(["auto", "parameters", "elements"]), default="auto",
-              show_default=True,
-              help="The model's stiffness parameters as it names them, or one stiffness per element (auto: the "
-                   "parameters, unless the model has fewer than two).")
-@click.option("--elements", "elements_text", default=None, help="Unknowns that may change (default all).")
-@click.option("--method", type=click.Choice(["l1", "tikhonov"]), default="l1", show_default=True,
-              help="Regulariser of the localisation step.")
-@click.option("--alpha", type=FiniteFloat(0, 1, min_open=True), default=None,
-              help="L1 factor as a fraction of alpha_max (default: chosen by BIC).")
-@click.option("--expansion", type=click.Choice(["serep", "irs", "guyan"]), default="serep", show_default=True)
-@click.option("--n-basis", type=click.IntRange(min=1), default=None, help="SEREP modes (default: twice the highest paired).")
-@click.option("--allow-increase", is_flag=True, help="Let stiffness increase too.")
-@click.option("--min-change", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.05, show_default=True,
-              help="Smallest relative change reported as damage.")
-@click.option("--iterations", type=click.IntRange(min=1), default=3, show_default=True,
-              help="Expansions of the localisation step (later ones with the damaged estimate).")
-@click.option("--refine/--no-refine", default=True, show_default=True,
-              help="Refine the located set by nonlinear updating and verify it against the noise (--no-refine: the "
-                   "localisation step's answer alone, unverified).")
-@click.option("--level", type=FiniteFloat(0.5, 1, min_open=True, max_open=True), default=0.99, show_default=True,
-              help="Confidence level of the verification (chi-square test of the misfit).")
-@click.option("--max-located", type=click.IntRange(min=1), default=None,
-              help="Largest set of damaged unknowns tried (default 8).")
-@click.option("--bootstrap", type=click.IntRange(min=0), default=20, show_default=True,
-              help="Replicates for the confidence, each re-localised, refined and verified.")
-@click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True,
-              help="Relative frequency noise (0: noise-free data).")
-@click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
-              help="Shape noise relative to each shape's largest value (default: from the expansion misfit).")
-@click.option("--seed", type=SEED, default=0, show_default=True)
-@click.option("--max-frequency-error", type=FiniteFloat(min=0), default=0.02, show_default=True,
-              help="Baseline check: largest frequency error against --undamaged.")
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True, help="Baseline check: smallest MAC.")
-@click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
-              help="A damaged mode pairing with no baseline mode this well stops the localisation.")
-@measured_dofs_option
-@report_option
-@set_option
-@json_option
-def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_text, method, alpha, expansion, n_basis,
-           allow_increase, min_change, iterations, refine, level, max_located, bootstrap, noise_frequency, noise_shape,
-           seed, max_frequency_error, min_mac, localise_min_mac, measured_text, report_path, set_text, json_path):
+@_data_group()
+@_method_group()
+@_noise_group()
+@outputs_group(report=True)
+def damage(baseline_path, data_path, given: DamageData, options, noise, outputs: Outputs):
     """Localise, refine and verify damage in DATA from the validated BASELINE_MODEL."""
-    from ..damage import DamageOptions, detect_damage
+    from ..damage import detect_damage
 
-    ctx = Ctx(json_path)
-    structure, model, kind, descriptions, notes = _damage_model(baseline_path, unknowns_kind, set_text)
-    data = load_data(data_path, model, measured_text)
-    undamaged = load_data(undamaged_path, model, measured_text) if undamaged_path is not None else None
-    notes = [*data.notes, *(undamaged.notes if undamaged is not None else ()), *notes]
-    if undamaged is None:
-        notes.append("no --undamaged data: the baseline was not checked against the undamaged structure")
-    options = DamageOptions(method=method, alpha=alpha, expansion=expansion, n_basis=n_basis,
-                            allow_increase=allow_increase, min_change=min_change, iterations=iterations,
-                            bootstrap=bootstrap, seed=seed, localise_min_mac=localise_min_mac,
-                            max_frequency_error=max_frequency_error, min_mac=min_mac, refine=refine, level=level,
-                            max_located=max_located)
-    noise = {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
-    res = detect_damage(model, data, undamaged=undamaged, elements=_names(elements_text), noise=noise,
-                        descriptions=descriptions, options=options)
-    _print_damage(ctx.console, res, model, data, kind, options.min_change)
-    for n in notes + res.notes:
+    ctx = Ctx(outputs.json_path)
+    structure, du = _damage_model(baseline_path, given.unknowns_kind, outputs.set_text)
+    data = load_data(data_path, du.model, given.measured_text)
+    undamaged = load_data(given.undamaged_path, du.model, given.measured_text) if given.undamaged_path is not None else None
+    with phased_progress(_PHASES, console=ctx.console, quiet=outputs.json_path == "-") as tick:
+        res = detect_damage(du, data, undamaged=undamaged, elements=_names(given.elements_text), noise=noise,
+                            options=options, progress=tick)
+    payload = res.to_json()
+    _print_damage(ctx.console, res, du.model, data, du.kind, options.min_change)
+    for n in payload["notes"]:
         ctx.console.print(f"note: {n}", markup=False)
-    payload = _damage_payload(model, data, res, kind, notes)
-    emit(ctx, payload)
-    if report_path is not None:
+    outputs.emit(ctx, payload)
+    if outputs.report_path is not None:
         from ..fullfield import structure_segments
 
-        write_report_output(ctx, report_path, payload, model=model, data=data, kind="damage",
+        write_report_output(ctx, outputs.report_path, res,
                             segments=structure_segments(structure) if structure is not None else None)
     if res.status == "doubtful":
         click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
@@ -164,21 +202,21 @@ def damage(baseline_path, data_path, undamaged_path, unknowns_kind, elements_tex
 
 
 def _damage_model(path: Path, unknowns_kind: str, set_text):
-    """(structure or None, model, kind of unknowns, their descriptions, notes) of the baseline file."""
-    from ..damage import damage_unknowns
+    """(structure or None, the :class:`~femupdate.damage.DamageUnknowns`) of the baseline file."""
+    from ..damage import DamageUnknowns, damage_unknowns
 
     structure, model = _load_structure(path)
     if structure is not None:
         values = parse_set(set_text)
         check_set(model, values)
-        du = damage_unknowns(structure, values, unknowns_kind)
-        return structure, du.model, du.kind, du.descriptions, list(du.notes)
+        return structure, damage_unknowns(structure, values, unknowns_kind)
     values = model_values(model, set_text)
     model = model.with_values(values) if values is not None else model
     if unknowns_kind == "elements":
         raise InputError(f"{path}: a [matrices] model has no elements; its parameters are the unknowns "
                          "(--unknowns parameters)")
-    return None, model, "parameters", {}, ["matrix model: its parameters are the unknowns"]
+    return None, DamageUnknowns(model, "parameters", [model.parameter_names[j] for j in model.free], {},
+                                ["matrix model: its parameters are the unknowns"])
 
 
 def _located_table(res) -> Table:
@@ -243,73 +281,91 @@ def _print_damage(c, res, model, data, kind: str, min_change: float) -> None:
         c.print(_fp_line(rate), markup=False)
 
 
-def _damage_payload(model, data, res, kind: str, notes: list[str]) -> dict:
-    return {
-        "model": model.name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
-        "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
-        "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
-        "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
-        "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
-        "baseline_check": res.baseline_check, "path": res.path, "notes": notes + res.notes, **data_fields(data),
-        "status": res.status, "doubts": res.doubts, "verification": res.verification,
-        "localisation": res.localisation, "unknowns": kind, "descriptions": res.descriptions,
-        **parameter_fields(model, list(res.changes)),
-    }
-
-
 # ---------------------------------------------------------------------------------- update-multi
-def _multi_payload(model, res) -> dict:
-    d = res.diagnostics
-    return {
-        "model": model.name, "method": res.method, "parameters": res.parameters, "updated": list(res.names),
-        "success": res.success, "message": res.message, "cost": res.cost, "iterations": res.iterations,
-        "nfev": res.nfev, "standard_error": dict(zip(res.names, res.standard_error)),
-        "configurations": res.configurations, "conditioning": res.conditioning, "history": res.history,
-        "regularization": res.regularization, "notes": res.notes,
-        "flags": flags(model, res.parameters, res.names),
-        **parameter_fields(model),
-        "direct": None if res.direct is None else {
-            "condition_number": res.direct.condition_number, "condition_number_scaled": res.direct.condition_number_scaled,
-            "residual_norm": res.direct.residual_norm, "relative_residual": res.direct.relative_residual,
-            "rank": res.direct.rank, "unique": res.direct.unique, "n_equations": res.direct.system.n_equations},
-        "diagnostics": None if d is None else {
-            "singular_values": d.singular_values, "condition_number": d.condition_number, "rank": d.rank,
-            "poorly_determined": d.poorly_determined, "std": dict(zip(res.names, d.std)),
-            **diagnostics_extra(res.names, d)},
-    }
+@dataclasses.dataclass(frozen=True)
+class Unknowns:
+    """The unknowns and the kind of data used (``--params``, ``--eigenvalues-only``)."""
+
+    params_text: str | None
+    eigenvalues_only: bool
+
+    @property
+    def names(self) -> list[str] | None:
+        return _names(self.params_text)
 
 
-@click.command("update-multi")
+_PARAMS = click.option("--params", "params_text", default=None, help="Parameters to identify (default: all not fixed).")
+
+
+def _iterative_group() -> Callable:
+    """The iterative solution's options -> ``iterative``: {``modal``, ``pairing``, ``solver``} option
+    objects (:func:`~femupdate.updating.multiconfig.update_configurations`)."""
+    def build(shape_scaling, min_mac, pairing, max_nfev, reg_text):
+        return {"modal": ModalOptions(shape_scaling=shape_scaling), "pairing": PairingOptions(rule=pairing, min_mac=min_mac),
+                "solver": SolverOptions(max_nfev=max_nfev, regularization=parse_regularization(reg_text))}
+
+    return option_group(
+        "Iterative solution", "iterative", build,
+        click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True),
+        click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True),
+        click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto",
+                     show_default=True, help="How test modes pair with model modes (iterative), as in update."),
+        click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True),
+        click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative)."),
+    )
+
+
+@click.command("update-multi", cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=_path)
-@click.option("--config", "configs", multiple=True, required=True, metavar="DATA[:MODIFICATION]",
-              help="One test configuration: its data, and the file of its known modification (TOML/JSON; none: the "
-                   "unmodified structure). Repeat for each configuration.")
-@click.option("--method", type=click.Choice(["auto", "direct", "iterative"]), default="auto", show_default=True,
-              help="auto: direct when every configuration's data are complete.")
-@click.option("--params", "params_text", default=None, help="Parameters to identify (default: all not fixed).")
-@click.option("--shape-scaling", type=click.Choice(["unit", "ref", "max"]), default="unit", show_default=True)
-@click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True)
-@click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
-              help="How test modes pair with model modes (iterative), as in update.")
-@click.option("--max-nfev", type=click.IntRange(min=1), default=200, show_default=True)
-@click.option("--regularization", "reg_text", default=None, help="Tikhonov factor, or gcv / lcurve (iterative).")
-@click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative).")
-@click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct).")
-@write_model_option
-@report_option
-@set_option
-@json_option
-def update_multi(model_path, configs, method, params_text, shape_scaling, min_mac, pairing, max_nfev, reg_text, eigenvalues_only,
-                 bounded, write_model_path, report_path, set_text, json_path):
+@option_group(
+    "Configurations and unknowns", "configs", lambda configs: configs,
+    click.option("--config", "configs", multiple=True, required=True, metavar="DATA[:MODIFICATION]",
+                 help="One test configuration: its data, and the file of its known modification (TOML/JSON; none: "
+                      "the unmodified structure). Repeat for each configuration."))
+@option_group(
+    "Configurations and unknowns", "unknowns", Unknowns, _PARAMS,
+    click.option("--eigenvalues-only", is_flag=True, help="Ignore the measured shapes (iterative)."))
+@option_group(
+    "Solution", "solution", lambda method, bounded: (method, bounded),
+    click.option("--method", type=click.Choice(["auto", "direct", "iterative"]), default="auto", show_default=True,
+                 help="auto: direct when every configuration's data are complete."),
+    click.option("--bounded", is_flag=True, help="Honour parameter bounds (direct)."))
+@_iterative_group()
+@option_group("Model values and outputs", "outputs", lambda **kw: Outputs(**kw), write_model_option, report_option,
+              set_option, json_option)
+def update_multi(model_path, configs, unknowns: Unknowns, solution, iterative, outputs: Outputs):
     """Update MODEL from several test configurations with known modifications (perturbed boundaries)."""
-    from ..updating.multiconfig import Configuration, Modification, configure, solve_configurations
-    from ..updating.multiconfig.files import load_modification, split_config_spec
+    from ..updating.multiconfig import solve_configurations
     from ..io.model_file import load_model
-    from ..io.testdata_json import load_testdata
 
-    ctx = Ctx(json_path)
+    ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
-    values = model_values(model, set_text)
+    values = model_values(model, outputs.set_text)
+    cfgs = _configurations(model, configs)
+    method, bounded = solution
+    modal = iterative["modal"].replace(use_shapes=not unknowns.eigenvalues_only)
+    res = solve_configurations(model, cfgs, method, unknowns=unknowns.names, values=values, bounded=bounded,
+                               **{**iterative, "modal": modal})
+    payload = res.to_json()
+    _print_multi(ctx, model, values, res, len(cfgs))
+    print_flags(ctx, payload["flags"])
+    outputs.emit(ctx, payload)
+    write_report_output(ctx, outputs.report_path, res, model_path=model_path)
+    if not res.success:
+        if outputs.write_model_path:
+            ctx.console.print("not written: the updated model (the multi-configuration update did not succeed)")
+        raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
+    write_model_outputs(ctx, model_path, ",".join(configs), "update-multi", model, res.parameters, list(res.names),
+                        res.cost if res.method == "iterative" else None, outputs.write_model_path)
+
+
+def _configurations(model, configs) -> list:
+    """The configurations of ``--config DATA[:MODIFICATION]``: each modification applied to the
+    model, its data read for the modified model (``#N`` counting the baseline model's dofs)."""
+    from ..io.testdata_json import load_testdata
+    from ..updating.multiconfig import Configuration, Modification, configure
+    from ..updating.multiconfig.files import load_modification, split_config_spec
+
     cfgs = []
     for spec in configs:
         dpath, mpath = split_config_spec(spec)
@@ -317,11 +373,13 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
         cm = configure(model, mod).model
         data = load_testdata(dpath, cm, numbering=model.dofs)  # "#N" counts in the baseline model's dofs
         cfgs.append(Configuration(data, mod, name=mod.name if mpath is not None else dpath.stem))
-    res = solve_configurations(model, cfgs, method, unknowns=_names(params_text), values=values, bounded=bounded,
-                               shape_scaling=shape_scaling, min_mac=min_mac, pairing=pairing, max_nfev=max_nfev,
-                               regularization=parse_regularization(reg_text), use_shapes=not eigenvalues_only)
+    return cfgs
+
+
+def _print_multi(ctx: Ctx, model, values, res, n_configs: int) -> None:
+    """The unknowns, the conditioning as configurations are added, convergence and notes."""
     c = ctx.console
-    c.print(_parameter_table(f"{model.name}: {res.method} update from {len(cfgs)} configurations", model, values,
+    c.print(_parameter_table(f"{model.name}: {res.method} update from {n_configs} configurations", model, values,
                              res.names, res.x, res.standard_error))
     t = Table(title="conditioning (column-scaled / normalised)")
     for col in ("configurations", "rank", "condition number", "smallest singular value"):
@@ -335,47 +393,44 @@ def update_multi(model_path, configs, method, params_text, shape_scaling, min_ma
         print_identifiability(c, res.diagnostics)
     for note in res.notes:
         c.print(f"note: {note}", markup=False)
-    payload = _multi_payload(model, res)
-    print_flags(ctx, payload["flags"])
-    emit(ctx, payload)
-    write_report_output(ctx, report_path, payload, model=model, model_path=model_path, kind="update-multi")
-    if not res.success:
-        if write_model_path:
-            c.print("not written: the updated model (the multi-configuration update did not succeed)")
-        raise NumericalError(f"the multi-configuration update did not succeed: {res.message}")
-    write_model_outputs(ctx, model_path, ",".join(configs), "update-multi", model, res.parameters, list(res.names),
-                        res.cost if res.method == "iterative" else None, write_model_path)
 
 
 # ---------------------------------------------------------------------------------- rank-modifications
-@click.command("rank-modifications")
+@click.command("rank-modifications", cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=_path)
 @click.argument("candidates_path", metavar="CANDIDATES", type=_path)
-@click.option("--measured-dofs", "dofs_text", required=True,
-              help="The planned sensors, labels or #N (the N-th model dof), e.g. \"1:x,2:x\".")
-@click.option("--modes", "n_modes", type=click.IntRange(min=1), required=True, help="Modes measured in each configuration.")
-@click.option("--criterion", type=click.Choice(["condition", "logdet", "min_singular"]), default="condition", show_default=True)
-@click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many candidates greedily.")
-@click.option("--params", "params_text", default=None, help="The unknowns (default: all not fixed).")
-@click.option("--eigenvalues-only", is_flag=True, help="Plan for frequencies only.")
-@set_option
-@json_option
-def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterion, select, params_text, eigenvalues_only,
-                       set_text, json_path):
+@option_group(
+    "The planned test", "plan", lambda dofs_text, n_modes: (dofs_text, n_modes),
+    click.option("--measured-dofs", "dofs_text", required=True,
+                 help="The planned sensors, labels or #N (the N-th model dof), e.g. \"1:x,2:x\"."),
+    click.option("--modes", "n_modes", type=click.IntRange(min=1), required=True,
+                 help="Modes measured in each configuration."))
+@option_group(
+    "Ranking", "ranking", lambda criterion, select: {"criterion": criterion, "select": select},
+    click.option("--criterion", type=click.Choice(["condition", "logdet", "min_singular"]), default="condition",
+                 show_default=True),
+    click.option("--select", type=click.IntRange(min=1), default=None, help="Choose this many candidates greedily."))
+@option_group(
+    "The planned test", "unknowns", Unknowns, click.option("--params", "params_text", default=None,
+                                                            help="The unknowns (default: all not fixed)."),
+    click.option("--eigenvalues-only", is_flag=True, help="Plan for frequencies only."))
+@option_group("Model values and outputs", "outputs", lambda **kw: Outputs(**kw), set_option, json_option)
+def rank_modifications(model_path, candidates_path, plan, ranking, unknowns: Unknowns, outputs: Outputs):
     """Rank CANDIDATES (modifications) by the new, independent information each adds to MODEL's test."""
     from ..updating.multiconfig import rank_modifications as _rank
     from ..updating.multiconfig.files import load_candidates
     from ..io.model_file import load_model
 
-    ctx = Ctx(json_path)
+    ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
-    values = model_values(model, set_text)
+    values = model_values(model, outputs.set_text)
     cands = load_candidates(candidates_path)
+    dofs_text, n_modes = plan
     sensors = list(option_dofs(_names(dofs_text) or [], model, "--measured-dofs"))
-    res = _rank(model, cands, sensors, n_modes, params=_names(params_text), values=values,
-                criterion=criterion, select=select, use_shapes=not eigenvalues_only)
-    t = Table(title=f"{model.name}: candidates ranked by {criterion} (baseline: condition {res.baseline['condition_number']:.4g}, "
-                    f"rank {res.baseline['rank']}/{len(res.unknowns)})")
+    res = _rank(model, cands, sensors, n_modes, params=unknowns.names, values=values,
+                use_shapes=not unknowns.eigenvalues_only, **ranking)
+    t = Table(title=f"{model.name}: candidates ranked by {res.criterion} (baseline: condition "
+                    f"{res.baseline['condition_number']:.4g}, rank {res.baseline['rank']}/{len(res.unknowns)})")
     for col in ("rank", "candidate", "gain", "condition number", "smallest s.v.", "largest freq. shift"):
         t.add_column(col, justify="left" if col == "candidate" else "right")
     for k, row in enumerate(res.candidates, start=1):
@@ -384,5 +439,4 @@ def rank_modifications(model_path, candidates_path, dofs_text, n_modes, criterio
     ctx.console.print(t)
     if res.selected:
         ctx.console.print("greedy selection: " + " -> ".join(res.selected))
-    emit(ctx, {"model": model.name, "criterion": res.criterion, "unknowns": list(res.unknowns), "baseline": res.baseline,
-                "candidates": res.candidates, "selected": res.selected})
+    outputs.emit(ctx, res.to_json())

@@ -44,15 +44,13 @@ def paper(out_dir, sections, no_figures, jobs, report_path, json_path):
     t.add_column("section")
     t.add_column("result")
     t.add_column("check", justify="center")
-    for name, sec in result["sections"].items():
+    for name, sec in result.sections.items():
         check = {"agree": "ok", "differ-explained": "differs (explained)", "not-comparable": "not comparable"}.get(
             sec.get("comparison"), {True: "ok", False: "DIFFERS", None: "-"}[sec.get("agrees_with_paper")])
         t.add_row(name, sec.get("summary", ""), check if name in run else f"{check} (earlier run)")
     ctx.console.print(t)
     ctx.console.print(f"written {out_dir / 'paper.json'}")
-    emit(ctx, result)
+    emit(ctx, result.to_json())
     if report_path is not None:
-        from ..report import paper_images, write_report
-
-        write_report(report_path, result, kind="paper", images=paper_images(out_dir, result), source=str(out_dir))
+        result.write_report(report_path, source=str(out_dir))  # the figures of out_dir embedded
         ctx.console.print(f"wrote the report {report_path}")

@@ -12,7 +12,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import CHECKPOINT_FILE, INPUT_FILE, Ctx, OutputPath, data_fields, fmt, load_data, model_values
+from ._common import CHECKPOINT_FILE, INPUT_FILE, OUTPUT_FILE, Ctx, OutputPath, fmt, load_data, model_values, write_report_output
 from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
 from .outputs import Outputs, outputs_group, phased_progress
 from .problem import ProblemSpec, problem_group
@@ -41,36 +41,6 @@ def parse_priors(items) -> dict:
     return out
 
 
-def posterior_payload(model, res, data_sets) -> dict:
-    """The JSON of a posterior run (docs/file-formats.md, ``posterior``)."""
-    names = list(res.names)
-    modes = []
-    for m, frac in zip(res.modes, res.mode_fractions):
-        modes.append({"parameters": m.parameters, "probability": m.probability, "sample_share": frac,
-                      "std": m.std, "covariance": m.covariance, "log_weight": m.log_weight, "cost": m.cost,
-                      "count": m.count, "inside_bounds": m.inside, "at_bounds": list(m.at_bounds),
-                      "note": m.note or None})
-    return {
-        "model": model.name,
-        "method": res.method,
-        "success": res.success,
-        "updated": names,
-        "parameters": res.median,
-        "mean": res.mean, "median": res.median, "std": res.std, "interval": res.interval, "level": res.level,
-        "covariance": res.covariance, "correlation": res.correlation,
-        "solutions": modes,
-        "log_evidence": res.log_evidence, "log_evidence_error": res.log_evidence_error,
-        "noise": res.noise,
-        "prior": res.prior,
-        "predictive": res.predictive,
-        "diagnostics": res.diagnostics,
-        "n_samples": int(res.samples.shape[0]),
-        "data_sets": len(data_sets),
-        "route": res.route, "seed": res.seed, "seconds": res.seconds,
-        "warnings": res.warnings, "notes": res.notes,
-    }
-
-
 @click.command(cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @click.argument("data_paths", metavar="DATA...", nargs=-1, required=True, type=INPUT_FILE)
@@ -92,7 +62,7 @@ def posterior_payload(model, res, data_sets) -> dict:
 @problem_group()
 @click.option("--samples-out", "samples_path", type=OutputPath("file", suffixes=(".csv", ".npz"), why="its format"),
               default=None, metavar="FILE.csv|.npz", help="Write the posterior samples (CSV or NumPy .npz).")
-@outputs_group(plot="Write corner, trace and predictive figures to this folder.", report=False)
+@outputs_group(plot="Write corner, trace and predictive figures to this folder.", report=True)
 def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execution, checkpoint_path,
               problem: ProblemSpec, samples_path, outputs: Outputs):
     """The posterior of MODEL's parameters given the test data in DATA (several files: repeated tests,
@@ -125,9 +95,7 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
                         markup=False)
             raise
     _print(c, model, res, sets[0], checkpoint)
-    payload = posterior_payload(model, res, sets)
-    payload.update(data_fields(sets[0]))
-    payload["notes"] = [*sets[0].notes, *payload["notes"]]
+    payload = res.to_json()
     if samples_path is not None:
         from ..io.samples import write_samples
 
@@ -139,6 +107,7 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
         names = save_posterior_figures(outputs.plot_dir, res, sets[0].frequencies_hz if sets[0].modes else None)
         c.print(f"figures: {', '.join(str(outputs.plot_dir / n) for n in names)}")
     outputs.emit(ctx, payload)
+    write_report_output(ctx, outputs.report_path, res, model_path=model_path)
     if not res.success:
         raise NumericalError(f"the {sampler.method} sampler's checks failed (see the warnings): the posterior is "
                              "doubtful")
@@ -216,4 +185,4 @@ def _print(c, model, res, data, checkpoint) -> None:
         c.print(f"note: {n}", markup=False)
 
 
-__all__ = ["posterior", "posterior_payload", "parse_priors"]
+__all__ = ["posterior", "parse_priors"]

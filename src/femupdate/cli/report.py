@@ -40,12 +40,12 @@ def _report_model(model_path: Path, result: dict, kind: str):
                    "mode shapes on the model, FRF overlays, residual surface).")
 @click.option("--data", "data_path", type=_path, default=None, help="The test data of the run (needs --model).")
 @click.option("--kind", type=click.Choice(["direct", "update", "frf-update", "update-multi", "damage", "uniqueness",
-                                           "paper"]), default=None,
+                                           "paper", "posterior"]), default=None,
               help="The command that wrote RESULT.json (default: told from its keys).")
 @measured_dofs_option
 def report(result_path, out_path, model_path, data_path, kind, measured_text):
     """Write one self-contained HTML report of RESULT.json (the --json result of direct, update,
-    frf-update, update-multi, damage, uniqueness or paper)."""
+    frf-update, update-multi, damage, uniqueness, paper or posterior)."""
     from ..report import build_report, paper_images
     from ..report.build import _jsonable, check_kind
     from ..io.results import atomic_write_text
@@ -75,6 +75,9 @@ def report(result_path, out_path, model_path, data_path, kind, measured_text):
     html = build_report(result, model=model, data=data, kind=kind, segments=segments, images=images,
                         source=str(result_path))
     atomic_write_text(out_path, html)
+    hint = (" (from the result alone: give --model and --data for the predictive figure; the corner figure needs "
+            "the samples: --report on the posterior command)" if kind == "posterior" else
+            " (from the result alone: give --model and --data for the correlation before the update and the mode "
+            "shapes)")
     ctx.console.print(f"wrote the report {out_path}" + ("" if model is not None or kind in ("paper", "uniqueness")
-                                                        else " (from the result alone: give --model and --data for "
-                                                             "the correlation before the update and the mode shapes)"))
+                                                        else hint))

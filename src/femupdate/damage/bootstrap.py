@@ -8,6 +8,7 @@ holds what they locate and sums it up.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,9 +84,10 @@ class Replicates:
 
 
 def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData, alpha: float | None,
-                      rng: np.random.Generator) -> Replicates:
+                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
     """``n`` replicates simulated from the refined model (its change ``refined.delta``, the data's
-    modes paired as the final fit paired them), each localised, refined and verified anew."""
+    modes paired as the final fit paired them), each localised, refined and verified anew;
+    ``progress(done, n)`` after each."""
     localiser, levels, L = refiner.localiser, refiner.levels, len(refiner.names)
     theta_hat = localiser.equations.theta(refined.delta)
     sets, changes = [], []
@@ -99,36 +101,41 @@ def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData
         d_k = f_k.delta if f_k.fits else np.zeros(L)
         sets.append({i for i in f_k.members if abs(d_k[i]) >= refiner.min_change} if f_k.fits else set())
         changes.append(d_k)
+        if progress is not None:
+            progress(len(sets), n)
     return Replicates(sets, changes, n)
 
 
 def bootstrap_localised(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels, alpha: float | None,
-                        rng: np.random.Generator) -> Replicates:
-    """``n`` perturbations of the measured modes, each localised anew (no refinement)."""
+                        rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
+    """``n`` perturbations of the measured modes, each localised anew (no refinement);
+    ``progress(done, n)`` after each."""
     sets, changes = [], []
     for _ in range(n):
         d_k = localiser.solve(*perturbed(meas, levels, rng), alpha)[0].debiased
         sets.append(set(support_of(d_k, localiser.min_change).tolist()))
         changes.append(d_k)
+        if progress is not None:
+            progress(len(sets), n)
     return Replicates(sets, changes, n)
 
 
 def bootstrap(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels, alpha: float | None,
               rng: np.random.Generator, refiner: Refiner | None = None, refined: Refined | None = None,
-              data: TestData | None = None) -> Replicates:
+              data: TestData | None = None, progress: Callable[[int, int], None] | None = None) -> Replicates:
     """The replicates :func:`~femupdate.damage.detect_damage` runs: with a refinement (``refiner``,
     ``refined`` and the refined ``data``), simulated from a refined set that fits (none when it
     does not, or when the stated noise is zero: a note says so); without, the localisation of the
-    perturbed measured modes."""
+    perturbed measured modes.  ``progress(done, n)`` after each replicate."""
     if not n:
         return Replicates.none()
     if refiner is None or refined is None or data is None:
-        return bootstrap_localised(n, localiser, meas, levels, alpha, rng)
+        return bootstrap_localised(n, localiser, meas, levels, alpha, rng, progress)
     if not refined.final.fits:
         return Replicates.none()
     if levels.zero:
         return Replicates.none(NOTHING_TO_VARY)
-    return bootstrap_refined(n, refiner, refined, data, alpha, rng)
+    return bootstrap_refined(n, refiner, refined, data, alpha, rng, progress)
 
 
 __all__ = ["simulated", "Replicates", "bootstrap", "bootstrap_refined", "bootstrap_localised", "NOTHING_TO_VARY"]

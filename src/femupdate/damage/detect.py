@@ -79,21 +79,23 @@ method's knobs are one :class:`~.options.DamageOptions`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from .._errors import InputError
 from ..model import Model
 from ..options import gather
+from ..serialise import RunContext, Serialisable
 from ..testdata import TestData
 from .baseline import check_baseline
 from .bootstrap import Replicates, bootstrap
 from .localise import (Localisation, Localiser, NoiseLevels, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
 from .options import DamageOptions
+from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
 
 
@@ -102,8 +104,9 @@ STATUSES = ("confirmed", "doubtful", "not localised", "unverified")
 
 
 @dataclass(frozen=True, eq=False)
-class DamageResult:
-    """Result of :func:`detect_damage`.
+class DamageResult(Serialisable):
+    """Result of :func:`detect_damage`; it writes the JSON and report of ``femupdate damage``
+    (:mod:`femupdate.serialise`: ``to_json``, ``write_json``, ``write_report``; :mod:`femupdate.damage.record`).
 
     Attributes
     ----------
@@ -173,7 +176,13 @@ class DamageResult:
         the candidates the refinement started from.
     descriptions : dict
         {unknown: what it scales} as given (e.g. by :func:`~femupdate.damage.damage_unknowns`).
+    context : DamageContext, optional
+        The baseline model, the test data, the kind of unknowns and the run's notes before the
+        result's own (:class:`~femupdate.damage.record.DamageContext`): what :meth:`to_json` and
+        :meth:`write_report` take from them.
     """
+
+    kind: ClassVar[str] = "damage"
 
     parameters: dict[str, float]
     baseline: dict[str, float]
@@ -199,6 +208,27 @@ class DamageResult:
     verification: dict = field(default_factory=dict)
     localisation: dict = field(default_factory=dict)
     descriptions: dict = field(default_factory=dict)
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .record import damage_kind
+
+        return damage_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import damage_from
+
+        return damage_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per unknown: its baseline and identified values, change, whether it was
+        located, and its bootstrap standard error and selection frequency (:meth:`to_frame`'s rows)."""
+        se = self.confidence.get("standard_error") or {}
+        sel = self.confidence.get("selection_frequency") or {}
+        return [{"unknown": n, "baseline": self.baseline.get(n), "identified": self.parameters.get(n), "change": c,
+                 "located": n in self.located, "standard_error": se.get(n), "selection_frequency": sel.get(n),
+                 "description": self.descriptions.get(n, "")} for n, c in self.changes.items()]
 
 
 # ------------------------------------------------------------------------------ judge
@@ -316,17 +346,21 @@ def _result(names: Sequence[str], localiser: Localiser, loc: Localisation, verdi
         localisation=loc.record, **common)
 
 
-def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = None, elements: Sequence[str] | None = None,
-                  noise: Mapping | None = None, descriptions: Mapping[str, str] | None = None,
-                  options: DamageOptions | Mapping | None = None, **shorthand) -> DamageResult:
+def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: TestData | None = None,
+                  elements: Sequence[str] | None = None, noise: Mapping | None = None,
+                  descriptions: Mapping[str, str] | None = None, options: DamageOptions | Mapping | None = None,
+                  progress: Callable[[str, int, int], None] | None = None, **shorthand) -> DamageResult:
     """Localise, refine and verify stiffness loss from a validated baseline (module docstring).
 
     Parameters
     ----------
-    model : Model
+    model : Model or DamageUnknowns
         The baseline at its validated values; its stiffness parameters are the unknowns — the
         model's own (:func:`~femupdate.damage.damage_unknowns`) or one per element
-        (:func:`element_parameters`).
+        (:func:`element_parameters`).  Given the :class:`~femupdate.damage.DamageUnknowns` of
+        :func:`~femupdate.damage.damage_unknowns`, its model, with its descriptions (unless
+        ``descriptions`` is given), and the result's JSON names the kind of unknowns and carries
+        its notes, as ``femupdate damage`` writes them.
     data : TestData
         Modes of the damaged structure.  The localisation uses the shapes at the dofs common to
         every mode; the refinement each mode at its own dofs (and modes without shapes).
@@ -345,6 +379,9 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     options : DamageOptions or mapping, optional
         The method's knobs (:class:`~femupdate.damage.DamageOptions`: every field, its default
         and meaning).
+    progress : callable ``(phase, done, total)``, optional
+        Called as the work advances: phase ``"refine"`` (the search for the set that fits, one
+        step) and ``"bootstrap"`` (after each replicate).
     **shorthand
         Fields of :class:`~femupdate.damage.DamageOptions` as keywords (``bootstrap=0``,
         ``refine=False``, ...), changing ``options``.
@@ -352,6 +389,8 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     Returns
     -------
     DamageResult
+        With its context (:class:`~femupdate.damage.record.DamageContext`): ``to_json()`` and
+        ``write_report(path)`` give the JSON and report of ``femupdate damage``.
 
     Raises
     ------
@@ -364,6 +403,13 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
         A keyword that is no field of :class:`~femupdate.damage.DamageOptions`.
     """
     opts: DamageOptions = gather("detect_damage", shorthand, options=(DamageOptions, options))["options"]
+    from .record import attach
+
+    du = model if isinstance(model, DamageUnknowns) else None
+    if du is not None:
+        model = du.model
+        descriptions = du.descriptions if descriptions is None else descriptions
+    assert isinstance(model, Model)
     names = _unknowns(model, elements)
     chk = None if undamaged is None else check_baseline(
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
@@ -374,9 +420,9 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     notes: list[str] = [meas.note] if meas.note else []
     poor = _poor_pairing(pairing, opts)
     if poor and not opts.refine:
-        return _refused(names, opts, common, notes, poor + ": the damage changed the dynamics too much for an expansion "
+        return attach(_refused(names, opts, common, notes, poor + ": the damage changed the dynamics too much for an expansion "
                         "by the baseline model; damage is detected but cannot be localised without identifying the "
-                        "model anew")
+                        "model anew"), model, data, undamaged, du)
     if poor:
         notes.append(poor + ": the damage changed the dynamics too much for an expansion by the baseline model, so the "
                      "sparse localisation is unreliable; the refinement, which compares the measured shapes directly, "
@@ -389,14 +435,23 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     realised: TestData | None = None
     verification = Verification()
     if opts.refine:
+        _tell(progress, "refine", 0, 1)
         refiner = Refiner.of(model, names, localiser, levels, opts, pairing.n_rigid)
         realised = realised_data(data)
         refined = refiner.refine(realised, meas.eigenvalues, meas.shapes, loc.fit)
         verification = verify(refined)
-    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised)
+        _tell(progress, "refine", 1, 1)
+    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
+                     progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
     verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"],
                     sensor_fraction=meas.n_sensors / model.n_dofs, n_modes=len(data.modes))
-    return _result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more)
+    return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
+                  data, undamaged, du)
+
+
+def _tell(progress, phase: str, done: int, total: int) -> None:
+    if progress is not None:
+        progress(phase, done, total)
 
 
 __all__ = ["detect_damage", "DamageResult", "STATUSES", "DamageOptions", "judge", "Judgement"]

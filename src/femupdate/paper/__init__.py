@@ -15,7 +15,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..io.results import to_jsonable, write_json
+from ..io.results import to_jsonable
+from ..serialise import RunContext
+from .result import PaperResult
 
 
 def _discover() -> dict:
@@ -137,7 +139,7 @@ def _tasks(names) -> list[tuple[str, ...]]:
 
 
 def run_sections(out_dir, names=None, figures: bool = True, notes: list | None = None, jobs: int | None = None,
-                 progress=None) -> dict:
+                 progress=None) -> PaperResult:
     """Run the named sections (default all) and write ``out_dir/paper.json``.
 
     Sections already in an existing ``paper.json`` and not re-run are kept when they are as
@@ -157,6 +159,13 @@ def run_sections(out_dir, names=None, figures: bool = True, notes: list | None =
         process.
     progress : callable, optional
         ``progress(name, seconds, done, total)`` after each section.
+
+    Returns
+    -------
+    PaperResult
+        Every section of ``paper.json`` (those run and those kept); it writes the JSON and the
+        report of ``femupdate paper`` (``to_json()``, ``write_report(path)``, the figures of
+        ``out_dir`` embedded).
     """
     import os
 
@@ -197,6 +206,7 @@ def run_sections(out_dir, names=None, figures: bool = True, notes: list | None =
             futures = [pool.submit(_run_group, t, str(out_dir), figures) for t in tasks]
             for f in as_completed(futures):
                 collect(f.result())
-    result = {"paper": TITLE, "sections": {k: sections[k] for k in SECTIONS if k in sections}}
-    write_json(path, result)
+    result = PaperResult(TITLE, {k: sections[k] for k in SECTIONS if k in sections}, folder=out_dir,
+                         context=RunContext(kind="paper"))
+    result.write_json(path)
     return result

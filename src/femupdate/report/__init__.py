@@ -1,11 +1,12 @@
 """One self-contained HTML report of a run — what a test engineer hands over.
 
-:func:`build_report` turns the JSON result of ``direct``, ``update``, ``frf-update``,
-``update-multi``, ``damage``, ``uniqueness`` or ``paper`` into one HTML page: model and data,
-parameters (start, updated, change, bounds, standard deviation, flags), the paired modes and MAC
-matrices before and after, frequency comparison, mode shapes on the model's geometry,
-convergence, identifiability, the distinct multi-start solutions, FRF overlays and residual
-surfaces, located damage with its confidence, and every note and warning.  Figures are embedded
+:func:`build_report` turns the result (object or JSON) of ``direct``, ``update``,
+``frf-update``, ``update-multi``, ``damage``, ``uniqueness``, ``paper`` or ``posterior`` into one
+HTML page: model and data, parameters (start, updated, change, bounds, standard deviation, flags),
+the paired modes and MAC matrices before and after, frequency comparison, mode shapes on the
+model's geometry, convergence, identifiability, the distinct multi-start solutions, FRF overlays
+and residual surfaces, located damage with its confidence, the posterior's intervals, solutions,
+diagnostics and predictions, and every note and warning.  Figures are embedded
 (inline SVG or base64 PNG) and the page loads nothing from anywhere: it opens offline.
 
 The JSON alone gives what it holds; with the model and the test data the report also computes

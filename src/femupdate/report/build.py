@@ -13,7 +13,7 @@ import numpy as np
 
 from .._errors import FemupdateError, InputError
 from .._version import __version__
-from .content import BUILDERS, KINDS
+from .content import BUILDERS, KINDS, WITH_IMAGES
 from .document import Document
 
 log = logging.getLogger(__name__)
@@ -126,6 +126,8 @@ def detect_kind(result: Mapping) -> str:
         return "uniqueness"
     if {"located", "changes"} <= keys:
         return "damage"
+    if {"solutions", "interval", "median"} <= keys:
+        return "posterior"
     if {"configurations", "conditioning"} <= keys:
         return "update-multi"
     if "n_equations" in keys and "condition_number" in keys:
@@ -264,7 +266,10 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     damping : mapping, optional
         Damping of an FRF run ({alpha, beta, eta}) for the FRF overlays (default undamped).
     images : mapping, optional
-        For ``paper``: {section: [embedded figure]} (:func:`paper_images`).
+        For ``paper``: {section: [embedded figure]} (:func:`paper_images`); for ``posterior``:
+        the figures of its samples (:func:`femupdate.report.posterior.sample_figures`).  Default:
+        a result object's own (``report_images()``: a paper's figures beside its file, a
+        posterior's samples).
     source : str, optional
         Where the result came from (shown in the header).
     title : str, optional
@@ -291,6 +296,8 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         data = data if data is not None else ctx.data
         before = before if before is not None else ctx.before
         damping = damping if damping is not None else ctx.damping
+        if images is None and hasattr(result, "report_images"):  # figures of what the JSON does not hold
+            images = result.report_images()
         result = result.to_json()
         if kind is None and result["kind"] not in REPORT_KINDS:
             kind = _report_kind(result)
@@ -363,7 +370,7 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
     if model is not None and kind != "paper":
         _describe_parameters(res, model)
     rec = None
-    if model is not None and kind not in ("paper", "uniqueness", "update-multi"):
+    if model is not None and kind not in ("paper", "uniqueness", "update-multi", "posterior"):
         from .recompute import recompute
 
         after = res.get("parameters") if isinstance(res.get("parameters"), Mapping) else None
@@ -378,15 +385,15 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
         rec = recompute(model, data, _values(model, start), _values(model, after), res, pairing=pairing, damping=damping)
     name = res.get("model") or (model.name if model is not None else "")
     doc = Document(title=title or (f"{name}: {kind}" if name else kind), kind=REPORT_KINDS[kind], source=source)
-    if kind == "paper":
+    if kind in WITH_IMAGES:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind, images=images)  # type: ignore[call-arg]
     else:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind)
     if rec is not None:
         doc.notes.extend(rec.notes)
-    from .content import _notes_section
+    from .parts import notes_section
 
-    doc.sections.append(_notes_section(doc))
+    doc.sections.append(notes_section(doc))
     return _render(doc, res)
 
 

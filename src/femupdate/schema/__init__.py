@@ -79,6 +79,7 @@ KINDS: dict[str, Kind] = {}
 MODULES: tuple[str, ...] = ("femupdate.schema.update",)
 MODULES += ("femupdate.schema.frf", "femupdate.schema.uniqueness")
 MODULES += ("femupdate.schema.modes", "femupdate.schema.direct", "femupdate.schema.reduction")
+MODULES += ("femupdate.schema.damage", "femupdate.schema.posterior")
 
 
 def register(kind: Kind) -> Kind:

@@ -106,8 +106,10 @@ def direct_configurations(model: Model, configurations: Sequence[Configuration],
     res = solve_system(model, system, values, bounded, notes)
     scale = np.linalg.norm(A, axis=0)
     cond = conditioning([B / scale for B in blocks], names, [c.label for c in configurations])
-    return MultiConfigResult(
+    from .record import attach
+
+    return attach(MultiConfigResult(
         method="direct", parameters=res.parameters, names=tuple(names), x=res.x, success=bool(res.unique),
         message="unique least-squares solution" if res.unique else (res.notes[-1] if res.notes else "not unique"),
         configurations=per, conditioning=cond, standard_error=res.standard_error, direct=res, notes=res.notes,
-    )
+    ), model, "update-multi")

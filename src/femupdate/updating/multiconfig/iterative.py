@@ -256,13 +256,15 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
                                        "model": np.array([modes.frequencies_hz[j] for _, j, _ in pairs])},
                     "swaps": list(sub.swaps)})
     cond = conditioning(prob.normalised_blocks(sol.x, J_blocks), names, [c.label for c in configurations])
-    return MultiConfigResult(
+    from .record import attach
+
+    return attach(MultiConfigResult(
         method="iterative", parameters=dict(zip(model.parameter_names, map(float, p_final))), names=tuple(names),
         x=p_final[prob.idx], success=bool(sol.success), message=str(sol.message), configurations=per,
         conditioning=cond, standard_error=diag.std, diagnostics=diag, cost=float(0.5 * r @ r), nfev=int(sol.nfev),
         iterations=max(len(history) - 1, int(sol.njev or 0)), history=history, regularization=reg,
         start=dict(zip(names, map(float, p_base[prob.idx]))), notes=diag.notes,
-    )
+    ), model, "update-multi")
 
 
 def solve_configurations(model: Model, configurations: Sequence[Configuration], method: str = "auto", *,

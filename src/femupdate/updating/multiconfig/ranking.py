@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -32,6 +33,7 @@ from ..._errors import InputError
 from ...correlation import mac
 from ...options import ModalOptions, NoiseOptions, PairingOptions
 from ...model import Model
+from ...serialise import RunContext, Serialisable
 from .configurations import Configuration, Modification, check_unknowns, prepare, simulate
 from .iterative import Stacked
 from .results import svd_summary
@@ -40,8 +42,9 @@ CRITERIA = ("condition", "logdet", "min_singular")
 
 
 @dataclass(frozen=True, eq=False)
-class Ranking:
-    """Candidate modifications ranked by the information they add to the baseline test.
+class Ranking(Serialisable):
+    """Candidate modifications ranked by the information they add to the baseline test; it writes
+    the JSON of ``femupdate rank-modifications`` (:mod:`femupdate.serialise`; :mod:`femupdate.updating.multiconfig.record`).
 
     Attributes
     ----------
@@ -60,13 +63,33 @@ class Ranking:
         With ``select=k``: the k candidates chosen greedily, each the best given the ones before.
     unknowns : tuple of str
         The unknown parameters.
+    context : RunContext, optional
+        The model (:mod:`femupdate.serialise`): the JSON's model name.
     """
+
+    kind: ClassVar[str] = "rank-modifications"
 
     criterion: str
     baseline: dict
     candidates: list[dict]
     selected: list[str]
     unknowns: tuple[str, ...]
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .record import ranking_kind
+
+        return ranking_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import ranking_from
+
+        return ranking_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per candidate, best first (:meth:`to_frame`'s rows)."""
+        return [dict(c) for c in self.candidates]
 
 
 def _information(S: np.ndarray) -> dict:
@@ -193,5 +216,7 @@ def rank_modifications(model: Model, candidates: Sequence[Modification], measure
                        key=lambda i: _score(_information(np.vstack([S[0]] + [S[j + 1] for j in chosen + [i]])), criterion))
             chosen.append(best)
         selected = [candidates[i].name for i in chosen]
-    return Ranking(criterion, {k2: base[k2] for k2 in ("rank", "condition_number", "min_singular", "logdet")},
-                   [rows[i] for i in order], selected, tuple(names))
+    from .record import attach
+
+    return attach(Ranking(criterion, {k2: base[k2] for k2 in ("rank", "condition_number", "min_singular", "logdet")},
+                          [rows[i] for i in order], selected, tuple(names)), model, "rank-modifications")

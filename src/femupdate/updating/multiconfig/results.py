@@ -5,16 +5,19 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from ...direct import DirectResult
+from ...serialise import RunContext, Serialisable
 from .. import Diagnostics
 
 
 @dataclass(frozen=True, eq=False)
-class MultiConfigResult:
-    """Joint update of several configurations.
+class MultiConfigResult(Serialisable):
+    """Joint update of several configurations; it writes the JSON and report of ``femupdate
+    update-multi`` (:mod:`femupdate.serialise`; :mod:`femupdate.updating.multiconfig.record`).
 
     Attributes
     ----------
@@ -56,7 +59,12 @@ class MultiConfigResult:
         {``rule``, ``alpha``} when the iterative solution was regularised, else empty.
     start : dict of str to float
         The unknowns' starting values of the iterative solution (empty for the direct one).
+    context : RunContext, optional
+        The base model (:mod:`femupdate.serialise`): the JSON's model name, parameter units,
+        bounds and flags, and the report's.
     """
+
+    kind: ClassVar[str] = "update-multi"
 
     method: str
     parameters: dict[str, float]
@@ -76,6 +84,23 @@ class MultiConfigResult:
     notes: list[str] = field(default_factory=list)
     regularization: dict = field(default_factory=dict)
     start: dict[str, float] = field(default_factory=dict)
+    context: RunContext | None = field(default=None, compare=False, repr=False)
+
+    def payload(self) -> dict:
+        from .record import multi_kind
+
+        return multi_kind(self, self.run_context)
+
+    @classmethod
+    def from_payload(cls, obj):
+        from .record import multi_from
+
+        return multi_from(obj)
+
+    def records(self) -> list[dict]:
+        """One record per unknown: its identified value and standard error (:meth:`to_frame`'s rows)."""
+        return [{"parameter": n, "value": float(v), "standard_error": float(s)}
+                for n, v, s in zip(self.names, self.x, self.standard_error)]
 
 
 def svd_summary(S: np.ndarray) -> dict:
