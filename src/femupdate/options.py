@@ -310,6 +310,13 @@ class ModalOptions(Options):
         Sparse models: keep the factorisation workspace and the last modes (the eigensolver's
         start) from one evaluation to the next (the same solution to round-off); False factorises
         afresh every time.
+    close_modes : float, default 1e-6
+        The relative eigenvalue gap below which neighbouring model modes are treated as one group
+        of repeated or close modes (:mod:`femupdate.updating.groups`): paired by the MAC of the
+        best combination of their shapes, each test mode compared with that combination and its
+        Rayleigh frequency, differentiated as a subspace.  ``0 <= close_modes < 0.1``; 0 turns
+        groups off: every mode is compared alone, and repeated modes (closer than 1e-8) are
+        refused, as before this option.
     """
 
     formulation: str = "shapes"
@@ -318,6 +325,7 @@ class ModalOptions(Options):
     use_shapes: bool = True
     sensitivity: str = "auto"
     reuse: bool = True
+    close_modes: float = 1e-6
 
     def check(self) -> None:
         choice(self.formulation, FORMULATIONS, "formulation")
@@ -327,6 +335,8 @@ class ModalOptions(Options):
             raise InputError(f"ref_dof must be a dof label such as '3:x', got {self.ref_dof!r}")
         self.set("use_shapes", flag(self.use_shapes, "use_shapes"))
         self.set("reuse", flag(self.reuse, "reuse"))
+        self.set("close_modes", number(self.close_modes, "close_modes (the relative gap of close modes)", low=0.0,
+                                       high=0.1, high_open=True))
 
 
 @dataclasses.dataclass(frozen=True, repr=False)

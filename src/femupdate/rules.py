@@ -8,7 +8,8 @@ these functions for:
 * the map between the optimiser's variables x and the physical parameters p
   (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / |p_start|, ``log`` x = ln p, ``absolute``);
 * the checks of a computed spectrum (:func:`check_spectrum`: no negative eigenvalue, rigid-body
-  eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`);
+  eigenvalues set to exactly zero), of a mode to be differentiated (:func:`check_distinct`) and the
+  group of close modes a mode belongs to (:func:`group_bounds`);
 * the pairing of test modes with model modes (:func:`pair_modes`, by the policy in
   :data:`PAIRINGS`): by MAC over each test mode's measured dofs (:func:`mac_vector`), the
   assignment maximising the total MAC (Hungarian algorithm, :func:`assign`), a test mode below
@@ -70,6 +71,9 @@ RELATIVE, LOG, ABSOLUTE = 0, 1, 2
 PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
 #: relative eigenvalue gap below which two modes count as repeated
 REPEATED_TOL = 1e-8
+#: relative eigenvalue gap below which neighbouring modes are differentiated, paired and compared as one
+#: group by updating (:class:`femupdate.options.ModalOptions` ``close_modes``; :func:`group_bounds`)
+CLOSE_TOL = 1e-6
 #: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
 RIGID_TOL = 1e-12
 #: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
@@ -253,6 +257,50 @@ def check_distinct(lam, nm, t):
         if j != t and abs(lam[j] - li) <= tol:
             return E_REPEATED, j
     return OK, t
+
+
+@rule
+def group_bounds(lam, nm, t, tol):
+    """The group of close modes around mode ``t``: the run of consecutive computed modes whose
+    neighbouring eigenvalues lie within ``tol`` (relative) of each other.
+
+    Modes are chained: ``i`` and ``i + 1`` belong together when
+    ``|λ_{i+1} − λ_i| <= tol · max(|λ_i|, 1e-12 · max |λ|)`` (the measure of
+    :func:`check_distinct`); a rigid-body mode (λ exactly 0) joins no group.
+
+    Parameters
+    ----------
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        Eigenvalues (rad²/s²), ascending, rigid-body ones exactly 0 (:func:`check_spectrum`).
+    nm : int
+        The number of computed eigenvalues.
+    t : int
+        The 0-based mode, ``0 <= t < nm``.
+    tol : float
+        The relative gap (:data:`CLOSE_TOL` by default in updating).
+
+    Returns
+    -------
+    first : int
+        The group's first mode (0-based).
+    stop : int
+        One past its last mode: the group is ``first .. stop - 1``, ``stop - first == 1`` for a
+        mode alone (or a rigid-body mode).
+    """
+    scale = 1e-300
+    for i in range(nm):
+        scale = max(scale, abs(lam[i]))
+    floor = 1e-12 * scale
+    first = t
+    stop = t + 1
+    if lam[t] == 0.0:
+        return first, stop
+    while first > 0 and lam[first - 1] != 0.0 and \
+            abs(lam[first] - lam[first - 1]) <= tol * max(abs(lam[first - 1]), floor):
+        first -= 1
+    while stop < nm and lam[stop] != 0.0 and abs(lam[stop] - lam[stop - 1]) <= tol * max(abs(lam[stop - 1]), floor):
+        stop += 1
+    return first, stop
 
 
 # ---------------------------------------------------------------------------------------------
@@ -562,9 +610,9 @@ def mac_jacobian(phs, dphs, psi_e, w, dpdx, out):
 
 
 __all__ = [
-    "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL",
+    "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "CLOSE_TOL", "RIGID_TOL",
     "RIGID_ENERGY_TOL", "ERRORS", "message", "PAIRINGS", "PAIRING_NAMES", "to_p", "dp_dx", "check_spectrum",
-    "restore_elastic", "check_distinct", "mac_value", "mac_vector", "assign", "pair_by_mac", "pair_by_order",
+    "restore_elastic", "check_distinct", "group_bounds", "mac_value", "mac_vector", "assign", "pair_by_mac", "pair_by_order",
     "pair_by_frequency", "pair_modes", "pairing_rule", "shape_scale", "unit_sign", "n_shape_residuals",
     "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals", "shape_jacobian", "mac_residuals", "mac_jacobian",
 ]
