@@ -310,7 +310,7 @@ class ModalOptions(Options):
         Sparse models: keep the factorisation workspace and the last modes (the eigensolver's
         start) from one evaluation to the next (the same solution to round-off); False factorises
         afresh every time.
-    close_modes : float, default 1e-6
+    close_modes : float, default 0.01
         The relative eigenvalue gap below which neighbouring model modes are treated as one group
         of repeated or close modes (:mod:`femupdate.updating.groups`): paired by the MAC of the
         best combination of their shapes, each test mode compared with that combination and its
@@ -325,7 +325,7 @@ class ModalOptions(Options):
     use_shapes: bool = True
     sensitivity: str = "auto"
     reuse: bool = True
-    close_modes: float = 1e-6
+    close_modes: float = 1e-2
 
     def check(self) -> None:
         choice(self.formulation, FORMULATIONS, "formulation")

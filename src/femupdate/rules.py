@@ -8,8 +8,8 @@ these functions for:
 * the map between the optimiser's variables x and the physical parameters p
   (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / |p_start|, ``log`` x = ln p, ``absolute``);
 * the checks of a computed spectrum (:func:`check_spectrum`: no negative eigenvalue, rigid-body
-  eigenvalues set to exactly zero), of a mode to be differentiated (:func:`check_distinct`) and the
-  group of close modes a mode belongs to (:func:`group_bounds`);
+  eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`); the
+  group of close modes a mode belongs to (:func:`group_bounds`, in :mod:`femupdate.pairing_rules`);
 * the pairing of test modes with model modes (:func:`pair_modes`, by the policy in
   :data:`PAIRINGS`): by MAC over each test mode's measured dofs (:func:`mac_vector`), the
   assignment maximising the total MAC (Hungarian algorithm, :func:`assign`), a test mode below
@@ -57,8 +57,8 @@ from ._rulebase import (E_BAD_JACOBIAN, E_DEGENERATE, E_MASS_CHOL, E_MASS_DIAG, 
                         E_NO_PAIR, E_NODE, E_NONFINITE, E_REPEATED, E_RIGID, ERRORS, OK, RULES, dot, dot_col, message,
                         rule, sumsq_col)
 from .pairing_rules import (AUTO_MARGIN, AUTO_SWAP_MAC, FREQUENCY_WINDOW, PAIR_AUTO, PAIR_FREQUENCY,  # noqa: F401
-                            PAIR_MAC, PAIR_ORDER, PAIRING_NAMES, PAIRINGS, assign, assign_rows, mac_value, mac_vector,
-                            pair_by_frequency, pair_by_mac, pair_by_order, pair_modes, pairing_rule)
+                            PAIR_MAC, PAIR_ORDER, PAIRING_NAMES, PAIRINGS, assign, assign_rows, group_bounds, mac_value,
+                            mac_vector, pair_by_frequency, pair_by_mac, pair_by_order, pair_modes, pairing_rule)
 
 # ---------------------------------------------------------------------------------------------
 # codes
@@ -73,7 +73,7 @@ PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
 REPEATED_TOL = 1e-8
 #: relative eigenvalue gap below which neighbouring modes are differentiated, paired and compared as one
 #: group by updating (:class:`femupdate.options.ModalOptions` ``close_modes``; :func:`group_bounds`)
-CLOSE_TOL = 1e-6
+CLOSE_TOL = 1e-2
 #: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
 RIGID_TOL = 1e-12
 #: a mode whose strain energy |φᵀKφ| exceeds this fraction of |φ|ᵀ|K||φ| is elastic, however small
@@ -257,50 +257,6 @@ def check_distinct(lam, nm, t):
         if j != t and abs(lam[j] - li) <= tol:
             return E_REPEATED, j
     return OK, t
-
-
-@rule
-def group_bounds(lam, nm, t, tol):
-    """The group of close modes around mode ``t``: the run of consecutive computed modes whose
-    neighbouring eigenvalues lie within ``tol`` (relative) of each other.
-
-    Modes are chained: ``i`` and ``i + 1`` belong together when
-    ``|λ_{i+1} − λ_i| <= tol · max(|λ_i|, 1e-12 · max |λ|)`` (the measure of
-    :func:`check_distinct`); a rigid-body mode (λ exactly 0) joins no group.
-
-    Parameters
-    ----------
-    lam : numpy.ndarray of float, shape ``(≥ nm,)``
-        Eigenvalues (rad²/s²), ascending, rigid-body ones exactly 0 (:func:`check_spectrum`).
-    nm : int
-        The number of computed eigenvalues.
-    t : int
-        The 0-based mode, ``0 <= t < nm``.
-    tol : float
-        The relative gap (:data:`CLOSE_TOL` by default in updating).
-
-    Returns
-    -------
-    first : int
-        The group's first mode (0-based).
-    stop : int
-        One past its last mode: the group is ``first .. stop - 1``, ``stop - first == 1`` for a
-        mode alone (or a rigid-body mode).
-    """
-    scale = 1e-300
-    for i in range(nm):
-        scale = max(scale, abs(lam[i]))
-    floor = 1e-12 * scale
-    first = t
-    stop = t + 1
-    if lam[t] == 0.0:
-        return first, stop
-    while first > 0 and lam[first - 1] != 0.0 and \
-            abs(lam[first] - lam[first - 1]) <= tol * max(abs(lam[first - 1]), floor):
-        first -= 1
-    while stop < nm and lam[stop] != 0.0 and abs(lam[stop] - lam[stop - 1]) <= tol * max(abs(lam[stop - 1]), floor):
-        stop += 1
-    return first, stop
 
 
 # ---------------------------------------------------------------------------------------------

@@ -118,7 +118,7 @@ def posterior_payload(model, res, data_sets) -> dict:
 @json_option
 def posterior(model_path, data_paths, method, prior_items, noise, starts, seed, samples, walkers, ensembles, steps, burn,
               segment, target_ess, tmcmc_steps, chunks, level, scheduler, connect_timeout, checkpoint_path, params_text,
-              shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes, formulation, eigenvalues_only,
+              shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes, close_modes, formulation, eigenvalues_only,
               measured_text, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual, lines_text, select,
               resonance, resonance_tol, damping_text, reciprocity, samples_path, plot_dir, set_text, json_path):
     """The posterior of MODEL's parameters given the test data in DATA (several files: repeated tests,

@@ -43,6 +43,11 @@ def problem_options(command):
                           "or frequency (nearest frequency, MAC deciding within 10 %)."),
         click.option("--n-modes", type=click.IntRange(min=1), default=None,
                      help="Model modes computed and paired among (default max(2T, T + 6) for T test modes)."),
+        click.option("--close-modes", type=FiniteFloat(min=0, max=0.1, max_open=True), default=0.01, show_default=True,
+                     help="Relative eigenvalue gap below which model modes count as repeated or close: a test mode "
+                          "paired into such a group is compared with the combination of the group's shapes that fits "
+                          "it best (its pairing inside the group by the measured shapes); 0: off (repeated modes "
+                          "fail)."),
         click.option("--formulation", type=click.Choice(["shapes", "mac", "dynamic"]), default="shapes",
                      show_default=True,
                      help="Residuals of the measured modes: shapes (relative eigenvalue errors and scaled shape "
@@ -72,7 +77,7 @@ def problem_options(command):
 
 #: the parameters of :func:`problem_options`, as the commands' functions receive them
 PROBLEM_PARAMS = ("params_text", "shape_scaling", "ref_dof", "parametrisation", "min_mac", "pairing", "n_modes",
-                  "formulation", "eigenvalues_only", "use_text", "std_eigenvalue", "std_shape", "std_frf", "std_static",
+                  "close_modes", "formulation", "eigenvalues_only", "use_text", "std_eigenvalue", "std_shape", "std_frf", "std_static",
                   "residual", "lines_text", "select", "resonance", "resonance_tol", "damping_text", "reciprocity")
 
 
@@ -84,7 +89,7 @@ def problem_from_command_line(model, data):
 
 
 def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametrisation, min_mac, pairing, n_modes,
-                  formulation, eigenvalues_only, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual,
+                  close_modes, formulation, eigenvalues_only, use_text, std_eigenvalue, std_shape, std_frf, std_static, residual,
                   lines_text, select, resonance, resonance_tol, damping_text, reciprocity):
     """The updated parameters, the test data (regrouped by ``--reciprocity``), the kinds of data used,
     the problem's keyword options (as :func:`femupdate.update` takes them) and the ``--damping``
@@ -112,7 +117,7 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
     data = apply_reciprocity(data, reciprocity)
     kw = dict(shape_scaling=shape_scaling, ref_dof=ref_dof, parametrisation=parametrisation, min_mac=min_mac,
               pairing=pairing, n_modes=n_modes, use_shapes=not eigenvalues_only, measurement_std=std, use=kinds,
-              formulation=formulation)
+              formulation=formulation, close_modes=close_modes)
     damping = parse_damping(damping_text, data)  # with modes alone: compared with their damping ratios
     if "frf" in kinds:
         kw["frf_options"] = frf_options(residual, lines_text, select, resonance, resonance_tol, damping_text, data)
@@ -153,7 +158,7 @@ def problem_setup(model, data, *, params_text, shape_scaling, ref_dof, parametri
 @set_option
 @json_option
 def update(model_path, data_path, starts, seed, scheduler, connect_timeout, jobs, params_text, shape_scaling, ref_dof, parametrisation,
-           method, reg_text, min_mac, pairing, n_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
+           method, reg_text, min_mac, pairing, n_modes, close_modes, formulation, max_nfev, eigenvalues_only, measured_text, sensitivity, use_text, std_eigenvalue, std_shape,
            std_frf, std_static, residual, lines_text, select, resonance, resonance_tol, damping_text, reciprocity, plot_dir,
            write_model_path, csv_dir, uff_path, report_path, set_text, json_path):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and

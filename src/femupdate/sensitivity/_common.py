@@ -206,7 +206,7 @@ def in_group(coef: np.ndarray, i: int, group: tuple[int, int] | None, Ng: np.nda
     """Set the in-group modal coefficients of mode i's derivative (rows of ``coef``, (m, L)) to
     those of the group's basis with no rotation inside the group, −½ φ_rᵀ M_j φ_i for every other
     mode r of the group (:mod:`femupdate.sensitivity.repeated`); unchanged for a mode alone."""
-    if group is not None:
+    if group is not None and Ng is not None:
         a, b = group
         for r in range(a, b):
             if r != i:

@@ -169,7 +169,7 @@ def adjoint_details(model, modes, which=None, params=None, sensors=None, values=
 
 
 def adjoint(model, modes, which=None, params=None, sensors=None, values=None, sigma=None,
-            tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov"):
+            tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov", groups=None):
     r"""Eigenvalue derivatives and the derivatives of the measured shape components.
 
     .. math::
@@ -206,6 +206,8 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
         Galerkin (block Lanczos) acceleration of the series over the same mode-independent
         Krylov space, or its plain partial sums (:func:`~femupdate.sensitivity.series.omitted_modes_series`).
         The Krylov basis holds (terms × n_s) vectors; the acceleration about halves the solves.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes (:func:`adjoint_details`).
 
     Returns
     -------
@@ -219,7 +221,8 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
     InputError, NumericalError
         As :func:`adjoint_details`.
     """
-    dlam, dphi_s, _ = adjoint_details(model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series)
+    dlam, dphi_s, _ = adjoint_details(model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series,
+                                      groups)
     return dlam, dphi_s
 
 

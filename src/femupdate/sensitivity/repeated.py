@@ -42,7 +42,7 @@ equation; femupdate's models are affine in their parameters, so K'' = M'' = 0).
 
 **Which modes make a group.**  :func:`mode_groups` chains neighbouring modes whose relative
 eigenvalue gap is below a tolerance (:func:`femupdate.rules.group_bounds`).  Updating groups
-modes closer than :data:`femupdate.rules.CLOSE_TOL` (1e-6; :class:`femupdate.options.ModalOptions`
+modes closer than :data:`femupdate.rules.CLOSE_TOL` (0.01; :class:`femupdate.options.ModalOptions`
 ``close_modes``): see :mod:`femupdate.updating.groups` for what it compares in a group.
 
 References

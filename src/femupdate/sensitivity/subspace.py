@@ -153,7 +153,7 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
 
 
 def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol: float = DEFAULT_TOL, lu=None,
-             max_terms: int = MAX_TERMS, series: str = "neumann"):
+             max_terms: int = MAX_TERMS, series: str = "neumann", groups=None):
     r"""Eigenvalue and eigenvector derivatives from the computed modes plus the deflated series.
 
     φ_i' = Σ_{r≤m, r≠i} φ_r (φ_rᵀf)/(λ_r − λ_i) − ½(φ_iᵀM'φ_i)φ_i + Σ_k (λ_i − σ)^k y_k, with
@@ -188,6 +188,8 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
         Partial sums, or the Galerkin (block Lanczos) acceleration of
         :func:`omitted_modes_series`; the latter stores (terms × L) vectors per mode, so use it
         with few parameters.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes (:func:`subspace_details`).
 
     Returns
     -------
@@ -200,7 +202,7 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
     InputError, NumericalError
         As :func:`subspace_details`.
     """
-    dlam, dphi, _ = subspace_details(model, modes, which, params, values, sigma, tol, lu, max_terms, series)
+    dlam, dphi, _ = subspace_details(model, modes, which, params, values, sigma, tol, lu, max_terms, series, groups)
     return dlam, dphi
 
 

@@ -4,7 +4,7 @@ its model mode belongs to a group.
 Symmetric structures have repeated eigenvalues, nearly symmetric ones close eigenvalues.  Inside
 such a group G (neighbouring model modes whose relative eigenvalue gap is at most
 ``close_modes``, :class:`~femupdate.options.ModalOptions`, default
-:data:`femupdate.rules.CLOSE_TOL` = 1e-6; :func:`femupdate.rules.group_bounds`) the model's basis
+:data:`femupdate.rules.CLOSE_TOL` = 0.01; :func:`femupdate.rules.group_bounds`) the model's basis
 Φ_G is arbitrary (repeated) or turns abruptly with the parameters (close), so neither a MAC with
 one of its modes nor the derivative of one of its modes means anything.  The problem compares a
 test mode paired into a group with the group as a whole:
@@ -14,17 +14,21 @@ test mode paired into a group with the group as a whole:
   the same for every mode of the group, so that the one pairing
   (:func:`femupdate.correlation.pair`) decides which test modes go into the group, and the test
   shapes, not the model's arbitrary basis, decide the combination inside it.
-* **Residuals** (:func:`fit`): the model shape of test mode k is the combination
-  v_k = Φ_G c_k that fits its measured shape best (least squares over its measured dofs:
-  c_k = (Φ_G,s)⁺ ψ_k — a rotation of the group's basis chosen by the test), its eigenvalue the
-  Rayleigh quotient λ̃_k = c_kᵀΛ_G c_k / c_kᵀc_k.  Both are independent of the basis, and smooth
-  in the parameters as long as the group stays apart from the other modes; on noise-free data
-  they equal the test's exactly (the test mode is one combination of the group).  A test mode
-  without a shape keeps the model mode it was paired with (c = e_j; its eigenvalue λ_j).
+* **Residuals** (:func:`fit`, :func:`assign_inside`): the model shape of test mode k is the
+  combination v_k = Φ_G c_k that fits its measured shape best (least squares over its measured
+  dofs: c_k = (Φ_G,s)⁺ ψ_k — a rotation of the group's basis chosen by the test, independent of
+  the model's arbitrary basis and smooth in the parameters as long as the group stays apart from
+  the other modes).  Its eigenvalue is the group's eigenvalue whose mode c_k lies most along
+  (the assignment of largest Σ c_j²/‖c‖² over the model modes the pairing gave the group): the
+  eigenvalues are compared as a set, and where the modes are close but distinct the measured
+  shapes say which frequency is whose.  On noise-free data both equal the test's exactly.  A
+  test mode without a shape keeps the model mode the pairing gave it.
 * **Jacobian** (:func:`fit_jacobian`): exact, from the derivative of the group's basis with no
-  rotation inside the group and of the restricted eigenproblem
-  (:mod:`femupdate.sensitivity.repeated`; every derivative route), through the derivative of the
-  pseudo-inverse (Golub & Pereyra 1973).
+  rotation inside the group (:mod:`femupdate.sensitivity.repeated`; every derivative route),
+  through the derivative of the pseudo-inverse (Golub & Pereyra 1973); the eigenvalue's is Fox &
+  Kapoor's, the diagonal of the restricted eigenproblem's derivative — for a repeated eigenvalue
+  one of its directional derivatives (the eigenvalues of a repeated group are not differentiable,
+  their set is only directionally: a cone, which Gauss–Newton steps cross).
 * **Test shapes that cannot tell the group's modes apart** (sensors on a symmetry line, fewer
   measured dofs than modes in the group): the combination the measured dofs do not see (singular
   values of Φ_G,s below :data:`RANK_RTOL` of the largest) is left out (the minimum-norm fit) and
@@ -70,7 +74,7 @@ class GroupFit:
     shape : numpy.ndarray, shape ``(n_s,)``
         v at the test mode's measured dofs (the best fit of its shape); empty without shape.
     eigenvalue : float
-        The Rayleigh quotient of v, rad²/s².
+        The eigenvalue of the group's model mode ``mode``, rad²/s².
     mac : float
         MAC of ``shape`` with the test shape (NaN without shape).
     visibility : float
@@ -78,6 +82,9 @@ class GroupFit:
         seen alike; 0: one is not seen at all); NaN without shape.
     rank : int
         The combinations the fit uses (the group's size when every one is seen).
+    mode : int
+        The model mode of the group whose eigenvalue the test mode is compared with
+        (:func:`assign_inside`; 0-based).
     """
 
     group: tuple[int, int]
@@ -87,6 +94,7 @@ class GroupFit:
     mac: float
     visibility: float
     rank: int
+    mode: int
 
     @property
     def resolved(self) -> bool:
@@ -94,28 +102,39 @@ class GroupFit:
         return bool(self.visibility >= VISIBLE_RTOL)
 
 
-def _pinv(Bs: np.ndarray) -> tuple[np.ndarray, float, int]:
-    """Pseudo-inverse of the group's measured shapes (rank by :data:`RANK_RTOL`), its visibility and rank."""
-    U, S, Vt = np.linalg.svd(Bs, full_matrices=False)
+def _pinv(W: np.ndarray) -> tuple[np.ndarray, int]:
+    """Pseudo-inverse of ``W`` at its numerical rank (singular values above :data:`RANK_RTOL` of the largest)."""
+    U, S, Vt = np.linalg.svd(W, full_matrices=False)
     top = S[0] if S.size else 0.0
     if top <= 0.0:
-        return np.zeros(Bs.T.shape), 0.0, 0
+        return np.zeros(W.T.shape), 0
     rank = int(np.sum(S > RANK_RTOL * top))
-    visibility = float(S[-1] / top) if Bs.shape[0] >= Bs.shape[1] else 0.0
-    return (Vt[:rank].T / S[:rank]) @ U[:, :rank].T, visibility, rank
+    return (Vt[:rank].T / S[:rank]) @ U[:, :rank].T, rank
+
+
+def visibility(Bs: np.ndarray) -> float:
+    """Smallest over largest singular value of a group's measured shapes ``Bs`` (n_s, r): how well
+    the measured dofs see every combination of the group's modes (0: one is not seen at all)."""
+    if Bs.shape[0] < Bs.shape[1]:
+        return 0.0
+    S = np.linalg.svd(Bs, compute_uv=False)
+    return float(S[-1] / S[0]) if S.size and S[0] > 0 else 0.0
 
 
 def group_mac(psi: np.ndarray, Bs: np.ndarray) -> float:
     """MAC of the best combination of a group's measured shapes ``Bs`` (n_s, r) with the test shape
     ``psi`` (n_s,): ‖Πψ‖²/‖ψ‖², the largest MAC any combination reaches."""
-    pinv, _, _ = _pinv(Bs)
+    pinv, _ = _pinv(Bs)
     out = np.zeros(1)
     rules.mac_vector(psi, (Bs @ (pinv @ psi))[:, None], out)
     return float(out[0])
 
 
-def fit(psi: np.ndarray | None, Bs: np.ndarray | None, lam_g: np.ndarray, group: tuple[int, int], j: int) -> GroupFit:
-    """The combination of a group's modes that test mode k is compared with (module docstring).
+def fit(psi: np.ndarray | None, Bs: np.ndarray | None, lam_g: np.ndarray, group: tuple[int, int],
+        j: int) -> GroupFit:
+    """The combination of a group's modes that test mode k is compared with (module docstring):
+    c = (Φ_G,s)⁺ψ, the least-squares fit of the measured shape by the group's measured shapes
+    (minimum norm where they do not see every combination); without a shape c = e_j.
 
     Parameters
     ----------
@@ -128,7 +147,8 @@ def fit(psi: np.ndarray | None, Bs: np.ndarray | None, lam_g: np.ndarray, group:
     group : (int, int)
         ``(first, stop)``.
     j : int
-        The model mode the pairing gave (used without shape: c = e_j).
+        The model mode of the group whose eigenvalue the test mode is compared with
+        (:func:`assign_inside`).
 
     Returns
     -------
@@ -139,32 +159,73 @@ def fit(psi: np.ndarray | None, Bs: np.ndarray | None, lam_g: np.ndarray, group:
     if psi is None or Bs is None:
         c = np.zeros(r)
         c[j - a] = 1.0
-        return GroupFit(group, c, np.zeros(0), float(lam_g[j - a]), float("nan"), float("nan"), r)
-    pinv, visibility, rank = _pinv(Bs)
+        return GroupFit(group, c, np.zeros(0), float(lam_g[j - a]), float("nan"), float("nan"), r, j)
+    pinv, rank = _pinv(Bs)
     c = pinv @ psi
     v = Bs @ c
     out = np.zeros(1)
     rules.mac_vector(psi, v[:, None], out)
-    cc = float(c @ c)
-    lam = float(c @ (lam_g * c) / cc) if cc > 0 else float(lam_g[j - a])
-    return GroupFit(group, c, v, lam, float(out[0]), visibility, rank)
+    return GroupFit(group, c, v, float(lam_g[j - a]), float(out[0]), visibility(Bs), rank, j)
 
 
-def fit_jacobian(psi: np.ndarray, Bs: np.ndarray, dBs: np.ndarray, lam_g: np.ndarray, dA: np.ndarray,
-                 f: GroupFit) -> tuple[np.ndarray, np.ndarray]:
-    r"""Derivatives of a :func:`fit` with a shape: of v at the measured dofs and of its Rayleigh
-    quotient, per parameter.
+def assign_inside(fits: dict, pairs, eigenvalues: np.ndarray) -> list[tuple[int, int, float]]:
+    """The pairs with each group's model modes given to its test modes by the fits: the test mode
+    whose best combination lies most along a model mode of the group takes that mode's eigenvalue
+    (the assignment of largest total c_j²/‖c‖², :func:`femupdate.pairing_rules.assign`, over the
+    model modes the pairing gave the group).  For a repeated group any assignment gives the same
+    eigenvalues; for close modes it is the measured shapes that say which frequency is whose.
 
-    With A = Φ_G,s (n_s × r), A⁺ its pseudo-inverse at the fit's rank, c = A⁺ψ,
+    Parameters
+    ----------
+    fits : dict of int to GroupFit
+        The fits of the test modes paired into groups (their ``j`` is replaced).
+    pairs : sequence of (int, int, float)
+        The pairing's pairs.
+    eigenvalues : numpy.ndarray
+        The model's eigenvalues (rad²/s²).
+
+    Returns
+    -------
+    list of (int, int, float)
+        The pairs, each test mode in a group with its model mode so assigned and the MAC of its
+        best combination.
+    """
+    by_group: dict[tuple[int, int], list[int]] = {}
+    for k, _, _ in pairs:
+        if k in fits:
+            by_group.setdefault(fits[k].group, []).append(k)
+    col = {k: j for k, j, _ in pairs}
+    for (a, b), ks in by_group.items():
+        cols = sorted(col[k] for k in ks)
+        C = np.zeros((len(ks), len(cols)))
+        for i, k in enumerate(ks):
+            f = fits[k]
+            cc = float(f.c @ f.c)
+            if f.shape.size and cc > 0:
+                C[i] = [-(f.c[j - a] ** 2) / cc for j in cols]
+        out = np.zeros(len(ks), np.int64)
+        rules.assign(C, len(ks), len(cols), out)
+        for i, k in enumerate(ks):
+            f = fits[k]
+            j = cols[int(out[i])]
+            fits[k] = GroupFit(f.group, f.c, f.shape, float(eigenvalues[j]), f.mac, f.visibility, f.rank, j)
+            col[k] = j
+    return [(k, col[k], fits[k].mac if k in fits and fits[k].shape.size else m) for k, _, m in pairs]
+
+
+def fit_jacobian(psi: np.ndarray, Bs: np.ndarray, dBs: np.ndarray) -> np.ndarray:
+    r"""Derivative of a :func:`fit` with a shape at the measured dofs, per parameter.
+
+    With B = Φ_G,s (n_s × r), B⁺ its pseudo-inverse at the fit's rank and c = B⁺ψ
+    (Golub & Pereyra 1973),
 
     .. math::
 
-        c' = \bigl(-A^+ A' A^+ + A^+ A^{+T} A'^T (I - A A^+) + (I - A^+ A) A'^T A^{+T} A^+\bigr)\psi,
-        \qquad v' = A' c + A c', \qquad
-        \tilde\lambda' = \frac{2 c'^T (\Lambda - \tilde\lambda I) c + c^T D c}{c^T c},
+        c' = \bigl(-B^+ B' B^+ + B^+ B^{+T} B'^T (I - B B^+) + (I - B^+ B) B'^T B^{+T} B^+\bigr) \psi,
+        \qquad v' = B' c + B c',
 
-    A' the derivative of the group's measured basis (no rotation inside the group) and D that of
-    its restricted stiffness (:func:`~femupdate.sensitivity.repeated.restricted_derivatives`).
+    B' the derivative of the group's measured basis with no rotation inside the group
+    (:mod:`femupdate.sensitivity.repeated`; v does not depend on the basis chosen).
 
     Parameters
     ----------
@@ -174,32 +235,21 @@ def fit_jacobian(psi: np.ndarray, Bs: np.ndarray, dBs: np.ndarray, lam_g: np.nda
         The group's measured shapes.
     dBs : numpy.ndarray, shape ``(n_s, r, L)``
         Their derivatives.
-    lam_g : numpy.ndarray, shape ``(r,)``
-        The group's eigenvalues.
-    dA : numpy.ndarray, shape ``(r, r, L)``
-        The restricted stiffness' derivatives.
-    f : GroupFit
-        The fit at the point.
 
     Returns
     -------
-    dv : numpy.ndarray, shape ``(n_s, L)``
-    dlam : numpy.ndarray, shape ``(L,)``
+    numpy.ndarray, shape ``(n_s, L)``
     """
-    pinv, _, _ = _pinv(Bs)
-    c = f.c
-    cc = float(c @ c)
-    res = psi - Bs @ c  # (I − A A⁺) ψ
-    null = np.eye(Bs.shape[1]) - pinv @ Bs  # I − A⁺A
-    L = dBs.shape[2]
-    dv = np.zeros((Bs.shape[0], L))
-    dlam = np.zeros(L)
-    for q in range(L):
+    pinv, _ = _pinv(Bs)
+    c = pinv @ psi
+    res = psi - Bs @ c  # (I − B B⁺) ψ
+    null = np.eye(Bs.shape[1]) - pinv @ Bs  # I − B⁺B
+    dv = np.zeros((Bs.shape[0], dBs.shape[2]))
+    for q in range(dBs.shape[2]):
         dB = dBs[:, :, q]
         dc = -pinv @ (dB @ c) + pinv @ (pinv.T @ (dB.T @ res)) + null @ (dB.T @ (pinv.T @ c))
         dv[:, q] = dB @ c + Bs @ dc
-        dlam[q] = (2.0 * dc @ ((lam_g - f.eigenvalue) * c) + c @ dA[:, :, q] @ c) / cc
-    return dv, dlam
+    return dv
 
 
 def describe(fits: dict, pairs) -> list[dict]:
@@ -226,8 +276,8 @@ def notes(groups: list[dict], tol: float) -> list[str]:
         a, b = g["model_modes"][0] + 1, g["model_modes"][-1] + 1
         tests = ", ".join(str(k + 1) for k in g["test_modes"])
         out.append(f"model modes {a}-{b} are repeated or close (relative gap below {tol:g}): test mode(s) {tests} "
-                   "were compared with the combination of their shapes that fits each measured shape best, and "
-                   "with its Rayleigh frequency (the model's own basis there is arbitrary)")
+                   "were compared with the combination of their shapes that fits each measured shape best (the "
+                   "model's own basis there is arbitrary), and with their frequencies as a set")
         unresolved = [k for k, v in g["visibility"].items() if not v >= VISIBLE_RTOL]
         if unresolved:
             out.append(f"the measured dofs of test mode(s) {', '.join(str(k + 1) for k in unresolved)} cannot tell "
@@ -240,5 +290,5 @@ def notes(groups: list[dict], tol: float) -> list[str]:
     return out
 
 
-__all__ = ["GroupFit", "group_mac", "fit", "fit_jacobian", "describe", "notes", "RANK_RTOL",
+__all__ = ["GroupFit", "group_mac", "visibility", "fit", "assign_inside", "fit_jacobian", "describe", "notes", "RANK_RTOL",
            "VISIBLE_RTOL"]

@@ -318,13 +318,14 @@ class Problem(Parametrisation):
         pg = pair(MAC, rule=self.pairing, min_mac=self.min_mac, shaped=shaped, model_eigenvalues=modes.eigenvalues,
                   test_eigenvalues=tg.lam_e, strict=True)
         self.group_fits = self._fits(modes, groups, pg.pairs, nm) if groups else {}
-        for k, j, _ in pg.pairs:
+        pairs = grouping.assign_inside(self.group_fits, pg.pairs, modes.eigenvalues) if self.group_fits else list(pg.pairs)
+        for k, j, _ in pairs:
             if k in self._pairs_seen and self._pairs_seen[k] != j:
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
                                    "to_model_mode": j, "rule": pg.used})
             self._pairs_seen[k] = j
         self.pairing_used = pg.used
-        return list(pg.pairs)
+        return pairs
 
     def _fits(self, modes: Modes, groups, pairs, nm: int) -> dict[int, grouping.GroupFit]:
         """What each test mode paired into a group is compared with (:func:`groups.fit`)."""
@@ -443,14 +444,12 @@ class Problem(Parametrisation):
         groups = sorted({f.group for f in self.group_fits.values()})
         which += [i for a, b in groups for i in range(a, b) if i not in which]
         col = {j: c for c, j in enumerate(which)}
-        restricted: dict = {}
         if self.any_shape:
             # mass-normalised derivatives at the measured dofs only, by the route asked for
             sens = sensitivity_jacobian(self.model, modes, which, self.sensors, params=self.idx, values=p,
                                         method=self.sensitivity, shape_scaling="mass", relative_eigenvalues=False,
                                         groups=groups or None)
             dlam, dphi = sens.dlam, sens.dpsi
-            restricted = dict(zip(sens.groups, sens.restricted))
             self.sensitivity_used = sens.method
         else:
             dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx, groups=groups or None), None
@@ -463,15 +462,16 @@ class Problem(Parametrisation):
             sl = tg.measured(k)
             f = self.group_fits.get(k) if sl.stop > sl.start else None
             at = np.searchsorted(self.sensors, tg.pos[sl])
-            if f is not None:  # the best combination of a group's shapes and its Rayleigh quotient
+            dl = dlam[c]  # Fox & Kapoor (of a group's mode: the diagonal of its restricted derivative)
+            dv: np.ndarray | None
+            if f is not None:  # the best combination of a group's shapes
                 a, b = f.group
                 assert dphi is not None
                 gcols = [col[i] for i in range(a, b)]
-                dv, dl = grouping.fit_jacobian(tg.psi_e[sl], modes.shapes[tg.pos[sl], a:b], dphi[at][:, gcols, :],
-                                               modes.eigenvalues[a:b], restricted[(a, b)], f)
+                dv = grouping.fit_jacobian(tg.psi_e[sl], modes.shapes[tg.pos[sl], a:b], dphi[at][:, gcols, :])
                 phi_s = f.shape
             else:
-                dl, phi_s = dlam[c], modes.shapes[tg.pos[sl], j]
+                phi_s = modes.shapes[tg.pos[sl], j]
                 dv = dphi[at, c, :] if dphi is not None else None
             rules.eigenvalue_gradient(dl, tg.lam_e[k], tg.w_lam[k], dpdx, J[row])
             row += 1

@@ -366,8 +366,8 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
     and ``pairing`` (``policy``: the rule asked for, ``used``: the rule that made these pairs,
     ``low_mac``: 0-based test modes with a shape whose pair's MAC is below ``min_mac``; and
     ``groups`` when test modes were paired into groups of repeated or close model modes,
-    :func:`femupdate.updating.groups.describe`: their MAC and model frequency are then those of
-    the best combination of the group's shapes).
+    :func:`femupdate.updating.groups.describe`: their MAC is then that of the best combination of
+    the group's shapes).
 
     Parameters
     ----------
@@ -387,8 +387,7 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
         record["groups"] = describe_groups(fits, pairs)
     return dict(pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
                 test_frequencies_hz=prob.data.frequencies_hz,
-                model_frequencies_hz=np.array([math.sqrt(max(fits[k].eigenvalue, 0.0)) / (2 * math.pi) if k in fits
-                                               else modes.frequencies_hz[j] for k, j, _ in pairs]),
+                model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
                 pairing=record)
 
 

@@ -102,8 +102,8 @@ def batched_runs(model, data, names: Sequence[str], starts, options: UpdateOptio
                   for m in res.message]  # (used for the failed starts only)
     if problem.close_modes > 0 and res.codes is not None:
         # groups of repeated or close modes are the local route's (femupdate.updating.groups)
-        for r in map(int, np.flatnonzero((res.status == FAILED) & (res.codes == rules.E_REPEATED))):
-            runs[r] = _local_run(model, data, names, X0[r], o, values)
+        for handed in np.flatnonzero((res.status == FAILED) & (res.codes == rules.E_REPEATED)):
+            runs[int(handed)] = _local_run(model, data, names, X0[int(handed)], o, values)
     P_alive = bp.full_p(res.x[alive], alive)
     m_row = bp.n_residuals
     T = problem.targets.n_test
