@@ -93,6 +93,18 @@ def test_test_shapes_choose_the_combination_inside_the_pair():
     assert any("model modes 1-2 are repeated or close" in n for n in res.notes)
 
 
+def test_correlate_pairs_groups_as_update_does():
+    model, truth = square_frame()
+    data = noise_free(model, truth, sensors_at(4), 8, rotate=0.6)
+    md = model_modes(model, truth, n_modes=Problem(model, data).n_modes)  # the modes update pairs among
+    grouped, single = fu.correlate(data, md), fu.correlate(data, md, close_modes=0.0)
+    np.testing.assert_allclose([m for _, _, m in grouped.pairs], 1.0, atol=1e-9)
+    assert min(m for _, _, m in single.pairs) < 0.8  # a member alone does not match the turned shape
+    np.testing.assert_array_equal(grouped.mac, single.mac)  # the matrix keeps each mode's own MAC
+    res = fu.update(model, data, x0=truth)
+    assert [(k, j) for k, j, _ in grouped.pairs] == [(k, j) for k, j, _ in res.pairs]
+
+
 def test_sensors_that_cannot_tell_the_pair_apart_are_flagged():
     """Only x at the corners: one combination of each bending pair is (almost) not seen."""
     model, truth = square_frame()

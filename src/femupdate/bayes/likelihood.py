@@ -238,7 +238,7 @@ class Posterior:
         if reason is None and first is not None and first.close_modes > 0:
             # groups of repeated or close modes are compared by the local route only (femupdate.updating.groups)
             from ..modal import model_modes
-            from ..sensitivity.repeated import mode_groups
+            from ..close_modes import mode_groups
 
             lam = model_modes(self.model, first.to_p(first.x_start), n_modes=first.n_modes).eigenvalues
             if mode_groups(lam, first.close_modes):

@@ -74,11 +74,14 @@ def modes(model_path, n_modes, normalisation, method, uff_path, set_text, json_p
               help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not confirmed.")
 @click.option("--pairing", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto", show_default=True,
               help="How test modes pair with model modes: the same rule as update's --pairing.")
+@click.option("--close-modes", type=FiniteFloat(min=0, max=0.1, max_open=True), default=0.01, show_default=True,
+              help="Relative eigenvalue gap below which model modes are paired as a group, as update pairs them: "
+                   "the MAC of the best combination of the group's shapes (0: off).")
 @measured_dofs_option
 @damping_option
 @set_option
 @json_option
-def correlate(model_path, data_path, min_mac, pairing, measured_text, damping_text, set_text, json_path):
+def correlate(model_path, data_path, min_mac, pairing, close_modes, measured_text, damping_text, set_text, json_path):
     """Pair test and model modes by MAC; frequency errors and COMAC; measured damping ratios against
     the model's (--damping)."""
     from ..correlation import correlate as _correlate
@@ -92,7 +95,7 @@ def correlate(model_path, data_path, min_mac, pairing, measured_text, damping_te
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
-    corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing)
+    corr = _correlate(data, mm, min_mac=min_mac, pairing=pairing, close_modes=close_modes)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
     damping = damping_fields(data, {i: float(corr.model_frequencies_hz[j]) for i, j, _ in corr.pairs},
                              parse_damping(damping_text, data))

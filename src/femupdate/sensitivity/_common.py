@@ -73,7 +73,7 @@ def resolve_groups(modes, which: np.ndarray, groups) -> dict[int, tuple[int, int
         The modes to differentiate.
     groups : sequence of (int, int), or None
         Groups of close or repeated modes as ``(first, stop)``: modes ``first .. stop - 1`` of
-        ``modes``, at least two, groups not overlapping (e.g. :func:`~femupdate.sensitivity.repeated.mode_groups`).
+        ``modes``, at least two, groups not overlapping (e.g. :func:`~femupdate.close_modes.mode_groups`).
 
     Returns
     -------

@@ -209,7 +209,7 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         :func:`~femupdate.sensitivity.series.omitted_modes_series`).
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1, e.g.
-        :func:`~femupdate.sensitivity.repeated.mode_groups`): a mode of ``which`` in one of them
+        :func:`~femupdate.close_modes.mode_groups`): a mode of ``which`` in one of them
         gets the derivative of the group's basis with no rotation inside the group, by every
         route (``fd``: central differences of that basis), and ``restricted`` the group's
         ∂A/∂p (:mod:`femupdate.sensitivity.repeated`).

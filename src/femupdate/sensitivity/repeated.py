@@ -40,8 +40,8 @@ the parameter moves.  :func:`adjacent_eigenvectors` returns them with their deri
 direction of the parameters by Dailey's method (the in-group part from the second-order
 equation; femupdate's models are affine in their parameters, so K'' = M'' = 0).
 
-**Which modes make a group.**  :func:`mode_groups` chains neighbouring modes whose relative
-eigenvalue gap is below a tolerance (:func:`femupdate.rules.group_bounds`).  Updating groups
+**Which modes make a group.**  :func:`~femupdate.close_modes.mode_groups` chains neighbouring modes
+whose relative eigenvalue gap is below a tolerance (:func:`femupdate.rules.group_bounds`).  Updating groups
 modes closer than :data:`femupdate.rules.CLOSE_TOL` (0.01; :class:`femupdate.options.ModalOptions`
 ``close_modes``): see :mod:`femupdate.updating.groups` for what it compares in a group.
 
@@ -61,41 +61,9 @@ import numpy as np
 
 from .. import rules
 from .._errors import InputError, NumericalError
+from ..close_modes import mode_groups
 from ..modal import model_modes
 from ._common import param_products, resolve_groups, resolve_params
-
-
-def mode_groups(eigenvalues, tol: float = rules.CLOSE_TOL) -> list[tuple[int, int]]:
-    """The groups of repeated or close modes among ``eigenvalues``: runs of neighbours whose
-    relative gap is at most ``tol`` (:func:`femupdate.rules.group_bounds`).
-
-    Parameters
-    ----------
-    eigenvalues : array_like of float, shape ``(m,)``
-        Eigenvalues (rad²/s²), ascending; rigid-body ones (exactly 0) join no group.
-    tol : float, default :data:`femupdate.rules.CLOSE_TOL`
-        The relative gap, ``0 <= tol < 1``.
-
-    Returns
-    -------
-    list of (int, int)
-        ``(first, stop)`` of every group of at least two modes, ascending.
-
-    Raises
-    ------
-    InputError
-        ``tol`` not a number in [0, 1).
-    """
-    if not isinstance(tol, (int, float, np.floating)) or not 0.0 <= float(tol) < 1.0:
-        raise InputError(f"the relative gap of close modes must be a number in [0, 1), got {tol!r}")
-    lam = np.array(eigenvalues, dtype=float)
-    out, t = [], 0
-    while t < lam.size:
-        a, b = rules.group_bounds(lam, lam.size, t, float(tol))
-        if b - a > 1:
-            out.append((int(a), int(b)))
-        t = max(int(b), t + 1)
-    return out
 
 
 def restricted_derivatives(model, modes, group, params=None, values=None) -> np.ndarray:
@@ -190,8 +158,8 @@ def adjacent_eigenvectors(model, modes, group, direction, params=None, values=No
     modes : Modes
         Mass-normalised modes of ``model`` at ``values``, the whole group among them.
     group : (int, int)
-        ``(first, stop)`` of the repeated modes (e.g. from :func:`mode_groups`); their eigenvalues
-        must agree to :data:`femupdate.rules.REPEATED_TOL`.
+        ``(first, stop)`` of the repeated modes (e.g. from
+        :func:`~femupdate.close_modes.mode_groups`); their eigenvalues must agree to :data:`femupdate.rules.REPEATED_TOL`.
     direction : array_like of float, shape ``(L,)``
         The direction d in the parameters ``params``.
     params : sequence of int or str, optional

@@ -27,7 +27,7 @@ from ..modal import Modes, model_modes
 from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
 from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
-from ..sensitivity.repeated import mode_groups
+from ..close_modes import assign_inside, group_columns, mode_groups
 from ..testdata import TestData
 from . import groups as grouping
 from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, start_vector, updated_names, x_bounds,
@@ -311,14 +311,15 @@ class Problem(Parametrisation):
             sl = tg.measured(k)
             rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k])
         groups = mode_groups(modes.eigenvalues[:nm], self.close_modes) if self.close_modes > 0 else []
-        for a, b in groups:  # a group's columns: the MAC of the best combination of its shapes
-            for k in map(int, np.flatnonzero(shaped)):
-                sl = tg.measured(k)
-                MAC[k, a:b] = grouping.group_mac(tg.psi_e[sl], modes.shapes[tg.pos[sl], a:b])
+        combos: dict = {}
+        if groups:  # a group's columns: the MAC of the best combination of its shapes (femupdate.close_modes)
+            measured = {k: (tg.psi_e[tg.measured(k)], modes.shapes[tg.pos[tg.measured(k)], :nm])
+                        for k in map(int, np.flatnonzero(shaped))}
+            MAC, combos = group_columns(MAC, groups, measured)
         pg = pair(MAC, rule=self.pairing, min_mac=self.min_mac, shaped=shaped, model_eigenvalues=modes.eigenvalues,
                   test_eigenvalues=tg.lam_e, strict=True)
-        self.group_fits = self._fits(modes, groups, pg.pairs, nm) if groups else {}
-        pairs = grouping.assign_inside(self.group_fits, pg.pairs, modes.eigenvalues) if self.group_fits else list(pg.pairs)
+        pairs = assign_inside(pg.pairs, groups, combos) if groups else list(pg.pairs)
+        self.group_fits = self._fits(modes, groups, pairs, nm) if groups else {}
         for k, j, _ in pairs:
             if k in self._pairs_seen and self._pairs_seen[k] != j:
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
