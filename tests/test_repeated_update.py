@@ -91,6 +91,7 @@ def test_test_shapes_choose_the_combination_inside_the_pair():
     groups = res.pairing["groups"]
     assert [g["model_modes"] for g in groups][:2] == [[0, 1], [4, 5]] and all(g["resolved"] for g in groups)
     assert any("model modes 1-2 are repeated or close" in n for n in res.notes)
+    assert res.swaps == []  # a new mode of the same group (an arbitrary basis) is no mode swap
 
 
 def test_correlate_pairs_groups_as_update_does():

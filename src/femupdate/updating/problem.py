@@ -320,8 +320,10 @@ class Problem(Parametrisation):
                   test_eigenvalues=tg.lam_e, strict=True)
         pairs = assign_inside(pg.pairs, groups, combos) if groups else list(pg.pairs)
         self.group_fits = self._fits(modes, groups, pairs, nm) if groups else {}
+        same = {j: g for g in groups for j in range(*g)}  # inside a group a new mode is no swap
         for k, j, _ in pairs:
-            if k in self._pairs_seen and self._pairs_seen[k] != j:
+            old = self._pairs_seen.get(k)
+            if old is not None and old != j and not (j in same and same.get(old) == same[j]):
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
                                    "to_model_mode": j, "rule": pg.used})
             self._pairs_seen[k] = j
