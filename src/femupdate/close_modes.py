@@ -169,7 +169,7 @@ def assign_inside(pairs, groups: Sequence[tuple[int, int]], combos: Mapping) -> 
         for i, k in enumerate(ks):
             c = combos.get((k, (a, b)))
             cc = float(c @ c) if c is not None else 0.0
-            if cc > 0:
+            if c is not None and cc > 0:
                 C[i] = [-(c[j - a] ** 2) / cc for j in cols]
             else:  # no shape: its own column first
                 C[i] = [0.0 if j == col[k] else 1e-9 for j in cols]
