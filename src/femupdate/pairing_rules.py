@@ -503,8 +503,9 @@ def group_bounds(lam, nm, t, tol):
     neighbouring eigenvalues lie within ``tol`` (relative) of each other.
 
     Modes are chained: ``i`` and ``i + 1`` belong together when
-    ``|λ_{i+1} − λ_i| <= tol · max(|λ_i|, 1e-12 · max |λ|)`` (the measure of
-    :func:`femupdate.rules.check_distinct`); a rigid-body mode (λ exactly 0) joins no group.  The
+    ``|λ_{i+1} − λ_i| <= tol · max(|λ_i|, |λ_{i+1}|)``, a relative gap however large the other
+    eigenvalues of the pencil (a penalty stiffness does not make low modes "close"); a rigid-body
+    mode (λ exactly 0) joins no group.  The
     pairing compares a test mode paired into such a group with the group as a whole
     (:mod:`femupdate.updating.groups`).
 
@@ -527,18 +528,15 @@ def group_bounds(lam, nm, t, tol):
         One past its last mode: the group is ``first .. stop - 1``, ``stop - first == 1`` for a
         mode alone (or a rigid-body mode).
     """
-    scale = 1e-300
-    for i in range(nm):
-        scale = max(scale, abs(lam[i]))
-    floor = 1e-12 * scale
     first = t
     stop = t + 1
     if lam[t] == 0.0:
         return first, stop
     while first > 0 and lam[first - 1] != 0.0 and \
-            abs(lam[first] - lam[first - 1]) <= tol * max(abs(lam[first - 1]), floor):
+            abs(lam[first] - lam[first - 1]) <= tol * max(abs(lam[first - 1]), abs(lam[first])):
         first -= 1
-    while stop < nm and lam[stop] != 0.0 and abs(lam[stop] - lam[stop - 1]) <= tol * max(abs(lam[stop - 1]), floor):
+    while stop < nm and lam[stop] != 0.0 and \
+            abs(lam[stop] - lam[stop - 1]) <= tol * max(abs(lam[stop - 1]), abs(lam[stop])):
         stop += 1
     return first, stop
 
