@@ -221,19 +221,27 @@ def uncoupled_model():
     return s.build()
 
 
-def test_repeated_mode_start_fails_alone():
+def test_repeated_mode_start_goes_to_the_local_route():
+    """A start at repeated modes (ka = kb) used to fail ("modes 1 and 2 are repeated"); the local
+    route compares the group with the measured shapes, and the compiled route hands the start to
+    it.  With close_modes=0 the old refusal stays, alone, on both routes."""
     model = uncoupled_model()
     data = measured(model, ["1:x", "2:x", "3:x"], 3)
     starts = np.array([[2.0, 2.0, 8.0],  # ka = kb: modes 1 and 2 repeated at the start
                        [1.5, 2.5, 8.0], [0.8, 4.0, 11.0], [2.0, 2.0 * (1 + 1e-3), 6.0]])
     ms = multistart_batched(model, data, model.parameter_names, starts, min_mac=0.0)
-    assert isinstance(ms.runs[0], str) and "repeated" in ms.runs[0]
-    for r in ms.runs[1:]:
+    for r in ms.runs:
         assert isinstance(r, BatchRun) and r.success
         np.testing.assert_allclose(r.x, [1.0, 3.0, 10.0], rtol=1e-8)
-    assert ms.converged == 3 and ms.solutions[0].count == 3
+    assert "local route" in ms.runs[0].message and "local route" not in ms.runs[1].message
+    assert ms.converged == 4 and ms.solutions[0].count == 4
+    local = update(model, data, x0=dict(zip(model.parameter_names, starts[0])), min_mac=0.0)
+    np.testing.assert_allclose(ms.runs[0].x, local.x, rtol=0, atol=0)  # the local route's own answer
+    old = multistart_batched(model, data, model.parameter_names, starts, min_mac=0.0, close_modes=0.0)
+    assert isinstance(old.runs[0], str) and "repeated" in old.runs[0]
+    assert old.converged == 3 and old.solutions[0].count == 3
     with pytest.raises(NumericalError, match="repeated"):  # the per-start path refuses it alike
-        update(model, data, x0=dict(zip(model.parameter_names, starts[0])), min_mac=0.0)
+        update(model, data, x0=dict(zip(model.parameter_names, starts[0])), min_mac=0.0, close_modes=0.0)
 
 
 def test_solver_failed_rows_do_not_stop_the_batch():

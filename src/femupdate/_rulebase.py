@@ -111,8 +111,9 @@ ERRORS = {
     E_RIGID: ("mode {k} is a rigid-body mode (zero frequency): its derivatives are not defined; differentiate the "
               "flexible modes only"),
     E_REPEATED: ("modes {k} and {k1} are repeated (eigenvalues {f0:.10g} and {f1:.10g}): eigenvector derivatives "
-                 "of repeated modes are not unique; femupdate refuses rather than return a wrong derivative (pair "
-                 "modes by subspace, or perturb the model to split them)"),
+                 "of repeated modes are not unique; femupdate refuses rather than return a wrong derivative "
+                 "(differentiate them as a group: groups= of femupdate.sensitivity.jacobian, or "
+                 "femupdate.sensitivity.repeated)"),
     E_DEGENERATE: "the least-squares solver failed: the trust-region step is degenerate",
     E_BAD_JACOBIAN: "the least-squares solver failed: non-finite Jacobian",
 }

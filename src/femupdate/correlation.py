@@ -430,12 +430,15 @@ class Correlation(Serialisable):
                        "frequency_error": None, "mac": None} for i in self.unpaired_test]
 
 
-def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") -> Correlation:
+def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto", close_modes: float = 0.01) -> Correlation:
     """Correlate :class:`~femupdate.TestData` modes with :class:`~femupdate.Modes`.
 
     Test and model modes are paired by :func:`pair` with the rule that :func:`femupdate.update`
     uses (the policy ``pairing``), on each test mode's MAC over its own measured dofs: the same
-    data and model give the same pairs here as in ``update``.
+    data and model give the same pairs here as in ``update``.  Model modes closer than
+    ``close_modes`` (relative eigenvalue gap) form groups, paired as ``update`` pairs them
+    (:mod:`femupdate.close_modes`): the MAC of a pair into a group is that of the best combination
+    of the group's shapes (``mac`` itself keeps every model mode's own; real test shapes only).
     With ``pairing="mac"`` a shaped test mode whose best MAC stays below ``min_mac`` is left
     unpaired; with the other policies every test mode is paired and such a pair is listed in
     ``unconfirmed``.  COMAC is computed on the dofs every paired shape was measured at.
@@ -450,6 +453,9 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         The pairing threshold (as ``update``'s ``min_mac``).
     pairing : {"auto", "mac", "order", "frequency"}, default ``"auto"``
         The pairing policy (as ``update``'s).
+    close_modes : float, default 0.01
+        The relative eigenvalue gap of a group of repeated or close model modes (as ``update``'s;
+        0: none).
 
     Returns
     -------
@@ -471,6 +477,7 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
     pos = {d: i for i, d in enumerate(canonical_all(model_modes.dofs))}
     shaped = np.zeros(T, bool)
     M = np.zeros((T, nm))
+    measured = {}
     for k, m in enumerate(modes):
         if not m.has_shape:
             continue
@@ -481,9 +488,15 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         rt, ra = map(list, zip(*rows))
         M[k] = mac(np.asarray(m.shape)[rt], model_modes.shapes[ra])[0]
         shaped[k] = True
-    pg = pair(M, rule=pairing, min_mac=min_mac, shaped=shaped, model_eigenvalues=model_modes.eigenvalues,
+        measured[k] = (np.asarray(m.shape)[rt], model_modes.shapes[ra])
+    from .close_modes import assign_inside, group_columns, mode_groups
+
+    groups = mode_groups(model_modes.eigenvalues, close_modes) if close_modes > 0 else []
+    real = all(np.isrealobj(psi) for psi, _ in measured.values())
+    M_pair, combos = group_columns(M, groups, measured) if groups and real else (M, {})
+    pg = pair(M_pair, rule=pairing, min_mac=min_mac, shaped=shaped, model_eigenvalues=model_modes.eigenvalues,
               test_eigenvalues=[m.eigenvalue for m in modes])
-    pairs = list(pg.pairs)
+    pairs = assign_inside(pg.pairs, groups, combos) if combos else list(pg.pairs)
     tdofs, Phi_t = test.shape_matrix()
     common: tuple[str, ...] = ()
     cm = np.zeros(0)
@@ -495,5 +508,7 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto") ->
         keep = ~np.isnan(Pt.real if np.iscomplexobj(Pt) else Pt).any(axis=1)  # dofs every paired shape has
         common = tuple(d for d, k in zip(common, keep) if k)
         cm = comac(Pt[keep], model_modes.shapes[ia][keep][:, [j for _, j in shaped_pairs]]) if keep.any() else cm
-    return Correlation(common, M, pairs, f_t, f_a, pg.frequency_error, cm, list(pg.unpaired), list(pg.unconfirmed), pg,
+    err = pg.frequency_error if not combos else np.array(
+        [(f_a[j] - f_t[k]) / f_t[k] if f_t[k] > 0 else np.nan for k, j, _ in pairs], float)
+    return Correlation(common, M, pairs, f_t, f_a, err, cm, list(pg.unpaired), list(pg.unconfirmed), pg,
                        context=RunContext(data=test if isinstance(test, TestData) else None))

@@ -15,7 +15,9 @@ which says what it did.
 * the policies (:data:`PAIRINGS`, :func:`pair_modes`): by MAC over each test mode's measured
   dofs (:func:`pair_by_mac`), by frequency order (:func:`pair_by_order`), by frequency with MAC
   breaking ties (:func:`pair_by_frequency`), or ``auto``, by order until the shapes show a swap;
-  and :func:`pairing_rule`, which tells from a compiled result's pairs the rule that made them.
+  and :func:`pairing_rule`, which tells from a compiled result's pairs the rule that made them;
+* the groups of repeated or close model modes (:func:`group_bounds`), which the modal problem pairs
+  and compares as a whole (:mod:`femupdate.updating.groups`).
 """
 
 from __future__ import annotations
@@ -495,6 +497,51 @@ def pairing_rule(policy: str, pairs, lam_e) -> str:
     return "order" if ordered.size == 0 or np.array_equal(np.diff(ordered), np.ones(ordered.size - 1)) else "mac"
 
 
+@rule
+def group_bounds(lam, nm, t, tol):
+    """The group of close modes around mode ``t``: the run of consecutive computed modes whose
+    neighbouring eigenvalues lie within ``tol`` (relative) of each other.
+
+    Modes are chained: ``i`` and ``i + 1`` belong together when
+    ``|λ_{i+1} − λ_i| <= tol · max(|λ_i|, |λ_{i+1}|)``, a relative gap however large the other
+    eigenvalues of the pencil (a penalty stiffness does not make low modes "close"); a rigid-body
+    mode (λ exactly 0) joins no group.  The
+    pairing compares a test mode paired into such a group with the group as a whole
+    (:mod:`femupdate.updating.groups`).
+
+    Parameters
+    ----------
+    lam : numpy.ndarray of float, shape ``(≥ nm,)``
+        Eigenvalues (rad²/s²), ascending, rigid-body ones exactly 0 (:func:`femupdate.rules.check_spectrum`).
+    nm : int
+        The number of computed eigenvalues.
+    t : int
+        The 0-based mode, ``0 <= t < nm``.
+    tol : float
+        The relative gap (:data:`femupdate.rules.CLOSE_TOL` by default in updating).
+
+    Returns
+    -------
+    first : int
+        The group's first mode (0-based).
+    stop : int
+        One past its last mode: the group is ``first .. stop - 1``, ``stop - first == 1`` for a
+        mode alone (or a rigid-body mode).
+    """
+    first = t
+    stop = t + 1
+    if lam[t] == 0.0:
+        return first, stop
+    while first > 0 and lam[first - 1] != 0.0 and \
+            abs(lam[first] - lam[first - 1]) <= tol * max(abs(lam[first - 1]), abs(lam[first])):
+        first -= 1
+    while stop < nm and lam[stop] != 0.0 and \
+            abs(lam[stop] - lam[stop - 1]) <= tol * max(abs(lam[stop - 1]), abs(lam[stop])):
+        stop += 1
+    return first, stop
+
+
+
 __all__ = ["PAIR_MAC", "PAIR_ORDER", "PAIR_FREQUENCY", "PAIR_AUTO", "PAIRINGS", "PAIRING_NAMES", "FREQUENCY_WINDOW",
            "AUTO_MARGIN", "AUTO_SWAP_MAC", "mac_value", "mac_vector", "assign", "assign_rows", "pair_by_mac",
-           "pair_by_order", "pair_by_frequency", "pair_modes", "pairing_rule"]
+           "pair_by_order", "pair_by_frequency", "pair_modes", "pairing_rule", "group_bounds"]

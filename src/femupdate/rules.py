@@ -8,7 +8,8 @@ these functions for:
 * the map between the optimiser's variables x and the physical parameters p
   (:func:`to_p`, :func:`dp_dx`: ``relative`` x = p / ``|p_start|``, ``log`` x = ln p, ``absolute``);
 * the checks of a computed spectrum (:func:`check_spectrum`: no negative eigenvalue, rigid-body
-  eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`);
+  eigenvalues set to exactly zero) and of a mode to be differentiated (:func:`check_distinct`); the
+  group of close modes a mode belongs to (:func:`group_bounds`, in :mod:`femupdate.pairing_rules`);
 * the pairing of test modes with model modes (:func:`pair_modes`, by the policy in
   :data:`PAIRINGS`): by MAC over each test mode's measured dofs (:func:`mac_vector`), the
   assignment maximising the total MAC (Hungarian algorithm, :func:`assign`), a test mode below
@@ -56,8 +57,8 @@ from ._rulebase import (E_BAD_JACOBIAN, E_DEGENERATE, E_MASS_CHOL, E_MASS_DIAG, 
                         E_NO_PAIR, E_NODE, E_NONFINITE, E_REPEATED, E_RIGID, ERRORS, OK, RULES, dot, dot_col, message,
                         rule, sumsq_col)
 from .pairing_rules import (AUTO_MARGIN, AUTO_SWAP_MAC, FREQUENCY_WINDOW, PAIR_AUTO, PAIR_FREQUENCY,  # noqa: F401
-                            PAIR_MAC, PAIR_ORDER, PAIRING_NAMES, PAIRINGS, assign, assign_rows, mac_value, mac_vector,
-                            pair_by_frequency, pair_by_mac, pair_by_order, pair_modes, pairing_rule)
+                            PAIR_MAC, PAIR_ORDER, PAIRING_NAMES, PAIRINGS, assign, assign_rows, group_bounds, mac_value,
+                            mac_vector, pair_by_frequency, pair_by_mac, pair_by_order, pair_modes, pairing_rule)
 
 # ---------------------------------------------------------------------------------------------
 # codes
@@ -70,6 +71,9 @@ RELATIVE, LOG, ABSOLUTE = 0, 1, 2
 PARAMETRISATIONS = {"relative": RELATIVE, "log": LOG, "absolute": ABSOLUTE}
 #: relative eigenvalue gap below which two modes count as repeated
 REPEATED_TOL = 1e-8
+#: relative eigenvalue gap below which neighbouring modes are differentiated, paired and compared as one
+#: group by updating (:class:`femupdate.options.ModalOptions` ``close_modes``; :func:`group_bounds`)
+CLOSE_TOL = 1e-2
 #: an eigenvalue within this fraction of the pencil's scale is a rigid-body (zero) eigenvalue
 RIGID_TOL = 1e-12
 #: a mode whose strain energy ``|φᵀKφ|`` exceeds this fraction of ``|φ|ᵀ|K||φ|`` is elastic, however small
@@ -562,9 +566,9 @@ def mac_jacobian(phs, dphs, psi_e, w, dpdx, out):
 
 
 __all__ = [
-    "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "RIGID_TOL",
+    "RULES", "rule", "dot", "dot_col", "sumsq_col", "SCALINGS", "PARAMETRISATIONS", "REPEATED_TOL", "CLOSE_TOL", "RIGID_TOL",
     "RIGID_ENERGY_TOL", "ERRORS", "message", "PAIRINGS", "PAIRING_NAMES", "to_p", "dp_dx", "check_spectrum",
-    "restore_elastic", "check_distinct", "mac_value", "mac_vector", "assign", "pair_by_mac", "pair_by_order",
+    "restore_elastic", "check_distinct", "group_bounds", "mac_value", "mac_vector", "assign", "pair_by_mac", "pair_by_order",
     "pair_by_frequency", "pair_modes", "pairing_rule", "shape_scale", "unit_sign", "n_shape_residuals",
     "eigenvalue_residual", "eigenvalue_gradient", "shape_residuals", "shape_jacobian", "mac_residuals", "mac_jacobian",
 ]

@@ -235,13 +235,23 @@ class Posterior:
             reason = f"the data used are {', '.join(self.kinds)} (the compiled route takes modal data only)"
         else:
             reason = unsupported(self.model, o.replace(frf=FRFOptions()), explicit=route == "compiled")
+        first = self.problems[0].modal
+        if reason is None and first is not None and first.close_modes > 0:
+            # groups of repeated or close modes are compared by the local route only (femupdate.updating.groups)
+            from ..modal import model_modes
+            from ..close_modes import mode_groups
+
+            lam = model_modes(self.model, first.to_p(first.x_start), n_modes=first.n_modes).eigenvalues
+            if mode_groups(lam, first.close_modes):
+                reason = (f"the model has repeated or close modes at the start (relative gap below "
+                          f"{first.close_modes:g}), which the compiled route does not compare as groups")
+                log.info("posterior: local route: %s", reason)
         if route == "compiled" and reason:
             raise InputError(f"route 'compiled': {reason}; use route 'local'")
         if route == "local" or reason:
             return "local"
         from ..updating.batched import BatchedProblem
 
-        first = self.problems[0].modal
         assert first is not None
         starts = np.tile(first.start, (len(self.problems), 1))
         targets = []

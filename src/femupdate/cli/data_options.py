@@ -41,15 +41,20 @@ def test_data_group(damping: bool = False) -> Callable:
 
 
 def pairing_group() -> Callable:
-    """``--min-mac``, ``--pairing`` -> ``pairing``: :class:`~femupdate.options.PairingOptions`."""
+    """``--min-mac``, ``--pairing``, ``--close-modes`` -> ``pairing``: (:class:`~femupdate.options.PairingOptions`,
+    the relative gap of close modes)."""
     return option_group(
-        "Pairing", "pairing", lambda min_mac, rule: PairingOptions(rule=rule, min_mac=min_mac),
+        "Pairing", "pairing",
+        lambda min_mac, rule, close_modes: (PairingOptions(rule=rule, min_mac=min_mac), close_modes),
         click.option("--min-mac", type=FiniteFloat(0, 1), default=0.5, show_default=True,
                      help="Pairing threshold, as in update: below it a pair is dropped (--pairing mac) or not "
                           "confirmed."),
         click.option("--pairing", "rule", type=click.Choice(["auto", "mac", "order", "frequency"]), default="auto",
                      show_default=True, help="How test modes pair with model modes: the same rule as update's "
                                              "--pairing."),
+        click.option("--close-modes", type=FiniteFloat(min=0, max=0.1, max_open=True), default=0.01, show_default=True,
+                     help="Relative eigenvalue gap below which model modes are paired as a group, as update pairs "
+                          "them: the MAC of the best combination of the group's shapes (0: off)."),
     )
 
 

@@ -94,7 +94,7 @@ def modes(model_path, modal: ModesSpec, outputs: Outputs):
 @pairing_group()
 @test_data_group(damping=True)
 @outputs_group(report=False)
-def correlate(model_path, data_path, pairing: PairingOptions, data_spec: DataSpec, outputs: Outputs):
+def correlate(model_path, data_path, pairing: tuple[PairingOptions, float], data_spec: DataSpec, outputs: Outputs):
     """Pair test and model modes by MAC; frequency errors and COMAC; measured damping ratios against
     the model's (--damping)."""
     from ..correlation import correlate as _correlate
@@ -108,7 +108,8 @@ def correlate(model_path, data_path, pairing: PairingOptions, data_spec: DataSpe
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
-    corr = _correlate(data, mm, min_mac=pairing.min_mac, pairing=pairing.rule)
+    rule, close_modes = pairing
+    corr = _correlate(data, mm, min_mac=rule.min_mac, pairing=rule.rule, close_modes=close_modes)
     ctx.console.print(correlation_table(corr, f"{model.name} vs {Path(data_path).name}"))
     corr = corr.with_context(damping=data_spec.damping(data))
     print_damping(ctx.console, data, corr.payload().get("damping_ratio"))  # as computed (the JSON's NaN are null)

@@ -59,6 +59,7 @@ class ProblemSpec:
     resonance_tol: float
     damping_text: str | None
     reciprocity: bool
+    close_modes: float = 1e-2
     sensitivity: str = "auto"
 
     def resolve(self, model, data, solver: SolverOptions | None = None) -> Resolved:
@@ -104,7 +105,8 @@ class ProblemSpec:
         options = UpdateOptions(
             use=kinds, solver=solver, frf=frf, noise=NoiseOptions(std=std),
             modal=ModalOptions(formulation=self.formulation, shape_scaling=self.shape_scaling, ref_dof=ref_dof,
-                               use_shapes=not self.eigenvalues_only, sensitivity=self.sensitivity),
+                               use_shapes=not self.eigenvalues_only, sensitivity=self.sensitivity,
+                               close_modes=self.close_modes),
             pairing=PairingOptions(rule=self.pairing, min_mac=self.min_mac, n_modes=self.n_modes))
         return Resolved(params, data, kinds, options, damping)
 
@@ -126,6 +128,11 @@ _OPTIONS = (
                       "or frequency (nearest frequency, MAC deciding within 10 %)."),
     click.option("--n-modes", type=click.IntRange(min=1), default=None,
                  help="Model modes computed and paired among (default max(2T, T + 6) for T test modes)."),
+    click.option("--close-modes", type=FiniteFloat(min=0, max=0.1, max_open=True), default=0.01, show_default=True,
+                 help="Relative eigenvalue gap below which model modes count as repeated or close: a test mode "
+                      "paired into such a group is compared with the combination of the group's shapes that fits "
+                      "it best (its pairing inside the group by the measured shapes); 0: off (repeated modes "
+                      "fail)."),
     click.option("--formulation", type=click.Choice(["shapes", "mac", "dynamic"]), default="shapes",
                  show_default=True,
                  help="Residuals of the measured modes: shapes (relative eigenvalue errors and scaled shape "

@@ -88,6 +88,14 @@ class ModalOptions(Options):
         below their lowest eigenvalue, which also shortens the sensitivities' series).  The same
         modes and derivatives to round-off.  False: every evaluation as a first one (the backend's
         factorisation afresh, shift 0).
+    close_modes : float, default 0.01
+        The relative eigenvalue gap below which neighbouring model modes are treated as one group
+        of repeated or close modes (:mod:`femupdate.updating.groups`): paired by the MAC of the
+        best combination of their shapes, each test mode compared with the combination of the
+        group's shapes that fits it best and with the eigenvalue of the model mode it is assigned
+        inside the group, differentiated as a subspace (Mills-Curran 1988, Dailey 1989:
+        :mod:`femupdate.sensitivity.repeated`).  ``0 <= close_modes < 0.1``; 0 turns groups off:
+        every mode is compared alone, and repeated modes (closer than 1e-8) are refused.
     """
 
     formulation: str = "shapes"
@@ -96,6 +104,7 @@ class ModalOptions(Options):
     use_shapes: bool = True
     sensitivity: str = "auto"
     reuse: bool = True
+    close_modes: float = 1e-2
 
     def check(self) -> None:
         choice(self.formulation, FORMULATIONS, "formulation")
@@ -105,6 +114,8 @@ class ModalOptions(Options):
             raise InputError(f"ref_dof must be a dof label such as '3:x', got {self.ref_dof!r}")
         self.set("use_shapes", flag(self.use_shapes, "use_shapes"))
         self.set("reuse", flag(self.reuse, "reuse"))
+        self.set("close_modes", number(self.close_modes, "close_modes (the relative gap of close modes)", low=0.0,
+                                       high=0.1, high_open=True))
 
 
 @dataclasses.dataclass(frozen=True, repr=False)

@@ -42,16 +42,69 @@ def resolve_which(modes, which) -> np.ndarray:
     return idx
 
 
-def check_distinct(modes, which: Sequence[int], mass_normalised: bool = True) -> None:
+def check_distinct(modes, which: Sequence[int], mass_normalised: bool = True, groups=None) -> None:
     """Refuse derivatives of rigid-body or repeated modes (they are not differentiable as such;
-    :func:`femupdate.rules.check_distinct`)."""
+    :func:`femupdate.rules.check_distinct`); a mode of one of ``groups`` (:func:`resolve_groups`)
+    may repeat the others of its group, not a mode outside it."""
     if mass_normalised and modes.normalisation != "mass":
         raise InputError(f"sensitivities need mass-normalised modes, got {modes.normalisation!r} (use model_modes(..., normalisation='mass'))")
     lam = np.asarray(modes.eigenvalues, float)
+    groups = groups or {}
     for i in which:
-        code, j = rules.check_distinct(lam, lam.size, int(i))
+        i = int(i)
+        code, j = rules.check_distinct(lam, lam.size, i)
+        if code == rules.E_REPEATED and i in groups:  # repeated inside its group: fine, outside: not
+            a, b = groups[i]
+            tol = rules.REPEATED_TOL * max(abs(lam[i]), 1e-12 * np.abs(lam).max())
+            outside = [j for j in range(lam.size) if not a <= j < b and abs(lam[j] - lam[i]) <= tol]
+            code, j = (rules.E_REPEATED, outside[0]) if outside else (rules.OK, i)
         if code != rules.OK:
-            raise NumericalError(rules.message(code, int(i), j, lam[i], lam[j]))
+            raise NumericalError(rules.message(code, i, j, lam[i], lam[j]))
+
+
+def resolve_groups(modes, which: np.ndarray, groups) -> dict[int, tuple[int, int]]:
+    """The group of each mode of ``which`` that belongs to one of ``groups`` (modes alone are left out).
+
+    Parameters
+    ----------
+    modes : Modes
+        The computed modes.
+    which : numpy.ndarray of int
+        The modes to differentiate.
+    groups : sequence of (int, int), or None
+        Groups of close or repeated modes as ``(first, stop)``: modes ``first .. stop - 1`` of
+        ``modes``, at least two, groups not overlapping (e.g. :func:`~femupdate.close_modes.mode_groups`).
+
+    Returns
+    -------
+    dict of int to (int, int)
+        ``{mode: (first, stop)}`` for every mode of ``which`` in a group.
+
+    Raises
+    ------
+    InputError
+        A group that is not a pair of indices ``0 <= first < stop <= n_modes`` with
+        ``stop - first >= 2``, or groups that overlap.
+    """
+    out: dict[int, tuple[int, int]] = {}
+    if groups is None:
+        return out
+    taken = np.zeros(modes.n_modes, bool)
+    for g in groups:
+        try:
+            a, b = (int(v) for v in g)
+        except (TypeError, ValueError):
+            raise InputError(f"groups: give each group as (first, stop) mode indices, got {g!r}") from None
+        if not (0 <= a and b <= modes.n_modes and b - a >= 2):
+            raise InputError(f"groups: ({a}, {b}) is not a group of at least two of the {modes.n_modes} modes "
+                             "(first, stop: modes first .. stop - 1)")
+        if taken[a:b].any():
+            raise InputError(f"groups: ({a}, {b}) overlaps another group")
+        taken[a:b] = True
+        for i in which:
+            if a <= int(i) < b:
+                out[int(i)] = (a, b)
+    return out
 
 
 class ParameterProducts:
@@ -136,6 +189,29 @@ def mode_rhs(model, params, lam: float, phi: np.ndarray, Mphi: np.ndarray):
     dlam = phi @ Kp - lam * mjj
     F = -(Kp - lam * Mp) + np.outer(Mphi, dlam)
     return dlam, F, mjj
+
+
+def group_rhs(model, params, lam: float, phi: np.ndarray, Mphi: np.ndarray, Phi_g: np.ndarray):
+    """:func:`mode_rhs` of a mode of a group, with the products N = Φ_gᵀ M_j φ (r, L) of the group's
+    modes ``Phi_g`` (n, r) that set the in-group part of the derivative of the group's basis
+    (:mod:`femupdate.sensitivity.repeated`)."""
+    Kp, Mp = param_products(model, params, phi)
+    mjj = phi @ Mp
+    dlam = phi @ Kp - lam * mjj
+    F = -(Kp - lam * Mp) + np.outer(Mphi, dlam)
+    return dlam, F, mjj, Phi_g.T @ Mp
+
+
+def in_group(coef: np.ndarray, i: int, group: tuple[int, int] | None, Ng: np.ndarray | None) -> np.ndarray:
+    """Set the in-group modal coefficients of mode i's derivative (rows of ``coef``, (m, L)) to
+    those of the group's basis with no rotation inside the group, −½ φ_rᵀ M_j φ_i for every other
+    mode r of the group (:mod:`femupdate.sensitivity.repeated`); unchanged for a mode alone."""
+    if group is not None and Ng is not None:
+        a, b = group
+        for r in range(a, b):
+            if r != i:
+                coef[r] = -0.5 * Ng[r - a]
+    return coef
 
 
 def as_dense(A):

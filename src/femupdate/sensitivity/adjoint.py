@@ -37,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .._errors import InputError
-from ._common import check_distinct, parameter_products, resolve_params, resolve_which
+from ._common import check_distinct, in_group, parameter_products, resolve_groups, resolve_params, resolve_which
 from .factor import check_modes, prepare_factor
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
@@ -93,13 +93,18 @@ def resolve_sensors(model, sensors) -> np.ndarray:
 
 
 def adjoint_details(model, modes, which=None, params=None, sensors=None, values=None, sigma=None,
-                    tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov"):
+                    tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov",
+                    groups=None):
     """:func:`adjoint`, also returning the number of series terms (one sweep serves all modes).
 
     Parameters
     ----------
     model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series
         As :func:`adjoint`.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)``: a mode of ``which`` in one gets the
+        derivative of the group's basis (in-group modal coefficients −½ φ_rᵀM'φ_i;
+        :mod:`femupdate.sensitivity.repeated`).
 
     Returns
     -------
@@ -116,14 +121,15 @@ def adjoint_details(model, modes, which=None, params=None, sensors=None, values=
         Modes that are not mass-normalised or do not belong to the model, indices out of range,
         bad sensors (:func:`resolve_sensors`).
     NumericalError
-        A rigid-body or repeated mode among ``which``; and as
+        A rigid-body or repeated mode among ``which`` (outside ``groups``); and as
         :func:`~femupdate.sensitivity.series.omitted_modes_series`.
     """
     check_modes(model, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
     s = resolve_sensors(model, sensors)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
     K, M = model.K(values), model.M(values)
     lu, sigma = prepare_factor(K, M, modes, sigma, lu)
     lam, Phi = modes.eigenvalues, modes.shapes
@@ -150,15 +156,20 @@ def adjoint_details(model, modes, which=None, params=None, sensors=None, values=
         WF = -(KpT @ W[r]).T + lam[i] * (MpT @ W[r]).T + np.outer(W[r].T @ Mphi, dl)
         denom = lam - lam[i]
         denom[i] = 1.0
+        g = grouped.get(int(i))
+        if g is not None:
+            denom[g[0]:g[1]] = 1.0
         coef = PhiF / denom[:, None]
         coef[i] = -0.5 * mjj
+        if g is not None:  # the group's basis: −½ φ_rᵀ M' φ_i for the group's other modes
+            in_group(coef, int(i), g, (MpT @ Phi[:, g[0]:g[1]]).T)
         dlam[r] = dl
         dphi_s[:, r, :] = Phi_s @ coef + WF
     return dlam, dphi_s, n_terms
 
 
 def adjoint(model, modes, which=None, params=None, sensors=None, values=None, sigma=None,
-            tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov"):
+            tol: float = DEFAULT_TOL, lu=None, max_terms: int = MAX_TERMS, series: str = "krylov", groups=None):
     r"""Eigenvalue derivatives and the derivatives of the measured shape components.
 
     .. math::
@@ -195,6 +206,8 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
         Galerkin (block Lanczos) acceleration of the series over the same mode-independent
         Krylov space, or its plain partial sums (:func:`~femupdate.sensitivity.series.omitted_modes_series`).
         The Krylov basis holds (terms × n_s) vectors; the acceleration about halves the solves.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes (:func:`adjoint_details`).
 
     Returns
     -------
@@ -208,7 +221,8 @@ def adjoint(model, modes, which=None, params=None, sensors=None, values=None, si
     InputError, NumericalError
         As :func:`adjoint_details`.
     """
-    dlam, dphi_s, _ = adjoint_details(model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series)
+    dlam, dphi_s, _ = adjoint_details(model, modes, which, params, sensors, values, sigma, tol, lu, max_terms, series,
+                                      groups)
     return dlam, dphi_s
 
 

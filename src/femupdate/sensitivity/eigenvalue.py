@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_distinct, param_products, resolve_params, resolve_which
+from ._common import check_distinct, param_products, resolve_groups, resolve_params, resolve_which
 
 
-def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool = False) -> np.ndarray:
+def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool = False, groups=None) -> np.ndarray:
     r"""∂λ_i/∂p_j = φ_iᵀ (∂K/∂p_j − λ_i ∂M/∂p_j) φ_i  (paper eq. 21), mass-normalised φ.
 
     Parameters
@@ -21,6 +21,11 @@ def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool
         Parameters (default the free ones).
     relative : bool
         Return (∂λ_i/∂p_j)/λ_i, the normalised form of the paper's eq. 19 and eq. 22.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)``: their modes are not refused, and get
+        the same formula — the diagonal of the group's restricted derivative, the derivative of
+        the Rayleigh quotient of the computed mode
+        (:func:`~femupdate.sensitivity.repeated.restricted_derivatives`).
 
     Returns
     -------
@@ -36,7 +41,7 @@ def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
-    check_distinct(modes, which)
+    check_distinct(modes, which, groups=resolve_groups(modes, which, groups))
     out = np.zeros((which.size, params.size))
     for r, i in enumerate(which):
         phi = modes.shapes[:, i]

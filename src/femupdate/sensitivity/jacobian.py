@@ -28,12 +28,13 @@ from .._errors import InputError, NumericalError
 from ..dofs import canonical
 from ..options.choices import SENSITIVITY_ROUTES
 from ..modal import DENSE_LIMIT  # models up to this size take Nelson's method under "auto"
-from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
+from ._common import check_distinct, resolve_groups, resolve_params, resolve_which
 from .adjoint import adjoint_details, resolve_sensors
 from .factor import check_modes, prepare_factor
 from .finite_difference import finite_difference
-from .modal import modal_part, modal, modal_static_correction
+from .modal import group_mode_rhs, modal_part, modal, modal_static_correction
 from .nelson import nelson
+from .repeated import group_finite_difference, restricted_derivatives
 from .scaling import scaled_shape
 from .series import DEFAULT_TOL, omitted_modes_series
 from .subspace import subspace_details
@@ -73,6 +74,14 @@ class JacobianResult:
     ref : tuple of int, or None
         Position among the sensors of each mode's reference dof (``"ref"`` scaling).
     relative_eigenvalues : bool
+    groups : tuple of (int, int)
+        The groups of repeated or close modes differentiated as groups (``groups`` of
+        :func:`jacobian`, those with a mode in ``which``); for their modes ``dpsi`` is the
+        derivative of the group's basis with no rotation inside the group and ``dlam`` the
+        diagonal of ``restricted`` (:mod:`femupdate.sensitivity.repeated`).
+    restricted : tuple of numpy.ndarray
+        Per group, ∂A/∂p (r, r, L) of its restricted eigenproblem
+        (:func:`~femupdate.sensitivity.repeated.restricted_derivatives`; not divided by λ).
     """
 
     dlam: np.ndarray
@@ -87,6 +96,8 @@ class JacobianResult:
     shape_scaling: str
     ref: tuple[int, ...] | None
     relative_eigenvalues: bool
+    groups: tuple[tuple[int, int], ...] = ()
+    restricted: tuple[np.ndarray, ...] = ()
 
     def matrix(self) -> np.ndarray:
         """Stacked Jacobian ``[dlam; dpsi of mode 1; dpsi of mode 2; ...]``, shape
@@ -153,7 +164,8 @@ def choose_method(n_dofs: int, n_sensors: int, n_params: int) -> str:
 
 def jacobian(model, modes, which, sensors, params=None, values=None, method: str = "auto",
              shape_scaling: str = "ref", ref=None, relative_eigenvalues: bool = True, lu=None,
-             sigma: float | None = None, tol: float = DEFAULT_TOL, series: str | None = None) -> JacobianResult:
+             sigma: float | None = None, tol: float = DEFAULT_TOL, series: str | None = None,
+             groups=None) -> JacobianResult:
     r"""Eigenvalue and measured-shape sensitivities of the modes ``which``: the updating Jacobian.
 
     Parameters
@@ -165,8 +177,8 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         ``subspace`` / ``adjoint`` they must be the lowest m modes, with a buffer above the
         differentiated ones (:func:`~femupdate.sensitivity.subspace.buffered_modes`).
     which : sequence of int
-        Modes to differentiate (indices into ``modes``); rigid-body and repeated modes are
-        refused with :class:`NumericalError`.
+        Modes to differentiate (indices into ``modes``); rigid-body modes, and repeated modes
+        outside ``groups``, are refused with :class:`NumericalError`.
     sensors : sequence of str (or of int)
         The measured dofs; unknown labels raise :class:`InputError` naming them.
     params : sequence of int or str, optional
@@ -196,6 +208,12 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         Summation of the omitted modes' series (default ``"krylov"`` for ``adjoint``,
         ``"neumann"`` for ``subspace``; see
         :func:`~femupdate.sensitivity.series.omitted_modes_series`).
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1, e.g.
+        :func:`~femupdate.close_modes.mode_groups`): a mode of ``which`` in one of them
+        gets the derivative of the group's basis with no rotation inside the group, by every
+        route (``fd``: central differences of that basis), and ``restricted`` the group's
+        ∂A/∂p (:mod:`femupdate.sensitivity.repeated`).
 
     Returns
     -------
@@ -208,8 +226,8 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         dofs or not mass-normalised; unknown sensors, parameters or reference; indices out of
         range.
     NumericalError
-        A rigid-body or repeated mode among ``which``; a mode with a node at its reference dof;
-        a series that does not converge.
+        A rigid-body mode, or a repeated mode outside ``groups``, among ``which``; a mode with a
+        node at its reference dof; a series that does not converge.
     """
     if method not in METHODS:
         raise InputError(f"unknown sensitivity method {method!r}: use {', '.join(METHODS)}")
@@ -222,33 +240,36 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     params = resolve_params(model, params)
     s = resolve_sensors(model, sensors)
     ref_pos = _resolve_ref(model, s, ref, shape_scaling, which.size)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
+    used = tuple(sorted(set(grouped.values())))
+    g = list(used) or None  # only the groups with a mode to differentiate
     if method == "auto":
         method = choose_method(model.n_dofs, s.size, params.size)
 
     n_terms = 0
     if method == "adjoint":
         dlam, dphi_s, n_terms = adjoint_details(model, modes, which, params, s, values, sigma, tol, lu,
-                                                series=series or "krylov")
+                                                series=series or "krylov", groups=g)
     elif method == "subspace":
         dlam, dphi, terms = subspace_details(model, modes, which, params, values, sigma, tol, lu,
-                                             series=series or "neumann")
+                                             series=series or "neumann", groups=g)
         dphi_s, n_terms = dphi[s], int(np.max(terms, initial=0))
     elif method == "nelson":
-        dlam, dphi = nelson(model, modes, which, params, values)
+        dlam, dphi = nelson(model, modes, which, params, values, groups=g)
         dphi_s = dphi[s]
     elif method == "modal":
-        dlam, dphi = modal(model, modes, which, params, values)
+        dlam, dphi = modal(model, modes, which, params, values, groups=g)
         dphi_s = dphi[s]
     elif method == "static":
         if lu is not None:
-            dlam, dphi = _static_with_factor(model, modes, which, params, values, sigma, lu)
+            dlam, dphi = _static_with_factor(model, modes, which, params, values, sigma, lu, grouped)
         else:
-            dlam, dphi = modal_static_correction(model, modes, which, params, values, sigma)
+            dlam, dphi = modal_static_correction(model, modes, which, params, values, sigma, groups=g)
         dphi_s = dphi[s]
     else:  # "fd"
-        dlam, dphi = finite_difference(model, values, which, params, n_modes=modes.n_modes)
-        dphi_s = dphi[s]
+        dlam, dphi_s = _finite_difference(model, modes, which, params, values, s, grouped)
+    restricted = tuple(restricted_derivatives(model, modes, grp, params) for grp in used)
 
     lam = modes.eigenvalues[which]
     if relative_eigenvalues:
@@ -267,10 +288,11 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         dlam=dlam, psi=psi, dpsi=dpsi, method=method, n_terms=int(n_terms), which=which, eigenvalues=lam,
         sensors=tuple(model.dofs[i] for i in s), parameters=tuple(names[j] for j in params),
         shape_scaling=shape_scaling, ref=ref_pos, relative_eigenvalues=bool(relative_eigenvalues),
+        groups=used, restricted=restricted,
     )
 
 
-def _static_with_factor(model, modes, which, params, values, sigma, lu):
+def _static_with_factor(model, modes, which, params, values, sigma, lu, grouped):
     """Wang's static correction with a supplied factorisation: the first term of the series."""
     K, M = model.K(values), model.M(values)
     lu, sigma = prepare_factor(K, M, modes, sigma, lu)
@@ -278,11 +300,24 @@ def _static_with_factor(model, modes, which, params, values, sigma, lu):
     dlam = np.zeros((which.size, params.size))
     dphi = np.zeros((model.n_dofs, which.size, params.size))
     for r, i in enumerate(which):
-        dl, F, mjj = mode_rhs(model, params, lam[i], Phi[:, i], M @ Phi[:, i])
+        dl, F, mjj, g, Ng = group_mode_rhs(model, modes, params, i, M, grouped)
         Q, _ = omitted_modes_series(lu, M, Phi, F, [lam[i] - sigma], max_terms=1, strict=False)
         dlam[r] = dl
-        dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[0]
+        dphi[:, r, :] = modal_part(modes, i, F, mjj, g, Ng) + Q[0]
     return dlam, dphi
+
+
+def _finite_difference(model, modes, which, params, values, s, grouped):
+    """``fd``: central differences of each mode alone, and of each group's basis (with no
+    rotation inside the group) for the modes of ``grouped`` — at the sensors ``s``."""
+    dlam, dphi = finite_difference(model, values, which, params, n_modes=modes.n_modes)
+    for grp in sorted(set(grouped.values())):
+        dB, dA, _ = group_finite_difference(model, grp, values, params, n_modes=modes.n_modes, base=modes)
+        for r, i in enumerate(which):
+            if grouped.get(int(i)) == grp:
+                dphi[:, r, :] = dB[:, int(i) - grp[0], :]
+                dlam[r] = dA[int(i) - grp[0], int(i) - grp[0]]
+    return dlam, dphi[s]
 
 
 __all__ = ["jacobian", "JacobianResult", "choose_method", "METHODS", "SCALINGS"]

@@ -7,22 +7,37 @@ import numpy as np
 
 from .._errors import InputError
 from ..modal import NotPositiveDefinite, factorize, nearly_singular
-from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
+from ._common import check_distinct, group_rhs, in_group, mode_rhs, resolve_groups, resolve_params, resolve_which
 
 
-def modal_part(modes, i, F, mjj):
-    """Σ_{r≠i} φ_r φ_rᵀ f / (λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i over the available modes."""
+def modal_part(modes, i, F, mjj, group=None, Ng=None):
+    """Σ_{r≠i} φ_r φ_rᵀ f / (λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i over the available modes; for a mode of
+    a ``group`` (first, stop) the other modes r of the group take −½ φ_rᵀ M' φ_i (``Ng``, (r, L):
+    the derivative of the group's basis, :mod:`femupdate.sensitivity.repeated`)."""
     lam = modes.eigenvalues
     Phi = modes.shapes
     coef = Phi.T @ F  # (m, L)
     denom = lam - lam[i]
     denom[i] = 1.0
+    if group is not None:
+        denom[group[0]:group[1]] = 1.0
     coef = coef / denom[:, None]
     coef[i] = -0.5 * mjj
-    return Phi @ coef
+    return Phi @ in_group(coef, i, group, Ng)
 
 
-def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarray, np.ndarray]:
+def group_mode_rhs(model, modes, params, i, M, groups):
+    """(λ', F, φᵀM'φ, group, N) of mode i: :func:`~._common.mode_rhs`, with its group and the
+    in-group products N when it belongs to one of ``groups`` (:func:`~._common.resolve_groups`)."""
+    phi = modes.shapes[:, i]
+    g = groups.get(int(i))
+    if g is None:
+        return (*mode_rhs(model, params, modes.eigenvalues[i], phi, M @ phi), None, None)
+    dl, F, mjj, Ng = group_rhs(model, params, modes.eigenvalues[i], phi, M @ phi, modes.shapes[:, g[0]:g[1]])
+    return dl, F, mjj, g, Ng
+
+
+def modal(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvector derivatives by modal superposition over the modes in ``modes``.
 
     φ_i' = Σ_{r≠i} φ_r (φ_rᵀ f_i)/(λ_r − λ_i) − ½ (φ_iᵀ M' φ_i) φ_i.  Exact only when ``modes``
@@ -42,11 +57,16 @@ def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarra
         Parameters, by index or name (default the free ones); L = ``len(params)``.
     values : array_like, shape ``(n_parameters,)``, optional
         Parameter values of ``modes`` (default nominal).
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)``: a mode of ``which`` in one of them
+        gets the derivative of the group's basis instead of its own
+        (:mod:`femupdate.sensitivity.repeated`).
 
     Returns
     -------
     dlam : numpy.ndarray, shape ``(len(which), L)``
-        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
+        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21); for a
+        mode of a group, the diagonal entry of the group's restricted derivative.
     dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
         Derivatives of the mass-normalised shapes.
 
@@ -54,25 +74,27 @@ def modal(model, modes, which=None, params=None, values=None) -> tuple[np.ndarra
     ------
     InputError
         Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name).
+        parameter name); bad ``groups``.
     NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such).
+        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
+        ``groups``.
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
     M = model.M(values)
     dlam = np.zeros((which.size, params.size))
     dphi = np.zeros((model.n_dofs, which.size, params.size))
     for r, i in enumerate(which):
-        phi = modes.shapes[:, i]
-        dl, F, mjj = mode_rhs(model, params, modes.eigenvalues[i], phi, M @ phi)
+        dl, F, mjj, g, Ng = group_mode_rhs(model, modes, params, i, M, grouped)
         dlam[r] = dl
-        dphi[:, r, :] = modal_part(modes, i, F, mjj)
+        dphi[:, r, :] = modal_part(modes, i, F, mjj, g, Ng)
     return dlam, dphi
 
 
-def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None):
+def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None,
+                            groups=None):
     r"""Truncated modal method with Wang's (1991) static correction.
 
     The omitted modes' contribution Σ_{r>m} φ_rφ_rᵀ f/(λ_r − λ_i) is approximated by their
@@ -96,6 +118,8 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     sigma : float, optional
         Shift σ, rad²/s² (default 0, or −1e-6 times the median K_ii / M_ii when K is singular:
         :func:`shifted_factor`).
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes, as :func:`modal`.
 
     Returns
     -------
@@ -108,13 +132,15 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     ------
     InputError
         Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name); K − σM singular, or K singular with no positive diagonal entry.
+        parameter name); K − σM singular, or K singular with no positive diagonal entry; bad ``groups``.
     NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such).
+        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
+        ``groups``.
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
     K, M = model.K(values), model.M(values)
     lu, sigma = shifted_factor(K, M, sigma)
     lam, Phi = modes.eigenvalues, modes.shapes
@@ -122,8 +148,7 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     dlam = np.zeros((which.size, params.size))
     dphi = np.zeros((model.n_dofs, which.size, params.size))
     for r, i in enumerate(which):
-        phi = Phi[:, i]
-        dl, F, mjj = mode_rhs(model, params, lam[i], phi, M @ phi)
+        dl, F, mjj, g, Ng = group_mode_rhs(model, modes, params, i, M, grouped)
         # P S P^T F with P = I - Phi Phi^T M: deflate before AND after the solve.  Subtracting
         # Phi (Phi^T F)/(lam - sigma) from S F instead leaves the solve's round-off along the
         # low modes (amplified by cond(K - sigma M)) in the result: 1.6e-6 relative error on a
@@ -131,7 +156,7 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
         static = lu.solve(F - MPhi @ (Phi.T @ F))
         static -= Phi @ (MPhi.T @ static)
         dlam[r] = dl
-        dphi[:, r, :] = modal_part(modes, i, F, mjj) + static
+        dphi[:, r, :] = modal_part(modes, i, F, mjj, g, Ng) + static
     return dlam, dphi
 
 

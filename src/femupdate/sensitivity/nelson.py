@@ -8,12 +8,12 @@ import scipy.sparse as sp
 
 from .._errors import NumericalError
 from ..modal import factorize
-from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
+from ._common import check_distinct, group_rhs, mode_rhs, resolve_groups, resolve_params, resolve_which
 
 DENSE_LIMIT = 1500
 
 
-def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarray, np.ndarray]:
+def nelson(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvalue and mass-normalised eigenvector derivatives by Nelson's method.
 
     For mode i, with A = K − λ_i M and the dof k of largest ``|φ_k|``, the singular system
@@ -22,6 +22,11 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
     The modified matrix keeps A's sparsity (banded stays banded) and is factorised once per
     mode, for every parameter (Nelson 1976, AIAA J. 14(9); the paper's "direct method").
     Models of at most ``DENSE_LIMIT`` (1500) dofs are solved dense, larger ones by sparse LU.
+
+    A mode of one of ``groups`` (repeated or close modes Φ_g) gets the derivative of the group's
+    basis (:mod:`femupdate.sensitivity.repeated`): the part outside the group from the bordered
+    system [[K − λ_i M, MΦ_g], [Φ_gᵀM, 0]] (regular however close the group's eigenvalues are;
+    the generalisation of Nelson's regularisation to a group), the part inside −½ Φ_gᵀ M' φ_i.
 
     Parameters
     ----------
@@ -35,6 +40,8 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
         Parameters, by index or name (default the free ones); L = ``len(params)``.
     values : array_like, shape ``(n_parameters,)``, optional
         Parameter values of ``modes`` (default nominal).
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1).
 
     Returns
     -------
@@ -47,15 +54,17 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
     ------
     InputError
         Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name).
+        parameter name); bad ``groups``.
     NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such).
+        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
+        ``groups``.
     NumericalError
         The modified matrix of a mode is singular, or a derivative is not finite.
     """
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
     K, M = model.K(values), model.M(values)
     n = model.n_dofs
     dlam = np.zeros((which.size, params.size))
@@ -66,6 +75,10 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
     for r, i in enumerate(which):
         lam, phi = modes.eigenvalues[i], modes.shapes[:, i]
         Mphi = M @ phi
+        if int(i) in grouped:
+            dlam[r], dphi[:, r, :] = _group_member(model, params, (Kd, Md) if dense else (K, M), M, modes, int(i),
+                                                   grouped[int(i)])
+            continue
         dl, F, mjj = mode_rhs(model, params, lam, phi, Mphi)
         k = int(np.argmax(np.abs(phi)))
         F[k, :] = 0.0
@@ -94,3 +107,28 @@ def nelson(model, modes, which=None, params=None, values=None) -> tuple[np.ndarr
         dlam[r] = dl
         dphi[:, r, :] = V + np.outer(phi, c)
     return dlam, dphi
+
+
+def _group_member(model, params, KM, M, modes, i: int, group: tuple[int, int]):
+    """λ' and the derivative of the group's basis vector i (the bordered system of :func:`nelson`);
+    ``KM`` (K, M) dense or sparse, ``M`` sparse."""
+    a, b = group
+    lam, phi, Phi_g = modes.eigenvalues[i], modes.shapes[:, i], modes.shapes[:, a:b]
+    n, r = model.n_dofs, b - a
+    MPg = np.asarray(M @ Phi_g)
+    dl, F, mjj, Ng = group_rhs(model, params, lam, phi, M @ phi, Phi_g)
+    rhs = np.vstack([F - MPg @ (Phi_g.T @ F), np.zeros((r, F.shape[1]))])  # F with the group's part removed
+    try:
+        K_, M_ = KM
+        if isinstance(K_, np.ndarray):
+            A = np.block([[K_ - lam * M_, MPg], [MPg.T, np.zeros((r, r))]])
+            V = sla.solve(A, rhs, assume_a="sym")
+        else:
+            A = sp.bmat([[K_ - lam * M_, sp.csr_array(MPg)], [sp.csr_array(MPg.T), None]], format="csc")
+            V = factorize(A, definite=False).solve(rhs)
+    except (np.linalg.LinAlgError, sla.LinAlgWarning, RuntimeError) as exc:
+        raise NumericalError(f"Nelson's method: the bordered matrix of mode {i + 1} (group of modes {a + 1}-{b}) "
+                             f"is singular ({exc})") from None
+    if not np.all(np.isfinite(V)):
+        raise NumericalError(f"Nelson's method: non-finite derivative for mode {i + 1} (group of modes {a + 1}-{b})")
+    return dl, V[:n] - 0.5 * Phi_g @ Ng

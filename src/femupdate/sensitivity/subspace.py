@@ -54,9 +54,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_distinct, mode_rhs, resolve_params, resolve_which
+from ._common import check_distinct, resolve_groups, resolve_params, resolve_which
 from .factor import check_modes, prepare_factor, single_thread_blas, solve
-from .modal import modal_part
+from .modal import group_mode_rhs, modal_part
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
 
@@ -88,13 +88,17 @@ def buffered_modes(n_differentiated: int, n_dofs: int | None = None) -> int:
 # the forward route
 # ---------------------------------------------------------------------------------------------
 def subspace_details(model, modes, which=None, params=None, values=None, sigma=None, tol: float = DEFAULT_TOL,
-                     lu=None, max_terms: int = MAX_TERMS, series: str = "neumann"):
+                     lu=None, max_terms: int = MAX_TERMS, series: str = "neumann", groups=None):
     """:func:`subspace`, also returning the number of series terms used for each mode ``(m_d,)``.
 
     Parameters
     ----------
     model, modes, which, params, values, sigma, tol, lu, max_terms, series
         As :func:`subspace`.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes ``(first, stop)``: a mode of ``which`` in one gets the
+        derivative of the group's basis (the in-group modal coefficients −½ φ_rᵀM'φ_i; the
+        omitted modes' series is the same, :mod:`femupdate.sensitivity.repeated`).
 
     Returns
     -------
@@ -111,13 +115,14 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
         Modes not mass-normalised or not on the model's dofs, indices out of range, a bad
         shift.
     NumericalError
-        A rigid-body or repeated mode among ``which``, or a series that does not converge in
-        ``max_terms``.
+        A rigid-body or repeated mode among ``which`` (outside ``groups``), or a series that does
+        not converge in ``max_terms``.
     """
     check_modes(model, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
-    check_distinct(modes, which)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
     K, M = model.K(values), model.M(values)
     lu, sigma = prepare_factor(K, M, modes, sigma, lu)
     lam, Phi = modes.eigenvalues, modes.shapes
@@ -130,26 +135,25 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
         # one sweep for all the modes: the terms do not depend on the mode, so the right-hand
         # sides of every mode go through each solve together (fewer, wider solves; each mode
         # takes its own columns at its own shift, and the sweep runs until every mode's converge)
-        rhs = [mode_rhs(model, params, lam[i], Phi[:, i], M @ Phi[:, i]) for i in which]
-        Q, terms = omitted_modes_series(lu, M, Phi, np.hstack([F for _, F, _ in rhs]), lam[which] - sigma, tol=tol,
+        rhs = [group_mode_rhs(model, modes, params, i, M, grouped) for i in which]
+        Q, terms = omitted_modes_series(lu, M, Phi, np.hstack([F for _, F, *_ in rhs]), lam[which] - sigma, tol=tol,
                                         max_terms=max_terms, labels=[str(i + 1) for i in which], series=series)
-        for r, (i, (dl, F, mjj)) in enumerate(zip(which, rhs)):
+        for r, (i, (dl, F, mjj, g, Ng)) in enumerate(zip(which, rhs)):
             dlam[r] = dl
-            dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[r][:, r * L:(r + 1) * L]
+            dphi[:, r, :] = modal_part(modes, i, F, mjj, g, Ng) + Q[r][:, r * L:(r + 1) * L]
         n_terms[:] = terms
         return dlam, dphi, n_terms
     for r, i in enumerate(which):
-        phi = Phi[:, i]
-        dl, F, mjj = mode_rhs(model, params, lam[i], phi, M @ phi)
+        dl, F, mjj, g, Ng = group_mode_rhs(model, modes, params, i, M, grouped)
         Q, n_terms[r] = omitted_modes_series(lu, M, Phi, F, [lam[i] - sigma], tol=tol, max_terms=max_terms,
                                              labels=[str(i + 1)], series=series)
         dlam[r] = dl
-        dphi[:, r, :] = modal_part(modes, i, F, mjj) + Q[0]
+        dphi[:, r, :] = modal_part(modes, i, F, mjj, g, Ng) + Q[0]
     return dlam, dphi, n_terms
 
 
 def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol: float = DEFAULT_TOL, lu=None,
-             max_terms: int = MAX_TERMS, series: str = "neumann"):
+             max_terms: int = MAX_TERMS, series: str = "neumann", groups=None):
     r"""Eigenvalue and eigenvector derivatives from the computed modes plus the deflated series.
 
     φ_i' = Σ_{r≤m, r≠i} φ_r (φ_rᵀf)/(λ_r − λ_i) − ½(φ_iᵀM'φ_i)φ_i + Σ_k (λ_i − σ)^k y_k, with
@@ -184,6 +188,8 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
         Partial sums, or the Galerkin (block Lanczos) acceleration of
         :func:`omitted_modes_series`; the latter stores (terms × L) vectors per mode, so use it
         with few parameters.
+    groups : sequence of (int, int), optional
+        Groups of repeated or close modes (:func:`subspace_details`).
 
     Returns
     -------
@@ -196,7 +202,7 @@ def subspace(model, modes, which=None, params=None, values=None, sigma=None, tol
     InputError, NumericalError
         As :func:`subspace_details`.
     """
-    dlam, dphi, _ = subspace_details(model, modes, which, params, values, sigma, tol, lu, max_terms, series)
+    dlam, dphi, _ = subspace_details(model, modes, which, params, values, sigma, tol, lu, max_terms, series, groups)
     return dlam, dphi
 
 

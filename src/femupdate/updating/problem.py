@@ -27,7 +27,9 @@ from ..modal import Modes, model_modes
 from ..sensitivity import eigenvalue_derivatives
 from ..sensitivity.jacobian import METHODS as SENSITIVITY_METHODS
 from ..sensitivity.jacobian import jacobian as sensitivity_jacobian
+from ..close_modes import assign_inside, group_columns, mode_groups
 from ..testdata import TestData
+from . import groups as grouping
 from .parametrisation import (PARAMETRISATIONS, Parametrisation, start_error, start_vector, updated_names, x_bounds,
                               x_of_p)
 from .dynamic import DynamicResidual
@@ -160,6 +162,13 @@ class Problem(Parametrisation):
     pairing_used : str
         The rule that made the last evaluation's pairs: ``"mac"``, ``"order"`` or
         ``"frequency"``.
+    close_modes : float
+        The relative eigenvalue gap below which model modes form a group
+        (:mod:`femupdate.updating.groups`).
+    group_fits : dict of int to GroupFit
+        For the last evaluation, the test modes paired into a group of repeated or close model
+        modes and what each is compared with (:class:`~femupdate.updating.groups.GroupFit`);
+        empty when no paired model mode has a close neighbour.
     nfev : int
         Residual evaluations so far.
     formulation : str
@@ -212,6 +221,9 @@ class Problem(Parametrisation):
         self.pairing = rule
         #: the rule that made the last evaluation's pairs (``mac``, ``order`` or ``frequency``)
         self.pairing_used = ""
+        self.close_modes = float(modal.close_modes)
+        #: the test modes of the last evaluation paired into a group of close model modes
+        self.group_fits: dict[int, grouping.GroupFit] = {}
         self.sensitivity = sensitivity
         self.sensitivity_used = sensitivity
         self.targets = build_targets(model, data, shape_scaling, ref_dof, w.get("eigenvalue", 1.0),
@@ -276,7 +288,7 @@ class Problem(Parametrisation):
         key = x.tobytes()
         hit = self._evaluations.get(key)
         if hit is not None:
-            self.pairing_used = hit[3]
+            self.pairing_used, self.group_fits = hit[3], hit[4]
             return hit[:3]
         p = self.to_p(x)
         if self.reuse:
@@ -287,7 +299,7 @@ class Problem(Parametrisation):
         else:
             modes = model_modes(self.model, p, n_modes=self.n_modes, reuse=False)
         pairs = self._pair(modes)
-        _remember(self._evaluations, key, (p, modes, pairs, self.pairing_used))
+        _remember(self._evaluations, key, (p, modes, pairs, self.pairing_used, self.group_fits))
         return p, modes, pairs
 
     def _pair(self, modes: Modes) -> list[tuple[int, int, float]]:
@@ -298,15 +310,54 @@ class Problem(Parametrisation):
         for k in map(int, np.flatnonzero(shaped)):
             sl = tg.measured(k)
             rules.mac_vector(tg.psi_e[sl], modes.shapes[tg.pos[sl], :nm], MAC[k])
+        groups = mode_groups(modes.eigenvalues[:nm], self.close_modes) if self.close_modes > 0 else []
+        combos: dict = {}
+        if groups:  # a group's columns: the MAC of the best combination of its shapes (femupdate.close_modes)
+            measured = {k: (tg.psi_e[tg.measured(k)], modes.shapes[tg.pos[tg.measured(k)], :nm])
+                        for k in map(int, np.flatnonzero(shaped))}
+            MAC, combos = group_columns(MAC, groups, measured)
         pg = pair(MAC, rule=self.pairing, min_mac=self.min_mac, shaped=shaped, model_eigenvalues=modes.eigenvalues,
                   test_eigenvalues=tg.lam_e, strict=True)
-        for k, j, _ in pg.pairs:
-            if k in self._pairs_seen and self._pairs_seen[k] != j:
+        pairs = assign_inside(pg.pairs, groups, combos) if groups else list(pg.pairs)
+        self.group_fits = self._fits(modes, groups, pairs, nm) if groups else {}
+        same = {j: g for g in groups for j in range(*g)}  # inside a group a new mode is no swap
+        for k, j, _ in pairs:
+            old = self._pairs_seen.get(k)
+            if old is not None and old != j and not (j in same and same.get(old) == same[j]):
                 self.swaps.append({"evaluation": self.nfev, "test_mode": k, "from_model_mode": self._pairs_seen[k],
                                    "to_model_mode": j, "rule": pg.used})
             self._pairs_seen[k] = j
         self.pairing_used = pg.used
-        return list(pg.pairs)
+        return pairs
+
+    def _fits(self, modes: Modes, groups, pairs, nm: int) -> dict[int, grouping.GroupFit]:
+        """What each test mode paired into a group is compared with (:func:`groups.fit`)."""
+        tg = self.targets
+        out = {}
+        for k, j, _ in pairs:
+            g = next(((a, b) for a, b in groups if a <= j < b), None)
+            if g is None:
+                continue
+            if g[1] == nm < self.model.n_dofs:
+                raise NumericalError(f"test mode {k + 1} pairs into the group of close model modes {g[0] + 1}-{g[1]}, "
+                                     f"which reaches the last of the {nm} modes computed: the group may go on above "
+                                     "it; compute more modes (--n-modes, n_modes)")
+            sl = tg.measured(k)
+            shaped = sl.stop > sl.start
+            out[k] = grouping.fit(tg.psi_e[sl] if shaped else None,
+                                  modes.shapes[tg.pos[sl], g[0]:g[1]] if shaped else None,
+                                  modes.eigenvalues[g[0]:g[1]], g, j)
+        return out
+
+    def compared(self, modes: Modes, k: int, j: int) -> tuple[float, np.ndarray]:
+        """The model eigenvalue and measured shape that test mode k is compared with at the last
+        evaluation: model mode j's, or for a test mode paired into a group of close modes the
+        best combination's (:attr:`group_fits`)."""
+        f = self.group_fits.get(k)
+        if f is not None:
+            return f.eigenvalue, f.shape
+        sl = self.targets.measured(k)
+        return modes.eigenvalues[j], modes.shapes[self.targets.pos[sl], j]
 
     def residuals(self, x) -> np.ndarray:
         """The residual vector at x: per test mode its eigenvalue residual
@@ -342,15 +393,16 @@ class Problem(Parametrisation):
         row = 0
         mac = self.formulation == "mac"
         for k, j, _ in pairs:
-            r[row] = rules.eigenvalue_residual(modes.eigenvalues[j], tg.lam_e[k], tg.w_lam[k])
+            lam_a, phi_s = self.compared(modes, k, j)
+            r[row] = rules.eigenvalue_residual(lam_a, tg.lam_e[k], tg.w_lam[k])
             row += 1
             sl = tg.measured(k)
             if sl.stop > sl.start:
                 n = sl.stop - sl.start if mac else rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
                 if mac:
-                    node = rules.mac_residuals(modes.shapes[tg.pos[sl], j], tg.psi_e[sl], tg.w_psi[k], r[row:row + n])
+                    node = rules.mac_residuals(phi_s, tg.psi_e[sl], tg.w_psi[k], r[row:row + n])
                 else:
-                    node = rules.shape_residuals(self.scaling_code, modes.shapes[tg.pos[sl], j], tg.psi_e[sl],
+                    node = rules.shape_residuals(self.scaling_code, phi_s, tg.psi_e[sl],
                                                  tg.ref[k], tg.w_psi[k], r[row:row + n])
                 if node >= 0:
                     raise NumericalError(rules.message(rules.E_NODE, node))
@@ -391,33 +443,49 @@ class Problem(Parametrisation):
         p, modes, pairs = self.evaluate(x)
         tg = self.targets
         which = [j for _, j, _ in pairs]
+        # a group's every mode is differentiated (its basis), after the paired modes
+        groups = sorted({f.group for f in self.group_fits.values()})
+        which += [i for a, b in groups for i in range(a, b) if i not in which]
+        col = {j: c for c, j in enumerate(which)}
         if self.any_shape:
             # mass-normalised derivatives at the measured dofs only, by the route asked for
             sens = sensitivity_jacobian(self.model, modes, which, self.sensors, params=self.idx, values=p,
-                                        method=self.sensitivity, shape_scaling="mass", relative_eigenvalues=False)
+                                        method=self.sensitivity, shape_scaling="mass", relative_eigenvalues=False,
+                                        groups=groups or None)
             dlam, dphi = sens.dlam, sens.dpsi
             self.sensitivity_used = sens.method
         else:
-            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx), None
+            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx, groups=groups or None), None
             self.sensitivity_used = "fox-kapoor"
         dpdx = self.dp_dx(x)
         J = np.zeros((self.n_residuals, self.idx.size))
         row = 0
         mac = self.formulation == "mac"
         for c, (k, j, _) in enumerate(pairs):
-            rules.eigenvalue_gradient(dlam[c], tg.lam_e[k], tg.w_lam[k], dpdx, J[row])
-            row += 1
             sl = tg.measured(k)
+            f = self.group_fits.get(k) if sl.stop > sl.start else None
+            at = np.searchsorted(self.sensors, tg.pos[sl])
+            dl = dlam[c]  # Fox & Kapoor (of a group's mode: the diagonal of its restricted derivative)
+            dv: np.ndarray | None
+            if f is not None:  # the best combination of a group's shapes
+                a, b = f.group
+                assert dphi is not None
+                gcols = [col[i] for i in range(a, b)]
+                dv = grouping.fit_jacobian(tg.psi_e[sl], modes.shapes[tg.pos[sl], a:b], dphi[at][:, gcols, :])
+                phi_s = f.shape
+            else:
+                phi_s = modes.shapes[tg.pos[sl], j]
+                dv = dphi[at, c, :] if dphi is not None else None
+            rules.eigenvalue_gradient(dl, tg.lam_e[k], tg.w_lam[k], dpdx, J[row])
+            row += 1
             if sl.stop > sl.start:
                 n = sl.stop - sl.start if mac else rules.n_shape_residuals(sl.stop - sl.start, tg.ref[k])
-                at = np.searchsorted(self.sensors, tg.pos[sl])
-                assert dphi is not None  # a shape is measured: the derivatives were computed
+                assert dv is not None  # a shape is measured: the derivatives were computed
                 if mac:
-                    rules.mac_jacobian(modes.shapes[tg.pos[sl], j], dphi[at, c, :], tg.psi_e[sl], tg.w_psi[k], dpdx,
-                                       J[row:row + n])
+                    rules.mac_jacobian(phi_s, dv, tg.psi_e[sl], tg.w_psi[k], dpdx, J[row:row + n])
                 else:
-                    rules.shape_jacobian(self.scaling_code, modes.shapes[tg.pos[sl], j], dphi[at, c, :],
-                                         tg.psi_e[sl], tg.ref[k], tg.w_psi[k], dpdx, J[row:row + n])
+                    rules.shape_jacobian(self.scaling_code, phi_s, dv, tg.psi_e[sl], tg.ref[k], tg.w_psi[k], dpdx,
+                                         J[row:row + n])
                 row += n
         _remember(self._jacobians, key, (J.copy(), self.sensitivity_used))
         return J

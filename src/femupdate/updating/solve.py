@@ -21,6 +21,8 @@ from .._errors import InputError, NumericalError
 from ..options import ModalOptions, NoiseOptions, PairingOptions, SolverOptions, gather
 from ..testdata import TestData
 from .parametrisation import start_error, x_bounds
+from .groups import describe as describe_groups
+from .groups import notes as group_notes
 from .problem import Problem, check_determined
 from .results import Diagnostics, UpdateResult
 
@@ -385,7 +387,10 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
     """The correlation part of a result: ``pairs`` (test mode, model mode, MAC — the MAC computed
     for a mode compared by frequency only), ``test_frequencies_hz``, ``model_frequencies_hz``
     and ``pairing`` (``policy``: the rule asked for, ``used``: the rule that made these pairs,
-    ``low_mac``: 0-based test modes with a shape whose pair's MAC is below ``min_mac``).
+    ``low_mac``: 0-based test modes with a shape whose pair's MAC is below ``min_mac``; and
+    ``groups`` when test modes were paired into groups of repeated or close model modes,
+    :func:`femupdate.updating.groups.describe`: their MAC is then that of the best combination of
+    the group's shapes).
 
     Parameters
     ----------
@@ -399,10 +404,14 @@ def paired_modes(prob: Problem, modes, pairs) -> dict:
     -------
     dict
     """
+    fits = prob.group_fits
+    record = pairing_record(prob, [m for _, _, m in pairs], prob.pairing_used)
+    if fits:  # test modes paired into groups of repeated or close model modes (absent otherwise)
+        record["groups"] = describe_groups(fits, pairs)
     return dict(pairs=[(k, j, m if np.isfinite(m) else prob.mac_of_pair(modes, k, j)) for k, j, m in pairs],
                 test_frequencies_hz=prob.data.frequencies_hz,
                 model_frequencies_hz=np.array([modes.frequencies_hz[j] for _, j, _ in pairs]),
-                pairing=pairing_record(prob, [m for _, _, m in pairs], prob.pairing_used))
+                pairing=record)
 
 
 def pairing_record(prob: Problem, macs, used: str) -> dict:
@@ -468,16 +477,17 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool 
     status = int(sol.status) if sol is not None else 0
     njev = int(sol.njev or 0) if sol is not None else 0
     diag = diagnostics(prob, x, r, J, prob.sigma, bounds=prob.model.bounds if bounded else None)
+    paired = paired_modes(prob, modes, pairs)
     return UpdateResult(
         parameters=dict(zip(prob.model.parameter_names, map(float, p_final))),
         names=tuple(prob.names), x=p_final[prob.idx], success=bool(sol.success) if sol is not None else False,
         status=status, message=str(sol.message) if sol is not None else "evaluated, not solved",
         cost=float(0.5 * r @ r), fun=r, jac=J, nfev=int(sol.nfev) if sol is not None else 1, njev=njev,
         iterations=max(len(history) - 1, njev), history=history,
-        **paired_modes(prob, modes, pairs),
+        **paired,
         swaps=list(prob.swaps), diagnostics=diag, regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
-        notes=list(prob.notes) + diag.notes, formulation=prob.formulation, expanded_shapes=prob.expanded_shapes(x),
+        notes=list(prob.notes) + group_notes(paired["pairing"].get("groups", []), prob.close_modes) + diag.notes, formulation=prob.formulation, expanded_shapes=prob.expanded_shapes(x),
         solver=getattr(modes, "solver", ""),
     )
 

@@ -12,7 +12,10 @@ in parallel over the CPU cores.
 
 A start whose evaluation fails — repeated or rigid-body paired modes, a test mode that pairs
 with no model mode, a mass matrix that is not positive definite, non-finite residuals — is marked
-failed with the message the local route gives; the rest carry on.
+failed with the message the local route gives; the rest carry on.  Groups of repeated or close
+modes (:mod:`femupdate.updating.groups`) are the local route's: with ``close_modes`` set, a start
+that reaches a point where the computed modes hold such a group fails as repeated, and
+:func:`~femupdate.updating.batched.starts.batched_runs` solves it again on the local route.
 
 The compiled code is built by numba on first use and cached on disk beside the package (or in
 numba's user cache when that is read-only); later processes load it.
@@ -115,6 +118,9 @@ class BatchedProblem:
     values : values of the parameters that are not updated (default nominal).
     parametrisation, shape_scaling, min_mac, pairing : the problem's rules, as
         :class:`~femupdate.updating.Problem` holds them.
+    close_modes : the relative gap of a group of close modes: a row whose accepted point has one
+        among its computed modes fails as repeated (0, the default: only modes repeated to
+        :data:`femupdate.rules.REPEATED_TOL` and paired fail).
     max_nfev, ftol, xtol, gtol : the solver's limits.
 
     :meth:`from_problem` builds it for the starts of a :class:`~femupdate.updating.Problem`.
@@ -128,7 +134,7 @@ class BatchedProblem:
     def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
                  parametrisation: str = "relative", shape_scaling: str = "unit",
                  min_mac: float = 0.5, pairing: str = "auto", max_nfev: int = 200, ftol: float = 1e-10,
-                 xtol: float = 1e-10, gtol: float = 1e-10):
+                 xtol: float = 1e-10, gtol: float = 1e-10, close_modes: float = 0.0):
         names = list(names)
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
@@ -149,6 +155,7 @@ class BatchedProblem:
         self.scaling = shape_scaling
         self.min_mac = check_pairing(pairing, min_mac)
         self.pairing = pairing
+        self.close_modes = float(close_modes)
         # per start: the parametrisation of the local route from that start
         self.idx = Parametrisation(model, names, parametrisation, self.p_fixed).idx
         self.scale = np.where(starts != 0, np.abs(starts), 1.0)
@@ -182,7 +189,8 @@ class BatchedProblem:
         p_fixed = problem.p_base.copy()
         return cls(problem.model, problem.names, starts, [problem.targets], values=p_fixed,
                    parametrisation=problem.param, shape_scaling=problem.scaling,
-                   min_mac=problem.min_mac, pairing=problem.pairing, **solver_options)
+                   min_mac=problem.min_mac, pairing=problem.pairing, close_modes=problem.close_modes,
+                   **solver_options)
 
     def to_p(self, X, rows) -> np.ndarray:
         """Updated parameters' values (S, L) at solver variables X (S, L) of the starts ``rows``."""
@@ -261,7 +269,7 @@ class BatchedProblem:
                              np.ascontiguousarray(self.M_const), mp, mi, mj, mv, np.ascontiguousarray(self.Cinv),
                              sptr, sidx, rules.PARAMETRISATIONS[self.param], np.ascontiguousarray(self.scale))
         return Spec(arrays, self.sets, self.targets, rules.SCALINGS[self.scaling], float(self.min_mac),
-                    rules.PAIRINGS[self.pairing])
+                    rules.PAIRINGS[self.pairing], self.close_modes)
 
     @property
     def n_residuals(self) -> np.ndarray:
@@ -395,7 +403,7 @@ class BatchedProblem:
         for r in map(int, np.flatnonzero(err.code)):
             message[r] = error_message(err, r, self.min_mac)
         return dataclasses.replace(result_of(st, message), pairs=err.pairs, macs=err.macs,
-                                   pair_eigenvalues=err.eigenvalues)
+                                   pair_eigenvalues=err.eigenvalues, codes=err.code.copy())
 
 
 def _cores() -> int:

@@ -276,6 +276,15 @@ def jacobian_row(sp_, r, x, Jout, lam, Phi, pairs, err_i, err_f):
             err_f[0] = lam[pairs[k]]
             err_f[1] = lam[other]
             return code
+    if sp_.close_tol > 0.0:  # a group of close modes is the local route's (femupdate.updating.groups)
+        for t in range(nm):
+            first, stop = rules.group_bounds(lam, nm, t, sp_.close_tol)
+            if stop - first > 1:
+                err_i[0] = first
+                err_i[1] = first + 1
+                err_f[0] = lam[first]
+                err_f[1] = lam[first + 1]
+                return rules.E_REPEATED
     dpdx = rules.dp_dx(md.pcode, x, md.pscale[r])
     G = np.zeros(n)
     coef = np.empty(n)

@@ -54,6 +54,7 @@ class BatchLSQResult:
     pairs: np.ndarray | None = None  #: (R, T) the modal route's pairs at x (model mode of each test mode)
     macs: np.ndarray | None = None  #: (R, T) their MAC (NaN without shape)
     pair_eigenvalues: np.ndarray | None = None  #: (R, T) the paired model modes' eigenvalues
+    codes: np.ndarray | None = None  #: (R,) the modal route's error code of a failed row (0: none)
 
     @property
     def success(self) -> np.ndarray:

@@ -57,6 +57,7 @@ class Spec(NamedTuple):
     scaling: int  #: :data:`femupdate.rules.SCALINGS`
     min_mac: float
     pairing: int  #: :data:`femupdate.rules.PAIRINGS`
+    close_tol: float  #: relative gap of a group of close modes, which the local route takes (0: none)
 
 
 def concatenate(targets: Sequence[Targets], row_dataset) -> tuple[DataSets, Targets]:

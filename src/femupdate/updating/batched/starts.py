@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ... import rules
 from ..._errors import FemupdateError, InputError
 from ..clustering import classify, converged_solutions, parameter_scale
 from ..problem import Problem
@@ -55,15 +56,16 @@ class BatchRun(RunResult):
 
 def pairing_of(problem: Problem, pairs, macs) -> dict:
     """A start's ``pairing`` record (as :attr:`UpdateResult.pairing`) from its final pairs."""
-    from ... import rules
-
     return pairing_record(problem, macs, rules.pairing_rule(problem.pairing, pairs, problem.targets.lam_e))
 
 
 def batched_runs(model, data, names: Sequence[str], starts, options: UpdateOptions, values=None,
                  progress: Callable[[int, int], None] | None = None) -> list:
     """Every start of ``starts`` run to the end in compiled code: per start a :class:`BatchRun`,
-    or the message (str) of its failure, exactly as the local route reports it.
+    or the message (str) of its failure, exactly as the local route reports it.  A start that
+    meets a group of repeated or close modes (``close_modes`` of the modal options; the compiled
+    route does not compare groups, :mod:`femupdate.updating.groups`) is solved again from its
+    start on the local route, its ``message`` saying so (its ``optimality`` is then ‖Jᵀr‖∞).
 
     A pure function of its arguments, and each start's result depends on that start alone (not
     on the other starts of the batch, their order or the number of threads): the starts may be
@@ -98,6 +100,10 @@ def batched_runs(model, data, names: Sequence[str], starts, options: UpdateOptio
     alive = np.flatnonzero(res.status != FAILED)
     runs: list = [m if m.startswith(("NumericalError:", "InputError:")) else f"NumericalError: {m}"
                   for m in res.message]  # (used for the failed starts only)
+    if problem.close_modes > 0 and res.codes is not None:
+        # groups of repeated or close modes are the local route's (femupdate.updating.groups)
+        for handed in np.flatnonzero((res.status == FAILED) & (res.codes == rules.E_REPEATED)):
+            runs[int(handed)] = _local_run(model, data, names, X0[int(handed)], o, values)
     P_alive = bp.full_p(res.x[alive], alive)
     m_row = bp.n_residuals
     T = problem.targets.n_test
@@ -120,6 +126,27 @@ def batched_runs(model, data, names: Sequence[str], starts, options: UpdateOptio
             pairing=pairing_of(problem, res.pairs[r, :T], res.macs[r, :T]),
         )
     return runs
+
+
+def _local_run(model, data, names, start, o: UpdateOptions, values) -> BatchRun | str:
+    """One start solved on the local route (:func:`~femupdate.updating.solve.update_modal`), as a
+    :class:`BatchRun`: a start that met a group of repeated or close modes, which the compiled
+    route does not compare (its ``message`` says so)."""
+    try:
+        res = update_modal(model, data, params=list(names), x0=dict(zip(names, map(float, start))), values=values,
+                           modal=o.modal, pairing=o.pairing, noise=o.noise, solver=o.solver)
+    except FemupdateError as exc:
+        return f"{type(exc).__name__}: {exc}"
+    hist = res.history
+    return BatchRun(
+        parameters=dict(res.parameters), names=tuple(names), x=res.x, success=res.success, status=res.status,
+        message=f"{res.message} (solved on the local route: it met repeated or close modes)", cost=res.cost,
+        fun=res.fun, jac=res.jac, nfev=res.nfev, njev=res.njev, iterations=res.iterations,
+        optimality=float(np.max(np.abs(res.jac.T @ res.fun), initial=0.0)), pairs=list(res.pairs),
+        model_frequencies_hz=res.model_frequencies_hz, start=dict(zip(names, map(float, start))),
+        history_cost=np.array([h["cost"] for h in hist]),
+        history_x=np.array([[h["parameters"][n] for n in names] for h in hist]).reshape(len(hist), len(names)),
+        pairing=dict(res.pairing))
 
 
 def _problem(model, data, names, o: UpdateOptions, values, x0=None) -> Problem:
