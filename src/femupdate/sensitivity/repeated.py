@@ -275,7 +275,7 @@ def group_finite_difference(model, group, values=None, params=None, n_modes: int
     n_modes : int, optional
         Modes computed per eigen-solution (default: ``stop`` + 6).
     rel_step : float, default 1e-5
-        Step relative to max(|p_j|, 1e-12).
+        Step relative to ``max(|p_j|, 1e-12)``.
     base : Modes, optional
         The modes at the point whose group shapes the basis starts from (inside a repeated group
         the computed basis is arbitrary, and the derivative follows it); default: computed here.

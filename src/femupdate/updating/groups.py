@@ -40,17 +40,17 @@ model's own mode), so the switch had better happen far from the solution.  Measu
 in the plane whose pairs turn with the parameters (``tests/test_repeated_update.py``,
 :func:`planar_masses`; 20 random starts, noise-free data, starts reaching the truth to 1e-6):
 
-=================  =====  =====  =====  =====  =====  =====
-gap at the truth   0 (off) 1e-6  1e-4   1e-3   1e-2   5e-2
-=================  =====  =====  =====  =====  =====  =====
-5e-2 (eps 0.1)      20     20     20     20     20     20
-5e-3                20     20     20     19     19     20
-5e-4                20     20     13     16     19     20
-5e-5                20     20      9     15     19     20
-5e-6                20     13      9     15     19     20
-5e-7                10      7      9     15     19     20
-0 (repeated)         0      8     12     12     18     20
-=================  =====  =====  =====  =====  =====  =====
+=================  =======  =======  =======  =======  =======  =======
+gap at the truth   0 (off)     1e-6     1e-4     1e-3     1e-2     5e-2
+=================  =======  =======  =======  =======  =======  =======
+5e-2 (eps 0.1)          20       20       20       20       20       20
+5e-3                    20       20       20       19       19       20
+5e-4                    20       20       13       16       19       20
+5e-5                    20       20        9       15       19       20
+5e-6                    20       13        9       15       19       20
+5e-7                    10        7        9       15       19       20
+0 (repeated)             0        8       12       12       18       20
+=================  =======  =======  =======  =======  =======  =======
 
 and on square space frames (every pair repeated whatever the storey moduli, 20 starts): 0 of 20
 with grouping off (every start abandoned as "repeated"), 19 and 20 of 20 at 0.01.  Mode by mode
