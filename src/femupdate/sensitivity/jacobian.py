@@ -163,9 +163,8 @@ def choose_method(n_dofs: int, n_sensors: int, n_params: int) -> str:
 
 
 def jacobian(model, modes, which, sensors, params=None, values=None, method: str = "auto",
-             shape_scaling: str = "ref", ref=None, relative_eigenvalues: bool = True, lu=None,
-             sigma: float | None = None, tol: float = DEFAULT_TOL, series: str | None = None,
-             groups=None) -> JacobianResult:
+             shape_scaling: str = "ref", ref=None, relative_eigenvalues: bool = True, groups=None,
+             **factor) -> JacobianResult:
     r"""Eigenvalue and measured-shape sensitivities of the modes ``which``: the updating Jacobian.
 
     Parameters
@@ -198,22 +197,20 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         there cannot be scaled to it (:class:`NumericalError`): give a reference per mode.
     relative_eigenvalues : bool, default True
         Divide ∂λ_i/∂p_j by λ_i (paper eq. 19).
-    lu : femupdate.workspace.Factor, scipy.sparse.linalg.SuperLU or callable, optional
-        Factorisation of K − σM to reuse (``subspace``, ``adjoint``, ``static``).
-    sigma : float, optional
-        Its shift σ, rad²/s² (default 0, or a small negative shift for singular K).
-    tol : float, default ``DEFAULT_TOL``
-        Relative tolerance of the omitted modes' series (``subspace``, ``adjoint``).
-    series : {"neumann", "krylov"}, optional
-        Summation of the omitted modes' series (default ``"krylov"`` for ``adjoint``,
-        ``"neumann"`` for ``subspace``; see
-        :func:`~femupdate.sensitivity.series.omitted_modes_series`).
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1, e.g.
         :func:`~femupdate.close_modes.mode_groups`): a mode of ``which`` in one of them
         gets the derivative of the group's basis with no rotation inside the group, by every
         route (``fd``: central differences of that basis), and ``restricted`` the group's
         ∂A/∂p (:mod:`femupdate.sensitivity.repeated`).
+    **factor
+        What the routes that solve with K − σM reuse (``subspace``, ``adjoint``, ``static``):
+        ``lu`` (a :class:`femupdate.workspace.Factor`, SciPy SuperLU or callable: the
+        factorisation of K − σM), ``sigma`` (its shift σ, rad²/s²; default 0, or a small negative
+        shift for singular K), ``tol`` (relative tolerance of the omitted modes' series, default
+        ``DEFAULT_TOL``) and ``series`` (``"neumann"`` or ``"krylov"``: the series' summation;
+        default ``"krylov"`` for ``adjoint``, ``"neumann"`` for ``subspace``; see
+        :func:`~femupdate.sensitivity.series.omitted_modes_series`).
 
     Returns
     -------
@@ -229,6 +226,10 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
         A rigid-body mode, or a repeated mode outside ``groups``, among ``which``; a mode with a
         node at its reference dof; a series that does not converge.
     """
+    unknown = sorted(set(factor) - {"lu", "sigma", "tol", "series"})
+    if unknown:
+        raise TypeError(f"jacobian() got an unexpected keyword argument {unknown[0]!r}")
+    lu, sigma, tol, series = factor.get("lu"), factor.get("sigma"), factor.get("tol", DEFAULT_TOL), factor.get("series")
     if method not in METHODS:
         raise InputError(f"unknown sensitivity method {method!r}: use {', '.join(METHODS)}")
     if shape_scaling not in SCALINGS:

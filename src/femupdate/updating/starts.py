@@ -210,9 +210,8 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         reason = unsupported(model, uo, explicit=True)
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
-        ms = multistart_batched(model, data, names, X0, seed=st.seed, rel_tol=st.rel_tol, cost_tol=st.cost_tol,
-                                progress=progress, scheduler=ex.scheduler, connect_timeout=ex.connect_timeout,
-                                values=values, options=uo)
+        ms = multistart_batched(model, data, names, X0, study=st, execution=ex, progress=progress, values=values,
+                                options=uo)
     # ---- end of the batched path ----------------------------------------------------------------
     else:
         ms = run_starts(model, data, names, X0, {"options": uo, "values": values}, starts=st, execution=ex,

@@ -17,7 +17,7 @@ from ..clustering import classify, converged_solutions, parameter_scale
 from ..problem import Problem
 from ..results import MultiStartResult, RunResult, UpdateResult
 from ..solve import pairing_record, result_at, update_modal
-from ...options import UpdateOptions
+from ...options import ExecutionOptions, StartsOptions, UpdateOptions, gather_some
 from .driver import BatchedProblem, unsupported
 from .lsq import FAILED
 
@@ -180,10 +180,10 @@ def _dask_runs(model, data, names, X0, options, values, scheduler: str, timeout:
     return [run for part in parts for run in part]
 
 
-def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int | None = None, rel_tol: float = 1e-4,
-                       cost_tol: float | None = None, progress: Callable[[int, int], None] | None = None,
-                       polish: bool = True, scheduler: str | None = None, connect_timeout: float = 10.0,
-                       values=None, options: UpdateOptions | None = None, **shorthand):
+def multistart_batched(model, data, names: Sequence[str], starts, *, study: StartsOptions | None = None,
+                       execution: ExecutionOptions | None = None,
+                       progress: Callable[[int, int], None] | None = None, polish: bool = True, values=None,
+                       options: UpdateOptions | None = None, **shorthand):
     """Multi-start updating with every start run in compiled code; same result as the local route.
 
     Parameters
@@ -191,20 +191,23 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     model, data : as :func:`femupdate.update`.
     names : updated parameters.
     starts : (R, L) starting values (e.g. from :func:`femupdate.updating.draw_starts`).
-    seed : recorded in the result.
-    rel_tol, cost_tol : clustering and acceptance, as :func:`femupdate.updating.multistart`.
+    study : its ``seed`` (recorded in the result), ``rel_tol`` and ``cost_tol`` (clustering and
+        acceptance, as :func:`femupdate.updating.multistart`; :class:`~femupdate.options.StartsOptions`,
+        whose number of starts is that of ``starts``).
+    execution : a Dask scheduler to run on (``scheduler``, ``connect_timeout``;
+        :class:`~femupdate.options.ExecutionOptions`).
     progress : ``progress(finished, R)``.
     polish : re-run :func:`~femupdate.update` once from the best solution (a final check by the
         local route); its ``start``, ``history``, ``nfev``, ``njev`` and ``iterations`` then
         cover the batched run and the polish together.  Without it (or should the polish fail)
         ``best`` is the full result at the batched solution itself.
-    scheduler : address of a Dask scheduler: the starts run there in chunks, each chunk on the
-        compiled route (:func:`batched_runs`), with results bit-identical to a local run; the
-        clustering and the polish run here.
-    connect_timeout : seconds to wait for the scheduler and its first worker.
+        On a Dask scheduler the starts run in chunks, each chunk on the compiled route
+        (:func:`batched_runs`), with results bit-identical to a local run; the clustering and the
+        polish run here.
     values : the fixed parameters' values, as :func:`femupdate.update` takes them.
     options, **shorthand : the update's options (:class:`~femupdate.options.UpdateOptions`, or
-        its fields as keywords; :func:`unsupported` says which the route takes).
+        its fields as keywords; :func:`unsupported` says which the route takes), and the fields
+        of ``study`` and ``execution`` as keywords (``seed=``, ``rel_tol=``, ``scheduler=``, ...).
 
     Returns
     -------
@@ -215,7 +218,12 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, seed: int |
     names = tuple(names)
     X0 = np.array(starts, dtype=float, ndmin=2)
     R = X0.shape[0]
-    options = UpdateOptions.of("multistart_batched", shorthand, options=options)
+    given, rest = gather_some("multistart_batched", shorthand, study=(StartsOptions, study or StartsOptions(starts=R)),
+                              execution=(ExecutionOptions, execution))
+    st, ex = given["study"], given["execution"]
+    seed, rel_tol, cost_tol = st.seed, st.rel_tol, st.cost_tol
+    scheduler, connect_timeout = ex.scheduler, ex.connect_timeout
+    options = UpdateOptions.of("multistart_batched", rest, options=options)
     reason = unsupported(model, options, explicit=True)
     if reason:
         raise InputError(f"batched multi-start: {reason}")

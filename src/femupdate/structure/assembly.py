@@ -1,0 +1,168 @@
+"""The assembly of a :class:`~femupdate.structure.Structure` into the affine sparse
+:class:`~femupdate.model.Model` (:meth:`Structure.build <femupdate.structure.Structure.build>`):
+element terms per group, properties resolved to numbers or parameters, triplets summed into one
+sparse matrix per parameter (no dense global matrix)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import elements as el
+from .._errors import InputError
+from .._limits import MAX_MAGNITUDE
+from ..dofs import describe, parse_dof, sort_key
+from ..model import Model
+from .groups import ElementGroup, merge_groups, triplets
+from .units import parameter_units
+
+
+def assemble(structure) -> Model:
+    """:meth:`Structure.build <femupdate.structure.Structure.build>`: the affine sparse model of ``structure``."""
+    self = structure
+
+    if not self.groups:
+        raise InputError(f"structure {self.name!r} has no elements")
+    groups = merge_groups(self.groups)
+    all_labels = sorted({lab for g in groups for row in g.labels for lab in row}, key=sort_key)
+    present = set(all_labels)
+    unknown_sup = [d for d in self.supports if d not in present]
+    if unknown_sup:
+        raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
+    node_of = {lab: parse_dof(lab)[0] for lab in all_labels}
+    used_nodes = set(node_of.values())
+    missing_nodes = [n for n in self.support_nodes if n not in used_nodes]
+    if missing_nodes:
+        raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
+    sup_nodes = set(self.support_nodes)
+    fixed = set(self.supports) | {lab for lab, nd in node_of.items() if nd in sup_nodes}
+    dofs = [lab for lab in all_labels if lab not in fixed]
+    if not dofs:
+        raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
+    index = {lab: i for i, lab in enumerate(dofs)}
+    pnames = list(self.parameters)
+    pindex = {n: j for j, n in enumerate(pnames)}
+    L, n = len(pnames), len(dofs)
+    trip: dict[tuple[str, int], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
+        (target, t): [] for target in ("K", "M") for t in range(-1, L)}  # every K key, then every M key
+    for g in groups:
+        terms = element_terms(self, g)
+        idx = np.array([[index.get(lab, -1) for lab in row] for row in g.labels], dtype=np.int64)
+        resolved = {k: resolve_property(self, g, k, pindex) for k in g.props}
+        for target, tlist in (("K", terms.K), ("M", terms.M)):
+            for factors, unit in tlist:
+                coef, pid = combine_factors(self, g, factors, resolved, target)
+                triplets(trip, target, unit, idx, coef, pid)
+    mats: dict[tuple[str, int], sp.csr_array | None] = {}
+    for (target, t), parts in trip.items():
+        if not parts:
+            mats[(target, t)] = None
+            continue
+        r = np.concatenate([p[0] for p in parts])
+        c = np.concatenate([p[1] for p in parts])
+        v = np.concatenate([p[2] for p in parts])
+        A = sp.coo_array((v, (r, c)), shape=(n, n)).tocsr()
+        A.sum_duplicates()
+        mats[(target, t)] = A
+    zero = sp.csr_array((n, n))
+    K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
+    M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
+    units = parameter_units(groups, pnames)
+    return Model(
+        dofs=tuple(dofs), K0=K0, M0=M0,
+        parameters=tuple(par if par.unit else replace(par, unit=units[par.name])
+                         for par in (self.parameters[p] for p in pnames)),
+        dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
+        name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
+        positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
+    )
+
+
+def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
+    if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
+        raise TypeError(f"{g.where[0]}: a {g.type} group has no end nodes")
+    ids = np.unique(g.nodes)
+    missing = [int(i) for i in ids if int(i) not in self.nodes]
+    if missing:
+        k = next(i for i, row in enumerate(g.nodes) if int(row[0]) in missing or int(row[1]) in missing)
+        raise InputError(f"{g.where[k]}: node(s) {missing[:8]} are not defined in the node table")
+    xyz = np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(len(g.nodes), 2, 3)
+    return xyz[:, 0], xyz[:, 1]
+
+def element_terms(self, g: ElementGroup) -> el.ElementTerms:
+    """The element terms of a group (its element type's stacks)."""
+    n_el = len(g.labels)
+    if g.type == "spring":
+        return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
+    if g.type == "mass":
+        return el.mass_terms(n_el, len(g.labels[0]))
+    xa, xb = _coords(self, g)
+    try:
+        if g.type == "rod":
+            return el.rod_terms(xa, xb, dim=g.dim, mass=g.mass)
+        if g.type == "beam2d":
+            return el.beam2d_terms(xa, xb, mass=g.mass)
+        if g.type == "beam2d_terms":
+            return el.beam2d_physical_terms(xa, xb, mass=g.mass)
+        if g.type == "frame3d":
+            return el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+        if g.type == "frame3d_terms":
+            return el.frame3d_physical_terms(xa, xb, g.orientation, mass=g.mass)
+    except InputError as exc:
+        pos = getattr(exc, "positions", None) or [0]
+        who = ", ".join(g.where[i] for i in pos[:8]) + (f" and {len(pos) - 8} more" if len(pos) > 8 else "")
+        raise InputError(f"{who}: {exc}") from None
+    raise InputError(f"{g.where[0]}: unknown element type {g.type!r}")
+
+def resolve_property(self, g: ElementGroup, prop: str, pindex: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Per-element (numeric factor, parameter index or -1) of one property."""
+    vals = g.props[prop]
+    num = np.ones(len(vals))
+    pid = np.full(len(vals), -1, dtype=np.int64)
+    for i, v in enumerate(vals):
+        if isinstance(v, str):
+            if v not in pindex:
+                declared = ", ".join(pindex) or "none"
+                raise InputError(f"{g.where[i]}: property {prop} names parameter {v!r}, which is not declared in [parameters] (declared: {declared})")
+            pid[i] = pindex[v]
+            value = self.parameters[v].value
+        else:
+            try:
+                value = float(v)
+            except (TypeError, ValueError):
+                raise InputError(f"{g.where[i]}: property {prop} must be a number or a parameter name, got {v!r}") from None
+            num[i] = value
+        if not math.isfinite(value):
+            raise InputError(f"{g.where[i]}: property {prop} is not finite ({value!r})")
+        if not value > 0:
+            kind = "mass" if prop in ("m", "rho") else "property"
+            raise InputError(f"{g.where[i]}: non-positive {kind} {prop} = {value:g}" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
+        if value < 1 / MAX_MAGNITUDE:
+            raise InputError(f"{g.where[i]}: property {prop} = {value:g} is below {1 / MAX_MAGNITUDE:g}, too small to "
+                             "compute with" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
+    return num, pid
+
+def combine_factors(self, g: ElementGroup, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:
+    coef = np.ones(len(g.labels))
+    pid = np.full(len(g.labels), -1, dtype=np.int64)
+    for f in factors:
+        num, p = resolved[f]
+        clash = np.flatnonzero((pid >= 0) & (p >= 0))
+        if clash.size:
+            i = clash[0]
+            names = list(self.parameters)
+            raise InputError(
+                f"{g.where[i]}: the {target} term {'*'.join(factors)} multiplies parameters "
+                f"{names[pid[i]]!r} and {names[p[i]]!r}; the model must stay affine in its parameters "
+                f"(K = K0 + sum p_j K_j), so make only one of them a parameter"
+                + (" or use the physical-term element type beam2d_terms / frame3d_terms" if g.type in ("beam2d", "frame3d") else "")
+            )
+        coef = coef * num
+        pid = np.where(p >= 0, p, pid)
+    return coef, pid
+
+
+__all__ = ["assemble", "element_terms", "resolve_property", "combine_factors"]
