@@ -18,6 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import rules
+from ._checks import flag_arg, model_arg, modes_count, str_arg, values_arg
 from ._errors import InputError, NumericalError
 from ._threads import LARGE_DENSE, blas_phase
 from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
@@ -276,18 +277,9 @@ def _check_mass(M, dofs) -> np.ndarray:
     return massless
 
 
-def solve_modes(
-    K,
-    M,
-    n_modes: int | None = None,
-    dofs: Sequence[str] | None = None,
-    normalisation: str = "mass",
-    method: str = "auto",
-    sigma: float | None = None,
-    tol: float = 0.0,
-    workspace=None,
-    start=None,
-) -> Modes:
+def solve_modes(K, M, n_modes: int | None = None, dofs: Sequence[str] | None = None, normalisation: str = "mass",
+                method: str = "auto", sigma: float | None = None, tol: float = 0.0, workspace=None,
+                start=None) -> Modes:
     """Lowest ``n_modes`` modes of the pencil (K, M).
 
     Parameters
@@ -699,6 +691,11 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
+    model_arg(model, "model", "model_modes")
+    values_arg(model, values, "values", "model_modes")
+    modes_count(model, n_modes, "n_modes", "model_modes")
+    str_arg(normalisation, "normalisation", "model_modes")
+    flag_arg(reuse, "reuse", "model_modes")
     K, M = model.K(values), model.M(values)
     if (reuse and "workspace" not in kw and kw.get("method", "auto") in ("auto", "sparse")
             and (kw.get("method") == "sparse" or eigensolver_for(model.n_dofs, n_modes) == "sparse")):

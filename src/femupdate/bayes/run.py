@@ -11,6 +11,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from .._budget import announce, check_count, residual_count, start_bytes
+from .._checks import callable_arg, mapping_arg, path_arg, problem_args
 from .._errors import InputError
 from ..options import (SAMPLER_METHODS, ExecutionOptions, SamplerOptions, StartsOptions, UpdateOptions,
                        gather_some)
@@ -104,11 +106,15 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     ------
     InputError
         Bad options, data or priors (named); ``"mcmc"`` without emcee; ``"tmcmc"`` with an
-        improper prior; a checkpoint of another run.
+        improper prior; a checkpoint of another run; samples, predictive draws, MCMC chains or
+        starts beyond the available memory (the estimate named, before the run).
+    TypeError
+        An argument of the wrong type (named).
     NumericalError
         No solution found; no mode with a positive definite Hessian; TMCMC without end.
     """
     t0 = time.perf_counter()
+    _door(model, data, params, x0, values, priors, progress, checkpoint)
     given, rest = gather_some("posterior", shorthand, sampler=(SamplerOptions, sampler),
                               starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
     so, st, ex = given["sampler"], given["starts"], given["execution"]
@@ -125,6 +131,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     L = post.L
     # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
     walkers = so.walkers if so.walkers is not None else (max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
+    so.bound(L, walkers)
+    check_count("starts", starts_n, start_bytes(residual_count(data), L), "the starts' records")
     if burn is None and target_ess is None:
         burn = steps // 4
     if method == "tmcmc" and post.improper:
@@ -142,7 +150,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     runner = None
     try:
         points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
+        t_modes, n_modes = time.perf_counter(), post.evaluations
         modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
+        _announce_sampling(so, walkers, time.perf_counter() - t_modes, post.evaluations - n_modes)
         notes = list(post.notes) + notes + more
         warnings: list[str] = []
         diag: dict = {}
@@ -181,18 +191,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
             fractions = [float(np.mean(near == k)) for k in range(len(modes))]
         P = post.to_p(X)
         stats = summarise(P, level)
-        # the predictions and the noise scale at a subset of the samples
-        sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
-        Xs = X[np.sort(sub)]
-        Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
-        scale = post.noise_scale(Q, rng)
-        noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
-        if scale is not None and np.isfinite(scale).any():
-            s = scale[np.isfinite(scale)]
-            a = (1 - level) / 2
-            noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
-            noise_info["draws"] = int(s.size)
-        pred = predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
+        noise_info, pred = _predictions(post, X, predictive, level, rng)
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
         if post.failures:
@@ -217,6 +216,31 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         post.close()
 
 
+def _door(model, data, params, x0, values, priors, progress, checkpoint) -> None:
+    """:func:`posterior`'s arguments by type (:mod:`femupdate._checks`)."""
+    problem_args("posterior", model, data, params=params, x0=x0, values=values, sets=True)
+    mapping_arg(priors, "priors", "posterior")
+    callable_arg(progress, "progress", "posterior")
+    if checkpoint is not None:
+        path_arg(checkpoint, "checkpoint", "posterior")
+
+
+def _predictions(post: Posterior, X: np.ndarray, predictive: int, level: float, rng) -> tuple[dict, dict | None]:
+    """The noise scale and the predictions of the paired modes at ``predictive`` of the samples
+    ``X`` (drawn from ``rng``)."""
+    sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
+    Xs = X[np.sort(sub)]
+    Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
+    scale = post.noise_scale(Q, rng)
+    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
+    if scale is not None and np.isfinite(scale).any():
+        s = scale[np.isfinite(scale)]
+        a = (1 - level) / 2
+        noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+        noise_info["draws"] = int(s.size)
+    return noise_info, predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
+
+
 def _describe(post: Posterior, j: int) -> str:
     pr = post.priors[j]
     lo, hi = post.lo[j], post.hi[j]
@@ -224,6 +248,23 @@ def _describe(post: Posterior, j: int) -> str:
         return f"uniform on [{lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else \
             f"flat (improper) on [{lo:g}, {hi:g}]"
     return f"{pr} on [{lo:g}, {hi:g}]" if pr.kind != "uniform" else f"uniform on [{lo:g}, {hi:g}]"
+
+
+def _announce_sampling(so: SamplerOptions, walkers: int, seconds: float, evaluations: int) -> None:
+    """Say how long the sampling will take, from the likelihood evaluations of the search for the
+    posterior's modes (one point at a time: the compiled route's batches cost less a point)."""
+    if evaluations <= 0 or so.method == "laplace":
+        return
+    per = seconds / evaluations
+    basis = (f"{per * 1e3:.3g} ms a likelihood evaluation, measured in the search for the modes; the compiled route "
+             "evaluates batches of points and often takes less")
+    if so.method == "mcmc":
+        n = so.ensembles * walkers * so.steps
+        announce(f"MCMC, {so.ensembles} x {walkers} walkers x {so.steps} steps = {n} evaluations", per * n, basis)
+    else:
+        n = so.samples * so.tmcmc_steps
+        announce(f"each TMCMC stage, {so.samples} samples x {so.tmcmc_steps} moves = {n} evaluations (the stages "
+                 "number as many as the data need, often 5 to 20)", per * n, basis)
 
 
 def _mcmc_diagnostics(post: Posterior, kept: np.ndarray, out: dict, walkers: int, ensembles: int, burn: int,

@@ -85,6 +85,7 @@ from typing import Any
 
 import numpy as np
 
+from .._checks import data_arg, mapping_arg, params_arg, problem_args
 from .._errors import InputError
 from ..model import Model
 from ..options import gather
@@ -363,6 +364,11 @@ def detect_damage(model: Model, data: TestData, *, undamaged: TestData | None = 
     TypeError
         A keyword that is no field of :class:`~femupdate.damage.DamageOptions`.
     """
+    problem_args("detect_damage", model, data)
+    data_arg(undamaged, "undamaged", "detect_damage", optional=True)
+    params_arg(elements, "elements", "detect_damage")
+    mapping_arg(noise, "noise", "detect_damage")
+    mapping_arg(descriptions, "descriptions", "detect_damage")
     opts: DamageOptions = gather("detect_damage", shorthand, options=(DamageOptions, options))["options"]
     names = _unknowns(model, elements)
     chk = None if undamaged is None else check_baseline(

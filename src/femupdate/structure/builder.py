@@ -11,6 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import elements as el
+from .._checks import str_arg
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import Node, canonical, canonical_all, describe, dof, node_id, parse_dof, sort_key
@@ -42,6 +43,7 @@ class Structure:
     """
 
     def __init__(self, name: str = "model"):
+        str_arg(name, "name", "Structure", error=InputError)  # a model file's name too: bad input
         self.name = name
         self.parameters: dict[str, Parameter] = {}
         self.nodes: dict[int, tuple[float, float, float]] = {}
@@ -508,13 +510,11 @@ class Structure:
         M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
         units = parameter_units(groups, pnames)
         return Model(
-            dofs=tuple(dofs), K0=K0, M0=M0,
-            parameters=tuple(par if par.unit else replace(par, unit=units[par.name])
-                             for par in (self.parameters[p] for p in pnames)),
+            dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(par if par.unit else replace(par, unit=units[par.name])
+                                                             for par in (self.parameters[p] for p in pnames)),
             dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
             name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
-            positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
-        )
+            positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)))
 
     def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
         if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
