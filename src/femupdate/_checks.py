@@ -348,10 +348,11 @@ def as_array(value: Any) -> np.ndarray | None:
 
 
 def array_arg(value: Any, name: str, where: str = "", *, ndim: int | None = None, complex_ok: bool = False,
-              finite: bool = True, optional: bool = False) -> np.ndarray | None:
+              finite: bool = True, optional: bool = False, empty: bool = True) -> np.ndarray | None:
     """``value`` as a float (or complex) ndarray of ``ndim`` dimensions with finite entries: a
     :class:`TypeError` for what is not numeric (strings, objects, booleans), an
-    :class:`InputError` for a wrong number of dimensions, NaN or infinity, naming ``name``."""
+    :class:`InputError` for a wrong number of dimensions, NaN or infinity (or, without ``empty``,
+    no entry), naming ``name``."""
     if value is None and optional:
         return None
     arr = as_array(value)
@@ -361,9 +362,11 @@ def array_arg(value: Any, name: str, where: str = "", *, ndim: int | None = None
     if arr.dtype.kind not in "iuf" + ("c" if complex_ok else "") or arr.dtype.kind == "b":
         what = "an array of real numbers" if not complex_ok else "an array of numbers"
         raise TypeError(f"{_at(where)}{name} must be {what}, got {shown(value)}"
-                        + (f" of {arr.dtype}" if not isinstance(value, np.ndarray) else ""))
+                        + (f" of {arr.dtype}" if isinstance(value, (list, tuple)) else ""))
     if ndim is not None and arr.ndim != ndim:
         raise InputError(f"{_at(where)}{name} must be {ndim}-D, got shape {arr.shape}")
+    if not empty and arr.size == 0:
+        raise InputError(f"{_at(where)}{name} is empty (shape {arr.shape})")
     if finite and arr.size and not np.all(np.isfinite(arr)):
         raise InputError(f"{_at(where)}{name} holds NaN or infinite values")
     return arr

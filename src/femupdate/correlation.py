@@ -52,14 +52,17 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     InputError
         ``A`` and ``B`` have different numbers of rows.
     """
-    A = np.asarray(A)
-    B = np.asarray(B)
+    A = np.asarray(array_arg(A, "A", "mac", complex_ok=True))
+    B = np.asarray(array_arg(B, "B", "mac", complex_ok=True))
+    if A.ndim > 2 or B.ndim > 2:
+        raise InputError(f"mac: A and B must be shapes (1-D) or shapes in columns (2-D), got shapes {A.shape} and "
+                         f"{B.shape}")
     if A.ndim == 1:
         A = A[:, None]
     if B.ndim == 1:
         B = B[:, None]
     if A.shape[0] != B.shape[0]:
-        raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs")
+        raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs (the rows of A and B)")
     num = np.abs(A.conj().T @ B) ** 2
     aa = np.sum(np.abs(A) ** 2, axis=0).tolist()
     bb = np.sum(np.abs(B) ** 2, axis=0).tolist()

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import rules
-from ._checks import flag_arg, model_arg, modes_count, str_arg, values_arg
+from ._checks import array_arg, count_arg, flag_arg, model_arg, modes_count, str_arg, values_arg
 from ._errors import InputError, NumericalError
 from ._threads import LARGE_DENSE, blas_phase
 from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
@@ -210,6 +210,8 @@ def normalise(Phi: np.ndarray, how: str = "mass", M=None, dofs: Sequence[str] | 
         A non-positive modal mass φᵀMφ (``"mass"``), or a mode with a zero at the reference dof
         (``"ref:<dof>"``).
     """
+    array_arg(Phi, "Phi", "normalise", ndim=2, empty=False)
+    str_arg(how, "how", "normalise")
     Phi = np.array(Phi, dtype=float, copy=True)
     if how == "mass":
         if M is None:
@@ -261,17 +263,13 @@ def _check_mass(M, dofs) -> np.ndarray:
     bad = np.flatnonzero(~(d > 0) & ~massless)
     neg = bad[d[bad] < 0]
     if neg.size:
-        raise InputError(
-            "the mass matrix is not positive semi-definite: negative mass at dof(s) "
-            f"{describe([dofs[i] for i in neg]) if dofs else neg[:8].tolist()} (diagonal "
-            f"{', '.join(f'{d[i]:.4g}' for i in neg[:4])}{' ...' if neg.size > 4 else ''})"
-        )
+        raise InputError("the mass matrix is not positive semi-definite: negative mass at dof(s) "
+                         f"{describe([dofs[i] for i in neg]) if dofs else neg[:8].tolist()} (diagonal "
+                         f"{', '.join(f'{d[i]:.4g}' for i in neg[:4])}{' ...' if neg.size > 4 else ''})")
     if bad.size:
-        raise InputError(
-            "the mass matrix is not positive semi-definite: no positive mass at dof(s) "
-            f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()}, which are coupled to others by M "
-            "(add mass there, or remove/condense those dofs)"
-        )
+        raise InputError("the mass matrix is not positive semi-definite: no positive mass at dof(s) "
+                         f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()}, which are coupled to "
+                         "others by M (add mass there, or remove/condense those dofs)")
     if massless.all():
         raise InputError("the mass matrix is zero: no dof has mass")
     return massless
@@ -333,6 +331,10 @@ def solve_modes(K, M, n_modes: int | None = None, dofs: Sequence[str] | None = N
     NumericalError
         The sparse eigensolver failed or did not converge; and as :func:`normalise`.
     """
+    for what, A in (("K", K), ("M", M)):
+        if not sp.issparse(A):  # an array of 2 dimensions
+            array_arg(A, what, "solve_modes", ndim=2)
+    count_arg(n_modes, "n_modes", "solve_modes", optional=True)
     n = K.shape[0]
     if K.shape != (n, n) or M.shape != (n, n):
         raise InputError(f"K {K.shape} and M {M.shape} must be square and of the same size")

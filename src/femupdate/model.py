@@ -583,6 +583,11 @@ def from_matrices(
         As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
         match, unused or duplicate parameters).
     """
+    with input_errors():  # what tuple() below would not say (a model file's matrices come here too)
+        strings_arg(dofs, "dofs", "from_matrices", optional=False, what="dof label")
+        for what, seq in (("parameters", parameters), ("dK", dK), ("dM", dM)):
+            if seq is not None and (isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, Sequence)):
+                raise TypeError(f"from_matrices: {what} must be a list, got {shown(seq)}")
     return Model(
         dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters),
         dK=tuple(dK) if dK is not None else (), dM=tuple(dM) if dM is not None else (), name=name,
