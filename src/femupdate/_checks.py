@@ -10,6 +10,7 @@ caller reads, such as a tuple of names), so that what runs afterwards is what ra
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import os
@@ -55,16 +56,19 @@ def _at(where: str) -> str:
     return f"{where}: " if where else ""
 
 
-def _kind(value: Any) -> str | None:
-    """The femupdate kind of ``value`` ("Model", "TestData", "Modes", ...), or None."""
+@functools.cache
+def _classes() -> tuple[type, ...]:
+    """femupdate's object classes (imported once, when a door first needs them)."""
     from .modal import Modes
     from .model import Model
     from .testdata import FRFData, MeasuredMode, StaticData, TestData
 
-    for cls in (Model, TestData, Modes, FRFData, MeasuredMode, StaticData):
-        if isinstance(value, cls):
-            return cls.__name__
-    return None
+    return Model, TestData, Modes, FRFData, MeasuredMode, StaticData
+
+
+def _kind(value: Any) -> str | None:
+    """The femupdate kind of ``value`` ("Model", "TestData", "Modes", ...), or None."""
+    return next((cls.__name__ for cls in _classes() if isinstance(value, cls)), None)
 
 
 def _wrong(where: str, name: str, want: str, value: Any, also: str = "") -> TypeError:
@@ -88,6 +92,8 @@ def swapped(where: str, *pairs: tuple[str, Any, str]) -> None:
         Two arguments whose values are of each other's wanted kind.
     """
     kinds = [(_kind(v), n, want) for n, v, want in pairs]
+    if all(got == want for got, _, want in kinds):  # the common case, at once
+        return
     for i, (got_i, name_i, want_i) in enumerate(kinds):
         for got_j, name_j, want_j in kinds[i + 1:]:
             if got_i is not None and got_i != want_i and got_i == want_j and got_j == want_i:
@@ -386,6 +392,8 @@ def indices_arg(value: Any, name: str, where: str = "", *, size: int, labels: bo
         if items.ndim > 1 or items.dtype.kind not in "iu" + ("UO" if labels else ""):
             raise TypeError(f"{_at(where)}{name} must be {'labels or ' if labels else ''}indices (int), got "
                             f"{shown(items)}")
+        if items.dtype.kind in "iu" and (not items.size or (items.min() >= 0 and items.max() < size)):
+            return  # indices in range, at once (the updating's Jacobian passes them at every evaluation)
         items = items.tolist()
     if not isinstance(items, Sequence) or isinstance(items, (str, bytes)):
         raise TypeError(f"{_at(where)}{name} must be {'labels or ' if labels else ''}indices (int), got {shown(value)}")
