@@ -125,8 +125,9 @@ def data_arg(value: Any, name: str = "data", where: str = "", *, frf: bool = Fal
         return value
     if isinstance(value, MeasuredMode) or (isinstance(value, (list, tuple)) and value
                                            and all(isinstance(m, MeasuredMode) for m in value)):
-        raise TypeError(f"{_at(where)}{name} must be a TestData, got {shown(value)} of MeasuredMode: wrap the modes "
-                        "as TestData(modes=[...])")
+        of = " of MeasuredMode" if isinstance(value, (list, tuple)) else ""
+        raise TypeError(f"{_at(where)}{name} must be a TestData, got {shown(value)}{of}: wrap the modes as "
+                        "TestData(modes=[...])")
     raise _wrong(where, name, "TestData", value, (" or FRFData" if frf else "") + (" or None" if optional else ""))
 
 
