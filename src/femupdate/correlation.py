@@ -13,12 +13,14 @@ label, never by index.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 
+from ._checks import array_arg, bools_arg, data_arg, flag_arg, modes_arg, real_arg, swapped
 from ._errors import InputError, NumericalError
 from ._rulebase import OK, message
 from .dofs import canonical_all
@@ -53,14 +55,17 @@ def mac(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     InputError
         ``A`` and ``B`` have different numbers of rows.
     """
-    A = np.asarray(A)
-    B = np.asarray(B)
+    A = np.asarray(array_arg(A, "A", "mac", complex_ok=True))
+    B = np.asarray(array_arg(B, "B", "mac", complex_ok=True))
+    if A.ndim > 2 or B.ndim > 2:
+        raise InputError(f"mac: A and B must be shapes (1-D) or shapes in columns (2-D), got shapes {A.shape} and "
+                         f"{B.shape}")
     if A.ndim == 1:
         A = A[:, None]
     if B.ndim == 1:
         B = B[:, None]
     if A.shape[0] != B.shape[0]:
-        raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs")
+        raise InputError(f"MAC: shapes have {A.shape[0]} and {B.shape[0]} dofs (the rows of A and B)")
     num = np.abs(A.conj().T @ B) ** 2
     aa = np.sum(np.abs(A) ** 2, axis=0).tolist()
     bb = np.sum(np.abs(B) ** 2, axis=0).tolist()
@@ -119,13 +124,11 @@ def check_pairing(rule: str, min_mac) -> float:
     InputError
         An unknown ``rule``, or ``min_mac`` not a number in [0, 1] (named as given).
     """
-    try:
-        value = float(min_mac)
-    except (TypeError, ValueError):
-        raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}") from None
-    if not 0.0 <= value <= 1.0:
+    if isinstance(min_mac, (bool, np.bool_)) or not isinstance(min_mac, numbers.Real) \
+            or not 0.0 <= float(min_mac) <= 1.0:
         raise InputError(f"min_mac must be a number between 0 and 1, got {min_mac!r}")
-    if rule not in PAIRINGS:
+    value = float(min_mac)
+    if not isinstance(rule, str) or rule not in PAIRINGS:
         raise InputError(f"unknown pairing {rule!r}: use {', '.join(PAIRINGS)}")
     return value
 
@@ -225,10 +228,17 @@ def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, m
         ``strict`` and a test mode cannot be paired (the message names it); a non-finite MAC of a
         test mode with a shape.
     """
+    array_arg(mac_matrix, "mac_matrix", "pair", finite=False)
+    bools_arg(shaped, "shaped", "pair")
+    array_arg(model_eigenvalues, "model_eigenvalues", "pair", ndim=1, optional=True)
+    array_arg(test_eigenvalues, "test_eigenvalues", "pair", ndim=1, optional=True)
+    flag_arg(strict, "strict", "pair")
+    real_arg(max_change, "max_change", "pair", low=0.0)
     min_mac = check_pairing(rule, min_mac)
     M = np.asarray(mac_matrix, dtype=float)
     if M.ndim != 2:
-        raise InputError(f"pair: the MAC matrix must be 2-D (test modes x model modes), got shape {M.shape}")
+        raise InputError(f"pair: the MAC matrix (mac_matrix) must be 2-D (test modes x model modes), got shape "
+                         f"{M.shape}")
     T, nm = M.shape
     shaped = np.ones(T, bool) if shaped is None else np.asarray(shaped, bool)
     if shaped.shape != (T,):
@@ -236,7 +246,7 @@ def pair(mac_matrix, *, rule: str = "auto", min_mac: float = 0.5, shaped=None, m
     lam, lam_e = _eigenvalues(rule, model_eigenvalues, test_eigenvalues, T, nm)
     bad_rows = np.flatnonzero(shaped & ~np.isfinite(M).all(axis=1))
     if bad_rows.size:
-        raise NumericalError(f"pair: non-finite MAC of test mode(s) {[int(k) + 1 for k in bad_rows]}")
+        raise NumericalError(f"pair: non-finite MAC of test mode(s) {[int(k) + 1 for k in bad_rows]} (mac_matrix)")
     if nm == 0:  # the rules read a first column
         M = np.zeros((T, 1))
     policy = PAIRINGS[rule]
@@ -270,13 +280,14 @@ def _eigenvalues(rule, model_eigenvalues, test_eigenvalues, T: int, nm: int):
     """The eigenvalues :func:`pair` was given, as float arrays (the model's lowest ``nm``), or None."""
     if model_eigenvalues is None or test_eigenvalues is None:
         if rule != "mac":
-            raise InputError(f"pairing {rule!r} needs the eigenvalues of the model and of the test modes")
+            raise InputError(f"pairing {rule!r} needs the eigenvalues of the model and of the test modes "
+                             "(model_eigenvalues, test_eigenvalues)")
         return None, None
     lam = np.asarray(model_eigenvalues, dtype=float).ravel()
     lam_e = np.asarray(test_eigenvalues, dtype=float).ravel()
     if lam.size < nm or lam_e.size != T:
-        raise InputError(f"pair: {lam.size} model and {lam_e.size} test eigenvalues for a MAC matrix of {T} test "
-                         f"and {nm} model modes")
+        raise InputError(f"pair: {lam.size} model and {lam_e.size} test eigenvalues (model_eigenvalues, "
+                         f"test_eigenvalues) for a MAC matrix (mac_matrix) of {T} test and {nm} model modes")
     return lam[:nm], lam_e
 
 
@@ -468,6 +479,9 @@ def correlate(test, model_modes, min_mac: float = 0.5, pairing: str = "auto", cl
         An unknown ``pairing``; ``min_mac`` not in [0, 1]; a test shape with no dof in common with
         the model.
     """
+    swapped("correlate", ("test", test, "TestData"), ("model_modes", model_modes, "Modes"))
+    data_arg(test, "test", "correlate")
+    modes_arg(model_modes, "model_modes", "correlate")
     min_mac = check_pairing(pairing, min_mac)
     modes = test.modes
     T = len(modes)

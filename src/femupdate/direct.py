@@ -28,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import lsq_linear
 
+from ._checks import flag_arg, params_arg, problem_args, strings_arg
 from ._errors import InputError, NumericalError
 from .dofs import canonical_all, describe
 from .serialise import RunContext, Serialisable
@@ -563,6 +564,10 @@ def direct_update(model, data: TestData, use: Sequence[str] = ("modes", "frf", "
     NumericalError
         The bounded solve failed.
     """
+    problem_args("direct_update", model, data, values=values)
+    params_arg(unknowns, "unknowns", "direct_update")
+    strings_arg(use, "use", "direct_update", optional=False, what="data kind")
+    flag_arg(bounded, "bounded", "direct_update")
     notes: list[str] = []
     system = build_system(model, data, use, values, unknowns, notes)
     res = solve_system(model, system, values, bounded, notes)

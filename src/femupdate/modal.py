@@ -18,6 +18,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import rules
+from ._checks import array_arg, count_arg, flag_arg, model_arg, modes_count, str_arg, values_arg
 from ._errors import InputError, NumericalError
 from ._threads import LARGE_DENSE, blas_phase
 from .workspace import PIVOT_THRESHOLD, NotPositiveDefinite, factorize, nearly_singular  # noqa: F401  (named here too)
@@ -234,6 +235,8 @@ def normalise(Phi: np.ndarray, how: str = "mass", M=None, dofs: Sequence[str] | 
         A non-positive modal mass φᵀMφ (``"mass"``), or a mode with a zero at the reference dof
         (``"ref:<dof>"``).
     """
+    array_arg(Phi, "Phi", "normalise", ndim=2, empty=False)
+    str_arg(how, "how", "normalise")
     Phi = np.array(Phi, dtype=float, copy=True)
     if how == "mass":
         if M is None:
@@ -285,34 +288,21 @@ def _check_mass(M, dofs) -> np.ndarray:
     bad = np.flatnonzero(~(d > 0) & ~massless)
     neg = bad[d[bad] < 0]
     if neg.size:
-        raise InputError(
-            "the mass matrix is not positive semi-definite: negative mass at dof(s) "
-            f"{describe([dofs[i] for i in neg]) if dofs else neg[:8].tolist()} (diagonal "
-            f"{', '.join(f'{d[i]:.4g}' for i in neg[:4])}{' ...' if neg.size > 4 else ''})"
-        )
+        raise InputError("the mass matrix is not positive semi-definite: negative mass at dof(s) "
+                         f"{describe([dofs[i] for i in neg]) if dofs else neg[:8].tolist()} (diagonal "
+                         f"{', '.join(f'{d[i]:.4g}' for i in neg[:4])}{' ...' if neg.size > 4 else ''})")
     if bad.size:
-        raise InputError(
-            "the mass matrix is not positive semi-definite: no positive mass at dof(s) "
-            f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()}, which are coupled to others by M "
-            "(add mass there, or remove/condense those dofs)"
-        )
+        raise InputError("the mass matrix is not positive semi-definite: no positive mass at dof(s) "
+                         f"{describe([dofs[i] for i in bad]) if dofs else bad[:8].tolist()}, which are coupled to "
+                         "others by M (add mass there, or remove/condense those dofs)")
     if massless.all():
         raise InputError("the mass matrix is zero: no dof has mass")
     return massless
 
 
-def solve_modes(
-    K,
-    M,
-    n_modes: int | None = None,
-    dofs: Sequence[str] | None = None,
-    normalisation: str = "mass",
-    method: str = "auto",
-    sigma: float | None = None,
-    tol: float = 0.0,
-    workspace=None,
-    start=None,
-) -> Modes:
+def solve_modes(K, M, n_modes: int | None = None, dofs: Sequence[str] | None = None, normalisation: str = "mass",
+                method: str = "auto", sigma: float | None = None, tol: float = 0.0, workspace=None,
+                start=None) -> Modes:
     """Lowest ``n_modes`` modes of the pencil (K, M).
 
     Parameters
@@ -366,6 +356,10 @@ def solve_modes(
     NumericalError
         The sparse eigensolver failed or did not converge; and as :func:`normalise`.
     """
+    for what, A in (("K", K), ("M", M)):
+        if not sp.issparse(A):  # an array of 2 dimensions
+            array_arg(A, what, "solve_modes", ndim=2)
+    count_arg(n_modes, "n_modes", "solve_modes", optional=True)
     n = K.shape[0]
     if K.shape != (n, n) or M.shape != (n, n):
         raise InputError(f"K {K.shape} and M {M.shape} must be square and of the same size")
@@ -536,6 +530,11 @@ def model_modes(model, values=None, n_modes: int | None = None, normalisation: s
     InputError, NumericalError
         As :meth:`Model.resolve` and :func:`solve_modes`.
     """
+    model_arg(model, "model", "model_modes")
+    values_arg(model, values, "values", "model_modes")
+    modes_count(model, n_modes, "n_modes", "model_modes")
+    str_arg(normalisation, "normalisation", "model_modes")
+    flag_arg(reuse, "reuse", "model_modes")
     p = model.resolve(values)
     K, M = model.K(p), model.M(p)
     if (reuse and "workspace" not in kw and kw.get("method", "auto") in ("auto", "sparse")

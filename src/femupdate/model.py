@@ -18,6 +18,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from ._checks import flag_arg, input_errors, shown, str_arg, strings_arg
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
@@ -70,6 +71,12 @@ class Parameter:
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
             raise InputError(f"parameter name {self.name!r} is not a valid identifier")
+        if isinstance(self.value, (str, bytes)):
+            raise InputError(f"parameter {self.name!r}: value must be a number, got {shown(self.value)}")
+        if not isinstance(self.bounds, (list, tuple, np.ndarray)) or len(self.bounds) != 2:
+            raise InputError(f"parameter {self.name!r}: bounds must be a pair (lower, upper), got {shown(self.bounds)}")
+        with input_errors():
+            flag_arg(self.fixed, "fixed", f"parameter {self.name!r}")
         if isinstance(self.value, (bool, np.bool_)):  # float() would read true as 1
             raise InputError(f"parameter {self.name!r}: value must be a number, got {_shown(self.value)}")
         if isinstance(self.bounds, (list, tuple)) and any(isinstance(b, (bool, np.bool_)) for b in self.bounds):
@@ -127,6 +134,28 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
             f"row {rows[k]}, column {cols[k]}, against entries of size {scale:.3g})"
         )
     return A
+
+
+def _fields(model: Model) -> None:
+    """The types of :class:`Model`'s fields (a :class:`TypeError` naming the first wrong one)."""
+    str_arg(model.name, "name", "Model")
+    where = f"Model {model.name!r}"
+    strings_arg(model.dofs, "dofs", where, optional=False, what="dof label")
+    for what, A in (("K0", model.K0), ("M0", model.M0)):
+        if A is None or isinstance(A, (str, bytes, Mapping)):
+            raise TypeError(f"{where}: {what} must be a matrix (an array or a SciPy sparse matrix), got {shown(A)}")
+    for what, seq in (("parameters", model.parameters), ("dK", model.dK), ("dM", model.dM)):
+        if isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, (Sequence, np.ndarray)) or (
+                isinstance(seq, np.ndarray) and seq.dtype.kind != "O"):
+            raise TypeError(f"{where}: {what} must be a list, got {shown(seq)}")
+    bad = [p for p in model.parameters if not isinstance(p, Parameter)]
+    if bad:
+        raise TypeError(f"{where}: parameters must be Parameter objects, got {shown(bad[0])} (make one with "
+                        "Parameter(name, value, bounds))")
+    if not isinstance(model.nodes, Mapping):
+        raise TypeError(f"{where}: nodes must be a mapping {{node: (x, y, z)}}, got {shown(model.nodes)}")
+    if isinstance(model.positive, (str, bytes)):
+        raise TypeError(f"{where}: positive must be a collection of parameter names, got {shown(model.positive)}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,6 +219,8 @@ class Model:
     positive: frozenset[str] = frozenset()
 
     def __post_init__(self):
+        with input_errors():
+            _fields(self)
         dofs = canonical_all(self.dofs, "model dofs")
         n = len(dofs)
         if n == 0:
@@ -552,6 +583,11 @@ def from_matrices(
         As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
         match, unused or duplicate parameters).
     """
+    with input_errors():  # what tuple() below would not say (a model file's matrices come here too)
+        strings_arg(dofs, "dofs", "from_matrices", optional=False, what="dof label")
+        for what, seq in (("parameters", parameters), ("dK", dK), ("dM", dM)):
+            if seq is not None and (isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, Sequence)):
+                raise TypeError(f"from_matrices: {what} must be a list, got {shown(seq)}")
     return Model(
         dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters),
         dK=tuple(dK) if dK is not None else (), dM=tuple(dM) if dM is not None else (), name=name,

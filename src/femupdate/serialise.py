@@ -24,10 +24,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
+from ._checks import result_arg
 from ._errors import InputError
 
 #: the version of the JSON results' schema, written as ``schema_version`` with every result; it
@@ -228,7 +230,8 @@ def load_result(path_or_obj):
     InputError
         Not a result femupdate wrote, or a kind without a typed result.
     """
-    obj = _read(path_or_obj)
+    result_arg(path_or_obj, "path_or_obj", "load_result", objects=False)
+    obj = _read(path_or_obj if not isinstance(path_or_obj, os.PathLike) else Path(path_or_obj))
     kind = obj.get("kind")
     if kind is None:
         from .report.build import detect_kind

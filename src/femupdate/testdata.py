@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._checks import array_arg, input_errors, mapping_arg, number_arg, shown, str_arg, strings_arg
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe
@@ -161,6 +162,13 @@ class MeasuredMode:
     std_damping_ratio: float | None = None
 
     def __post_init__(self):
+        with input_errors():
+            where = f"MeasuredMode {self.label}".rstrip() if isinstance(self.label, str) else "MeasuredMode"
+            number_arg(self.eigenvalue, "eigenvalue (rad²/s²)", where)
+            strings_arg(self.dofs, "dofs", where, optional=False, what="dof label")
+            array_arg(self.shape, "shape", where, complex_ok=True, finite=False)
+            str_arg(self.label, "label", "MeasuredMode")
+            str_arg(self.reference_dof, "reference_dof", where, optional=True)
         lam = float(self.eigenvalue)
         if not math.isfinite(lam) or lam < 0:
             raise InputError(f"mode {self.label or ''}: eigenvalue {lam!r} must be finite and >= 0".replace("  ", " "))
@@ -227,6 +235,8 @@ class MeasuredMode:
         InputError
             A negative or non-finite frequency, and as :class:`MeasuredMode`.
         """
+        with input_errors():
+            number_arg(frequency_hz, "frequency_hz", "MeasuredMode.from_frequency")
         f = float(frequency_hz)
         if not math.isfinite(f) or f < 0:
             raise InputError(f"mode {label}: frequency_hz {f!r} must be finite and >= 0")
@@ -274,6 +284,13 @@ class FRFData:
     response: np.ndarray
 
     def __post_init__(self):
+        with input_errors():
+            array_arg(self.omega, "omega", "FRFData", finite=False)
+            mapping_arg(self.force, "force", "FRFData", optional=False)
+            strings_arg(self.dofs, "dofs", "FRFData", optional=False, what="dof label")
+            array_arg(self.response, "response", "FRFData", complex_ok=True, finite=False)
+            for k, v in self.force.items():
+                number_arg(v, f"force[{k!r}]", "FRFData", complex_ok=True)
         omega = np.asarray(self.omega, dtype=float).ravel()
         _finite(omega, "frf omega_rad_s")
         if omega.size == 0:
@@ -284,7 +301,8 @@ class FRFData:
         resp = np.asarray(self.response)
         resp = resp.astype(complex if np.iscomplexobj(resp) else float)
         if resp.shape != (omega.size, len(dofs)):
-            raise InputError(f"frf: response has shape {resp.shape}, expected ({omega.size} frequencies, {len(dofs)} dofs)")
+            raise InputError(f"frf: response has shape {resp.shape}, expected ({omega.size} frequencies (omega), "
+                             f"{len(dofs)} dofs)")
         _finite(resp, "frf response", dofs)
         force = {}
         for k, v in dict(self.force).items():
@@ -326,6 +344,12 @@ class StaticData:
     displacement: np.ndarray
 
     def __post_init__(self):
+        with input_errors():
+            mapping_arg(self.force, "force", "StaticData", optional=False)
+            strings_arg(self.dofs, "dofs", "StaticData", optional=False, what="dof label")
+            array_arg(self.displacement, "displacement", "StaticData", finite=False)
+            for k, v in self.force.items():
+                number_arg(v, f"force[{k!r}]", "StaticData")
         dofs = canonical_all(self.dofs, "static displacement")
         u = np.asarray(self.displacement, dtype=float).ravel()
         if u.shape != (len(dofs),):
@@ -347,6 +371,33 @@ class StaticData:
         object.__setattr__(self, "dofs", dofs)
         object.__setattr__(self, "displacement", u)
         object.__setattr__(self, "force", force)
+
+
+def _fields(data: TestData) -> None:
+    """The types of :class:`TestData`'s fields (a :class:`TypeError` naming the first wrong one)."""
+    _items(data.modes, "modes", MeasuredMode,
+           "MeasuredMode(eigenvalue, dofs, shape) or MeasuredMode.from_frequency(f_hz, ...)")
+    if data.frf is not None and not isinstance(data.frf, FRFData):
+        raise TypeError(f"TestData: frf must be an FRFData or None, got {shown(data.frf)}")
+    _items(data.static, "static", StaticData, "StaticData(force, dofs, displacement)")
+    _items(data.frf_sets, "frf_sets", FRFData, "FRFData(omega, force, dofs, response)")
+    mapping_arg(data.units, "units", "TestData", optional=False)
+    if not isinstance(data.nodes, Mapping):
+        raise TypeError(f"TestData: nodes must be a mapping {{node: (x, y, z)}}, got {shown(data.nodes)}")
+    if isinstance(data.notes, (str, bytes, np.ndarray)) or not isinstance(data.notes, Sequence):
+        raise TypeError(f"TestData: notes must be a list of str, got {shown(data.notes)}")
+
+
+def _items(value, name: str, cls: type, make: str) -> None:
+    """Refuse a field of :class:`TestData` that is not a sequence of ``cls`` objects (a
+    :class:`TypeError` naming the field, the item and how to make one)."""
+    if isinstance(value, (str, bytes, Mapping, cls)) or not isinstance(value, (Sequence, np.ndarray)) or (
+            isinstance(value, np.ndarray) and value.dtype.kind != "O"):
+        raise TypeError(f"TestData: {name} must be a list of {cls.__name__}, got {shown(value)}"
+                        + (f" (give [{name}])" if isinstance(value, cls) else ""))
+    for k, item in enumerate(value):
+        if not isinstance(item, cls):
+            raise TypeError(f"TestData: {name}[{k}] must be a {cls.__name__}, got {shown(item)} (make one with {make})")
 
 
 @dataclass(frozen=True)
@@ -391,6 +442,8 @@ class TestData:
     notes: tuple[str, ...] = ()
 
     def __post_init__(self):
+        with input_errors():
+            _fields(self)
         sets = tuple(self.frf_sets)
         if not sets and self.frf is not None:
             sets = (self.frf,)

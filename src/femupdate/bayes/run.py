@@ -11,6 +11,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from .._budget import announce, check_count, residual_count, start_bytes
+from .._checks import callable_arg, mapping_arg, path_arg, problem_args
 from .._errors import InputError
 from ..options import (SAMPLER_METHODS, ExecutionOptions, SamplerOptions, StartsOptions, UpdateOptions,
                        gather_some)
@@ -107,11 +109,15 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     ------
     InputError
         Bad options, data or priors (named); ``"mcmc"`` without emcee; ``"tmcmc"`` with an
-        improper prior; a checkpoint of another run.
+        improper prior; a checkpoint of another run; samples, predictive draws, MCMC chains or
+        starts beyond the available memory (the estimate named, before the run).
+    TypeError
+        An argument of the wrong type (named).
     NumericalError
         No solution found; no mode with a positive definite Hessian; TMCMC without end.
     """
     t0 = time.perf_counter()
+    _door(model, data, params, x0, values, priors, progress, checkpoint)
     given, rest = gather_some("posterior", shorthand, sampler=(SamplerOptions, sampler),
                               starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
     so, st, ex = given["sampler"], given["starts"], given["execution"]
@@ -128,6 +134,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     L = post.L
     # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
     walkers = so.walkers if so.walkers is not None else (max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
+    so.bound(L, walkers)
+    check_count("starts", starts_n, start_bytes(residual_count(data), L), "the starts' records")
     if burn is None and target_ess is None:
         burn = steps // 4
     if method == "tmcmc" and post.improper:
@@ -145,7 +153,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     runner = None
     try:
         points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
+        t_modes, n_modes = time.perf_counter(), post.evaluations
         modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
+        _announce_sampling(so, walkers, time.perf_counter() - t_modes, post.evaluations - n_modes)
         notes = list(post.notes) + notes + more
         warnings: list[str] = []
         diag: dict = {}
@@ -209,6 +219,15 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         post.close()
 
 
+def _door(model, data, params, x0, values, priors, progress, checkpoint) -> None:
+    """:func:`posterior`'s arguments by type (:mod:`femupdate._checks`)."""
+    problem_args("posterior", model, data, params=params, x0=x0, values=values, sets=True)
+    mapping_arg(priors, "priors", "posterior")
+    callable_arg(progress, "progress", "posterior")
+    if checkpoint is not None:
+        path_arg(checkpoint, "checkpoint", "posterior")
+
+
 def _noise_and_predictions(post: Posterior, X: np.ndarray, level: float, predictive: int,
                            rng: np.random.Generator) -> tuple[dict, dict | None]:
     """The result's ``noise`` (with an estimated scale's posterior) and ``predictive``, at a
@@ -233,6 +252,23 @@ def _describe(post: Posterior, j: int) -> str:
         return f"uniform on [{lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else \
             f"flat (improper) on [{lo:g}, {hi:g}]"
     return f"{pr} on [{lo:g}, {hi:g}]" if pr.kind != "uniform" else f"uniform on [{lo:g}, {hi:g}]"
+
+
+def _announce_sampling(so: SamplerOptions, walkers: int, seconds: float, evaluations: int) -> None:
+    """Say how long the sampling will take, from the likelihood evaluations of the search for the
+    posterior's modes (one point at a time: the compiled route's batches cost less a point)."""
+    if evaluations <= 0 or so.method == "laplace":
+        return
+    per = seconds / evaluations
+    basis = (f"{per * 1e3:.3g} ms a likelihood evaluation, measured in the search for the modes; the compiled route "
+             "evaluates batches of points and often takes less")
+    if so.method == "mcmc":
+        n = so.ensembles * walkers * so.steps
+        announce(f"MCMC, {so.ensembles} x {walkers} walkers x {so.steps} steps = {n} evaluations", per * n, basis)
+    else:
+        n = so.samples * so.tmcmc_steps
+        announce(f"each TMCMC stage, {so.samples} samples x {so.tmcmc_steps} moves = {n} evaluations (the stages "
+                 "number as many as the data need, often 5 to 20)", per * n, basis)
 
 
 def _mcmc_diagnostics(post: Posterior, kept: np.ndarray, out: dict, walkers: int, ensembles: int, burn: int,

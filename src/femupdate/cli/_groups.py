@@ -14,11 +14,13 @@ A group is a decorator made by :func:`option_group`::
 from __future__ import annotations
 
 import functools
+import re
 from collections.abc import Callable
 from typing import Any
 
 import click
 
+from .._errors import InputError
 from ..options import ExecutionOptions, SamplerOptions, SolverOptions, StartsOptions
 from ._common import SCHEDULER, SEED, FiniteFloat, connect_timeout_option
 
@@ -66,13 +68,28 @@ def option_group(title: str, target: str, build: Callable[..., Any], *options: C
         @functools.wraps(f)
         def wrapper(*args, **kwargs):
             values = {n: kwargs.pop(n) for n in names}
-            kwargs[target] = build(**values)
+            try:
+                kwargs[target] = build(**values)
+            except InputError as exc:  # a field named as the command line spells it
+                raise InputError(spelled(str(exc), params)) from None
             return f(*args, **kwargs)
 
         wrapper.__click_params__ = list(getattr(f, "__click_params__", [])) + params  # type: ignore[attr-defined]
         return wrapper
 
     return decorator
+
+
+def spelled(message: str, params) -> str:
+    """``message`` of an option object's check with its fields written as the options of
+    ``params``: ``starts=N`` anywhere as ``--starts N``, a leading ``samples must be`` as
+    ``--samples must be``."""
+    for p in params:
+        opt = max(p.opts, key=len)
+        message = re.sub(rf"(?<![\w-]){re.escape(p.name)}=", f"{opt} ", message)
+        if message.startswith(f"{p.name} "):
+            message = opt + message[len(p.name):]
+    return message
 
 
 # ---------------------------------------------------------------------------------- groups

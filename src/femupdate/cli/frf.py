@@ -11,7 +11,8 @@ import click
 import numpy as np
 from rich.table import Table
 
-from .._errors import InputError
+from .._budget import LINE_BYTES, check_count
+from .._errors import InputError, NumericalError
 from .._limits import MAX_MAGNITUDE
 from ..updating.run import DEFAULT_RESIDUAL, FRF_RESIDUALS
 from ._common import (INPUT_FILE, OUTPUT_FIGURE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set, fmt, model_values, option_dofs,
@@ -35,6 +36,7 @@ def parse_omega(text: str, what: str = "--omega") -> np.ndarray:
             raise InputError(f"{what}: {text!r}: need finite ends and N >= 1")
         if max(abs(a), abs(b)) > MAX_MAGNITUDE:
             raise InputError(f"{what}: {text!r}: values must be at most {MAX_MAGNITUDE:g} in magnitude")
+        check_count(f"{what} {text}: N", n, LINE_BYTES, "the lines and their responses")
         return np.linspace(a, b, n)
     out = []
     for item in text.split(","):

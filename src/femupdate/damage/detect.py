@@ -85,6 +85,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .._checks import data_arg, mapping_arg, params_arg, problem_args
 from .._errors import InputError
 from ..model import Model
 from ..options import gather
@@ -402,6 +403,11 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
     TypeError
         A keyword that is no field of :class:`~femupdate.damage.DamageOptions`.
     """
+    problem_args("detect_damage", model.model if isinstance(model, DamageUnknowns) else model, data)
+    data_arg(undamaged, "undamaged", "detect_damage", optional=True)
+    params_arg(elements, "elements", "detect_damage")
+    mapping_arg(noise, "noise", "detect_damage")
+    mapping_arg(descriptions, "descriptions", "detect_damage")
     opts: DamageOptions = gather("detect_damage", shorthand, options=(DamageOptions, options))["options"]
     from .record import attach
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import numbers
 
+from .._budget import NOISE_DRAW_BYTES, REPLICATE_BYTES, check_count
 from .._errors import InputError
 from ..options import Options, choice, count, flag, number
 
@@ -104,6 +105,10 @@ class DamageOptions(Options):
             raise InputError(f"min_change must lie in (0, 1), got {self.min_change!r}")
         if self.alpha is not None and (not _real(self.alpha) or not 0 < self.alpha <= 1):
             raise InputError(f"alpha is a fraction of alpha_max in (0, 1], got {self.alpha!r}")
+        for name in ("iterations", "bootstrap", "max_located"):
+            v = getattr(self, name)
+            if _real(v) and not isinstance(v, numbers.Integral):
+                raise InputError(f"{name} must be an integer, got {v!r}")
         if not _real(self.iterations) or not _real(self.bootstrap) or int(self.iterations) < 1 \
                 or int(self.bootstrap) < 0:
             raise InputError("iterations must be >= 1 and bootstrap >= 0")
@@ -121,6 +126,9 @@ class DamageOptions(Options):
         self.set("allow_increase", flag(self.allow_increase, "allow_increase"))
         self.set("refine", flag(self.refine, "refine"))
         self.set("n_noise", count(self.n_noise, "n_noise", low=2, allow_none=True))
+        check_count("bootstrap", self.bootstrap, REPLICATE_BYTES, "the bootstrap replicates")
+        if self.n_noise is not None:
+            check_count("n_noise", self.n_noise, NOISE_DRAW_BYTES, "the noise replicates of the weights")
         self.set("seed", count(self.seed, "seed", low=0, allow_none=True))
         self.set("localise_min_mac", number(self.localise_min_mac, "localise_min_mac", low=0.0, high=1.0))
         self.set("max_frequency_error", number(self.max_frequency_error, "max_frequency_error", low=0.0))

@@ -29,6 +29,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from .._budget import LINE_BYTES, check_count
+from .._checks import array_arg, choice_arg, count_arg, mapping_arg, model_arg, real_arg, strings_arg, values_arg
 from .._errors import InputError
 from ..dofs import canonical_all, describe
 from ..serialise import RunContext, Serialisable
@@ -372,6 +374,18 @@ def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None
     InputError
         As :func:`frf` and :func:`add_noise`.
     """
+    where = "simulate_frf"
+    model_arg(model, "model", where)
+    lines = np.asarray(array_arg(omega, "omega", where, finite=False))
+    mapping_arg(force, "force", where, optional=False)
+    strings_arg(response, "response", where, what="dof label")
+    values_arg(model, values, "values", where)
+    real_arg(noise, "noise", where, low=0.0)
+    choice_arg(noise_kind, NOISE_KINDS, "noise_kind", where)
+    count_arg(seed, "seed", where, low=0, optional=True)
+    choice_arg(method, ("auto", "dense", "sparse"), "method", where)
+    n_response = model.n_dofs if response is None else len(response)
+    check_count("omega", lines.size, LINE_BYTES * max(n_response, 1), "the responses at the lines")
     labels, X = frf(model, omega, force, response, values, damping, method=method)
     data = FRFData(check_omega(omega), dict(force), labels, X)
     if noise:

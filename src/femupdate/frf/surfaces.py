@@ -32,6 +32,7 @@ from typing import ClassVar, cast
 
 import numpy as np
 
+from .._budget import check_memory
 from .._errors import InputError
 from ..dofs import canonical
 from ..serialise import RunContext, Serialisable
@@ -171,6 +172,8 @@ def _grid(model, names: Sequence[str], x, y):
     for nm, g in zip(names, (gx, gy)):
         if g.size < 2 or not np.all(np.isfinite(g)):
             raise InputError(f"grid of {nm}: need at least two finite values")
+    check_memory(f"grid of {gx.size} x {gy.size} points", 64.0 * gx.size * gy.size,
+                 "the surface's points, their values and copies (64 bytes a point)")
     P1, P2 = np.meshgrid(gx, gy, indexing="ij")
     return gx, gy, np.column_stack([P1.ravel(), P2.ravel()])
 

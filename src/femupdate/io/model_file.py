@@ -30,6 +30,7 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
+from .._checks import path_arg
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
 from .numbers import check_magnitudes, long_integer_line, parse_float
@@ -107,7 +108,7 @@ def load_model(path) -> Model:
         A suffix other than ``.toml``; an unreadable or malformed file; anything the structure,
         the matrix files or :class:`Model` reject (the message names the file).
     """
-    path = Path(path)
+    path = path_arg(path, "path", "load_model")
     if path.suffix.lower() != ".toml":
         raise InputError(f"{path}: model files are TOML (.toml); for plain matrices write a small TOML with a [matrices] table")
     data = read_toml(path)

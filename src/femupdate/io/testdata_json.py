@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._checks import model_arg, path_arg, strings_arg
 from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
 from .numbers import loads_json
@@ -65,8 +66,12 @@ def load_testdata(path, model=None, numbering=None, sensors=None, channels=None)
         universal-file reader reject; ``"#N"`` out of range or malformed (the message gives the
         model's dof count), or without a model; with ``model``, a dof not in the model.
     """
-    path = Path(path)
+    path = path_arg(path, "path", "load_test_data")
     note_input(path, "the test data")
+    if model is not None:
+        model_arg(model, "model", "load_test_data")
+    strings_arg(numbering, "numbering", "load_test_data", what="dof label")
+    strings_arg(sensors, "sensors", "load_test_data", what="dof label")
     if numbering is None and model is not None:
         numbering = model.dofs
     if channels is not None and path.suffix.lower() != ".npz":

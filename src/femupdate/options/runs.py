@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 from typing import ClassVar
 
+from .._budget import CHAIN_BYTES, SAMPLE_BYTES, START_BYTES, check_count, check_memory, size
 from .._errors import InputError
 from ._base import Options, choice, count, flag, number
 from .choices import LIKELIHOOD_ROUTES, SAMPLER_METHODS
@@ -44,6 +45,7 @@ class StartsOptions(Options):
 
     def check(self) -> None:
         self.set("starts", count(self.starts, "starts"))
+        check_count("starts", self.starts, START_BYTES, "the starts' records")
         self.set("seed", count(self.seed, "seed", low=0, allow_none=True))
         self.set("log_uniform", flag(self.log_uniform, "log_uniform"))
         self.set("rel_tol", number(self.rel_tol, "rel_tol", low=0.0, low_open=True))
@@ -155,12 +157,25 @@ class SamplerOptions(Options):
             self.set(name, count(getattr(self, name), name, low=low))
         self.set("walkers", count(self.walkers, "walkers", low=2, allow_none=True))
         self.set("burn", count(self.burn, "burn", low=0, allow_none=True))
+        self.bound()
         self.set("level", number(self.level, "level", low=0.0, high=1.0, low_open=True, high_open=True))
         self.set("target_cov", number(self.target_cov, "target_cov", low=0.0, low_open=True))
         if self.target_ess is not None:
             self.set("target_ess", number(self.target_ess, "target_ess", low=0.0, low_open=True))
         if self.method == "mcmc" and self.burn is not None and self.burn >= self.steps:
             raise InputError(f"burn ({self.burn}) must be smaller than steps ({self.steps})")
+
+    def bound(self, n_params: int = 1, walkers: int | None = None) -> None:
+        """Refuse counts whose samples or chains (of ``n_params`` parameters, ``walkers`` walkers;
+        when the options are made: one parameter and the least default of walkers, 32) would
+        exceed the available memory (:mod:`femupdate._budget`)."""
+        check_count("samples", self.samples, SAMPLE_BYTES * n_params, "the samples")
+        check_count("predictive", self.predictive, SAMPLE_BYTES * n_params, "the predictive draws")
+        if self.method == "mcmc":
+            walkers = walkers if walkers is not None else self.walkers if self.walkers is not None else 32
+            check_memory(f"ensembles={self.ensembles}, walkers={walkers}, steps={self.steps}",
+                         float(self.ensembles) * walkers * self.steps * CHAIN_BYTES * n_params,
+                         f"the MCMC chains ({size(CHAIN_BYTES * n_params)} a walker and step)")
 
 
 __all__ = ["StartsOptions", "ExecutionOptions", "SamplerOptions"]

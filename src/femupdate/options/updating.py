@@ -7,6 +7,9 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+import numpy as np
+
+from .._checks import as_array
 from .._errors import InputError
 from ._base import Options, choice, count, flag, gather, number
 from .choices import (DATA_KINDS, FORMULATIONS, FRF_RESIDUALS, FRF_SOLVERS, LSQ_METHODS, NOISE_BASES, PARAMETRISATIONS,
@@ -248,6 +251,22 @@ class FRFOptions(Options):
         choice(self.solver, FRF_SOLVERS, "FRF solver")
         self.set("select", count(self.select, "select", allow_none=True))
         self.set("resonance_tol", number(self.resonance_tol, "resonance_tol", low=0.0, high=1.0, low_open=True))
+        for name, kinds in (("lines", "iub"), ("weights", "iuf")):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            arr = as_array(v)
+            if arr is None or arr.dtype.kind not in kinds or arr.size == 0 or (name == "lines" and arr.ndim != 1) \
+                    or (name == "lines" and arr.dtype.kind == "i" and np.any(arr < 0)):
+                what = ("indices (int, from 0) or a mask (bool) of the lines" if name == "lines"
+                        else "an array of numbers")
+                raise InputError(f"{name} must be {what}, got {v!r}")
+            if name == "weights" and not np.all(np.isfinite(arr) & (arr >= 0)):
+                raise InputError("weights must be finite numbers >= 0")
+        if self.damping is not None:
+            from ..frf.lines import as_damping
+
+            as_damping(self.damping)
 
     def given(self) -> dict[str, Any]:
         """The fields that differ from the defaults, as the FRF drivers' keywords."""
@@ -285,11 +304,15 @@ class UpdateOptions(Options):
     def check(self) -> None:
         use = (self.use,) if isinstance(self.use, str) else self.use
         try:
+            if isinstance(use, (bytes, Mapping)):
+                raise TypeError
             use = tuple(use)
         except TypeError:
+            use = ()
+        if not use:
             raise InputError(f"use must be a sequence of the kinds of data ({', '.join(DATA_KINDS)}), got "
-                             f"{self.use!r}") from None
-        unknown = [u for u in use if u not in DATA_KINDS]
+                             f"{self.use!r}")
+        unknown = [u for u in use if not isinstance(u, str) or u not in DATA_KINDS]
         if unknown:
             raise InputError(f"unknown data kind(s) {', '.join(map(str, unknown))}: use {', '.join(DATA_KINDS)}")
         self.set("use", use)
@@ -309,7 +332,7 @@ class UpdateOptions(Options):
         TypeError
             A keyword no part has (named).
         """
-        base = options if options is not None else cls()
+        base = cls.coerce(options, f"{where}(options=...)")
         shorthand = dict(shorthand)
         if "frf_options" in shorthand:
             if parts.get("frf") is not None:

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._checks import array_arg, choice_arg, count_arg, flag_arg, model_arg, strings_arg, values_arg
 from .._errors import InputError
 from ..dofs import canonical_all
 from ..model import Model
@@ -126,6 +127,18 @@ def expand(model: Model, measured_dofs: Sequence[str], shapes: np.ndarray, metho
         Unknown or repeated dofs, a shape array that does not match them, NaN, an unknown method,
         too many SEREP modes, a singular omitted partition (Guyan/IRS; the mechanism is named).
     """
+    model_arg(model, "model", "expand")
+    if not isinstance(measured_dofs, str) and not strings_arg(measured_dofs, "measured_dofs", "expand", optional=False,
+                                                              what="dof label"):
+        raise InputError("expand: measured_dofs is empty (give the labels of the measured dofs)")
+    array_arg(shapes, "shapes", "expand", complex_ok=True, finite=False)
+    choice_arg(method, EXPANSION_METHODS, "method", "expand")
+    values_arg(model, values, "values", "expand")
+    n_measured = 1 if isinstance(measured_dofs, str) else len(measured_dofs)
+    if (count_arg(n_modes, "n_modes", "expand", optional=True) or 0) > n_measured:
+        raise InputError(f"expand: n_modes: {n_modes} modes for {n_measured} retained dofs (the measured dofs): use at "
+                         f"most {n_measured}")
+    flag_arg(warn_validation, "warn_validation", "expand")
     method = str(method).lower()
     if method not in EXPANSION_METHODS:
         raise InputError(f"expand: unknown method {method!r}: use {', '.join(EXPANSION_METHODS)}")

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from .._checks import array_arg, model_arg, str_arg, strings_arg
 from .._errors import InputError
 from ..dofs import canonical_all, parse_dof
 from ..model import Model
@@ -128,6 +129,11 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
         values ``T`` was built at (Guyan/IRS/modal/hybrid/SEREP build ``T`` from K(p), M(p) or the
         modes).  A parameter whose reduced matrices vanish is dropped with a warning.
     """
+    model_arg(model, "model", "reduce")
+    if not (isinstance(T, Transformation) or sp.issparse(T)):
+        array_arg(T, "T", "reduce", ndim=2)
+    strings_arg(keep, "keep", "reduce", what="dof label")
+    str_arg(name, "name", "reduce", optional=True)
     method = "given"
     if isinstance(T, Transformation):
         if tuple(T.dofs) != tuple(model.dofs):

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._checks import path_arg, result_arg
 from .._errors import FemupdateError, InputError
 from .._version import __version__
 from .content import BUILDERS, KINDS, WITH_IMAGES
@@ -427,6 +428,8 @@ def write_report(path, result, **kw) -> Path:
     """
     from ..io.results import atomic_write_text
 
+    path_arg(path, "path", "write_report")
+    result_arg(result, "result", "write_report")
     html = build_report(result, **kw)
     atomic_write_text(path, html)
     return Path(path)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._checks import choice_arg, flag_arg, indices_arg, model_arg, modes_arg, real_arg, swapped, values_arg
 from .._errors import InputError, NumericalError
 from ..dofs import canonical
 from ..options.choices import SENSITIVITY_ROUTES
@@ -230,10 +231,22 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     if unknown:
         raise TypeError(f"jacobian() got an unexpected keyword argument {unknown[0]!r}")
     lu, sigma, tol, series = factor.get("lu"), factor.get("sigma"), factor.get("tol", DEFAULT_TOL), factor.get("series")
-    if method not in METHODS:
-        raise InputError(f"unknown sensitivity method {method!r}: use {', '.join(METHODS)}")
-    if shape_scaling not in SCALINGS:
-        raise InputError(f"unknown shape scaling {shape_scaling!r}: use {', '.join(SCALINGS)}")
+    swapped("jacobian", ("model", model, "Model"), ("modes", modes, "Modes"))
+    model_arg(model, "model", "jacobian")
+    modes_arg(modes, "modes", "jacobian")
+    if which is not None:
+        indices_arg(which, "which", "jacobian", size=modes.n_modes, what="mode")
+    if sensors is not None:
+        indices_arg(sensors, "sensors", "jacobian", size=model.n_dofs, labels=True, what="dof")
+    if params is not None:
+        indices_arg(params, "params", "jacobian", size=len(model.parameters), labels=True, single=False,
+                    what="parameter")
+    values_arg(model, values, "values", "jacobian")
+    flag_arg(relative_eigenvalues, "relative_eigenvalues", "jacobian")
+    real_arg(sigma, "sigma", "jacobian", optional=True)
+    real_arg(tol, "tol", "jacobian", low=0.0, low_open=True)
+    choice_arg(method, METHODS, "sensitivity method", "jacobian")
+    choice_arg(shape_scaling, SCALINGS, "shape scaling", "jacobian")
     check_modes(model, modes)
     if which is None:
         raise InputError("which: give the modes to differentiate (indices into the modes)")

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from .._checks import str_arg
 from .._errors import InputError
 from ..dofs import Node, canonical, canonical_all, dof, node_id
 from ..model import Model, Parameter
@@ -37,6 +38,7 @@ class Structure:
     """
 
     def __init__(self, name: str = "model"):
+        str_arg(name, "name", "Structure", error=InputError)  # a model file's name too: bad input
         self.name = name
         self.parameters: dict[str, Parameter] = {}
         self.nodes: dict[int, tuple[float, float, float]] = {}

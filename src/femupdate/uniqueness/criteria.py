@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .._checks import count_arg
 from .._errors import InputError
 
 #: criterion name -> (paper equation, formula, what is counted)
@@ -96,10 +97,9 @@ def counting_criteria(n: int, m: int, L: int, N: int) -> dict[str, CriterionCoun
     InputError
         An argument that is not an integer >= 1, or ``n`` or ``m`` above ``N``.
     """
-    for what, v, lo in (("n (measured dofs)", n, 1), ("m (measured modes)", m, 1), ("L (unknown parameters)", L, 1),
-                        ("N (model dofs)", N, 1)):
-        if int(v) != v or v < lo:
-            raise InputError(f"counting criteria: {what} must be an integer >= {lo}, got {v!r}")
+    for what, v in (("n (measured dofs)", n), ("m (measured modes)", m), ("L (unknown parameters)", L),
+                    ("N (model dofs)", N)):
+        count_arg(v, what, "counting_criteria")
     if n > N or m > N:
         raise InputError(f"counting criteria: n = {n} and m = {m} cannot exceed the model's N = {N} dofs")
     eq15 = m * (2 * N - (m + 1)) / 2

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._checks import count_arg, flag_arg, model_arg, params_arg, shown, values_arg
 from .._errors import InputError, NumericalError
 
 MAX_PARAMETERS = 4  #: most unknown parameters the exact (Gröbner) solver accepts
@@ -237,6 +238,19 @@ def _solve_system(eqs, syms):
                          "(repeated solutions?); the exact solution set could not be isolated")
 
 
+def _door(model, eigenvalues, values, n_modes, params, bounds) -> None:
+    """:func:`exact_solutions`'s arguments by type (:mod:`femupdate._checks`)."""
+    model_arg(model, "model", "exact_solutions")
+    if eigenvalues is not None and (isinstance(eigenvalues, (str, bytes))
+                                    or not isinstance(eigenvalues, (Sequence, np.ndarray))):
+        raise TypeError(f"exact_solutions: eigenvalues must be a list of numbers (or rationals such as '16/3'), got "
+                        f"{shown(eigenvalues)}")
+    values_arg(model, values, "values", "exact_solutions")
+    count_arg(n_modes, "n_modes", "exact_solutions", optional=True)
+    params_arg(params, "params", "exact_solutions")
+    flag_arg(bounds, "bounds", "exact_solutions")
+
+
 def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, n_modes: int | None = None,
                     params: Sequence[str] | None = None, bounds: bool = True) -> ExactSolutionSet:
     """All real parameter sets giving the measured eigenvalues (frequencies alone).
@@ -272,6 +286,7 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
         eigenvalue that is not a (positive) number, or eigenvalues not ascending; with fewer than
         N eigenvalues, repeated ones.
     """
+    _door(model, eigenvalues, values, n_modes, params, bounds)
     import sympy as sp
     from scipy.linalg import eigh
 
@@ -314,10 +329,9 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
             sub = {s: _rational(p_values[model.parameter_index(n)], n) for s, n in zip(syms, names)}
             dm = detM.subs(sub)
             q = [sp.nsimplify(ck.subs(sub) / dm) for ck in c]
-            exact_data = True
         else:
             q = sp.Poly(sp.prod([v - lam for v in lam_q]), lam).all_coeffs()[::-1]
-            exact_data = True
+        exact_data = True
         eqs = [sp.expand(c[k] - detM * q[k]) for k in range(N)]
         method = "coefficients of det(K - λM) = det M Π(λ_i - λ), Gröbner basis (grevlex, FGLM to lex)"
     else:

@@ -21,6 +21,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .. import rules
+from .._checks import choice_arg, problem_args
 from .._errors import InputError, NumericalError
 from ..correlation import pair
 from ..modal import Modes, model_modes
@@ -192,6 +193,8 @@ class Problem(Parametrisation):
                  x0: Mapping[str, float] | None = None, values=None, parametrisation: str = "relative",
                  modal: ModalOptions | None = None, pairing: PairingOptions | str | None = None,
                  noise: NoiseOptions | None = None, **shorthand):
+        problem_args("Problem", model, data, params=params, x0=x0, values=values)
+        choice_arg(parametrisation, PARAMETRISATIONS, "parametrisation", "Problem")
         o = gather("Problem", shorthand, modal=(ModalOptions, modal), pairing=(PairingOptions, pairing),
                    noise=(NoiseOptions, noise))
         modal, pairing_options, noise = o["modal"], o["pairing"], o["noise"]

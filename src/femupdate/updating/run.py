@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
+from .._checks import frf_fit, problem_args
 from .._errors import FemupdateError, InputError
 from ..frf.residuals import RESIDUALS, check_kind
 from ..testdata import TestData
@@ -182,8 +183,10 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         The model cannot be evaluated (unpaired modes, a singular stiffness for static data,
         ...) or the solver failed.
     """
+    problem_args("update", model, data, params=params, x0=x0, values=values)
     o = UpdateOptions.of("update", shorthand, options=options, use=use, modal=modal, pairing=pairing, noise=noise,
                          solver=solver, frf=frf)
+    frf_fit(o.frf, o.noise, data, "update")
     res = update_with(model, data, o, params=params, x0=x0, values=values)
     return attach(res, model, data, "update", damping=_damping_of(o))
 
@@ -366,11 +369,13 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     NumericalError
         A line on a resonance of the model during the iteration, or the solver failed.
     """
+    problem_args("frf_update", model, data, params=params, x0=x0, values=values, frf=True)
     std_given = shorthand.get("measurement_std")
     if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
         shorthand = dict(shorthand, measurement_std={"frf": std_given})
     o = gather("frf_update", shorthand, frf=(FRFOptions, frf), noise=(NoiseOptions, noise),
                solver=(SolverOptions, solver))
+    frf_fit(o["frf"], o["noise"], data, "frf_update")
     res = frf_update_with(model, data, o["frf"], o["noise"], o["solver"], params=params, x0=x0, values=values)
     return attach(res, model, data, "frf-update")
 

@@ -30,6 +30,8 @@ from typing import ClassVar
 import numpy as np
 from scipy import optimize
 
+from .._budget import Pace, check_memory
+from .._checks import callable_arg, choice_arg, count_arg, frf_fit, mapping_arg, problem_args
 from .._errors import FemupdateError, InputError
 from ..options import ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, gather, gather_some
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
@@ -42,6 +44,8 @@ from .starts import run_starts
 log = logging.getLogger(__name__)
 
 METHODS = ("differential_evolution", "basinhopping", "dual_annealing")
+#: the residual forms of the global stage
+GLOBAL_RESIDUALS = ("log", "linear", "relative")
 
 
 @dataclass(frozen=True)
@@ -227,6 +231,18 @@ def _run_global(model, data, names, seed, job: _GlobalJob) -> tuple:
     return run, info
 
 
+def _population_bounds(options: Mapping, n_params: int) -> None:
+    """Refuse counts of the SciPy optimiser's options that are not integers >= 1, or a population
+    whose records (every member, its cost and SciPy's copies: 32 bytes a parameter) exceed the
+    available memory."""
+    for key in ("popsize", "maxiter", "niter", "maxfun"):
+        if key in options:
+            count_arg(options[key], f"method_options[{key!r}]", "global_search")
+    if "popsize" in options:
+        check_memory(f"method_options['popsize']={options['popsize']}",
+                     32.0 * options["popsize"] * n_params * max(n_params, 1), "the population of differential evolution")
+
+
 def _runner(model, data, names, seed, kwargs):
     return _run_global(model, data, names, seed, kwargs["job"])
 
@@ -286,6 +302,8 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     TypeError
         A keyword no option object has.
     """
+    problem_args("global_search", model, data, params=params, values=values, frf=True)
+    callable_arg(progress, "progress", "global_search")
     shorthand = dict(shorthand)
     runs_given = shorthand.pop("runs", None)
     if "options" in shorthand:
@@ -301,17 +319,21 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     o = gather("global_search", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
                frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
                solver=(SolverOptions, rest.get("solver")))
-    if method not in METHODS:
-        raise InputError(f"unknown global method {method!r}: use {', '.join(METHODS)}")
+    frf_fit(o["frf"], o["noise"], data, "global_search")
+    choice_arg(method, METHODS, "global method", "global_search")
+    mapping_arg(method_options, "method_options", "global_search")
+    if global_residual is not None:
+        choice_arg(global_residual, GLOBAL_RESIDUALS, "global_residual", "global_search")
     runs, seed = st.starts, (0 if st.seed is None else st.seed)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     if not names:
         raise InputError("no parameters to search: every parameter is fixed")
+    _population_bounds(method_options or {}, len(names))
     _bounds(model, names)
     seeds = (int(seed) + np.arange(runs))[:, None]
     job = _GlobalJob(method, dict(method_options or {}), global_residual, o["frf"], o["noise"], o["solver"], values)
     pairs = run_starts(model, data, names, seeds, {"job": job}, starts=st.replace(seed=seed),
-                       execution=ex.replace(jobs=None), progress=progress, runner=_runner).runs
+                       execution=ex.replace(jobs=None), progress=Pace("global runs", progress), runner=_runner).runs
     results = [p[0] for p in pairs]
     infos = [p[1] for p in pairs]
 

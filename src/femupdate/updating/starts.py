@@ -14,6 +14,8 @@ from functools import partial
 
 import numpy as np
 
+from .._budget import Pace, check_count, residual_count, start_bytes
+from .._checks import callable_arg, count_arg, frf_fit, problem_args
 from .._errors import FemupdateError, InputError
 from ..options import (ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, UpdateOptions, gather,
                        gather_some)
@@ -51,8 +53,11 @@ def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_unifo
     ------
     InputError
         An unknown parameter name; a parameter without finite bounds (all named); a lower bound
-        <= 0 with ``log_uniform``.
+        <= 0 with ``log_uniform``; ``n`` not an integer >= 1, or its starting values beyond the
+        available memory (:func:`femupdate._budget.check_count`, before they are drawn).
     """
+    count_arg(n, "n", "draw_starts")
+    check_count("starts", n, 8.0 * max(len(names), 1), "the starting values")
     idx = [model.parameter_index(nm) for nm in names]
     lo, hi = model.bounds
     lo, hi = lo[idx], hi[idx]
@@ -63,7 +68,8 @@ def draw_starts(model, names: Sequence[str], n: int, seed: int | None, log_unifo
     if log_uniform:
         if np.any(lo <= 0):
             raise InputError("log-uniform starts need positive lower bounds")
-        return np.exp(rng.uniform(np.log(lo), np.log(hi), size=(n, len(idx))))
+        X = rng.uniform(np.log(lo), np.log(hi), size=(n, len(idx)))
+        return np.exp(X, out=X)  # in place: the starts' memory once
     return rng.uniform(lo, hi, size=(n, len(idx)))
 
 
@@ -174,20 +180,24 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         ``x0`` given; FRF options given when only modal data are used; ``batched=True`` with
         non-modal data or options the batched route does not support; a parameter without
         finite bounds, an unknown parameter, or a bound <= 0 with ``log_uniform``
-        (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``.  The errors of
-        :func:`update` itself (refused input, numerical failure) do not propagate: each start
+        (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``; more starts
+        than the available memory holds the records of (estimated from the data's residuals and
+        the parameters, :func:`femupdate._budget.start_bytes`; named with the estimate, before any
+        start is drawn).  The errors of :func:`update` itself (refused input, numerical failure) do not propagate: each start
         that fails is recorded as its message in ``runs``.
     TypeError
         A keyword no option object has.
     """
+    problem_args("multistart", model, data, params=params, values=values)
+    callable_arg(progress, "progress", "multistart")
     given, rest = gather_some("multistart", shorthand, starts=(StartsOptions, starts),
                               execution=(ExecutionOptions, execution))
     st, ex = given["starts"], given["execution"]
     if "x0" in rest:
         raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
     uo = UpdateOptions.of("multistart", rest, options=options)
+    frf_fit(uo.frf, uo.noise, data, "multistart")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
-    X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     kinds = data_kinds(data, uo.use)
     batched = st.batched
     if kinds == ("modes",):
@@ -199,23 +209,27 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         raise InputError(f"batched=True takes modal data only; these data use {', '.join(kinds)}: use batched=False")
     else:
         batched = False
-    # ---- batched path: all starts at once for small dense models ----------------------------------
     if batched is None:
         from .batched import supports
 
         batched = supports(model, uo)
     if batched:
-        from .batched import multistart_batched, unsupported
+        from .batched import unsupported
 
         reason = unsupported(model, uo, explicit=True)
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
-        ms = multistart_batched(model, data, names, X0, study=st, execution=ex, progress=progress, values=values,
-                                options=uo)
-    # ---- end of the batched path ----------------------------------------------------------------
+    n_res = residual_count(data)
+    check_count("starts", st.starts, start_bytes(n_res, len(names), bool(batched)), "the starts' records")
+    X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
+    if batched:  # all starts at once for small dense models
+        from .batched import multistart_batched
+
+        ms = multistart_batched(model, data, names, X0, study=st, execution=ex, progress=Pace("starts", progress),
+                                values=values, options=uo)
     else:
         ms = run_starts(model, data, names, X0, {"options": uo, "values": values}, starts=st, execution=ex,
-                        progress=progress)
+                        progress=Pace("starts", progress))
     from .run import _damping_of
 
     return attach(ms, model, data, "update", damping=_damping_of(uo))
@@ -425,6 +439,8 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     TypeError
         A keyword no option object has.
     """
+    problem_args("frf_multistart", model, data, params=params, values=values, frf=True)
+    callable_arg(progress, "progress", "frf_multistart")
     given, rest = gather_some("frf_multistart", shorthand, starts=(StartsOptions, starts),
                               execution=(ExecutionOptions, execution))
     st, ex = given["starts"], given["execution"]
@@ -436,8 +452,10 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     o = gather("frf_multistart", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
                frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
                solver=(SolverOptions, rest.get("solver")))
+    frf_fit(o["frf"], o["noise"], data, "frf_multistart")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
+    check_count("starts", st.starts, start_bytes(residual_count(data), len(names)), "the starts' records")
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     ms = run_starts(model, data, names, X0, dict(o, values=values), starts=st, execution=ex.replace(jobs=None),
-                    progress=progress, runner=partial(run_with, _frf_update_start))
+                    progress=Pace("starts", progress), runner=partial(run_with, _frf_update_start))
     return attach(ms, model, data, "frf-update")

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._budget import STUDY_ROW_BYTES, check_memory
+from ..._checks import count_arg, flag_arg, model_arg, params_arg, real_arg, shown, strings_arg, values_arg
 from ..._errors import InputError
 from ...dofs import canonical_all, resolve_all
 from ...model import Model
@@ -245,6 +247,40 @@ class Study:
         return out
 
 
+def _door(model, cases, starts, seed, values, params, noise, min_mac, max_nfev, tol, unit_rows, log_uniform) -> None:
+    """:func:`define_study`'s arguments by type (:mod:`femupdate._checks`), and its rows (cases x
+    noise levels x starts) against the available memory."""
+    where = "define_study"
+    model_arg(model, "model", where)
+    if not isinstance(cases, Sequence) or isinstance(cases, (str, bytes)):
+        raise TypeError(f"{where}: cases must be a list of Case or (measured dofs, number of modes) pairs, got "
+                        f"{shown(cases)}")
+    for k, case in enumerate(cases):
+        if not isinstance(case, Case) and not (isinstance(case, (Sequence, np.ndarray)) and len(case) == 2
+                                               and not isinstance(case, str)):
+            raise TypeError(f"{where}: cases[{k}] must be a Case or a (measured dofs, number of modes) pair, got "
+                            f"{shown(case)}")
+        if not isinstance(case, Case):
+            strings_arg(case[0], f"cases[{k}] measured dofs", where, optional=False, what="dof label")
+            count_arg(case[1], f"cases[{k}] number of modes", where)
+    count_arg(starts, "starts", where, low=None)  # the values: below, as the study has always said them
+    count_arg(seed, "seed", where, low=None)
+    values_arg(model, values, "values", where)
+    params_arg(params, "params", where)
+    if isinstance(noise, (str, bytes)) or not isinstance(noise, (Sequence, np.ndarray)):
+        raise TypeError(f"{where}: noise must be a list of relative noise levels, got {shown(noise)}")
+    for v in noise:
+        real_arg(v, "noise", where, low=0.0, low_open=True)
+    real_arg(min_mac, "min_mac", where, low=0.0, high=1.0)
+    count_arg(max_nfev, "max_nfev", where, low=None)
+    real_arg(tol, "tol", where)
+    count_arg(unit_rows, "unit_rows", where, low=None)
+    flag_arg(log_uniform, "log_uniform", where)
+    rows = len(cases) * max(starts, 0) * (1 + len(noise))
+    check_memory(f"starts={starts} ({len(cases)} cases x {1 + len(noise)} noise levels: {rows} updates)",
+                 float(rows) * STUDY_ROW_BYTES, f"the study's rows ({STUDY_ROW_BYTES} bytes each)")
+
+
 def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, values=None,
                  params: Sequence[str] | None = None, noise: Sequence[float] = (), min_mac: float = 0.5,
                  max_nfev: int = 200, tol: float = 1e-10, unit_rows: int = DEFAULT_UNIT_ROWS,
@@ -296,6 +332,7 @@ def define_study(model, cases: Sequence, *, starts: int = 100, seed: int = 0, va
     from ...modal import model_modes
     from ...updating import draw_starts
 
+    _door(model, cases, starts, seed, values, params, noise, min_mac, max_nfev, tol, unit_rows, log_uniform)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     model.parameter_indices(names, "unknown parameters (--params)")
     if not names:

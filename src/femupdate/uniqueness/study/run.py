@@ -8,6 +8,8 @@ import time
 from collections.abc import Callable
 from typing import cast
 
+from ..._budget import Pace, check_processes
+from ..._checks import callable_arg, count_arg, path_arg, real_arg, shown, str_arg
 from ..._errors import InputError
 from ...dask_cluster import Task, collect, connect, quiet_library_logs
 from ..checkpoint import Checkpoint
@@ -34,6 +36,23 @@ def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None, **quiet)
     return Client(cluster), cluster
+
+
+def _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout) -> None:
+    """:func:`run_study`'s arguments by type (:mod:`femupdate._checks`); at most
+    :data:`femupdate._budget.MAX_PROCESSES` local workers."""
+    where = "run_study"
+    if not isinstance(study, Study):
+        raise TypeError(f"{where}: study must be a Study (make one with femupdate.define_study(model, cases, ...)), got "
+                        f"{shown(study)}")
+    str_arg(scheduler, "scheduler", where, optional=True)
+    check_processes("workers", count_arg(workers, "workers", where, optional=True))
+    if checkpoint is not None:
+        path_arg(checkpoint, "checkpoint", where)
+    callable_arg(progress, "progress", where)
+    real_arg(rel_tol, "rel_tol", where, low=0.0, high=1.0, low_open=True)
+    real_arg(cost_tol, "cost_tol", where, low=0.0)
+    real_arg(connect_timeout, "connect_timeout", where, low=0.0, low_open=True)
 
 
 def run_study(study: Study, *, scheduler: str | None = None, workers: int | None = None, checkpoint=None,
@@ -72,6 +91,8 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
         A checkpoint that is unreadable or belongs to another study; the scheduler not reached in
         time; Dask needed but not installed.
     """
+    _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout)
+    progress = Pace("updates", progress)
     t0 = time.perf_counter()
     units = study.units()
     ck = Checkpoint(checkpoint, study.key(), study.describe(), layout=units, n_unknowns=len(study.names))

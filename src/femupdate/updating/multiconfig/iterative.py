@@ -12,9 +12,11 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..._checks import data_arg, model_arg, params_arg, shown, values_arg, x0_arg
 from ..._errors import InputError
 from ...options import ModalOptions, NoiseOptions, PairingOptions, SolverOptions, gather
 from ...model import Model
+from ...testdata import TestData
 from .. import PARAMETRISATIONS, Parametrisation, Problem, diagnostics, solve
 from ..parametrisation import start_vector
 from .configurations import Configuration, check_unknowns, config_values, is_complete, prepare
@@ -174,6 +176,25 @@ class Stacked(Parametrisation):
         return [B * w[None, :] for B in (self.jacobian_blocks(x) if blocks is None else blocks)]
 
 
+def _door(model, configurations, params, x0, values) -> None:
+    """:func:`update_configurations`'s arguments by type (:mod:`femupdate._checks`): the model, a
+    list of :class:`Configuration` each holding test data, the parameters, start and values."""
+    where = "update_configurations"
+    model_arg(model, "model", where)
+    if isinstance(configurations, (str, bytes)) or not isinstance(configurations, Sequence) \
+            or not all(isinstance(c, Configuration) for c in configurations):
+        whole = isinstance(configurations, (str, bytes)) or not isinstance(configurations, Sequence)
+        bad = configurations if whole else next(c for c in configurations if not isinstance(c, Configuration))
+        raise TypeError(f"{where}: configurations must be a list of Configuration(data, modification), got "
+                        f"{shown(bad)}" + (" (one configuration's data: femupdate.update(model, data))"
+                                           if isinstance(bad, TestData) else ""))
+    for k, c in enumerate(configurations):
+        data_arg(c.data, f"configurations[{k}].data", where)
+    params_arg(params, "params", where)
+    x0_arg(model, x0, "x0", where)
+    values_arg(model, values, "values", where)
+
+
 def update_configurations(model: Model, configurations: Sequence[Configuration], *, params: Sequence[str] | None = None,
                           x0: Mapping[str, float] | None = None, values=None, modal: ModalOptions | None = None,
                           pairing: PairingOptions | str | None = None, noise: NoiseOptions | None = None,
@@ -221,6 +242,7 @@ def update_configurations(model: Model, configurations: Sequence[Configuration],
     NumericalError
         As :func:`femupdate.updating.update`.
     """
+    _door(model, configurations, params, x0, values)
     o = gather("update_configurations", shorthand, modal=(ModalOptions, modal), pairing=(PairingOptions, pairing),
                noise=(NoiseOptions, noise), solver=(SolverOptions, solver))
     solver = o["solver"]
