@@ -87,6 +87,18 @@ def test_a_file_name_is_told_which_loader_reads_it():
         fu.model_modes("m.toml")
 
 
+def test_the_file_functions_name_their_arguments(tmp_path):
+    cases = [
+        (lambda: fu.write_json(1, {}), "write_json: path must be a file name (str or os.PathLike), got the int 1"),
+        (lambda: fu.write_json(tmp_path / "r.json", 3), "write_json: obj must be a result object or a JSON object"),
+        (lambda: fu.read_uff(None), "read_uff: path must be a file name (str or os.PathLike), got None"),
+    ]
+    for call, words in cases:
+        with pytest.raises(TypeError) as info:
+            call()
+        assert words in str(info.value)
+
+
 def test_a_list_of_measured_modes_is_told_to_become_test_data():
     w = world()
     with pytest.raises(TypeError, match=r"wrap the modes as TestData\(modes=\[...\]\)"):

@@ -237,13 +237,21 @@ def write_json(path, obj) -> None:
 
     Raises
     ------
-    ValueError, TypeError
-        From :func:`json.dumps`, for objects that :func:`to_jsonable` leaves unconvertible.
+    TypeError
+        ``path`` not a file name, or ``obj`` neither a result object nor a JSON object or list
+        (named); and from :func:`json.dumps`, for values :func:`to_jsonable` leaves unconvertible.
     """
+    from collections.abc import Mapping
+
+    from .._checks import path_arg, shown
     from ..serialise import Serialisable
 
+    if str(path) != "-":
+        path_arg(path, "path", "write_json")
     if isinstance(obj, Serialisable):
         obj = obj.to_json()
+    elif not isinstance(obj, (Mapping, list, tuple)):
+        raise TypeError(f"write_json: obj must be a result object or a JSON object (a dict) or list, got {shown(obj)}")
     text = json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n"
     if str(path) == "-":
         sys.stdout.write(text)

@@ -497,6 +497,9 @@ def read_uff(
         neither modes nor FRFs. The message names the file and the record
         (``"f.uff: dataset 58 record 3: ..."``), and the node or system where it applies.
     """
+    from ..._checks import path_arg
+
+    path = path_arg(path, "path", "read_uff")
     name = os.fspath(path)
     known = _known_dofs(model_dofs, model)
     given = None if sensors is None else frozenset(canonical_all(list(sensors), "sensors"))
