@@ -48,15 +48,27 @@ def ensemble_segment(post: Posterior, coords, log_post, log_like, entropy, ensem
     emcee = _emcee()
     W, L = coords.shape
 
+    interrupted: list[BaseException] = []
+
     def fn(X):
-        lp, ll = post.log_posterior(X, with_likelihood=True)
+        # emcee prints a traceback for any exception of the log density before passing it on: an
+        # interrupt (Ctrl-C, SIGTERM) is kept here and raised again outside emcee, after the step
+        if interrupted:
+            return np.full((len(X), 2), -np.inf)
+        try:
+            lp, ll = post.log_posterior(X, with_likelihood=True)
+        except KeyboardInterrupt as exc:
+            interrupted.append(exc)
+            return np.full((len(X), 2), -np.inf)
         return np.column_stack([lp, ll])
 
     rs = np.random.RandomState(np.random.MT19937(stream(entropy, 2, ensemble, segment)))
     sampler = emcee.EnsembleSampler(W, L, fn, vectorize=True)
     state = emcee.State(np.array(coords, float), log_prob=np.array(log_post, float),
                         blobs=np.array(log_like, float), random_state=rs.get_state())
-    sampler.run_mcmc(state, n_steps, progress=False, skip_initial_state_check=True)
+    for _ in sampler.sample(state, iterations=n_steps, progress=False, skip_initial_state_check=True):
+        if interrupted:
+            raise interrupted[0]
     return {"chain": sampler.get_chain(), "log_post": sampler.get_log_prob(),
             "log_like": np.asarray(sampler.get_blobs(), float).reshape(n_steps, W), "accepted": np.asarray(sampler.backend.accepted, np.int64)}
 

@@ -51,6 +51,8 @@ def main(argv=None) -> None:
     """
     owned = argv is None
     previous = None
+    hook = sys.unraisablehook
+    sys.unraisablehook = _interrupt_hook
     try:
         previous = _catch_sigterm()
         from ._app import cli
@@ -68,6 +70,7 @@ def main(argv=None) -> None:
             os._exit(143 if terminated else 130)
         sys.exit(143 if terminated else 130)
     finally:
+        sys.unraisablehook = hook
         if previous is not None:
             if owned:  # the result is decided: a signal now only ends the process
                 signal.signal(signal.SIGINT, _leave_now)
@@ -75,6 +78,20 @@ def main(argv=None) -> None:
             else:  # a caller's process (tests): leave it as it was
                 signal.signal(signal.SIGINT, previous[0])
                 signal.signal(signal.SIGTERM, previous[1])
+
+
+def _interrupt_hook(unraisable) -> None:
+    """``sys.unraisablehook`` of a command: an interrupt that lands where Python cannot raise it
+    (a callback of the import system, a finaliser: "Exception ignored in ...", with a traceback)
+    is delivered again to the main thread, as the same signal, instead of being printed and lost;
+    any other unraisable exception goes to the default hook."""
+    from .._errors import Terminated
+
+    exc_type = unraisable.exc_type
+    if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+        os.kill(os.getpid(), signal.SIGTERM if issubclass(exc_type, Terminated) else signal.SIGINT)
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def _catch_sigterm():

@@ -35,10 +35,28 @@ def cli(verbose: int) -> None:
     from .. import dask_cluster
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2), format="%(levelname)s %(name)s: %(message)s")
+    for handler in logging.getLogger().handlers:
+        handler.setFormatter(_Plain(handler.formatter))
     dask_cluster.QUIET_LIBRARY_LOGS = not verbose  # a lost cluster: one message, the library's logs only with -v
     ctx = click.get_current_context()
     files = ctx.with_resource(run_files())  # the run's inputs and outputs (femupdate.io.outputs), until it ends
     ctx.call_on_close(lambda: _say_replaced(files))
+
+
+class _Plain(logging.Formatter):
+    """femupdate's own announcements to the user (the time a long run will take, the first build
+    of the compiled solver: messages that start with ``femupdate:``) as they are; every other
+    record as the log format says."""
+
+    def __init__(self, inner: logging.Formatter | None):
+        super().__init__()
+        self.inner = inner or logging.Formatter("%(levelname)s %(name)s: %(message)s")
+
+    def format(self, record: logging.LogRecord) -> str:
+        message = record.getMessage()
+        if record.name.startswith("femupdate") and message.startswith("femupdate: "):
+            return message
+        return self.inner.format(record)
 
 
 def _say_replaced(files) -> None:
