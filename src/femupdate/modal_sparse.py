@@ -23,6 +23,17 @@ def arpack_options() -> dict:
     return {"rng": np.random.default_rng(0)}
 
 
+def rigid_body_shift(K, M) -> float:
+    """The shift of a singular K (rigid-body modes): just below zero, −1e-6 times the median
+    K_ii / M_ii (the pencil's scale), so that K − σM is positive definite."""
+    d, md = K.diagonal(), M.diagonal()
+    both = (d > 0) & (md > 0)
+    s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
+    sigma = -1e-6 * s
+    log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
+    return sigma
+
+
 def _sparse(K, M, n_modes, sigma, tol):
     """Shift-invert Lanczos with ONE factorisation of K - sigma M, handed to ARPACK."""
     K = sp.csc_array(K)
@@ -35,13 +46,7 @@ def _sparse(K, M, n_modes, sigma, tol):
             if nearly_singular(lu):
                 raise RuntimeError("nearly singular")
         except (RuntimeError, NotPositiveDefinite):
-            # rigid-body modes: shift just below zero, relative to the pencil's scale
-            lu = None
-            d, md = K.diagonal(), M.diagonal()
-            both = (d > 0) & (md > 0)
-            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
-            sigma = -1e-6 * s
-            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
+            lu, sigma = None, rigid_body_shift(K, M)
     if lu is None:
         try:
             lu = factorize(K - sigma * M)
@@ -131,12 +136,7 @@ def _sparse_reused(K, M, n_modes, sigma, tol, ws, start):
             if _is_singular(lu):
                 raise RuntimeError("nearly singular")
         except (NotPositiveDefinite, RuntimeError):
-            lu = None
-            d, md = K.diagonal(), M.diagonal()
-            both = (d > 0) & (md > 0)
-            s = float(np.median(d[both] / md[both])) if np.any(both) else 1.0
-            sigma = -1e-6 * s
-            log.info("K is singular (rigid-body modes): shift-invert with sigma = %.3g", sigma)
+            lu, sigma = None, rigid_body_shift(K, M)
     if lu is None:
         try:
             lu = ws.factor(K, M, sigma)

@@ -1,57 +1,10 @@
-"""Damping in the command line's results: the Rayleigh damping fitted to measured damping
-ratios, the JSON ``damping_ratio`` fields and their table."""
+"""Damping in the command line's results: the table of the JSON ``damping_ratio`` fields (the
+fields themselves and the Rayleigh damping fitted to measured damping ratios are
+:mod:`femupdate.recording`'s)."""
 
 from __future__ import annotations
 
-import numpy as np
 from rich.table import Table
-
-
-def fitted_damping(data):
-    """The Rayleigh damping (α, β ≥ 0) that fits the test modes' damping ratios
-    (:meth:`femupdate.frf.Damping.rayleigh_fit`, weighted by their standard deviations when every
-    one has one): ``(Damping, {"alpha", "beta", "rms_error", "n_modes"})``, or ``(None, None)``
-    when fewer than two modes carry a damping ratio."""
-    from ..frf import Damping
-
-    use = [m for m in data.modes if m.damping_ratio is not None and m.eigenvalue > 0]
-    if len(use) < 2:
-        return None, None
-    std = [m.std_damping_ratio for m in use]
-    fit, resid = Damping.rayleigh_fit([np.sqrt(m.eigenvalue) for m in use], [m.damping_ratio for m in use],
-                                      None if any(v is None for v in std) else std)
-    return fit, {"alpha": fit.alpha, "beta": fit.beta, "rms_error": float(np.sqrt(np.mean(resid ** 2))),
-                 "n_modes": len(use)}
-
-
-def damping_fields(data, paired_hz: dict[int, float], damping=None) -> dict | None:
-    """The JSON ``damping_ratio`` of a correlation or update: per test mode the measured ratio
-    (``test``) and its standard deviation (``std``), the model's modal damping ratio at its paired
-    mode (``model``: Rayleigh α/2ω + βω/2 plus η/2; null when the model is undamped or the mode
-    unpaired), and the Rayleigh damping fitted to the measured ratios (``rayleigh_fit``, with two
-    or more); None when neither the data nor the model have damping.
-
-    Parameters
-    ----------
-    data : TestData
-        The test modes.
-    paired_hz : dict of int to float
-        Test mode (0-based) -> the frequency (Hz) of the model mode it is paired with.
-    damping : Damping, optional
-        The model's damping (``--damping``).
-    """
-    zeta = data.damping_ratios
-    damped = damping is not None and not damping.undamped
-    if not data.modes or (np.all(np.isnan(zeta)) and not damped):
-        return None
-    model: list[float | None] = [None] * len(data.modes)
-    if damped:
-        for i, f in paired_hz.items():
-            model[i] = float(damping.modal_damping_ratio(2 * np.pi * f))
-    _, fit = fitted_damping(data)
-    return {"test": [None if np.isnan(z) else float(z) for z in zeta],
-            "std": [m.std_damping_ratio for m in data.modes], "model": model,
-            "model_damping": damping.as_dict() if damped else None, "rayleigh_fit": fit}
 
 
 def print_damping(console, data, fields: dict | None) -> None:

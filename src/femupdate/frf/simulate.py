@@ -29,6 +29,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from .._docs import FRF_ARGUMENTS, shared_docs
+
 from .._budget import LINE_BYTES, check_count
 from .._checks import array_arg, choice_arg, count_arg, mapping_arg, model_arg, real_arg, strings_arg, values_arg
 from .._errors import InputError
@@ -202,6 +204,7 @@ def receptance(model, omega, excitation: Sequence[str], response: Sequence[str] 
     return X[:, ir, :]
 
 
+@shared_docs(FRF_ARGUMENTS=FRF_ARGUMENTS)
 def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
         kind: str = "receptance", method: str = "auto") -> tuple[tuple[str, ...], np.ndarray]:
     """Responses to the force vector ``{dof: amplitude}``: ``(dofs, H)`` with ``H`` of shape
@@ -212,18 +215,7 @@ def frf(model, omega, force: Mapping, response: Sequence[str] | None = None, val
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines ω, rad/s (finite, ≥ 0).
-    force : mapping of str to float or complex
-        Force amplitude (N) at each loaded dof ``"node:dir"``, {dof: amplitude}.
-    response : sequence of str, optional
-        Dof labels of the responses kept (default every model dof).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values as :meth:`Model.resolve` reads them (default nominal).
-    damping : Damping or mapping, optional
-        :class:`~femupdate.frf.Damping` or {alpha, beta, eta}; default undamped.
+    {{FRF_ARGUMENTS}}
     kind : str, default ``"receptance"``
         ``"receptance"``, ``"mobility"`` or ``"accelerance"``.
     method : str, default ``"auto"``
@@ -329,6 +321,7 @@ class SimulatedFRF(FRFData, Serialisable):
                 for i, w in enumerate(self.omega) for k, d in enumerate(self.dofs)]
 
 
+@shared_docs(FRF_ARGUMENTS=FRF_ARGUMENTS)
 def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None, values=None, damping=None,
              noise: float = 0.0, noise_kind: str = "relative", seed: int | None = None,
              method: str = "auto") -> SimulatedFRF:
@@ -339,18 +332,7 @@ def simulate(model, omega, force: Mapping, response: Sequence[str] | None = None
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines ω, rad/s (finite, ≥ 0).
-    force : mapping of str to float or complex
-        Force amplitude (N) at each loaded dof ``"node:dir"``, {dof: amplitude}.
-    response : sequence of str, optional
-        Dof labels of the responses kept (default every model dof).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values as :meth:`Model.resolve` reads them (default nominal).
-    damping : Damping or mapping, optional
-        :class:`~femupdate.frf.Damping` or {alpha, beta, eta}; default undamped.
+    {{FRF_ARGUMENTS}}
     noise : float, default 0.0
         Noise standard deviation (relative for ``"relative"``/``"coherent"``, in the response's
         units for ``"absolute"``); 0: exact data.

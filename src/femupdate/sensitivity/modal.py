@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docs import DERIVATIVE_ARGUMENTS, shared_docs
+
 from .._errors import InputError
 from ..modal import NotPositiveDefinite, factorize, nearly_singular
 from ._common import check_distinct, group_rhs, in_group, mode_rhs, resolve_groups, resolve_params, resolve_which
@@ -37,6 +39,7 @@ def group_mode_rhs(model, modes, params, i, M, groups):
     return dl, F, mjj, g, Ng
 
 
+@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
 def modal(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvector derivatives by modal superposition over the modes in ``modes``.
 
@@ -47,16 +50,7 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
 
     Parameters
     ----------
-    model : Model
-        The model (affine in its parameters).
-    modes : Modes
-        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
-    which : int or sequence of int, optional
-        Indices into ``modes`` of the modes to differentiate (default all).
-    params : sequence of int or str, optional
-        Parameters, by index or name (default the free ones); L = ``len(params)``.
-    values : array_like, shape ``(n_parameters,)``, optional
-        Parameter values of ``modes`` (default nominal).
+    {{DERIVATIVE_ARGUMENTS}}
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)``: a mode of ``which`` in one of them
         gets the derivative of the group's basis instead of its own
@@ -93,6 +87,7 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
     return dlam, dphi
 
 
+@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
 def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None,
                             groups=None):
     r"""Truncated modal method with Wang's (1991) static correction.
@@ -105,16 +100,7 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
 
     Parameters
     ----------
-    model : Model
-        The model (affine in its parameters).
-    modes : Modes
-        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
-    which : int or sequence of int, optional
-        Indices into ``modes`` of the modes to differentiate (default all).
-    params : sequence of int or str, optional
-        Parameters, by index or name (default the free ones); L = ``len(params)``.
-    values : array_like, shape ``(n_parameters,)``, optional
-        Parameter values of ``modes`` (default nominal).
+    {{DERIVATIVE_ARGUMENTS}}
     sigma : float, optional
         Shift σ, rad²/s² (default 0, or −1e-6 times the median K_ii / M_ii when K is singular:
         :func:`shifted_factor`).

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+
+from .._docs import DERIVATIVE_ARGUMENTS, shared_docs
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -13,6 +15,7 @@ from ._common import check_distinct, group_rhs, mode_rhs, resolve_groups, resolv
 DENSE_LIMIT = 1500
 
 
+@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
 def nelson(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvalue and mass-normalised eigenvector derivatives by Nelson's method.
 
@@ -30,16 +33,7 @@ def nelson(model, modes, which=None, params=None, values=None, groups=None) -> t
 
     Parameters
     ----------
-    model : Model
-        The model (affine in its parameters).
-    modes : Modes
-        Mass-normalised modes of ``model`` at ``values`` (φᵀMφ = 1), e.g. from :func:`femupdate.model_modes`.
-    which : int or sequence of int, optional
-        Indices into ``modes`` of the modes to differentiate (default all).
-    params : sequence of int or str, optional
-        Parameters, by index or name (default the free ones); L = ``len(params)``.
-    values : array_like, shape ``(n_parameters,)``, optional
-        Parameter values of ``modes`` (default nominal).
+    {{DERIVATIVE_ARGUMENTS}}
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1).
 
