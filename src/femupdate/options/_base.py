@@ -178,7 +178,12 @@ def gather(where: str, shorthand: Mapping[str, Any], **slots: tuple[type[Options
     if rest:
         key = next(iter(rest))
         known = ", ".join(f"{cls.__name__} ({name}=)" for name, (cls, _) in slots.items())
-        raise TypeError(f"{where}() got an unexpected keyword argument {key!r} (its options: {known})")
+        import difflib
+
+        fields = [f for cls, _ in slots.values() for f in (*cls.field_names(), *cls.aliases)]
+        close = difflib.get_close_matches(key, fields, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise TypeError(f"{where}() got an unexpected keyword argument {key!r}{hint} (its options: {known})")
     return objs
 
 
