@@ -75,3 +75,20 @@ def test_the_first_build_notice_gives_a_measured_estimate(tmp_path, monkeypatch)
     # once a build has been timed here, its own time
     driver._record_build(47.2)
     assert driver.build_estimate(cores=2, load=0.0).startswith("the last build here took 47 s")
+
+
+def test_many_runs_in_one_process_keep_one_announcement_formatter():
+    """Each run of the command line sets femupdate's announcement formatter on the log handlers;
+    runs in one process (as the tests, or a notebook, run them) must not wrap it again and again
+    (after some hundred runs a log record raised RecursionError)."""
+    import logging
+
+    from click.testing import CliRunner
+
+    from femupdate.cli._app import _Plain, cli
+
+    runner = CliRunner()
+    for _ in range(3):
+        runner.invoke(cli, ["report", "no-such-result.json"])
+    wrapped = [h.formatter for h in logging.getLogger().handlers if isinstance(h.formatter, _Plain)]
+    assert wrapped and all(not isinstance(f.inner, _Plain) for f in wrapped)

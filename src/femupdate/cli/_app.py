@@ -36,7 +36,8 @@ def cli(verbose: int) -> None:
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2), format="%(levelname)s %(name)s: %(message)s")
     for handler in logging.getLogger().handlers:
-        handler.setFormatter(_Plain(handler.formatter))
+        if not isinstance(handler.formatter, _Plain):  # once: a second run in one process (tests) must not nest them
+            handler.setFormatter(_Plain(handler.formatter))
     dask_cluster.QUIET_LIBRARY_LOGS = not verbose  # a lost cluster: one message, the library's logs only with -v
     ctx = click.get_current_context()
     files = ctx.with_resource(run_files())  # the run's inputs and outputs (femupdate.io.outputs), until it ends
