@@ -460,17 +460,7 @@ class Model:
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
     def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M).
-
-        Parameters
-        ----------
-        j : int
-            Parameter index (declaration order).
-
-        Returns
-        -------
-        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
-        """
+        """Exact dM/dp_j (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
         d = self.dM[j]
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
