@@ -40,14 +40,39 @@ DPHI = """\
 dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
     Derivatives of the mass-normalised shapes."""
 
+#: what the eigen-derivative routes return
+DERIVATIVES = """\
+Returns
+-------
+dlam : numpy.ndarray, shape ``(len(which), L)``
+    Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
+""" + DPHI
+
 #: the errors of the eigen-derivative routes
 DERIVATIVE_RAISES = """\
+Raises
+------
 InputError
     Modes not mass-normalised, or a mode or parameter index out of range (an unknown
     parameter name); bad ``groups``.
 NumericalError
     A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
     ``groups``."""
+
+#: the blocks of the eigen-derivative routes, for ``shared_docs(**DERIVATIVE_DOCS)``
+DERIVATIVE_DOCS = {"DERIVATIVE_ARGUMENTS": DERIVATIVE_ARGUMENTS, "DPHI": DPHI, "DERIVATIVES": DERIVATIVES,
+                   "DERIVATIVE_RAISES": DERIVATIVE_RAISES}
+
+#: a method of an updating problem at the optimiser's variables x, up to its returns
+#: (:mod:`femupdate.updating`): ``{{X}}`` then the returned value
+X = """\
+Parameters
+----------
+x : array_like, shape ``(L,)``
+    The optimiser's variables.
+
+Returns
+-------"""
 
 #: the model and the spectral lines of the FRF functions (:mod:`femupdate.frf`)
 FRF_LINES = """\
@@ -110,4 +135,5 @@ def shared_docs(**blocks: str) -> Callable[[F], F]:
     return decorator
 
 
-__all__ = ["fill", "shared_docs", "DERIVATIVE_ARGUMENTS", "DPHI", "DERIVATIVE_RAISES", "FRF_LINES", "FORCE", "FRF_ARGUMENTS", "PLOT_DOCS"]
+__all__ = ["fill", "shared_docs", "DERIVATIVE_ARGUMENTS", "DPHI", "DERIVATIVES", "DERIVATIVE_RAISES", "DERIVATIVE_DOCS",
+           "X", "FRF_LINES", "FORCE", "FRF_ARGUMENTS", "PLOT_DOCS"]

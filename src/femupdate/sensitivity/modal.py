@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._docs import DERIVATIVE_ARGUMENTS, DERIVATIVE_RAISES, DPHI, shared_docs
+from .._docs import DERIVATIVE_DOCS, shared_docs
 
 from .._errors import InputError
 from ..modal import NotPositiveDefinite, factorize, nearly_singular
@@ -39,7 +39,7 @@ def group_mode_rhs(model, modes, params, i, M, groups):
     return dl, F, mjj, g, Ng
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS, DPHI=DPHI, DERIVATIVE_RAISES=DERIVATIVE_RAISES)
+@shared_docs(**DERIVATIVE_DOCS)
 def modal(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvector derivatives by modal superposition over the modes in ``modes``.
 
@@ -63,8 +63,6 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
         mode of a group, the diagonal entry of the group's restricted derivative.
     {{DPHI}}
 
-    Raises
-    ------
     {{DERIVATIVE_RAISES}}
     """
     which, params, grouped = resolve_request(model, modes, which, params, groups)
@@ -78,7 +76,7 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
     return dlam, dphi
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS, DPHI=DPHI, DERIVATIVE_RAISES=DERIVATIVE_RAISES)
+@shared_docs(**DERIVATIVE_DOCS)
 def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None,
                             groups=None):
     r"""Truncated modal method with Wang's (1991) static correction.
@@ -98,14 +96,8 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     groups : sequence of (int, int), optional
         Groups of repeated or close modes, as :func:`modal`.
 
-    Returns
-    -------
-    dlam : numpy.ndarray, shape ``(len(which), L)``
-        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
-    {{DPHI}}
+    {{DERIVATIVES}}
 
-    Raises
-    ------
     {{DERIVATIVE_RAISES}}
     InputError
         K − σM singular, or K singular with no positive diagonal entry.

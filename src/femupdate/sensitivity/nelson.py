@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._docs import DERIVATIVE_ARGUMENTS, DERIVATIVE_RAISES, DPHI, shared_docs
+from .._docs import DERIVATIVE_DOCS, shared_docs
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -15,7 +15,7 @@ from ._common import group_rhs, mode_rhs, resolve_request
 DENSE_LIMIT = 1500
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS, DPHI=DPHI, DERIVATIVE_RAISES=DERIVATIVE_RAISES)
+@shared_docs(**DERIVATIVE_DOCS)
 def nelson(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvalue and mass-normalised eigenvector derivatives by Nelson's method.
 
@@ -37,14 +37,8 @@ def nelson(model, modes, which=None, params=None, values=None, groups=None) -> t
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1).
 
-    Returns
-    -------
-    dlam : numpy.ndarray, shape ``(len(which), L)``
-        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
-    {{DPHI}}
+    {{DERIVATIVES}}
 
-    Raises
-    ------
     {{DERIVATIVE_RAISES}}
     NumericalError
         The modified matrix of a mode is singular, or a derivative is not finite.

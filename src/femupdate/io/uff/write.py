@@ -26,7 +26,7 @@ log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before t
 
 # the writers' common parameters, documented once (femupdate._docs)
 _DOCS = {
-    "PATH": "path : str or path-like\n    Output file, replaced atomically.",
+    "PATH": "Parameters\n----------\npath : str or path-like\n    Output file, replaced atomically.",
     "NAME_UNITS": "model_name : str\n    ID line 1 of every record.\nunits : bool\n    Write dataset 164 (SI units) first.",
 }
 
@@ -145,8 +145,6 @@ def write_uff_modes(
 ) -> None:
     """Write real normal modes as a universal file.
 
-    Parameters
-    ----------
     {{PATH}}
     modes : Modes
         ``eigenvalues`` (m,) in rad^2/s^2, real ``shapes`` (n, m) on ``dofs``.
@@ -249,8 +247,6 @@ def write_uff_frf(
 ) -> None:
     """Write FRFs as a universal file: one dataset 58 per response dof.
 
-    Parameters
-    ----------
     {{PATH}}
     frf : FRFData
         Responses ``(n_freq, n_dofs)`` to one excitation dof (a single non-zero entry in
