@@ -22,6 +22,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ._docs import shared_docs
 from ._errors import InputError
 from .options._base import Options, gather, number
 from .structure import Structure
@@ -66,6 +67,20 @@ def chs_section(diameter: float = _D, thickness: float = _T) -> dict[str, float]
     return {"A": A, "Iy": inertia, "Iz": inertia, "J": 2 * inertia}
 
 
+def _lattice_end(members: str, name: str) -> str:
+    """The last parameters and the returns of the lattices' documentation (femupdate._docs)."""
+    return f"""bounds : (float, float)
+    Parameter bounds relative to the nominal value, ``0 <= lower < 1 < upper``.
+mass : ``"consistent"`` | ``"lumped"``
+    Mass matrix of the {members}.
+name : str, optional
+    Structure name (default ``"{name}"``).
+
+Returns
+-------
+Structure"""
+
+
 # --------------------------------------------------------------------------------------
 # 3-D space frame
 # --------------------------------------------------------------------------------------
@@ -102,6 +117,7 @@ class FrameMembers(Options):
         self.set("thickness", float(self.thickness))
 
 
+@shared_docs(LATTICE_END=_lattice_end("members", "frame lattice NXxNYxNZ"))
 def frame_lattice(
     nx: int,
     ny: int,
@@ -156,16 +172,7 @@ def frame_lattice(
         * ``"none"``: all properties numeric, ``L = 0``.
     support : ``"base"`` | ``"none"``
         Fix every dof of the nodes at z = 0, or leave the lattice free–free.
-    bounds : (float, float)
-        Parameter bounds relative to the nominal value, ``0 <= lower < 1 < upper``.
-    mass : ``"consistent"`` | ``"lumped"``
-        Mass matrix of the members.
-    name : str, optional
-        Structure name (default ``"frame lattice NXxNYxNZ"``).
-
-    Returns
-    -------
-    Structure
+    {{LATTICE_END}}
 
     Examples
     --------
@@ -228,6 +235,7 @@ def frame_lattice(
 # --------------------------------------------------------------------------------------
 # plane truss
 # --------------------------------------------------------------------------------------
+@shared_docs(LATTICE_END=_lattice_end("rods", "truss lattice NXxNY"))
 def truss_lattice(
     nx: int,
     ny: int,
@@ -272,16 +280,7 @@ def truss_lattice(
         ``rho_s``, ``L = 2 (ny - 1)`` in the order ``E_1, rho_1, ...``; ``"none"``: ``L = 0``.
     support : ``"base"`` | ``"none"``
         Pin both dofs of the nodes at y = 0, or leave the lattice free–free.
-    bounds : (float, float)
-        Parameter bounds relative to the nominal value.
-    mass : ``"consistent"`` | ``"lumped"``
-        Mass matrix of the rods.
-    name : str, optional
-        Structure name (default ``"truss lattice NXxNY"``).
-
-    Returns
-    -------
-    Structure
+    {{LATTICE_END}}
 
     Examples
     --------
