@@ -287,10 +287,9 @@ def solve_configurations(model: Model, configurations: Sequence[Configuration], 
 
     Parameters
     ----------
-    model : Model
-        The base model.
-    configurations : sequence of Configuration
-        The configurations and their test data.
+    model, configurations
+        The base model and the configurations with their test data, as
+        :func:`update_configurations`.
     method : {"auto", "direct", "iterative"}, default ``"auto"``
         ``"auto"``: direct when every configuration's data are complete (:func:`~.configurations.is_complete`).
     unknowns : sequence of str, optional
