@@ -105,6 +105,7 @@ PLOT_DOCS = {
     "FIGURE_PATH": "path : str or os.PathLike\n    Image file; its suffix selects the format "
                    "(:func:`~femupdate.plot.paper_figures.save_figure`).",
     "FIGURE_NAME": "Returns\n-------\nstr\n    The file name (without directory).",
+    "FIGURE_NAMES": "Returns\n-------\nlist of str\n    The file names written.",
 }
 
 

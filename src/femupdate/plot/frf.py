@@ -322,6 +322,7 @@ def frf_axes(omega, dofs, measured, model, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> list[str]:
     """``frf.png`` (test vs updated model) and ``convergence.png`` (cost per iteration).
 
@@ -334,10 +335,7 @@ def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> l
     omega, dofs, measured, model
         As :func:`frf_axes`.
 
-    Returns
-    -------
-    list of str
-        The file names written.
+    {{FIGURE_NAMES}}
     """
     from .updating import convergence_axes
 

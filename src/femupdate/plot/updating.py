@@ -60,6 +60,7 @@ def mac_axes(mac_matrix, ax=None, title="MAC"):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
     """``convergence.png`` (:func:`convergence_axes`) and ``mac.png`` (:func:`mac_axes`).
 
@@ -72,10 +73,7 @@ def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
     mac_matrix : array_like, shape ``(n_test, n_model)``
         As :func:`mac_axes`.
 
-    Returns
-    -------
-    list of str
-        The file names written.
+    {{FIGURE_NAMES}}
     """
     from pathlib import Path
 
