@@ -431,17 +431,7 @@ class Model:
         return self._assemble("K", self.resolve(values))
 
     def M(self, values=None) -> sp.csr_array:
-        """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg).
-
-        Parameters
-        ----------
-        values : None, mapping of str to float, or array_like, optional
-            Parameter values as :meth:`resolve` reads them (default: nominal).
-
-        Returns
-        -------
-        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
-        """
+        """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg), at ``values`` as :meth:`K` takes them."""
         return self._assemble("M", self.resolve(values))
 
     def dK_dp(self, j: int) -> sp.csr_array:
@@ -460,17 +450,7 @@ class Model:
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
     def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M).
-
-        Parameters
-        ----------
-        j : int
-            Parameter index (declaration order).
-
-        Returns
-        -------
-        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
-        """
+        """Exact dM/dp_j (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
         d = self.dM[j]
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 

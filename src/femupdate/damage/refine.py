@@ -96,8 +96,9 @@ class SetSearch:
         The unknowns (stiffness parameters of ``model``).
     data : TestData
         The measured modes.
-    sigma_f, sigma_s : float
-        Stated noise: relative frequency std, shape std relative to each shape's largest value.
+    sigma : (float, float)
+        Stated noise ``(sigma_f, sigma_s)``: relative frequency std, shape std relative to each
+        shape's largest value.
     allow_increase : bool
         Let stiffness increase (upper bound 2 θ0).
     min_change : float
@@ -117,7 +118,7 @@ class SetSearch:
         for a model with rigid-body modes (the order pairing would count them).
     """
 
-    def __init__(self, model, names: Sequence[str], data: TestData, sigma_f: float, sigma_s: float, *,
+    def __init__(self, model, names: Sequence[str], data: TestData, sigma: tuple[float, float], *,
                  allow_increase: bool, min_change: float, level: float, max_located: int, n_try: int = 4,
                  score: Callable[[np.ndarray], np.ndarray] | None = None, path_order: Sequence[int] = (),
                  pairing: str = "auto"):
@@ -133,7 +134,7 @@ class SetSearch:
             params[j] = dataclasses.replace(params[j], bounds=(v * (1 - MAX_LOSS), v * up) if v > 0 else params[j].bounds)
         self.model = dataclasses.replace(model, parameters=tuple(params))
         self.data = data
-        self.sigma_f, self.sigma_s = float(sigma_f), float(sigma_s)
+        self.sigma_f, self.sigma_s = (float(v) for v in sigma)
         self.std = self._std(data)
         self.min_change = float(min_change)
         self.level = float(level)

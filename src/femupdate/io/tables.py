@@ -8,7 +8,7 @@ from pathlib import Path
 from .._errors import InputError
 from ..structure.tables import list_of_tables
 from .model_file import read_toml
-from .numbers import loads_json
+from .numbers import load_json_file
 from .outputs import note_input
 
 
@@ -37,13 +37,7 @@ def read_table_file(path) -> dict:
     note_input(path, "a JSON file")
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: expected a .toml or .json file")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except (IsADirectoryError, UnicodeDecodeError):
-        raise InputError(f"{path}: not a readable JSON text file") from None
-    return loads_json(text, str(path))
+    return load_json_file(path)
 
 
 def dof_labels(v, where: str) -> list[str]:
