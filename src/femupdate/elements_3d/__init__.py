@@ -7,6 +7,7 @@ Each returns :class:`femupdate.elements.ElementTerms`: lists of ``(factors, stac
 of products is the element matrix, the exact decomposition by parameter.
 """
 
+from .shells import mitc3_terms, mitc4_terms
 from .solids import hex8_terms, tet4_terms, tet10_terms
 
-__all__ = ["hex8_terms", "tet4_terms", "tet10_terms"]
+__all__ = ["hex8_terms", "tet4_terms", "tet10_terms", "mitc4_terms", "mitc3_terms"]

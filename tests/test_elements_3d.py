@@ -1,0 +1,202 @@
+"""Shell (MITC4, MITC3) and solid (hex8 QM6, tet4, tet10) elements: rigid-body modes, patch tests,
+convergence to closed forms (Leissa's simply supported plate, Euler-Bernoulli's cantilever) and an
+independent code (OpenSeesPy, when installed)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as sla
+
+from femupdate._errors import InputError
+from femupdate.elements import combine
+from femupdate.elements_3d import hex8_terms, mitc3_terms, mitc4_terms, tet4_terms, tet10_terms
+from femupdate.elements_3d.solids import HEX8_CORNERS, TET10_EDGES
+
+from _meshes3d import assemble, box_hex, hex_to_tets, plate_mesh
+
+RNG = np.random.default_rng(7)
+ROT = np.linalg.qr(RNG.standard_normal((3, 3)))[0]
+QUAD = np.array([[0, 0, 0], [1.1, 0.1, 0], [1.2, 0.9, 0], [-0.1, 1.0, 0]]) @ ROT.T
+TET = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]) + 0.05 * RNG.standard_normal((4, 3))
+TET10 = np.vstack([TET, [(TET[i] + TET[j]) / 2 for i, j in TET10_EDGES]]) + 0.02 * RNG.standard_normal((10, 3))
+HEX = HEX8_CORNERS * [1.0, 0.7, 0.5] + 0.08 * RNG.standard_normal((8, 3))
+
+
+def _zero_modes(K):
+    ev = np.linalg.eigvalsh(K)
+    return int(np.sum(np.abs(ev) < 1e-9 * ev[-1])), ev
+
+
+@pytest.mark.parametrize("make, X", [
+    (lambda X: hex8_terms(X, 0.3), HEX), (lambda X: hex8_terms(X, 0.3, incompatible=False), HEX),
+    (lambda X: tet4_terms(X, 0.25), TET), (lambda X: tet10_terms(X, 0.25), TET10),
+    (lambda X: mitc4_terms(X, 0.3), QUAD), (lambda X: mitc3_terms(X, 0.3), QUAD[:3])])
+def test_a_free_element_has_exactly_six_rigid_body_modes(make, X):
+    terms = make(X[None])
+    K = combine(terms.K, {"E": 210e9, "t": 0.05})[0]
+    zeros, ev = _zero_modes(K)
+    assert zeros == 6, ev[:8] / ev[-1]
+    M = combine(terms.M, {"rho": 7800.0, "t": 0.05})[0]
+    assert np.all(np.linalg.eigvalsh(M) > 0)  # consistent mass positive definite
+
+
+def test_mass_totals_and_lumping():
+    """Total translational mass is rho V (solids) or rho t A (shells), consistent and lumped."""
+    vol_tet = abs(np.linalg.det(TET[1:] - TET[0])) / 6
+    for mass in ("consistent", "lumped"):
+        M = tet4_terms(TET[None], 0.3, mass=mass).M[0][1][0]
+        assert M[0::3, 0::3].sum() == pytest.approx(vol_tet, rel=1e-12)
+        straight = np.vstack([TET, [(TET[i] + TET[j]) / 2 for i, j in TET10_EDGES]])
+        M10 = tet10_terms(straight[None], 0.3, mass=mass).M[0][1][0]
+        assert M10[0::3, 0::3].sum() == pytest.approx(vol_tet, rel=1e-12)
+        assert np.all(np.diag(M10) > 0)  # HRZ keeps the corner masses positive
+        box = HEX8_CORNERS * [1.0, 0.7, 0.5]
+        assert hex8_terms(box[None], 0.3, mass=mass).M[0][1][0][0::3, 0::3].sum() == pytest.approx(2.0 * 1.4 * 1.0, rel=1e-12)
+        q = np.array([[0, 0, 0], [2.0, 0, 0], [2.0, 1.5, 0], [0, 1.5, 0]])
+        Mq = combine(mitc4_terms(q[None], 0.3, mass=mass).M[:1], {"rho": 1.0, "t": 0.1})[0]
+        assert Mq[0::6, 0::6].sum() == pytest.approx(0.3, rel=1e-12)
+
+
+def _patch_solve(K, U, interior):
+    inner = np.flatnonzero(interior)
+    outer = np.flatnonzero(~interior)
+    ui = np.linalg.solve(K[np.ix_(inner, inner)], -K[np.ix_(inner, outer)] @ U[outer])
+    return np.abs(ui - U[inner]).max() / np.abs(U).max()
+
+
+@pytest.mark.parametrize("kind", ["hex8", "hex8_plain", "tet4", "tet10"])
+def test_solid_patch_test_reproduces_a_constant_strain_state_exactly(kind):
+    nodes, hexes = box_hex(2, 2, 2)
+    centre = np.flatnonzero(np.all(np.isclose(nodes, 0.5), axis=1))[0]
+    nodes = nodes.copy()
+    nodes[centre] += [0.13, -0.08, 0.11]  # a distorted patch: the interior node off centre
+    if kind.startswith("hex8"):
+        terms, conn = hex8_terms(nodes[hexes], 0.3, incompatible=kind == "hex8"), hexes
+    else:
+        nodes, conn = hex_to_tets(nodes, hexes, quadratic=kind == "tet10")
+        terms = (tet10_terms if kind == "tet10" else tet4_terms)(nodes[conn], 0.3)
+    K = assemble(terms, conn, len(nodes), 3, {"E": 1.0, "rho": 1.0})[0].toarray()
+    A = np.array([[1.0, 0.4, -0.3], [0.2, -0.7, 0.5], [0.6, 0.1, 0.9]]) * 1e-3
+    U = (nodes @ A.T + [1e-3, 2e-3, -1e-3]).ravel()
+    interior = np.repeat(np.all((nodes > 1e-9) & (nodes < 1 - 1e-9), axis=1), 3)
+    assert interior.sum() >= 3
+    assert _patch_solve(K, U, interior) < 1e-10
+
+
+MH_NODES = np.column_stack([np.array([[0, 0], [0.24, 0], [0.24, 0.12], [0, 0.12], [0.04, 0.02], [0.18, 0.03],
+                                      [0.16, 0.08], [0.08, 0.08]]), np.zeros(8)])
+MH_QUADS = np.array([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7], [4, 5, 6, 7]])
+
+
+def _bending_field(x, y):  # constant curvature, zero transverse shear: w = (x^2 + 0.7 y^2 + 0.4 xy) / 2
+    wx, wy = x + 0.2 * y, 0.7 * y + 0.2 * x
+    return [0, 0, 0.5 * (x * x + 0.7 * y * y + 0.4 * x * y), wy, -wx, 0]
+
+
+def _membrane_field(x, y):  # constant strain, no in-plane rotation
+    return [1e-3 * x - 0.75e-3 * y, 2e-3 * y - 0.75e-3 * x, 0, 0, 0, 0]
+
+
+@pytest.mark.parametrize("element", ["mitc4", "mitc3"])
+@pytest.mark.parametrize("field", [_bending_field, _membrane_field])
+def test_shell_patch_test_membrane_and_constant_curvature(element, field):
+    """MacNeal-Harder's distorted patch (0.24 x 0.12, interior nodes off-grid), rotated in space."""
+    conn = MH_QUADS if element == "mitc4" else np.vstack([MH_QUADS[:, [0, 1, 2]], MH_QUADS[:, [0, 2, 3]]])
+    f = mitc4_terms if element == "mitc4" else mitc3_terms
+    nodes = MH_NODES @ ROT.T
+    K = assemble(f(nodes[conn], 0.3), conn, 8, 6, {"E": 1.0, "t": 0.01, "rho": 1.0})[0].toarray()
+    T = np.kron(np.eye(16), ROT)  # local patch fields to global dofs
+    U = T @ np.concatenate([field(x, y) for x, y, _ in MH_NODES])
+    interior = np.arange(48) >= 24
+    assert _patch_solve(K, U, interior) < 1e-8
+
+
+def test_mitc3_is_isotropic():
+    """Lee & Bathe's MITC3 does not depend on the node numbering (a cyclic renumbering)."""
+    X = QUAD[:3]
+    K = combine(mitc3_terms(X[None], 0.3).K, {"E": 1.0, "t": 0.1})[0]
+    perm = [1, 2, 0]
+    K2 = combine(mitc3_terms(X[perm][None], 0.3).K, {"E": 1.0, "t": 0.1})[0]
+    idx = np.concatenate([np.arange(6) + 6 * p for p in perm])
+    assert np.abs(K[np.ix_(idx, idx)] - K2).max() < 1e-12 * np.abs(K).max()
+
+
+def _ss_plate(n, t, triangles):
+    """Lowest frequencies of a hard simply supported unit square plate over Leissa's Kirchhoff values."""
+    nodes, conn = plate_mesh(n, triangles=triangles)
+    f = mitc3_terms if triangles else mitc4_terms
+    nu, E, rho = 0.3, 1.0, 1.0
+    K, M = assemble(f(nodes[conn], nu), conn, len(nodes), 6, {"E": E, "t": t, "rho": rho})
+    x, y = nodes[:, 0], nodes[:, 1]
+    edge_x, edge_y = np.isclose(x, 0) | np.isclose(x, 1), np.isclose(y, 0) | np.isclose(y, 1)
+    fixed = np.zeros((len(nodes), 6), bool)
+    fixed[:, [0, 1, 5]] = True  # membrane and drilling decouple from bending in a flat plate
+    fixed[edge_x | edge_y, 2] = True
+    fixed[edge_x, 3] = True  # hard support: no rotation about the edge's own direction
+    fixed[edge_y, 4] = True
+    free = np.flatnonzero(~fixed.ravel())
+    w = np.sort(np.sqrt(sla.eigsh(K[free][:, free], k=3, M=M[free][:, free], sigma=0)[0]))
+    D = E * t**3 / (12 * (1 - nu**2))
+    leissa = np.pi**2 * np.array([2.0, 5.0, 5.0]) * np.sqrt(D / (rho * t))  # (m, n) = (1, 1), (1, 2), (2, 1)
+    return w / leissa
+
+
+def test_mitc4_simply_supported_plate_converges_to_leissa_without_shear_locking():
+    for t in (1e-2, 1e-3):  # t/a = 0.01 and 0.001: no shear locking
+        r = _ss_plate(16, t, triangles=False)
+        assert np.all(np.abs(r - 1) < 0.02), (t, r)
+        assert abs(r[0] - 1) < 0.006, (t, r)
+    coarse, fine = _ss_plate(8, 1e-3, False), _ss_plate(16, 1e-3, False)
+    assert abs(fine[0] - 1) < 0.3 * abs(coarse[0] - 1)  # O(h^2): the error falls about fourfold
+
+
+def test_mitc3_simply_supported_plate_converges_to_leissa():
+    r = _ss_plate(32, 1e-2, triangles=True)
+    assert np.all(np.abs(r - 1) < 0.012), r
+    # thin: converging (the error falls by more than 4 per halving), though stiffer than MITC4
+    e16, e32 = (abs(_ss_plate(n, 1e-3, True)[0] - 1) for n in (16, 32))
+    assert e32 < 0.1 and e32 < e16 / 4, (e16, e32)
+
+
+def _cantilever(kind, nx=20):
+    L, h = 10.0, 1.0
+    nodes, conn = box_hex(nx, 1, 1, (L, h, h))
+    if kind.startswith("hex8"):
+        terms = hex8_terms(nodes[conn], 0.0, incompatible=kind == "hex8")
+    else:
+        nodes, conn = hex_to_tets(nodes, conn, quadratic=kind == "tet10")
+        terms = (tet10_terms if kind == "tet10" else tet4_terms)(nodes[conn], 0.0)
+    K, M = assemble(terms, conn, len(nodes), 3, {"E": 1.0, "rho": 1.0})
+    free = np.flatnonzero(np.repeat(nodes[:, 0] > 1e-9, 3))
+    w = np.sqrt(sla.eigsh(K[free][:, free], k=2, M=M[free][:, free], sigma=0)[0].min())
+    euler_bernoulli = 1.875104068711961**2 * np.sqrt(1.0 / 12 / L**4)  # sqrt(EI / (rho A L^4)), h = b = 1
+    return w / euler_bernoulli
+
+
+def test_solid_cantilever_one_element_through_the_depth():
+    """L/h = 10, nu = 0: Timoshenko's shear correction is about -0.5 %; tet4 locks, hex8 (QM6) and
+    tet10 do not."""
+    qm6, plain, tet4, tet10 = (_cantilever(k) for k in ("hex8", "hex8_plain", "tet4", "tet10"))
+    assert 0.985 < qm6 < 1.0, qm6
+    assert 0.985 < tet10 < 1.0, tet10
+    assert plain > 1.04 and tet4 > 1.3, (plain, tet4)  # shear locking of the plain elements
+    assert 0.985 < _cantilever("hex8", nx=10) < 1.0  # QM6 on 1 x 1 x 1 elements: aspect ratio has no effect
+
+
+def test_bad_geometry_and_material_are_refused():
+    inverted = HEX[[4, 5, 6, 7, 0, 1, 2, 3]]
+    with pytest.raises(InputError, match="inverted or degenerate"):
+        hex8_terms(np.stack([HEX, inverted]), 0.3)
+    with pytest.raises(InputError, match="Poisson"):
+        tet4_terms(TET[None], 0.5)
+    flat = TET.copy()
+    flat[3] = flat[0]
+    with pytest.raises(InputError, match="inverted or degenerate"):
+        tet4_terms(flat[None], 0.3)
+    with pytest.raises(InputError, match="degenerate"):
+        mitc3_terms(np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0.0]]]), 0.3)
+    with pytest.raises(InputError, match="inverted"):
+        mitc4_terms(QUAD[[0, 2, 1, 3]][None], 0.3)  # a bow-tie
+    with pytest.raises(InputError, match="mass"):
+        mitc4_terms(QUAD[None], 0.3, mass="diagonal")
