@@ -173,3 +173,22 @@ def test_structure_refuses_bad_shells_and_solids():
     s.solid([1, 2, 4, 42], E=1.0, nu=0.3, rho=1.0, where="lonely tet")
     with pytest.raises(InputError, match=r"lonely tet: node\(s\) \[42\] are not defined"):
         s.build()
+
+
+def test_element_parameters_and_drawing_edges_of_shells_and_solids():
+    """Damage detection's one-E-per-element model reproduces the shell model's stiffness (every shell
+    term is proportional to E), and the drawing edges are the element edges."""
+    from femupdate.damage.parameters import element_parameters
+    from femupdate.fullfield import structure_segments
+
+    s, nodes, conn = _plate_structure(n=2)
+    s.support_node([1, 2, 3])
+    model = s.build()
+    per_element, described = element_parameters(s)
+    split = per_element.build()
+    assert len(split.parameters) == 4
+    assert np.abs(split.K().toarray() - model.K().toarray()).max() < 1e-9 * abs(model.K()).max()
+    first = split.parameters[0].name
+    assert first == "E.1-4-5-2" and "mitc4 1-4-5-2" in described[first]
+    segs = structure_segments(s)
+    assert len(segs) == 12  # the edges of a 2 x 2 quadrilateral mesh, no diagonals

@@ -161,7 +161,7 @@ def hex8_terms(xyz, nu, mass: str = "consistent", incompatible: bool = True) -> 
     D = isotropic_3d(poisson(nu, len(X)))
     P, W = gauss_hex(2)
     N, dN = hex8_shape(P)
-    K, _, J, detJ = _stiffness(X, dN, W, D, "hex8")
+    K, Bu, J, detJ = _stiffness(X, dN, W, D, "hex8")
     if incompatible:
         _, dN0 = hex8_shape(np.zeros((1, 3)))
         J0 = np.einsum("ai,naj->nij", dN0[0], X)
@@ -169,7 +169,6 @@ def hex8_terms(xyz, nu, mass: str = "consistent", incompatible: bool = True) -> 
         # dP_k/dxi_i = -2 xi_k delta_ik at each Gauss point: (g, 3 modes, 3 natural directions)
         dPdxi = np.einsum("gk,ki->gki", -2 * P, np.eye(3))
         dPdx = np.einsum("nij,gkj->ngki", np.linalg.inv(J0), dPdxi) * (det0[:, None] / detJ)[:, :, None, None]
-        _, Bu, _, _ = _stiffness(X, dN, W, D, "hex8")
         Ba = strain_matrix(dPdx)
         wd = W[None] * detJ
         Kua = np.einsum("ng,ngki,nkl,nglj->nij", wd, Bu, D, Ba, optimize=True)
@@ -228,8 +227,8 @@ def tet10_terms(xyz, nu, mass: str = "consistent") -> ElementTerms:
     nu : float or array_like, shape ``(n_el,)``
         Poisson's ratio.
     mass : {"consistent", "lumped"}, default "consistent"
-        Mass matrix (lumped: HRZ; the corner nodes get 1/32 ... of the mass, the mid-edge nodes the rest,
-        as the consistent diagonal dictates).
+        Mass matrix (lumped: HRZ, each node's share proportional to its consistent diagonal:
+        1/36 of the mass on each corner, 4/27 on each mid-edge node of a straight-sided element).
 
     Returns
     -------

@@ -30,6 +30,26 @@ PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
 #: shell and solid element types -> number of nodes per element
 SHELLS = {"mitc4": 4, "mitc3": 3}
 SOLIDS = {"hex8": 8, "tet4": 4, "tet10": 10}
+#: the edges of each shell and solid type, as pairs of positions in its node list (for drawing)
+EDGES = {
+    "mitc4": ((0, 1), (1, 2), (2, 3), (3, 0)),
+    "mitc3": ((0, 1), (1, 2), (2, 0)),
+    "hex8": ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)),
+    "tet4": ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)),
+    "tet10": ((0, 4), (4, 1), (1, 5), (5, 2), (2, 6), (6, 0), (0, 7), (7, 3), (1, 8), (8, 3), (2, 9), (9, 3)),
+}
+
+
+def node_pairs(g) -> np.ndarray:
+    """Node-id pairs to draw a group's elements with: the ends of line elements, the edges of shells
+    and solids; ``(0, 2)`` for springs and masses."""
+    if g.nodes is None:
+        return np.zeros((0, 2), np.int64)
+    nodes = np.asarray(g.nodes, dtype=np.int64)
+    if g.type not in EDGES:
+        return nodes
+    idx = np.array(EDGES[g.type])
+    return nodes[:, idx].reshape(-1, 2)
 BENDING = ("k12", "k6", "k2")
 NODE_DIRS = {
     "beam2d": ("x", "y", "rz"),
@@ -214,5 +234,5 @@ def triplets(trip, target, unit, idx, coef, pid) -> None:
         trip[(target, int(t))].append((r[sel], c[sel], v[sel]))
 
 
-__all__ = ["MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
+__all__ = ["MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "EDGES", "node_pairs", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
            "merge_groups", "triplets"]
