@@ -3,7 +3,8 @@
 OpenSees assembles one element with all dofs free; its matrix is read back with the GimmeMCK
 integrator and printA.  Compared exactly: FourNodeTetrahedron (stiffness), stdBrick (stiffness and
 mass, against the plain trilinear hex8), ShellMITC4 on a rectangle (stiffness; with the drilling
-factor 1, OpenSees's Hughes-Brezzi gamma = G).  ShellMITC4 on a distorted quadrilateral differs from
+factor 1, OpenSees's Hughes-Brezzi gamma = G), ASDShellT3's out-of-plane block (MITC3 with a
+shear stabilisation factor).  ShellMITC4 on a distorted quadrilateral differs from
 femupdate's MITC4 (both pass the patch tests): that comparison is by convergence, in the docs.
 """
 
@@ -17,7 +18,7 @@ import numpy as np
 import pytest
 
 from femupdate.elements import combine
-from femupdate.elements_3d import hex8_terms, mitc4_terms, tet4_terms
+from femupdate.elements_3d import hex8_terms, mitc3_terms, mitc4_terms, tet4_terms
 from femupdate.elements_3d.solids import HEX8_CORNERS
 
 
@@ -100,3 +101,27 @@ def test_mitc4_matches_opensees_shellmitc4_on_a_rectangle():
     K = _matrix(ops, quad, shell_el, 6, (0.0, 0.0, 1.0))
     ours = combine(mitc4_terms(quad[None], nu, drill=1.0).K, {"E": E, "t": t})[0]
     assert _rel(K, ours) < 1e-10
+
+
+def test_mitc3_shear_matches_opensees_asdshellt3():
+    """OpenSees's ASDShellT3 is the MITC3 triangle with the transverse shear scaled by Lyly, Stenberg &
+    Vihinen's stabilisation t^2 / (t^2 + 0.1 h^2) (h the longest edge): its out-of-plane block
+    (w, rx, ry) is femupdate's MITC3 bending plus that multiple of its MITC3 shear, so the tied
+    shear strains are the same."""
+    ops = _opensees()
+    tri = np.array([[0, 0, 0], [1.1, 0.1, 0], [0.3, 0.9, 0.0]])
+    E, nu, t = 70e9, 0.3, 0.01
+
+    def shell_el():
+        ops.section("ElasticMembranePlateSection", 1, E, nu, t, 2700.0)
+        ops.element("ASDShellT3", 1, 1, 2, 3, 1)
+
+    K = _matrix(ops, tri, shell_el, 6, (0.0, 0.0, 1.0))
+    terms = mitc3_terms(tri[None], nu).K
+    h2 = max(np.sum((tri[i] - tri[j]) ** 2) for i, j in ((0, 1), (1, 2), (2, 0)))
+    scale = t**2 / (t**2 + 0.1 * h2)
+    bending = combine(terms[1:2], {"E": E, "t": t})[0]
+    shear = combine(terms[2:3], {"E": E, "t": t})[0]
+    out = np.array([6 * a + d for a in range(3) for d in (2, 3, 4)])
+    ours = (bending + scale * shear)[np.ix_(out, out)]
+    assert _rel(K[np.ix_(out, out)], ours) < 1e-10
