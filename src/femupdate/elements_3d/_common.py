@@ -99,6 +99,14 @@ def duffy_tet(n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([a.ravel(), b.ravel(), c.ravel()], axis=1), W.ravel()
 
 
+def btdb(wd: np.ndarray, B: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """sum_g wd[n, g] B[n, g]^T D[n] B[n, g] for stacks: ``wd`` ``(n, g)``, ``B`` ``(n, g, s, m)``,
+    ``D`` ``(n, s, s)``; returns ``(n, m, m)`` (batched matrix products, no einsum path search)."""
+    n, g, s_, m = B.shape
+    DB = np.matmul(D[:, None], B) * wd[:, :, None, None]
+    return np.matmul(B.reshape(n, g * s_, m).transpose(0, 2, 1), DB.reshape(n, g * s_, m))
+
+
 def hrz_lump(M: np.ndarray, blocks: list[list[int]]) -> np.ndarray:
     """HRZ (Hinton-Rock-Zienkiewicz 1976) diagonal lumping of consistent mass stacks.
 

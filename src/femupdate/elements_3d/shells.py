@@ -45,7 +45,7 @@ import numpy as np
 
 from .._errors import InputError
 from ..elements import ElementTerms, _group_error
-from ._common import check_mass_kind, coords, expand_scalar, gauss_quad, hrz_lump, plane_stress, poisson
+from ._common import btdb, check_mass_kind, coords, expand_scalar, gauss_quad, hrz_lump, plane_stress, poisson
 
 SHEAR_FACTOR = 5.0 / 6.0
 DRILL = 1e-3
@@ -192,7 +192,7 @@ def _shell(xyz, nu, mass, drill, nn, what) -> ElementTerms:
     G = 1.0 / (2 * (1 + nu))
 
     def integrate(B, D):
-        return np.einsum("ng,ngki,nkl,nglj->nij", wd, B, D, B, optimize=True)
+        return btdb(wd, B, D)
 
     eye2 = np.broadcast_to(np.eye(2), (len(X), 2, 2))
     Kl = [integrate(Bm, Dp), integrate(Bb, Dp / 12), integrate(Bs, SHEAR_FACTOR * G[:, None, None] * eye2),

@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import ElementTerms
-from ._common import (bad_jacobian, check_mass_kind, coords, duffy_tet, expand_scalar, gauss_hex, hrz_lump,
+from ._common import (bad_jacobian, btdb, check_mass_kind, coords, duffy_tet, expand_scalar, gauss_hex, hrz_lump,
                       isotropic_3d, poisson)
 
 HEX8_CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -106,8 +106,7 @@ def _stiffness(X, dN, W, D, what):
     J, detJ = _jacobian(X, dN, what)
     dNdx = np.einsum("ngij,gaj->ngai", np.linalg.inv(J), dN)
     B = strain_matrix(dNdx)
-    wd = W[None] * detJ
-    K = np.einsum("ng,ngki,nkl,nglj->nij", wd, B, D, B, optimize=True)
+    K = btdb(W[None] * detJ, B, D)
     return K, B, J, detJ
 
 
@@ -171,8 +170,9 @@ def hex8_terms(xyz, nu, mass: str = "consistent", incompatible: bool = True) -> 
         dPdx = np.einsum("nij,gkj->ngki", np.linalg.inv(J0), dPdxi) * (det0[:, None] / detJ)[:, :, None, None]
         Ba = strain_matrix(dPdx)
         wd = W[None] * detJ
-        Kua = np.einsum("ng,ngki,nkl,nglj->nij", wd, Bu, D, Ba, optimize=True)
-        Kaa = np.einsum("ng,ngki,nkl,nglj->nij", wd, Ba, D, Ba, optimize=True)
+        DBa = np.matmul(D[:, None], Ba) * wd[:, :, None, None]
+        Kua = np.matmul(Bu.reshape(len(X), -1, 24).transpose(0, 2, 1), DBa.reshape(len(X), -1, 9))
+        Kaa = btdb(wd, Ba, D)
         K = K - Kua @ np.linalg.solve(Kaa, Kua.transpose(0, 2, 1))
         K = 0.5 * (K + K.transpose(0, 2, 1))
     m = _scalar_mass(X, N, dN, W, "hex8")
