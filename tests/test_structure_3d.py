@@ -192,3 +192,24 @@ def test_element_parameters_and_drawing_edges_of_shells_and_solids():
     assert first == "E.1-4-5-2" and "mitc4 1-4-5-2" in described[first]
     segs = structure_segments(s)
     assert len(segs) == 12  # the edges of a 2 x 2 quadrilateral mesh, no diagonals
+
+
+def test_density_parameter_of_shells_and_solids_is_exact():
+    """rho as a parameter: both shell mass terms (rho t, rho t^3) and the solid's go to dM/drho, and a
+    finite difference of M(p) agrees with it."""
+    s, nodes, conn = _plate_structure(n=2)
+    s.parameter("rho_plate", 2700.0)
+    s.groups[-1].props["rho"] = ["rho_plate"] * len(conn)
+    s.solid([[1, 4, 2, 50]], E=200e9, nu=0.3, rho="rho_plate")
+    s.node(50, (0.0, 0.0, 0.3))
+    model = s.build()
+    j = model.parameter_index("rho_plate")
+    assert abs(model.M0).max() == 0
+    assert np.abs(2700.0 * model.dM_dp(j).toarray() - model.M().toarray()).max() < 1e-12 * abs(model.M()).max()
+    p = model.values.copy()
+    h = 1e-3 * p[j]
+    p1, p0 = p.copy(), p.copy()
+    p1[j] += h
+    p0[j] -= h
+    fd = (model.M(p1) - model.M(p0)).toarray() / (2 * h)
+    assert np.abs(fd - model.dM_dp(j).toarray()).max() < 1e-9 * abs(model.dM_dp(j)).max()
