@@ -122,12 +122,12 @@ def test_mitc3_is_isotropic():
     assert np.abs(K[np.ix_(idx, idx)] - K2).max() < 1e-12 * np.abs(K).max()
 
 
-def _ss_plate(n, t, triangles):
+def _ss_plate(n, t, triangles, mass="consistent"):
     """Lowest frequencies of a hard simply supported unit square plate over Leissa's Kirchhoff values."""
     nodes, conn = plate_mesh(n, triangles=triangles)
     f = mitc3_terms if triangles else mitc4_terms
     nu, E, rho = 0.3, 1.0, 1.0
-    K, M = assemble(f(nodes[conn], nu), conn, len(nodes), 6, {"E": E, "t": t, "rho": rho})
+    K, M = assemble(f(nodes[conn], nu, mass=mass), conn, len(nodes), 6, {"E": E, "t": t, "rho": rho})
     x, y = nodes[:, 0], nodes[:, 1]
     edge_x, edge_y = np.isclose(x, 0) | np.isclose(x, 1), np.isclose(y, 0) | np.isclose(y, 1)
     fixed = np.zeros((len(nodes), 6), bool)
@@ -159,14 +159,14 @@ def test_mitc3_simply_supported_plate_converges_to_leissa():
     assert e32 < 0.1 and e32 < e16 / 4, (e16, e32)
 
 
-def _cantilever(kind, nx=20):
+def _cantilever(kind, nx=20, mass="consistent"):
     L, h = 10.0, 1.0
     nodes, conn = box_hex(nx, 1, 1, (L, h, h))
     if kind.startswith("hex8"):
-        terms = hex8_terms(nodes[conn], 0.0, incompatible=kind == "hex8")
+        terms = hex8_terms(nodes[conn], 0.0, incompatible=kind == "hex8", mass=mass)
     else:
         nodes, conn = hex_to_tets(nodes, conn, quadratic=kind == "tet10")
-        terms = (tet10_terms if kind == "tet10" else tet4_terms)(nodes[conn], 0.0)
+        terms = (tet10_terms if kind == "tet10" else tet4_terms)(nodes[conn], 0.0, mass=mass)
     K, M = assemble(terms, conn, len(nodes), 3, {"E": 1.0, "rho": 1.0})
     free = np.flatnonzero(np.repeat(nodes[:, 0] > 1e-9, 3))
     w = np.sqrt(sla.eigsh(K[free][:, free], k=2, M=M[free][:, free], sigma=0)[0].min())
@@ -200,6 +200,14 @@ def test_bad_geometry_and_material_are_refused():
         mitc4_terms(QUAD[[0, 2, 1, 3]][None], 0.3)  # a bow-tie
     with pytest.raises(InputError, match="mass"):
         mitc4_terms(QUAD[None], 0.3, mass="diagonal")
+
+
+def test_lumped_masses_converge_to_the_same_closed_forms():
+    """HRZ-lumped mass: simply supported plate (24 x 24, t/a = 0.01) and the hex8 / tet10 cantilever."""
+    assert np.all(np.abs(_ss_plate(24, 1e-2, False, mass="lumped") - 1) < 0.01)
+    assert np.all(np.abs(_ss_plate(24, 1e-2, True, mass="lumped") - 1) < 0.015)
+    assert 0.98 < _cantilever("hex8", mass="lumped") < 1.0
+    assert 0.98 < _cantilever("tet10", mass="lumped") < 1.0
 
 
 def _square_plate(n, t, support):
