@@ -213,3 +213,27 @@ def test_density_parameter_of_shells_and_solids_is_exact():
     p0[j] -= h
     fd = (model.M(p1) - model.M(p0)).toarray() / (2 * h)
     assert np.abs(fd - model.dM_dp(j).toarray()).max() < 1e-9 * abs(model.dM_dp(j)).max()
+
+
+def test_a_shell_strip_stiffened_by_a_frame_bends_as_one_beam():
+    """Shell and frame rotations share their global dofs with the same sign convention: a cantilever
+    strip of MITC4 shells (nu = 0) with a frame3d of the same EI along its centre line has
+    Euler-Bernoulli's first frequency for EI_total = 2 E b t^3 / 12, m = 2 rho b t (a frame whose
+    rotation had the opposite sign would fight the shell and stiffen the pair)."""
+    length, b, t, nx = 1.0, 0.1, 0.01, 40
+    s = Structure("strip")
+    ids = {}
+    for i in range(nx + 1):
+        for j in range(3):
+            ids[i, j] = 100 * i + j + 1
+            s.node(ids[i, j], (length * i / nx, b * j / 2 - b / 2, 0.0))
+    s.shell([[ids[i, j], ids[i + 1, j], ids[i + 1, j + 1], ids[i, j + 1]] for i in range(nx) for j in range(2)],
+            E=1.0, nu=0.0, t=t, rho=1.0)
+    inertia, area = b * t**3 / 12, b * t
+    s.frame3d([[ids[i, 1], ids[i + 1, 1]] for i in range(nx)], E=1.0, G=0.5, A=area, Iy=inertia, Iz=inertia,
+              J=2 * inertia, rho=1.0, orientation=[0, 0, 1])
+    s.support_node([ids[0, j] for j in range(3)])
+    model = s.build()
+    w = np.sqrt(sl.eigh(model.K().toarray(), model.M().toarray(), eigvals_only=True, subset_by_index=[0, 0])[0])
+    euler_bernoulli = 1.875104068711961**2 * np.sqrt(2 * inertia / (2 * area * length**4))
+    assert w / euler_bernoulli == pytest.approx(1.0, abs=0.002)
