@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg as sl
+import scipy.sparse.linalg as sla
 
 from femupdate._errors import InputError
 from femupdate.elements_3d import hex8_terms, mitc4_terms
@@ -220,7 +221,7 @@ def test_a_shell_strip_stiffened_by_a_frame_bends_as_one_beam():
     strip of MITC4 shells (nu = 0) with a frame3d of the same EI along its centre line has
     Euler-Bernoulli's first frequency for EI_total = 2 E b t^3 / 12, m = 2 rho b t (a frame whose
     rotation had the opposite sign would fight the shell and stiffen the pair)."""
-    length, b, t, nx = 1.0, 0.1, 0.01, 40
+    length, b, t, nx = 1.0, 0.1, 0.01, 20
     s = Structure("strip")
     ids = {}
     for i in range(nx + 1):
@@ -234,6 +235,6 @@ def test_a_shell_strip_stiffened_by_a_frame_bends_as_one_beam():
               J=2 * inertia, rho=1.0, orientation=[0, 0, 1])
     s.support_node([ids[0, j] for j in range(3)])
     model = s.build()
-    w = np.sqrt(sl.eigh(model.K().toarray(), model.M().toarray(), eigvals_only=True, subset_by_index=[0, 0])[0])
+    w = np.sqrt(sla.eigsh(model.K().tocsc(), k=1, M=model.M().tocsc(), sigma=0)[0][0])
     euler_bernoulli = 1.875104068711961**2 * np.sqrt(2 * inertia / (2 * area * length**4))
     assert w / euler_bernoulli == pytest.approx(1.0, abs=0.002)
