@@ -412,7 +412,7 @@ class Structure:
         labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
         self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o))
 
-    def shell(self, nodes, E, nu, t, rho, mass: str = "consistent", drill: float = 1e-3, where: str = "shell") -> None:
+    def shell(self, nodes, E, nu, t, rho, mass: str = "consistent", drill: float = 0.1, where: str = "shell") -> None:
         """Flat shell element(s): MITC4 quadrilaterals (4 nodes) or MITC3 triangles (3 nodes).
 
         Dofs ``x, y, z, rx, ry, rz`` at each node; formulation, drilling treatment and dof order in
@@ -432,7 +432,7 @@ class Structure:
             refused until the non-linear parametrisation exists.
         mass : {"consistent", "lumped"}, default "consistent"
             Mass matrix.
-        drill : float, default 1e-3
+        drill : float, default 0.1
             Drilling penalty factor (times G t).
         where : str, default ``"shell"``
             Name of the element(s) in messages.

@@ -86,7 +86,7 @@ class ElementGroup:
         Per-element description for messages.
     nu : numpy.ndarray, shape ``(n_el,)``, optional
         Poisson's ratio of shell and solid elements (a fixed number: it enters non-linearly).
-    drill : float, default 1e-3
+    drill : float, default 0.1
         Drilling penalty factor of shell elements (:mod:`femupdate.elements_3d.shells`).
     """
 
@@ -99,7 +99,7 @@ class ElementGroup:
     orientation: np.ndarray | None = None  # (n_el, 3)
     where: list[str] = field(default_factory=list)  # per-element description for messages
     nu: np.ndarray | None = None  # (n_el,) Poisson's ratio of shells and solids
-    drill: float = 1e-3
+    drill: float = 0.1
 
     @property
     def key(self):

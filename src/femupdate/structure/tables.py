@@ -229,7 +229,7 @@ def _continuum_from_dict(s, t: str, e: Mapping, props: dict, where: str) -> None
         raise InputError(f"{t} needs Poisson's ratio 'nu'")
     kw = dict(mass=e.get("mass", "consistent"), where=where)
     if t in SHELLS:
-        s.shell(rows, nu=e["nu"], drill=e.get("drill", 1e-3), **props, **kw)
+        s.shell(rows, nu=e["nu"], drill=e.get("drill", 0.1), **props, **kw)
     else:
         s.solid(rows, nu=e["nu"], **props, **kw)
 
