@@ -10,9 +10,10 @@ the elastic terms (``1e20 + 2000`` is ``1e20`` in double precision).
 
 1. a pair of dofs (a, b) is a *candidate* when its 2×2 block is singular to
    :data:`PENALTY_RATIO`: ``1 − K_ab² / (K_aa K_bb) ≤ 1 / PENALTY_RATIO``;
-2. candidates that share a dof form a *group*; the group's elastic scale E is the largest
-   magnitude of a coupling of its dofs to other dofs (if there is none, the largest remainder
-   ``K_aa − Σ |K_ab|`` of its diagonals); its penalty P the smallest candidate coupling;
+2. candidates that share a dof form a *group*; its penalty P is the smallest candidate coupling,
+   its elastic scale E the larger of the largest coupling of its dofs to other dofs and the
+   largest eigenvalue of its own block that lies far below the penalty (under
+   ``P / sqrt(PENALTY_RATIO)``: the spectrum of the penalty against the elastic part);
 3. the group is a penalty constraint when ``P ≥ PENALTY_RATIO · E`` (and E > 0: a lone spring
    between two dofs with nothing else is elastic).
 
@@ -51,6 +52,7 @@ PENALTY_RATIO = 1e8
 #: is at most this fraction of their remaining elastic stiffness; else the model is refused
 PRECISION_TOL = 1e-6
 _EPS = np.finfo(float).eps
+_DENSE_GROUP = 1000
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,17 @@ def _components(n: int, a, b) -> list[np.ndarray]:
     return [np.flatnonzero(label == c) for c in np.unique(label[linked])]
 
 
+def _inner_elastic(K: sp.csr_array, dofs: np.ndarray, P: float, R: float) -> float:
+    """The elastic part of the group's own block: its eigenvalues far below the penalty (under
+    ``P / sqrt(PENALTY_RATIO)``), the largest in magnitude; for a group of more than
+    :data:`_DENSE_GROUP` dofs, the largest remainder ``R`` of its diagonals."""
+    if len(dofs) > _DENSE_GROUP:
+        return R
+    lam = np.abs(np.linalg.eigvalsh(K[dofs][:, dofs].toarray()))
+    low = lam[lam < P / np.sqrt(PENALTY_RATIO)]
+    return float(low.max()) if low.size else 0.0
+
+
 def find_penalty_links(K) -> list[PenaltyGroup]:
     """The penalty constraints of a stiffness matrix (module docstring).
 
@@ -134,8 +147,7 @@ def find_penalty_links(K) -> list[PenaltyGroup]:
         other = other - sp.csr_array((sub[np.arange(len(dofs)), dofs], (np.arange(len(dofs)), dofs)), shape=sub.shape)
         remainder = d[dofs] - np.asarray(coupled.sum(axis=1)).ravel()
         R = float(np.max(np.abs(remainder)))
-        E = float(np.abs(other).max()) if other.nnz else 0.0
-        E = E if E > 0 else R
+        E = max(float(np.abs(other).max()) if other.nnz else 0.0, _inner_elastic(K, dofs, P, R))
         if E == 0.0 or P < PENALTY_RATIO * E:
             continue
         tie = bool(np.all(v[inside] < 0)) and R <= P / PENALTY_RATIO
