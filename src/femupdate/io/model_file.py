@@ -120,6 +120,8 @@ def load_model(path) -> Model:
     data = read_toml(path)
     if "matrices" in data:
         return _matrix_model(data, path)
+    if "abaqus" in data:
+        return _abaqus_model(data, path)
     try:
         return Structure.from_dict(data, source=str(path)).build()
     except InputError as exc:
@@ -283,6 +285,27 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
     stiffness = f"{path}: the stiffness of {', '.join(str(f) for f in files.values() if f != files['M0'])}"
+    model = eliminate_penalty_links(model, stiffness)
+    _definite(model, stiffness)
+    return model
+
+
+def _abaqus_model(data: Mapping, path: Path) -> Model:
+    """A model from Abaqus ``.mtx`` files (:func:`femupdate.io.abaqus.abaqus_model`), through the
+    same door as a ``[matrices]`` model (penalty ties, a definite stiffness)."""
+    from .abaqus import abaqus_model
+
+    other = sorted(set(data) - {"model", "abaqus", "parameters", "provenance"})
+    if other:
+        raise InputError(f"{path}: an [abaqus] model cannot also have {', '.join(other)}")
+    for key in ("abaqus", "parameters", "model"):
+        if not isinstance(data.get(key, {}), Mapping):
+            raise InputError(f"{path}: [{key}] must be a table")
+    for key in ("stiffness", "mass", "deck"):
+        if isinstance(data["abaqus"].get(key), str):
+            note_input(path.parent / data["abaqus"][key], f"the Abaqus file of {path}")
+    model = abaqus_model(data["abaqus"], data.get("parameters", {}), path, data.get("model", {}).get("name", path.stem))
+    stiffness = f"{path}: the stiffness of {data['abaqus']['stiffness']}"
     model = eliminate_penalty_links(model, stiffness)
     _definite(model, stiffness)
     return model
