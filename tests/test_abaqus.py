@@ -215,3 +215,33 @@ def test_abaqus_hazards_are_refused_by_name(tmp_path):
         read_element_matrices(tmp_path / "e.mtx", "MASS")
     with pytest.raises(InputError, match=r"no element header"):
         read_element_matrices(f)
+
+
+def test_the_command_line_updates_an_abaqus_model_and_writes_it_back(frame_files, tmp_path, capsys):
+    """femupdate update on the [abaqus] model file; the written model keeps the value the element
+    matrices were exported at (exported_at), so it loads to the updated stiffness."""
+    import json
+    import tomllib
+
+    from femupdate.cli import main
+
+    d, _ = frame_files
+    truth = {"E_cols": 2.4e11, "E_beam": 1.7e11}
+    own = femupdate_frame()
+    tm = model_modes(own, truth)
+    keep = [k for k, dof in enumerate(own.dofs) if dof.endswith(":x") or dof.endswith(":y")]
+    (tmp_path / "d.json").write_text(json.dumps({"modes": [
+        {"eigenvalue": float(tm.eigenvalues[j]), "shape": {own.dofs[k]: float(tm.shapes[k, j]) for k in keep}}
+        for j in range(5)]}))
+    out = tmp_path / "out" / "updated.toml"
+    out.parent.mkdir()
+    with pytest.raises(SystemExit) as info:
+        main(["update", str(d / "frame.toml"), str(tmp_path / "d.json"), "--params", "E_cols,E_beam",
+              "--write-model", str(out)])
+    assert info.value.code in (None, 0), capsys.readouterr().err
+    raw = tomllib.loads(out.read_text())
+    assert raw["parameters"]["E_cols"]["exported_at"] == 2.1e11
+    assert raw["abaqus"]["stiffness"] == f"{os.path.relpath(d, out.parent)}/frame_STIF2.mtx"
+    updated = load_model(out)
+    np.testing.assert_allclose(updated.values[:2], [truth["E_cols"], truth["E_beam"]], rtol=1e-7)
+    np.testing.assert_allclose(model_modes(updated).eigenvalues[:5], tm.eigenvalues[:5], rtol=1e-7)

@@ -365,7 +365,8 @@ def abaqus_model(table, parameters, path: Path, name: str):
     """A :class:`~femupdate.Model` from a model file's ``[abaqus]`` table and its parameters
     (docs/file-formats.md): K and M from ``*MATRIX GENERATE``, each parameter's matrices from
     the ``*ELEMENT MATRIX OUTPUT`` file of its element set (``K_elements``, ``M_elements``) divided
-    by its value, ``K0 = K − Σ pⱼ Kⱼ`` and ``M0 = M − Σ pⱼ Mⱼ``; the ``held`` dofs removed; node
+    by the value it was written at (``exported_at``, default ``value``), ``K0 = K − Σ`` (the sets'
+    sums) and likewise ``M0``; the ``held`` dofs removed; node
     coordinates from ``deck`` (``*NODE``) when given."""
     from ..model import Model, Parameter
     from ..priors import parse_prior
@@ -380,12 +381,12 @@ def abaqus_model(table, parameters, path: Path, name: str):
             raise InputError(f"{src}: '{key}' must name the *MATRIX GENERATE file (…_{key[:4].upper()}<step>.mtx)")
     dofs, K, M, index = assembled_matrices(base / table["stiffness"], base / table["mass"], src)
     n = len(dofs)
-    params, dK, dM = [], [], []
+    params, dK, dM, sums_K, sums_M = [], [], [], [], []
     for pname, spec in parameters.items():
         where = f"{path}: [parameters.{pname}]"
         if not isinstance(spec, dict) or "value" not in spec:
             raise InputError(f"{where} must be a table with at least 'value'")
-        allowed = {"value", "bounds", "fixed", "prior", "K_elements", "M_elements"}
+        allowed = {"value", "bounds", "fixed", "prior", "K_elements", "M_elements", "exported_at"}
         if set(spec) - allowed or not ({"K_elements", "M_elements"} & set(spec)):
             raise InputError(f"{where}: an Abaqus parameter takes {', '.join(sorted(allowed))}, with K_elements and/or "
                              f"M_elements (the *ELEMENT MATRIX OUTPUT file of its element set); got {', '.join(spec)}")
@@ -394,17 +395,21 @@ def abaqus_model(table, parameters, path: Path, name: str):
                             prior=parse_prior(spec["prior"], f"{where} prior") if "prior" in spec else None)
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
-        if par.value == 0:
-            raise InputError(f"{where}: value 0: the element matrices are divided by the parameter's nominal value")
+        at = spec.get("exported_at", par.value)
+        if isinstance(at, bool) or not isinstance(at, (int, float)) or not np.isfinite(at) or at == 0:
+            raise InputError(f"{where}: exported_at (the value the element matrices were written at) must be a nonzero "
+                             f"number, got {at!r}")
         params.append(par)
         for key, kind, out in (("K_elements", "STIFFNESS", dK), ("M_elements", "MASS", dM)):
             if key in spec:
                 els = read_element_matrices(base / str(spec[key]), kind, f"{where} {key}")
-                out.append(element_set_sum(els, index, n, f"{where} {key} ({spec[key]})") / par.value)
+                S = element_set_sum(els, index, n, f"{where} {key} ({spec[key]})")
+                out.append(S / at)
+                (sums_K if kind == "STIFFNESS" else sums_M).append(S)
             else:
                 out.append(None)
-    K0 = K - sum((p.value * d for p, d in zip(params, dK) if d is not None), sp.csr_array((n, n)))
-    M0 = M - sum((p.value * d for p, d in zip(params, dM) if d is not None), sp.csr_array((n, n)))
+    K0 = K - sum(sums_K, sp.csr_array((n, n)))  # the files' matrices less what the parameters make of them
+    M0 = M - sum(sums_M, sp.csr_array((n, n)))
     keep = ~_held(table.get("held", []), dofs, src)
     idx = np.flatnonzero(keep)
 

@@ -25,7 +25,9 @@ from .results import atomic_write_text
 
 #: keys of a ``[matrices]`` table (and of a matrix-model parameter) that name files
 _MATRIX_KEYS = ("dofs", "K0", "M0")
-_PARAM_MATRIX_KEYS = ("K", "M")
+_PARAM_MATRIX_KEYS = ("K", "M", "K_elements", "M_elements")
+#: keys of an ``[abaqus]`` table that name files
+_ABAQUS_KEYS = ("stiffness", "mass", "deck")
 
 
 def _moved(spec, src_dir: Path, out_dir: Path):
@@ -84,11 +86,15 @@ def updated_model_text(source, out_path, values: Mapping[str, float], provenance
         if not math.isfinite(v) or not lo <= v <= hi:
             raise InputError(f"updated model: {name} = {v:.6g} lies outside its bounds [{lo:g}, {hi:g}] in {source}; "
                              "the model file would not load (update with bounds, not --method lm)")
+        if "abaqus" in raw and ({"K_elements", "M_elements"} & set(spec)) and "exported_at" not in spec:
+            spec["exported_at"] = spec["value"]  # the value the element matrices were written at
         spec["value"] = v
     src_dir, out_dir = source.parent, out_path.parent
-    if isinstance(raw.get("matrices"), dict):
-        mt = raw["matrices"]
-        for key in _MATRIX_KEYS:
+    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS)):
+        if not isinstance(raw.get(table), dict):
+            continue
+        mt = raw[table]
+        for key in keys:
             if key in mt and isinstance(mt[key], str):
                 mt[key] = _moved(mt[key], src_dir, out_dir)
         for spec in params.values():
