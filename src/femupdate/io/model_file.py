@@ -120,8 +120,9 @@ def load_model(path) -> Model:
     data = read_toml(path)
     if "matrices" in data:
         return _matrix_model(data, path)
-    if "abaqus" in data:
-        return _abaqus_model(data, path)
+    for table in EXTERNAL:
+        if table in data:
+            return _external_model(data, path, table)
     try:
         return Structure.from_dict(data, source=str(path)).build()
     except InputError as exc:
@@ -290,22 +291,31 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     return model
 
 
-def _abaqus_model(data: Mapping, path: Path) -> Model:
-    """A model from Abaqus ``.mtx`` files (:func:`femupdate.io.abaqus.abaqus_model`), through the
-    same door as a ``[matrices]`` model (penalty ties, a definite stiffness)."""
-    from .abaqus import abaqus_model
+#: model-file tables of matrices as an FE code writes them, and the keys that name their files
+EXTERNAL = {"abaqus": ("stiffness", "mass", "deck"), "nastran": ("op4", "op2", "dmig")}
 
-    other = sorted(set(data) - {"model", "abaqus", "parameters", "provenance"})
+
+def _external_model(data: Mapping, path: Path, table: str) -> Model:
+    """A model from an FE code's own files (:func:`femupdate.io.abaqus.abaqus_model`,
+    :func:`femupdate.io.nastran.nastran_model`), through the same door as a ``[matrices]`` model
+    (penalty ties, a definite stiffness)."""
+    other = sorted(set(data) - {"model", table, "parameters", "provenance"})
     if other:
-        raise InputError(f"{path}: an [abaqus] model cannot also have {', '.join(other)}")
-    for key in ("abaqus", "parameters", "model"):
+        raise InputError(f"{path}: an [{table}] model cannot also have {', '.join(other)}")
+    for key in (table, "parameters", "model"):
         if not isinstance(data.get(key, {}), Mapping):
             raise InputError(f"{path}: [{key}] must be a table")
-    for key in ("stiffness", "mass", "deck"):
-        if isinstance(data["abaqus"].get(key), str):
-            note_input(path.parent / data["abaqus"][key], f"the Abaqus file of {path}")
-    model = abaqus_model(data["abaqus"], data.get("parameters", {}), path, data.get("model", {}).get("name", path.stem))
-    stiffness = f"{path}: the stiffness of {data['abaqus']['stiffness']}"
+    for key in EXTERNAL[table]:
+        if isinstance(data[table].get(key), str):
+            note_input(path.parent / data[table][key], f"the {table} file of {path}")
+    if table == "abaqus":
+        from .abaqus import abaqus_model as build
+        stiffness = f"{path}: the stiffness of {data['abaqus'].get('stiffness')}"
+    else:
+        from .nastran import nastran_model as build
+        t = data["nastran"]
+        stiffness = f"{path}: the stiffness {t.get('K')} of {t.get('op4', t.get('dmig'))}"
+    model = build(data[table], data.get("parameters", {}), path, data.get("model", {}).get("name", path.stem))
     model = eliminate_penalty_links(model, stiffness)
     _definite(model, stiffness)
     return model
