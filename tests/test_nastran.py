@@ -73,3 +73,13 @@ def test_nastran_hazards_are_refused_by_name(tmp_path):
     for text, message in cases:
         with pytest.raises(InputError, match=message):
             load_model(toml(tmp_path, text))
+
+
+def test_without_pyyeti_the_reader_says_what_to_install(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pyyeti.nastran", None)  # import fails as if pyyeti were absent
+    path = toml(tmp_path, '[nastran]\ndmig = "k.pch"\nK = "KAAX"\nM = "MAAX"\n')
+    (tmp_path / "k.pch").write_text("DMIG    KAAX           0       6       2       0\n")
+    with pytest.raises(InputError, match=r"needs pyyeti: pip install pyyeti \(or femupdate\[nastran\]\)"):
+        load_model(path)
