@@ -215,6 +215,11 @@ def test_abaqus_hazards_are_refused_by_name(tmp_path):
         read_element_matrices(tmp_path / "e.mtx", "MASS")
     with pytest.raises(InputError, match=r"no element header"):
         read_element_matrices(f)
+    from femupdate.io.abaqus import read_nodes
+
+    (tmp_path / "d.inp").write_text("*NODE\n1, 0., 0.\n2, 1., 0.\n1, 2., 0.\n")
+    with pytest.raises(InputError, match=r"d\.inp: line 4: node 1 is defined twice"):
+        read_nodes(tmp_path / "d.inp")
 
 
 def test_the_command_line_updates_an_abaqus_model_and_writes_it_back(frame_files, tmp_path, capsys):

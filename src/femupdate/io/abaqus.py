@@ -334,9 +334,12 @@ def read_nodes(path, what: str = "deck") -> dict:
             fields = [f.strip() for f in text.split(",") if f.strip()]
             try:
                 xyz = [float(v) for v in fields[1:4]] + [0.0] * (4 - len(fields))
-                nodes[node_id(fields[0], f"{what}: {p}: line {k}")] = tuple(xyz[:3])
+                node = node_id(fields[0], f"{what}: {p}: line {k}")
             except (ValueError, IndexError):
                 raise InputError(f"{what}: {p}: line {k}: expected 'node, x, y[, z]', got {text[:60]!r}") from None
+            if node in nodes:
+                raise InputError(f"{what}: {p}: line {k}: node {node} is defined twice")
+            nodes[node] = tuple(xyz[:3])
     return nodes
 
 
