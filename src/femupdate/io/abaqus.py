@@ -234,7 +234,10 @@ def read_element_matrices(path, kind: str = "STIFFNESS", what: str = "elements")
         if element in seen:
             raise InputError(f"{where}: the element is given twice")
         seen.add(element)
-        nodes, dof_lines, values, section = [], [], None, None
+        nodes: list[str] = []
+        dof_lines: list[str] = []
+        values: list[float] | None = None
+        section: str | None = None
         for line in body:
             text = line.strip()
             upper = text.upper().replace(" ", "")
@@ -254,7 +257,7 @@ def read_element_matrices(path, kind: str = "STIFFNESS", what: str = "elements")
                 nodes = [v.strip() for v in text.split(",") if v.strip()]
             elif text and section == "dofs":
                 dof_lines.append(text)
-            elif text and section == "matrix":
+            elif text and section == "matrix" and values is not None:
                 try:
                     values += [float(v) for v in text.split(",") if v.strip()]
                 except ValueError:
@@ -384,7 +387,11 @@ def abaqus_model(table, parameters, path: Path, name: str):
             raise InputError(f"{src}: '{key}' must name the *MATRIX GENERATE file (…_{key[:4].upper()}<step>.mtx)")
     dofs, K, M, index = assembled_matrices(base / table["stiffness"], base / table["mass"], src)
     n = len(dofs)
-    params, dK, dM, sums_K, sums_M = [], [], [], [], []
+    params: list = []
+    dK: list = []
+    dM: list = []
+    sums_K: list = []
+    sums_M: list = []
     for pname, spec in parameters.items():
         where = f"{path}: [parameters.{pname}]"
         if not isinstance(spec, dict) or "value" not in spec:

@@ -255,7 +255,9 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         raise InputError(f"{path}: [model] must be a table (name = ...)")
     if not isinstance(data.get("provenance", {}), Mapping):
         raise InputError(f"{path}: [provenance] must be a table (it records where an updated model came from)")
-    params, dK, dM = [], [], []
+    params: list[Parameter] = []
+    dK: list = []
+    dM: list = []
     for name, spec in data.get("parameters", {}).items():
         where = f"{path}: [parameters.{name}]"
         if not isinstance(spec, Mapping) or "value" not in spec:
