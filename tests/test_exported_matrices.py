@@ -323,3 +323,16 @@ def test_a_penalty_with_a_lever_arm_is_refused_and_stiff_elastic_pairs_are_left_
     assert not find_penalty_links(1e12 * np.array([[1.0, -1.0], [-1.0, 1.0]]))
     model, _ = frame_without_rotational_mass()
     assert not find_penalty_links(model.K()) and PENALTY_RATIO == 1e8
+
+
+def test_the_command_line_refuses_a_hazard_with_exit_2_naming_the_file(tmp_path, capsys):
+    from femupdate.cli import main
+
+    K = chain_K()
+    write_mtx(tmp_path / "K0.mtx", K, "coordinate real symmetric", "both")
+    write_mtx(tmp_path / "M0.mtx", np.eye(6))
+    with pytest.raises(SystemExit) as info:
+        main(["modes", str(matrix_toml(tmp_path, 6))])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "K0.mtx is declared symmetric but stores both triangles" in err
+    assert "Traceback" not in err
