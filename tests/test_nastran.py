@@ -83,3 +83,14 @@ def test_without_pyyeti_the_reader_says_what_to_install(tmp_path, monkeypatch):
     (tmp_path / "k.pch").write_text("DMIG    KAAX           0       6       2       0\n")
     with pytest.raises(InputError, match=r"needs pyyeti: pip install pyyeti \(or femupdate\[nastran\]\)"):
         load_model(path)
+
+
+def test_the_uset_of_a_param_post_op2_labels_grids_and_scalar_points():
+    """inboard.op2 (PARAM,POST,-1) read through rdparampost: its grids' six components in USET order
+    and the eight SPOINTs the deck declares (SPOINT 2995001 THRU 2995008) as scalar points."""
+    from femupdate.io.nastran import set_labels
+
+    labels = set_labels(DATA / "nas2cam_extseout" / "inboard.op2", "a")
+    assert labels[:6] == ["3:x", "3:y", "3:z", "3:rx", "3:ry", "3:rz"]
+    assert labels[-8:] == [f"{2995001 + k}:s" for k in range(8)]
+    assert len(set(labels)) == len(labels)
