@@ -22,7 +22,9 @@ diagonals are their couplings' sum (to ``P / PENALTY_RATIO``) is a tie ``u_a = u
 as a multipoint constraint, ``K ← Tᵀ K T``, ``M ← Tᵀ M T`` (and every parameter matrix), T the
 (n × n − s) matrix that keeps the group's first dof and copies it to the others.  The penalty
 cancels exactly in ``Tᵀ K T``; what is left at the tied dofs is the file's elastic stiffness with
-the round-off its storage beside P left in it, at most ``2 eps P`` per link (eps = 2.2e-16).  The tie is made
+the round-off its storage beside P left in it, at most ``2 eps P`` per link (eps = 2.2e-16) of
+every stored matrix that holds the penalty and elastic terms together (a matrix that holds the
+penalty alone, K0 beside the parameters' matrices, stores it exactly and adds nothing).  The tie is made
 when that is at most :data:`PRECISION_TOL` of the tied dof's remaining diagonal; otherwise the
 file no longer holds the elastic terms there (to that accuracy) and the model is refused, naming
 the dofs.  A group that is not a tie (a penalty with lever arms, ``u_b = u_a + θ × r``, or a
@@ -179,7 +181,27 @@ def tie_matrix(n: int, groups) -> tuple[sp.csr_array, np.ndarray]:
     return sp.csr_array((np.ones(n), (np.arange(n), col)), shape=(n, kept.size)), kept
 
 
-def tie_penalty_links(K, dofs, what: str = "K") -> tuple[sp.csr_array | None, np.ndarray, list[str]]:
+def _stored_loss(parts, T, g: PenaltyGroup, col: int) -> float:
+    """The round-off bound of the elastic terms at group ``g``: ``2 eps`` times the penalty-sized
+    couplings of every stored matrix that holds elastic terms there too.  A matrix whose group
+    block cancels exactly under the tie and that couples the group to nothing else holds the
+    penalty alone (exactly), and adds nothing."""
+    idx = list(g.dofs)
+    loss = 0.0
+    for A in parts:
+        block = A[idx][:, idx]
+        if block.nnz == 0:
+            continue
+        outside = A[idx].nnz - block.nnz
+        reduced = (T.T @ A @ T)[[col]][:, [col]]
+        if outside == 0 and (reduced.nnz == 0 or not np.any(reduced.data)):
+            continue
+        off = sp.triu(abs(block), k=1)
+        loss += 2 * _EPS * float(off.sum())
+    return loss
+
+
+def tie_penalty_links(K, dofs, what: str = "K", parts=None) -> tuple[sp.csr_array | None, np.ndarray, list[str]]:
     """The transformation that eliminates the penalty ties of K, or a refusal naming the dofs.
 
     Parameters
@@ -190,6 +212,10 @@ def tie_penalty_links(K, dofs, what: str = "K") -> tuple[sp.csr_array | None, np
         Its dof labels.
     what : str, default ``"K"``
         The matrix as messages name it (its file).
+    parts : sequence of sparse matrices, optional
+        The stored matrices whose sum is K (K0 and ``p_j dK_j``), for the round-off bound: only
+        those that hold the penalty and elastic terms together rounded the one beside the
+        other.  Default: K alone.
 
     Returns
     -------
@@ -220,11 +246,12 @@ def tie_penalty_links(K, dofs, what: str = "K") -> tuple[sp.csr_array | None, np
                 "(Nastran RBE2/MPC, Abaqus *MPC or *KINEMATIC COUPLING, ANSYS CERIG) or with a penalty below "
                 f"{PENALTY_RATIO:g} times the elastic stiffness")
     T, kept = tie_matrix(n, [g.dofs for g in groups])
-    D = (T.T @ K @ T).diagonal()
+    parts = [sp.csr_array(A) for A in (parts if parts is not None else [K])]
+    D = sum((T.T @ A @ T).diagonal() for A in parts)  # each part reduced alone: its penalty cancels exactly
     col = {int(k): c for c, k in enumerate(kept)}
     notes = []
     for g in groups:
-        loss = 2 * _EPS * g.total
+        loss = _stored_loss(parts, T, g, col[g.dofs[0]])
         rest = D[col[g.dofs[0]]]
         names = describe([dofs[i] for i in g.dofs])
         if not rest > 0 or loss > PRECISION_TOL * rest:
@@ -268,7 +295,9 @@ def eliminate_penalty_links(model, what: str | None = None):
     from dataclasses import replace
 
     what = what or f"model {model.name!r}: K"
-    T, kept, notes = tie_penalty_links(model.K(), model.dofs, what)
+    p = model.values
+    parts = [model.K0] + [v * A for v, A in zip(p, model.dK) if A is not None and v != 0]
+    T, kept, notes = tie_penalty_links(model.K(), model.dofs, what, parts)
     if T is None:
         return model
     for note in notes:
