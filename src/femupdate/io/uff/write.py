@@ -59,6 +59,9 @@ def uff_dofs(labels: Iterable[str], what: str) -> list[tuple[int, str]]:
     out = []
     for lab in labels:
         node, direction = parse_dof(lab)
+        if direction not in DIRECTIONS:
+            raise InputError(f"{what}: dof {lab!r} is a scalar point, which has no direction in space; universal files "
+                             "hold translations and rotations only")
         if not isinstance(node, int):
             raise InputError(f"{what}: node {node!r} of dof {lab!r} is not an integer; universal files number "
                              "nodes with integers")
