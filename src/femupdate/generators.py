@@ -187,9 +187,9 @@ def frame_lattice(
     sx, sy, sz = _spacing(spacing, 3)
     _choice(parameters, FRAME_PARAMETERS, "parameters")
     _choice(support, SUPPORTS, "support")
-    members = gather("frame_lattice", shorthand, members=(FrameMembers, members))["members"]
-    E, nu, rho = members.E, members.nu, members.rho
-    sec = chs_section(members.diameter, members.thickness)
+    made: FrameMembers = gather("frame_lattice", shorthand, members=(FrameMembers, members))["members"]
+    E, nu, rho = made.E, made.nu, made.rho
+    sec = chs_section(made.diameter, made.thickness)
     lo, hi = _relative_bounds(bounds)
 
     s = Structure(name or f"frame lattice {nx}x{ny}x{nz}")

@@ -229,10 +229,11 @@ def _shell(xyz, nu, mass, drill, nn, what) -> ElementTerms:
         Mr = hrz_lump(Mr, [list(range(c, 6 * nn, 6)) for c in (_TX, _TY, _TZ)])
     K = [_to_global(k, R) for k in Kl]
     Mt, Mr = _to_global(Mt, R), _to_global(Mr, R)
-    W = _warp_links(X, R)
-    if W is not None:  # a warped quadrilateral: its nodes joined to their projections by rigid offsets
-        K = [W.transpose(0, 2, 1) @ k @ W for k in K]
-        Mt, Mr = W.transpose(0, 2, 1) @ Mt @ W, W.transpose(0, 2, 1) @ Mr @ W
+    links = _warp_links(X, R)
+    if links is not None:  # a warped quadrilateral: its nodes joined to their projections by rigid offsets
+        LT = links.transpose(0, 2, 1)
+        K = [LT @ k @ links for k in K]
+        Mt, Mr = LT @ Mt @ links, LT @ Mr @ links
     Et, Et3, rt, rt3 = ("E", "t"), ("E", "t", "t", "t"), ("rho", "t"), ("rho", "t", "t", "t")
     return ElementTerms(K=[(Et, K[0]), (Et3, K[1]), (Et, K[2]), (Et, K[3])],
                         M=[(rt, Mt), (rt3, Mr)])

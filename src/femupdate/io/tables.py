@@ -37,7 +37,10 @@ def read_table_file(path) -> dict:
     note_input(path, "a JSON file")
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: expected a .toml or .json file")
-    return load_json_file(path)
+    data = load_json_file(path)
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a JSON object (a table of keys), got a JSON {type(data).__name__}")
+    return data
 
 
 def dof_labels(v, where: str) -> list[str]:
