@@ -324,7 +324,9 @@ class UpdateOptions(Options):
            use=None, **parts) -> UpdateOptions:
         """The update's options from a call: ``options`` (or the defaults), its parts replaced by
         the objects given in ``parts`` (``modal=``, ``pairing=``, ...; None leaves a part as it
-        is), then changed by the shorthand keywords (fields of the parts; ``frf_options``, a
+        is) or among the shorthand keywords by the same names (an option object, or for ``modal``
+        and ``frf`` a mapping of its fields: ``multistart(..., solver=SolverOptions(...))``), then
+        changed by the other shorthand keywords (fields of the parts; ``frf_options``, a
         mapping of FRF fields, is the older spelling of ``frf``).
 
         Raises
@@ -340,6 +342,12 @@ class UpdateOptions(Options):
             parts["frf"] = shorthand.pop("frf_options")
         if "use" in shorthand:
             use = shorthand.pop("use")
+        fields = {f for pcls in cls.PARTS.values() for f in (*pcls.field_names(), *pcls.aliases)}
+        for name in cls.PARTS:  # a part by its keyword (multistart(solver=SolverOptions(...))), as update takes it
+            if name in shorthand and (isinstance(shorthand[name], Options) or name not in fields):
+                if parts.get(name) is not None:
+                    raise TypeError(f"{where}(): {name} given twice")
+                parts[name] = shorthand.pop(name)
         slots = {name: (pcls, getattr(base, name) if parts.get(name) is None else parts[name])
                  for name, pcls in cls.PARTS.items()}
         objs = gather(where, shorthand, **slots)

@@ -1,0 +1,63 @@
+"""The option objects as the functions that take them receive them: every verb whose options
+include an update's (``multistart``, ``posterior``) takes the update's option objects by the same
+keywords as :func:`femupdate.update` (``modal=``, ``pairing=``, ``noise=``, ``solver=``, ``frf=``),
+as docs/python-api.md ("Options as objects") says."""
+
+from __future__ import annotations
+
+import pytest
+
+import femupdate as fu
+from femupdate.examples import two_dof
+from femupdate.options import (FRFOptions, ModalOptions, NoiseOptions, PairingOptions, SolverOptions,
+                               UpdateOptions)
+
+
+def test_update_options_take_the_parts_by_their_keywords():
+    o = UpdateOptions.of("f", {"modal": ModalOptions(use_shapes=False), "solver": SolverOptions(max_nfev=7),
+                               "pairing": PairingOptions(rule="order"), "noise": NoiseOptions(basis="estimate"),
+                               "frf": {"residual": "log"}, "min_mac": 0.8})
+    assert o.modal == ModalOptions(use_shapes=False)
+    assert o.solver.max_nfev == 7
+    assert o.pairing == PairingOptions(rule="order", min_mac=0.8)   # the shorthand changes the part given
+    assert o.noise.basis == "estimate"
+    assert o.frf.residual == "log"
+    # a plain value is still the shorthand of a field: solver="dense" is FRFOptions.solver
+    assert UpdateOptions.of("f", {"solver": "dense"}).frf.solver == "dense"
+    assert UpdateOptions.of("f", {"pairing": "mac"}).pairing.rule == "mac"
+
+
+def test_a_part_of_the_wrong_class_is_named():
+    with pytest.raises(TypeError, match=r"f\(solver=\.\.\.\): expected SolverOptions, got ModalOptions"):
+        UpdateOptions.of("f", {"solver": ModalOptions()})
+    with pytest.raises(TypeError, match="modal"):
+        UpdateOptions.of("f", {"modal": ModalOptions()}, modal=ModalOptions())
+
+
+def _freq_data():
+    model = two_dof()
+    modes = fu.model_modes(model, {"k1": 8.0, "k2": 6.0})
+    return model, fu.TestData(modes=tuple(fu.MeasuredMode(lam) for lam in modes.eigenvalues))
+
+
+def test_multistart_takes_the_update_option_objects():
+    model, data = _freq_data()
+    by_object = fu.multistart(model, data, starts=3, seed=2, batched=False, solver=SolverOptions(max_nfev=2))
+    by_options = fu.multistart(model, data, starts=3, seed=2, batched=False,
+                               options=UpdateOptions(solver=SolverOptions(max_nfev=2)))
+    assert [r.nfev for r in by_object.runs] == [r.nfev for r in by_options.runs]
+    assert max(r.nfev for r in by_object.runs) <= 2                  # the solver's options reached the runs
+
+
+def test_posterior_takes_the_update_option_objects():
+    model, data = _freq_data()
+    kw = dict(starts=4, seed=1, samples=200, predictive=0)
+    by_object = fu.posterior(model, data, noise=NoiseOptions(std={"eigenvalue": 0.002}), **kw)
+    by_keyword = fu.posterior(model, data, measurement_std={"eigenvalue": 0.002}, **kw)
+    assert by_object.median == by_keyword.median
+
+
+def test_frf_options_reach_multistart_as_an_object():
+    model, _ = _freq_data()
+    with pytest.raises(fu.InputError, match="FRF options"):
+        fu.multistart(model, _freq_data()[1], starts=2, frf=FRFOptions(residual="log"))
