@@ -61,3 +61,33 @@ def test_frf_options_reach_multistart_as_an_object():
     model, _ = _freq_data()
     with pytest.raises(fu.InputError, match="FRF options"):
         fu.multistart(model, _freq_data()[1], starts=2, frf=FRFOptions(residual="log"))
+
+
+@pytest.mark.parametrize("std, shown", [
+    ({"eigenvalue": "x"}, "'x'"), ({"eigenvalue": float("nan")}, "nan"), ({"shape": -1}, "-1"),
+    ({"eigenvalue": 0}, "0"), ({"eigenvalue": [1e-3, float("inf")]}, "inf"), ({"frf": [[1.0], [None]]}, "None"),
+])
+def test_a_standard_deviation_is_checked_when_the_noise_options_are_made(std, shown):
+    """Before, NoiseOptions took any value: 'x' reached update as 'ValueError: could not convert
+    string to float', and a multi-start recorded the same refusal as the failure of every start
+    (a result with no solution, no error)."""
+    key = next(iter(std))
+    with pytest.raises(fu.InputError, match=rf"^measurement_std\['{key}'\] must be positive and finite \(.*\), got .*{shown}"):
+        NoiseOptions(std=std)
+    model, data = _freq_data()
+    with pytest.raises(fu.InputError, match=r"^measurement_std"):
+        fu.multistart(model, data, starts=2, measurement_std=std)
+
+
+@pytest.mark.parametrize("weights", [{"eigenvalue": -1}, {"shape": float("inf")}, {"eigenvalue": [1, float("nan")]},
+                                     {"shape": "heavy"}])
+def test_a_weight_is_checked_when_the_noise_options_are_made(weights):
+    key = next(iter(weights))
+    with pytest.raises(fu.InputError, match=rf"^weights\['{key}'\] must be finite and non-negative"):
+        NoiseOptions(weights=weights)
+
+
+def test_valid_noise_options_are_kept_as_given():
+    o = NoiseOptions(std={"eigenvalue": [1e-3, 2e-3], "shape": 0.01, "frf": None}, weights={"shape": 0})
+    assert o.std == {"eigenvalue": [1e-3, 2e-3], "shape": 0.01, "frf": None}
+    assert o.weights == {"shape": 0}

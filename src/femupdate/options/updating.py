@@ -164,7 +164,26 @@ class NoiseOptions(Options):
             if bad:
                 raise InputError(f"unknown {'measurement_std' if name == 'std' else name} key {bad[0]!r}: use "
                                  f"{', '.join(allowed)}")
+            for key, value in v.items():
+                _check_values(name, key, value)
             self.set(name, dict(v))
+
+
+def _check_values(name: str, key: str, value) -> None:
+    """A standard deviation (finite, > 0) or a weight (finite, >= 0) of ``NoiseOptions``: one
+    number or an array of them; None (a kind without one) passes for standard deviations."""
+    if value is None and name == "std":
+        return
+    arr = as_array(value)
+    ok = arr is not None and arr.size > 0 and arr.dtype.kind in "iuf"
+    if ok:
+        arr = arr.astype(float)
+        ok = bool(np.all(np.isfinite(arr)) and (np.all(arr > 0) if name == "std" else np.all(arr >= 0)))
+    if not ok:
+        label = "measurement_std" if name == "std" else "weights"
+        rule = "positive and finite" if name == "std" else "finite and non-negative"
+        each = "one number or one per test mode" if key in ("eigenvalue", "shape") else "a number or an array of numbers"
+        raise InputError(f"{label}[{key!r}] must be {rule} ({each}), got {value!r}")
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
