@@ -298,6 +298,26 @@ def test_report_refuses_a_kind_the_keys_contradict(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("edit, message", [
+    (lambda r: r.update(kind="damage"), "/kind: 'damage', but the keys are those of the result of update"),
+    (lambda r: r.update(schema_version=99), "schema_version 99: this femupdate reads results of schema 1 and older"),
+])
+def test_a_result_file_whose_kind_or_schema_cannot_be_reported_is_refused(tmp_path, capsys, edit, message):
+    """An update result whose "kind" says damage gave an empty damage report ("located none"),
+    and a result of a newer schema was reported as if it were this one's, both with exit 0
+    (load_result refused the second)."""
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    edit(result)
+    path = tmp_path / "u.json"
+    path.write_text(json.dumps(result))
+    out = tmp_path / "r.html"
+    code, err = _report([path, "-o", out], capsys)
+    assert code == 2 and message in err, err
+    assert f"error: {path}: " in err and not out.exists()
+    with pytest.raises(fu.InputError, match=re.escape(message)):
+        write_report(out, result)
+
+
+@pytest.mark.parametrize("edit, message", [
     (lambda r: r.update(parameters="k1=3"), "/parameters: expected an object or a list, got a text"),
     (lambda r: r["parameters"].update(k2="2000"), "/parameters/k2: expected a number, got a text"),
     (lambda r: r["bounds"].update(k1=[0]), r"/bounds/k1: expected \[lower, upper\]"),

@@ -153,6 +153,15 @@ def check_kind(result: Mapping, kind: str | None, where: str = "") -> str:
         ``kind`` None and the keys match no kind; ``kind`` given and the keys are another
         command's (``update`` and ``frf-update`` are reported alike and taken for each other).
     """
+    stated = result.get("kind")
+    if stated in REPORT_KINDS:  # the file's own kind: its keys must not be another command's
+        try:
+            by_keys = detect_kind({k: v for k, v in result.items() if k != "kind"})
+        except InputError:
+            by_keys = None
+        if by_keys is not None and BUILDERS[by_keys] is not BUILDERS[stated]:
+            raise InputError(f"{where}/kind: {stated!r}, but the keys are those of the result of {by_keys}: the report "
+                             f"would be empty or wrong; was the file edited?")
     try:
         told = detect_kind(result)
     except InputError as exc:
@@ -289,7 +298,7 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         (:func:`check_result`, or the builders failing on it); a model without the result's
         parameters or test data without its paired test modes (:func:`check_model_and_data`).
     """
-    from ..serialise import Serialisable
+    from ..serialise import Serialisable, check_version
 
     if isinstance(result, Serialisable):  # a typed result: its JSON, and the model and data it carries
         ctx = result.run_context
@@ -306,6 +315,10 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     where = f"{source}: " if source else ""
     if kind is not None and kind not in BUILDERS:
         raise InputError(f"unknown report kind {kind!r}; known: {', '.join(REPORT_KINDS)}")
+    try:
+        check_version(res)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
     kind = check_kind(res, kind, where)
     try:
         check_result(res)
