@@ -237,6 +237,22 @@ def test_write_report_is_atomic_and_returns_the_path(tmp_path):
     assert [f.name for f in tmp_path.iterdir()] == ["d.html"]
 
 
+def test_write_report_never_writes_over_the_result_it_reads(tmp_path):
+    """write_report("u.json", "u.json") replaced the result file with its report (exit 0 of a
+    script, the result lost), by its name or any other name of the same file."""
+    src = tmp_path / "u.json"
+    text = (RECORDED / "update_figure2.json").read_text()
+    src.write_text(text)
+    (tmp_path / "link.json").symlink_to(src)
+    for out in (src, str(src), tmp_path / "link.json", tmp_path / "." / "u.json"):
+        with pytest.raises(fu.InputError, match=r"is the result file .* it reads: writing there would destroy it"):
+            write_report(out, src)
+        assert src.read_text() == text
+    with pytest.raises(fu.InputError, match="the arguments look swapped"):
+        write_report(src, tmp_path / "u.html")    # the report's name where the result goes
+    assert src.read_text() == text
+
+
 def test_every_warning_of_the_run_is_in_the_report():
     result = json.loads((RECORDED / "update_figure2.json").read_text())
     result["success"], result["message"] = False, "The maximum number of function evaluations is exceeded."

@@ -6,6 +6,7 @@ import base64
 import datetime as _dt
 import json
 import logging
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -443,6 +444,23 @@ def write_report(path, result, **kw) -> Path:
 
     path_arg(path, "path", "write_report")
     result_arg(result, "result", "write_report")
+    if isinstance(result, (str, os.PathLike)):
+        _not_over_the_result(path, result)
     html = build_report(result, **kw)
     atomic_write_text(path, html)
     return Path(path)
+
+
+def _not_over_the_result(path, result) -> None:
+    """Refuse a report path that is the result file it reads (by any name: :func:`os.path.samefile`),
+    and a report's name given for the result with a JSON file's for the report (swapped)."""
+    try:
+        same = os.path.samefile(path, result)
+    except (OSError, ValueError):
+        same = False
+    if same:
+        raise InputError(f"write_report: path {path} is the result file {result} it reads: writing there would destroy "
+                         "it; give the report another name")
+    if Path(result).suffix.lower() in (".html", ".htm") and Path(path).suffix.lower() == ".json":
+        raise InputError(f"write_report: the arguments look swapped: path {path} is a JSON file and result {result} "
+                         "an HTML file's name; call write_report(report_path, result)")
