@@ -253,6 +253,18 @@ def test_write_report_never_writes_over_the_result_it_reads(tmp_path):
     assert src.read_text() == text
 
 
+def test_a_model_or_data_of_the_wrong_type_is_named(ex, tmp_path):
+    """A file name or a Model given as data ended in AttributeError ('str' object has no
+    attribute 'parameter_names', 'Model' object has no attribute 'modes')."""
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    model = fu.load_model(ex / "figure2.toml")
+    with pytest.raises(TypeError, match=r"^write_report: model must be a Model, got the str .*load_model"):
+        write_report(tmp_path / "r.html", result, model=str(ex / "figure2.toml"))
+    with pytest.raises(TypeError, match=r"^build_report: data must be a TestData or FRFData or None, got a Model"):
+        build_report(result, model=model, data=model)
+    assert not (tmp_path / "r.html").exists()
+
+
 def test_every_warning_of_the_run_is_in_the_report():
     result = json.loads((RECORDED / "update_figure2.json").read_text())
     result["success"], result["message"] = False, "The maximum number of function evaluations is exceeded."

@@ -301,6 +301,7 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     """
     from ..serialise import Serialisable, check_version
 
+    _model_and_data_args(model, data, "build_report")
     if isinstance(result, Serialisable):  # a typed result: its JSON, and the model and data it carries
         ctx = result.run_context
         model = model if model is not None else ctx.model
@@ -444,11 +445,22 @@ def write_report(path, result, **kw) -> Path:
 
     path_arg(path, "path", "write_report")
     result_arg(result, "result", "write_report")
+    _model_and_data_args(kw.get("model"), kw.get("data"), "write_report")
     if isinstance(result, (str, os.PathLike)):
         _not_over_the_result(path, result)
     html = build_report(result, **kw)
     atomic_write_text(path, html)
     return Path(path)
+
+
+def _model_and_data_args(model, data, where: str) -> None:
+    """A :class:`TypeError` naming ``model`` or ``data`` when given and not a Model, TestData or
+    FRFData (a file name is told its loader)."""
+    from .._checks import data_arg, model_arg
+
+    if model is not None:
+        model_arg(model, "model", where)
+    data_arg(data, "data", where, frf=True, optional=True)
 
 
 def _not_over_the_result(path, result) -> None:
