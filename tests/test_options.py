@@ -91,3 +91,27 @@ def test_valid_noise_options_are_kept_as_given():
     o = NoiseOptions(std={"eigenvalue": [1e-3, 2e-3], "shape": 0.01, "frf": None}, weights={"shape": 0})
     assert o.std == {"eigenvalue": [1e-3, 2e-3], "shape": 0.01, "frf": None}
     assert o.weights == {"shape": 0}
+
+
+@pytest.mark.parametrize("given", [[1, 2], "max_nfev=3", 3, None])
+def test_from_dict_of_no_mapping_is_named(given):
+    """SolverOptions.from_dict([1, 2]) raised "cannot convert dictionary update sequence element
+    #0 to a sequence", naming neither the method nor what it got."""
+    with pytest.raises(TypeError, match=r"^SolverOptions\.from_dict: expected a mapping of SolverOptions' fields, got"):
+        SolverOptions.from_dict(given)
+    assert SolverOptions.from_dict({"max_nfev": 3}) == SolverOptions(max_nfev=3)
+
+
+def test_a_misspelt_field_of_an_option_object_gets_the_closest_named():
+    """SolverOptions(max_nfevs=3) raised Python's own "SolverOptions.__init__() got an unexpected
+    keyword argument 'max_nfevs'"; the functions' shorthand keywords already named the closest."""
+    with pytest.raises(TypeError, match=r"^SolverOptions\(\) got an unexpected keyword argument 'max_nfevs'; did you "
+                                        r"mean 'max_nfev'\? \(its options: method, max_nfev, "):
+        SolverOptions(max_nfevs=3)
+    with pytest.raises(TypeError, match=r"^PairingOptions\(\) got an unexpected keyword argument 'pairing'; it is the "
+                                        r"functions' shorthand of the field 'rule'"):
+        PairingOptions(pairing="mac")
+    import pickle
+
+    o = SolverOptions(max_nfev=3)
+    assert pickle.loads(pickle.dumps(o)) == o and o.replace(ftol=1e-6).max_nfev == 3
