@@ -289,6 +289,29 @@ def _report(args, capsys):
     return e.value.code, err
 
 
+def test_report_refuses_a_model_with_parameters_the_result_does_not_have(ex, tmp_path, capsys):
+    """A two-dof update reported with --model figure2.toml (k1..k4, of which the result has k1
+    and k2) exited 0 with a report of "degrees of freedom 3, parameters 4" and the three-dof
+    model's shapes at k1 = 8, k2 = 6: another model's report."""
+    result = tmp_path / "u.json"
+    code, _ = _report_cli(["update", ex / "two_dof.toml", ex / "two_dof_frequencies.json", "--json", result], capsys)
+    assert code == 0
+    out = tmp_path / "r.html"
+    code, err = _report([result, "-o", out, "--model", ex / "figure2.toml"], capsys)
+    assert code == 2 and "the model 'three-dof chain with k4 (paper Figure 2)' has parameter(s) k3, k4 the result " \
+                          "does not have" in err, err
+    assert not out.exists()
+    code, err = _report([result, "-o", out, "--model", ex / "two_dof.toml"], capsys)
+    assert code == 0, err
+
+
+def _report_cli(args, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(list(map(str, args)))
+    capsys.readouterr()
+    return e.value.code, None
+
+
 def test_report_with_the_model_alone_draws_its_shapes(ex, tmp_path, capsys):
     """--model without --data (the documented form [--model MODEL [--data DATA]]) ended in an
     AttributeError: the shape titles read the test frequencies from the missing data."""

@@ -365,7 +365,8 @@ def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str =
     Raises
     ------
     InputError
-        A result parameter the model lacks; a paired test mode the data lack.
+        A result parameter the model lacks, or a model parameter an update or direct result
+        lacks (it holds every parameter of its model); a paired test mode the data lack.
     """
     if model is not None and kind in ("direct", "update", "frf-update", "damage"):
         given = res.get("changes") if kind == "damage" else res.get("parameters")
@@ -374,6 +375,11 @@ def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str =
         if missing:
             raise InputError(f"{model_what}the model {model.name!r} has no parameter(s) {', '.join(missing[:6])} of the result "
                              f"(its parameters: {', '.join(model.parameter_names[:6])}): is it the model of this run?")
+        extra = [n for n in model.parameter_names if n not in names] if kind != "damage" and names else []
+        if extra:  # an update or direct result holds every parameter of its model
+            raise InputError(f"{model_what}the model {model.name!r} has parameter(s) {', '.join(extra[:6])} the result "
+                             f"does not have (its parameters: {', '.join(map(str, names[:6]))}): is it the model of this "
+                             "run?")
     if data is not None and kind in ("direct", "update", "frf-update", "damage"):
         tested = [int(p[0]) for p in res.get("pairs") or []]
         if tested and max(tested) >= len(data.modes):
