@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .._errors import InputError
 from ..recording import damping_fields, data_fields, diagnostics_fields, flags, parameter_fields
 
 
@@ -195,7 +196,11 @@ def update_from(obj: Mapping) -> Any:
     from .results import UpdateResult
 
     names = tuple(obj.get("updated") or ())
-    params = {k: float(v) for k, v in (obj.get("parameters") or {}).items()}
+    params = {k: math.nan if v is None else float(v) for k, v in (obj.get("parameters") or {}).items()}
+    missing = [n for n in names if n not in params]
+    if missing:
+        raise InputError(f"/parameters: no value of the updated parameter {missing[0]!r} (named in /updated); the "
+                         "update result is not as femupdate writes it")
     freqs = obj.get("frequencies_hz") or {}
     common = dict(
         parameters=params, names=names, x=np.array([params.get(n, math.nan) for n in names], dtype=float),

@@ -183,8 +183,9 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``; more starts
         than the available memory holds the records of (estimated from the data's residuals and
         the parameters, :func:`femupdate._budget.start_bytes`; named with the estimate, before any
-        start is drawn).  The errors of :func:`update` itself (refused input, numerical failure) do not propagate: each start
-        that fails is recorded as its message in ``runs``.
+        start is drawn); input that :func:`update` refuses alike at every start (the same
+        InputError).  Otherwise the errors of :func:`update` itself (refused input, numerical
+        failure) do not propagate: each start that fails is recorded as its message in ``runs``.
     TypeError
         A keyword no option object has.
     """
@@ -228,7 +229,17 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
                         progress=Pace("starts", progress))
     from .run import _damping_of
 
+    refused_alike(ms)
     return attach(ms, model, data, "update", damping=_damping_of(uo))
+
+
+def refused_alike(ms: MultiStartResult) -> None:
+    """Raise the :class:`InputError` that every start was refused with, when it is one message:
+    the input itself is refused (as one :func:`update` refuses it), not its starts."""
+    runs = ms.runs
+    head = "InputError: "
+    if runs and all(isinstance(r, str) and r.startswith(head) for r in runs) and len(set(runs)) == 1:
+        raise InputError(runs[0][len(head):])
 
 
 def _check_once(model, data, names, o: UpdateOptions, values) -> None:
@@ -455,7 +466,8 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
         A parameter without finite bounds, an unknown parameter, or a bound <= 0 with
         ``log_uniform`` (:func:`draw_starts`); ``x0`` given; an unreachable scheduler.  The
         errors of :func:`frf_update` itself (refused input, numerical failure) do not propagate:
-        each start that fails is recorded as its message in ``runs``.
+        each start that fails is recorded as its message in ``runs`` — unless every start is
+        refused with the same InputError, which is raised.
     TypeError
         A keyword no option object has.
     """
@@ -468,4 +480,5 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     ms = run_starts(model, data, names, X0, dict(o, values=values), starts=st, execution=ex.replace(jobs=None),
                     progress=Pace("starts", progress), runner=partial(run_with, _frf_update_start))
+    refused_alike(ms)
     return attach(ms, model, data, "frf-update")
