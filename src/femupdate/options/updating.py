@@ -176,7 +176,7 @@ def _check_values(name: str, key: str, value) -> None:
         return
     arr = as_array(value)
     ok = arr is not None and arr.size > 0 and arr.dtype.kind in "iuf"
-    if ok:
+    if ok and arr is not None:
         arr = arr.astype(float)
         ok = bool(np.all(np.isfinite(arr)) and (np.all(arr > 0) if name == "std" else np.all(arr >= 0)))
     if not ok:
