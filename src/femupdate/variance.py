@@ -30,8 +30,9 @@ components are the REML estimates); H. D. Patterson and R. Thompson, Biometrika 
   keeps σ_b² = 1 (absolute) and infinite degrees of freedom.
 * **Pooling.**  A block whose redundancy is below ``min_dof`` cannot be estimated on its own (a
   single eigenvalue has redundancy below 1): the blocks of its kind are pooled into one component;
-  a kind whose pool is still too small is pooled with every other estimated block; with too little
-  redundancy even then the noise is not estimable (NaN).  Each pooling is said in ``notes``.
+  a kind whose pool is still too small is pooled with every other estimated block; the last estimated
+  component is estimated down to ``min_pool_dof`` (1) degrees of freedom, and with less its noise is
+  not estimable (NaN).  Each pooling is said in ``notes``.
 * **Covariance.**  The parameters are those of the fit as it was weighted (the residuals as
   given); their covariance is that of this estimator under the estimated components, the
   sandwich A (Σ_b σ_b² J_bᵀJ_b) A with A = (JᵀJ)⁻¹ — N⁻¹ itself when the fit's weights already
@@ -51,9 +52,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: a block (or pool) whose redundancy is below this is pooled with others: its variance is not
-#: estimated on its own
+#: a block (or a kind's pool) whose redundancy is below this is pooled with others: its variance is
+#: not estimated on its own
 MIN_DOF = 3.0
+#: the pool of every estimated block is estimated down to this redundancy (a residual variance with
+#: one degree of freedom, as the textbook s² with m − L = 1; its t-intervals are wide accordingly)
+MIN_POOL_DOF = 1.0
 #: the method, as results name it
 METHOD = "REML (Förstner's iterative variance-component estimation)"
 #: default level of the goodness-of-fit test
@@ -155,16 +159,28 @@ class VarianceComponents:
     def half_width(self, level: float = 0.95) -> np.ndarray:
         """Half-widths of the parameters' two-sided intervals at ``level``: Student-t quantiles
         with the effective dof times ``std`` (normal where the dof are infinite)."""
-        from scipy import stats
-
-        q = 0.5 + level / 2
-        t = np.where(np.isfinite(self.dof), stats.t.ppf(q, np.where(np.isfinite(self.dof), self.dof, 1.0)),
-                     stats.norm.ppf(q))
-        return t * self.std
+        return t_quantile(0.5 + level / 2, self.dof) * self.std
 
     def records(self) -> list[dict]:
         """The components' JSON records (:meth:`Component.record`)."""
         return [c.record() for c in self.components]
+
+
+def t_quantile(q: float, dof) -> np.ndarray:
+    """Student-t quantiles at probability q with ``dof`` degrees of freedom (normal where they are
+    infinite or not positive), by :mod:`scipy.special` (lighter to import than scipy.stats)."""
+    from scipy import special
+
+    dof = np.asarray(dof, float)
+    fin = np.isfinite(dof) & (dof > 0)
+    return np.where(fin, special.stdtrit(np.where(fin, dof, 1.0), q), special.ndtri(q))
+
+
+def chi2_sf(x: float, dof: float) -> float:
+    """P(χ²_dof ≥ x)."""
+    from scipy import special
+
+    return float(special.chdtrc(dof, x))
 
 
 def _num(v: float):
@@ -209,8 +225,10 @@ def _merge(parts: list[Component], label: str, kind: str, lost: Mapping) -> Comp
 def _iterate(J, r, comps, lost, tol, max_iter):
     """Förstner's iteration over the estimated components; returns (variances, dofs, iterations,
     converged)."""
-    var = np.array([1.0 if c.basis == "stated" else max(float(r[c.rows] @ r[c.rows]) / max(c.n, 1), 1e-300)
-                    for c in comps])
+    var = np.array([1.0 if c.basis == "stated" else float(r[c.rows] @ r[c.rows]) / max(c.n, 1) for c in comps])
+    est0 = [v for c, v in zip(comps, var) if c.basis != "stated"]
+    floor = 1e-24 * max(est0) if est0 and max(est0) > 0 else 1.0
+    var = np.where(var > floor, var, floor)
     est = [i for i, c in enumerate(comps) if c.basis != "stated"]
     dof = np.full(len(comps), math.nan)
     converged = not est
@@ -230,6 +248,14 @@ def _iterate(J, r, comps, lost, tol, max_iter):
         if not est:
             converged = True
             break
+        top = max((new[i] for i in est if np.isfinite(new[i])), default=0.0)
+        if not top > 0:  # an exact fit of every estimated block
+            var[est] = 0.0
+            converged = True
+            break
+        for i in est:  # a block fitted exactly keeps a tiny weight-able variance while the others settle
+            if np.isfinite(new[i]) and new[i] < 1e-24 * top:
+                new[i] = 1e-24 * top
         good = [i for i in est if np.isfinite(new[i]) and new[i] > 0]
         change = max((abs(new[i] / var[i] - 1) for i in good), default=0.0)
         var = np.where(np.isfinite(new) & (new > 0), new, np.where(np.isfinite(new), np.maximum(new, 1e-300), var))
@@ -246,8 +272,8 @@ def _iterate(J, r, comps, lost, tol, max_iter):
 
 
 def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, stated: Collection = (),
-                        lost: Mapping | None = None, min_dof: float = MIN_DOF, tol: float = 1e-8,
-                        max_iter: int = 200) -> VarianceComponents:
+                        lost: Mapping | None = None, min_dof: float = MIN_DOF, min_pool_dof: float = MIN_POOL_DOF,
+                        tol: float = 1e-8, max_iter: int = 200) -> VarianceComponents:
     """Estimate one variance component per block of residuals from a least-squares fit by REML
     (Förstner's iterative variance-component estimation; module notes for the method and the
     references).
@@ -272,7 +298,10 @@ def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, 
         {label: c_b}: degrees of freedom a block's own normalisation takes (a unit-scaled shape:
         1; default 0).
     min_dof : float, default :data:`MIN_DOF`
-        The least redundancy a component is estimated with.
+        The least redundancy a block or a kind's pool is estimated with.
+    min_pool_dof : float, default :data:`MIN_POOL_DOF`
+        The least redundancy of the last resort, the pool of every estimated block (with less its
+        noise is not estimable).
     tol : float, default 1e-8
         Relative change of every component at which the iteration stops.
     max_iter : int, default 200
@@ -324,9 +353,11 @@ def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, 
                              f"its own (below {min_dof:g}): pooled as one component 'all estimated data'")
                 comps = [c for c in comps if c.basis == "stated"] + [_merge(parts, "all estimated data", "all", lost)]
     final = []
+    n_est = sum(1 for c in comps if c.basis != "stated")
     for c, v, d in zip(comps, var, dof):
-        if c.basis != "stated" and not d >= min_dof:
-            notes.append(f"{c.label}: redundancy {d:.3g} below {min_dof:g}: its noise cannot be estimated from the fit "
+        least = min_pool_dof if n_est == 1 else min_dof  # the last estimated component: the last resort
+        if c.basis != "stated" and not d >= least:
+            notes.append(f"{c.label}: redundancy {d:.3g} below {least:g}: its noise cannot be estimated from the fit "
                          "(state its standard deviation)")
             final.append(Component(c.label, c.kind, "not estimable", math.nan, d, c.n, c.members, c.rows, float(d)))
         else:
@@ -457,8 +488,6 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
     -------
     FitTest
     """
-    from scipy import stats
-
     plausible = dict(plausible or {})
     tests = []
     st = [c for c in vc.components if c.basis == "stated"]
@@ -469,13 +498,13 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
         chi2 = float(np.nansum(vc.residuals[rows] ** 2))
         if red > 0:
             tests.append({"test": "chi-square", "blocks": [c.label for c in st], "statistic": chi2, "dof": red,
-                          "p_value": float(stats.chi2.sf(chi2, red))})
+                          "p_value": chi2_sf(chi2, red)})
     for c in vc.components:
         bound = plausible.get(c.kind)
         if c.basis in ("estimated", "pooled") and bound and math.isfinite(c.variance) and c.dof > 0:
             q = c.dof * c.variance / bound ** 2
             tests.append({"test": "plausibility", "blocks": [c.label], "statistic": c.std / bound, "dof": c.dof,
-                          "p_value": float(stats.chi2.sf(q, c.dof))})
+                          "p_value": chi2_sf(q, c.dof)})
     if not tests:
         return FitTest("none", math.nan, math.nan, math.nan, alpha, "untested", [])
     k = len(tests)
@@ -486,4 +515,4 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
                    float(alpha), "model error" if worst["p_value"] < alpha else "consistent", tests)
 
 
-__all__ = ["variance_components", "VarianceComponents", "Component", "fit_test", "FitTest", "MIN_DOF", "METHOD", "ALPHA"]
+__all__ = ["t_quantile", "chi2_sf", "variance_components", "VarianceComponents", "Component", "fit_test", "FitTest", "MIN_DOF", "METHOD", "ALPHA"]
