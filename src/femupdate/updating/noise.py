@@ -191,7 +191,10 @@ def basis_lines(noise: list[dict], method: str) -> list[str]:
         else:
             how = "pooled over its blocks, " if c["basis"] == "pooled" else ""
             out.append(f"noise of {what}: estimated from the fit, {how}std {_f(c['std'])} in the residuals' units, "
-                       f"{_f(c['dof'])} dof ({method})")
+                       f"{_f(c['dof'])} dof")
+    if any(c["basis"] in ("estimated", "pooled") for c in noise):
+        out.append(f"estimated noise: {method}; the parameters' intervals are Student-t with their effective dof "
+                   "(Satterthwaite)")
     return out
 
 
