@@ -443,7 +443,8 @@ class FitTest:
     def headline(self) -> str:
         """One line for a terminal."""
         if self.test == "none":
-            return "model error: untested (no redundancy left to test the fit with)"
+            return ("model error: untested (no stated noise to test the fit against, and no estimated noise of a "
+                    "kind with a plausibility bound)")
         if self.test == "chi-square":
             what = (f"chi-square {self.statistic:.4g} on {self.dof:.4g} dof against the stated noise, "
                     f"p = {self.p_value:.3g}")

@@ -207,10 +207,9 @@ class Posterior:
         if self.noise == "estimate":
             n_est = sum(p.n for p in self.pools if p.basis == "estimated")
             if n_est <= self.L:
-                raise InputError(f"{n_est} residuals without a stated standard deviation for {self.L} parameters: "
-                                 "their noise cannot be estimated from the fit; state the measurement standard "
-                                 "deviations (--std-eigenvalue, --std-shape, ...; std_frequency, std_shape in the "
-                                 "test data)")
+                raise InputError(f"{n_est} residuals for {self.L} parameters: a noise scale cannot be "
+                                 "estimated from the fit; state the measurement standard deviations (--std-eigenvalue, "
+                                 "--std-shape, ...; std_frequency, std_shape in the test data)")
             est = [p.label for p in self.pools if p.basis == "estimated"]
             self.notes.append(
                 (f"the noise of {', '.join(est)} is estimated" + (", every block's, as asked (noise 'estimate')"

@@ -178,14 +178,23 @@ def basis_records(vc: VarianceComponents, lay_stated: dict) -> list[dict]:
 
 
 def basis_lines(noise: list[dict], method: str) -> list[str]:
-    """One terminal line per component: what the standard deviations rest on."""
+    """One terminal line per noise component (the stated ones grouped by kind and source): what
+    the standard deviations rest on."""
     out = []
+    stated: dict = {}
     for c in noise:
+        if c["basis"] == "stated":
+            stated.setdefault((c["kind"], c.get("source", "stated")), []).append(c)
+    for (kind, source), cs in stated.items():
+        n = sum(c["n_residuals"] for c in cs)
+        blocks = f", {len(cs)} blocks" if len(cs) > 1 else ""
+        out.append(f"noise of {kind if len(cs) > 1 else cs[0]['label']} ({n} residuals{blocks}): {source}")
+    for c in noise:
+        if c["basis"] == "stated":
+            continue
         what = f"{c['label']} ({c['n_residuals']} residuals"
         what += f", {len(c['members'])} blocks)" if len(c["members"]) > 1 else ")"
-        if c["basis"] == "stated":
-            out.append(f"noise of {what}: {c['source']}")
-        elif c["basis"] == "not estimable":
+        if c["basis"] == "not estimable":
             out.append(f"noise of {what}: not estimable (redundancy {_f(c['redundancy'])}): the standard deviations "
                        "are not given")
         else:
