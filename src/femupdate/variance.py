@@ -30,7 +30,8 @@ components are the REML estimates); H. D. Patterson and R. Thompson, Biometrika 
   keeps σ_b² = 1 (absolute) and infinite degrees of freedom.
 * **Pooling.**  A block whose redundancy is below ``min_dof`` cannot be estimated on its own (a
   single eigenvalue has redundancy below 1): the blocks of its kind are pooled into one component;
-  a kind whose pool is still too small is pooled with every other estimated block; the last estimated
+  the kinds whose pools are still too small are pooled together, and if that is still too small,
+  with every other estimated block; the last estimated
   component is estimated down to ``min_pool_dof`` (1) degrees of freedom, and with less its noise is
   not estimable (NaN).  Each pooling is said in ``notes``.
 * **Covariance.**  The parameters are those of the fit as it was weighted (the residuals as
@@ -58,6 +59,9 @@ MIN_DOF = 3.0
 #: the pool of every estimated block is estimated down to this redundancy (a residual variance with
 #: one degree of freedom, as the textbook s² with m − L = 1; its t-intervals are wide accordingly)
 MIN_POOL_DOF = 1.0
+#: the least redundancy the fit is tested with (below, the data barely exceed the parameters and
+#: a χ² on round-off would decide)
+MIN_TEST_DOF = 0.5
 #: the method, as results name it
 METHOD = "REML (Förstner's iterative variance-component estimation)"
 #: default level of the goodness-of-fit test
@@ -202,7 +206,10 @@ def _redundancy(J, r, comps, var):
     Jw = J * w[:, None]
     N = J.T @ Jw
     Ninv = np.linalg.pinv(N, rcond=1e-12, hermitian=True) if N.size else N
-    e = r - J @ (Ninv @ (Jw.T @ r)) if N.size else r.copy()
+    if not N.size or np.ptp(w) <= 1e-12 * np.max(w):
+        e = r.copy()  # equal weights: the re-weighted fit is the fit itself, whose residuals are r
+    else:
+        e = r - J @ (Ninv @ (Jw.T @ r))
     lev = np.einsum("ij,jk,ik->i", J, Ninv, Jw) if N.size else np.zeros(m)
     return e, lev
 
@@ -329,7 +336,7 @@ def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, 
         raise ValueError("variance_components: the blocks must cover every residual row exactly once")
     notes: list[str] = []
     # pool until every estimated component has enough redundancy
-    for stage in ("kind", "all"):
+    for stage in ("kind", "small", "all"):
         while True:
             var, dof, it, conv = _iterate(J, r, comps, lost, tol, max_iter)
             small = [c for c, d in zip(comps, dof) if c.basis != "stated" and not d >= min_dof]
@@ -345,6 +352,13 @@ def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, 
                 notes.append(f"{', '.join(mb for c in parts for mb in c.members)}: too little redundancy to estimate "
                              f"each on its own (below {min_dof:g}): pooled as one component '{k}'")
                 comps = [c for c in comps if c not in parts] + [_merge(parts, k, k, lost)]
+            elif stage == "small":  # the kinds too small on their own, together
+                if len(small) < 2:
+                    break
+                label = " + ".join(c.label for c in small)
+                notes.append(f"{', '.join(c.label for c in small)}: too little redundancy to estimate each kind on its "
+                             f"own (below {min_dof:g}): pooled as one component '{label}'")
+                comps = [c for c in comps if c not in small] + [_merge(small, label, "mixed", lost)]
             else:
                 parts = [c for c in comps if c.basis != "stated"]
                 if len(parts) < 2:
@@ -497,12 +511,12 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
         # the stated blocks' redundancies: their share of n - L under the components
         red = float(sum(c.redundancy for c in st))
         chi2 = float(np.nansum(vc.residuals[rows] ** 2))
-        if red > 0:
+        if red >= MIN_TEST_DOF:  # no redundancy (as many data as parameters): nothing to test
             tests.append({"test": "chi-square", "blocks": [c.label for c in st], "statistic": chi2, "dof": red,
                           "p_value": chi2_sf(chi2, red)})
     for c in vc.components:
         bound = plausible.get(c.kind)
-        if c.basis in ("estimated", "pooled") and bound and math.isfinite(c.variance) and c.dof > 0:
+        if c.basis in ("estimated", "pooled") and bound and math.isfinite(c.variance) and c.dof >= MIN_TEST_DOF:
             q = c.dof * c.variance / bound ** 2
             tests.append({"test": "plausibility", "blocks": [c.label], "statistic": c.std / bound, "dof": c.dof,
                           "p_value": chi2_sf(q, c.dof)})
