@@ -451,14 +451,17 @@ class Posterior:
             Js.append(prob.jacobian(x))
         return np.concatenate(rs), np.vstack(Js)
 
-    def objective(self, x, exact_hessian: bool = False) -> tuple[float, np.ndarray, np.ndarray, float]:
+    def objective(self, x, exact_hessian: bool = False,
+                  restricted: bool = False) -> tuple[float, np.ndarray, np.ndarray, float]:
         """f = −log posterior at x, its gradient and Gauss–Newton Hessian in x, and Q = ‖r‖².
 
         Per noise pool (:mod:`femupdate.bayes.noise`): stated, Q_b/2 + n_b/2 log 2π with
         Hessian J_bᵀJ_b; estimated, n_b/2 log(πQ_b) − log Γ(n_b/2) + log 2 with gradient
         (n_b/Q_b) J_bᵀr_b and Hessian (n_b/Q_b) J_bᵀJ_b, and with ``exact_hessian`` the term
         −(2n_b/Q_b²)(J_bᵀr_b)(J_bᵀr_b)ᵀ of the Gauss–Newton Hessian of n_b/2 log Q_b, which
-        vanishes where J_bᵀr_b = 0; less the log prior's derivatives.
+        vanishes where J_bᵀr_b = 0; less the log prior's derivatives.  ``restricted``: each
+        estimated pool's Gauss–Newton term with n_b less its share of the parameters (the REML
+        scale, :func:`femupdate.bayes.noise.objective_terms`) — the Laplace covariance's Hessian.
 
         Raises
         ------
@@ -470,7 +473,7 @@ class Posterior:
         r, J = self.residuals_and_jacobian(x)
         lp, gp, hp = self.prior_derivatives(x)
         offsets = np.cumsum([0] + [int(p.n_residuals) for p in self.problems])[:-1]
-        f, g, H, Q = objective_terms(self.pools, r, J, offsets, exact_hessian)
+        f, g, H, Q = objective_terms(self.pools, r, J, offsets, exact_hessian, -hp if restricted else None)
         return f - lp, g - gp, H - hp, Q
 
     # ------------------------------------------------------------------ noise scale and predictions

@@ -130,12 +130,20 @@ def log_likelihood(pools: list[Pool], Qp) -> np.ndarray:
     return np.where(np.any(np.isnan(Qp), axis=1), -np.inf, out)
 
 
-def objective_terms(pools: list[Pool], r: np.ndarray, J: np.ndarray, offsets, exact_hessian: bool = False):
+def objective_terms(pools: list[Pool], r: np.ndarray, J: np.ndarray, offsets, exact_hessian: bool = False,
+                    restricted: np.ndarray | None = None):
     """−log L at the stacked residuals r and Jacobian J (data sets one after another, set i from
     ``offsets[i]``), its gradient and Gauss–Newton Hessian (with ``exact_hessian`` the terms
-    −(2 n_b / Q_b²)(J_bᵀr_b)(J_bᵀr_b)ᵀ of the estimated pools); and Q (the total)."""
+    −(2 n_b / Q_b²)(J_bᵀr_b)(J_bᵀr_b)ᵀ of the estimated pools); and Q (the total).
+
+    ``restricted`` (the prior's Hessian of −log π, (L, L)): the Gauss–Newton term of each estimated
+    pool uses n_b − h_b instead of n_b, h_b = (n_b/Q_b) tr(J_b H⁻¹ J_bᵀ) its share of the
+    parameters (H the whole Hessian) — the restricted (REML) noise scale Q_b / (n_b − h_b): the
+    Laplace Gaussian of a scale integrated out is otherwise narrower than the posterior, whose
+    marginal is a Student-t with n − L degrees of freedom in the linear case."""
     L = J.shape[1]
     f, g, H = 0.0, np.zeros(L), np.zeros((L, L))
+    gn: list = []
     for p in pools:
         idx = np.concatenate([np.asarray(rows) + off for rows, off in zip(p.rows, offsets)]) if p.rows else \
             np.zeros(0, np.intp)
@@ -153,8 +161,14 @@ def objective_terms(pools: list[Pool], r: np.ndarray, J: np.ndarray, offsets, ex
             f += 0.5 * n * math.log(math.pi * Q) - math.lgamma(0.5 * n) + math.log(2.0)
             g += (n / Q) * Jr
             H += (n / Q) * (Jb.T @ Jb)
+            gn.append((n, Q, Jb))
             if exact_hessian:
                 H -= (2 * n / Q ** 2) * np.outer(Jr, Jr)
+    if restricted is not None and gn:
+        Hinv = np.linalg.pinv(H + restricted, hermitian=True)
+        for n, Q, Jb in gn:
+            h = (n / Q) * float(np.einsum("ij,jk,ik->", Jb, Hinv, Jb))
+            H -= (min(max(h, 0.0), n - 1.0) / Q) * (Jb.T @ Jb)
     return f, g, H, float(r @ r)
 
 
