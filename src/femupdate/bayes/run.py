@@ -152,6 +152,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     runner = None
     try:
         points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
+        from .noise import calibrate
+
+        calibrate(post, points[0][0])  # the relative weights of kinds that share a noise scale (REML)
         t_modes, n_modes = time.perf_counter(), post.evaluations
         modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
         _announce_sampling(so, walkers, time.perf_counter() - t_modes, post.evaluations - n_modes)
@@ -194,6 +197,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         P = post.to_p(X)
         stats = summarise(P, level)
         noise_info, pred = _noise_and_predictions(post, X, level, predictive, rng)
+        from .noise import fit_check
+
+        noise_info["model_error"] = fit_check(post, modes[0].x) or None  # at the most probable mode
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
         notes += _failure_notes(post)
@@ -245,12 +251,23 @@ def _noise_and_predictions(post: Posterior, X: np.ndarray, level: float, predict
     subset of ``predictive`` of the samples X (in the sampler's variables)."""
     sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
     Xs = X[np.sort(sub)]
-    Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
-    scale = post.noise_scale(Q, rng)
-    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
+    Qp, _ = post.pool_squares(Xs) if Xs.size else (np.zeros((0, len(post.pools))), [])
+    draws = post.noise_scale(Qp, rng)
+    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals, "pools": []}
+    a = (1 - level) / 2
+    for pool in post.pools:
+        rec = pool.record()
+        s = draws.get(pool.label)
+        if s is not None and np.isfinite(s).any():
+            s = s[np.isfinite(s)]
+            rec["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+        noise_info["pools"].append(rec)
+    # the scale of the eigenvalues' noise (the frequencies' predictions): their pool's
+    eig = next((p.label for p in post.pools if p.basis == "estimated" and any(
+        mb.startswith("eigenvalue") or mb.startswith("dynamic") for mb in p.members)), None)
+    scale = draws.get(eig) if eig is not None else None
     if scale is not None and np.isfinite(scale).any():
         s = scale[np.isfinite(scale)]
-        a = (1 - level) / 2
         noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
         noise_info["draws"] = int(s.size)
     return noise_info, predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)

@@ -378,6 +378,20 @@ def print_diagnostics(console, res) -> None:
                   f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} "
                   f"(rank {d.rank}/{d.n_parameters - d.n_at_bounds} {what})", markup=False)
     print_identifiability(console, d)
+    print_noise_basis(console, d)
+
+
+def print_noise_basis(console, d) -> None:
+    """What each standard deviation rests on (one line per noise component: stated in the data
+    file, given as an option, estimated with its dof, pooled), how blocks were pooled, and the
+    fit's test for model error (:mod:`femupdate.updating.noise`)."""
+    for line in getattr(d, "basis_lines", []):
+        console.print(f"std basis: {line}", markup=False)
+    for note in getattr(d, "noise_notes", []):
+        console.print(f"std basis: {note}", markup=False)
+    line = getattr(d, "model_error_line", "")
+    if line:
+        console.print(line, markup=False)
 
 
 def print_identifiability(console, d) -> None:

@@ -137,9 +137,13 @@ class NoiseOptions(Options):
     weights : mapping, optional
         Modal weights ``{"eigenvalue": w or one per test mode, "shape": w or one per test mode}``.
     basis : {"auto", "stated", "estimate"}, default ``"auto"``
-        What the standard deviations of the answer rest on: the stated ones, a noise scale
-        estimated from the fit, or ``"auto"`` — stated where every residual has one.
-        Shorthand keyword ``noise`` (:func:`femupdate.posterior`).
+        What the standard deviations of the answer rest on (:mod:`femupdate.updating.noise`):
+        ``"auto"`` — each block of residuals with stated standard deviations as stated, the
+        others estimated from the fit (REML variance components; in the posterior a scale per
+        kind of data); ``"estimate"`` — every block estimated, a stated one as a factor on its
+        deviations; ``"stated"`` — every block stated (:func:`femupdate.posterior` refuses data
+        without; an update estimates the blocks without and says so).  Shorthand keyword
+        ``noise`` (:func:`femupdate.posterior`).
     """
 
     std: Mapping | None = None

@@ -48,8 +48,20 @@ def identifiability_section(result: dict) -> Section | None:
         t.rows.append([Cell("rank / free parameters"), Cell(f"{d['rank']} / {len(d.get('free') or [])}")])
     if d.get("n_residuals") is not None:
         t.rows.append([Cell("residuals"), Cell(str(d["n_residuals"]))])
-    t.rows.append([Cell("covariance"), Cell("from the stated measurement standard deviations" if d.get("absolute")
-                                            else "scaled by the residual variance (no standard deviations stated)")])
+    noise = d.get("noise") or []
+    if noise:
+        from ..updating.noise import basis_lines, model_error_line
+        from ..variance import METHOD
+
+        for line in basis_lines(noise, METHOD):
+            t.rows.append([Cell("covariance basis"), Cell(line)])
+        fit = result.get("model_error") or d.get("model_error")
+        if fit:
+            t.rows.append([Cell("model error"), Cell(model_error_line(fit),
+                                                     cls="flag" if fit.get("verdict") == "model error" else "")])
+    else:
+        t.rows.append([Cell("covariance"), Cell("from the stated measurement standard deviations" if d.get("absolute")
+                                                else "scaled by the residual variance (no standard deviations stated)")])
     at = d.get("at_bounds") or {}
     t.rows.append([Cell("parameters on a bound"), Cell(", ".join(f"{n} ({s})" for n, s in at.items()) or "none",
                                                        cls="flag" if at else "")])

@@ -10,7 +10,12 @@ _DIAGNOSTICS = (
     "on a bound), `covariance`, `n_residuals`, `n_parameters`; `absolute` (the covariance comes from stated standard "
     "deviations), `at_bounds` `{name: \"lower\" \\| \"upper\"}` (parameters held by a bound), `n_at_bounds`, `free` "
     "(the parameters the figures describe), `poorly_determined_reasons` `{name: reason}`, `relative_std` "
-    "`{name: std / \\|value\\|}` (docs/cli.md, \"What the diagnostics say\")")
+    "`{name: std / \\|value\\|}`; `noise` (what the standard deviations rest on, one record per noise component: "
+    "`label`, `kind`, `basis` (`stated`, `estimated`, `pooled`, `not estimable`), `source` (`stated in the data file`, "
+    "`given as an option`, or the basis), `std` (in the residuals' units), `dof` (`null` for stated), `redundancy`, "
+    "`n_residuals`, `members`), `std_dof` `{name: effective dof}` (Satterthwaite; `\"inf\"` when only stated noise "
+    "enters), `model_error` (as the top-level key) (docs/cli.md, \"What the diagnostics say\"; docs/numerics.md, "
+    "\"Noise and variance components\")")
 
 UPDATE_KEYS = (
     Key("kind", "string", "`update` (the command that wrote it; `frf-update` for `frf-update`)", (STRING,), True),
@@ -46,6 +51,10 @@ UPDATE_KEYS = (
         (ARRAY,)),
     Key("parameter_units, bounds", "objects", "as `direct`", (OBJECT,)),
     Key("diagnostics", "object", _DIAGNOSTICS, (OBJECT,)),
+    Key("model_error", "object", "whether the best fit reproduces the data within the noise: `test` (`chi-square` "
+        "against stated noise, `plausibility` of estimated noise, `none`), `statistic`, `dof`, `p_value`, `alpha`, "
+        "`verdict` (`model error`, `consistent`, `untested`), `detail` (each test made, Bonferroni-adjusted p-values) "
+        "(docs/numerics.md, \"Model error\")", (OBJECT,)),
     Key("blocks", "list", "with more than one kind of data: per block `{kind, label, n_residuals, scale, weighting, "
         "cost}`", (ARRAY,)),
     Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),

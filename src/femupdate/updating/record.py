@@ -51,6 +51,8 @@ def update_fields(res, ctx, starts: dict | None = None) -> dict:
         **_model_fields(res, ctx),
         "diagnostics": None if d is None else diagnostics_fields(res.names, d),
     }
+    if d is not None and getattr(d, "model_error", None):  # the fit's test, also at the top (femupdate.variance)
+        out["model_error"] = d.model_error
     if res.blocks:
         out["blocks"] = res.blocks
     if starts is None:
@@ -179,7 +181,16 @@ def diagnostics_from(obj: Mapping | None, names) -> Any:
         n_parameters=int(obj.get("n_parameters", len(names))), absolute=bool(obj.get("absolute", False)),
         at_bounds=dict(obj.get("at_bounds") or {}), free=tuple(obj.get("free") or ()),
         poorly_determined_reasons=dict(obj.get("poorly_determined_reasons") or {}),
-        relative_std=_floats([rel.get(n) for n in names]))
+        relative_std=_floats([rel.get(n) for n in names]), noise=list(obj.get("noise") or []),
+        std_dof=np.array([_dof((obj.get("std_dof") or {}).get(n, math.nan)) for n in names], dtype=float),
+        model_error=dict(obj.get("model_error") or {}))
+
+
+def _dof(v) -> float:
+    """A ``std_dof`` entry as read: a number, ``"inf"`` (stated noise only) or None (NaN)."""
+    if v is None:
+        return math.nan
+    return math.inf if v == "inf" else float(v)
 
 
 #: keys of an update's JSON kept as read, for writing it again (they come from the model and data)
