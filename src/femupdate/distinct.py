@@ -283,8 +283,10 @@ def conditioning_line(stmt: dict) -> str:
     line = head + (": " + ", ".join(parts) if parts else ": no standard deviation (not estimable)")
     wk = stmt.get("weakest")
     if wk and len(wk["direction"]) > 1:
-        terms = " ".join(f"{'−' if c < 0 else '+'} {abs(c):.2f} {n}" for n, c in wk["direction"].items() if abs(c) >= 0.05)
-        line += f"; weakest direction {terms.lstrip('+ ')} (±{wk['relative_std'] * 100:.3g} %)"
+        big = [(n, c) for n, c in wk["direction"].items() if abs(c) >= 0.05]
+        terms = " ".join((f"{c:.2f} {n}" if i == 0 else f"{'-' if c < 0 else '+'} {abs(c):.2f} {n}")
+                         for i, (n, c) in enumerate(big))
+        line += f"; weakest direction {terms} (±{wk['relative_std'] * 100:.3g} %)"
     if stmt.get("basis"):
         line += f" [{stmt['basis']}]"
     return line

@@ -175,7 +175,7 @@ def uniqueness(model_path, plans: Plans, starts, execution, units: Units, update
     try:
         with outputs.progress(ctx, "updates", study.n_rows) as tick:
             res = run_study(study, scheduler=execution.scheduler, workers=units.workers, checkpoint=checkpoint,
-                            rel_tol=updates.rel_tol, connect_timeout=execution.connect_timeout,
+                            rel_tol=updates.rel_tol, connect_timeout=execution.connect_timeout, alpha=starts.alpha,
                             cost_tol=updates.cost_tol, progress=tick)
     except KeyboardInterrupt:
         if checkpoint:
