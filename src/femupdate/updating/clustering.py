@@ -43,10 +43,29 @@ def parameter_scale(model, names: Sequence[str]) -> np.ndarray:
 
 
 def run_covariance(run):
-    """The covariance a run carries (``run.diagnostics.covariance``, physical units), or None."""
+    """The covariance a run carries (``run.diagnostics.covariance``, physical units) and whether it
+    is absolute (from stated standard deviations; else scaled by the run's residual variance), or
+    None."""
     d = getattr(run, "diagnostics", None)
     cov = getattr(d, "covariance", None)
-    return None if cov is None or np.size(cov) == 0 else np.asarray(cov, float)
+    return None if cov is None or np.size(cov) == 0 else (np.asarray(cov, float), bool(d.absolute))
+
+
+def common_noise(covs, costs) -> list:
+    """The runs' covariances on one noise level: one data set has one noise variance, estimated at
+    the best fit (the lowest cost); a covariance scaled by a run's own residual variance — larger at
+    a local minimum, where the excess is misfit, not noise — is rescaled by cost_best / cost_run.
+    Absolute covariances (stated noise) are kept."""
+    best = float(np.min(costs)) if len(costs) else 0.0
+    out = []
+    for c, cost in zip(covs, costs):
+        if c is None:
+            out.append(None)
+        elif c[1] or not cost > 0:
+            out.append(c[0])
+        else:
+            out.append(c[0] * (best / float(cost)))
+    return out
 
 
 def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_tol: float | None,
@@ -74,8 +93,9 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
         is absolute.
     alpha : float, default 0.01
         The significance level at which two runs are distinct solutions.
-    covariance : callable ``run -> (L, L) array or None``, optional
-        Each counted run's covariance (default :func:`run_covariance`); None: the tolerance.
+    covariance : callable ``run -> ((L, L) array, absolute) or None``, optional
+        Each counted run's covariance and whether it is absolute (default :func:`run_covariance`;
+        on one noise level, :func:`common_noise`); None: the tolerance.
 
     Returns
     -------
@@ -91,7 +111,7 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
     if ok:
         pts = np.array([runs[k].x for k in ok])
         costs = np.array([runs[k].cost for k in ok])
-        covs = [covariance(runs[k]) for k in ok] if covariance is not None else None
+        covs = common_noise([covariance(runs[k]) for k in ok], costs) if covariance is not None else None
         grouping = significant(pts, costs, covs, alpha, rel_tol, scale)
         for g, sep in zip(grouping.groups, grouping.separations):
             rep = runs[ok[g[0]]]
@@ -185,4 +205,4 @@ def distinct_record(best, solutions, alpha: float) -> dict:
 
 
 __all__ = ["cluster", "converged_solutions", "fit_threshold", "classify", "parameter_scale", "run_covariance",
-           "distinct_record", "covariance_basis"]
+           "distinct_record", "covariance_basis", "common_noise"]

@@ -278,7 +278,7 @@ def _covariances(model, data, names, o: UpdateOptions, values):
             d = diagnostics(par, par.from_p(run.x), run.fun, run.jac, prob.sigma, bounds=model.bounds)
         except (FemupdateError, np.linalg.LinAlgError, ValueError):
             return None
-        return d.covariance
+        return d.covariance, prob.sigma is not None
 
     return cov
 
