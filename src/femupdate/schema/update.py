@@ -17,8 +17,8 @@ DISTINCT = ("how the solutions were told apart and how well the best is determin
             "`basis` (`statistic`: against each solution's covariance, the Mahalanobis distance above the chi-square "
             "quantile; `tolerance`: no covariance, by `rel_tol` alone; `mixed`), `non_unique` (more than one "
             "solution fits the data as well as the best), `separations` (per solution, why it is "
-            "distinct from the first: `{basis, statistic, dof, threshold}`, `basis` `statistic`, `non-identifiable` "
-            "(differs along a direction the data do not determine) or `tolerance`; `null` for the first), "
+            "distinct from the lowest-cost one: `{basis, statistic, dof, threshold}`, `basis` `statistic`, `non-identifiable` "
+            "(differs along a direction the data do not determine) or `tolerance`; `null` for that one), "
             "`conditioning` (ill-conditioning, apart from non-uniqueness: `{condition_number, ill_conditioned, "
             "relative_std {name: value}, weakest {direction {name: component}, relative_std}, basis}`, the "
             "standard deviations relative to the values and what they rest on; `null` without a covariance)")

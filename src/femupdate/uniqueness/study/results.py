@@ -124,7 +124,7 @@ class CaseResult:
         (:meth:`StudyResult.with_exact`), as the JSON's ``exact`` holds it.
     distinct : dict, default ``{}``
         How the solutions were told apart and how well the truth is determined: ``alpha``,
-        ``basis``, ``separations`` (per solution, from the most frequent one) and
+        ``basis``, ``separations`` (per solution, from the lowest-cost one) and
         ``conditioning`` (:func:`femupdate.distinct.conditioning` at the truth: ill-conditioning —
         "k2 known to ±x %" at the study's first noise level, else per 1 % noise on the residuals —
         apart from non-uniqueness).
