@@ -280,14 +280,16 @@ def conditioning_line(stmt: dict) -> str:
         f" (condition number {cond:.3g})" if cond is not None else "rank-deficient (condition number infinite)"
     known = [(n, v) for n, v in (stmt.get("relative_std") or {}).items() if v is not None]
     parts = [f"{n} known to ±{v * 100:.3g} %" if i == 0 else f"{n} to ±{v * 100:.3g} %" for i, (n, v) in enumerate(known)]
-    line = head + (": " + ", ".join(parts) if parts else ": no standard deviation (not estimable)")
+    line = head + (": " + ", ".join(parts) if parts else
+                   ": no standard deviation (not estimable: too few data for the residual variance; state the "
+                   "measurement noise)")
     wk = stmt.get("weakest")
     if wk and len(wk["direction"]) > 1:
         big = [(n, c) for n, c in wk["direction"].items() if abs(c) >= 0.05]
         terms = " ".join((f"{c:.2f} {n}" if i == 0 else f"{'-' if c < 0 else '+'} {abs(c):.2f} {n}")
                          for i, (n, c) in enumerate(big))
         line += f"; weakest direction {terms} (±{wk['relative_std'] * 100:.3g} %)"
-    if stmt.get("basis"):
+    if stmt.get("basis") and parts:
         line += f" [{stmt['basis']}]"
     return line
 
