@@ -51,12 +51,14 @@ def run_covariance(run):
     return None if cov is None or np.size(cov) == 0 else (np.asarray(cov, float), bool(d.absolute))
 
 
-def common_noise(covs, costs) -> list:
+def common_noise(covs, costs, floor: float = 0.0) -> list:
     """The runs' covariances on one noise level: one data set has one noise variance, estimated at
-    the best fit (the lowest cost); a covariance scaled by a run's own residual variance — larger at
-    a local minimum, where the excess is misfit, not noise — is rescaled by cost_best / cost_run.
-    Absolute covariances (stated noise) are kept."""
-    best = float(np.min(costs)) if len(costs) else 0.0
+    the best fit (the lowest cost, at least ``floor``: the round-off floor of
+    :func:`fit_threshold`, so that exact solutions of noise-free data are compared at round-off,
+    not at zero); a covariance scaled by a run's own residual variance — larger at a local minimum,
+    where the excess is misfit, not noise — is rescaled by that cost / cost_run.  Absolute
+    covariances (stated noise) are kept."""
+    best = max(float(np.min(costs)), float(floor)) if len(costs) else 0.0
     out = []
     for c, cost in zip(covs, costs):
         if c is None:
@@ -111,7 +113,8 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
     if ok:
         pts = np.array([runs[k].x for k in ok])
         costs = np.array([runs[k].cost for k in ok])
-        covs = common_noise([covariance(runs[k]) for k in ok], costs) if covariance is not None else None
+        covs = (common_noise([covariance(runs[k]) for k in ok], costs, round_off(runs[ok[int(np.argmin(costs))]]))
+                if covariance is not None else None)
         grouping = significant(pts, costs, covs, alpha, rel_tol, scale)
         for g, sep in zip(grouping.groups, grouping.separations):
             rep = runs[ok[g[0]]]
@@ -119,6 +122,12 @@ def converged_solutions(runs: Sequence, names: Sequence[str], kind: type, cost_t
                                       separation=sep, basis=grouping.basis))
         solutions.sort(key=lambda s: (-s.count, s.cost))
     return ok, solutions
+
+
+def round_off(best) -> float:
+    """The round-off floor of a cost: 1e-14 times the larger of ``best``'s starting cost and its cost."""
+    c0 = float(best.history[0]["cost"]) if best.history else float(best.cost)
+    return 1e-14 * max(c0, float(best.cost))
 
 
 def fit_threshold(best) -> float:
@@ -146,9 +155,7 @@ def fit_threshold(best) -> float:
     m, L = int(best.fun.size), len(best.names)
     d = best.diagnostics
     var = 1.0 if d is not None and d.absolute else (2.0 * best.cost / (m - L) if m > L else 0.0)
-    c0 = float(best.history[0]["cost"]) if best.history else best.cost
-    floor = 1e-14 * max(c0, best.cost)
-    return float(best.cost + 0.5 * chi2.ppf(0.95, L) * var + floor)
+    return float(best.cost + 0.5 * chi2.ppf(0.95, L) * var + round_off(best))
 
 
 def classify(ms: _Result, alpha: float = ALPHA) -> _Result:
@@ -205,4 +212,4 @@ def distinct_record(best, solutions, alpha: float) -> dict:
 
 
 __all__ = ["cluster", "converged_solutions", "fit_threshold", "classify", "parameter_scale", "run_covariance",
-           "distinct_record", "covariance_basis", "common_noise"]
+           "distinct_record", "covariance_basis", "common_noise", "round_off"]
