@@ -99,6 +99,14 @@ def test_without_a_covariance_the_tolerance_decides_and_a_non_identifiable_direc
     C = np.array([[1e-4, np.nan], [np.nan, np.nan]])  # k2 has no covariance (on a bound, unseen, a null direction)
     assert compare(p[0], p[1], C, C).basis == "non-identifiable"
     assert compare(p[0], p[0] * (1 + 1e-6), C, C) is None  # within the round-off floor
+    # three parameters, the second without a covariance: the other two compared by the statistic
+    C3 = np.full((3, 3), np.nan)
+    C3[np.ix_([0, 2], [0, 2])] = np.diag([1e-2, 1e-2])
+    a = np.array([1.0, 5.0, 2.0])
+    assert compare(a, a + [0.05, 0.0, 0.05], C3, C3) is None  # d2 = 0.25: the same
+    sep = compare(a, a + [1.0, 0.0, 0.0], C3, C3)
+    assert sep.basis == "statistic" and sep.dof == 2 and sep.statistic == pytest.approx(1.0 / 2e-2)
+    assert compare(a, a + [0.05, 1.0, 0.05], C3, C3).basis == "non-identifiable"
 
 
 def test_ill_conditioned_but_unique_is_one_solution_with_a_plus_minus_that_holds(series):

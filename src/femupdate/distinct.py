@@ -135,9 +135,10 @@ def compare(pa, pb, Ca, Cb, alpha: float = ALPHA, rel_tol: float = 1e-4, scale=N
     if Ca is None or Cb is None:
         return Separation("tolerance")
     C = np.asarray(Ca, float) + np.asarray(Cb, float)
-    have = np.isfinite(np.diag(C))
-    have &= np.all(np.isfinite(C[np.ix_(have, have)]), axis=0) if have.any() else have
-    k = np.flatnonzero(have)
+    idx = np.flatnonzero(np.isfinite(np.diag(C)))
+    k = idx[np.all(np.isfinite(C[np.ix_(idx, idx)]), axis=0)] if idx.size else idx
+    have = np.zeros(dp.size, bool)
+    have[k] = True
     if k.size == 0:
         return Separation("tolerance")
     if np.any(beyond[~have]):
