@@ -146,11 +146,13 @@ def compare(pa, pb, Ca, Cb, alpha: float = ALPHA, rel_tol: float = 1e-4, scale=N
     Cn = C[np.ix_(k, k)] / np.outer(size[k], size[k])  # relative units: comparable eigenvalues
     dn = dp[k] / size[k]
     w, U = np.linalg.eigh(0.5 * (Cn + Cn.T))
-    keep = w > 1e-12 * max(float(w.max()), 1e-300)
+    # eigh's error is about eps max(w); a covariance's eigenvalues span cond(S)² (up to 1e12 below the
+    # rank tolerance of the diagnostics), so the directions kept are those above 1e-14 max(w)
+    keep = w > 1e-14 * max(float(w.max()), 1e-300)
     proj = U[:, keep].T @ dn
     d2 = float(np.sum(proj ** 2 / w[keep]))
     dof = int(keep.sum())
-    rest = dn - U[:, keep] @ proj  # outside the covariance's range: determined exactly, compared by tolerance
+    rest = dn - U[:, keep] @ proj  # outside the covariance's range (a null direction): compared by tolerance
     limit = float(chi2.ppf(1.0 - alpha, dof)) if dof else math.nan
     if np.any(np.abs(rest) > rel_tol):
         return Separation("non-identifiable", d2, dof, limit)
