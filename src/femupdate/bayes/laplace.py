@@ -92,9 +92,10 @@ class Mode:
 
 
 def candidates(post: Posterior, starts: int, seed: int | None, progress=None, scheduler=None,
-               connect_timeout: float = 10.0) -> tuple[list[tuple[np.ndarray, int]], list[str]]:
+               connect_timeout: float = 10.0, alpha: float = 0.01) -> tuple[list[tuple[np.ndarray, int]], list[str]]:
     """Starting points of the mode search: the distinct solutions of a multi-start study on the
-    first data set (each with its count of starts), or one update from the nominal values when
+    first data set (each with its count of starts; told apart at ``alpha``,
+    :class:`~femupdate.options.StartsOptions`), or one update from the nominal values when
     ``starts`` is 1 or a parameter has no finite bounds; and notes.
 
     Raises
@@ -116,7 +117,7 @@ def candidates(post: Posterior, starts: int, seed: int | None, progress=None, sc
                      "starts (a second solution, if any, is not looked for)")
     if starts > 1 and finite:
         ms = multistart(model, data, starts=starts, seed=seed, params=list(post.names), progress=progress,
-                        scheduler=scheduler, connect_timeout=connect_timeout, **opts)
+                        scheduler=scheduler, connect_timeout=connect_timeout, alpha=alpha, **opts)
         if not ms.solutions:
             raise NumericalError(f"none of the {starts} starts of the mode search converged"
                                  + (f" ({next(iter(ms.failures))})" if ms.failures else ""))

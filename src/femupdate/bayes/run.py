@@ -142,6 +142,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     settings = {"method": method, "samples": samples, "walkers": walkers, "ensembles": ensembles, "steps": steps,
                 "burn": burn, "segment": segment, "target_ess": target_ess, "tmcmc_steps": tmcmc_steps,
                 "target_cov": target_cov, "chunks": chunks, "starts": starts_n, "rel_tol": rel_tol}
+    if st.alpha != 0.01:  # the default keeps the keys of earlier checkpoints
+        settings["alpha"] = st.alpha
     key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route, settings,
                   entropy)
     ckpt = RunCheckpoint(checkpoint, key, {"method": method, "model": model.name, "parameters": list(post.names)})
@@ -151,7 +153,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
 
     runner = None
     try:
-        points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
+        points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout, st.alpha)
         from .noise import calibrate
 
         calibrate(post, points[0][0])  # the relative weights of kinds that share a noise scale (REML)

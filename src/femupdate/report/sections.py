@@ -114,6 +114,24 @@ def combinations(result: dict) -> Table | None:
     return t
 
 
+def distinct_texts(rec: dict | None, fitting: int) -> list[str]:
+    """How the solutions were told apart, and the best solution's conditioning said apart from
+    non-uniqueness (``starts.distinct``)."""
+    from ..distinct import conditioning_line
+
+    if not rec:
+        return []
+    out = [f"Solutions are told apart at α = {rec.get('alpha', 0.01):g} against their own covariances (the "
+           "Mahalanobis distance above the χ² quantile)" if rec.get("basis") != "tolerance" else
+           "Solutions are told apart by the relative tolerance only: no solution has a covariance."]
+    cond = rec.get("conditioning")
+    if cond:
+        out.append(("The best solution: " if fitting > 1 else "The solution: ") + conditioning_line(cond) +
+                   ("" if fitting > 1 else " — one solution: the data determine it uniquely, "
+                    + ("though some combination poorly." if cond.get("ill_conditioned") else "and well.")))
+    return out
+
+
 def starts_section(result: dict) -> Section | None:
     st = result.get("starts") or {}
     sols = st.get("solutions") or []
@@ -129,6 +147,8 @@ def starts_section(result: dict) -> Section | None:
                  "(a likelihood-ratio test at 95 %)."
                  + (" The data do not determine the parameters uniquely." if fitting > 1 else ""),
                  "warning" if fitting > 1 else ""))
+    for line in distinct_texts(st.get("distinct"), fitting):
+        sec.add(Text(line, "note"))
     t = Table("", ["solution", *[unit_label(n, units.get(n)) for n in names], f"cost ½‖r‖² [{cost_unit(result)}]",
                    "starts [–]", "fits the data"])
     for i, s in enumerate(sols):

@@ -17,6 +17,18 @@ _DIAGNOSTICS = (
     "enters), `model_error` (as the top-level key) (docs/cli.md, \"What the diagnostics say\"; docs/numerics.md, "
     "\"Noise and variance components\")")
 
+#: ``distinct`` of a multi-start study (femupdate.updating.clustering.distinct_record) and of a uniqueness case
+DISTINCT = ("how the solutions were told apart and how well the best is determined: `alpha` (the significance level), "
+            "`basis` (`statistic`: against each solution's covariance, the Mahalanobis distance above the chi-square "
+            "quantile; `tolerance`: no covariance, by `rel_tol` alone; `mixed`), `non_unique` (more than one "
+            "solution fits the data as well as the best), `separations` (per solution, why it is "
+            "distinct from the lowest-cost one: `{basis, statistic, dof, threshold}`, `basis` `statistic`, `non-identifiable` "
+            "(differs along a direction the data do not determine) or `tolerance`; `null` for that one), "
+            "`conditioning` (ill-conditioning, apart from non-uniqueness: `{condition_number, ill_conditioned, "
+            "relative_std {name: value}, weakest {direction {name: component}, relative_std}, basis}`, the "
+            "standard deviations relative to the values and what they rest on; `null` without a covariance)")
+
+
 UPDATE_KEYS = (
     Key("kind", "string", "`update` (the command that wrote it; `frf-update` for `frf-update`)", (STRING,), True),
     Key("schema_version", "integer", "the version of the results' schema (1)", (INTEGER,), True),
@@ -61,7 +73,8 @@ UPDATE_KEYS = (
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
     Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
         "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
-        "`--scheduler` also `seed`, `fitting`, `fit_cost`, `failed` (messages of failed starts), `failures` "
+        "`--scheduler` also `seed`, `fitting`, `fit_cost`, `distinct` (" + DISTINCT + "), `failed` (messages of "
+        "failed starts), `failures` "
         "`{reason: count}`, `runs` (one record per start: `start`, `outcome`, `cost`, `iterations`, `nfev`, "
         "`solution`, `message`, `seconds`, `cpu_seconds`, `pairing`) and `seconds`", (OBJECT,), True),
 )

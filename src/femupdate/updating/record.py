@@ -118,7 +118,7 @@ def starts_fields(ms) -> dict:
         "total": ms.total, "converged": ms.converged, "seed": ms.seed,
         "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits}
                       for s in ms.solutions],
-        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost,
+        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost, "distinct": ms.distinct or None,
         "failed": [r for r in ms.runs if isinstance(r, str)],
         "failures": ms.failures,
         "runs": ms.records(),

@@ -376,6 +376,12 @@ class Solution:
         The solution fits the data as well as the best one: its cost exceeds the best by less
         than the statistical fluctuation of the fit allows (:func:`~femupdate.updating.clustering.fit_threshold`).
         Solutions that do not are local minima.
+    separation : Separation or None
+        Why it is distinct from the lowest-cost solution (:func:`femupdate.distinct.compare`:
+        ``"statistic"``, ``"non-identifiable"`` or ``"tolerance"``); None for that one.
+    basis : str
+        How the runs were grouped: ``"statistic"`` (every run had a covariance), ``"tolerance"``
+        (none had: the relative tolerance alone) or ``"mixed"``.
     """
 
     parameters: dict[str, float]
@@ -383,6 +389,8 @@ class Solution:
     count: int
     starts: list[int]
     fits: bool = field(default=False, kw_only=True)
+    separation: object = field(default=None, kw_only=True)
+    basis: str = field(default="tolerance", kw_only=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -420,6 +428,11 @@ class MultiStartResult(Serialisable):
         threads included); None on the compiled route.
     batch_seconds : float or None
         The compiled route's wall-clock seconds for all the starts together (None per start).
+    distinct : dict
+        How the solutions were told apart and how well the best one is determined
+        (:func:`~femupdate.updating.clustering.distinct_record`): ``alpha``, ``basis``,
+        ``non_unique``, ``separations``, ``conditioning`` (ill-conditioning — "k2 known to ±x %",
+        the condition number, the weakest direction — apart from non-uniqueness).
 
     The solutions are ordered: those that fit the data first (most frequent first), then the
     local minima (lowest cost first).
@@ -437,6 +450,7 @@ class MultiStartResult(Serialisable):
     seconds: list | None = field(default=None, kw_only=True)
     cpu_seconds: list | None = field(default=None, kw_only=True)
     batch_seconds: float | None = field(default=None, kw_only=True)
+    distinct: dict = field(default_factory=dict, kw_only=True)
     context: RunContext | None = field(default=None, kw_only=True, compare=False, repr=False)
 
     kind: ClassVar[str] = "update"

@@ -143,7 +143,8 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         The measured data.
     starts : StartsOptions or int, optional
         The starts and how solutions are told apart (:class:`~femupdate.options.StartsOptions`:
-        number — an int is that —, seed, log-uniform draws, ``rel_tol``, ``cost_tol`` and the
+        number — an int is that —, seed, log-uniform draws, ``alpha`` and ``rel_tol`` (how
+        solutions are told apart), ``cost_tol`` and the
         compiled ``batched`` route: ``None`` takes it when only modal data are used, the model
         has at most :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are
         supported — the compiled route implements ``formulation="shapes"`` only —, locally or in
@@ -273,8 +274,8 @@ def run_starts(model, data, names, X0, kwargs, *, starts: StartsOptions | None =
     kwargs : dict
         Options passed to ``runner`` (neither ``x0`` nor ``params``).
     starts : StartsOptions, optional
-        Its ``seed`` (the seed the starts were drawn with, recorded in the result), ``rel_tol``
-        (relative distance under which two solutions are the same) and ``cost_tol`` (largest
+        Its ``seed`` (the seed the starts were drawn with, recorded in the result), ``alpha`` and
+        ``rel_tol`` (how two solutions are told apart, :class:`~femupdate.options.StartsOptions`) and ``cost_tol`` (largest
         cost of a converged run; default no limit); its number of starts is ``len(X0)``.
     execution : ExecutionOptions, optional
         ``scheduler`` (a Dask scheduler's address; local runs otherwise), ``connect_timeout``
@@ -320,10 +321,10 @@ def run_starts(model, data, names, X0, kwargs, *, starts: StartsOptions | None =
     seconds = [float(p[1]) for p in pairs]
     cpu = [float(p[2]) for p in pairs]
     ok, solutions = converged_solutions(runs, names, UpdateResult, st.cost_tol, st.rel_tol,
-                                        parameter_scale(model, names))
+                                        parameter_scale(model, names), st.alpha)
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
     return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), st.seed,
-                                     seconds=seconds, cpu_seconds=cpu))
+                                     seconds=seconds, cpu_seconds=cpu), st.alpha)
 
 
 def local_jobs(model, n_starts: int) -> int:
