@@ -220,8 +220,8 @@ def significant(points, costs, covariances=None, alpha: float = ALPHA, rel_tol: 
         for j in g:
             del free[j]
         groups.append(g)
-    first = groups[0][0] if groups else None
-    seps = [None] + [compare(P[first], P[g[0]], covs[first], covs[g[0]], alpha, rel_tol, scale) or Separation("tolerance")
+    first = groups[0][0] if groups else 0
+    seps: list[Separation | None] = [None] + [compare(P[first], P[g[0]], covs[first], covs[g[0]], alpha, rel_tol, scale) or Separation("tolerance")
                      for g in groups[1:]]
     have = [c is not None and np.isfinite(np.diag(np.asarray(c, float))).any() for c in covs]
     basis = "statistic" if all(have) else "tolerance" if not any(have) else "mixed"

@@ -48,6 +48,7 @@ test on the blocks with stated noise, and a plausibility bound on the estimated 
 from __future__ import annotations
 
 import math
+from typing import Any
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 
@@ -504,7 +505,7 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
     FitTest
     """
     plausible = dict(plausible or {})
-    tests = []
+    tests: list[dict[str, Any]] = []
     st = [c for c in vc.components if c.basis == "stated"]
     if st:
         rows = np.concatenate([c.rows for c in st])

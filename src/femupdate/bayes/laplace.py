@@ -224,11 +224,13 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
         cov = np.full((post.L, post.L), np.nan)
         log_weight = -math.inf
         inside = math.nan
+        C: np.ndarray | None
+        Cr: np.ndarray | None
         try:
             C, Cr = np.linalg.cholesky(H), np.linalg.cholesky(Hr)
         except np.linalg.LinAlgError:
             C = Cr = None
-        if C is None or not np.all(np.isfinite(H)) or not np.all(np.isfinite(Hr)):
+        if C is None or Cr is None or not np.all(np.isfinite(H)) or not np.all(np.isfinite(Hr)):
             note = "the posterior's Hessian there is not positive definite: the data and prior do not confine it"
         else:
             Hinv = np.linalg.inv(Hr)

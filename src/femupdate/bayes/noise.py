@@ -198,7 +198,11 @@ def _components(post, x, by_kind: bool = False):
     except FemupdateError:
         return None
     stated_pool = {mb for p in post.pools if p.basis == "stated" for mb in p.members}
-    blocks, kinds, lost, stated, plausible = {}, {}, {}, set(), {}
+    blocks: dict = {}
+    kinds: dict = {}
+    lost: dict = {}
+    stated: set = set()
+    plausible: dict = {}
     off = 0
     several = len(post.problems) > 1
     for i, prob in enumerate(post.problems):

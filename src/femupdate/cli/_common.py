@@ -451,7 +451,7 @@ def distinct_lines(ms) -> list[str]:
     rec = getattr(ms, "distinct", None) or {}
     if not rec or not ms.solutions:
         return []
-    basis = rec.get("basis")
+    basis = str(rec.get("basis"))
     how = {"statistic": f"solutions told apart at alpha = {rec['alpha']:g} against their own covariances",
            "mixed": f"solutions told apart at alpha = {rec['alpha']:g} against their covariances where they have one, "
                     "else by the relative tolerance",

@@ -88,6 +88,6 @@ def _conditioning(doc: Document, cases: list, alpha) -> None:
     t = Table("", ["measured dofs", "modes m", "conditioning"])
     for c, k in rows[:20]:
         t.rows.append([Cell(", ".join(c.get("measured_dofs") or [])), Cell(str(c.get("n_modes"))),
-                       Cell(conditioning_line(k))])
+                       Cell(conditioning_line(k or {}))])
     sec.add(t)
     doc.sections.append(sec)

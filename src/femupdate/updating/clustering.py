@@ -59,7 +59,7 @@ def common_noise(covs, costs, floor: float = 0.0) -> list:
     where the excess is misfit, not noise — is rescaled by that cost / cost_run.  Absolute
     covariances (stated noise) are kept."""
     best = max(float(np.min(costs)), float(floor)) if len(costs) else 0.0
-    out = []
+    out: list = []
     for c, cost in zip(covs, costs):
         if c is None:
             out.append(None)

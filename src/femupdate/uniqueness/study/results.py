@@ -489,7 +489,8 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
         S, m_own = sens[c]
         cond, sv, rank = conditioning(S, m_own)
         cov = case_covariance(S, rank, scale, 2.0 * cost_tol) if rank else None
-        sols, distinct = [], {"alpha": alpha, "basis": "statistic" if rank else "tolerance", "separations": []}
+        sols: list = []
+        distinct: dict = {"alpha": alpha, "basis": "statistic" if rank else "tolerance", "separations": []}
         if conv.any():
             sols, distinct = _solutions(study, xs[conv], cs[conv], ks[conv], p_true, scale, cov, alpha, rel_tol)
         level = study.levels[1] if len(study.levels) > 1 else 0.01
