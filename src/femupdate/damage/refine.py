@@ -50,6 +50,7 @@ NOISE_FLOOR = 1e-8    # smallest noise level the residuals are divided by (noise
 MAX_ALL = 200         # largest number of unknowns fitted all at once as the last enlargement
 TOL = 1e-10           # ftol, xtol and gtol of the least-squares fits
 MAX_NEIGHBOURS = 12   # neighbours of a member tried in its exchanges
+START_LOSS = 0.95     # a start is kept this far from the lower bound (a fit started on a bound stays there)
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,22 +195,30 @@ class SetSearch:
         return float(chdtri(dof, 1 - self.level)) if dof > 0 else 0.0
 
     # ------------------------------------------------------------------ one set
-    def fit(self, members, start: np.ndarray | None = None, want_wald: bool = False) -> SetFit:
+    def fit(self, members, start: np.ndarray | None = None, want_wald: bool = False, fresh: bool = False) -> SetFit:
         """Fit the set ``members`` (positions) from ``start`` (relative changes; default zero); with
-        ``want_wald``, each member's Wald statistic δ²/var(δ) at the fit."""
+        ``want_wald``, each member's Wald statistic δ²/var(δ) at the fit.  A set fitted before is
+        taken from the cache, unless ``fresh``: then it is fitted again from ``start`` and the better
+        of the two fits kept (a fit from one start may end in a local minimum another avoids)."""
         key = tuple(sorted(int(i) for i in members))
-        if key in self.cache:
-            return self.cache[key]
+        old = self.cache.get(key)
+        if old is not None and not (fresh or (want_wald and old.wald is None)):
+            return old
         with single_thread_blas():  # small dense eigenproblems: OpenBLAS threads only add hand-off time
             out = self._fit(key, start, want_wald)
+        if old is not None and not out.chi2 < old.chi2:
+            out = old if (old.wald is not None or not want_wald) else dataclasses.replace(old, wald=out.wald)
+            self.cache[key] = out
+            self.trail = [out if f.members == key else f for f in self.trail]
+            return out
         self.cache[key] = out
-        self.trail.append(out)
+        self.trail = [f for f in self.trail if f.members != key] + [out]
         return out
 
     def _fit(self, key: tuple[int, ...], start: np.ndarray | None, want_wald: bool) -> SetFit:
         from ..updating.solve import solve
 
-        start = np.zeros(self.L) if start is None else np.clip(start, -MAX_LOSS, 1.0)
+        start = np.zeros(self.L) if start is None else np.clip(start, -START_LOSS, 1.0)
         dof = self.n_data - len(key)
         delta = np.zeros(self.L)
         wald = None
@@ -337,16 +346,23 @@ class SetSearch:
         return self.exchange(f)
 
     def every(self) -> SetFit | None:
-        """Every unknown fitted at once from the baseline (plain updating), when the data allow it."""
+        """Every unknown fitted at once (plain updating), when the data allow it: from the baseline
+        (as ``update`` starts) and from the best set fitted so far, the better fit kept."""
         if self.L > MAX_ALL or self.n_data <= self.L:
             return None
-        return self.fit(range(self.L), want_wald=True)
+        e = self.fit(range(self.L), np.zeros(self.L), want_wald=True, fresh=True)
+        best = min((f for f in self.trail if math.isfinite(f.chi2)), key=lambda f: f.chi2, default=None)
+        if not e.fits and best is not None and best.members != e.members:
+            e = self.fit(range(self.L), best.delta, want_wald=True, fresh=True)
+        return e
 
     def _from_every(self, e: SetFit) -> SetFit | None:
         """The smallest set, among the leading ones of e's ranking (Wald statistic), that fits; trimmed."""
         order = [int(i) for i in np.argsort(-e.wald, kind="stable")] if e.wald is not None else []
         for k in range(1, min(self.max_located, self.L) + 1):
             g = self.fit(order[:k], e.delta)
+            if not g.fits:  # cached from another start, perhaps a local minimum
+                g = self.fit(order[:k], e.delta, fresh=True)
             if g.fits:
                 return self.trim(g)
         return None
