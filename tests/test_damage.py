@@ -406,7 +406,7 @@ def test_damage_too_large_for_expansion_is_not_localised_by_expansion_but_by_ref
     res = detect_damage(base, data, bootstrap=0, refine=False)  # the expansion-based localisation alone
     assert not res.localised and res.located == [] and "cannot be localised" in res.reason and res.detected
     # the refinement compares the measured shapes without expansion: the hidden mount is found, alone and exact
-    res = detect_damage(base, data, bootstrap=0)
+    res = detect_damage(base, data, bootstrap=0, baseline_checked=True)  # the baseline is the truth here
     assert res.status == "confirmed" and res.located == ["k.201y-105y"]
     assert res.loss["k.201y-105y"] == pytest.approx(0.7, abs=1e-6)
     assert any("localisation is unreliable" in n for n in res.notes)
@@ -630,6 +630,11 @@ def test_issue_chain_gives_the_damaged_spring_alone_and_exactly(tmp_path, capsys
     # localise, refine, verify: the damaged spring alone, at its true loss, named as the model names it
     code, out, err = _run(args + ["--bootstrap", "0", "--json", "-"], capsys)
     assert code == 0, err
+    res = json.loads(out)  # issue 34: the baseline unchecked, the answer is not confirmed, and says what is needed
+    assert res["status"] == "doubtful" and res["located"] == ["k3"] and "--undamaged" in res["doubts"][-1]
+    assert res["headline"].startswith("damage located, DOUBTFUL: k3 -30.0 % (the baseline was not checked")
+    code, out, err = _run(args + ["--bootstrap", "0", "--baseline-checked", "--json", "-"], capsys)
+    assert code == 0, err
     res = json.loads(out)
     assert res["status"] == "confirmed" and res["located"] == ["k3"] and res["unknowns"] == "parameters"
     assert res["changes"]["k3"] == pytest.approx(-0.3, abs=1e-6) and list(res["loss"]) == ["k3"]
@@ -657,7 +662,7 @@ def test_a_group_parameter_is_one_unknown(tmp_path):
     theta = model.values.copy()
     theta[model.parameter_index("kg")] *= 0.75  # both springs of the group lose 25 %
     data = noisy_modes(model, ["2:x", "3:x", "5:x"], 3, theta)
-    res = detect_damage(du.model, data, bootstrap=0, descriptions=du.descriptions)
+    res = detect_damage(du.model, data, bootstrap=0, descriptions=du.descriptions, baseline_checked=True)
     assert res.located == ["kg"] and res.loss["kg"] == pytest.approx(0.25, abs=1e-6) and res.status == "confirmed"
     el = damage_unknowns(st, unknowns="elements")
     assert el.kind == "elements" and len(el.names) == 5
@@ -698,7 +703,7 @@ def test_data_that_do_not_localise_the_damage_say_so(tmp_path, capsys):
     assert not res["verification"]["fits"]
     # with sets of two allowed, the same data give both springs, exactly
     code, out, err = _run(["damage", str(tmp_path / "c.toml"), str(tmp_path / "d.json"), "--bootstrap", "0",
-                           "--json", "-"], capsys)
+                           "--baseline-checked", "--json", "-"], capsys)
     res = json.loads(out)
     assert code == 0 and sorted(res["located"]) == ["k2", "k7"] and res["status"] == "confirmed"
     assert res["loss"] == pytest.approx({"k2": 0.3, "k7": 0.3}, abs=1e-6)

@@ -71,19 +71,18 @@ def _pct(v) -> str:
     return "-" if v is None or not np.isfinite(v) else f"{v * 100:.1f} %"
 
 
-def _fp_line(rate) -> str:
-    """The benchmark's false-positive rate for comparable scenarios, as one line."""
-    bins = []
-    if rate.get("sensor_fraction"):
-        lo, hi = rate["sensor_fraction"]
-        bins.append(f"sensors on {lo * 100:.0f}-{min(hi, 1) * 100:.0f} % of the dofs")
-    if rate.get("modes"):
-        lo, hi = rate["modes"]
-        bins.append(f"{lo}-{hi - 1} modes")
-    return (f"benchmark: a healthy unknown was reported damaged in {rate['false_positives']} of {rate['scenarios']} "
-            f"comparable scenarios ({rate['false_positive_rate'] * 100:.0f} %; every damaged one found in "
-            f"{rate['detection_rate'] * 100:.0f} %) at {rate['noise'] * 100:g} % noise"
-            + (f", {', '.join(bins)}" if bins else "") + f" (bench_damage.py, {rate['date']})")
+def _rate_lines(conf) -> list[str]:
+    """The simulated false-positive and detection rates of this run, with their Monte Carlo error."""
+    out = []
+    for key, what in (("false_positive_rate", "healthy baseline simulated with this run's sensors, modes and noise: "
+                                              "some unknown reported damaged in"),
+                      ("detection_rate", "located model simulated likewise: every located unknown found again in")):
+        r = conf.get(key)
+        if r:
+            lo, hi = r["interval"]
+            out.append(f"{what} {r['count']} of {r['n']} replicates ({r['rate'] * 100:.0f} % ± "
+                       f"{r['standard_error'] * 100:.0f} %, {r['level'] * 100:g} % interval {lo * 100:.0f}-{hi * 100:.0f} %)")
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,6 +142,9 @@ def _method_group() -> Callable:
                      help="Baseline check: largest frequency error against --undamaged."),
         click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True,
                      help="Baseline check: smallest MAC."),
+        click.option("--baseline-checked", is_flag=True,
+                     help="The baseline was checked against the undamaged structure (e.g. updated against its data); "
+                          "without it or --undamaged a located set is never confirmed."),
         click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
                      help="A damaged mode pairing with no baseline mode this well stops the localisation."),
     )
@@ -164,7 +166,8 @@ def _noise_group() -> Callable:
 
 
 #: the phases of damage detection, as its progress shows them
-_PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicates"}
+_PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicates",
+           "healthy": "replicates of the healthy baseline"}
 
 
 @click.command(cls=GroupedCommand)
@@ -186,6 +189,7 @@ def damage(baseline_path, data_path, given: DamageData, options, noise, outputs:
         res = detect_damage(du, data, undamaged=undamaged, elements=_names(given.elements_text), noise=noise,
                             options=options, progress=tick)
     payload = res.to_json()
+    ctx.console.print(payload["headline"], markup=False)
     _print_damage(ctx.console, res, du.model, data, du.kind, options.min_change)
     for n in payload["notes"]:
         ctx.console.print(f"note: {n}", markup=False)
@@ -276,9 +280,8 @@ def _print_damage(c, res, model, data, kind: str, min_change: float) -> None:
         _print_located(c, res, min_change)
     else:
         c.print(f"[bold]not localised[/bold]: {res.reason}")
-    rate = res.confidence.get("false_positive_rate")
-    if rate:
-        c.print(_fp_line(rate), markup=False)
+    for line in _rate_lines(res.confidence):
+        c.print(line, markup=False)
 
 
 # ---------------------------------------------------------------------------------- update-multi

@@ -83,27 +83,46 @@ class Replicates:
         return sel, se, same
 
 
+def chain(refiner: Refiner, data: TestData, alpha: float | None) -> tuple[set[int], np.ndarray]:
+    """The whole chain on one data set: localised, refined and verified; (located set, changes)."""
+    L = len(refiner.names)
+    meas_k = measured_shapes(data)
+    fit_k, _, _ = refiner.localiser.solve(meas_k.eigenvalues, meas_k.shapes, alpha)
+    with single_thread_blas():
+        _, f_k = refiner.search(data, meas_k.eigenvalues, meas_k.shapes, fit_k)
+    d_k = f_k.delta if f_k.fits else np.zeros(L)
+    return ({i for i in f_k.members if abs(d_k[i]) >= refiner.min_change} if f_k.fits else set()), d_k
+
+
 def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData, alpha: float | None,
-                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
+                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None,
+                      delta: np.ndarray | None = None, pairs=None) -> Replicates:
     """``n`` replicates simulated from the refined model (its change ``refined.delta``, the data's
-    modes paired as the final fit paired them), each localised, refined and verified anew;
-    ``progress(done, n)`` after each."""
-    localiser, levels, L = refiner.localiser, refiner.levels, len(refiner.names)
-    theta_hat = localiser.equations.theta(refined.delta)
+    modes paired as the final fit paired them) — or from the change ``delta`` with ``pairs`` (the
+    healthy baseline: zero) — each localised, refined and verified anew; ``progress(done, n)`` after each."""
+    levels = refiner.levels
+    theta_hat = refiner.localiser.equations.theta(refined.delta if delta is None else delta)
+    pairs = refined.final.pairs if pairs is None else pairs
     sets, changes = [], []
     for _ in range(n):
-        data_k = simulated(refiner.model, theta_hat, data, refined.final.pairs, levels.frequency, levels.shape_verify,
-                           rng)
-        meas_k = measured_shapes(data_k)
-        fit_k, _, _ = localiser.solve(meas_k.eigenvalues, meas_k.shapes, alpha)
-        with single_thread_blas():
-            _, f_k = refiner.search(data_k, meas_k.eigenvalues, meas_k.shapes, fit_k)
-        d_k = f_k.delta if f_k.fits else np.zeros(L)
-        sets.append({i for i in f_k.members if abs(d_k[i]) >= refiner.min_change} if f_k.fits else set())
+        data_k = simulated(refiner.model, theta_hat, data, pairs, levels.frequency, levels.shape_verify, rng)
+        s_k, d_k = chain(refiner, data_k, alpha)
+        sets.append(s_k)
         changes.append(d_k)
         if progress is not None:
             progress(len(sets), n)
     return Replicates(sets, changes, n)
+
+
+def bootstrap_healthy(n: int, refiner: Refiner, refined: Refined, data: TestData, pairs, alpha: float | None,
+                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
+    """``n`` replicates simulated from the healthy baseline (every change zero; the test modes paired
+    with the baseline's as ``pairs``), each through the whole chain: the false-positive rate of this
+    run's model, sensors, modes and noise (none when the noise is zero or no set fits the data)."""
+    if not n or refiner.levels.zero or not refined.final.fits:
+        return Replicates.none()
+    return bootstrap_refined(n, refiner, refined, data, alpha, rng, progress, delta=np.zeros(len(refiner.names)),
+                             pairs=pairs)
 
 
 def bootstrap_localised(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels, alpha: float | None,
@@ -138,4 +157,4 @@ def bootstrap(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels,
     return bootstrap_refined(n, refiner, refined, data, alpha, rng, progress)
 
 
-__all__ = ["simulated", "Replicates", "bootstrap", "bootstrap_refined", "bootstrap_localised", "NOTHING_TO_VARY"]
+__all__ = ["simulated", "Replicates", "bootstrap", "bootstrap_refined", "bootstrap_healthy", "chain", "bootstrap_localised", "NOTHING_TO_VARY"]

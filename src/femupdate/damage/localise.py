@@ -143,7 +143,8 @@ def stated_noise(noise: Mapping | None) -> StatedNoise:
 
 @dataclass(frozen=True, eq=False)
 class Pairing:
-    """The measured modes paired with the baseline's (at the measured dofs).
+    """The measured modes paired with the baseline's (at the measured dofs) by the one rule
+    (:func:`~femupdate.damage.baseline.paired_modes`: ``update``'s).
 
     Attributes
     ----------
@@ -153,11 +154,18 @@ class Pairing:
         Relative frequency change of each measured mode from its baseline mode.
     n_rigid : int
         Rigid-body modes of the baseline (among those computed).
+    flagged : list of dict
+        The pairs to doubt: ``test_mode``, ``baseline_mode`` (1-based), ``mac``, ``frequency_change``
+        and ``why`` (a frequency change beyond ``LARGE_CHANGE``, a MAC below ``min_mac``).
+    used : str
+        The rule that made the pairs (``order``, ``frequency`` or ``mac``).
     """
 
     best: dict[int, tuple[int, float]]
     frequency_change: np.ndarray
     n_rigid: int
+    flagged: tuple = ()
+    used: str = "order"
 
     @property
     def pairs(self) -> list[tuple[int, int, float]]:
@@ -173,15 +181,40 @@ class Pairing:
         """The measured modes that pair with no baseline mode at least ``min_mac`` well."""
         return [k for k in range(len(self.frequency_change)) if self.best[k][1] < min_mac]
 
+    def record(self) -> dict:
+        """The result's ``pairing``: the rule and the flagged pairs."""
+        return {"rule": "auto (as update pairs: by frequency order unless the shapes show a swap, close modes as "
+                        "groups)", "used": self.used, "large_change": LARGE_CHANGE,
+                "flagged": [dict(f) for f in self.flagged]}
 
-def pair_with_baseline(model: Model, meas: Measured) -> Pairing:
-    """Pair the measured modes with the baseline's by MAC at the measured dofs."""
+
+#: a relative frequency change of a pair beyond this is flagged (the pairing rule's own window)
+LARGE_CHANGE = 0.1
+
+
+def pair_with_baseline(model: Model, meas: Measured, min_mac: float = 0.8) -> Pairing:
+    """Pair the measured modes with the baseline's by the one rule (``update``'s, at the measured
+    dofs); pairs that cross a frequency change beyond ``LARGE_CHANGE`` or whose MAC is below
+    ``min_mac`` are flagged."""
     lam, Phi_a = meas.eigenvalues, meas.shapes
     measured = TestData(modes=tuple(MeasuredMode(lam[k], meas.dofs, Phi_a[:, k]) for k in range(meas.n_modes)))
-    base_modes, _, pairs = paired_modes(model, measured, None, 0.0)
-    best = {k: (j, mm) for k, j, mm in pairs}
+    base_modes, corr = paired_modes(model, measured, None)
+    best = {k: (j, mm) for k, j, mm in corr.pairs}
+    missing = [k for k in range(meas.n_modes) if k not in best]
+    if missing:
+        raise InputError(f"measured mode(s) {', '.join(str(k + 1) for k in missing)} pair with no baseline mode "
+                         f"(fewer baseline modes computed than measured)")
     fchange = np.array([math.sqrt(lam[k] / base_modes.eigenvalues[best[k][0]]) - 1.0 for k in range(meas.n_modes)])
-    return Pairing(best, fchange, int(np.sum(base_modes.eigenvalues <= 0)))
+    flagged = []
+    for k in range(meas.n_modes):
+        j, mm = best[k]
+        why = ([f"frequency change {fchange[k] * 100:+.1f} % (beyond {LARGE_CHANGE * 100:g} %)"]
+               if abs(fchange[k]) > LARGE_CHANGE else []) + ([f"MAC {mm:.2f} (below {min_mac:g})"] if mm < min_mac else [])
+        if why:
+            flagged.append({"test_mode": k + 1, "baseline_mode": j + 1, "mac": float(mm),
+                            "frequency_change": float(fchange[k]), "why": "; ".join(why)})
+    used = corr.pairing.used if corr.pairing is not None else "order"
+    return Pairing(best, fchange, int(np.sum(base_modes.eigenvalues <= 0)), tuple(flagged), used)
 
 
 # ------------------------------------------------------------------------------ expansion

@@ -154,6 +154,8 @@ class SetSearch:
         self.n_data = self._n_independent()
         self.scale = 1.0          # misfits are divided by it (rescale)
         self.noise_factor = 1.0   # the noise taken this many times the stated one
+        self.every_fit: SetFit | None = None  # the fit of every unknown, when the search made it
+        self._every_scale = 1.0
 
     # ------------------------------------------------------------------ noise and counts
     def _std(self, data: TestData) -> dict:
@@ -354,7 +356,21 @@ class SetSearch:
         best = min((f for f in self.trail if math.isfinite(f.chi2)), key=lambda f: f.chi2, default=None)
         if not e.fits and best is not None and best.members != e.members:
             e = self.fit(range(self.L), best.delta, want_wald=True, fresh=True)
+        self.every_fit, self._every_scale = e, self.scale
         return e
+
+    def model_error(self) -> dict | None:
+        """The chi-square test of the fit of every unknown against the stated noise: ``chi2``, ``dof``,
+        ``limit``, ``p_value`` and ``fits`` (None when it was not made: a smaller set fitted first,
+        or too few data)."""
+        from scipy.special import chdtrc
+
+        e = self.every_fit
+        if e is None or not math.isfinite(e.chi2) or e.dof < 1:
+            return None
+        chi2 = e.chi2 * self._every_scale  # against the stated noise, whatever rescaling followed
+        return {"chi2": chi2, "dof": e.dof, "limit": e.limit, "p_value": float(chdtrc(e.dof, chi2)),
+                "fits": bool(chi2 <= e.limit), "level": self.level}
 
     def _from_every(self, e: SetFit) -> SetFit | None:
         """The smallest set, among the leading ones of e's ranking (Wald statistic), that fits; trimmed."""
