@@ -19,7 +19,7 @@ from femupdate.damage import DamageOptions, detect_damage, element_parameters
 from femupdate.damage.bootstrap import (NOTHING_TO_VARY, Replicates, bootstrap, bootstrap_localised, simulated)
 from femupdate.damage.judge import UNCHECKED, binomial_rate, judge
 from femupdate.damage.examples import concentrated_mass_truss, noisy_modes
-from femupdate.damage.localise import (Equations, Localiser, NoiseLevels, StatedNoise, basis_size, expansion,
+from femupdate.damage.localise import (BASIS_ASSUMED, BASIS_CALLER, BASIS_DATA, BASIS_EXPANSION, Equations, Localiser, NoiseLevels, StatedNoise, basis_size, expansion,
                                        localise, make_localiser, measured_shapes, noise_levels, noise_weights,
                                        pair_with_baseline, realised_data, stated_noise)
 from femupdate.damage.solvers import L1Fit
@@ -117,12 +117,33 @@ def test_measured_shapes_keep_the_common_dofs_real_and_refuse_rigid_modes():
 
 
 def test_stated_noise_is_checked():
-    assert stated_noise(None) == StatedNoise(0.001, None)
-    assert stated_noise({"frequency": 0.0, "shape": 0.01}) == StatedNoise(0.0, 0.01)
+    assert stated_noise(None) == StatedNoise(0.001, None)  # assumed, and said to be
+    assert dict(stated_noise(None).basis) == {"frequency": BASIS_ASSUMED, "shape": None}
+    caller = stated_noise({"frequency": 0.0, "shape": 0.01})
+    assert (caller.frequency, caller.shape) == (0.0, 0.01)
+    assert dict(caller.basis) == {"frequency": BASIS_CALLER, "shape": BASIS_CALLER}
     with pytest.raises(InputError, match="unknown key"):
         stated_noise({"shapes": 0.01})
     with pytest.raises(InputError, match="must be >= 0"):
         stated_noise({"shape": -0.01})
+
+
+def test_the_noise_the_test_data_state_is_taken_per_mode_unless_the_caller_states_it():
+    # std_frequency 0.4 % and 1 %; std_shape (unit-length scaling, as update reads it) 0.002 and 0.004
+    a = MeasuredMode.from_frequency(10.0, ("1:x", "2:x", "3:x"), np.array([1.0, 2.0, 2.0]), std_frequency=0.004,
+                                    std_shape=0.002)
+    b = MeasuredMode.from_frequency(20.0, ("1:x", "2:x", "3:x"), np.array([2.0, -1.0, 0.0]), std_frequency=0.01,
+                                    std_shape=0.004)
+    st = stated_noise(None, TestData(modes=(a, b)))
+    assert st.frequency_modes == pytest.approx((0.004, 0.01))  # std_eigenvalue = 2 std_frequency, halved back
+    # relative to each shape's largest value: std_shape * |phi| / max|phi| (|phi| = 3 and sqrt(5); max 2 and 2)
+    assert st.shape_modes == pytest.approx((0.002 * 3 / 2, 0.004 * np.sqrt(5) / 2))
+    assert dict(st.basis) == {"frequency": BASIS_DATA, "shape": BASIS_DATA}
+    mixed = stated_noise({"frequency": 0.02}, TestData(modes=(a, b)))
+    assert mixed.frequency == 0.02 and mixed.frequency_modes is None and mixed.shape_modes is not None
+    assert dict(mixed.basis) == {"frequency": BASIS_CALLER, "shape": BASIS_DATA}
+    with pytest.raises(InputError, match="state it for every mode"):  # as update refuses it
+        stated_noise(None, TestData(modes=(a, MeasuredMode.from_frequency(20.0, ("1:x", "2:x"), np.array([1.0, 2.0])))))
 
 
 def test_pairing_gives_the_frequency_change_of_each_mode(truss):
@@ -185,9 +206,10 @@ def test_unstated_shape_noise_is_recovered_from_the_expansion_misfit(truss, sigm
     levels, notes = noise_levels(StatedNoise(), meas, exp)
     assert levels.shape == pytest.approx(sigma, rel=0.25)
     assert levels.shape < levels.shape_verify < 1.5 * levels.shape  # the upper end of its confidence interval
-    assert len(notes) == 1 and f"{levels.shape_verify:.3g}" in notes[0]
-    stated, notes = noise_levels(StatedNoise(0.002, 0.01), meas, exp)
-    assert stated == NoiseLevels(0.002, 0.01, 0.01) and notes == []
+    assert len(notes) == 2 and "0.001 assumed" in notes[0] and f"{levels.shape_verify:.3g}" in notes[1]
+    assert dict(levels.basis) == {"frequency": BASIS_ASSUMED, "shape": BASIS_EXPANSION}
+    stated, notes = noise_levels(stated_noise({"frequency": 0.002, "shape": 0.01}), meas, exp)
+    assert (stated.frequency, stated.shape, stated.shape_verify) == (0.002, 0.01, 0.01) and notes == []
 
 
 def test_noise_weights_whiten_the_equations_and_are_the_identity_without_noise(truss):
@@ -384,7 +406,7 @@ def test_judge_keeps_a_confirmed_set_the_replicates_agree_with():
     assert conf["selection_frequency"] == {"b": 1.0, "c": pytest.approx(1 / 3)} and conf["same_set"] == pytest.approx(2 / 3)
     assert conf["standard_error"] == {"b": pytest.approx(np.std([-0.3, -0.32, -0.3], ddof=1))}
     assert conf["evidence"] == {"b": 50.0} and conf["bootstrap"] == 3 and conf["separation"] == 2.0
-    assert conf["noise"] == {"frequency": 0.001, "shape": 0.004}
+    assert conf["noise"] == {"frequency": 0.001, "shape": 0.004, "shape_verify": 0.006, "basis": {}}
     # the rates are those of the replicates: 1 healthy replicate of 4 located something; 3 of 3 found b
     assert conf["false_positive_rate"]["rate"] == 0.25 and conf["false_positive_rate"]["n"] == 4
     assert conf["detection_rate"]["rate"] == 1.0 and conf["detection_rate"]["count"] == 3

@@ -154,12 +154,14 @@ def _noise_group() -> Callable:
     """``--noise-frequency``, ``--noise-shape`` -> ``noise``: the stated noise, as
     :func:`~femupdate.damage.detect_damage` takes it."""
     def build(noise_frequency, noise_shape):
-        return {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
+        return ({"frequency": noise_frequency} if noise_frequency is not None else {}) \
+            | ({"shape": noise_shape} if noise_shape is not None else {})
 
     return option_group(
         "Stated noise", "noise", build,
-        click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True,
-                     help="Relative frequency noise (0: noise-free data)."),
+        click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=None,
+                     help="Relative frequency noise (0: noise-free data; default: the test data's std_frequency, "
+                          "else 0.001, said to be assumed)."),
         click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
                      help="Shape noise relative to each shape's largest value (default: from the expansion misfit)."),
     )
@@ -262,6 +264,11 @@ def _print_located(c, res, min_change: float) -> None:
                 "(--no-refine); its bootstrap varies the noise only", markup=False)
     for d in res.doubts:
         c.print(f"warning: doubtful: {d}", markup=False)
+    noise = res.confidence.get("noise") or {}
+    basis = noise.get("basis") or {}
+    if basis:
+        c.print(f"noise: frequency {noise.get('frequency', float('nan')):.3g} ({basis.get('frequency')}), shape "
+                f"{noise.get('shape_verify', noise.get('shape', float('nan'))):.3g} ({basis.get('shape')})", markup=False)
     if res.tikhonov:
         c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} unknown(s) by more than "
                 f"{min_change * 100:g} %")

@@ -23,24 +23,27 @@ from .verify import Refined, Refiner
 NOTHING_TO_VARY = "no noise stated (zero): the bootstrap has nothing to vary and was skipped"
 
 
-def simulated(model, theta, data: TestData, pairs, sig_f: float, sig_s: float, rng: np.random.Generator) -> TestData:
+def simulated(model, theta, data: TestData, pairs, sig_f, sig_s, rng: np.random.Generator) -> TestData:
     """Replicate test data from the model at ``theta``: each test mode's paired model mode at its
-    dofs, scaled to 1 at its largest entry with the measured sign, plus the stated noise."""
+    dofs, scaled to 1 at its largest entry with the measured sign, plus the stated noise (``sig_f``,
+    ``sig_s``: one level, or one per test mode)."""
     from ..modal import model_modes
 
     T = len(data.modes)
     modes = model_modes(model, theta, n_modes=min(model.n_dofs, max(2 * T, T + 6)))
     by_test = {k: j for k, j, _ in pairs}
+    sf = np.broadcast_to(np.asarray(sig_f, float), (T,))
+    ss = np.broadcast_to(np.asarray(sig_s, float), (T,))
     out = []
     for k, m in enumerate(data.modes):
         j = by_test.get(k, k)
-        lam = modes.eigenvalues[j] * (1 + sig_f * rng.standard_normal()) ** 2
+        lam = modes.eigenvalues[j] * (1 + sf[k] * rng.standard_normal()) ** 2
         if m.has_shape and len(m.dofs) >= 2:
             sh = modes.shapes[model.dof_index(m.dofs), j]
             sh = sh / sh[np.argmax(np.abs(sh))]
             if sh @ realised(m) < 0:
                 sh = -sh
-            out.append(MeasuredMode(lam, m.dofs, sh + sig_s * rng.standard_normal(sh.size), m.label))
+            out.append(MeasuredMode(lam, m.dofs, sh + ss[k] * rng.standard_normal(sh.size), m.label))
         else:
             out.append(MeasuredMode(lam, label=m.label))
     return TestData(modes=tuple(out))
@@ -105,7 +108,7 @@ def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData
     pairs = refined.final.pairs if pairs is None else pairs
     sets, changes = [], []
     for _ in range(n):
-        data_k = simulated(refiner.model, theta_hat, data, pairs, levels.frequency, levels.shape_verify, rng)
+        data_k = simulated(refiner.model, theta_hat, data, pairs, *levels.verify_levels, rng)
         s_k, d_k = chain(refiner, data_k, alpha)
         sets.append(s_k)
         changes.append(d_k)

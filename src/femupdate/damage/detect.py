@@ -366,7 +366,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
     chk = None if undamaged is None else check_baseline(
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
     meas = measured_shapes(data)
-    stated = stated_noise(noise)
+    stated = stated_noise(noise, data)
     pairing = pair_with_baseline(model, meas, opts.localise_min_mac)
     common = _common(model, names, pairing, stated.frequency, chk, descriptions)
     notes: list[str] = [meas.note] if meas.note else []

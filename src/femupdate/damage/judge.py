@@ -127,7 +127,7 @@ def judge(names: Sequence[str], localisation: Localisation, verification: Verifi
         "selection_frequency": {names[i]: float(sel[i]) for i in range(len(names)) if sel[i] > 0 or i in S},
         "standard_error": {names[i]: float(se[i]) for i in S},
         "separation": localisation.separation, "bootstrap": replicates.n,
-        "noise": {"frequency": levels.frequency, "shape": levels.shape},
+        "noise": levels.record(),
         "same_set": same, "evidence": {names[i]: float(v) for i, v in evidence.items() if i in set(S.tolist())},
     }
     status, doubts = verification.status, list(verification.doubts)

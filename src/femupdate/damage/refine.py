@@ -97,8 +97,9 @@ class SetSearch:
         The unknowns (stiffness parameters of ``model``).
     data : TestData
         The measured modes.
-    sigma_f, sigma_s : float
-        Stated noise: relative frequency std, shape std relative to each shape's largest value.
+    sigma_f, sigma_s : float or array_like of shape ``(n_test_modes,)``
+        Stated noise: relative frequency std, shape std relative to each shape's largest value;
+        one level, or one per test mode.
     allow_increase : bool
         Let stiffness increase (upper bound 2 θ0).
     min_change : float
@@ -134,7 +135,12 @@ class SetSearch:
             params[j] = dataclasses.replace(params[j], bounds=(v * (1 - MAX_LOSS), v * up) if v > 0 else params[j].bounds)
         self.model = dataclasses.replace(model, parameters=tuple(params))
         self.data = data
-        self.sigma_f, self.sigma_s = float(sigma_f), float(sigma_s)
+        T = len(data.modes)  # one level, or one per test mode (as the test data state them)
+        self.sf_modes = np.broadcast_to(np.asarray(sigma_f, float), (T,)).copy()
+        self.ss_modes = np.broadcast_to(np.asarray(sigma_s, float), (T,)).copy()
+        shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
+        self.sigma_f = float(np.median(self.sf_modes)) if T else float(np.max(sigma_f, initial=0.0))
+        self.sigma_s = float(np.median(self.ss_modes[shaped])) if shaped else float(np.max(sigma_s, initial=0.0))
         self.std = self._std(data)
         self.min_change = float(min_change)
         self.level = float(level)
@@ -159,12 +165,12 @@ class SetSearch:
 
     # ------------------------------------------------------------------ noise and counts
     def _std(self, data: TestData) -> dict:
-        lam = [max(2 * self.sigma_f, NOISE_FLOOR)] * len(data.modes)
+        lam = [max(2 * sf, NOISE_FLOOR) for sf in self.sf_modes]
         shape = []
-        for m in data.modes:
+        for m, ss in zip(data.modes, self.ss_modes):
             if m.has_shape and len(m.dofs) >= 2:
                 s = np.abs(np.asarray(m.shape))
-                shape.append(max(self.sigma_s, NOISE_FLOOR) * float(np.max(s) / np.linalg.norm(s)))
+                shape.append(max(ss, NOISE_FLOOR) * float(np.max(s) / np.linalg.norm(s)))
             else:
                 shape.append(1.0)
         return {"eigenvalue": np.array(lam), "shape": np.array(shape)}
