@@ -98,16 +98,22 @@ class Judgement:
 
 
 def uniform_change(names: Sequence[str], delta: np.ndarray, order: np.ndarray, n_unknowns: int) -> str | None:
-    """The note on located changes that move together (a uniform baseline error would give them), if they do."""
-    if order.size < 2 or order.size < n_unknowns / 2:
+    """The note on located changes that move together — at least two, and half the unknowns, within
+    ``UNIFORM_SPREAD`` of their median, one sign — which a uniform error of the baseline would give;
+    the other located changes are told relative to theirs.  None when they do not."""
+    if order.size < 2:
         return None
     d = delta[order]
-    mean = float(np.mean(d))
-    if not (np.all(d < 0) or np.all(d > 0)) or float(np.std(d)) > UNIFORM_SPREAD * abs(mean):
+    med = float(np.median(d))
+    together = order[np.abs(d - med) <= UNIFORM_SPREAD * abs(med)] if med != 0 else order[:0]
+    if together.size < max(2, n_unknowns / 2):
         return None
-    return (f"{order.size} of the {n_unknowns} unknowns changed together ({mean * 100:+.1f} % on average, spread "
-            f"{float(np.std(d)) * 100:.1f} %): a uniform error of the unchecked baseline would explain them as well as "
-            "damage")
+    mean = float(np.mean(delta[together]))
+    others = [i for i in order if i not in set(together.tolist())]
+    rel = "; ".join(f"{names[i]} {((1 + delta[i]) / (1 + mean) - 1) * 100:+.1f} % relative to them" for i in others)
+    return (f"{together.size} of the {n_unknowns} unknowns changed together ({mean * 100:+.1f} % on average, spread "
+            f"{float(np.std(delta[together])) * 100:.1f} %): a uniform error of the unchecked baseline (its stiffness "
+            f"{(1 / (1 + mean) - 1) * 100:+.1f} % off) would explain them as well as damage" + (f"; {rel}" if rel else ""))
 
 
 def judge(names: Sequence[str], localisation: Localisation, verification: Verification, refined: Refined | None,
