@@ -122,8 +122,8 @@ def measured_shapes(data: TestData) -> Measured:
 #: the bases a noise level can rest on (the result's ``confidence.noise.basis``)
 BASIS_CALLER = "stated by the caller"
 BASIS_DATA = "stated in the test data"
-BASIS_ASSUMED = "assumed (stated neither in the test data nor by the caller)"
-BASIS_EXPANSION = "estimated from the expansion misfit (not stated)"
+BASIS_ASSUMED = "assumed: stated neither in the test data nor by the caller"
+BASIS_EXPANSION = "estimated from the expansion misfit: not stated"
 
 
 @dataclass(frozen=True)
