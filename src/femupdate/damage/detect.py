@@ -94,11 +94,11 @@ from ..serialise import RunContext, Serialisable
 from ..testdata import TestData
 from .baseline import check_baseline
 from .bootstrap import Replicates, bootstrap, bootstrap_healthy
-from .localise import (Localisation, Localiser, NoiseLevels, Pairing, indices, localise, make_localiser,
+from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
+from .judge import Judgement, judge
 from .options import DamageOptions
 from .parameters import DamageUnknowns
-from .judge import Judgement, judge
 from .verify import Refined, Refiner, Verification, verify
 
 
