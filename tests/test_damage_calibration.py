@@ -196,3 +196,27 @@ def test_a_baseline_too_stiff_without_undamaged_data_is_never_confirmed():
     with pytest.raises(InputError, match="does not match the undamaged data"):
         detect_damage(stiff, data, undamaged=noisy_modes(truth, ["1:x", "3:x", "5:x", "6:x", "8:x"], 4),
                       bootstrap=0)
+
+
+# ============================================================================== noise not stated
+def test_noise_stated_nowhere_is_estimated_from_the_fit_of_every_unknown_or_said_assumed():
+    k, m = [1000.0, 1200, 900, 1100, 1000, 1300, 950, 1050], [1.0, 1.1, 0.9, 1.0, 1.2, 0.8, 1.0, 1.1]
+    model = chain(k, m)
+    theta = model.values.copy()
+    theta[model.parameter_index("k3")] *= 0.6
+    sensors = ["1:x", "2:x", "3:x", "5:x", "6:x", "7:x", "8:x"]
+    try:
+        import femupdate.variance  # noqa: F401  (the variance components of issue 27 item 2)
+    except ImportError:
+        res = detect_damage(model, noisy_modes(model, sensors, 5, theta, 0.005, 0.01, seed=0), bootstrap=0,
+                            baseline_checked=True)
+        basis = res.confidence["noise"]["basis"]
+        assert basis["frequency"].startswith("assumed") and any("0.001 assumed" in n for n in res.notes)
+        return
+    for seed in range(3):  # true noise: 0.5 % on frequencies, 1 % of the largest entry on shapes
+        res = detect_damage(model, noisy_modes(model, sensors, 5, theta, 0.005, 0.01, seed=seed), bootstrap=0,
+                            baseline_checked=True)
+        noise = res.confidence["noise"]
+        assert set(noise["basis"].values()) == {"estimated from the fit of every unknown (REML variance components)"}
+        assert 0.4 < noise["frequency"] / 0.005 < 2.5 and 0.4 < noise["shape"] / 0.01 < 2.5, noise
+        assert res.located == ["k3"] and any(n.startswith("noise not stated: estimated") for n in res.notes)

@@ -201,3 +201,94 @@ def perturbed(meas: Measured, levels: NoiseLevels, rng: np.random.Generator) -> 
 
 __all__ = ["BASIS_CALLER", "BASIS_DATA", "BASIS_ASSUMED", "BASIS_EXPANSION", "StatedNoise", "data_noise", "stated_noise",
            "NoiseLevels", "noise_levels", "perturbed", "DEFAULT_FREQUENCY_NOISE", "DEFAULT_SHAPE_NOISE"]
+
+
+#: the basis of a level estimated from the fit of every unknown
+BASIS_ESTIMATED = "estimated from the fit of every unknown (REML variance components)"
+
+
+def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[StatedNoise | None, dict | None, list[str]]:
+    """The noise the data do not state, estimated from the fit of every unknown (plain updating
+    from the baseline, as ``update`` fits them) by REML variance components per block
+    (:func:`femupdate.variance.variance_components` on the blocks of
+    :func:`femupdate.updating.noise.layout`: each mode's eigenvalue and shape, pooled where they
+    lack the redundancy), and that fit's test (:func:`femupdate.variance.fit_test`: a plausibility
+    bound on the estimated levels — a pool across kinds held to the largest of their bounds — a
+    model error when they exceed what a vibration test gives).
+
+    Returns
+    -------
+    noise : StatedNoise or None
+        ``stated`` with the kinds it did not state estimated (per mode; ``basis``
+        ``BASIS_ESTIMATED``); None when nothing is to be estimated, the variance components are not
+        available, or the data are too few (a note says why).
+    model_error : dict or None
+        The fit's test (``test``, ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict``).
+    notes : list of str
+    """
+    basis = dict(stated.basis)
+    want_f, want_s = basis.get("frequency") == BASIS_ASSUMED, basis.get("shape") is None
+    if not (want_f or want_s):
+        return None, None, []
+    try:
+        from ..updating.noise import layout
+        from ..variance import fit_test, variance_components
+    except ImportError:  # the variance components are not in this version: the levels stay assumed
+        return None, None, []
+    from .._errors import InputError, NumericalError
+    from ..updating import Problem
+    from ..updating.solve import solve
+    from .localise import realised_data
+
+    data = realised_data(data)
+    try:
+        prob = Problem(model, data, list(names), shape_scaling="unit")
+        if prob.n_residuals <= len(names) + 1:
+            return None, None, [f"the noise cannot be estimated: {prob.n_residuals} residuals for {len(names)} "
+                                "unknowns (state it: --noise-frequency, --noise-shape, or std_frequency / std_shape "
+                                "in the test data)"]
+        sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                          max_nfev=200 + 20 * len(names))
+        J, r = prob.jacobian(sol.x), prob.residuals(sol.x)
+        lay = layout(prob, None)
+        vc = variance_components(J, r, lay.blocks, kinds=lay.kinds, lost=lay.lost)
+        plausible = dict(lay.plausible)
+        if plausible:  # a pool across kinds is held to the largest of their bounds
+            plausible["all"] = max(plausible.values())
+        test = fit_test(vc, plausible=plausible)
+    except (InputError, NumericalError, ValueError) as exc:
+        return None, None, [f"the noise could not be estimated from the fit of every unknown: {exc}"]
+    by_label = {mb: c for c in vc.components for mb in c.members}
+    T = len(data.modes)
+    f_modes, s_modes = list(stated.frequency_modes or [stated.frequency] * T), list(stated.shape_modes or [1.0] * T)
+    notes = list(vc.notes)
+    for k, m in enumerate(data.modes):
+        if want_f:
+            c = by_label.get(f"eigenvalue mode {k + 1}")
+            if c is None or not math.isfinite(c.std):
+                return None, None, notes + ["the frequency noise cannot be estimated from the fit of every unknown"]
+            f_modes[k] = c.std / 2  # the residual is the relative eigenvalue error: 2 sigma_f
+        if want_s and m.has_shape and len(m.dofs) >= 2:
+            c = by_label.get(f"shape mode {k + 1}")
+            if c is None or not math.isfinite(c.std):
+                return None, None, notes + ["the shape noise cannot be estimated from the fit of every unknown"]
+            phi = np.abs(np.asarray(m.shape, float))
+            s_modes[k] = c.std * float(np.linalg.norm(phi) / np.max(phi))  # unit-length scaling -> largest value
+    shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
+    if want_f:
+        basis["frequency"] = BASIS_ESTIMATED
+    if want_s:
+        basis["shape"] = BASIS_ESTIMATED
+    out = StatedNoise(float(np.median(f_modes)) if want_f else stated.frequency,
+                      float(np.median([s_modes[k] for k in shaped])) if want_s and shaped else stated.shape,
+                      tuple(map(float, f_modes)) if (want_f or stated.frequency_modes is not None) else None,
+                      tuple(map(float, s_modes)) if (want_s or stated.shape_modes is not None) else None,
+                      tuple(basis.items()))
+    said = ", ".join(f"{k} {v:.3g}" for k, v in (("frequency", out.frequency), ("shape", out.shape))
+                     if v is not None and basis.get(k) == BASIS_ESTIMATED)
+    notes.append(f"noise not stated: estimated from the fit of every unknown (REML variance components per block; "
+                 f"median {said}); its test: {test.headline()}")
+    return out, test.record(), notes
+
+
+__all__ += ["BASIS_ESTIMATED", "estimated_noise"]
