@@ -330,7 +330,8 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         and meaning).
     progress : callable ``(phase, done, total)``, optional
         Called as the work advances: phase ``"refine"`` (the search for the set that fits, one
-        step) and ``"bootstrap"`` (after each replicate).
+        step), ``"bootstrap"`` (after each replicate) and ``"healthy"`` (after each replicate of the
+        healthy baseline, which gives the false-positive rate).
     **shorthand
         Fields of :class:`~femupdate.damage.DamageOptions` as keywords (``bootstrap=0``,
         ``refine=False``, ...), changing ``options``.
