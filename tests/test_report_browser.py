@@ -47,6 +47,12 @@ def pages(tmp_path_factory, ex):
               "--report", str(d / "update-full.html")])
     assert e.value.code == 0
     out["update-full"] = (d / "update-full.html", json.loads((d / "u.json").read_text()))
+    with pytest.raises(SystemExit) as e:  # the posterior's report (no recorded result: its samples vary by seed only)
+        main(["posterior", str(ex / "two_dof.toml"), str(ex / "two_dof_frequencies.json"), "--std-eigenvalue", "0.01",
+              "--method", "tmcmc", "--samples", "400", "--starts", "8", "--json", str(d / "p.json"),
+              "--report", str(d / "posterior.html")])
+    assert e.value.code == 0
+    out["posterior"] = (d / "posterior.html", json.loads((d / "p.json").read_text()))
     return out
 
 
@@ -56,7 +62,7 @@ def browser():
         yield b
 
 
-@pytest.mark.parametrize("kind", [*KIND_FILES, "update-full"])
+@pytest.mark.parametrize("kind", [*KIND_FILES, "update-full", "posterior"])
 def test_report_renders_without_errors_and_shows_the_results_numbers(kind, pages, browser):
     path, result = pages[kind]
     problems = browser.load(path)

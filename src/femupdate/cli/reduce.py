@@ -77,7 +77,7 @@ def _print(c, model, res) -> None:
         tab.add_column(col, justify="right")
     for i in range(max(f_red.size, f_full.size)):
         tab.add_row(str(i + 1), fmt(f_full[i]) if i < f_full.size else "-", fmt(f_red[i]) if i < f_red.size else "-",
-                    f"{err[i] * 100:+.4f} %" if i < err.size else "-")
+                    _percent(err[i]) if i < err.size else "-")
     c.print(tab)
     if len(res.frequency_error) > 1:
         t2 = Table(title="frequency error per method (reduced vs full)")
@@ -88,10 +88,17 @@ def _print(c, model, res) -> None:
                 t2.add_row(meth, "-", "-", e[:60])
             else:
                 w = int(np.argmax(np.abs(e)))
-                t2.add_row(meth, f"{e[0] * 100:+.4f} %", f"{np.max(np.abs(e)) * 100:.4f} %", str(w + 1))
+                t2.add_row(meth, _percent(e[0]), f"{np.max(np.abs(e)) * 100:.4f} %", str(w + 1))
         c.print(t2)
     crit = res.criteria
     c.print(f"retained mass fraction {res.mass_fraction:.1%}; lowest frequency with the kept dofs grounded "
             f"{crit.grounded_frequency_hz:.6g} Hz (Larsson & Sas); Gordis overlap {crit.overlap}")
     for m in crit.messages:
         c.print(f"warning: {m}")
+
+
+def _percent(x: float) -> str:
+    """A relative error in per cent with its sign, four decimals; one that rounds to zero without a
+    sign (its sign is rounding noise, which differs between machines)."""
+    text = f"{x * 100:+.4f}"
+    return f"{'0.0000' if float(text) == 0 else text} %"
