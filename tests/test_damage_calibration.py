@@ -220,3 +220,22 @@ def test_noise_stated_nowhere_is_estimated_from_the_fit_of_every_unknown_or_said
         assert set(noise["basis"].values()) == {"estimated from the fit of every unknown (REML variance components)"}
         assert 0.4 < noise["frequency"] / 0.005 < 2.5 and 0.4 < noise["shape"] / 0.01 < 2.5, noise
         assert res.located == ["k3"] and any(n.startswith("noise not stated: estimated") for n in res.notes)
+
+
+@heavy
+def test_standard_errors_of_the_whole_chain_hold_over_noise_seeds():
+    # noise stated as drawn; |identified - true change| / standard error over seeds: RMS z near 1 (issue 27: 4.5)
+    k, m = [1000.0, 1200.0, 900.0, 1100.0, 1000.0], [1.0, 1.1, 0.9, 1.0, 1.2]
+    model = chain(k, m)
+    theta = model.values.copy()
+    theta[model.parameter_index("k3")] *= 0.6
+    z = []
+    for seed in range(10):
+        data = noisy_modes(model, ["1:x", "3:x", "4:x", "5:x"], 4, theta, 0.005, 0.01, seed=200 + seed)
+        res = detect_damage(model, data, noise={"frequency": 0.005, "shape": 0.01}, bootstrap=20, baseline_checked=True,
+                            seed=seed)
+        if res.located == ["k3"]:
+            z.append((res.changes["k3"] + 0.4) / res.confidence["standard_error"]["k3"])
+    assert len(z) >= 8
+    rms = float(np.sqrt(np.mean(np.square(z))))
+    assert 0.5 < rms < 1.6, z  # 10 seeds: chi-square(10)/10 lies in (0.23, 2.3) at 99 %; rms within its root

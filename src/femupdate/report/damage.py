@@ -13,7 +13,8 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
     doc.verdict = Cell(status, cls={"confirmed": "ok"}.get(status, "bad"))
     located = list(result.get("located") or [])
     changes = result.get("changes") or {}
-    doc.facts += [("unknowns", Cell(f"{len(changes)} ({result.get('unknowns', 'parameters')})")),
+    doc.facts += ([("verdict", Cell(str(result["headline"])))] if result.get("headline") else []) + [
+                  ("unknowns", Cell(f"{len(changes)} ({result.get('unknowns', 'parameters')})")),
                   ("located", Cell(", ".join(located) or "none"))]
     for d in result.get("doubts") or []:
         doc.warnings.append(f"doubtful: {d}")
