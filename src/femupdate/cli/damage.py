@@ -278,10 +278,11 @@ def _print_damage(c, res, model, data, kind: str, min_change: float) -> None:
     """The pairing with the baseline, then the located set (or why there is none) and the benchmark's rate."""
     what = "element stiffnesses" if kind == "elements" else "stiffness parameters"
     t = Table(title=f"{model.name}: {len(res.changes)} {what}, {len(data.modes)} measured modes")
-    for col in ("test mode", "baseline mode", "MAC", "frequency change"):
-        t.add_column(col, justify="right")
+    flagged = {f["test_mode"]: f["why"] for f in (res.pairing or {}).get("flagged", [])}
+    for col in ("test mode", "baseline mode", "MAC", "frequency change") + (("pair to doubt",) if flagged else ()):
+        t.add_column(col, justify="left" if col == "pair to doubt" else "right")
     for (k, j, m), fc in zip(res.pairs, res.frequency_change):
-        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
+        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %", *((flagged.get(k + 1, ""),) if flagged else ()))
     c.print(t)
     if res.localised:
         _print_located(c, res, min_change)
