@@ -264,3 +264,16 @@ def test_the_fit_of_every_unknown_is_made_afresh_not_taken_from_a_fit_from_anoth
     assert e.chi2 <= bad.chi2 and e.fits and e.chi2 < 1e-6 * e.limit
     assert e.delta[names.index("C_1")] == pytest.approx(-0.3, abs=1e-6)
     assert np.max(np.abs(np.delete(e.delta, names.index("C_1")))) < 1e-6
+
+
+def test_healthy_data_say_no_damage_with_the_false_positive_rate_of_their_own_replicates():
+    k, m = [1000.0, 1200.0, 900.0, 1100.0, 1000.0], [1.0, 1.1, 0.9, 1.0, 1.2]
+    model = chain(k, m)
+    data = noisy_modes(model, ["1:x", "3:x", "5:x"], 3, None, 0.002, 0.005, seed=9)
+    res = detect_damage(model, data, noise={"frequency": 0.002, "shape": 0.005}, bootstrap=6, baseline_checked=True)
+    assert res.located == [] and res.status == "confirmed"
+    assert res.to_json()["headline"] == "no damage: the baseline reproduces the data"
+    fp = res.confidence["false_positive_rate"]
+    assert fp["n"] == 6 and fp["rate"] == fp["count"] / 6 and res.confidence["detection_rate"] is None
+    # a replicate that selects any unknown is a false positive: no unknown is selected more often than the rate
+    assert max(res.confidence["selection_frequency"].values(), default=0.0) <= fp["rate"]

@@ -406,7 +406,9 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
     reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
                      progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
     healthy = Replicates.none()
-    if refiner is not None and refined is not None and realised is not None:
+    if refined is not None and reps.sets and not np.any(refined.delta):
+        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
+    elif refiner is not None and refined is not None and realised is not None:
         healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
                                     progress=None if progress is None else lambda done, total: progress("healthy", done,
                                                                                                         total))
