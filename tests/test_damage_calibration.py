@@ -217,8 +217,12 @@ def test_noise_stated_nowhere_is_estimated_from_the_fit_of_every_unknown_or_said
         res = detect_damage(model, noisy_modes(model, sensors, 5, theta, 0.005, 0.01, seed=seed), bootstrap=0,
                             baseline_checked=True)
         noise = res.confidence["noise"]
-        assert set(noise["basis"].values()) == {"estimated from the fit of every unknown (REML variance components)"}
-        assert 0.4 < noise["frequency"] / 0.005 < 2.5 and 0.4 < noise["shape"] / 0.01 < 2.5, noise
+        assert noise["basis"]["shape"] == "estimated from the fit of every unknown (REML variance components)"
+        assert 0.4 < noise["shape"] / 0.01 < 2.5, noise
+        if noise["basis"]["frequency"].startswith("estimated"):
+            assert 0.4 < noise["frequency"] / 0.005 < 2.5, noise
+        else:  # 5 eigenvalues for 8 unknowns: too few to estimate on their own, and said so
+            assert any("frequency noise cannot be estimated on its own" in n for n in res.notes)
         assert res.located == ["k3"] and any(n.startswith("noise not stated: estimated") for n in res.notes)
 
 

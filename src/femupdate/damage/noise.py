@@ -262,12 +262,15 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     T = len(data.modes)
     f_modes, s_modes = list(stated.frequency_modes or [stated.frequency] * T), list(stated.shape_modes or [1.0] * T)
     notes = list(vc.notes)
+    eig = [by_label.get(f"eigenvalue mode {k + 1}") for k in range(T)]
+    if want_f and any(c is None or c.kind != "eigenvalue" or not math.isfinite(c.std) for c in eig):
+        # too few eigenvalues for the unknowns: pooled with the shapes, their level is not the frequencies' own
+        want_f = False
+        notes.append("the frequency noise cannot be estimated on its own from the fit of every unknown (too few "
+                     "modes for the unknowns: their block is pooled with the shapes)")
     for k, m in enumerate(data.modes):
         if want_f:
-            c = by_label.get(f"eigenvalue mode {k + 1}")
-            if c is None or not math.isfinite(c.std):
-                return None, None, notes + ["the frequency noise cannot be estimated from the fit of every unknown"]
-            f_modes[k] = c.std / 2  # the residual is the relative eigenvalue error: 2 sigma_f
+            f_modes[k] = eig[k].std / 2  # the residual is the relative eigenvalue error: 2 sigma_f
         if want_s and m.has_shape and len(m.dofs) >= 2:
             c = by_label.get(f"shape mode {k + 1}")
             if c is None or not math.isfinite(c.std):
@@ -275,6 +278,8 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
             phi = np.abs(np.asarray(m.shape, float))
             s_modes[k] = c.std * float(np.linalg.norm(phi) / np.max(phi))  # unit-length scaling -> largest value
     shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
+    if not (want_f or want_s):
+        return None, None, notes
     if want_f:
         basis["frequency"] = BASIS_ESTIMATED
     if want_s:
