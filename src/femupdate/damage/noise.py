@@ -223,7 +223,10 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
         ``BASIS_ESTIMATED``); None when nothing is to be estimated, the variance components are not
         available, or the data are too few (a note says why).
     model_error : dict or None
-        The fit's test (``test``, ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict``).
+        The fit's test (``test``, ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict``); when it
+        flags the fit, no level is estimated (None, None and a note: a fit from the baseline that
+        ended in a local minimum cannot be told from a model error here — the verification's
+        chi-square test against the assumed levels then judges).
     notes : list of str
     """
     basis = dict(stated.basis)
@@ -258,6 +261,11 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
         test = fit_test(vc, plausible=plausible)
     except (InputError, NumericalError, ValueError) as exc:
         return None, None, [f"the noise could not be estimated from the fit of every unknown: {exc}"]
+    if test.flagged:  # a model error, or a fit from the baseline that ended in a local minimum: no estimate
+        return None, None, list(vc.notes) + [
+            "the noise was not estimated: the fit of every unknown from the baseline leaves more than a vibration "
+            f"test's noise ({test.headline()}); a model error or a local minimum of that fit — the levels stay "
+            "assumed and the verification tests the located set against them"]
     by_label = {mb: c for c in vc.components for mb in c.members}
     T = len(data.modes)
     f_modes, s_modes = list(stated.frequency_modes or [stated.frequency] * T), list(stated.shape_modes or [1.0] * T)
