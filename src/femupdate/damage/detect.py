@@ -79,7 +79,6 @@ method's knobs are one :class:`~.options.DamageOptions`.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -370,7 +369,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
     meas = measured_shapes(data)
     stated = stated_noise(noise, data)
-    estimated, noise_test, noise_notes = estimated_noise(model, names, data, stated)
+    estimated, _, noise_notes = estimated_noise(model, names, data, stated)  # its test is in its note
     stated = estimated or stated
     pairing = pair_with_baseline(model, meas, opts.localise_min_mac)
     common = _common(model, names, pairing, stated.frequency, chk, descriptions)
@@ -401,7 +400,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         refiner = Refiner.of(model, names, localiser, levels, opts, pairing.n_rigid)
         realised = realised_data(data)
         refined = refiner.refine(realised, meas.eigenvalues, meas.shapes, loc.fit)
-        verification = _with_noise_test(verify(refined), noise_test)
+        verification = verify(refined)
         _tell(progress, "refine", 1, 1)
     reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
                      progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
@@ -416,19 +415,6 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                     baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
     return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
                   data, undamaged, du)
-
-
-def _with_noise_test(verification: Verification, noise_test: dict | None) -> Verification:
-    """The verification with the test of the estimated noise (:func:`~.noise.estimated_noise`): a
-    level beyond what a vibration test gives is a model error, and the location is not claimed."""
-    if not noise_test or noise_test.get("verdict") != "model error":
-        return verification
-    record = dict(verification.record) | {"model_error": {**noise_test, "fits": False}}
-    status = "doubtful" if verification.status == "confirmed" else verification.status
-    doubt = ("model error: the noise estimated from the fit of every unknown is more than a vibration test gives "
-             f"({noise_test['test']} test, p = {noise_test['p_value']:.2g}): the model lacks something the structure "
-             "has; the location is not claimed with confidence")
-    return dataclasses.replace(verification, status=status, doubts=[*verification.doubts, doubt], record=record)
 
 
 def _tell(progress, phase: str, done: int, total: int) -> None:

@@ -67,10 +67,6 @@ def model_error_line(res) -> str | None:
     me = (res.verification or {}).get("model_error")
     if not me or me.get("fits", True):
         return None
-    if "test" in me:  # the estimated noise against its plausible bound
-        return (f"MODEL ERROR: the noise estimated from the fit of every unknown is {me['statistic']:.3g} times what a "
-                f"vibration test gives ({me['test']} test, p = {me['p_value']:.2g}): the model cannot reproduce the "
-                "data within a plausible noise, so damage is not located with confidence")
     return (f"MODEL ERROR: even every unknown changing at once leaves a chi-square misfit of {me['chi2']:.4g} for a "
             f"limit of {me['limit']:.4g} ({me['dof']} degrees of freedom, p = {me['p_value']:.2g}): the model cannot "
             "reproduce the data within the noise, so damage is not located with confidence")
