@@ -259,7 +259,7 @@ def test_the_fit_of_every_unknown_is_made_afresh_not_taken_from_a_fit_from_anoth
     sensors = [f"{n}:{d}" for n in _top(3) + [5, 8] for d in "xyz"]
     data = noisy_modes(model, sensors, 6, _values(model, {"C_1": 0.7}))
     names = list(model.parameter_names)
-    srch = SetSearch(model, names, data, 0.0, 0.0, allow_increase=False, min_change=0.05, level=0.99,
+    srch = SetSearch(model, names, data, (0.0, 0.0), allow_increase=False, min_change=0.05, level=0.99,
                      max_located=len(names))
     start = np.zeros(len(names))
     start[names.index("C_1")] = -0.999999  # from there the old search ended at chi-square 6e16, every unknown near -90 %

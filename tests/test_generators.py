@@ -163,6 +163,23 @@ def test_shear_building_matrices_nonuniform():
     assert shear_building(1, parameters="none").build().n_dofs == 1
 
 
+def test_frame_lattice_members_object_and_keywords_build_the_same_model():
+    """The members' fields as keywords (the older call) and as a FrameMembers give one model; the
+    member changes it (an aluminium tube has the stiffness ratio E_al / E_steel in every K term)."""
+    kw = frame_lattice(2, 2, 3, E=70e9, rho=2700.0).build()
+    obj = frame_lattice(2, 2, 3, members=gen.FrameMembers(E=70e9, rho=2700.0)).build()
+    mapping = frame_lattice(2, 2, 3, members={"E": 70e9, "rho": 2700.0}).build()
+    steel = frame_lattice(2, 2, 3).build()
+    for m in (obj, mapping):
+        np.testing.assert_array_equal(m.K().toarray(), kw.K().toarray())
+        np.testing.assert_array_equal(m.M().toarray(), kw.M().toarray())
+    # E enters the axial and bending terms (G = E / 2(1 + nu) too): K scales by 70 / 210
+    np.testing.assert_allclose(kw.K().toarray(), steel.K().toarray() * (70e9 / 210e9), rtol=1e-12, atol=1e-6)
+    np.testing.assert_allclose(kw.M().toarray(), steel.M().toarray() * (2700.0 / 7850.0), rtol=1e-12, atol=1e-12)
+    with pytest.raises(TypeError, match="'Ee'; did you mean 'E'"):
+        frame_lattice(2, 2, 3, Ee=70e9)
+
+
 # ------------------------------------------------------------------ bad input
 @pytest.mark.parametrize(
     "call, word",
@@ -176,6 +193,8 @@ def test_shear_building_matrices_nonuniform():
         (lambda: frame_lattice(2, 2, 2, thickness=0.1), "thickness"),
         (lambda: frame_lattice(2, 2, 2, bounds=(1.2, 2.0)), "bounds"),
         (lambda: frame_lattice(2, 2, 2, E=-1.0), "E"),
+        (lambda: frame_lattice(2, 2, 2, nu=0.5), "nu"),
+        (lambda: frame_lattice(2, 2, 2, members=gen.FrameMembers(rho=0.0)), "rho"),
         (lambda: truss_lattice(1, 3), "nx"),
         (lambda: truss_lattice(3, 3, A=0.0), "A"),
         (lambda: shear_building(0), "n_storeys"),

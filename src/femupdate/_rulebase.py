@@ -77,10 +77,8 @@ def sumsq_col(B, j) -> float:
 
     Parameters
     ----------
-    B : numpy.ndarray of float, shape ``(n, m)``
-        The matrix.
-    j : int
-        The column, ``0 <= j < m``.
+    B, j
+        As :func:`dot_col`.
 
     Returns
     -------

@@ -8,7 +8,9 @@ A label names a node and a direction, e.g. ``"3:x"``, ``"A2:rz"``, ``"hinge_3:y"
   amplitudes on the command line), and not beginning with ``#`` (which marks a dof index).  A
   name is kept exactly as written (case-sensitive; blanks around it are dropped).
 * **dir**: one of ``x y z rx ry rz`` in any case, or a NASTRAN component number ``1``-``6``
-  (``1`` = x … ``6`` = rz); canonical in lower-case letters.
+  (``1`` = x … ``6`` = rz); canonical in lower-case letters.  ``s`` (or NASTRAN's component
+  ``0``) is the one dof of a **scalar point** (a NASTRAN SPOINT or EPOINT, the modal coordinate
+  of a reduced superelement): ``1995001:s``; it has no direction in space.
 
 ``"#N"`` is the N-th dof (1-based) of a model's dof list, as ``femupdate modes --json`` lists it
 under ``dofs``.  It is resolved to the model's label where test data or command-line options are
@@ -28,8 +30,10 @@ import numpy as np
 from ._errors import InputError
 
 DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
-_DIR_INDEX = {d: i for i, d in enumerate(DIRECTIONS)}
-_NASTRAN = {str(i + 1): d for i, d in enumerate(DIRECTIONS)}  # NASTRAN components 1..6 = x..rz
+#: the direction of a scalar point's one dof (NASTRAN component 0)
+SCALAR = "s"
+_DIR_INDEX = {**{d: i for i, d in enumerate(DIRECTIONS)}, SCALAR: len(DIRECTIONS)}
+_NASTRAN = {"0": SCALAR, **{str(i + 1): d for i, d in enumerate(DIRECTIONS)}}  # NASTRAN components 0..6
 _INDEX = re.compile(r"#([0-9]+)")
 _SEPARATORS = ",;="  # separate dofs, sets and amplitudes in command-line options
 
@@ -143,7 +147,8 @@ def parse_dof(label: str) -> tuple[Node, str]:
     direction = _NASTRAN.get(direction, direction)
     if direction not in _DIR_INDEX:
         raise InputError(
-            f"dof label {label!r}: direction {direction!r} is not one of {', '.join(DIRECTIONS)} (or 1-6)"
+            f"dof label {label!r}: direction {direction!r} is not one of {', '.join(DIRECTIONS)} (or 1-6), or s for a "
+            "scalar point"
         )
     return node, direction
 

@@ -314,10 +314,8 @@ def beam2d_physical_terms(xa, xb, mass: str = "consistent") -> ElementTerms:
 
     Parameters
     ----------
-    xa, xb : array_like, shape ``(n_el, 3)``
-        Coordinates of each element's end nodes a and b, m.
-    mass : {"consistent", "lumped"}, default "consistent"
-        Mass matrix.
+    xa, xb, mass
+        As :func:`beam2d_terms`.
 
     Returns
     -------

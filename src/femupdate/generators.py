@@ -16,15 +16,18 @@ Units are SI throughout (m, Pa, kg/m^3, N/m, kg).
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ._docs import shared_docs
 from ._errors import InputError
+from .options._base import Options, gather, number
 from .structure import Structure
 
-__all__ = ["chs_section", "frame_lattice", "truss_lattice", "shear_building",
+__all__ = ["chs_section", "FrameMembers", "frame_lattice", "truss_lattice", "shear_building",
            "FRAME_PARAMETERS", "TRUSS_PARAMETERS", "SHEAR_PARAMETERS"]
 
 FRAME_PARAMETERS = ("storey", "storey_mass", "direction", "none")
@@ -64,24 +67,69 @@ def chs_section(diameter: float = _D, thickness: float = _T) -> dict[str, float]
     return {"A": A, "Iy": inertia, "Iz": inertia, "J": 2 * inertia}
 
 
+def _lattice_end(members: str, name: str) -> str:
+    """The last parameters and the returns of the lattices' documentation (femupdate._docs)."""
+    return f"""bounds : (float, float)
+    Parameter bounds relative to the nominal value, ``0 <= lower < 1 < upper``.
+mass : ``"consistent"`` | ``"lumped"``
+    Mass matrix of the {members}.
+name : str, optional
+    Structure name (default ``"{name}"``).
+
+Returns
+-------
+Structure"""
+
+
 # --------------------------------------------------------------------------------------
 # 3-D space frame
 # --------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True, repr=False)
+class FrameMembers(Options):
+    """The members of :func:`frame_lattice`: their material and their tube (:func:`chs_section`).
+
+    Attributes
+    ----------
+    E : float, default 210e9
+        Young's modulus (Pa), > 0; default structural steel.
+    nu : float, default 0.3
+        Poisson's ratio, in (-1, 0.5); ``G = E / (2 (1 + nu))``.
+    rho : float, default 7850
+        Density (kg/m^3), > 0.
+    diameter : float, default 0.1143
+        Tube outside diameter (m), > 0.
+    thickness : float, default 0.0063
+        Tube wall thickness (m), ``0 < thickness <= diameter / 2``.
+    """
+
+    E: float = _E
+    nu: float = _NU
+    rho: float = _RHO
+    diameter: float = _D
+    thickness: float = _T
+
+    def check(self) -> None:
+        self.set("E", _positive(self.E, "E"))
+        self.set("rho", _positive(self.rho, "rho"))
+        self.set("nu", number(self.nu, "nu", low=-1.0, high=0.5, low_open=True, high_open=True))
+        chs_section(self.diameter, self.thickness)  # checks both
+        self.set("diameter", float(self.diameter))
+        self.set("thickness", float(self.thickness))
+
+
+@shared_docs(LATTICE_END=_lattice_end("members", "frame lattice NXxNYxNZ"))
 def frame_lattice(
     nx: int,
     ny: int,
     nz: int,
     spacing: float | Sequence[float] = 1.0,
-    E: float = _E,
-    nu: float = _NU,
-    rho: float = _RHO,
-    diameter: float = _D,
-    thickness: float = _T,
+    members: FrameMembers | Mapping | None = None,
     parameters: str = "storey",
     support: str = "base",
     bounds: tuple[float, float] = (0.5, 2.0),
     mass: str = "consistent",
     name: str | None = None,
+    **shorthand,
 ) -> Structure:
     r"""Space-frame lattice of ``nx * ny * nz`` nodes joined by tubular frame members.
 
@@ -108,10 +156,10 @@ def frame_lattice(
         Nodes along x, y and z; ``nx, ny >= 1``, ``nz >= 2``, at least two nodes in plan.
     spacing : float or (sx, sy, sz)
         Member lengths (m).
-    E, nu, rho : float
-        Young's modulus (Pa), Poisson's ratio, density (kg/m^3); default structural steel.
-    diameter, thickness : float
-        Tube outside diameter and wall thickness (m), see :func:`chs_section`.
+    members : FrameMembers or mapping, optional
+        The members' material and tube (default steel tubes 114.3 x 6.3); its fields ``E``,
+        ``nu``, ``rho``, ``diameter`` and ``thickness`` are also accepted as keywords
+        (``frame_lattice(3, 3, 4, E=70e9)``).
     parameters : ``"storey"`` | ``"storey_mass"`` | ``"direction"`` | ``"none"``
         * ``"storey"``: one Young's modulus ``E_s`` per storey, ``L = nz - 1`` parameters (E
           enters K only: the axial and both bending terms of the storey's members; the shear
@@ -124,16 +172,7 @@ def frame_lattice(
         * ``"none"``: all properties numeric, ``L = 0``.
     support : ``"base"`` | ``"none"``
         Fix every dof of the nodes at z = 0, or leave the lattice free–free.
-    bounds : (float, float)
-        Parameter bounds relative to the nominal value, ``0 <= lower < 1 < upper``.
-    mass : ``"consistent"`` | ``"lumped"``
-        Mass matrix of the members.
-    name : str, optional
-        Structure name (default ``"frame lattice NXxNYxNZ"``).
-
-    Returns
-    -------
-    Structure
+    {{LATTICE_END}}
 
     Examples
     --------
@@ -148,10 +187,9 @@ def frame_lattice(
     sx, sy, sz = _spacing(spacing, 3)
     _choice(parameters, FRAME_PARAMETERS, "parameters")
     _choice(support, SUPPORTS, "support")
-    E, nu, rho = _positive(E, "E"), float(nu), _positive(rho, "rho")
-    if not -1.0 < nu < 0.5:
-        raise InputError(f"nu = {nu:g} must lie in (-1, 0.5)")
-    sec = chs_section(diameter, thickness)
+    made: FrameMembers = gather("frame_lattice", shorthand, members=(FrameMembers, members))["members"]
+    E, nu, rho = made.E, made.nu, made.rho
+    sec = chs_section(made.diameter, made.thickness)
     lo, hi = _relative_bounds(bounds)
 
     s = Structure(name or f"frame lattice {nx}x{ny}x{nz}")
@@ -197,6 +235,7 @@ def frame_lattice(
 # --------------------------------------------------------------------------------------
 # plane truss
 # --------------------------------------------------------------------------------------
+@shared_docs(LATTICE_END=_lattice_end("rods", "truss lattice NXxNY"))
 def truss_lattice(
     nx: int,
     ny: int,
@@ -241,16 +280,7 @@ def truss_lattice(
         ``rho_s``, ``L = 2 (ny - 1)`` in the order ``E_1, rho_1, ...``; ``"none"``: ``L = 0``.
     support : ``"base"`` | ``"none"``
         Pin both dofs of the nodes at y = 0, or leave the lattice free–free.
-    bounds : (float, float)
-        Parameter bounds relative to the nominal value.
-    mass : ``"consistent"`` | ``"lumped"``
-        Mass matrix of the rods.
-    name : str, optional
-        Structure name (default ``"truss lattice NXxNY"``).
-
-    Returns
-    -------
-    Structure
+    {{LATTICE_END}}
 
     Examples
     --------

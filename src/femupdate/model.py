@@ -431,17 +431,7 @@ class Model:
         return self._assemble("K", self.resolve(values))
 
     def M(self, values=None) -> sp.csr_array:
-        """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg).
-
-        Parameters
-        ----------
-        values : None, mapping of str to float, or array_like, optional
-            Parameter values as :meth:`resolve` reads them (default: nominal).
-
-        Returns
-        -------
-        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
-        """
+        """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg), at ``values`` as :meth:`K` takes them."""
         return self._assemble("M", self.resolve(values))
 
     def dK_dp(self, j: int) -> sp.csr_array:
@@ -460,17 +450,7 @@ class Model:
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
     def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M).
-
-        Parameters
-        ----------
-        j : int
-            Parameter index (declaration order).
-
-        Returns
-        -------
-        scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
-        """
+        """Exact dM/dp_j (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
         d = self.dM[j]
         return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
 
@@ -557,7 +537,9 @@ def from_matrices(
     """Model from plain matrices: ``K = K0 + sum_j p_j dK[j]``, ``M = M0 + sum_j p_j dM[j]``.
 
     This is how models exported from a commercial FE code come in: ``K0``, ``M0`` and one
-    (sparse) matrix per parameter, all on the same dof set.
+    (sparse) matrix per parameter, all on the same dof set.  Rigid links exported as penalty
+    springs far above the elastic stiffness are tied exactly (the later dofs of a tie leave the
+    model, with a logged warning) or refused by name: :mod:`femupdate.penalty`.
 
     Parameters
     ----------
@@ -581,14 +563,15 @@ def from_matrices(
     ------
     InputError
         As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
-        match, unused or duplicate parameters).
+        match, unused or duplicate parameters); a penalty link that cannot be tied
+        (:func:`femupdate.penalty.tie_penalty_links`).
     """
     with input_errors():  # what tuple() below would not say (a model file's matrices come here too)
         strings_arg(dofs, "dofs", "from_matrices", optional=False, what="dof label")
         for what, seq in (("parameters", parameters), ("dK", dK), ("dM", dM)):
             if seq is not None and (isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, Sequence)):
                 raise TypeError(f"from_matrices: {what} must be a list, got {shown(seq)}")
-    return Model(
-        dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters),
-        dK=tuple(dK) if dK is not None else (), dM=tuple(dM) if dM is not None else (), name=name,
-    )
+    from .penalty import eliminate_penalty_links
+
+    return eliminate_penalty_links(Model(dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters), name=name,
+                                         dK=() if dK is None else tuple(dK), dM=() if dM is None else tuple(dM)))

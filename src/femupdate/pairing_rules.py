@@ -409,14 +409,8 @@ def pair_modes(policy, MAC, shaped, lam, lam_e, nm, min_mac, pairs, bad):
     ----------
     policy : int
         ``PAIR_MAC``, ``PAIR_ORDER``, ``PAIR_FREQUENCY`` or ``PAIR_AUTO``.
-    MAC : numpy.ndarray of float, shape ``(T, ≥ nm)``
-        MAC of each test mode against the model modes (read only where ``shaped``).
-    shaped : numpy.ndarray of bool, shape ``(T,)``
-        Whether each test mode has a measured shape.
-    lam : numpy.ndarray of float, shape ``(≥ nm,)``
-        Model eigenvalues, ascending.
-    lam_e : numpy.ndarray of float, shape ``(T,)``
-        Measured eigenvalues.
+    MAC, shaped, lam, lam_e
+        As :func:`pair_by_frequency`.
     nm : int
         The number of model modes available (the lowest ``nm``).
     min_mac : float

@@ -74,10 +74,8 @@ def check_damping_ratio(v, what: str) -> float:
 
     Parameters
     ----------
-    v : object
-        The value.
-    what : str
-        How the message names it (``"modes[2] damping_ratio"``).
+    v, what
+        As :func:`positive` (``what``: ``"modes[2] damping_ratio"``).
 
     Returns
     -------

@@ -127,8 +127,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     level, predictive = so.level, so.predictive
     starts_n, seed, rel_tol = st.starts, st.seed, st.rel_tol
     scheduler, connect_timeout = ex.scheduler, ex.connect_timeout
-    fresh = np.random.SeedSequence().entropy
-    entropy = int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
+    entropy = _entropy(seed)
     post = Posterior(model, data, params, priors=priors, values=values, x0=x0, route=so.route, threads=ex.threads,
                      options=uo)
     L = post.L
@@ -197,11 +196,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         noise_info, pred = _noise_and_predictions(post, X, level, predictive, rng)
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
-        if post.failures:
-            n_fail = sum(post.failures.values())
-            top = post.failures.most_common(1)[0][0]
-            notes.append(f"{n_fail} of {post.evaluations} likelihood evaluations failed (the model could not be "
-                         f"evaluated there; the posterior density is taken as zero), e.g. {top}")
+        notes += _failure_notes(post)
         names = post.names
         prior = {n: _describe(post, j) for j, n in enumerate(names)}
         return attach(PosteriorResult(
@@ -217,6 +212,22 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         if runner is not None:
             runner.close()
         post.close()
+
+
+def _entropy(seed: int | None) -> int:
+    """The run's seed: ``seed``, or a fresh one (recorded in the result) when it is None."""
+    fresh = np.random.SeedSequence().entropy
+    return int(seed) if seed is not None else int(fresh) if isinstance(fresh, int) else 0
+
+
+def _failure_notes(post: Posterior) -> list[str]:
+    """A note on the likelihood evaluations that failed, if any."""
+    if not post.failures:
+        return []
+    n_fail = sum(post.failures.values())
+    top = post.failures.most_common(1)[0][0]
+    return [f"{n_fail} of {post.evaluations} likelihood evaluations failed (the model could not be evaluated "
+            f"there; the posterior density is taken as zero), e.g. {top}"]
 
 
 def _door(model, data, params, x0, values, priors, progress, checkpoint) -> None:

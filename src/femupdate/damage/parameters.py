@@ -22,7 +22,8 @@ from ..dofs import parse_dof
 from ..model import Model
 from ..structure import Structure
 
-MODULUS = {"spring": "k", "rod": "E", "beam2d": "E", "frame3d": "E"}
+MODULUS = {"spring": "k", "rod": "E", "beam2d": "E", "frame3d": "E",
+           **{t: "E" for t in ("mitc4", "mitc3", "hex8", "tet4", "tet10")}}  # every stiffness term of these ∝ E
 UNKNOWNS = ("auto", "parameters", "elements")
 
 
@@ -34,16 +35,14 @@ def _resolve(structure: Structure, v, values: Mapping) -> float:
 
 def _element_name(prop: str, g, i: int) -> str:
     if g.nodes is not None:
-        a, b = (int(x) for x in g.nodes[i])
-        return f"{prop}.{a}-{b}"
+        return f"{prop}." + "-".join(str(int(x)) for x in g.nodes[i])
     return f"{prop}." + "-".join(lab.replace(":", "") for lab in g.labels[i])
 
 
 def _connection(g, i: int) -> str:
     """The element's type and what it joins: ``spring 4:x-5:x``, ``rod 102-103``."""
     if g.nodes is not None:
-        a, b = (int(x) for x in g.nodes[i])
-        return f"{g.type} {a}-{b}"
+        return f"{g.type} " + "-".join(str(int(x)) for x in g.nodes[i])
     return f"{g.type} " + "-".join(g.labels[i]) + (" (to ground)" if len(g.labels[i]) == 1 and g.type == "spring" else "")
 
 
@@ -267,6 +266,10 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
             out.rod(g.nodes, dim=g.dim, mass=g.mass, where=g.where[0], **props)
         elif g.type == "beam2d":
             out.beam2d(g.nodes, mass=g.mass, where=g.where[0], **props)
+        elif g.type in ("mitc4", "mitc3"):
+            out.shell(g.nodes, nu=g.nu, drill=g.drill, mass=g.mass, where=g.where[0], **props)
+        elif g.type in ("hex8", "tet4", "tet10"):
+            out.solid(g.nodes, nu=g.nu, mass=g.mass, where=g.where[0], **props)
         else:
             out.frame3d(g.nodes, orientation=g.orientation, mass=g.mass, where=g.where[0], **props)
     out.supports = list(structure.supports)

@@ -97,9 +97,9 @@ class SetSearch:
         The unknowns (stiffness parameters of ``model``).
     data : TestData
         The measured modes.
-    sigma_f, sigma_s : float or array_like of shape ``(n_test_modes,)``
-        Stated noise: relative frequency std, shape std relative to each shape's largest value;
-        one level, or one per test mode.
+    sigma : (float or array_like, float or array_like)
+        Stated noise ``(sigma_f, sigma_s)``: relative frequency std, shape std relative to each
+        shape's largest value; each one level, or one per test mode (shape ``(n_test_modes,)``).
     allow_increase : bool
         Let stiffness increase (upper bound 2 θ0).
     min_change : float
@@ -119,7 +119,7 @@ class SetSearch:
         for a model with rigid-body modes (the order pairing would count them).
     """
 
-    def __init__(self, model, names: Sequence[str], data: TestData, sigma_f: float, sigma_s: float, *,
+    def __init__(self, model, names: Sequence[str], data: TestData, sigma: tuple, *,
                  allow_increase: bool, min_change: float, level: float, max_located: int, n_try: int = 4,
                  score: Callable[[np.ndarray], np.ndarray] | None = None, path_order: Sequence[int] = (),
                  pairing: str = "auto"):
@@ -135,6 +135,7 @@ class SetSearch:
             params[j] = dataclasses.replace(params[j], bounds=(v * (1 - MAX_LOSS), v * up) if v > 0 else params[j].bounds)
         self.model = dataclasses.replace(model, parameters=tuple(params))
         self.data = data
+        sigma_f, sigma_s = sigma
         T = len(data.modes)  # one level, or one per test mode (as the test data state them)
         self.sf_modes = np.broadcast_to(np.asarray(sigma_f, float), (T,)).copy()
         self.ss_modes = np.broadcast_to(np.asarray(sigma_s, float), (T,)).copy()

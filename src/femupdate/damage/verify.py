@@ -96,7 +96,7 @@ class Refiner:
     def search(self, data: TestData, lam: np.ndarray, Phi: np.ndarray, fit: L1Fit) -> tuple[SetSearch, SetFit]:
         """The stepwise search from the localisation ``fit`` of ``data`` (whose common-dof shapes and
         eigenvalues are ``Phi`` and ``lam``, scoring the candidates)."""
-        srch = SetSearch(self.model, self.names, data, *self.levels.verify_levels,
+        srch = SetSearch(self.model, self.names, data, self.levels.verify_levels,
                          allow_increase=self.allow_increase, min_change=self.min_change, level=self.level,
                          max_located=self.max_located, score=self.localiser.scorer(lam, Phi),
                          path_order=() if fit.order is None else fit.order.tolist(), pairing=self.pairing)

@@ -37,6 +37,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .._docs import FORCE, FRF_LINES, shared_docs
 from .._errors import InputError
 from ..options import SELECTION_EQUATIONS, SelectionOptions, gather
 from ..serialise import RunContext, Serialisable
@@ -62,6 +63,7 @@ def _real_rows(A: np.ndarray) -> np.ndarray:
     return np.concatenate([A.real, A.imag], axis=-2) if np.iscomplexobj(A) else A
 
 
+@shared_docs(FRF_LINES=FRF_LINES, FORCE=FORCE)
 def direct_blocks(model, omega, force: Mapping, values=None, unknowns=None, damping=None) -> np.ndarray:
     r"""The eq. 25 block :math:`X_\omega = [(K_j - \omega^2 M_j)\,x(\omega)]_j` of every line,
     ``(n_lines, rows, L)`` with ``x`` the simulated complete response to ``force`` (real rows;
@@ -70,12 +72,8 @@ def direct_blocks(model, omega, force: Mapping, values=None, unknowns=None, damp
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines, rad/s.
-    force : mapping of str to float or complex
-        Force amplitude (N) per loaded dof.
+    {{FRF_LINES}}
+    {{FORCE}}
     values : None, mapping of str to float, or array_like, optional
         Parameter values of the simulated response (default nominal).
     unknowns : sequence of str, optional

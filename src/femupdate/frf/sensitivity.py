@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import modal
+from .._docs import FORCE, FRF_LINES, shared_docs
 from .._errors import InputError
 from ..dofs import canonical_all
 from .damping import as_damping
@@ -117,6 +118,7 @@ def _param_indices(model, params) -> list[int]:
     return [model.parameter_index(nm) for nm in params]
 
 
+@shared_docs(FRF_LINES=FRF_LINES, FORCE=FORCE)
 def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitation: Sequence[str],
                            params: Sequence[str] | None = None, values=None, damping=None, method: str = "auto",
                            resonance_check: bool | str = "auto", resonance_tol: float = RESONANCE_TOL) -> ReceptanceSensitivity:
@@ -124,10 +126,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines, rad/s.
+    {{FRF_LINES}}
     response : sequence of str or None
         Dof labels of the rows (None: every model dof — only sensible for small models).
     excitation : sequence of str
@@ -222,6 +221,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
 brandon = receptance_sensitivity
 
 
+@shared_docs(FRF_LINES=FRF_LINES, FORCE=FORCE)
 def receptance_fd(model, omega, response: Sequence[str] | None, excitation: Sequence[str],
                   params: Sequence[str] | None = None, values=None, damping=None, rel_step: float = 1e-6,
                   method: str = "auto") -> np.ndarray:
@@ -232,10 +232,7 @@ def receptance_fd(model, omega, response: Sequence[str] | None, excitation: Sequ
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines, rad/s.
+    {{FRF_LINES}}
     response : sequence of str or None
         Response dofs (``None``: every model dof).
     excitation : sequence of str
@@ -319,6 +316,7 @@ class FirstOrderCheck:
     distance: np.ndarray
 
 
+@shared_docs(FRF_LINES=FRF_LINES, FORCE=FORCE)
 def first_order_check(model, omega, force: Mapping, param: str, delta: float, response: Sequence[str] | None = None,
                       values=None, damping=None) -> FirstOrderCheck:
     """How well eq. 32 predicts the response change for a finite relative change ``delta`` of
@@ -326,12 +324,8 @@ def first_order_check(model, omega, force: Mapping, param: str, delta: float, re
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    omega : array_like, shape ``(n_lines,)``
-        Spectral lines, rad/s.
-    force : mapping of str to float or complex
-        Force amplitude (N) per loaded dof.
+    {{FRF_LINES}}
+    {{FORCE}}
     param : str
         The parameter changed.
     delta : float

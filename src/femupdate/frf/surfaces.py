@@ -32,6 +32,7 @@ from typing import ClassVar, cast
 
 import numpy as np
 
+from .._docs import shared_docs
 from .._budget import check_memory
 from .._errors import InputError
 from ..dofs import canonical
@@ -226,19 +227,37 @@ class AffineStack:
         return self.K0[None] + np.einsum("gj,jab->gab", P, self.dK)
 
     def M(self, P: np.ndarray) -> np.ndarray:
-        """Mass matrices at the points ``P`` ``(G, L)``: shape ``(G, n_dofs, n_dofs)``.
-
-        Parameters
-        ----------
-        P : numpy.ndarray, shape ``(G, L)``
-            Values of the parameters ``names`` (in that order) at G points.
-
-        Returns
-        -------
-        numpy.ndarray, shape ``(G, n_dofs, n_dofs)``
-            Dense M at each point, kg.
-        """
+        """Mass matrices at the points ``P`` ``(G, L)``, as :meth:`K` gives the stiffness
+        matrices: dense M at each point, kg, shape ``(G, n_dofs, n_dofs)``."""
         return self.M0[None] + np.einsum("gj,jab->gab", P, self.dM)
+
+
+# the arguments of the batched residuals, written once (femupdate._docs)
+_POINTS = """\
+names : sequence of str
+    The parameters varied (the columns of ``P``).
+P : array_like, shape ``(G, len(names))``
+    Parameter points.
+values : None, mapping of str to float, or array_like, optional
+    Values of the other parameters (default nominal)."""
+_DOCS = {
+    "FRF_POINTS": "\n".join([
+        "model : Model", "    The parametrised model.",
+        "data : FRFData", "    Measured lines (ω in rad/s), force and responses (any subset of dofs).", _POINTS,
+        "damping : Damping or mapping, optional", "    Default undamped.",
+        "residual : str, default ``\"linear\"``",
+        "    ``\"linear\"`` (eq. 34), ``\"relative\"`` or ``\"log\"`` (:mod:`femupdate.frf.residuals`).",
+        "weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional",
+        "    Non-negative weights (default 1).",
+        "stack : AffineStack, optional", "    Reuse the dense stacked matrices (small models)."]),
+    "MODAL_POINTS": "\n".join([
+        "model : Model", "    The parametrised model (at most :data:`SURFACE_DENSE_LIMIT` dofs).",
+        "data : TestData", "    Measured modes; test mode i is compared with model mode i.", _POINTS,
+        "ref_dof : str, optional", "    Dof at which shapes are scaled to 1 (default: each mode's first measured dof).",
+        "stack : AffineStack, optional", "    Reuse the dense stacked matrices."]),
+    # the end of the surfaces' parameters
+    "TRUTH_RETURNS": "truth : (float, float), optional\n    The true solution, recorded for plots.\n\nReturns\n-------\nSurface",
+}
 
 
 def _blocks(G: int, per_point_bytes: int):
@@ -247,6 +266,7 @@ def _blocks(G: int, per_point_bytes: int):
         yield slice(s, min(G, s + step))
 
 
+@shared_docs(**_DOCS)
 def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=None, damping=None,
                   residual: str = "linear", weights=None, stack: AffineStack | None = None) -> np.ndarray:
     r"""FRF residual vectors at many parameter points ``P`` ``(G, len(names))`` at once, ``(G, m)``:
@@ -255,24 +275,7 @@ def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, val
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    data : FRFData
-        Measured lines (ω in rad/s), force and responses (any subset of dofs).
-    names : sequence of str
-        The parameters varied (the columns of ``P``).
-    P : array_like, shape ``(G, len(names))``
-        Parameter points.
-    values : None, mapping of str to float, or array_like, optional
-        Values of the other parameters (default nominal).
-    damping : Damping or mapping, optional
-        Default undamped.
-    residual : str, default ``"linear"``
-        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf.residuals`).
-    weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
-        Non-negative weights (default 1).
-    stack : AffineStack, optional
-        Reuse the dense stacked matrices (small models).
+    {{FRF_POINTS}}
 
     Returns
     -------
@@ -318,6 +321,7 @@ def frf_residuals(model, data: FRFData, names: Sequence[str], P: np.ndarray, val
     return out
 
 
+@shared_docs(**_DOCS)
 def frf_r2(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=None, damping=None,
            residual: str = "linear", weights=None, stack: AffineStack | None = None) -> np.ndarray:
     r"""Eq. 34's :math:`r^2` (sum of squared FRF residuals) at many points ``P`` at once (``inf``
@@ -325,24 +329,7 @@ def frf_r2(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=Non
 
     Parameters
     ----------
-    model : Model
-        The parametrised model.
-    data : FRFData
-        Measured lines (ω in rad/s), force and responses (any subset of dofs).
-    names : sequence of str
-        The parameters varied (the columns of ``P``).
-    P : array_like, shape ``(G, len(names))``
-        Parameter points.
-    values : None, mapping of str to float, or array_like, optional
-        Values of the other parameters (default nominal).
-    damping : Damping or mapping, optional
-        Default undamped.
-    residual : str, default ``"linear"``
-        ``"linear"`` (eq. 34), ``"relative"`` or ``"log"`` (:mod:`femupdate.frf.residuals`).
-    weights : float or array_like broadcastable to ``(n_lines, n_dofs)``, optional
-        Non-negative weights (default 1).
-    stack : AffineStack, optional
-        Reuse the dense stacked matrices (small models).
+    {{FRF_POINTS}}
 
     Returns
     -------
@@ -359,6 +346,7 @@ def frf_r2(model, data: FRFData, names: Sequence[str], P: np.ndarray, values=Non
     return np.where(np.isfinite(r2), r2, np.inf)
 
 
+@shared_docs(**_DOCS)
 def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, damping=None,
                 residual: str = "linear", weights=None, truth=None) -> Surface:
     r"""Eq. 34 over the grid ``x`` × ``y`` of parameters ``names`` (others at ``values``).
@@ -378,12 +366,7 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
         Grid values of the first and second parameter (at least two finite values each).
     values, damping, residual, weights
         As :func:`frf_residuals`.
-    truth : (float, float), optional
-        The true solution, recorded for plots.
-
-    Returns
-    -------
-    Surface
+    {{TRUTH_RETURNS}}
 
     Raises
     ------
@@ -399,6 +382,7 @@ def frf_surface(model, data: FRFData, names: Sequence[str], x, y, values=None, d
                    _units(model, names), context=RunContext(model=model))
 
 
+@shared_docs(**_DOCS)
 def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, values=None,
                     ref_dof: str | None = None, stack: AffineStack | None = None) -> np.ndarray:
     r"""Eq. 33's residual vectors at many parameter points ``P`` ``(G, len(names))`` at once
@@ -410,20 +394,7 @@ def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, 
 
     Parameters
     ----------
-    model : Model
-        The parametrised model (at most :data:`SURFACE_DENSE_LIMIT` dofs).
-    data : TestData
-        Measured modes; test mode i is compared with model mode i.
-    names : sequence of str
-        The parameters varied (the columns of ``P``).
-    P : array_like, shape ``(G, len(names))``
-        Parameter points.
-    values : None, mapping of str to float, or array_like, optional
-        Values of the other parameters (default nominal).
-    ref_dof : str, optional
-        Dof at which shapes are scaled to 1 (default: each mode's first measured dof).
-    stack : AffineStack, optional
-        Reuse the dense stacked matrices.
+    {{MODAL_POINTS}}
 
     Returns
     -------
@@ -471,26 +442,14 @@ def modal_residuals(model, data: TestData, names: Sequence[str], P: np.ndarray, 
     return out
 
 
+@shared_docs(**_DOCS)
 def modal_r2(model, data: TestData, names: Sequence[str], P: np.ndarray, values=None, ref_dof: str | None = None,
              stack: AffineStack | None = None) -> np.ndarray:
     r"""Eq. 33's :math:`r_2` at many parameter points at once.
 
     Parameters
     ----------
-    model : Model
-        The parametrised model (at most :data:`SURFACE_DENSE_LIMIT` dofs).
-    data : TestData
-        Measured modes; test mode i is compared with model mode i.
-    names : sequence of str
-        The parameters varied (the columns of ``P``).
-    P : array_like, shape ``(G, len(names))``
-        Parameter points.
-    values : None, mapping of str to float, or array_like, optional
-        Values of the other parameters (default nominal).
-    ref_dof : str, optional
-        Dof at which shapes are scaled to 1 (default: each mode's first measured dof).
-    stack : AffineStack, optional
-        Reuse the dense stacked matrices.
+    {{MODAL_POINTS}}
 
     Returns
     -------
@@ -507,6 +466,7 @@ def modal_r2(model, data: TestData, names: Sequence[str], P: np.ndarray, values=
     return np.where(np.isfinite(r2), r2, np.inf)
 
 
+@shared_docs(**_DOCS)
 def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None, ref_dof: str | None = None,
                   truth=None) -> Surface:
     r"""Eq. 33 over the grid: relative eigenvalue errors (divided by the analytical eigenvalue, as
@@ -525,12 +485,7 @@ def modal_surface(model, data: TestData, names: Sequence[str], x, y, values=None
         Grid values (at least two finite values each).
     values, ref_dof
         As :func:`modal_residuals`.
-    truth : (float, float), optional
-        The true solution, recorded for plots.
-
-    Returns
-    -------
-    Surface
+    {{TRUTH_RETURNS}}
 
     Raises
     ------

@@ -80,7 +80,8 @@ class Geometry:
 
 
 def structure_segments(structure) -> np.ndarray:
-    """Node pairs of every line element of a :class:`~femupdate.Structure`, supported ends included.
+    """Node pairs of every line element (and the edges of shells and solids) of a
+    :class:`~femupdate.Structure`, supported ends included.
 
     Parameters
     ----------
@@ -92,7 +93,9 @@ def structure_segments(structure) -> np.ndarray:
     ndarray of int, shape ``(s, 2)``
         Unique pairs, each sorted (smaller id first).
     """
-    pairs = [np.asarray(g.nodes, dtype=np.int64) for g in structure.groups if g.nodes is not None]
+    from ..structure.groups import node_pairs
+
+    pairs = [node_pairs(g) for g in structure.groups if g.nodes is not None]
     return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
 
 

@@ -22,6 +22,7 @@ Paths are relative to the TOML file.
 
 from __future__ import annotations
 
+import logging
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -33,11 +34,16 @@ import scipy.sparse as sp
 from .._checks import path_arg
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
+from .matrix_market import read_matrix_market
 from .numbers import check_magnitudes, long_integer_line, parse_float
 from .outputs import note_input
+from ..dofs import canonical_all
 from ..model import Model, Parameter
+from ..penalty import eliminate_penalty_links
 from ..priors import parse_prior
 from ..structure import Structure
+
+log = logging.getLogger(__name__)
 
 
 def read_toml(path) -> dict:
@@ -114,6 +120,9 @@ def load_model(path) -> Model:
     data = read_toml(path)
     if "matrices" in data:
         return _matrix_model(data, path)
+    for table in EXTERNAL:
+        if table in data:
+            return _external_model(data, path, table)
     try:
         return Structure.from_dict(data, source=str(path)).build()
     except InputError as exc:
@@ -156,7 +165,7 @@ def load_matrix(spec: str, base: Path, what: str):
     suffix = p.suffix.lower()
     try:
         if suffix == ".mtx":
-            A = scipy.io.mmread(p)
+            A = read_matrix_market(p, what)
         elif suffix == ".npz":
             try:
                 A = sp.load_npz(p)
@@ -187,11 +196,21 @@ def load_matrix(spec: str, base: Path, what: str):
         A = np.asarray(A)
         if A.dtype == object or not np.issubdtype(A.dtype, np.number):
             raise InputError(f"{what}: {p} does not hold a numeric matrix")
-        if np.iscomplexobj(A):
-            raise InputError(f"{what}: {p} holds a complex matrix; K and M must be real")
         if A.ndim != 2:
             raise InputError(f"{what}: {p} holds a {A.ndim}-dimensional array of shape {A.shape}; expected a square matrix")
-    return A
+    return _real(A, what, p)
+
+
+def _real(A, what: str, p: Path):
+    """A real matrix: complex values refused unless every imaginary part is zero (then said)."""
+    values = A.data if sp.issparse(A) else A
+    if not np.iscomplexobj(values):
+        return A
+    if np.any(values.imag):
+        raise InputError(f"{what}: {p} holds a complex matrix (largest imaginary part {np.abs(values.imag).max():.4g}); "
+                         "K and M must be real: a structural-damping stiffness K(1 + iη) is not read, export the real part")
+    log.warning("%s: %s holds complex values whose imaginary parts are all zero: read as real", what, p)
+    return A.real
 
 
 def _read_dofs_file(p: Path, src: str) -> list[str]:
@@ -226,21 +245,19 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     other = sorted(set(data) - {"model", "matrices", "parameters", "provenance"})
     if other:
         raise InputError(f"{path}: a [matrices] model cannot also have {', '.join(other)}")
-    dofs = mt["dofs"]
-    if isinstance(dofs, str):
-        dofs = _read_dofs_file(base / dofs, src)
-    elif not isinstance(dofs, list) or not all(isinstance(d, str) for d in dofs):
-        raise InputError(f"{src}: dofs must be a file name or a list of dof labels such as [\"1:x\", \"1:y\"], "
-                         f"got {dofs!r}")
-    K0 = load_matrix(mt["K0"], base, f"{src} K0")
-    M0 = load_matrix(mt["M0"], base, f"{src} M0")
+    dofs, dofs_from = _dofs(mt["dofs"], base, src)
+    files = {"K0": mt["K0"], "M0": mt["M0"]}
+    K0 = _sized(load_matrix(mt["K0"], base, f"{src} K0"), len(dofs), f"{src} K0 ({mt['K0']})", dofs_from)
+    M0 = _sized(load_matrix(mt["M0"], base, f"{src} M0"), len(dofs), f"{src} M0 ({mt['M0']})", dofs_from)
     if not isinstance(data.get("parameters", {}), Mapping):
         raise InputError(f"{path}: [parameters] must be a table of tables ([parameters.k1] value = ...)")
     if not isinstance(data.get("model", {}), Mapping):
         raise InputError(f"{path}: [model] must be a table (name = ...)")
     if not isinstance(data.get("provenance", {}), Mapping):
         raise InputError(f"{path}: [provenance] must be a table (it records where an updated model came from)")
-    params, dK, dM = [], [], []
+    params: list[Parameter] = []
+    dK: list = []
+    dM: list = []
     for name, spec in data.get("parameters", {}).items():
         where = f"{path}: [parameters.{name}]"
         if not isinstance(spec, Mapping) or "value" not in spec:
@@ -260,10 +277,90 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
             params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False), prior=prior))
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
-        dK.append(load_matrix(spec["K"], base, f"{where} K") if "K" in spec else None)
-        dM.append(load_matrix(spec["M"], base, f"{where} M") if "M" in spec else None)
+        for key, out in (("K", dK), ("M", dM)):
+            out.append(_sized(load_matrix(spec[key], base, f"{where} {key}"), len(dofs), f"{where} {key} ({spec[key]})",
+                              dofs_from) if key in spec else None)
+            if key == "K" and key in spec:
+                files[name] = spec[key]
     name = data.get("model", {}).get("name", path.stem)
     try:
-        return Model(tuple(dofs), K0, M0, tuple(params), tuple(dK), tuple(dM), name=name)
+        model = Model(tuple(dofs), K0, M0, tuple(params), tuple(dK), tuple(dM), name=name)
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
+    stiffness = f"{path}: the stiffness of {', '.join(str(f) for f in files.values() if f != files['M0'])}"
+    model = eliminate_penalty_links(model, stiffness)
+    _definite(model, stiffness)
+    return model
+
+
+#: model-file tables of matrices as an FE code writes them, and the keys that name their files
+EXTERNAL = {"abaqus": ("stiffness", "mass", "deck"), "nastran": ("op4", "op2", "dmig")}
+
+
+def _external_model(data: Mapping, path: Path, table: str) -> Model:
+    """A model from an FE code's own files (:func:`femupdate.io.abaqus.abaqus_model`,
+    :func:`femupdate.io.nastran.nastran_model`), through the same door as a ``[matrices]`` model
+    (penalty ties, a definite stiffness)."""
+    other = sorted(set(data) - {"model", table, "parameters", "provenance"})
+    if other:
+        raise InputError(f"{path}: an [{table}] model cannot also have {', '.join(other)}")
+    for key in (table, "parameters", "model"):
+        if not isinstance(data.get(key, {}), Mapping):
+            raise InputError(f"{path}: [{key}] must be a table")
+    for key in EXTERNAL[table]:
+        if isinstance(data[table].get(key), str):
+            note_input(path.parent / data[table][key], f"the {table} file of {path}")
+    if table == "abaqus":
+        from .abaqus import abaqus_model as build
+        stiffness = f"{path}: the stiffness of {data['abaqus'].get('stiffness')}"
+    else:
+        from .nastran import nastran_model as build
+        t = data["nastran"]
+        stiffness = f"{path}: the stiffness {t.get('K')} of {t.get('op4', t.get('dmig'))}"
+    model = build(data[table], data.get("parameters", {}), path, data.get("model", {}).get("name", path.stem))
+    model = eliminate_penalty_links(model, stiffness)
+    _definite(model, stiffness)
+    return model
+
+
+def _dofs(dofs, base: Path, src: str) -> tuple[tuple[str, ...], str]:
+    """The dof map of a [matrices] table (canonical, each dof once) and how messages name it."""
+    if isinstance(dofs, str):
+        where = f"dofs file {dofs}"
+        dofs = _read_dofs_file(base / dofs, src)
+    elif not isinstance(dofs, list) or not all(isinstance(d, str) for d in dofs):
+        raise InputError(f"{src}: dofs must be a file name or a list of dof labels such as [\"1:x\", \"1:y\"], "
+                         f"got {dofs!r}")
+    else:
+        where = "the dofs list"
+    return canonical_all(dofs, f"{src} {where}"), where
+
+
+def _sized(A, n: int, what: str, dofs_from: str):
+    """The matrix, if it is n × n; else refused naming its file, with a hint at index bases."""
+    if A.shape == (n, n):
+        return A
+    hint = ""
+    if A.ndim == 2 and A.shape == (n + 1, n + 1):
+        S = sp.csr_array(A)
+        for k, side in ((0, "first"), (n, "last")):
+            if S[[k], :].nnz == 0 and S[:, [k]].nnz == 0:
+                hint = (f"; its {side} row and column are empty: the matrix looks written with indices counted from "
+                        f"{'0' if k == 0 else '1'} where the dof map counts from {'1' if k == 0 else '0'}")
+                break
+    raise InputError(f"{what}: a matrix of shape {A.shape}, but the model has {n} dofs ({dofs_from}){hint}")
+
+
+def _definite(model: Model, stiffness: str) -> None:
+    """Refuse, naming the files, a stiffness that is not positive semi-definite at the nominal values."""
+    from ..modal import solve_modes
+
+    try:
+        solve_modes(model.K(), model.M(), n_modes=1, dofs=model.dofs)
+    except InputError as exc:
+        if "not positive semi-definite" not in str(exc):
+            return  # (massless dofs without stiffness, ...): said where the modes are computed, as before
+        low = str(exc).split("negative eigenvalue", 1)[1].split("(")[0].strip()
+        raise InputError(f"{stiffness} at the nominal parameter values is not positive semi-definite (negative "
+                         f"eigenvalue {low}): check the files' signs and symmetry headers, and the parameters' "
+                         "values") from None

@@ -25,7 +25,9 @@ from .results import atomic_write_text
 
 #: keys of a ``[matrices]`` table (and of a matrix-model parameter) that name files
 _MATRIX_KEYS = ("dofs", "K0", "M0")
-_PARAM_MATRIX_KEYS = ("K", "M")
+#: keys of an ``[abaqus]`` and a ``[nastran]`` table that name files
+_ABAQUS_KEYS = ("stiffness", "mass", "deck")
+_NASTRAN_KEYS = ("op4", "op2", "dmig")
 
 
 def _moved(spec, src_dir: Path, out_dir: Path):
@@ -84,15 +86,20 @@ def updated_model_text(source, out_path, values: Mapping[str, float], provenance
         if not math.isfinite(v) or not lo <= v <= hi:
             raise InputError(f"updated model: {name} = {v:.6g} lies outside its bounds [{lo:g}, {hi:g}] in {source}; "
                              "the model file would not load (update with bounds, not --method lm)")
+        if "abaqus" in raw and ({"K_elements", "M_elements"} & set(spec)) and "exported_at" not in spec:
+            spec["exported_at"] = spec["value"]  # the value the element matrices were written at
         spec["value"] = v
     src_dir, out_dir = source.parent, out_path.parent
-    if isinstance(raw.get("matrices"), dict):
-        mt = raw["matrices"]
-        for key in _MATRIX_KEYS:
+    param_keys = {"matrices": ("K", "M"), "abaqus": ("K_elements", "M_elements"), "nastran": ()}  # nastran: names
+    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS), ("nastran", _NASTRAN_KEYS)):
+        if not isinstance(raw.get(table), dict):
+            continue
+        mt = raw[table]
+        for key in keys:
             if key in mt and isinstance(mt[key], str):
                 mt[key] = _moved(mt[key], src_dir, out_dir)
         for spec in params.values():
-            for key in _PARAM_MATRIX_KEYS:
+            for key in param_keys[table]:
                 if isinstance(spec, dict) and key in spec:
                     spec[key] = _moved(spec[key], src_dir, out_dir)
     raw["provenance"] = {k: v for k, v in provenance.items() if v is not None}

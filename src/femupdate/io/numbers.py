@@ -109,6 +109,23 @@ def check_magnitudes(tree, source: str, loc=None) -> None:
                              f"(numbers must be at most {MAX_MAGNITUDE:g} in magnitude)")
 
 
+def load_json_file(path) -> object:
+    """The JSON file ``path`` read as :func:`loads_json` parses text.
+
+    Raises
+    ------
+    InputError
+        No such file, a directory or a file that is not UTF-8 text, and as :func:`loads_json`.
+    """
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (IsADirectoryError, UnicodeDecodeError):
+        raise InputError(f"{path}: not a readable JSON text file") from None
+    return loads_json(text, str(path))
+
+
 def loads_json(text: str, source: str):
     """Parse JSON text, refusing duplicate keys in an object (JSON keeps the last silently) and
     numbers that :func:`check_magnitudes` refuses.

@@ -8,7 +8,7 @@ from pathlib import Path
 from .._errors import InputError
 from ..structure.tables import list_of_tables
 from .model_file import read_toml
-from .numbers import loads_json
+from .numbers import load_json_file
 from .outputs import note_input
 
 
@@ -37,13 +37,10 @@ def read_table_file(path) -> dict:
     note_input(path, "a JSON file")
     if path.suffix.lower() != ".json":
         raise InputError(f"{path}: expected a .toml or .json file")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except (IsADirectoryError, UnicodeDecodeError):
-        raise InputError(f"{path}: not a readable JSON text file") from None
-    return loads_json(text, str(path))
+    data = load_json_file(path)
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a JSON object (a table of keys), got a JSON {type(data).__name__}")
+    return data
 
 
 def dof_labels(v, where: str) -> list[str]:

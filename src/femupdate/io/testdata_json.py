@@ -12,7 +12,7 @@ import numpy as np
 from .._checks import model_arg, path_arg, strings_arg
 from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
-from .numbers import loads_json
+from .numbers import load_json_file
 from .outputs import note_input
 from ..testdata import FRFData, MeasuredMode, StaticData, TestData, check_damping_ratio, positive
 
@@ -91,13 +91,7 @@ def load_testdata(path, model=None, numbering=None, sensors=None, channels=None)
             modes = tuple(_keep_sensors(m, sensors, f"modes[{k}]", notes) for k, m in enumerate(data.modes, start=1))
             data = TestData(modes=modes, notes=tuple(notes))
     else:
-        try:
-            text = path.read_text()
-        except FileNotFoundError:
-            raise InputError(f"{path}: no such file") from None
-        except (IsADirectoryError, UnicodeDecodeError):
-            raise InputError(f"{path}: not a readable JSON text file") from None
-        raw = loads_json(text, str(path))
+        raw = load_json_file(path)
         try:
             data = parse_testdata(raw, numbering, sensors)
         except InputError as exc:

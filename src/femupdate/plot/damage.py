@@ -8,9 +8,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 
+@shared_docs(**PLOT_DOCS)
 def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
     """Left: solutions from random starts, baseline alone vs with the added configuration.
     Right: candidates' stacked condition number against the Monte Carlo identification error.
@@ -25,12 +27,7 @@ def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
         (dicts with ``name`` and ``condition_number``) are plotted.
     mc : dict of str to float
         RMS relative identification error per candidate name.
-    axes : sequence of 2 matplotlib.axes.Axes, optional
-        Default: a new figure.
-
-    Returns
-    -------
-    sequence of matplotlib.axes.Axes
+    {{AXES_PAIR}}
     """
     if axes is None:
         _, axes = plt.subplots(1, 2, figsize=(10, 4))
@@ -51,20 +48,17 @@ def perturbed_boundary_axes(alone, joint, ranking, mc, axes=None):
     return axes
 
 
+@shared_docs(**PLOT_DOCS)
 def perturbed_boundary_figure(path, alone, joint, ranking, mc) -> str:
     """Save :func:`perturbed_boundary_axes` to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     alone, joint, ranking, mc
         As :func:`perturbed_boundary_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     perturbed_boundary_axes(alone, joint, ranking, mc, axes)
@@ -72,6 +66,7 @@ def perturbed_boundary_figure(path, alone, joint, ranking, mc) -> str:
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None):
     """Scan points, the shape mapped onto the model's nodes (translation and inferred rotation).
 
@@ -90,12 +85,7 @@ def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None)
         Not used by the plot.
     mode : int, default 1
         0-based index of the mode shown (the title numbers it from 1).
-    axes : sequence of 2 matplotlib.axes.Axes, optional
-        Default: a new figure.
-
-    Returns
-    -------
-    sequence of matplotlib.axes.Axes
+    {{AXES_PAIR}}
     """
     if axes is None:
         _, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
@@ -119,20 +109,17 @@ def full_field_axes(model, scan, mapping, truth_modes, mode: int = 1, axes=None)
     return axes
 
 
+@shared_docs(**PLOT_DOCS)
 def full_field_figure(path, model, scan, mapping, truth_modes) -> str:
     """Save :func:`full_field_axes` of mode index 1 (the second mode) to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     model, scan, mapping, truth_modes
         As :func:`full_field_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
     full_field_axes(model, scan, mapping, truth_modes, 1, axes)
@@ -143,6 +130,7 @@ def full_field_figure(path, model, scan, mapping, truth_modes) -> str:
 _COLOURS = {"exact": "#2a9d2a", "found first": "#9acd32", "found": "#f0c040", "missed": "#d04040", "not localisable": "#808080"}
 
 
+@shared_docs(**PLOT_DOCS)
 def damage_study_axes(study, cases, ax=None):
     """Outcome per damaged member (rows) and configuration (columns), one cell per noise draw.
 
@@ -154,12 +142,9 @@ def damage_study_axes(study, cases, ax=None):
         ``"found"``, ``"missed"`` or ``"not localisable"``).
     cases : sequence of str
         Damaged members, one row each.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
 
     Raises
     ------
@@ -187,20 +172,17 @@ def damage_study_axes(study, cases, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def damage_study_figure(path, study, cases) -> str:
     """Save :func:`damage_study_axes` to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     study, cases
         As :func:`damage_study_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(7.5, 5))
     damage_study_axes(study, cases, ax)

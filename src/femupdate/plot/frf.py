@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 
@@ -22,6 +23,7 @@ def _log10(values):
     return np.log10(np.clip(np.where(np.isfinite(v), v, hi), lo, hi))
 
 
+@shared_docs(**PLOT_DOCS)
 def condition_axes(spacings, curves: dict, ax=None):
     """cond(X) against the spacing, lowest line = spacing (Figure 4); one curve per label.
 
@@ -31,12 +33,9 @@ def condition_axes(spacings, curves: dict, ax=None):
         Spacings, rad/s.
     curves : dict of str to array_like
         Legend label -> cond(X) per spacing (log scale).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4))
@@ -48,6 +47,7 @@ def condition_axes(spacings, curves: dict, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
     """log10 cond(X) over lowest frequency × spacing.
 
@@ -61,14 +61,11 @@ def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
         Spacings, rad/s (columns of ``cond``).
     cond : array_like, shape ``(n_starts, n_spacings)``
         cond(X), e.g. :attr:`femupdate.frf.ConditionStudy.condition`.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
     title : str, default "log10 cond(X)"
         Axes title.
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4))
@@ -80,22 +77,19 @@ def condition_map_axes(starts, spacings, cond, ax=None, title="log10 cond(X)"):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_condition_figure(path, spacings, curves, starts, map_spacings, cond_map) -> str:
     """Save :func:`condition_axes` and :func:`condition_map_axes` side by side.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     spacings, curves
         As :func:`condition_axes`.
     starts, map_spacings, cond_map
         ``starts``, ``spacings`` and ``cond`` of :func:`condition_map_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     condition_axes(spacings, curves, axes[0])
@@ -151,6 +145,7 @@ def surface_axes(surface, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def contour_axes(surface, ax=None, minima=None):
     """Filled contours of log10 residual, the true solution (red star) and grid local minima (white).
 
@@ -158,14 +153,11 @@ def contour_axes(surface, ax=None, minima=None):
     ----------
     surface : Surface
         A residual over a grid of two parameters (:class:`femupdate.frf.surfaces.Surface`).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
     minima : list of dict, optional
         Points to circle, keyed by the parameter names (default ``surface.minima()``).
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -181,22 +173,19 @@ def contour_axes(surface, ax=None, minima=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_surface_figure(path, surface, title: str) -> str:
     """Save :func:`surface_axes` and :func:`contour_axes` side by side.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     surface : Surface
         A residual over a grid of two parameters (:class:`femupdate.frf.surfaces.Surface`).
     title : str
         Title of the 3-D panel.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig = plt.figure(figsize=(12, 4.8))
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
@@ -209,6 +198,7 @@ def save_surface_figure(path, surface, title: str) -> str:
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
     """Relative errors against frequency (log scale), model resonances as dotted lines.
 
@@ -220,12 +210,9 @@ def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
         Legend label -> relative error per line (values below 1e-17 drawn at 1e-17).
     resonances_rad_s : iterable of float, default ()
         Model natural frequencies, rad/s.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
@@ -239,26 +226,24 @@ def accuracy_axes(omega, curves: dict, resonances_rad_s=(), ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_accuracy_figure(path, omega, curves, resonances_rad_s) -> str:
     """Save :func:`accuracy_axes` to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     omega, curves, resonances_rad_s
         As :func:`accuracy_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     accuracy_axes(omega, curves, resonances_rad_s, ax)
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def starts_axes(starts, reached, title, truth=None, ax=None):
     """Random starts: green if the local update from there reached the truth, red otherwise.
 
@@ -272,12 +257,9 @@ def starts_axes(starts, reached, title, truth=None, ax=None):
         Axes title.
     truth : (float, float), optional
         Marked with a black star.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(4.5, 4))
@@ -292,20 +274,17 @@ def starts_axes(starts, reached, title, truth=None, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_starts_figure(path, panels) -> str:
     """``panels``: list of (starts, reached, title, truth).
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     panels : list of tuple
         ``(starts, reached, title, truth)`` per panel, as :func:`starts_axes`; panels side by side.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 4), squeeze=False)
     for ax, (starts, reached, title, truth) in zip(axes[0], panels):
@@ -314,6 +293,7 @@ def save_starts_figure(path, panels) -> str:
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def frf_axes(omega, dofs, measured, model, ax=None):
     """Magnitude of measured (dots) and model (lines) FRFs, log scale.
 
@@ -325,12 +305,9 @@ def frf_axes(omega, dofs, measured, model, ax=None):
         Response dofs (columns of ``measured`` and ``model``).
     measured, model : numpy.ndarray, shape ``(n_lines, len(dofs))``
         Measured and model receptances, m/N (real or complex).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
@@ -345,6 +322,7 @@ def frf_axes(omega, dofs, measured, model, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> list[str]:
     """``frf.png`` (test vs updated model) and ``convergence.png`` (cost per iteration).
 
@@ -357,10 +335,7 @@ def save_frf_update_figures(out_dir, history, omega, dofs, measured, model) -> l
     omega, dofs, measured, model
         As :func:`frf_axes`.
 
-    Returns
-    -------
-    list of str
-        The file names written.
+    {{FIGURE_NAMES}}
     """
     from .updating import convergence_axes
 

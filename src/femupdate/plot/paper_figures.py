@@ -10,9 +10,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from ..io.results import atomic_write_bytes  # noqa: E402
 
 
+@shared_docs(**PLOT_DOCS)
 def save_figure(fig, path) -> str:
     """Write ``fig`` to ``path`` atomically (120 dpi, tight bounding box) and close it.
 
@@ -23,10 +25,7 @@ def save_figure(fig, path) -> str:
     path : str or os.PathLike
         Image file; its suffix selects the format (png when there is none).
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
 
     Raises
     ------
@@ -44,6 +43,7 @@ def save_figure(fig, path) -> str:
     return Path(path).name
 
 
+@shared_docs(**PLOT_DOCS)
 def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
     """Curves a1(k1, k2) = a1 and a0(k1, k2) = a0 in the (k1, k2) plane: their crossings are
     every stiffness pair with the measured eigenvalues (eqs. 11-12).
@@ -58,12 +58,9 @@ def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
         Masses, kg.
     solutions : iterable of (float, float)
         The crossings (k1, k2), N/m, marked and labelled.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -79,26 +76,24 @@ def characteristic_axes(a1, a0, m1, m2, solutions, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def characteristic_curves(path, a1, a0, m1, m2, solutions) -> str:
     """Save :func:`characteristic_axes` to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (see :func:`save_figure`).
+    {{FIGURE_PATH}}
     a1, a0, m1, m2, solutions
         As :func:`characteristic_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     characteristic_axes(a1, a0, m1, m2, solutions, ax=ax)
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def multistart_axes(ms, ax=None):
     """Random starts (grey) joined to where they converged (coloured by solution).
 
@@ -108,12 +103,9 @@ def multistart_axes(ms, ax=None):
     ----------
     ms : MultiStartResult
         Result of :func:`femupdate.multistart` (``starts``, ``runs``, ``solutions``, ``names``).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -136,41 +128,35 @@ def multistart_axes(ms, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def multistart_scatter(path, ms) -> str:
     """Save :func:`multistart_axes` to ``path``.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (see :func:`save_figure`).
+    {{FIGURE_PATH}}
     ms : MultiStartResult
         As :func:`multistart_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     multistart_axes(ms, ax)
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def eigvec_cost_figure(path, rows) -> str:
     """CPU time and error against finite differences of each eigenvector-derivative route, by model size.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file.
+    {{FIGURE_PATH}}
     rows : list of dict
         The ``rows`` of the ``eigenvector_derivatives`` paper section: ``n_dofs``, ``n_parameters``
         and ``routes`` (route → ``seconds``, ``error_vs_fd``).
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, (a0, a1) = plt.subplots(1, 2, figsize=(11, 4.2))
     routes = list(dict.fromkeys(k for r in rows for k in r["routes"]))
@@ -192,23 +178,20 @@ def eigvec_cost_figure(path, rows) -> str:
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def grouped_bars_figure(path, groups: dict, ylabel: str, title: str, log: bool = False) -> str:
     """Grouped bar chart: ``groups`` maps a series name to {category: value}.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file.
+    {{FIGURE_PATH}}
     groups : dict of str to dict of str to float
         One bar colour per series; the categories share the x axis.
     ylabel, title : str
     log : bool, default False
         Logarithmic y axis.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     cats = list(dict.fromkeys(c for g in groups.values() for c in g))
     fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(cats) * len(groups) ** 0.5 + 2), 4.2))
@@ -223,24 +206,21 @@ def grouped_bars_figure(path, groups: dict, ylabel: str, title: str, log: bool =
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def error_vs_condition_figure(path, cond, err, named: dict, sigma: float) -> str:
     """Median parameter error of the direct FRF solution against cond(X): random line sets as dots,
     ``named`` sets ({label: (cond, error)}) as labelled markers.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file.
+    {{FIGURE_PATH}}
     cond, err : array_like
         Condition numbers and median errors of the random sets.
     named : dict of str to (float, float)
     sigma : float
         The noise level (title).
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     ax.loglog(cond, err, "o", color="0.6", label="random 5-line sets")
@@ -253,23 +233,20 @@ def error_vs_condition_figure(path, cond, err, named: dict, sigma: float) -> str
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def identifiability_grids_figure(path, tables: dict, N: int) -> str:
     """Sensors × actuators grids (rank / unknowns; green where identifiable), one row per variant
     and one column per placement (the ``su_juang_criteria`` paper section).
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file.
+    {{FIGURE_PATH}}
     tables : dict of str to dict of str to dict
         Variant → placement → ``"s x a"`` → {sensors, actuators, rank, unknowns, identifiable}.
     N : int
         Number of dofs.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     rows, cols = list(tables), list(next(iter(tables.values())))
     fig, axes = plt.subplots(len(rows), len(cols), figsize=(4.2 * len(cols), 3.3 * len(rows)), squeeze=False)

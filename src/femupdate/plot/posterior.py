@@ -15,6 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 _MODE_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
@@ -159,6 +160,7 @@ def trace_figure(result, max_walkers: int = 64):
     raise ValueError(f"a {result.method} result has no chains or stages to trace")
 
 
+@shared_docs(**PLOT_DOCS)
 def predictive_axes(result, test_frequencies_hz, ax=None):
     """The posterior predictive of the paired frequencies against the measured ones: per test mode
     the model's frequency interval and that of a new measurement, as errors in % of the measured
@@ -172,9 +174,7 @@ def predictive_axes(result, test_frequencies_hz, ax=None):
         The measured frequencies.
     ax : matplotlib.axes.Axes, optional
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 3.5))

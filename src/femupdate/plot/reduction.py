@@ -8,9 +8,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 
+@shared_docs(**PLOT_DOCS)
 def truss_metrics_axes(table: dict, methods, axes=None):
     """Accuracy (max frequency error) and robustness (self-orthogonality) per method and scenario.
 
@@ -21,12 +23,7 @@ def truss_metrics_axes(table: dict, methods, axes=None):
         ``max_frequency_error`` and ``self_orthogonality_max_offdiag``; one bar colour per scenario.
     methods : sequence of str
         Methods, in the order of the bar groups.
-    axes : sequence of 2 matplotlib.axes.Axes, optional
-        Default: a new figure.
-
-    Returns
-    -------
-    sequence of matplotlib.axes.Axes
+    {{AXES_PAIR}}
     """
     if axes is None:
         _, axes = plt.subplots(1, 2, figsize=(10, 4))
@@ -44,22 +41,19 @@ def truss_metrics_axes(table: dict, methods, axes=None):
     return axes
 
 
+@shared_docs(**PLOT_DOCS)
 def truss_metrics_figure(path, table, methods, sweep: dict | None = None) -> str:
     """Save :func:`truss_metrics_axes` to ``path`` (with a third panel for ``sweep``).
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     table, methods
         As :func:`truss_metrics_axes`.
     sweep : dict of float to dict, optional
         Model error sigma -> method -> metrics dict: self-orthogonality against sigma per method.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(1, 3 if sweep else 2, figsize=(15 if sweep else 10, 4))
     truss_metrics_axes(table, methods, axes[:2])
@@ -74,13 +68,13 @@ def truss_metrics_figure(path, table, methods, sweep: dict | None = None) -> str
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def superelement_figure(path, true, updated, direct, K) -> str:
     """Updated super-element moduli against the truth, and the banded reduced stiffness.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     true : array_like, shape ``(n_groups,)``
         True modulus of each super-element, Pa.
     updated, direct : array_like, shape ``(n_groups,)``
@@ -88,10 +82,7 @@ def superelement_figure(path, true, updated, direct, K) -> str:
     K : array_like or sparse matrix
         Reduced stiffness, whose sparsity pattern is drawn.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, (a0, a1) = plt.subplots(1, 2, figsize=(10, 4))
     k = np.arange(1, len(true) + 1)

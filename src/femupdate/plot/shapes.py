@@ -21,6 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from ..dofs import parse_dof  # noqa: E402
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -226,6 +227,7 @@ def needs_3d(model, shape=None, test=None, segments=None) -> bool:
     return _wants_3d(geom, motions)
 
 
+@shared_docs(**PLOT_DOCS)
 def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, ax=None, title=None,
                     projection: str = "auto", labels=("model", "test")):
     """A mode shape on the model's geometry: the deformed wireframe over the undeformed one, and a
@@ -258,9 +260,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     labels : (str, str), default ("model", "test")
         Legend labels of the two shapes.
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
         The axes drawn on.
 
     Raises

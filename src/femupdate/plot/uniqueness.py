@@ -12,6 +12,7 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 VERDICTS = ("unique", "non-unique", "not converging")
@@ -22,6 +23,7 @@ def _row_label(dofs, nested):
     return f"n = {len(dofs)}" if nested else ",".join(dofs) if len(dofs) <= 3 else f"{dofs[0]}..{dofs[-1]} ({len(dofs)})"
 
 
+@shared_docs(**PLOT_DOCS)
 def uniqueness_axes(cases, ax=None, title: str | None = None):
     """The (dof set, m) table of a study's ``cases`` (the JSON ``cases`` of ``femupdate
     uniqueness``): colour = verdict; text = distinct solutions found and log10 of the condition
@@ -33,14 +35,11 @@ def uniqueness_axes(cases, ax=None, title: str | None = None):
     cases : list of dict
         Each with ``measured_dofs``, ``n_modes``, ``verdict`` (one of ``VERDICTS``), ``solutions``,
         ``criteria`` (with ``paper``) and optionally ``condition_number`` (None or inf shown as ∞).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
     title : str, optional
         Axes title (default "uniqueness: solutions found / log10 cond(S)").
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
 
     Raises
     ------
@@ -74,42 +73,36 @@ def uniqueness_axes(cases, ax=None, title: str | None = None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_uniqueness_figure(path, cases, title: str | None = None) -> str:
     """Write :func:`uniqueness_axes` to ``path`` (atomically); returns the file name.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file; its suffix selects the format (:func:`~femupdate.plot.paper_figures.save_figure`).
+    {{FIGURE_PATH}}
     cases, title
         As :func:`uniqueness_axes`.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, ax = plt.subplots(figsize=(7.5, 5))
     uniqueness_axes(cases, ax, title)
     return save_figure(fig, path)
 
 
+@shared_docs(**PLOT_DOCS)
 def save_layouts_figure(path, panels: dict, title: str | None = None) -> str:
     """Several uniqueness heat maps side by side (one per sensor layout); returns the file name.
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Image file.
+    {{FIGURE_PATH}}
     panels : dict of str to list of dict
         Panel title → that layout's ``cases`` (as :func:`uniqueness_axes`).
     title : str, optional
         Figure title.
 
-    Returns
-    -------
-    str
-        The file name (without directory).
+    {{FIGURE_NAME}}
     """
     fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 5.2))
     for ax, (name, cases) in zip(np.atleast_1d(axes), panels.items()):

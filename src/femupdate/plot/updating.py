@@ -8,9 +8,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .._docs import PLOT_DOCS, shared_docs  # noqa: E402
 from .paper_figures import save_figure  # noqa: E402
 
 
+@shared_docs(**PLOT_DOCS)
 def convergence_axes(history, ax=None):
     """Cost (log scale) against iteration.
 
@@ -18,12 +20,9 @@ def convergence_axes(history, ax=None):
     ----------
     history : list of dict
         One entry per iteration with its ``"cost"`` ½‖r‖² (e.g. ``UpdateResult.history``).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 3.5))
@@ -34,6 +33,7 @@ def convergence_axes(history, ax=None):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def mac_axes(mac_matrix, ax=None, title="MAC"):
     """MAC matrix as an image with its values.
 
@@ -41,14 +41,11 @@ def mac_axes(mac_matrix, ax=None, title="MAC"):
     ----------
     mac_matrix : array_like, shape ``(n_test, n_model)``
         MAC of test modes (rows) with model modes (columns), in [0, 1].
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on (default: a new figure).
+    {{AX}}
     title : str, default "MAC"
         Axes title.
 
-    Returns
-    -------
-    matplotlib.axes.Axes
+    {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(4.5, 4))
@@ -63,6 +60,7 @@ def mac_axes(mac_matrix, ax=None, title="MAC"):
     return ax
 
 
+@shared_docs(**PLOT_DOCS)
 def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
     """``convergence.png`` (:func:`convergence_axes`) and ``mac.png`` (:func:`mac_axes`).
 
@@ -75,10 +73,7 @@ def save_update_figures(out_dir, history, mac_matrix) -> list[str]:
     mac_matrix : array_like, shape ``(n_test, n_model)``
         As :func:`mac_axes`.
 
-    Returns
-    -------
-    list of str
-        The file names written.
+    {{FIGURE_NAMES}}
     """
     from pathlib import Path
 

@@ -16,6 +16,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .._docs import shared_docs
 from .._errors import InputError, NumericalError
 from ..dofs import canonical_all, describe
 from ..modal import Modes, NotPositiveDefinite, arpack_options, factorize, model_modes, nearly_singular
@@ -26,6 +27,27 @@ __all__ = ["METHODS", "DENSE_NULL_LIMIT", "Reducer", "mechanism_dofs"]
 
 METHODS = ("guyan", "irs", "modal", "hybrid", "serep")
 DENSE_NULL_LIMIT = 2000  # mechanism search: dense eigen-solution up to this many omitted dofs
+
+# the modal builders' documentation, written once (femupdate._docs)
+_N_MODES = r"""Parameters
+----------
+n_modes : int, optional
+    Number m of the full model's lowest modes (default: as many as retained dofs);
+    ``1 <= m <= len(keep)``.
+
+Returns
+-------
+Transformation
+    ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m."""
+_DOCS = {"N_MODES": _N_MODES, "N_MODES_RAISES": _N_MODES + r"""
+
+Raises
+------
+InputError
+    m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
+    that do not tell the m modes apart (:math:`\phi_a` rank-deficient).
+NumericalError
+    The eigen-solution fails."""}
 
 
 # ---------------------------------------------------------------------------------- partition
@@ -253,6 +275,7 @@ class Reducer:
         T[self.io] += self.solve_oo(MT_o) @ G
         return self._make(T, "irs")
 
+    @shared_docs(**_DOCS)
     def kammer_modal(self, n_modes: int | None = None) -> Transformation:
         r"""Kammer's modal TAM (1987), eq. 43: :math:`T = [I; \phi_o (\phi_a^T\phi_a)^{-1}\phi_a^T]`.
 
@@ -261,30 +284,14 @@ class Reducer:
         retained dofs tell apart (:math:`\phi_a` of full column rank).  The reduced model
         reproduces those modes and their frequencies exactly.
 
-        Parameters
-        ----------
-        n_modes : int, optional
-            Number m of the full model's lowest modes (default: as many as retained dofs);
-            ``1 <= m <= len(keep)``.
-
-        Returns
-        -------
-        Transformation
-            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
-
-        Raises
-        ------
-        InputError
-            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
-            that do not tell the m modes apart (:math:`\phi_a` rank-deficient).
-        NumericalError
-            The eigen-solution fails.
+        {{N_MODES_RAISES}}
         """
         m = self._n_modes(n_modes, "modal")
         phi = self.modes(m).shapes
         pinv = self._phi_a_pinv(phi[self.ia], "modal")
         return self._make(self._full(phi[self.io] @ pinv if self.io.size else None), "modal", m)
 
+    @shared_docs(**_DOCS)
     def kammer_hybrid(self, n_modes: int | None = None) -> Transformation:
         r"""Kammer's hybrid TAM (1991), eq. 44 with the retained-dof partition of the modes:
 
@@ -296,23 +303,13 @@ class Reducer:
         The paper's ``[phi][phi]^T`` with "the full order eigenvector matrix" is dimensionally
         impossible; it is :math:`\phi_a\phi_a^T` (a x a).
 
-        Parameters
-        ----------
-        n_modes : int, optional
-            Number m of the full model's lowest modes (default: as many as retained dofs);
-            ``1 <= m <= len(keep)``.
-
-        Returns
-        -------
-        Transformation
-            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
+        {{N_MODES}}
 
         Raises
         ------
         InputError
-            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
-            that do not tell the m modes apart (:math:`\phi_a` rank-deficient), or a singular
-            K_oo (Guyan part; the message names the mechanism's dofs).
+            As :meth:`kammer_modal`, or a singular K_oo (Guyan part; the message names the
+            mechanism's dofs).
         NumericalError
             The eigen-solution fails.
         """
@@ -323,6 +320,7 @@ class Reducer:
         P = phi_a @ (phi_a.T @ project(self.M, Tm))
         return self._make(Tg + (Tm - Tg) @ P, "hybrid", m)
 
+    @shared_docs(**_DOCS)
     def serep(self, n_modes: int | None = None) -> Transformation:
         r"""SEREP (O'Callahan, Avitabile & Riemer 1989): :math:`T = \Phi\,\Phi_a^+`.
 
@@ -330,24 +328,7 @@ class Reducer:
         modal TAM; with fewer modes its reduced matrices have rank ``n_modes`` only (fine for
         expansion, where :math:`\Phi_a^+` is a least-squares fit of the measured shape).
 
-        Parameters
-        ----------
-        n_modes : int, optional
-            Number m of the full model's lowest modes (default: as many as retained dofs);
-            ``1 <= m <= len(keep)``.
-
-        Returns
-        -------
-        Transformation
-            ``T`` of shape ``(n_dofs, len(keep))``, with ``n_modes`` = m.
-
-        Raises
-        ------
-        InputError
-            m below 1 or above the number of retained dofs (or of model dofs), or retained dofs
-            that do not tell the m modes apart (:math:`\phi_a` rank-deficient).
-        NumericalError
-            The eigen-solution fails.
+        {{N_MODES_RAISES}}
         """
         m = self._n_modes(n_modes, "serep")
         phi = self.modes(m).shapes

@@ -85,7 +85,7 @@ def split_structure(structure: Structure, key: Callable[[list[str], tuple | None
                 type=g.type, props=props, labels=rows,
                 nodes=None if g.nodes is None else g.nodes[sel], mass=g.mass, dim=g.dim,
                 orientation=None if g.orientation is None else g.orientation[sel],
-                where=[g.where[i] for i in sel]))
+                where=[g.where[i] for i in sel], nu=None if g.nu is None else g.nu[sel], drill=g.drill))
         s.parameters = {n: p for n, p in structure.parameters.items() if n in used_params}
         s.supports = [d for d in structure.supports if d in labels_here]
         nodes_here = {parse_dof(lab)[0] for lab in labels_here}

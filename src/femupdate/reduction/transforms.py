@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from .._docs import shared_docs
 from ..model import Model
 from .projection import Transformation, project, reduce, reduced_eigenvalues, reduced_matrices, reduced_modes
 from .reducer import DENSE_NULL_LIMIT, METHODS, Reducer, mechanism_dofs
@@ -46,22 +47,39 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------------------- functions
+# the parameter documentation of the builders, written once (femupdate._docs)
+_MODEL_KEEP = """\
+model : Model
+    The full model.
+keep : sequence of str
+    Retained dof labels (the a-set), in the order of the reduced model."""
+_VALUES = """\
+values : None, mapping of str to float, or array_like, optional
+    Parameter values T is built at (default nominal)."""
+_RETURNS = """\
+Returns
+-------
+Transformation
+    T of shape ``(n_dofs, a)``"""
+_BAD_KEEP = "As :class:`Reducer` (bad keep-set, singular omitted partition)"
+_DOCS = {
+    "MODEL_KEEP": _MODEL_KEEP,
+    "VALUES": _VALUES,
+    # guyan, irs
+    "CONDENSATION": "\n".join(["Parameters", "----------", _MODEL_KEEP, _VALUES, "", _RETURNS + "."]),
+    # kammer_modal, kammer_hybrid, serep
+    "TAM": "\n".join(["Parameters", "----------", _MODEL_KEEP, "n_modes : int, optional",
+                       "    Number of full-model modes used (default: as many as retained dofs; at most a).", _VALUES,
+                       "", _RETURNS + ", exact for the first ``n_modes`` modes.", "", "Raises", "------", "InputError",
+                       f"    {_BAD_KEEP}; ``n_modes`` < 1 or > a;", "    modes the retained dofs cannot tell apart."]),
+}
+
+
+@shared_docs(**_DOCS)
 def guyan(model: Model, keep: Sequence[str], values=None) -> Transformation:
     """Guyan / static condensation transformation (eqs. 37-40); see :meth:`Reducer.guyan`.
 
-    Parameters
-    ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
-
-    Returns
-    -------
-    Transformation
-        T of shape ``(n_dofs, a)``.
+    {{CONDENSATION}}
 
     Raises
     ------
@@ -71,131 +89,59 @@ def guyan(model: Model, keep: Sequence[str], values=None) -> Transformation:
     return Reducer(model, keep, values).guyan()
 
 
+@shared_docs(**_DOCS)
 def irs(model: Model, keep: Sequence[str], values=None) -> Transformation:
     """Improved Reduced System transformation (eqs. 41-42, corrected); see :meth:`Reducer.irs`.
 
-    Parameters
-    ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
-
-    Returns
-    -------
-    Transformation
-        T of shape ``(n_dofs, a)``.
+    {{CONDENSATION}}
 
     Raises
     ------
     InputError
-        As :class:`Reducer` (bad keep-set, singular omitted partition); a Guyan-reduced mass
-        matrix that is not positive definite.
+        As :func:`guyan`; a Guyan-reduced mass matrix that is not positive definite.
     """
     return Reducer(model, keep, values).irs()
 
 
+@shared_docs(**_DOCS)
 def kammer_modal(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
     """Kammer's modal TAM (eq. 43); see :meth:`Reducer.kammer_modal`.
 
-    Parameters
-    ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
-    n_modes : int, optional
-        Number of full-model modes used (default: as many as retained dofs; at most a).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
-
-    Returns
-    -------
-    Transformation
-        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
-
-    Raises
-    ------
-    InputError
-        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
-        modes the retained dofs cannot tell apart.
+    {{TAM}}
     """
     return Reducer(model, keep, values).kammer_modal(n_modes)
 
 
+@shared_docs(**_DOCS)
 def kammer_hybrid(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
     """Kammer's hybrid TAM (eq. 44, corrected); see :meth:`Reducer.kammer_hybrid`.
 
-    Parameters
-    ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
-    n_modes : int, optional
-        Number of full-model modes used (default: as many as retained dofs; at most a).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
-
-    Returns
-    -------
-    Transformation
-        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
-
-    Raises
-    ------
-    InputError
-        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
-        modes the retained dofs cannot tell apart.
+    {{TAM}}
     """
     return Reducer(model, keep, values).kammer_hybrid(n_modes)
 
 
+@shared_docs(**_DOCS)
 def serep(model: Model, keep: Sequence[str], n_modes: int | None = None, values=None) -> Transformation:
     """SEREP transformation :math:`\\Phi\\Phi_a^+`; see :meth:`Reducer.serep`.
 
-    Parameters
-    ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
-    n_modes : int, optional
-        Number of full-model modes used (default: as many as retained dofs; at most a).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
-
-    Returns
-    -------
-    Transformation
-        T of shape ``(n_dofs, a)``, exact for the first ``n_modes`` modes.
-
-    Raises
-    ------
-    InputError
-        As :class:`Reducer` (bad keep-set, singular omitted partition); ``n_modes`` < 1 or > a;
-        modes the retained dofs cannot tell apart.
+    {{TAM}}
     """
     return Reducer(model, keep, values).serep(n_modes)
 
 
+@shared_docs(**_DOCS)
 def transformation(model: Model, keep: Sequence[str], method: str, n_modes: int | None = None, values=None) -> Transformation:
     """Transformation by method name (``guyan``, ``irs``, ``modal``, ``hybrid``, ``serep``).
 
     Parameters
     ----------
-    model : Model
-        The full model.
-    keep : sequence of str
-        Retained dof labels (the a-set), in the order of the reduced model.
+    {{MODEL_KEEP}}
     method : str
         ``"guyan"``, ``"irs"``, ``"modal"``, ``"hybrid"`` or ``"serep"``.
     n_modes : int, optional
         Number of full-model modes used (modal, hybrid, serep; default: as many as retained dofs; at most a).
-    values : None, mapping of str to float, or array_like, optional
-        Parameter values T is built at (default nominal).
+    {{VALUES}}
 
     Returns
     -------

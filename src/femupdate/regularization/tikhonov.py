@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from .._docs import shared_docs
 from .._errors import InputError, NumericalError
 
 __all__ = ["N_ALPHA", "StandardForm", "check_alpha", "check_alphas", "check_problem", "standard_form", "tikhonov_step"]
@@ -150,6 +151,17 @@ def check_alphas(alphas) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- standard form
+#: the grid of the Tikhonov factor, the argument of the curve functions (femupdate._docs)
+_ALPHAS = """\
+Parameters
+----------
+alphas : numpy.ndarray, shape ``(n_alpha,)``
+    Tikhonov factors α > 0.
+
+Returns
+-------"""
+
+
 @dataclass(frozen=True, eq=False)
 class StandardForm:
     """Problem (1) in standard form: SVD of ``Ā`` and the map back to ``Δp``.
@@ -204,16 +216,11 @@ class StandardForm:
         coef = s * self.beta / (s * s + alpha * alpha)
         return self.TV @ coef + self.x0 - self.offset
 
+    @shared_docs(ALPHAS=_ALPHAS)
     def norms(self, alphas: np.ndarray):
         """ρ², η², dη²/dα and Σ(1 - f) on a grid of α (vectorised: arrays (n_alpha, q)).
 
-        Parameters
-        ----------
-        alphas : numpy.ndarray, shape ``(n_alpha,)``
-            Tikhonov factors α > 0.
-
-        Returns
-        -------
+        {{ALPHAS}}
         rho2 : numpy.ndarray, shape ``(n_alpha,)``
             ρ²(α) = ‖J Δp_α + r‖².
         eta2 : numpy.ndarray, shape ``(n_alpha,)``
@@ -234,16 +241,11 @@ class StandardForm:
         sum_1mf = np.sum(one_minus_f, axis=1)
         return rho2, eta2, deta2, sum_1mf
 
+    @shared_docs(ALPHAS=_ALPHAS)
     def gcv_function(self, alphas: np.ndarray):
         """The GCV function G(α) = ρ²(α) / trace(I − A(α))² of the package notes.
 
-        Parameters
-        ----------
-        alphas : numpy.ndarray, shape ``(n_alpha,)``
-            Tikhonov factors α > 0.
-
-        Returns
-        -------
+        {{ALPHAS}}
         g : numpy.ndarray, shape ``(n_alpha,)``
             G(α); NaN where the trace is not positive.
         rho2, eta2 : numpy.ndarray, shape ``(n_alpha,)``
@@ -256,16 +258,11 @@ class StandardForm:
             g = np.where(trace > 0, rho2 / np.where(trace > 0, trace, 1.0) ** 2, np.nan)
         return g, rho2, eta2
 
+    @shared_docs(ALPHAS=_ALPHAS)
     def curvature(self, alphas: np.ndarray):
         """Curvature κ(α) of the L-curve (ln ρ, ln η), in the closed form of the package notes.
 
-        Parameters
-        ----------
-        alphas : numpy.ndarray, shape ``(n_alpha,)``
-            Tikhonov factors α > 0.
-
-        Returns
-        -------
+        {{ALPHAS}}
         kappa : numpy.ndarray, shape ``(n_alpha,)``
             κ(α); NaN where ρ² or η² is 0, dη²/dα is not negative or κ is not finite.
         rho2, eta2 : numpy.ndarray, shape ``(n_alpha,)``

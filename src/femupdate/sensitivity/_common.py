@@ -62,6 +62,17 @@ def check_distinct(modes, which: Sequence[int], mass_normalised: bool = True, gr
             raise NumericalError(rules.message(code, i, j, lam[i], lam[j]))
 
 
+def resolve_request(model, modes, which, params, groups) -> tuple[np.ndarray, np.ndarray, dict[int, tuple[int, int]]]:
+    """The modes and parameters of a derivative request and the groups of those modes, checked:
+    :func:`resolve_which`, :func:`resolve_params`, :func:`resolve_groups` and
+    :func:`check_distinct`, in that order (the routes' shared door)."""
+    which = resolve_which(modes, which)
+    params = resolve_params(model, params)
+    grouped = resolve_groups(modes, which, groups)
+    check_distinct(modes, which, groups=grouped)
+    return which, params, grouped
+
+
 def resolve_groups(modes, which: np.ndarray, groups) -> dict[int, tuple[int, int]]:
     """The group of each mode of ``which`` that belongs to one of ``groups`` (modes alone are left out).
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._docs import DERIVATIVE_ARGUMENTS, shared_docs
+from .._docs import DERIVATIVE_DOCS, shared_docs
 
 from .._errors import InputError
 from ..modal import NotPositiveDefinite, factorize, nearly_singular
-from ._common import check_distinct, group_rhs, in_group, mode_rhs, resolve_groups, resolve_params, resolve_which
+from ._common import group_rhs, in_group, mode_rhs, resolve_request
 
 
 def modal_part(modes, i, F, mjj, group=None, Ng=None):
@@ -39,7 +39,7 @@ def group_mode_rhs(model, modes, params, i, M, groups):
     return dl, F, mjj, g, Ng
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
+@shared_docs(**DERIVATIVE_DOCS)
 def modal(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvector derivatives by modal superposition over the modes in ``modes``.
 
@@ -61,22 +61,11 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
     dlam : numpy.ndarray, shape ``(len(which), L)``
         Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21); for a
         mode of a group, the diagonal entry of the group's restricted derivative.
-    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
-        Derivatives of the mass-normalised shapes.
+    {{DPHI}}
 
-    Raises
-    ------
-    InputError
-        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name); bad ``groups``.
-    NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
-        ``groups``.
+    {{DERIVATIVE_RAISES}}
     """
-    which = resolve_which(modes, which)
-    params = resolve_params(model, params)
-    grouped = resolve_groups(modes, which, groups)
-    check_distinct(modes, which, groups=grouped)
+    which, params, grouped = resolve_request(model, modes, which, params, groups)
     M = model.M(values)
     dlam = np.zeros((which.size, params.size))
     dphi = np.zeros((model.n_dofs, which.size, params.size))
@@ -87,7 +76,7 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
     return dlam, dphi
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
+@shared_docs(**DERIVATIVE_DOCS)
 def modal_static_correction(model, modes, which=None, params=None, values=None, sigma: float | None = None,
                             groups=None):
     r"""Truncated modal method with Wang's (1991) static correction.
@@ -107,26 +96,13 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     groups : sequence of (int, int), optional
         Groups of repeated or close modes, as :func:`modal`.
 
-    Returns
-    -------
-    dlam : numpy.ndarray, shape ``(len(which), L)``
-        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
-    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
-        Derivatives of the mass-normalised shapes.
+    {{DERIVATIVES}}
 
-    Raises
-    ------
+    {{DERIVATIVE_RAISES}}
     InputError
-        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name); K − σM singular, or K singular with no positive diagonal entry; bad ``groups``.
-    NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
-        ``groups``.
+        K − σM singular, or K singular with no positive diagonal entry.
     """
-    which = resolve_which(modes, which)
-    params = resolve_params(model, params)
-    grouped = resolve_groups(modes, which, groups)
-    check_distinct(modes, which, groups=grouped)
+    which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     lu, sigma = shifted_factor(K, M, sigma)
     lam, Phi = modes.eigenvalues, modes.shapes

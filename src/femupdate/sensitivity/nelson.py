@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._docs import DERIVATIVE_ARGUMENTS, shared_docs
+from .._docs import DERIVATIVE_DOCS, shared_docs
 import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .._errors import NumericalError
 from ..modal import factorize
-from ._common import check_distinct, group_rhs, mode_rhs, resolve_groups, resolve_params, resolve_which
+from ._common import group_rhs, mode_rhs, resolve_request
 
 DENSE_LIMIT = 1500
 
 
-@shared_docs(DERIVATIVE_ARGUMENTS=DERIVATIVE_ARGUMENTS)
+@shared_docs(**DERIVATIVE_DOCS)
 def nelson(model, modes, which=None, params=None, values=None, groups=None) -> tuple[np.ndarray, np.ndarray]:
     r"""Eigenvalue and mass-normalised eigenvector derivatives by Nelson's method.
 
@@ -37,28 +37,13 @@ def nelson(model, modes, which=None, params=None, values=None, groups=None) -> t
     groups : sequence of (int, int), optional
         Groups of repeated or close modes ``(first, stop)`` (modes first .. stop − 1).
 
-    Returns
-    -------
-    dlam : numpy.ndarray, shape ``(len(which), L)``
-        Eigenvalue derivatives dλ/dp, rad²/s² per unit of the parameter (paper eq. 21).
-    dphi : numpy.ndarray, shape ``(n_dofs, len(which), L)``
-        Derivatives of the mass-normalised shapes.
+    {{DERIVATIVES}}
 
-    Raises
-    ------
-    InputError
-        Modes not mass-normalised, or a mode or parameter index out of range (an unknown
-        parameter name); bad ``groups``.
-    NumericalError
-        A rigid-body or repeated mode among ``which`` (not differentiable as such) outside
-        ``groups``.
+    {{DERIVATIVE_RAISES}}
     NumericalError
         The modified matrix of a mode is singular, or a derivative is not finite.
     """
-    which = resolve_which(modes, which)
-    params = resolve_params(model, params)
-    grouped = resolve_groups(modes, which, groups)
-    check_distinct(modes, which, groups=grouped)
+    which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     n = model.n_dofs
     dlam = np.zeros((which.size, params.size))

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_distinct, resolve_groups, resolve_params, resolve_which
+from ._common import resolve_request
 from .factor import check_modes, prepare_factor, single_thread_blas, solve
 from .modal import group_mode_rhs, modal_part
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
@@ -119,10 +119,7 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
         not converge in ``max_terms``.
     """
     check_modes(model, modes)
-    which = resolve_which(modes, which)
-    params = resolve_params(model, params)
-    grouped = resolve_groups(modes, which, groups)
-    check_distinct(modes, which, groups=grouped)
+    which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     lu, sigma = prepare_factor(K, M, modes, sigma, lu)
     lam, Phi = modes.eigenvalues, modes.shapes

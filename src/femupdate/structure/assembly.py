@@ -12,11 +12,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import elements as el
+from .. import elements_3d as e3
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import describe, parse_dof, sort_key
 from ..model import Model
-from .groups import ElementGroup, merge_groups, triplets
+from .groups import SHELLS, SOLIDS, ElementGroup, merge_groups, triplets
 from .units import parameter_units
 
 
@@ -81,16 +82,16 @@ def assemble(structure) -> Model:
     )
 
 
-def _coords(self, g: ElementGroup) -> tuple[np.ndarray, np.ndarray]:
+def _coords(self, g: ElementGroup) -> np.ndarray:
+    """Node coordinates of a group's elements, ``(n_el, n_nodes, 3)``."""
     if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
         raise TypeError(f"{g.where[0]}: a {g.type} group has no end nodes")
     ids = np.unique(g.nodes)
     missing = [int(i) for i in ids if int(i) not in self.nodes]
     if missing:
-        k = next(i for i, row in enumerate(g.nodes) if int(row[0]) in missing or int(row[1]) in missing)
+        k = next(i for i, row in enumerate(g.nodes) if any(int(a) in missing for a in row))
         raise InputError(f"{g.where[k]}: node(s) {missing[:8]} are not defined in the node table")
-    xyz = np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(len(g.nodes), 2, 3)
-    return xyz[:, 0], xyz[:, 1]
+    return np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(*g.nodes.shape, 3)
 
 def element_terms(self, g: ElementGroup) -> el.ElementTerms:
     """The element terms of a group (its element type's stacks)."""
@@ -99,8 +100,13 @@ def element_terms(self, g: ElementGroup) -> el.ElementTerms:
         return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
     if g.type == "mass":
         return el.mass_terms(n_el, len(g.labels[0]))
-    xa, xb = _coords(self, g)
+    xyz = _coords(self, g)
+    xa, xb = xyz[:, 0], xyz[:, -1]
     try:
+        if g.type in SHELLS:
+            return (e3.mitc4_terms if g.type == "mitc4" else e3.mitc3_terms)(xyz, g.nu, mass=g.mass, drill=g.drill)
+        if g.type in SOLIDS:
+            return {"hex8": e3.hex8_terms, "tet4": e3.tet4_terms, "tet10": e3.tet10_terms}[g.type](xyz, g.nu, mass=g.mass)
         if g.type == "rod":
             return el.rod_terms(xa, xb, dim=g.dim, mass=g.mass)
         if g.type == "beam2d":

@@ -412,6 +412,70 @@ class Structure:
         labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
         self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o))
 
+    def shell(self, nodes, E, nu, t, rho, mass: str = "consistent", drill: float = 0.1, where: str = "shell") -> None:
+        """Flat shell element(s): MITC4 quadrilaterals (4 nodes) or MITC3 triangles (3 nodes).
+
+        Dofs ``x, y, z, rx, ry, rz`` at each node; formulation, drilling treatment and dof order in
+        :mod:`femupdate.elements_3d.shells`.  K = E t K_membrane + E t³ K_bending + E t K_shear
+        + E t K_drill, M = rho t M_translation + rho t³ M_rotation.
+
+        Parameters
+        ----------
+        nodes : sequence of int or array_like, shape ``(n_el, 3)`` or ``(n_el, 4)``
+            Corner node ids of each element, counter-clockwise about its normal.
+        E, rho : float, str or sequence
+            Young's modulus (Pa) and density (kg/m³): a number, a parameter name, or one per element.
+        nu : float or sequence of float
+            Poisson's ratio, -1 < nu < 0.5 (a number: it enters non-linearly).
+        t : float or sequence of float
+            Thickness (m).  A number: the bending stiffness goes as t³, so a thickness parameter is
+            refused until the non-linear parametrisation exists.
+        mass : {"consistent", "lumped"}, default "consistent"
+            Mass matrix.
+        drill : float, default 0.1
+            Drilling penalty factor (times G t).
+        where : str, default ``"shell"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            Not 3 or 4 integer node ids per element, a node listed twice, nu outside (-1, 0.5) or a
+            parameter, t a parameter, a bad ``drill`` or ``mass``; degenerate or inverted elements
+            are refused by :meth:`build`.
+        """
+        from .continuum import add_shell
+
+        add_shell(self, nodes, E, nu, t, rho, mass, drill, where)
+
+    def solid(self, nodes, E, nu, rho, mass: str = "consistent", where: str = "solid") -> None:
+        """Solid element(s): 8-node hexahedra (incompatible modes, QM6), 4- or 10-node tetrahedra.
+
+        Dofs ``x, y, z`` at each node (no rotations); node orders and formulation in
+        :mod:`femupdate.elements_3d.solids`.  K = E K_E, M = rho M_rho.
+
+        Parameters
+        ----------
+        nodes : sequence of int or array_like, shape ``(n_el, 4 | 8 | 10)``
+            Node ids of each element (4: tet4, 8: hex8, 10: tet10).
+        E, rho : float, str or sequence
+            Young's modulus (Pa) and density (kg/m³): a number, a parameter name, or one per element.
+        nu : float or sequence of float
+            Poisson's ratio, -1 < nu < 0.5.
+        mass : {"consistent", "lumped"}, default "consistent"
+            Mass matrix.
+        where : str, default ``"solid"``
+            Name of the element(s) in messages.
+
+        Raises
+        ------
+        InputError
+            As :meth:`shell`.
+        """
+        from .continuum import add_solid
+
+        add_solid(self, nodes, E, nu, rho, mass, where)
+
     # ------------------------------------------------------------------ dict / TOML form
     @classmethod
     def from_dict(cls, data: Mapping, source: str = "model") -> Structure:

@@ -21,13 +21,43 @@ PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
     "beam2d_terms": (("EA_l", "k12", "k6", "k2", "rho", "A"), {}),
     "frame3d": (("E", "G", "A", "Iy", "Iz", "J", "rho"), {}),
     "frame3d_terms": (("EA_l", "GJ_l", "rho", "A", "Ip"), {}),
+    "mitc4": (("E", "t", "rho"), {}),
+    "mitc3": (("E", "t", "rho"), {}),
+    "hex8": (("E", "rho"), {}),
+    "tet4": (("E", "rho"), {}),
+    "tet10": (("E", "rho"), {}),
 }
+#: shell and solid element types -> number of nodes per element
+SHELLS = {"mitc4": 4, "mitc3": 3}
+SOLIDS = {"hex8": 8, "tet4": 4, "tet10": 10}
+#: the edges of each shell and solid type, as pairs of positions in its node list (for drawing)
+EDGES = {
+    "mitc4": ((0, 1), (1, 2), (2, 3), (3, 0)),
+    "mitc3": ((0, 1), (1, 2), (2, 0)),
+    "hex8": ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)),
+    "tet4": ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)),
+    "tet10": ((0, 4), (4, 1), (1, 5), (5, 2), (2, 6), (6, 0), (0, 7), (7, 3), (1, 8), (8, 3), (2, 9), (9, 3)),
+}
+
+
+def node_pairs(g) -> np.ndarray:
+    """Node-id pairs to draw a group's elements with: the ends of line elements, the edges of shells
+    and solids; ``(0, 2)`` for springs and masses."""
+    if g.nodes is None:
+        return np.zeros((0, 2), np.int64)
+    nodes = np.asarray(g.nodes, dtype=np.int64)
+    if g.type not in EDGES:
+        return nodes
+    idx = np.array(EDGES[g.type])
+    return nodes[:, idx].reshape(-1, 2)
 BENDING = ("k12", "k6", "k2")
 NODE_DIRS = {
     "beam2d": ("x", "y", "rz"),
     "beam2d_terms": ("x", "y", "rz"),
     "frame3d": ("x", "y", "z", "rx", "ry", "rz"),
     "frame3d_terms": ("x", "y", "z", "rx", "ry", "rz"),
+    **{t: ("x", "y", "z", "rx", "ry", "rz") for t in ("mitc4", "mitc3")},
+    **{t: ("x", "y", "z") for t in ("hex8", "tet4", "tet10")},
 }
 ELEMENT_TYPES = tuple(PROPS)
 
@@ -44,8 +74,8 @@ class ElementGroup:
         Property name -> one value per element: a number or the name of a declared parameter.
     labels : list of list of str
         Each element's dof labels, in the element's dof order (:mod:`femupdate.elements`).
-    nodes : numpy.ndarray of int, shape ``(n_el, 2)``, optional
-        End node ids of line elements (None for springs and masses).
+    nodes : numpy.ndarray of int, shape ``(n_el, 2)`` or ``(n_el, n_nodes)``, optional
+        End node ids of line elements, node ids of shells and solids (None for springs and masses).
     mass : {"consistent", "lumped"}, default "consistent"
         Mass matrix of line elements.
     dim : {2, 3}, default 3
@@ -54,6 +84,10 @@ class ElementGroup:
         Orientation vectors of frame elements.
     where : list of str
         Per-element description for messages.
+    nu : numpy.ndarray, shape ``(n_el,)``, optional
+        Poisson's ratio of shell and solid elements (a fixed number: it enters non-linearly).
+    drill : float, default 0.1
+        Drilling penalty factor of shell elements (:mod:`femupdate.elements_3d.shells`).
     """
 
     type: str
@@ -64,11 +98,13 @@ class ElementGroup:
     dim: int = 3
     orientation: np.ndarray | None = None  # (n_el, 3)
     where: list[str] = field(default_factory=list)  # per-element description for messages
+    nu: np.ndarray | None = None  # (n_el,) Poisson's ratio of shells and solids
+    drill: float = 0.1
 
     @property
     def key(self):
-        """``(type, mass, dim, dofs per element, sorted property names)``: groups with equal keys merge."""
-        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)))
+        """``(type, mass, dim, dofs per element, sorted property names, drill)``: groups with equal keys merge."""
+        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)), self.drill)
 
 
 def per_element(value, n: int, what: str) -> list:
@@ -160,6 +196,7 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
             mass=g0.mass, dim=g0.dim,
             orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
             where=[w for g in gs for w in g.where],
+            nu=None if g0.nu is None else np.concatenate([g.nu for g in gs]), drill=g0.drill,
         ))
     return out
 
@@ -197,5 +234,5 @@ def triplets(trip, target, unit, idx, coef, pid) -> None:
         trip[(target, int(t))].append((r[sel], c[sel], v[sel]))
 
 
-__all__ = ["MASS_KINDS", "PROPS", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
+__all__ = ["MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "EDGES", "node_pairs", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
            "merge_groups", "triplets"]

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from .._errors import InputError
 from ..model import _shown
 from ..priors import Prior, parse_prior
-from .groups import BENDING, ELEMENT_TYPES, PROPS
+from .groups import BENDING, ELEMENT_TYPES, PROPS, SHELLS, SOLIDS
 
 
 def structure_from_dict(cls, data: Mapping, source: str = "model"):
@@ -134,13 +134,15 @@ def list_of_tables(data, key, source):
     return items
 
 
-ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation"}
+ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation", "nu", "drill"}
 TYPE_KEYS = {  # non-property keys that apply to each line-element type
     "rod": {"nodes", "mass", "dim"},
     "beam2d": {"nodes", "mass"},
     "beam2d_terms": {"nodes", "mass"},
     "frame3d": {"nodes", "mass", "orientation"},
     "frame3d_terms": {"nodes", "mass", "orientation"},
+    **{t: {"nodes", "mass", "nu", "drill"} for t in SHELLS},
+    **{t: {"nodes", "mass", "nu"} for t in SOLIDS},
 }
 
 
@@ -179,7 +181,7 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
     for k, v in props.items():
         if isinstance(v, bool) or not isinstance(v, (int, float, str)):
             raise InputError(f"{where}: {k} must be a number or a parameter name, got {_shown(v)}")
-    for k in ("nodes", "orientation", "dim"):
+    for k in ("nodes", "orientation", "dim", "nu", "drill"):
         _no_booleans(e.get(k), f"{where}: {k}")
     try:
         if t == "spring":
@@ -190,6 +192,8 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
             if "dofs" not in e or "m" not in e:
                 raise InputError("mass needs 'dofs' and 'm'")
             s.mass(list(e["dofs"]), m=e["m"], where=where)
+        elif t in SHELLS or t in SOLIDS:
+            _continuum_from_dict(s, t, e, props, where)
         else:
             if "nodes" not in e:
                 raise InputError(f"{t} needs 'nodes' = [a, b]")
@@ -209,6 +213,25 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+
+
+def _continuum_from_dict(s, t: str, e: Mapping, props: dict, where: str) -> None:
+    """A shell or solid [[element]] table: ``nodes`` one list of node ids or a list of them (an element set)."""
+    count = SHELLS.get(t) or SOLIDS[t]
+    nodes = e.get("nodes")
+    if nodes is None:
+        raise InputError(f"{t} needs 'nodes' = [{count} node ids] or a list of such lists (a set of elements)")
+    rows = nodes if nodes and isinstance(nodes[0], list) else [nodes]
+    bad = next((r for r in rows if not isinstance(r, list) or len(r) != count), None)
+    if bad is not None:
+        raise InputError(f"a {t} element has {count} nodes; got {bad!r}")
+    if "nu" not in e:
+        raise InputError(f"{t} needs Poisson's ratio 'nu'")
+    kw = dict(mass=e.get("mass", "consistent"), where=where)
+    if t in SHELLS:
+        s.shell(rows, nu=e["nu"], drill=e.get("drill", 0.1), **props, **kw)
+    else:
+        s.solid(rows, nu=e["nu"], **props, **kw)
 
 
 __all__ = ["structure_from_dict", "list_of_tables", "element_from_dict", "ELEMENT_KEYS", "TYPE_KEYS"]

@@ -16,7 +16,7 @@ from ..dofs import parse_dof
 #: SI unit of each element property (springs and masses depend on their dofs: :func:`property_unit`)
 PROPERTY_UNITS: dict[str, str] = {
     "E": "Pa", "G": "Pa", "A": "m²", "I": "m⁴", "Iy": "m⁴", "Iz": "m⁴", "J": "m⁴", "Ip": "m⁴",
-    "rho": "kg/m³",
+    "rho": "kg/m³", "t": "m",
     "EA_l": "N/m", "GJ_l": "N·m/rad",
     "k12": "N/m", "k12_y": "N/m", "k12_z": "N/m",
     "k6": "N/rad", "k6_y": "N/rad", "k6_z": "N/rad",

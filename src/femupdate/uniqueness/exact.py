@@ -251,6 +251,30 @@ def _door(model, eigenvalues, values, n_modes, params, bounds) -> None:
     flag_arg(bounds, "bounds", "exact_solutions")
 
 
+def _measured(model, eigenvalues, n_modes, p_values) -> tuple[np.ndarray, list | None, int]:
+    """:func:`exact_solutions`'s data: the m measured eigenvalues as floats and, when given, as
+    rationals (None when they are the model's own at ``p_values``), and m."""
+    from scipy.linalg import eigh
+
+    N = model.n_dofs
+    if eigenvalues is None:
+        m = N if n_modes is None else int(n_modes)
+        if not 1 <= m <= N:
+            raise InputError(f"exact solutions: n_modes must be between 1 and {N}, got {n_modes}")
+        lam_num = eigh(model.K(p_values).toarray(), model.M(p_values).toarray(), eigvals_only=True)[:m]
+        return lam_num, None, m
+    lam_q = [_rational(v, f"eigenvalue {k + 1}") for k, v in enumerate(eigenvalues)]
+    m = len(lam_q)
+    if not 1 <= m <= N:
+        raise InputError(f"exact solutions: give between 1 and {N} eigenvalues, got {m}")
+    if any(v <= 0 for v in lam_q):
+        raise InputError("exact solutions: measured eigenvalues must be positive")
+    lam_num = np.array([float(v) for v in lam_q])
+    if np.any(np.diff(lam_num) < 0):
+        raise InputError("exact solutions: give the eigenvalues in ascending order (the lowest modes)")
+    return lam_num, lam_q, m
+
+
 def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, n_modes: int | None = None,
                     params: Sequence[str] | None = None, bounds: bool = True) -> ExactSolutionSet:
     """All real parameter sets giving the measured eigenvalues (frequencies alone).
@@ -303,22 +327,7 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
             "use the Monte Carlo study (femupdate uniqueness) instead")
     p_values = model.resolve(values)
     notes: list[str] = []
-    if eigenvalues is None:
-        m = N if n_modes is None else int(n_modes)
-        if not 1 <= m <= N:
-            raise InputError(f"exact solutions: n_modes must be between 1 and {N}, got {n_modes}")
-        lam_num = eigh(model.K(p_values).toarray(), model.M(p_values).toarray(), eigvals_only=True)[:m]
-        lam_q = None
-    else:
-        lam_q = [_rational(v, f"eigenvalue {k + 1}") for k, v in enumerate(eigenvalues)]
-        m = len(lam_q)
-        if not 1 <= m <= N:
-            raise InputError(f"exact solutions: give between 1 and {N} eigenvalues, got {m}")
-        if any(v <= 0 for v in lam_q):
-            raise InputError("exact solutions: measured eigenvalues must be positive")
-        lam_num = np.array([float(v) for v in lam_q])
-        if np.any(np.diff(lam_num) < 0):
-            raise InputError("exact solutions: give the eigenvalues in ascending order (the lowest modes)")
+    lam_num, lam_q, m = _measured(model, eigenvalues, n_modes, p_values)
     syms, K, M = _symbolic(model, names, p_values)
     lam = sp.Symbol("lam")
     detM = sp.expand(M.det(method="berkowitz"))

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._docs import X as X_DOC, shared_docs
 from .._errors import InputError, NumericalError
 from ..options import DATA_KINDS, STD_KEYS, FRFOptions, UpdateOptions
 from ..frf.damping import UNDAMPED
@@ -219,16 +220,11 @@ class CombinedProblem(Parametrisation):
                                          ) from None
                 raise NumericalError(f"{b.label}: {exc}") from None
 
+    @shared_docs(X=X_DOC)
     def residuals(self, x) -> np.ndarray:
         """The stacked residuals at the variables x: each block's, times its scale.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m,)``
 
         Raises
@@ -239,16 +235,11 @@ class CombinedProblem(Parametrisation):
         self.nfev += 1
         return np.concatenate([b.scale * r for b, r in self._each(x, "residuals")])
 
+    @shared_docs(X=X_DOC)
     def jacobian(self, x) -> np.ndarray:
         """The stacked exact Jacobian ∂r/∂x at x, each block's rows times its scale.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m, L)``
 
         Raises

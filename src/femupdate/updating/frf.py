@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._docs import X as X_DOC, shared_docs
 from .._errors import InputError, NumericalError
 from ..frf import residuals as R
 from ..frf.damping import as_damping
@@ -232,16 +233,11 @@ class FRFProblem(Parametrisation):
             self.cache_key, self.cache = key, (p, sys_, X)
         return self.cache
 
+    @shared_docs(X=X_DOC)
     def responses(self, x) -> np.ndarray:
         """The model's responses to the force at the measured dofs, x = Z(ω)⁻¹ f (paper eq. 32).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(n_l, n_s)``
             Real when undamped with a real force, else complex; the units of the measured
             responses.
@@ -254,16 +250,11 @@ class FRFProblem(Parametrisation):
         _, _, X = self._evaluate(x)
         return X[:, self.S, 0]
 
+    @shared_docs(X=X_DOC)
     def residuals(self, x):
         """The residuals at x (``"linear"`` eq. 34, ``"relative"`` or ``"log"``), times the weights.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m,)``
             Line-major over (line, dof): m = n_l n_s when real (and always for ``"log"``); for
             complex responses m = 2 n_l n_s, the real parts of every line first, then the
@@ -281,17 +272,12 @@ class FRFProblem(Parametrisation):
             raise NumericalError("non-finite FRF residuals (a line lies on a resonance of the model at these parameter values)")
         return r
 
+    @shared_docs(X=X_DOC)
     def jacobian(self, x):
         """The exact Jacobian ∂r/∂x at x: eq. 31's sensitivity matrix from Brandon's eq. 32,
         ∂x_S/∂p_j = −Y_Sᵀ (c_K K_j + c_M M_j) x for every parameter at once.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m, L)``
             Rows in the order of :meth:`residuals`.
 

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .._docs import X as X_DOC, shared_docs
 from .. import rules
 from .._errors import InputError
 
@@ -60,16 +61,11 @@ class Parametrisation:
         start = self.p_base[self.idx]
         self.scale = np.where(start != 0, np.abs(start), 1.0)
 
+    @shared_docs(X=X_DOC)
     def to_p(self, x: np.ndarray) -> np.ndarray:
         """Full parameter vector at the variables x.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(n_parameters,)``
             ``p_base`` with the updated parameters' values at x (physical units); a new array.
         """
@@ -77,16 +73,11 @@ class Parametrisation:
         p[self.idx] = rules.to_p(self.code, np.asarray(x, float), self.scale)
         return p
 
+    @shared_docs(X=X_DOC)
     def dp_dx(self, x: np.ndarray) -> np.ndarray:
         """∂p/∂x of the updated parameters, the diagonal of the parametrisation's Jacobian.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(L,)``
             ``scale`` (relative), exp(x) = p (log) or 1 (absolute).
         """

@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from .._docs import X as X_DOC, shared_docs
 from .. import rules
 from .._checks import choice_arg, problem_args
 from .._errors import InputError, NumericalError
@@ -265,16 +266,11 @@ class Problem(Parametrisation):
         self._warm: Modes | None = None  # the last modes computed: the next eigen-solution starts from them
 
     # ------------------------------------------------------------------ evaluation
+    @shared_docs(X=X_DOC)
     def evaluate(self, x) -> tuple[np.ndarray, Modes, list[tuple[int, int, float]]]:
         """Parameters, model modes and pairs at x (cached: the last x is not recomputed).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         p : numpy.ndarray, shape ``(n_parameters,)``
             The full parameter vector.
         modes : Modes
@@ -362,6 +358,7 @@ class Problem(Parametrisation):
         sl = self.targets.measured(k)
         return modes.eigenvalues[j], modes.shapes[self.targets.pos[sl], j]
 
+    @shared_docs(X=X_DOC)
     def residuals(self, x) -> np.ndarray:
         """The residual vector at x: per test mode its eigenvalue residual
         w (λ_A − λ_E) / λ_E, then its shape residuals w (ψ_A − ψ_E) (paper eq. 19,
@@ -369,13 +366,7 @@ class Problem(Parametrisation):
         shape differences; with ``"dynamic"`` its dynamic residual at every dof (no eigenvalue
         residual, no eigen-solution).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m,)``
             Dimensionless residuals (``m = n_residuals``).
 
@@ -414,17 +405,12 @@ class Problem(Parametrisation):
             raise NumericalError(rules.message(rules.E_NONFINITE))
         return r
 
+    @shared_docs(X=X_DOC)
     def jacobian(self, x) -> np.ndarray:
         """The exact Jacobian ∂r/∂x at x, the derivatives by the route ``sensitivity``
         (eigenvalue derivatives only when no shape is compared).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The optimiser's variables.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m, L)``
             Rows in the order of :meth:`residuals`; sets ``sensitivity_used``.
 

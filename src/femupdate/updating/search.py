@@ -31,15 +31,15 @@ import numpy as np
 from scipy import optimize
 
 from .._budget import Pace, check_memory
-from .._checks import callable_arg, choice_arg, count_arg, frf_fit, mapping_arg, problem_args
+from .._checks import callable_arg, choice_arg, count_arg, mapping_arg, problem_args
 from .._errors import FemupdateError, InputError
-from ..options import ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, gather, gather_some
+from ..options import ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, gather_some
 from ..frf.surfaces import SURFACE_DENSE_LIMIT, AffineStack, frf_r2
 from .clustering import classify, cluster, converged_solutions, parameter_scale
 from .frf import FRFUpdateResult, frf_data, prepare_problem
 from .run import DEFAULT_RESIDUAL, frf_update_with
 from .results import MultiStartResult, UpdateResult, attach
-from .starts import run_starts
+from .starts import frf_run_options, run_starts
 
 log = logging.getLogger(__name__)
 
@@ -313,13 +313,7 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     given, rest = gather_some("global_search", shorthand, starts=(StartsOptions, 1 if starts is None else starts),
                               execution=(ExecutionOptions, execution))
     st, ex = given["starts"], given["execution"]
-    std_given = rest.get("measurement_std")
-    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
-        rest["measurement_std"] = {"frf": std_given}
-    o = gather("global_search", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
-               frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
-               solver=(SolverOptions, rest.get("solver")))
-    frf_fit(o["frf"], o["noise"], data, "global_search")
+    o = frf_run_options("global_search", rest, data)
     choice_arg(method, METHODS, "global method", "global_search")
     mapping_arg(method_options, "method_options", "global_search")
     if global_residual is not None:

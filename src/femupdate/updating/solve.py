@@ -303,12 +303,9 @@ def update_modal(model, data: TestData, *, params: Sequence[str] | None = None, 
         The model to update.
     data : TestData
         Measured modes; shapes may be partial (any subset of model dofs, any scaling).
-    params : sequence of str, optional
-        Names of the parameters to update (default: every parameter not ``fixed``).
-    x0 : mapping of str to float, optional
-        Starting values {name: value} (default: the model's nominal values).
-    values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``, optional
-        Values of the fixed parameters (default nominal).
+    params, x0, values
+        The parameters updated, their starting values and the fixed ones' values, as
+        :func:`femupdate.update` takes them.
     modal : ModalOptions, optional
         The residuals of the modes (:class:`~femupdate.options.ModalOptions`).
     pairing : PairingOptions or str, optional

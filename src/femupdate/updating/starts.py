@@ -190,11 +190,7 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
     """
     problem_args("multistart", model, data, params=params, values=values)
     callable_arg(progress, "progress", "multistart")
-    given, rest = gather_some("multistart", shorthand, starts=(StartsOptions, starts),
-                              execution=(ExecutionOptions, execution))
-    st, ex = given["starts"], given["execution"]
-    if "x0" in rest:
-        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
+    st, ex, rest = _starts_options("multistart", shorthand, starts, execution)
     uo = UpdateOptions.of("multistart", rest, options=options)
     frf_fit(uo.frf, uo.noise, data, "multistart")
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
@@ -397,6 +393,30 @@ def _run_dask(address, model, data, names, X0, kwargs, progress, timeout, runner
         client.close()
 
 
+def _starts_options(where: str, shorthand: Mapping, starts, execution) -> tuple[StartsOptions, ExecutionOptions, dict]:
+    """A multi-start's :class:`StartsOptions` and :class:`ExecutionOptions` from its arguments and
+    keywords, and the keywords left for the update; ``x0`` refused (the starts are drawn)."""
+    given, rest = gather_some(where, shorthand, starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
+    if "x0" in rest:
+        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
+    return given["starts"], given["execution"], rest
+
+
+def frf_run_options(where: str, rest: Mapping, data) -> dict:
+    """The option objects of an FRF update run from a call's keywords ``rest`` (``frf``,
+    ``noise``, ``solver`` and their fields as shorthand; a plain ``measurement_std`` is the
+    FRF entries' std), checked against ``data`` (:func:`~femupdate._checks.frf_fit`)."""
+    rest = dict(rest)
+    std_given = rest.get("measurement_std")
+    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
+        rest["measurement_std"] = {"frf": std_given}
+    o = gather(where, {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
+               frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
+               solver=(SolverOptions, rest.get("solver")))
+    frf_fit(o["frf"], o["noise"], data, where)
+    return o
+
+
 def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, params: Sequence[str] | None = None,
                    values=None, execution: ExecutionOptions | None = None, progress=None, **shorthand):
     """:func:`frf_update` from random starts within the bounds (the same seeded starts as
@@ -441,18 +461,8 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     """
     problem_args("frf_multistart", model, data, params=params, values=values, frf=True)
     callable_arg(progress, "progress", "frf_multistart")
-    given, rest = gather_some("frf_multistart", shorthand, starts=(StartsOptions, starts),
-                              execution=(ExecutionOptions, execution))
-    st, ex = given["starts"], given["execution"]
-    if "x0" in rest:
-        raise InputError("a multi-start draws its own starting values: give starts, seed and params, not x0")
-    std_given = rest.get("measurement_std")
-    if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
-        rest["measurement_std"] = {"frf": std_given}
-    o = gather("frf_multistart", {k: v for k, v in rest.items() if k not in ("frf", "noise", "solver")},
-               frf=(FRFOptions, rest.get("frf")), noise=(NoiseOptions, rest.get("noise")),
-               solver=(SolverOptions, rest.get("solver")))
-    frf_fit(o["frf"], o["noise"], data, "frf_multistart")
+    st, ex, rest = _starts_options("frf_multistart", shorthand, starts, execution)
+    o = frf_run_options("frf_multistart", rest, data)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     check_count("starts", st.starts, start_bytes(residual_count(data), len(names)), "the starts' records")
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 import pyuff
 
+from ..._docs import shared_docs
 from ..._errors import InputError
 from ...dofs import DIRECTIONS, canonical_all, describe, parse_dof
 from ...testdata import FRFData
@@ -21,6 +22,13 @@ from .conventions import code_of_direction
 __all__ = ["write_uff_modes", "write_uff_frf", "uff_dofs"]
 
 log = logging.getLogger("femupdate.io.uff")  # the package's logger, as before the split into modules
+
+
+# the writers' common parameters, documented once (femupdate._docs)
+_DOCS = {
+    "PATH": "Parameters\n----------\npath : str or path-like\n    Output file, replaced atomically.",
+    "NAME_UNITS": "model_name : str\n    ID line 1 of every record.\nunits : bool\n    Write dataset 164 (SI units) first.",
+}
 
 
 def _id_line(text: str) -> str:
@@ -51,6 +59,9 @@ def uff_dofs(labels: Iterable[str], what: str) -> list[tuple[int, str]]:
     out = []
     for lab in labels:
         node, direction = parse_dof(lab)
+        if direction not in DIRECTIONS:
+            raise InputError(f"{what}: dof {lab!r} is a scalar point, which has no direction in space; universal files "
+                             "hold translations and rotations only")
         if not isinstance(node, int):
             raise InputError(f"{what}: node {node!r} of dof {lab!r} is not an integer; universal files number "
                              "nodes with integers")
@@ -126,6 +137,7 @@ def _atomic_write(path: str | os.PathLike, datasets: Sequence[dict]) -> None:
         raise InputError(f"{target}: cannot write: {exc.strerror or exc}") from None
 
 
+@shared_docs(**_DOCS)
 def write_uff_modes(
     path: str | os.PathLike,
     modes,
@@ -136,18 +148,12 @@ def write_uff_modes(
 ) -> None:
     """Write real normal modes as a universal file.
 
-    Parameters
-    ----------
-    path : str or path-like
-        Output file, replaced atomically.
+    {{PATH}}
     modes : Modes
         ``eigenvalues`` (m,) in rad^2/s^2, real ``shapes`` (n, m) on ``dofs``.
     nodes : mapping int -> (x, y, z), optional
         Node coordinates, written as dataset 2411; must cover every node of ``modes.dofs``.
-    model_name : str
-        ID line 1 of every record.
-    units : bool
-        Write dataset 164 (SI units) first.
+    {{NAME_UNITS}}
 
     Notes
     -----
@@ -233,6 +239,7 @@ def write_uff_modes(
     log.info("%s: wrote %d mode(s) at %d node(s)", target, lam.size, len(node_ids))
 
 
+@shared_docs(**_DOCS)
 def write_uff_frf(
     path: str | os.PathLike,
     frf: FRFData,
@@ -243,19 +250,13 @@ def write_uff_frf(
 ) -> None:
     """Write FRFs as a universal file: one dataset 58 per response dof.
 
-    Parameters
-    ----------
-    path : str or path-like
-        Output file, replaced atomically.
+    {{PATH}}
     frf : FRFData
         Responses ``(n_freq, n_dofs)`` to one excitation dof (a single non-zero entry in
         ``frf.force``); written as receptance ``response / force``.
     nodes : mapping int -> (x, y, z), optional
         Node coordinates, written as dataset 2411; must cover every node used.
-    model_name : str
-        ID line 1 of every record.
-    units : bool
-        Write dataset 164 (SI units) first.
+    {{NAME_UNITS}}
 
     Notes
     -----

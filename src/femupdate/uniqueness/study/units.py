@@ -9,9 +9,19 @@ from typing import Any
 
 import numpy as np
 
+from ..._docs import shared_docs
 from ..._errors import FemupdateError
 from ...updating.batched import FAILED
 from .definition import Study
+
+#: the case and noise level of a unit of the study (femupdate._docs)
+_CASE = """\
+study : Study
+    The study.
+c : int
+    Case index (0-based).
+level : int, default 0
+    Index into ``study.levels`` (0: noise-free)."""
 
 
 def _unit(shape):
@@ -21,6 +31,7 @@ def _unit(shape):
     return shape / s
 
 
+@shared_docs(CASE=_CASE)
 def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=None):
     """Test data of case ``c`` for the starts ``starts`` at noise level ``level``.
 
@@ -30,12 +41,7 @@ def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=No
 
     Parameters
     ----------
-    study : Study
-        The study.
-    c : int
-        Case index (0-based).
-    level : int, default 0
-        Index into ``study.levels`` (0: noise-free).
+    {{CASE}}
     starts : slice or array_like of int, default ``slice(None)``
         Which starts (rows of the result).
     modes : Modes, optional
@@ -68,17 +74,13 @@ def case_data(study: Study, c: int, level: int = 0, starts=slice(None), modes=No
     return lam, psi / s
 
 
+@shared_docs(CASE=_CASE)
 def case_testdata(study: Study, c: int, level: int = 0, start: int = 0, modes=None):
     """The :class:`~femupdate.testdata.TestData` of case ``c`` as seen by start ``start``.
 
     Parameters
     ----------
-    study : Study
-        The study.
-    c : int
-        Case index (0-based).
-    level : int, default 0
-        Index into ``study.levels`` (0: noise-free).
+    {{CASE}}
     start : int, default 0
         The start whose noise realisation is taken.
     modes : Modes, optional
@@ -181,6 +183,7 @@ def solve_unit(study: Study, unit: int, progress: Callable[[int, int], None] | N
     return out
 
 
+@shared_docs(CASE=_CASE)
 def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] | None = None) -> dict:
     """The per-start route: one :func:`femupdate.updating.update` per start of case ``c``.
 
@@ -192,12 +195,7 @@ def reference_unit(study: Study, c: int, level: int = 0, starts: Sequence[int] |
 
     Parameters
     ----------
-    study : Study
-        The study.
-    c : int
-        Case index (0-based).
-    level : int, default 0
-        Index into ``study.levels`` (0: noise-free).
+    {{CASE}}
     starts : sequence of int, optional
         Which starts (default all).
 

@@ -46,7 +46,7 @@ from ..problem import Problem, check_determined
 from .lsq import FAILED, BatchLSQResult, prepare, result_of
 from .spec import DataSets, ModelArrays, Spec, concatenate, error_message, new_report
 
-from ...options import UpdateOptions
+from ...options import SolverOptions, UpdateOptions, gather
 
 log = logging.getLogger(__name__)
 
@@ -116,12 +116,15 @@ class BatchedProblem:
         ``(DataSets, Targets)`` pair of :func:`.spec.concatenate`.
     row_dataset : (R,) the data set of each row (default: all the first).
     values : values of the parameters that are not updated (default nominal).
-    parametrisation, shape_scaling, min_mac, pairing : the problem's rules, as
+    shape_scaling, min_mac, pairing : the problem's rules, as
         :class:`~femupdate.updating.Problem` holds them.
     close_modes : the relative gap of a group of close modes: a row whose accepted point has one
         among its computed modes fails as repeated (0, the default: only modes repeated to
         :data:`femupdate.rules.REPEATED_TOL` and paired fail).
-    max_nfev, ftol, xtol, gtol : the solver's limits.
+    solver : :class:`~femupdate.options.SolverOptions`, optional
+        The parametrisation and the limits ``max_nfev``, ``ftol``, ``xtol``, ``gtol``; its fields
+        are also accepted as keywords (``parametrisation="log"``).  The compiled route is the
+        ``"trf"`` method without regularization.
 
     :meth:`from_problem` builds it for the starts of a :class:`~femupdate.updating.Problem`.
 
@@ -132,9 +135,13 @@ class BatchedProblem:
     """
 
     def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
-                 parametrisation: str = "relative", shape_scaling: str = "unit",
-                 min_mac: float = 0.5, pairing: str = "auto", max_nfev: int = 200, ftol: float = 1e-10,
-                 xtol: float = 1e-10, gtol: float = 1e-10, close_modes: float = 0.0):
+                 shape_scaling: str = "unit", min_mac: float = 0.5, pairing: str = "auto", close_modes: float = 0.0,
+                 solver: SolverOptions | None = None, **shorthand):
+        solver = gather("BatchedProblem", shorthand, solver=(SolverOptions, solver))["solver"]
+        if solver.method != "trf" or solver.regularization is not None:
+            raise InputError(f"batched updating: the compiled route runs the 'trf' solver without regularization, "
+                             f"got method={solver.method!r}, regularization={solver.regularization!r}")
+        parametrisation = solver.parametrisation
         names = list(names)
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
@@ -149,7 +156,7 @@ class BatchedProblem:
         self.names = tuple(names)
         self.R = R
         self.starts = starts
-        self.options = dict(max_nfev=int(max_nfev), ftol=float(ftol), xtol=float(xtol), gtol=float(gtol))
+        self.options = dict(max_nfev=solver.max_nfev, ftol=solver.ftol, xtol=solver.xtol, gtol=solver.gtol)
         self.p_fixed = model.resolve(values)
         self.param = parametrisation
         self.scaling = shape_scaling

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..._docs import shared_docs
 from ..._checks import data_arg, model_arg, params_arg, shown, values_arg, x0_arg
 from ..._errors import InputError
 from ...options import ModalOptions, NoiseOptions, PairingOptions, SolverOptions, gather
@@ -22,6 +23,16 @@ from ..parametrisation import start_vector
 from .configurations import Configuration, check_unknowns, config_values, is_complete, prepare
 from .direct import direct_configurations
 from .results import MultiConfigResult, conditioning
+
+#: the argument of the stacked problem's methods, up to their returns (femupdate._docs)
+_X = """\
+Parameters
+----------
+x : array_like, shape ``(L,)``
+    The common scaled unknowns.
+
+Returns
+-------"""
 
 
 class Stacked(Parametrisation):
@@ -77,16 +88,11 @@ class Stacked(Parametrisation):
                 raise InputError(f"configuration {c.label!r}: {exc}") from None
             self.subs.append((c.label, prob, cols))
 
+    @shared_docs(X=_X)
     def residual_blocks(self, x):
         """Per configuration, its residuals r_c at x (each configuration's own unknowns).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The common scaled unknowns.
-
-        Returns
-        -------
+        {{X}}
         list of numpy.ndarray, each shape ``(m_c,)``
             In configuration order (relative eigenvalue errors and scaled shape differences).
 
@@ -98,16 +104,11 @@ class Stacked(Parametrisation):
         q = self.to_p(x)[self.idx]
         return [prob.residuals(q[cols]) for _, prob, cols in self.subs]
 
+    @shared_docs(X=_X)
     def jacobian_blocks(self, x):
         """Per configuration, ∂r_c/∂x (rows of configuration c, all unknowns).
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The common scaled unknowns.
-
-        Returns
-        -------
+        {{X}}
         list of numpy.ndarray, each shape ``(m_c, L)``
             Zero columns for the unknowns a configuration's model lacks.
         """
@@ -121,31 +122,21 @@ class Stacked(Parametrisation):
             out.append(full)
         return out
 
+    @shared_docs(X=_X)
     def residuals(self, x):
         """The stacked residuals at x.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The common scaled unknowns.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m,)``
             :meth:`residual_blocks` concatenated, m = Σ m_c.
         """
         return np.concatenate(self.residual_blocks(x))
 
+    @shared_docs(X=_X)
     def jacobian(self, x):
         """The stacked Jacobian ∂r/∂x at x.
 
-        Parameters
-        ----------
-        x : array_like, shape ``(L,)``
-            The common scaled unknowns.
-
-        Returns
-        -------
+        {{X}}
         numpy.ndarray, shape ``(m, L)``
             :meth:`jacobian_blocks` stacked.
         """
@@ -296,10 +287,9 @@ def solve_configurations(model: Model, configurations: Sequence[Configuration], 
 
     Parameters
     ----------
-    model : Model
-        The base model.
-    configurations : sequence of Configuration
-        The configurations and their test data.
+    model, configurations
+        The base model and the configurations with their test data, as
+        :func:`update_configurations`.
     method : {"auto", "direct", "iterative"}, default ``"auto"``
         ``"auto"``: direct when every configuration's data are complete (:func:`~.configurations.is_complete`).
     unknowns : sequence of str, optional
