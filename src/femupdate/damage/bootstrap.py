@@ -108,7 +108,8 @@ def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData
     pairs = refined.final.pairs if pairs is None else pairs
     sets, changes = [], []
     for _ in range(n):
-        data_k = simulated(refiner.model, theta_hat, data, pairs, *levels.verify_levels, rng)
+        sig_f, sig_s = levels.verify_levels
+        data_k = simulated(refiner.model, theta_hat, data, pairs, sig_f, sig_s, rng)
         s_k, d_k = chain(refiner, data_k, alpha)
         sets.append(s_k)
         changes.append(d_k)
