@@ -27,6 +27,14 @@ import record  # noqa: E402
 
 #: name -> (reason, accepts(path, recorded, now))
 AMENDMENTS = {
+    "damage's Tikhonov comparison at round-off": (
+        "`femupdate damage` pairs the measured modes with the baseline's by update's rule (issue 27 item 1), "
+        "through femupdate.correlation.correlate, whose MAC matrix is computed by another BLAS route: the "
+        "Tikhonov (GCV) comparison solution, an ill-conditioned side result, moves at round-off (5e-12 "
+        "relative on the truss).  The located set and the L1 localisation are unchanged.",
+        lambda path, rec, now: path.startswith("tikhonov.") and _is_number(rec) and _is_number(now)
+        and abs(float(rec) - float(now)) <= 1e-9 * max(abs(float(rec)), abs(float(now)), 1e-300),
+    ),
     "rank-deficient condition numbers are infinite": (
         "A sensitivity matrix that is numerically rank-deficient (singular values below "
         "max(m, L)·eps·σ_max) has no finite condition number: its smallest singular value is "
@@ -424,6 +432,77 @@ def _damage_verified(expected, actual) -> bool:
     return changed
 
 
+#: the notes a damage run adds when the noise is stated neither in the data nor by the caller, or a pair is doubted
+DAMAGE_NEW_NOTES = ("frequency noise stated neither", "shape noise stated neither", "pairs to doubt")
+
+
+def _damage_calibrated(expected, actual) -> bool:
+    """Bring a recorded `damage` result to the form of issue 27 (items 1-3, 6) and issue 34: the new
+    keys `headline` and `pairing`, `verification.model_error`, the noise's `shape_verify` and `basis`,
+    the rates simulated for the run (`confidence.false_positive_rate`, which replaces the benchmark's
+    row, and `confidence.detection_rate`) taken from the new run, and the notes saying what the noise
+    rests on appended to the recorded notes.  Every other recorded value — the located set, changes,
+    standard errors, noise levels, verification — is left for the comparison."""
+    if not (isinstance(expected, dict) and isinstance(actual, dict) and expected.get("kind") == "damage"
+            and "headline" in actual and "headline" not in expected):
+        return False
+    for k in ("headline", "pairing"):
+        expected[k] = actual[k]
+    ver_e, ver_a = expected.get("verification"), actual.get("verification")
+    if isinstance(ver_e, dict) and isinstance(ver_a, dict) and "model_error" in ver_a:
+        ver_e["model_error"] = ver_a["model_error"]
+    conf_e, conf_a = expected.get("confidence"), actual.get("confidence")
+    if isinstance(conf_e, dict) and isinstance(conf_a, dict):
+        for k in ("false_positive_rate", "detection_rate"):
+            conf_e[k] = conf_a.get(k)
+        noise_e, noise_a = conf_e.get("noise"), conf_a.get("noise")
+        if isinstance(noise_e, dict) and isinstance(noise_a, dict):
+            for k in set(noise_a) - set(noise_e):
+                noise_e[k] = noise_a[k]
+    notes_e, notes_a = expected.get("notes"), actual.get("notes")
+    if isinstance(notes_e, list) and isinstance(notes_a, list):
+        extra = [n for n in notes_a if n not in notes_e]
+        if all(n.startswith(DAMAGE_NEW_NOTES) for n in extra) and [n for n in notes_a if n in notes_e] == notes_e:
+            expected["notes"] = notes_a
+    return True
+
+
+#: the keys of a damage result that follow its noise levels (weights, verification, bootstrap), and those kept
+DAMAGE_NOISE_KEYS = ("headline", "parameters", "changes", "loss", "confidence", "alpha", "alpha_max", "tikhonov", "path",
+                     "notes", "verification", "localisation")
+
+
+def _damage_noise_estimated(expected, actual) -> bool:
+    """Bring a recorded `damage` result whose noise was assumed (stated nowhere) to the run that
+    estimates it from the fit of every unknown (issue 27 item 2, with `femupdate.variance`): the
+    keys that follow the noise levels taken from the new run, only when the located set is the
+    same, every unknown outside it unchanged, and each located change within three recorded
+    standard errors of the recorded one.  Every other recorded value is left for the comparison."""
+    if not (isinstance(expected, dict) and isinstance(actual, dict) and expected.get("kind") == "damage"):
+        return False
+    try:
+        b_e = expected["confidence"]["noise"]["basis"]
+        b_a = actual["confidence"]["noise"]["basis"]
+        se = expected["confidence"]["standard_error"]
+    except (KeyError, TypeError):
+        return False
+    if not (str(b_e.get("shape", "")).startswith("assumed") and str(b_a.get("shape", "")).startswith("estimated")):
+        return False
+    if expected.get("located") != actual.get("located"):
+        return False
+    ce, ca = expected.get("changes") or {}, actual.get("changes") or {}
+    for n, v in ce.items():
+        if n in expected["located"]:
+            if not abs(ca.get(n, math.inf) - v) <= 3 * float(se.get(n) or 0.0):
+                return False
+        elif ca.get(n) != v:
+            return False
+    for k in DAMAGE_NOISE_KEYS:
+        if k in actual:
+            expected[k] = actual[k]
+    return True
+
+
 #: kind -> the key under which results of kinds frf, frf-select and surface name their variant,
 #: now that ``kind`` names the kind of result
 VARIANT_KEYS = {"frf": "quantity", "frf-select": "equations", "surface": "residual"}
@@ -579,6 +658,26 @@ PREPARATIONS = {
         "change within a factor of 2 (figure 2's unit-scaled shapes lose one entry a mode to their scaling, "
         "so its redundancy is 5, not 8: std x 1.265), or become null where no component is estimable.",
         _noise_told,
+    ),
+    "damage confidence for this structure": (
+        "`femupdate damage` (issue 27 items 1-3 and 6, issue 34): its JSON gains `headline` (the verdict in one "
+        "line, a model error first), `pairing` (test and baseline modes paired by update's rule, the pairs to "
+        "doubt flagged), `verification.model_error` (the chi-square test of the fit of every unknown), and in "
+        "`confidence.noise` `shape_verify` and `basis` (what each level rests on); the false-positive rate is "
+        "simulated for the run (replicates of the healthy baseline through the whole chain, with binomial error) "
+        "instead of the benchmark's row for comparable data, with a `detection_rate` beside it; notes say when a "
+        "noise level is assumed.  The located set, changes, standard errors and verification are compared "
+        "unchanged.",
+        _damage_calibrated,
+    ),
+    "damage noise estimated when stated nowhere": (
+        "`femupdate damage` estimates the noise the test data and the command line do not state from the fit of "
+        "every unknown (REML variance components, issue 27 item 2) instead of assuming it (0.005 on the truss's "
+        "shapes, whose data carry 0.001): the equations' weights, the verification, the bootstrap and the rates "
+        "follow the estimated level (0.0012).  Accepted only with the same located set, every other unknown "
+        "unchanged and each located change within three recorded standard errors (E.102-103: -0.3976 -> -0.3996, "
+        "standard error 0.0035 -> 0.00097).",
+        _damage_noise_estimated,
     ),
     "FRF results name their variant under its own key": (
         "Results say what they are under `kind` (issue 33: the kind of result, e.g. `frf`), so the results of "
