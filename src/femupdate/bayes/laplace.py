@@ -91,12 +91,18 @@ class Mode:
         return np.linalg.inv(self.hessian)
 
 
+#: the mode search's significance level: every separate minimum is a candidate mode (a difference
+#: beyond the relative tolerance is kept), even two within each other's noise — they are two peaks
+#: of the posterior, and merging them would lose one (the two-dof chain's (8, 6) and (9, 16/3) at
+#: 1 % noise on its frequencies)
+EVERY_MINIMUM = 1.0 - 1e-12
+
+
 def candidates(post: Posterior, starts: int, seed: int | None, progress=None, scheduler=None,
-               connect_timeout: float = 10.0, alpha: float = 0.01) -> tuple[list[tuple[np.ndarray, int]], list[str]]:
-    """Starting points of the mode search: the distinct solutions of a multi-start study on the
-    first data set (each with its count of starts; told apart at ``alpha``,
-    :class:`~femupdate.options.StartsOptions`), or one update from the nominal values when
-    ``starts`` is 1 or a parameter has no finite bounds; and notes.
+               connect_timeout: float = 10.0) -> tuple[list[tuple[np.ndarray, int]], list[str]]:
+    """Starting points of the mode search: the separate minima of a multi-start study on the
+    first data set (each with its count of starts; :data:`EVERY_MINIMUM`), or one update from the
+    nominal values when ``starts`` is 1 or a parameter has no finite bounds; and notes.
 
     Raises
     ------
@@ -117,7 +123,7 @@ def candidates(post: Posterior, starts: int, seed: int | None, progress=None, sc
                      "starts (a second solution, if any, is not looked for)")
     if starts > 1 and finite:
         ms = multistart(model, data, starts=starts, seed=seed, params=list(post.names), progress=progress,
-                        scheduler=scheduler, connect_timeout=connect_timeout, alpha=alpha, **opts)
+                        scheduler=scheduler, connect_timeout=connect_timeout, alpha=EVERY_MINIMUM, **opts)
         if not ms.solutions:
             raise NumericalError(f"none of the {starts} starts of the mode search converged"
                                  + (f" ({next(iter(ms.failures))})" if ms.failures else ""))

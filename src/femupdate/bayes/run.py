@@ -121,6 +121,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     given, rest = gather_some("posterior", shorthand, sampler=(SamplerOptions, sampler),
                               starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
     so, st, ex = given["sampler"], given["starts"], given["execution"]
+    _no_alpha(st)
     uo = UpdateOptions.of("posterior", rest, options=options)
     method, samples, ensembles, steps, burn = so.method, so.samples, so.ensembles, so.steps, so.burn
     segment, target_ess, tmcmc_steps, target_cov, chunks = so.segment, so.target_ess, so.tmcmc_steps, so.target_cov, so.chunks
@@ -139,13 +140,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         burn = steps // 4
     if method == "tmcmc" and post.improper:
         post.sample_prior(np.random.default_rng(0), 1)  # refuses, naming the parameters
-    settings = {"method": method, "samples": samples, "walkers": walkers, "ensembles": ensembles, "steps": steps,
-                "burn": burn, "segment": segment, "target_ess": target_ess, "tmcmc_steps": tmcmc_steps,
-                "target_cov": target_cov, "chunks": chunks, "starts": starts_n, "rel_tol": rel_tol}
-    if st.alpha != 0.01:  # the default keeps the keys of earlier checkpoints
-        settings["alpha"] = st.alpha
-    key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route, settings,
-                  entropy)
+    key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route,
+                  _settings(so, st, walkers, burn), entropy)
     ckpt = RunCheckpoint(checkpoint, key, {"method": method, "model": model.name, "parameters": list(post.names)})
 
     def tell(phase):
@@ -153,7 +149,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
 
     runner = None
     try:
-        points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout, st.alpha)
+        points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
         from .noise import calibrate
 
         calibrate(post, points[0][0])  # the relative weights of kinds that share a noise scale (REML)
@@ -282,6 +278,24 @@ def _describe(post: Posterior, j: int) -> str:
         return f"uniform on [{lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else \
             f"flat (improper) on [{lo:g}, {hi:g}]"
     return f"{pr} on [{lo:g}, {hi:g}]" if pr.kind != "uniform" else f"uniform on [{lo:g}, {hi:g}]"
+
+
+def _no_alpha(st: StartsOptions) -> None:
+    """Refuse a significance level for telling solutions apart: it does not apply to a posterior."""
+    if st.alpha != StartsOptions().alpha:
+        raise InputError(f"posterior: alpha = {st.alpha:g} does not apply: the mode search keeps every separate minimum "
+                         "as a candidate mode (two minima within each other's noise are two peaks of one posterior, "
+                         "whose samples say how well the data tell them apart)")
+
+
+def _settings(so: SamplerOptions, st: StartsOptions, walkers: int, burn) -> dict:
+    """What identifies a posterior run's sampling in its checkpoint key (with the walkers and burn-in
+    as the run resolved them)."""
+    settings = {"method": so.method, "samples": so.samples, "walkers": walkers, "ensembles": so.ensembles,
+                "steps": so.steps, "burn": burn, "segment": so.segment, "target_ess": so.target_ess,
+                "tmcmc_steps": so.tmcmc_steps, "target_cov": so.target_cov, "chunks": so.chunks,
+                "starts": st.starts, "rel_tol": st.rel_tol}
+    return settings
 
 
 def _announce_sampling(so: SamplerOptions, walkers: int, seconds: float, evaluations: int) -> None:

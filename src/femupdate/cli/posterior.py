@@ -54,7 +54,7 @@ def parse_priors(items) -> dict:
                    "residuals, estimated (Jeffreys' prior, integrated out); auto: stated when every residual has one.")
 @starts_group(default=20, starts_help="Random starts of the search for distinct solutions (1: one update from the "
                                       "model's values).", seed_help="Seed of every random stream.",
-              title="Search for solutions")
+              title="Search for solutions", alpha=False)
 @execution_group(jobs=False, scheduler_help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask "
                                             "cluster (tcp://host:port).")
 @click.option("--checkpoint", "checkpoint_path", type=CHECKPOINT_FILE, default=None,
