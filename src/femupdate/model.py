@@ -136,6 +136,26 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     return A
 
 
+def _check_terms(terms, names, n: int) -> tuple:
+    """The model's non-linear terms, each factor naming a declared parameter, matrices checked."""
+    from .coefficients import Term
+
+    if isinstance(terms, (str, bytes, Mapping)) or not isinstance(terms, (Sequence, np.ndarray)):
+        raise InputError(f"terms must be a list of Term objects, got {shown(terms)}")
+    out = []
+    for t in terms:
+        if not isinstance(t, Term):
+            raise InputError(f"terms must be Term objects (femupdate.coefficients.Term), got {shown(t)}")
+        missing = [x for x in t.parameters if x not in names]
+        if missing:
+            raise InputError(f"term {t.describe()} names parameter(s) {', '.join(missing)}, not declared "
+                             f"(declared: {', '.join(names) or 'none'})")
+        K = _as_csr(t.K, f"the K matrix of term {t.describe()}", n)
+        M = _as_csr(t.M, f"the M matrix of term {t.describe()}", n)
+        out.append(replace(t, K=K, M=M) if (K is not t.K or M is not t.M) else t)
+    return tuple(out)
+
+
 def _fields(model: Model) -> None:
     """The types of :class:`Model`'s fields (a :class:`TypeError` naming the first wrong one)."""
     str_arg(model.name, "name", "Model")
@@ -217,6 +237,7 @@ class Model:
     name: str = "model"
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
     positive: frozenset[str] = frozenset()
+    terms: tuple = ()
 
     def __post_init__(self):
         with input_errors():
@@ -239,12 +260,16 @@ class Model:
             raise InputError(f"{len(params)} parameters but {len(dK)} dK and {len(dM)} dM matrices")
         dK = tuple(_as_csr(A, f"dK/d{p.name}", n) for A, p in zip(dK, params))
         dM = tuple(_as_csr(A, f"dM/d{p.name}", n) for A, p in zip(dM, params))
-        unused = [p.name for p, a, b in zip(params, dK, dM) if (a is None or a.nnz == 0) and (b is None or b.nnz == 0)]
+        terms = _check_terms(self.terms, names, n)
+        in_terms = {x for t in terms for x in t.parameters}
+        unused = [p.name for p, a, b in zip(params, dK, dM)
+                  if (a is None or a.nnz == 0) and (b is None or b.nnz == 0) and p.name not in in_terms]
         if unused:
             raise InputError(f"parameter(s) declared but used by no element or matrix: {', '.join(unused)}")
         object.__setattr__(self, "parameters", params)
         object.__setattr__(self, "dK", dK)
         object.__setattr__(self, "dM", dM)
+        object.__setattr__(self, "terms", terms)
         object.__setattr__(self, "nodes", dict(self.nodes))
         object.__setattr__(self, "positive", frozenset(self.positive) & frozenset(names))
 
@@ -391,8 +416,11 @@ class Model:
         """Union sparsity pattern and the map from [1, p] to the matrix data (for fast K(p))."""
         out = {}
         for key, base, derivs in (("K", self.K0, self.dK), ("M", self.M0, self.dM)):
-            mats = [base] + [d for d in derivs if d is not None]
-            cols = [0] + [j + 1 for j, d in enumerate(derivs) if d is not None]
+            L = len(derivs)
+            tmats = [getattr(t, key) for t in self.terms]
+            mats = [base] + [d for d in derivs if d is not None] + [d for d in tmats if d is not None]
+            cols = ([0] + [j + 1 for j, d in enumerate(derivs) if d is not None]
+                    + [L + 1 + k for k, d in enumerate(tmats) if d is not None])
             n = base.shape[0]
             keys = np.unique(np.concatenate([m.tocoo().row.astype(np.int64) * n + m.tocoo().col for m in mats]))
             union_rows, union_cols = np.divmod(keys, n)
@@ -406,14 +434,15 @@ class Model:
                 vals.append(mc.data)
             B = sp.csr_array(
                 (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols_))),
-                shape=(keys.size, len(derivs) + 1),
+                shape=(keys.size, len(derivs) + 1 + len(tmats)),
             )
             out[key] = (union, B)
         return out
 
     def _assemble(self, key: str, p: np.ndarray) -> sp.csr_array:
         union, B = self._pattern[key]
-        data = B @ np.concatenate(([1.0], p))
+        coef = np.concatenate(([1.0], p, self._coefficients(p))) if self.terms else np.concatenate(([1.0], p))
+        data = B @ coef
         return sp.csr_array((data, union.indices.copy(), union.indptr.copy()), shape=union.shape)
 
     def K(self, values=None) -> sp.csr_array:
@@ -434,25 +463,86 @@ class Model:
         """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg), at ``values`` as :meth:`K` takes them."""
         return self._assemble("M", self.resolve(values))
 
-    def dK_dp(self, j: int) -> sp.csr_array:
-        """Exact dK/dp_j (a zero matrix if parameter j does not enter K).
+    def dK_dp(self, j: int, values=None) -> sp.csr_array:
+        """Exact dK/dp_j at ``values`` (a zero matrix if parameter j does not enter K).
+
+        dK[j] plus, for a non-linear model, the chain rule over its :attr:`terms`:
+        Σ_k (∂f_k/∂p_j) K_k.
 
         Parameters
         ----------
         j : int
             Parameter index (declaration order).
+        values : None, mapping or array_like, optional
+            Where to differentiate, as :meth:`resolve` reads them (default nominal; an affine
+            model's derivative does not depend on it).
 
         Returns
         -------
         scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
         """
-        d = self.dK[j]
-        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+        return self._derivative("K", j, values)
 
-    def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
-        d = self.dM[j]
-        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+    def dM_dp(self, j: int, values=None) -> sp.csr_array:
+        """Exact dM/dp_j at ``values`` (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
+        return self._derivative("M", j, values)
+
+    def _derivative(self, key: str, j: int, values) -> sp.csr_array:
+        d = (self.dK if key == "K" else self.dM)[j]
+        out = d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+        if not self.terms:
+            return out
+        p = self.resolve(values)
+        named = dict(zip(self.parameter_names, p.tolist()))
+        name = self.parameter_names[j]
+        for t in self.terms:
+            A = getattr(t, key)
+            if A is not None and name in t.parameters:
+                out = out + t.gradient(named)[name] * A
+        return sp.csr_array(out)
+
+    # ------------------------------------------------------------------ non-linear parameters
+    @property
+    def is_affine(self) -> bool:
+        """Whether every parameter enters linearly (no :attr:`terms`)."""
+        return not self.terms
+
+    def _coefficients(self, p: np.ndarray) -> np.ndarray:
+        """f_k(p) of every term."""
+        named = dict(zip(self.parameter_names, p.tolist()))
+        return np.array([t.value(named) for t in self.terms], dtype=float)
+
+    def linearised(self, values=None) -> Model:
+        """The affine model tangent to this one at ``values``: same K(p), M(p) and exact first
+        derivatives there (K0 ← K(p) − Σ p_j ∂K/∂p_j, dK[j] ← ∂K/∂p_j(p)).  ``self`` when affine.
+
+        The sensitivity routes differentiate a non-linear model through it; it is exact at
+        ``values`` only (never evaluate it elsewhere).
+        """
+        if not self.terms:
+            return self
+        p = self.resolve(values)
+        cache = self._linearised
+        key = p.tobytes()
+        if key in cache:
+            return cache[key]
+        dK = tuple(self.dK_dp(j, p) for j in range(p.size))
+        dM = tuple(self.dM_dp(j, p) for j in range(p.size))
+        K0 = sp.csr_array(self.K(p) - sum((v * A for v, A in zip(p, dK)), sp.csr_array(self.K0.shape)))
+        M0 = sp.csr_array(self.M(p) - sum((v * A for v, A in zip(p, dM)), sp.csr_array(self.M0.shape)))
+        out = object.__new__(Model)
+        for f, v in (("dofs", self.dofs), ("K0", K0), ("M0", M0), ("parameters", self.parameters),
+                     ("dK", tuple(A if A.nnz else None for A in dK)), ("dM", tuple(A if A.nnz else None for A in dM)),
+                     ("name", self.name), ("nodes", self.nodes), ("positive", self.positive), ("terms", ())):
+            object.__setattr__(out, f, v)
+        if len(cache) >= 4:
+            cache.pop(next(iter(cache)))
+        cache[key] = out
+        return out
+
+    @cached_property
+    def _linearised(self) -> dict:
+        return {}
 
     # ------------------------------------------------------------------ transforms
     def with_values(self, values) -> Model:

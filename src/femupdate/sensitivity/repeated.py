@@ -63,7 +63,7 @@ from .. import rules
 from .._errors import InputError, NumericalError
 from ..close_modes import mode_groups
 from ..modal import model_modes
-from ._common import param_products, resolve_groups, resolve_params
+from ._common import tangent, param_products, resolve_groups, resolve_params
 
 
 def restricted_derivatives(model, modes, group, params=None, values=None) -> np.ndarray:
@@ -103,6 +103,7 @@ def restricted_derivatives(model, modes, group, params=None, values=None) -> np.
     del values  # K_j, M_j of an affine model do not depend on the point
     if modes.normalisation != "mass":
         raise InputError(f"sensitivities need mass-normalised modes, got {modes.normalisation!r}")
+    model = tangent(model, values, modes)
     params = resolve_params(model, params)
     a, b = _group(modes, group)
     lam, Phi = modes.eigenvalues[a:b], modes.shapes[:, a:b]
@@ -182,6 +183,7 @@ def adjacent_eigenvectors(model, modes, group, direction, params=None, values=No
     """
     from .nelson import nelson
 
+    model = tangent(model, values, modes)
     params = resolve_params(model, params)
     d = np.asarray(direction, dtype=float).ravel()
     if d.shape != (params.size,) or not np.all(np.isfinite(d)):
