@@ -29,7 +29,7 @@ from .._errors import InputError, NumericalError
 from ..dofs import canonical
 from ..options.choices import SENSITIVITY_ROUTES
 from ..modal import DENSE_LIMIT  # models up to this size take Nelson's method under "auto"
-from ._common import check_distinct, resolve_groups, resolve_params, resolve_which
+from ._common import check_distinct, resolve_groups, resolve_params, resolve_which, tangent
 from .adjoint import adjoint_details, resolve_sensors
 from .factor import check_modes, prepare_factor
 from .finite_difference import finite_difference

@@ -1,0 +1,144 @@
+"""Parameters that enter through known functions (issue 28 item 2): K(p) = K0 + Σ f_k(p) K_k.
+
+References: central finite differences of the true non-linear model (never its tangent), a
+closed form (a thin simply supported plate's bending frequencies go as t: f(t)/f(t0) = t/t0,
+Kirchhoff/Leissa), and recovery of simulated parameters from noise-free modes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femupdate import InputError, MeasuredMode, Structure, TestData, model_modes
+from femupdate.coefficients import Exp, Polynomial, Power, Term
+from femupdate.model import Model, Parameter
+from femupdate.sensitivity import finite_difference, jacobian
+from femupdate.sensitivity.eigenvalue import eigenvalue_derivatives
+from femupdate.updating import update_modal
+
+from _meshes3d import plate_mesh
+
+NU = 0.3
+B = 0.7  # the plate's width (m); its length is 1 m
+
+
+def plate(n=6, t=0.01, E=70e9, rho=2700.0, t_param="t", E_param=None):
+    """A simply supported (hard) aluminium plate 1 m x 0.7 m of MITC4 shells, thickness a parameter
+    (rectangular: distinct frequencies)."""
+    nodes, conn = plate_mesh(n)
+    nodes[:, 1] *= B
+    s = Structure("plate")
+    s.parameter("t", t, bounds=(1e-4, 0.1))
+    if E_param:
+        s.parameter(E_param, E, bounds=(1e9, 1e12))
+    s.add_nodes(np.arange(1, len(nodes) + 1), nodes)
+    s.shell((conn + 1).tolist(), E=E_param or E, nu=NU, t=t_param, rho=rho)
+    x, y = nodes[:, 0], nodes[:, 1]
+    fixed = []
+    for i, (a, b) in enumerate(zip(x, y), start=1):
+        fixed += [f"{i}:x", f"{i}:y", f"{i}:rz"]  # in-plane and drilling: decoupled from bending
+        ex, ey = np.isclose(a, 0) | np.isclose(a, 1), np.isclose(b, 0) | np.isclose(b, B)
+        if ex or ey:
+            fixed.append(f"{i}:z")
+        if ex:
+            fixed.append(f"{i}:rx")
+        if ey:
+            fixed.append(f"{i}:ry")
+    s.support(sorted(set(fixed)))
+    return s.build()
+
+
+def small_model():
+    rng = np.random.default_rng(3)
+    A, B, C = (X @ X.T + 4 * np.eye(4) for X in rng.standard_normal((3, 4, 4)))
+    return Model(dofs=["1:x", "2:x", "3:x", "4:x"], K0=np.eye(4), M0=np.eye(4),
+                 parameters=[Parameter("E", 2.0, (0.1, 10)), Parameter("t", 0.5, (0.1, 2)), Parameter("c", 0.3)],
+                 dK=[None, None, np.diag([1.0, 0, 0, 2])], dM=[None, np.diag([1.0, 2, 3, 4]), None],
+                 terms=[Term([Power("E"), Power("t", 3)], K=A), Term([Exp("c", 0.7)], M=B),
+                        Term([Polynomial("t", [1.0, -0.5, 2.0]), Power("c", 2)], K=C)])
+
+
+def test_matrices_and_chain_rule_derivatives_against_central_differences():
+    m = small_model()
+    p = np.array([2.0, 0.5, 0.3])
+    assert not m.is_affine
+    for j in range(3):
+        h = 1e-6 * max(1.0, abs(p[j]))
+        e = np.zeros(3)
+        e[j] = h
+        for mat, d in ((m.K, m.dK_dp), (m.M, m.dM_dp)):
+            fd = (mat(p + e) - mat(p - e)).toarray() / (2 * h)
+            exact = d(j, p).toarray()
+            assert np.abs(fd - exact).max() <= 1e-7 * max(1.0, np.abs(exact).max()), (j, mat)
+    lin = m.linearised(p)
+    assert lin.is_affine and np.abs((lin.K(p) - m.K(p)).toarray()).max() < 1e-12 * np.abs(m.K(p).toarray()).max()
+
+
+def test_plate_jacobian_eigenvalues_and_shapes_against_central_differences():
+    m = plate(n=6, E_param="E")
+    p = m.values
+    modes = model_modes(m, p, n_modes=6)
+    sensors = [d for d in m.dofs if d.endswith(":z")]
+    which = [0, 1, 3]
+    # every mode (the dense eigensolver: its eigenvalues to round-off, so the differences hold ~1e-8)
+    dlam_fd, dphi_fd = finite_difference(m, values=p, which=which, rel_step=1e-4)
+    s = m.dof_index(sensors)
+    shape_scale = np.abs(modes.shapes[np.ix_(s, which)]).max() / p  # a shape's change per unit of p_j
+    for method in ("nelson", "adjoint", "subspace", "static"):  # the modal sum is truncated by design
+        J = jacobian(m, modes, which, sensors, values=p, method=method, shape_scaling="mass",
+                     relative_eigenvalues=False)
+        # the differences are good to ~3e-6 here (round-off against the largest eigenvalue, stiff rotations)
+        assert np.allclose(J.dlam, dlam_fd, rtol=1e-5, atol=0), (method, J.dlam / dlam_fd - 1)
+        err = np.abs(J.dpsi - dphi_fd[s]).max(axis=(0, 1)) / shape_scale
+        assert np.all(err < 1e-5), (method, err)
+    # closed form: bending eigenvalues go as t^2 (K ~ E t^3, M ~ rho t), so d(lambda)/dt = 2 lambda / t up to the
+    # shear and rotary-inertia corrections, O((t/a)^2); and lambda ~ E exactly.  At t = 2 mm, differentiated
+    # where the modes were computed (their context: no values given)
+    thin = model_modes(m, {"t": 0.002}, n_modes=6)
+    lam = eigenvalue_derivatives(m, thin, which)
+    dev_thin = 1 - lam[:, 0] * 0.002 / (2 * thin.eigenvalues[which])
+    assert np.all(np.abs(dev_thin) < 5e-4), dev_thin
+    # the deviation is the O((t/a)^2) correction: 25 times larger at t = 10 mm (within 10 %)
+    dev = 1 - eigenvalue_derivatives(m, modes, which)[:, 0] * p[0] / (2 * modes.eigenvalues[which])
+    assert np.allclose(dev / dev_thin, 25, rtol=0.1), dev / dev_thin
+    assert np.allclose(lam[:, 1], thin.eigenvalues[which] / p[1], rtol=1e-8)
+
+
+def test_plate_frequency_scales_with_thickness_closed_form():
+    m = plate(n=8)
+    f0 = model_modes(m, {"t": 0.0005}, n_modes=3).frequencies_hz  # thin: shear and rotary inertia O(1e-5)
+    f1 = model_modes(m, {"t": 0.001}, n_modes=3).frequencies_hz
+    assert np.allclose(f1 / f0, 2.0, rtol=1e-4), f1 / f0
+    D = 70e9 * 0.0005**3 / (12 * (1 - NU**2))
+    leissa = np.pi / 2 * (1 + 1 / B**2) * np.sqrt(D / (2700 * 0.0005))  # (1, 1) mode, Hz (Leissa)
+    assert abs(f0[0] / leissa - 1) < 0.02
+
+
+@pytest.mark.parametrize("with_E", [False, True])
+def test_update_recovers_plate_thickness_from_noise_free_modes(with_E):
+    true = {"t": 0.012, "E": 72e9} if with_E else {"t": 0.012}
+    m = plate(n=6, E_param="E" if with_E else None)
+    sim = model_modes(m, true, n_modes=6)
+    sensors = [i for i, d in enumerate(m.dofs) if d.endswith(":z")]
+    data = TestData(modes=tuple(MeasuredMode(float(sim.eigenvalues[i]), tuple(m.dofs[k] for k in sensors),
+                                             sim.shapes[sensors, i]) for i in range(5)))
+    # with E too: the bending eigenvalues see E t^2 to leading order, so E and t are told apart only by
+    # the O((t/a)^2) shear and rotary-inertia terms (and the shapes' scale): identifiable from noise-free
+    # data, poorly conditioned with noise
+    res = update_modal(m, data, x0={"t": 0.01, **({"E": 65e9} if with_E else {})})
+    got = res.parameters
+    for k, v in true.items():
+        assert abs(got[k] / v - 1) < 1e-6, (k, got[k], v)
+
+
+def test_bad_factors_refused():
+    with pytest.raises(InputError, match="named in two factors"):
+        Term([Power("t", 1), Power("t", 2)], K=np.eye(2))
+    with pytest.raises(InputError, match="not declared"):
+        Model(dofs=["1:x"], K0=[[1.0]], M0=[[1.0]], parameters=[Parameter("E", 1.0)], dK=[[[1.0]]], dM=[None],
+              terms=[Term([Power("t", 3)], K=[[1.0]])])
+    m = small_model()
+    with pytest.raises(InputError, match="not defined"):
+        Model(dofs=["1:x"], K0=[[1.0]], M0=[[1.0]], parameters=[Parameter("t", 1.0)],
+              terms=[Term([Power("t", 0.5)], K=[[1.0]])]).K({"t": -1.0})
+    assert m.K().shape == (4, 4)
