@@ -142,3 +142,45 @@ def test_bad_factors_refused():
         Model(dofs=["1:x"], K0=[[1.0]], M0=[[1.0]], parameters=[Parameter("t", 1.0)],
               terms=[Term([Power("t", 0.5)], K=[[1.0]])]).K({"t": -1.0})
     assert m.K().shape == (4, 4)
+
+
+def test_posterior_laplace_uses_the_chain_rule():
+    """The Laplace posterior of t from three eigenvalues (1 % stated): its standard deviation against
+    one from central differences of the true model's eigenvalues, 1/sqrt(sum (dlam_i/dt / (lam_i s))^2)."""
+    import femupdate
+
+    m = plate(n=4)
+    lam = model_modes(m, {"t": 0.012}, n_modes=4).eigenvalues[:3]
+    data = TestData(modes=tuple(MeasuredMode(float(v), std_eigenvalue=0.01) for v in lam))
+    res = femupdate.posterior(m, data, x0={"t": 0.01}, sampler="laplace", noise="stated", seed=1)
+    h = 1e-6 * 0.012
+    d = (model_modes(m, {"t": 0.012 + h}, n_modes=4).eigenvalues[:3]
+         - model_modes(m, {"t": 0.012 - h}, n_modes=4).eigenvalues[:3]) / (2 * h)
+    std_fd = 1 / np.sqrt(np.sum((d / (lam * 0.01)) ** 2))
+    mode = res.modes[0]
+    assert abs(mode.x[0] * 0.01 / 0.012 - 1) < 1e-6  # x = t / t_start (the relative parametrisation)
+    std = float(np.sqrt(np.linalg.inv(mode.hessian))[0, 0]) * 0.01
+    assert abs(std / std_fd - 1) < 1e-4, (std, std_fd)
+
+
+def test_routes_that_assume_linear_parameters_refuse_a_thickness():
+    import femupdate
+    from femupdate.reduction import reduce
+    from femupdate.updating.batched import unsupported
+    from femupdate.updating.batched.driver import BatchedProblem
+
+    m = plate(n=2)
+    sim = model_modes(m, {"t": 0.012}, n_modes=2)
+    data = TestData(modes=(MeasuredMode(float(sim.eigenvalues[0])),))
+    assert "parameter 't' enters model 'plate' through " in unsupported(m, {}, explicit=True)
+    with pytest.raises(InputError, match=r"the compiled batched route assumes the parameters enter linearly.*'t'"):
+        BatchedProblem(m, ["t"], np.array([[1.0]]), data)
+    with pytest.raises(InputError, match=r"exact-solution algebra .*parameter 't' enters through .*t\^3"):
+        femupdate.exact_solutions(m, sim.eigenvalues[:1])
+    with pytest.raises(InputError, match=r"the direct update .*parameter 't'"):
+        femupdate.direct_update(m, data)
+    with pytest.raises(InputError, match=r"the model reduction .*parameter 't'"):
+        reduce(m, np.eye(m.n_dofs))
+    # the automatic choices fall back to the local routes: a multi-start study runs
+    ms = femupdate.updating.multistart(m, data, 2, seed=1)
+    assert abs(ms.best.parameters["t"] / 0.012 - 1) < 1e-6

@@ -220,9 +220,8 @@ def route_refusal(model, route: str) -> None:
     t = terms[0]
     raise InputError(
         f"{route} assumes the parameters enter linearly (K = K0 + sum p_j K_j), but in model {model.name!r} "
-        f"parameter {t.parameters[0]!r} enters through {t.describe()}; use the local update "
-        "(femupdate update without --starts, femupdate.update_modal), the sensitivities or the posterior, "
-        "which take non-linear parameters")
+        f"parameter {t.parameters[0]!r} enters through {t.describe()}; the local modal update, the "
+        "sensitivities and the posterior take non-linear parameters")
 
 
 __all__ = ["Power", "Exp", "Polynomial", "Term", "factor_from_table", "route_refusal"]

@@ -444,6 +444,8 @@ def derivative_stack(model, idx) -> tuple[sp.csr_array, sp.csr_array]:
         Block j (rows ``j n .. (j+1) n - 1``) is ∂K/∂p_j, resp. ∂M/∂p_j (zero for a parameter
         that does not enter that matrix).
     """
+    from ..coefficients import route_refusal
+    route_refusal(model, 'the FRF route')
     n = model.n_dofs
     zero = sp.csr_array((n, n))
     Ks = sp.vstack([model.dK[j] if model.dK[j] is not None else zero for j in idx], format="csr")
@@ -472,6 +474,8 @@ class ParameterForms:
     """
 
     def __init__(self, model, idx):
+        from ..coefficients import route_refusal
+        route_refusal(model, 'the FRF route')
         n, L = model.n_dofs, len(idx)
         self.L = L
         self.parts = []

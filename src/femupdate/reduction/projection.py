@@ -129,6 +129,8 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
         values ``T`` was built at (Guyan/IRS/modal/hybrid/SEREP build ``T`` from K(p), M(p) or the
         modes).  A parameter whose reduced matrices vanish is dropped with a warning.
     """
+    from ..coefficients import route_refusal
+    route_refusal(model, 'the model reduction (reduce)')
     model_arg(model, "model", "reduce")
     if not (isinstance(T, Transformation) or sp.issparse(T)):
         array_arg(T, "T", "reduce", ndim=2)

@@ -201,6 +201,8 @@ def condense(model: Model, keep: Sequence[str], method: str = "guyan", values=No
     InputError
         None of the model's dofs retained; and as the reduction builders.
     """
+    from ..coefficients import route_refusal
+    route_refusal(model, 'the superelement condensation')
     keep_set = set(canonical_all(keep, "keep"))
     boundary = [d for d in model.dofs if d in keep_set]
     if len(boundary) == model.n_dofs:

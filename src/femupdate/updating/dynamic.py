@@ -129,6 +129,8 @@ class DynamicResidual:
     """
 
     def __init__(self, model, targets: Targets, idx: np.ndarray, p_nominal: np.ndarray):
+        from ..coefficients import route_refusal
+        route_refusal(model, 'the dynamic (expanded-residual) route')
         self.model = model
         self.targets = targets
         self.n = int(model.n_dofs)
