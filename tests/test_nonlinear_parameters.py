@@ -184,3 +184,39 @@ def test_routes_that_assume_linear_parameters_refuse_a_thickness():
     # the automatic choices fall back to the local routes: a multi-start study runs
     ms = femupdate.updating.multistart(m, data, 2, seed=1)
     assert abs(ms.best.parameters["t"] / 0.012 - 1) < 1e-6
+
+
+def test_products_of_parameters_in_a_model_file_match_the_numeric_model():
+    """E and I both parameters of a beam (K ~ E I for bending, E A axial), A and rho of the mass: the
+    model evaluated at values equals the same structure with those values as numbers (a second route),
+    and its derivatives the chain rule's."""
+    import tomllib
+
+    def build(E, I, A, rho):
+        params = {n: {"value": v, "bounds": [v / 10, v * 10]} for n, v in (("E", 2e11), ("I", 1e-6), ("A", 1e-3),
+                                                                           ("rho", 7800.0))}
+        d = {"model": {"name": "beam"}, "parameters": params,
+             "node": [{"id": i, "xyz": [float(i), 0, 0]} for i in (1, 2, 3)],
+             "element": [{"type": "beam2d", "nodes": [1, 2], "E": E, "A": A, "I": I, "rho": rho},
+                         {"type": "beam2d", "nodes": [2, 3], "E": E, "A": A, "I": I, "rho": rho}],
+             "support": [{"dofs": ["1:x", "1:y", "1:rz"]}]}
+        if not isinstance(E, str):
+            d["parameters"] = {"k0": {"value": 1.0}}
+            d["element"].append({"type": "spring", "dofs": ["3:y"], "k": "k0"})
+        else:
+            d["element"].append({"type": "spring", "dofs": ["3:y"], "k": 1.0})
+        return Structure.from_dict(tomllib.loads("") | d).build()
+
+    m = build("E", "I", "A", "rho")
+    assert not m.is_affine and {t.describe() for t in m.terms} >= {"E*I", "A*rho"}
+    v = {"E": 2.2e11, "I": 1.3e-6, "A": 1.1e-3, "rho": 7000.0}
+    ref = build(*v.values())
+    for a, b in ((m.K(v), ref.K()), (m.M(v), ref.M())):
+        assert np.abs((a - b).toarray()).max() <= 1e-12 * np.abs(b.toarray()).max()
+    p = m.resolve(v)
+    j = m.parameter_index("I")
+    h = 1e-6 * p[j]
+    e = np.zeros(p.size)
+    e[j] = h
+    fd = (m.K(p + e) - m.K(p - e)).toarray() / (2 * h)
+    assert np.abs(fd - m.dK_dp(j, p).toarray()).max() <= 1e-7 * np.abs(fd).max()
