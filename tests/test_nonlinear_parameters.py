@@ -220,3 +220,52 @@ def test_products_of_parameters_in_a_model_file_match_the_numeric_model():
     e[j] = h
     fd = (m.K(p + e) - m.K(p - e)).toarray() / (2 * h)
     assert np.abs(fd - m.dK_dp(j, p).toarray()).max() <= 1e-7 * np.abs(fd).max()
+
+
+def test_matrices_model_file_terms(tmp_path):
+    """A [matrices] model with [[term]] tables: K = K0 + E t^3 Kb + E t Km, M = M0 + rho t Mt (a plate's
+    split, as exported), against the same model built in Python; bad tables refused by name."""
+    from femupdate import load_model
+
+    m = small_model()
+    for name, A in (("K0", np.eye(4)), ("M0", np.eye(4)), ("A", m.terms[0].K.toarray()),
+                    ("B", m.terms[1].M.toarray()), ("C", m.terms[2].K.toarray()), ("Kc", np.diag([1.0, 0, 0, 2])),
+                    ("Mt", np.diag([1.0, 2, 3, 4]))):
+        np.save(tmp_path / f"{name}.npy", A)
+    text = """[model]
+name = "terms"
+[matrices]
+dofs = ["1:x", "2:x", "3:x", "4:x"]
+K0 = "K0.npy"
+M0 = "M0.npy"
+[parameters.E]
+value = 2.0
+bounds = [0.1, 10]
+[parameters.t]
+value = 0.5
+bounds = [0.1, 2]
+M = "Mt.npy"
+[parameters.c]
+value = 0.3
+K = "Kc.npy"
+[[term]]
+factors = [["E", 1], ["t", 3]]
+K = "A.npy"
+[[term]]
+factors = [["c", {exp = 0.7}]]
+M = "B.npy"
+[[term]]
+factors = [["t", {poly = [1.0, -0.5, 2.0]}], ["c", 2]]
+K = "C.npy"
+"""
+    (tmp_path / "m.toml").write_text(text)
+    f = load_model(tmp_path / "m.toml")
+    p = np.array([1.7, 0.8, -0.2])
+    for a, b in ((f.K(p), m.K(p)), (f.M(p), m.M(p)), (f.dK_dp(1, p), m.dK_dp(1, p)), (f.dM_dp(2, p), m.dM_dp(2, p))):
+        assert np.abs((a - b).toarray()).max() <= 1e-14 * max(1.0, np.abs(b.toarray()).max())
+    for bad, match in (('factors = [["E", 1], ["t", 3]]', 'factors = [["E", 1], ["s", 3]]'),
+                       ('factors = [["E", 1], ["t", 3]]', 'factors = "E*t^3"'),
+                       ('factors = [["c", {exp = 0.7}]]', 'factors = [["c", {log = 0.7}]]')):
+        (tmp_path / "bad.toml").write_text(text.replace(bad, match, 1))
+        with pytest.raises(InputError, match=r"\[\[term\]\] #[12]|names parameter\(s\) s"):
+            load_model(tmp_path / "bad.toml")
