@@ -1,8 +1,10 @@
-r"""The parametrised model: an affine pencil of sparse matrices with dof labels.
+r"""The parametrised model: a pencil of sparse matrices with dof labels.
 
-.. math::  K(p) = K_0 + \sum_j p_j K_j, \qquad M(p) = M_0 + \sum_j p_j M_j
+.. math::  K(p) = K_0 + \sum_j p_j K_j + \sum_k f_k(p) K_k, \qquad M(p) \text{ likewise}
 
-so that :math:`\partial K / \partial p_j = K_j` exactly.  A :class:`Model` is a frozen value
+so that :math:`\partial K / \partial p_j = K_j + \sum_k (\partial f_k / \partial p_j) K_k` exactly;
+the terms :math:`f_k(p) K_k` (products of single-parameter functions,
+:mod:`femupdate.coefficients`) are absent from an affine model.  A :class:`Model` is a frozen value
 object, validated once; transforms (:meth:`Model.with_values`, :meth:`Model.with_fixed`) return
 copies.
 """
@@ -206,6 +208,9 @@ class Model:
         Parameters that must stay > 0 (a structure's element properties: a stiffness, mass or
         section value); checked where values come from the user (``--set``) and flagged in
         results.
+    terms : sequence of femupdate.coefficients.Term, optional
+        Non-linear terms f_k(p) K_k, f_k(p) M_k (a shell's E t³, a product E·I); each factor names a
+        declared parameter.  Empty (default): the model is affine.
 
     Attributes
     ----------
