@@ -269,3 +269,19 @@ K = "C.npy"
         (tmp_path / "bad.toml").write_text(text.replace(bad, match, 1))
         with pytest.raises(InputError, match=r"\[\[term\]\] #[12]|names parameter\(s\) s"):
             load_model(tmp_path / "bad.toml")
+
+
+def test_drawings_see_the_members_of_a_frame_whose_stiffness_is_all_in_terms():
+    from femupdate.plot.shapes import shape_geometry
+
+    s = Structure("beams")
+    for name, v in (("E", 2e11), ("A", 1e-3), ("I", 1e-6)):
+        s.parameter(name, v, bounds=(v / 10, v * 10))
+    for i in (1, 2, 3):
+        s.node(i, (float(i), 0.0, 0.0))
+    s.beam2d([(1, 2), (2, 3)], E="E", A="A", I="I", rho=7800.0)  # E A and E I: both products, no affine part
+    s.support(["1:x", "1:y", "1:rz"])
+    m = s.build()
+    assert m.K0.nnz == 0 and m.dK[m.parameter_index("E")] is None
+    geo = shape_geometry(m)
+    assert geo is not None and len(geo.segments) == 1  # 2-3 (node 1 is fully supported: no free dof draws 1-2)
