@@ -165,7 +165,6 @@ def test_posterior_laplace_uses_the_chain_rule():
 
 def test_routes_that_assume_linear_parameters_refuse_a_thickness():
     import femupdate
-    from femupdate.reduction import reduce
     from femupdate.updating.batched import unsupported
     from femupdate.updating.batched.driver import BatchedProblem
 
@@ -179,8 +178,9 @@ def test_routes_that_assume_linear_parameters_refuse_a_thickness():
         femupdate.exact_solutions(m, sim.eigenvalues[:1])
     with pytest.raises(InputError, match=r"the direct update .*parameter 't'"):
         femupdate.direct_update(m, data)
-    with pytest.raises(InputError, match=r"the model reduction .*parameter 't'"):
-        reduce(m, np.eye(m.n_dofs))
+    from femupdate.reduction.superelement import assemble
+    with pytest.raises(InputError, match=r"the superelement assembly .*parameter 't'"):
+        assemble([m, m])
     # the automatic choices fall back to the local routes: a multi-start study runs
     ms = femupdate.updating.multistart(m, data, 2, seed=1)
     assert abs(ms.best.parameters["t"] / 0.012 - 1) < 1e-6
@@ -333,3 +333,19 @@ def test_dynamic_formulation_differentiates_a_thickness_at_each_iterate():
     assert np.abs(J[:, 0] - fd).max() <= 1e-6 * np.abs(fd).max(), np.abs(J[:, 0] - fd).max() / np.abs(fd).max()
     res = update(m, data, x0={"t": 0.01}, formulation="dynamic")
     assert abs(res.parameters["t"] / 0.012 - 1) < 1e-6, res.parameters
+
+
+def test_reduction_projects_the_terms():
+    """A Guyan reduction of the plate onto its transverse dofs, T built at t = 10 mm: the reduced model
+    at t = 14 mm equals T^T K(p) T and T^T M(p) T of the full model there (a fixed T is linear)."""
+    from femupdate.reduction import Reducer, reduce
+
+    m = plate(n=4)
+    keep = [d for d in m.dofs if d.endswith(":z")]
+    t = Reducer(m, keep).transformation("guyan")
+    r = reduce(m, t)
+    assert not r.is_affine
+    T = t.T.toarray() if hasattr(t.T, "toarray") else np.asarray(t.T)
+    for full, red in ((m.K({"t": 0.014}), r.K({"t": 0.014})), (m.M({"t": 0.014}), r.M({"t": 0.014}))):
+        ref = T.T @ full.toarray() @ T
+        assert np.abs(red.toarray() - ref).max() <= 1e-12 * np.abs(ref).max()

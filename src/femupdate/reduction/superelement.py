@@ -121,6 +121,9 @@ def assemble(models: Sequence[Model], dofs: Sequence[str] | None = None, name: s
         No models; a ``dofs`` order that is not exactly the union; a parameter declared
         differently in two parts; and as :class:`Model`.
     """
+    from ..coefficients import route_refusal
+    for m in models:
+        route_refusal(m, "the superelement assembly")
     if not models:
         raise InputError("assemble: no models")
     union = sorted({d for m in models for d in m.dofs}, key=sort_key)
@@ -201,8 +204,6 @@ def condense(model: Model, keep: Sequence[str], method: str = "guyan", values=No
     InputError
         None of the model's dofs retained; and as the reduction builders.
     """
-    from ..coefficients import route_refusal
-    route_refusal(model, 'the superelement condensation')
     keep_set = set(canonical_all(keep, "keep"))
     boundary = [d for d in model.dofs if d in keep_set]
     if len(boundary) == model.n_dofs:
