@@ -20,10 +20,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ._checks import shown
 from ._errors import InputError
 
 
@@ -212,6 +213,67 @@ class Term:
         return out
 
 
+def check_terms(terms, names, n: int) -> tuple:
+    """The model's non-linear terms, each factor naming a declared parameter, matrices checked."""
+    from .model import _as_csr
+
+    if isinstance(terms, (str, bytes, Mapping)) or not isinstance(terms, (Sequence, np.ndarray)):
+        raise InputError(f"terms must be a list of Term objects, got {shown(terms)}")
+    out = []
+    for t in terms:
+        if not isinstance(t, Term):
+            raise InputError(f"terms must be Term objects (femupdate.coefficients.Term), got {shown(t)}")
+        missing = [x for x in t.parameters if x not in names]
+        if missing:
+            raise InputError(f"term {t.describe()} names parameter(s) {', '.join(missing)}, not declared "
+                             f"(declared: {', '.join(names) or 'none'})")
+        K = _as_csr(t.K, f"the K matrix of term {t.describe()}", n)
+        M = _as_csr(t.M, f"the M matrix of term {t.describe()}", n)
+        out.append(replace(t, K=K, M=M) if (K is not t.K or M is not t.M) else t)
+    return tuple(out)
+
+
+def term_derivative(model, key: str, j: int, values, affine_part):
+    """∂K/∂p_j (``key`` "K") or ∂M/∂p_j at ``values``: the affine part plus Σ_k (∂f_k/∂p_j) K_k."""
+    import scipy.sparse as sp
+
+    p = model.resolve(values)
+    named = dict(zip(model.parameter_names, p.tolist()))
+    name = model.parameter_names[j]
+    out = affine_part
+    for t in model.terms:
+        A = getattr(t, key)
+        if A is not None and name in t.parameters:
+            out = out + t.gradient(named)[name] * A
+    return sp.csr_array(out)
+
+
+def linearise(model, values=None):
+    """:meth:`Model.linearised <femupdate.Model.linearised>` of a non-linear model (a few points cached)."""
+    import scipy.sparse as sp
+
+    from .model import Model
+
+    p = model.resolve(values)
+    cache = model._linearised
+    key = p.tobytes()
+    if key in cache:
+        return cache[key]
+    dK = tuple(model.dK_dp(j, p) for j in range(p.size))
+    dM = tuple(model.dM_dp(j, p) for j in range(p.size))
+    K0 = sp.csr_array(model.K(p) - sum((v * A for v, A in zip(p, dK)), sp.csr_array(model.K0.shape)))
+    M0 = sp.csr_array(model.M(p) - sum((v * A for v, A in zip(p, dM)), sp.csr_array(model.M0.shape)))
+    out = object.__new__(Model)  # validated already: the same dofs, parameters and sizes
+    for f, v in (("dofs", model.dofs), ("K0", K0), ("M0", M0), ("parameters", model.parameters),
+                 ("dK", tuple(A if A.nnz else None for A in dK)), ("dM", tuple(A if A.nnz else None for A in dM)),
+                 ("name", model.name), ("nodes", model.nodes), ("positive", model.positive), ("terms", ())):
+        object.__setattr__(out, f, v)
+    if len(cache) >= 4:
+        cache.pop(next(iter(cache)))
+    cache[key] = out
+    return out
+
+
 def route_refusal(model, route: str) -> None:
     """Refuse a non-linear model on a route that assumes K(p) affine in p (one clear message)."""
     terms = getattr(model, "terms", ())
@@ -224,4 +286,5 @@ def route_refusal(model, route: str) -> None:
         "sensitivities and the posterior take non-linear parameters")
 
 
-__all__ = ["Power", "Exp", "Polynomial", "Term", "factor_from_table", "route_refusal"]
+__all__ = ["Power", "Exp", "Polynomial", "Term", "factor_from_table", "route_refusal", "check_terms", "linearise",
+           "term_derivative"]

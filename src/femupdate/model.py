@@ -24,6 +24,7 @@ from ._checks import flag_arg, input_errors, shown, str_arg, strings_arg
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
+from .coefficients import check_terms, linearise, term_derivative
 from .priors import Prior, parse_prior
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -138,26 +139,6 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     return A
 
 
-def _check_terms(terms, names, n: int) -> tuple:
-    """The model's non-linear terms, each factor naming a declared parameter, matrices checked."""
-    from .coefficients import Term
-
-    if isinstance(terms, (str, bytes, Mapping)) or not isinstance(terms, (Sequence, np.ndarray)):
-        raise InputError(f"terms must be a list of Term objects, got {shown(terms)}")
-    out = []
-    for t in terms:
-        if not isinstance(t, Term):
-            raise InputError(f"terms must be Term objects (femupdate.coefficients.Term), got {shown(t)}")
-        missing = [x for x in t.parameters if x not in names]
-        if missing:
-            raise InputError(f"term {t.describe()} names parameter(s) {', '.join(missing)}, not declared "
-                             f"(declared: {', '.join(names) or 'none'})")
-        K = _as_csr(t.K, f"the K matrix of term {t.describe()}", n)
-        M = _as_csr(t.M, f"the M matrix of term {t.describe()}", n)
-        out.append(replace(t, K=K, M=M) if (K is not t.K or M is not t.M) else t)
-    return tuple(out)
-
-
 def _fields(model: Model) -> None:
     """The types of :class:`Model`'s fields (a :class:`TypeError` naming the first wrong one)."""
     str_arg(model.name, "name", "Model")
@@ -265,7 +246,7 @@ class Model:
             raise InputError(f"{len(params)} parameters but {len(dK)} dK and {len(dM)} dM matrices")
         dK = tuple(_as_csr(A, f"dK/d{p.name}", n) for A, p in zip(dK, params))
         dM = tuple(_as_csr(A, f"dM/d{p.name}", n) for A, p in zip(dM, params))
-        terms = _check_terms(self.terms, names, n)
+        terms = check_terms(self.terms, names, n)
         in_terms = {x for t in terms for x in t.parameters}
         unused = [p.name for p, a, b in zip(params, dK, dM)
                   if (a is None or a.nnz == 0) and (b is None or b.nnz == 0) and p.name not in in_terms]
@@ -495,16 +476,7 @@ class Model:
     def _derivative(self, key: str, j: int, values) -> sp.csr_array:
         d = (self.dK if key == "K" else self.dM)[j]
         out = d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
-        if not self.terms:
-            return out
-        p = self.resolve(values)
-        named = dict(zip(self.parameter_names, p.tolist()))
-        name = self.parameter_names[j]
-        for t in self.terms:
-            A = getattr(t, key)
-            if A is not None and name in t.parameters:
-                out = out + t.gradient(named)[name] * A
-        return sp.csr_array(out)
+        return term_derivative(self, key, j, values, out) if self.terms else out
 
     # ------------------------------------------------------------------ non-linear parameters
     @property
@@ -524,26 +496,7 @@ class Model:
         The sensitivity routes differentiate a non-linear model through it; it is exact at
         ``values`` only (never evaluate it elsewhere).
         """
-        if not self.terms:
-            return self
-        p = self.resolve(values)
-        cache = self._linearised
-        key = p.tobytes()
-        if key in cache:
-            return cache[key]
-        dK = tuple(self.dK_dp(j, p) for j in range(p.size))
-        dM = tuple(self.dM_dp(j, p) for j in range(p.size))
-        K0 = sp.csr_array(self.K(p) - sum((v * A for v, A in zip(p, dK)), sp.csr_array(self.K0.shape)))
-        M0 = sp.csr_array(self.M(p) - sum((v * A for v, A in zip(p, dM)), sp.csr_array(self.M0.shape)))
-        out = object.__new__(Model)
-        for f, v in (("dofs", self.dofs), ("K0", K0), ("M0", M0), ("parameters", self.parameters),
-                     ("dK", tuple(A if A.nnz else None for A in dK)), ("dM", tuple(A if A.nnz else None for A in dM)),
-                     ("name", self.name), ("nodes", self.nodes), ("positive", self.positive), ("terms", ())):
-            object.__setattr__(out, f, v)
-        if len(cache) >= 4:
-            cache.pop(next(iter(cache)))
-        cache[key] = out
-        return out
+        return linearise(self, values) if self.terms else self
 
     @cached_property
     def _linearised(self) -> dict:
@@ -620,53 +573,4 @@ class Model:
         return describe(self.dofs, limit)
 
 
-def from_matrices(
-    dofs: Sequence[str],
-    K0,
-    M0,
-    parameters: Sequence[Parameter] = (),
-    dK: Sequence | None = None,
-    dM: Sequence | None = None,
-    name: str = "matrices",
-) -> Model:
-    """Model from plain matrices: ``K = K0 + sum_j p_j dK[j]``, ``M = M0 + sum_j p_j dM[j]``.
-
-    This is how models exported from a commercial FE code come in: ``K0``, ``M0`` and one
-    (sparse) matrix per parameter, all on the same dof set.  Rigid links exported as penalty
-    springs far above the elastic stiffness are tied exactly (the later dofs of a tie leave the
-    model, with a logged warning) or refused by name: :mod:`femupdate.penalty`.
-
-    Parameters
-    ----------
-    dofs : sequence of str
-        Dof labels ``"node:dir"`` in matrix order.
-    K0, M0 : array_like or scipy sparse matrix, shape ``(n_dofs, n_dofs)``
-        Parameter-independent stiffness (N/m) and mass (kg) matrices.
-    parameters : sequence of Parameter, default ``()``
-        The parameters p_j.
-    dK, dM : sequence of (matrix or None), optional
-        One ``(n_dofs, n_dofs)`` matrix (or ``None``) per parameter: ∂K/∂p_j and ∂M/∂p_j.
-        Omitted: that matrix depends on no parameter.
-    name : str, default ``"matrices"``
-        Model name.
-
-    Returns
-    -------
-    Model
-
-    Raises
-    ------
-    InputError
-        As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
-        match, unused or duplicate parameters); a penalty link that cannot be tied
-        (:func:`femupdate.penalty.tie_penalty_links`).
-    """
-    with input_errors():  # what tuple() below would not say (a model file's matrices come here too)
-        strings_arg(dofs, "dofs", "from_matrices", optional=False, what="dof label")
-        for what, seq in (("parameters", parameters), ("dK", dK), ("dM", dM)):
-            if seq is not None and (isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, Sequence)):
-                raise TypeError(f"from_matrices: {what} must be a list, got {shown(seq)}")
-    from .penalty import eliminate_penalty_links
-
-    return eliminate_penalty_links(Model(dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters), name=name,
-                                         dK=() if dK is None else tuple(dK), dM=() if dM is None else tuple(dM)))
+from ._from_matrices import from_matrices  # noqa: E402  (public here: femupdate.model.from_matrices)

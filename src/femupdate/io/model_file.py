@@ -325,7 +325,7 @@ def _terms(raw, path: Path, base: Path, n: int, dofs_from: str) -> tuple:
         mats = {k: _sized(load_matrix(spec[k], base, f"{where} {k}"), n, f"{where} {k} ({spec[k]})", dofs_from)
                 for k in ("K", "M") if k in spec}
         try:
-            out.append(Term(factors, **mats))
+            out.append(Term(tuple(factors), **mats))
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     return tuple(out)
