@@ -161,6 +161,10 @@ def test_posterior_laplace_uses_the_chain_rule():
     assert abs(mode.x[0] * 0.01 / 0.012 - 1) < 1e-6  # x = t / t_start (the relative parametrisation)
     std = float(np.sqrt(np.linalg.inv(mode.hessian))[0, 0]) * 0.01
     assert abs(std / std_fd - 1) < 1e-4, (std, std_fd)
+    assert res.route == "local"  # the automatic choice: the compiled route assumes linear parameters
+    with pytest.raises(InputError, match=r"route 'compiled': parameter 't' enters model 'plate' through t\^3"):
+        femupdate.posterior(m, data, sampler="laplace", noise="stated", seed=1, samples=200, starts=1,
+                            route="compiled")
 
 
 def test_routes_that_assume_linear_parameters_refuse_a_thickness():
