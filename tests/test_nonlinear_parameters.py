@@ -353,3 +353,12 @@ def test_reduction_projects_the_terms():
     for full, red in ((m.K({"t": 0.014}), r.K({"t": 0.014})), (m.M({"t": 0.014}), r.M({"t": 0.014}))):
         ref = T.T @ full.toarray() @ T
         assert np.abs(red.toarray() - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_adjacent_eigenvectors_refuse_a_non_linear_model():
+    from femupdate.sensitivity import adjacent_eigenvectors
+
+    m = plate(n=2)
+    modes = model_modes(m, n_modes=3)
+    with pytest.raises(InputError, match=r"adjacent_eigenvectors .*K'' = M'' = 0.*parameter 't'"):
+        adjacent_eigenvectors(m, modes, (0, 2), [1.0])

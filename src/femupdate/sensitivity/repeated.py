@@ -181,9 +181,13 @@ def adjacent_eigenvectors(model, modes, group, direction, params=None, values=No
         The direction does not split the eigenvalue at first order (repeated μ): the adjacent
         eigenvectors are then not determined by D.
     """
+    from ..coefficients import route_refusal
     from .nelson import nelson
 
-    model = tangent(model, values, modes)
+    # Dailey's derivatives need the second derivatives K'' and M'' along the direction, zero only when
+    # the parameters enter linearly (the tangent model has none)
+    route_refusal(model, "adjacent_eigenvectors (Dailey's eigenvector derivatives of a repeated eigenvalue, "
+                         "which take K'' = M'' = 0)")
     params = resolve_params(model, params)
     d = np.asarray(direction, dtype=float).ravel()
     if d.shape != (params.size,) or not np.all(np.isfinite(d)):
