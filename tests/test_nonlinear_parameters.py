@@ -362,3 +362,21 @@ def test_adjacent_eigenvectors_refuse_a_non_linear_model():
     modes = model_modes(m, n_modes=3)
     with pytest.raises(InputError, match=r"adjacent_eigenvectors .*K'' = M'' = 0.*parameter 't'"):
         adjacent_eigenvectors(m, modes, (0, 2), [1.0])
+
+
+def test_a_penalty_tie_reduces_the_terms_too():
+    """A penalty link on a chain whose springs enter as t^3 (a term): tied exactly, and the tied model at
+    t equals the tied affine model with k = t^3 (a second route) at every t."""
+    from femupdate import from_matrices
+    from test_exported_matrices import chain_K
+
+    elastic = chain_K(k=1.0, link=(2, 3), penalty=0.0)
+    dofs = [f"{i}:x" for i in range(1, 7)]
+    nl = from_matrices(dofs, chain_K(k=0.0, link=(2, 3), penalty=1e10), np.eye(6), [Parameter("t", 2.0, (1, 4))],
+                       dK=[None], dM=[None], terms=[Term([Power("t", 3)], K=elastic)])
+    af = from_matrices(dofs, chain_K(k=0.0, link=(2, 3), penalty=1e10), np.eye(6), [Parameter("k", 8.0, (1, 64))],
+                       dK=[elastic], dM=[None])
+    assert nl.dofs == af.dofs and len(nl.dofs) == 5
+    for t in (1.5, 2.0, 3.0):
+        a, b = nl.K({"t": t}).toarray(), af.K({"k": t**3}).toarray()
+        assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
