@@ -136,7 +136,6 @@ def test_toml_model_file_with_shell_and_solid_sets(tmp_path):
     assert "7:x" in model.dofs and "7:rx" not in model.dofs and "5:rz" in model.dofs
     assert len(model.dofs) == 4 * 6 + 3
     for bad, message in [
-        ("t = 0.004", 't = "E_plate"'),
         ("nu = 0.33\nt = 0.004\nrho = 2700\nmass", "nu = 0.5\nt = 0.004\nrho = 2700\nmass"),
         ("nodes = [[1, 2, 3, 4]]", "nodes = [[1, 2, 3]]"),
         ("nodes = [3, 2, 6, 7]", "nodes = [3, 2, 7, 6]"),
@@ -147,9 +146,14 @@ def test_toml_model_file_with_shell_and_solid_sets(tmp_path):
             load_model(p)
         text = str(err.value)
         assert "element #" in text, text
-    p.write_text(TOML.replace("t = 0.004", 't = "E_plate"', 1))
-    with pytest.raises(InputError, match=r"element #1 \(mitc4\): thickness t = 'E_plate' names a parameter.*t³"):
-        load_model(p)
+    # a thickness parameter (issue 28 item 2): K = E t K_m + E t^3 K_b + ..., the model at t equals the numeric one
+    p.write_text(TOML.replace("t = 0.004", 't = "t_plate"', 1).replace("[[node]]", "[parameters.t_plate]\nvalue = 0.004\n\n[[node]]", 1))
+    nl = load_model(p)
+    assert not nl.is_affine and "E_plate*t_plate^3" in {t.describe() for t in nl.terms}
+    p.write_text(TOML.replace("t = 0.004", "t = 0.005", 1))
+    ref = load_model(p)
+    K, K_ref = nl.K({"t_plate": 0.005}).toarray(), ref.K().toarray()
+    assert np.abs(K - K_ref).max() <= 1e-12 * np.abs(K_ref).max()
     p.write_text(TOML.replace("nodes = [3, 2, 6, 7]", "nodes = [3, 2, 7, 6]"))
     with pytest.raises(InputError, match=r"element #3 \(tet4\).*inverted or degenerate"):
         load_model(p)

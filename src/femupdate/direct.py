@@ -219,6 +219,8 @@ class EquationBuilder:
     """
 
     def __init__(self, model, values=None, unknowns: Sequence[str] | None = None):
+        from .coefficients import route_refusal
+        route_refusal(model, 'the direct update (direct_update: linear equations in the parameters)')
         self.model = model
         self.p = model.resolve(values)
         if unknowns is None:

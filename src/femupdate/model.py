@@ -1,8 +1,10 @@
-r"""The parametrised model: an affine pencil of sparse matrices with dof labels.
+r"""The parametrised model: a pencil of sparse matrices with dof labels.
 
-.. math::  K(p) = K_0 + \sum_j p_j K_j, \qquad M(p) = M_0 + \sum_j p_j M_j
+.. math::  K(p) = K_0 + \sum_j p_j K_j + \sum_k f_k(p) K_k, \qquad M(p) \text{ likewise}
 
-so that :math:`\partial K / \partial p_j = K_j` exactly.  A :class:`Model` is a frozen value
+so that :math:`\partial K / \partial p_j = K_j + \sum_k (\partial f_k / \partial p_j) K_k` exactly;
+the terms :math:`f_k(p) K_k` (products of single-parameter functions,
+:mod:`femupdate.coefficients`) are absent from an affine model.  A :class:`Model` is a frozen value
 object, validated once; transforms (:meth:`Model.with_values`, :meth:`Model.with_fixed`) return
 copies.
 """
@@ -22,6 +24,7 @@ from ._checks import flag_arg, input_errors, shown, str_arg, strings_arg
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
+from .coefficients import check_terms, linearise, term_derivative
 from .priors import Prior, parse_prior
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -186,6 +189,9 @@ class Model:
         Parameters that must stay > 0 (a structure's element properties: a stiffness, mass or
         section value); checked where values come from the user (``--set``) and flagged in
         results.
+    terms : sequence of femupdate.coefficients.Term, optional
+        Non-linear terms f_k(p) K_k, f_k(p) M_k (a shell's E t³, a product E·I); each factor names a
+        declared parameter.  Empty (default): the model is affine.
 
     Attributes
     ----------
@@ -217,6 +223,7 @@ class Model:
     name: str = "model"
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
     positive: frozenset[str] = frozenset()
+    terms: tuple = ()
 
     def __post_init__(self):
         with input_errors():
@@ -239,12 +246,16 @@ class Model:
             raise InputError(f"{len(params)} parameters but {len(dK)} dK and {len(dM)} dM matrices")
         dK = tuple(_as_csr(A, f"dK/d{p.name}", n) for A, p in zip(dK, params))
         dM = tuple(_as_csr(A, f"dM/d{p.name}", n) for A, p in zip(dM, params))
-        unused = [p.name for p, a, b in zip(params, dK, dM) if (a is None or a.nnz == 0) and (b is None or b.nnz == 0)]
+        terms = check_terms(self.terms, names, n)
+        in_terms = {x for t in terms for x in t.parameters}
+        unused = [p.name for p, a, b in zip(params, dK, dM)
+                  if (a is None or a.nnz == 0) and (b is None or b.nnz == 0) and p.name not in in_terms]
         if unused:
             raise InputError(f"parameter(s) declared but used by no element or matrix: {', '.join(unused)}")
         object.__setattr__(self, "parameters", params)
         object.__setattr__(self, "dK", dK)
         object.__setattr__(self, "dM", dM)
+        object.__setattr__(self, "terms", terms)
         object.__setattr__(self, "nodes", dict(self.nodes))
         object.__setattr__(self, "positive", frozenset(self.positive) & frozenset(names))
 
@@ -391,8 +402,11 @@ class Model:
         """Union sparsity pattern and the map from [1, p] to the matrix data (for fast K(p))."""
         out = {}
         for key, base, derivs in (("K", self.K0, self.dK), ("M", self.M0, self.dM)):
-            mats = [base] + [d for d in derivs if d is not None]
-            cols = [0] + [j + 1 for j, d in enumerate(derivs) if d is not None]
+            L = len(derivs)
+            tmats = [getattr(t, key) for t in self.terms]
+            mats = [base] + [d for d in derivs if d is not None] + [d for d in tmats if d is not None]
+            cols = ([0] + [j + 1 for j, d in enumerate(derivs) if d is not None]
+                    + [L + 1 + k for k, d in enumerate(tmats) if d is not None])
             n = base.shape[0]
             keys = np.unique(np.concatenate([m.tocoo().row.astype(np.int64) * n + m.tocoo().col for m in mats]))
             union_rows, union_cols = np.divmod(keys, n)
@@ -406,14 +420,15 @@ class Model:
                 vals.append(mc.data)
             B = sp.csr_array(
                 (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols_))),
-                shape=(keys.size, len(derivs) + 1),
+                shape=(keys.size, len(derivs) + 1 + len(tmats)),
             )
             out[key] = (union, B)
         return out
 
     def _assemble(self, key: str, p: np.ndarray) -> sp.csr_array:
         union, B = self._pattern[key]
-        data = B @ np.concatenate(([1.0], p))
+        coef = np.concatenate(([1.0], p, self._coefficients(p))) if self.terms else np.concatenate(([1.0], p))
+        data = B @ coef
         return sp.csr_array((data, union.indices.copy(), union.indptr.copy()), shape=union.shape)
 
     def K(self, values=None) -> sp.csr_array:
@@ -434,25 +449,58 @@ class Model:
         """Mass matrix M(p) = M0 + Σ_j p_j dM[j] (kg), at ``values`` as :meth:`K` takes them."""
         return self._assemble("M", self.resolve(values))
 
-    def dK_dp(self, j: int) -> sp.csr_array:
-        """Exact dK/dp_j (a zero matrix if parameter j does not enter K).
+    def dK_dp(self, j: int, values=None) -> sp.csr_array:
+        """Exact dK/dp_j at ``values`` (a zero matrix if parameter j does not enter K).
+
+        dK[j] plus, for a non-linear model, the chain rule over its :attr:`terms`:
+        Σ_k (∂f_k/∂p_j) K_k.
 
         Parameters
         ----------
         j : int
             Parameter index (declaration order).
+        values : None, mapping or array_like, optional
+            Where to differentiate, as :meth:`resolve` reads them (default nominal; an affine
+            model's derivative does not depend on it).
 
         Returns
         -------
         scipy.sparse.csr_array, shape ``(n_dofs, n_dofs)``
         """
-        d = self.dK[j]
-        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+        return self._derivative("K", j, values)
 
-    def dM_dp(self, j: int) -> sp.csr_array:
-        """Exact dM/dp_j (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
-        d = self.dM[j]
-        return d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+    def dM_dp(self, j: int, values=None) -> sp.csr_array:
+        """Exact dM/dp_j at ``values`` (a zero matrix if parameter j does not enter M), as :meth:`dK_dp` for K."""
+        return self._derivative("M", j, values)
+
+    def _derivative(self, key: str, j: int, values) -> sp.csr_array:
+        d = (self.dK if key == "K" else self.dM)[j]
+        out = d if d is not None else sp.csr_array((self.n_dofs, self.n_dofs))
+        return term_derivative(self, key, j, values, out) if self.terms else out
+
+    # ------------------------------------------------------------------ non-linear parameters
+    @property
+    def is_affine(self) -> bool:
+        """Whether every parameter enters linearly (no :attr:`terms`)."""
+        return not self.terms
+
+    def _coefficients(self, p: np.ndarray) -> np.ndarray:
+        """f_k(p) of every term."""
+        named = dict(zip(self.parameter_names, p.tolist()))
+        return np.array([t.value(named) for t in self.terms], dtype=float)
+
+    def linearised(self, values=None) -> Model:
+        """The affine model tangent to this one at ``values``: same K(p), M(p) and exact first
+        derivatives there (K0 ← K(p) − Σ p_j ∂K/∂p_j, dK[j] ← ∂K/∂p_j(p)).  ``self`` when affine.
+
+        The sensitivity routes differentiate a non-linear model through it; it is exact at
+        ``values`` only (never evaluate it elsewhere).
+        """
+        return linearise(self, values) if self.terms else self
+
+    @cached_property
+    def _linearised(self) -> dict:
+        return {}
 
     # ------------------------------------------------------------------ transforms
     def with_values(self, values) -> Model:
@@ -525,53 +573,4 @@ class Model:
         return describe(self.dofs, limit)
 
 
-def from_matrices(
-    dofs: Sequence[str],
-    K0,
-    M0,
-    parameters: Sequence[Parameter] = (),
-    dK: Sequence | None = None,
-    dM: Sequence | None = None,
-    name: str = "matrices",
-) -> Model:
-    """Model from plain matrices: ``K = K0 + sum_j p_j dK[j]``, ``M = M0 + sum_j p_j dM[j]``.
-
-    This is how models exported from a commercial FE code come in: ``K0``, ``M0`` and one
-    (sparse) matrix per parameter, all on the same dof set.  Rigid links exported as penalty
-    springs far above the elastic stiffness are tied exactly (the later dofs of a tie leave the
-    model, with a logged warning) or refused by name: :mod:`femupdate.penalty`.
-
-    Parameters
-    ----------
-    dofs : sequence of str
-        Dof labels ``"node:dir"`` in matrix order.
-    K0, M0 : array_like or scipy sparse matrix, shape ``(n_dofs, n_dofs)``
-        Parameter-independent stiffness (N/m) and mass (kg) matrices.
-    parameters : sequence of Parameter, default ``()``
-        The parameters p_j.
-    dK, dM : sequence of (matrix or None), optional
-        One ``(n_dofs, n_dofs)`` matrix (or ``None``) per parameter: ∂K/∂p_j and ∂M/∂p_j.
-        Omitted: that matrix depends on no parameter.
-    name : str, default ``"matrices"``
-        Model name.
-
-    Returns
-    -------
-    Model
-
-    Raises
-    ------
-    InputError
-        As :class:`Model` (non-square, asymmetric or non-finite matrices, sizes that do not
-        match, unused or duplicate parameters); a penalty link that cannot be tied
-        (:func:`femupdate.penalty.tie_penalty_links`).
-    """
-    with input_errors():  # what tuple() below would not say (a model file's matrices come here too)
-        strings_arg(dofs, "dofs", "from_matrices", optional=False, what="dof label")
-        for what, seq in (("parameters", parameters), ("dK", dK), ("dM", dM)):
-            if seq is not None and (isinstance(seq, (str, bytes, Mapping)) or not isinstance(seq, Sequence)):
-                raise TypeError(f"from_matrices: {what} must be a list, got {shown(seq)}")
-    from .penalty import eliminate_penalty_links
-
-    return eliminate_penalty_links(Model(dofs=tuple(dofs), K0=K0, M0=M0, parameters=tuple(parameters), name=name,
-                                         dK=() if dK is None else tuple(dK), dM=() if dM is None else tuple(dM)))
+from ._from_matrices import from_matrices  # noqa: E402  (public here: femupdate.model.from_matrices)

@@ -297,6 +297,8 @@ def eliminate_penalty_links(model, what: str | None = None):
     what = what or f"model {model.name!r}: K"
     p = model.values
     parts = [model.K0] + [v * A for v, A in zip(p, model.dK) if A is not None and v != 0]
+    if model.terms:  # the non-linear terms at the nominal values (femupdate.coefficients)
+        parts += [c * t.K for c, t in zip(model._coefficients(p), model.terms) if t.K is not None and c != 0]
     T, kept, notes = tie_penalty_links(model.K(), model.dofs, what, parts)
     if T is None:
         return model
@@ -307,7 +309,8 @@ def eliminate_penalty_links(model, what: str | None = None):
         return None if A is None else sp.csr_array(T.T @ A @ T)
 
     return replace(model, dofs=tuple(model.dofs[i] for i in kept), K0=reduce(model.K0), M0=reduce(model.M0),
-                   dK=tuple(reduce(A) for A in model.dK), dM=tuple(reduce(A) for A in model.dM))
+                   dK=tuple(reduce(A) for A in model.dK), dM=tuple(reduce(A) for A in model.dM),
+                   terms=tuple(replace(t, K=reduce(t.K), M=reduce(t.M)) for t in model.terms))
 
 
 __all__ = ["PENALTY_RATIO", "PRECISION_TOL", "PenaltyGroup", "find_penalty_links", "tie_matrix", "tie_penalty_links",

@@ -298,6 +298,8 @@ class Equations:
     """Projected damage equations A δ = r of expanded modes (module docstring of :mod:`.detect`, step 4)."""
 
     def __init__(self, model: Model, names: Sequence[str], theta0: np.ndarray):
+        from ..coefficients import route_refusal
+        route_refusal(model, 'the damage localisation')
         self.model = model
         self.idx = indices(model, names)
         if any(model.dM[j] is not None for j in self.idx):

@@ -123,6 +123,8 @@ class SetSearch:
                  allow_increase: bool, min_change: float, level: float, max_located: int, n_try: int = 4,
                  score: Callable[[np.ndarray], np.ndarray] | None = None, path_order: Sequence[int] = (),
                  pairing: str = "auto"):
+        from ..coefficients import route_refusal
+        route_refusal(model, 'the damage refinement')
         self.names = list(names)
         self.L = len(self.names)
         pos = {n: j for j, n in enumerate(model.parameter_names)}

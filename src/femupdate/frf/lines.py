@@ -426,7 +426,18 @@ def lu_apply(lu, B: np.ndarray) -> np.ndarray:
     return lu.solve(np.ascontiguousarray(B))
 
 
-def derivative_stack(model, idx) -> tuple[sp.csr_array, sp.csr_array]:
+def _tangent(model, values, who: str):
+    """``model`` when affine; else its tangent affine model at ``values`` (which must be given: the
+    derivatives of a non-linear model depend on where they are taken)."""
+    if getattr(model, "is_affine", True):
+        return model
+    if values is None:
+        from ..coefficients import route_refusal
+        route_refusal(model, f"{who} without the parameter values to differentiate at")
+    return model.linearised(values)
+
+
+def derivative_stack(model, idx, values=None) -> tuple[sp.csr_array, sp.csr_array]:
     """``dK/dp_j`` and ``dM/dp_j`` of the parameters ``idx`` stacked row-wise into two sparse
     matrices of shape ``(L n, n)``: one product with a block of vectors gives every parameter's
     ``K_j X`` at once.
@@ -437,6 +448,9 @@ def derivative_stack(model, idx) -> tuple[sp.csr_array, sp.csr_array]:
         The parametrised model (its ``dK``, ``dM``).
     idx : sequence of int, length L
         0-based parameter indices.
+    values : array_like or mapping, optional
+        Where to differentiate; needed for a non-linear model (its tangent there), ignored by an
+        affine one.
 
     Returns
     -------
@@ -444,6 +458,7 @@ def derivative_stack(model, idx) -> tuple[sp.csr_array, sp.csr_array]:
         Block j (rows ``j n .. (j+1) n - 1``) is ∂K/∂p_j, resp. ∂M/∂p_j (zero for a parameter
         that does not enter that matrix).
     """
+    model = _tangent(model, values, "derivative_stack")
     n = model.n_dofs
     zero = sp.csr_array((n, n))
     Ks = sp.vstack([model.dK[j] if model.dK[j] is not None else zero for j in idx], format="csr")
@@ -465,13 +480,16 @@ class ParameterForms:
         The parametrised model.
     idx : sequence of int, length L
         0-based parameter indices (:func:`derivative_stack`).
+    values : array_like or mapping, optional
+        Where to differentiate (needed for a non-linear model, :func:`derivative_stack`).
 
     Calling ``forms(U, V, cK, cM)`` with ``U`` ``(n, p)``, ``V`` ``(n, q)`` and the scalar
     coefficients ``cK``, ``cM`` of one line returns the ``(L, p, q)`` array of
     :math:`U^T (c_K K_j + c_M M_j) V`.
     """
 
-    def __init__(self, model, idx):
+    def __init__(self, model, idx, values=None):
+        model = _tangent(model, values, "the FRF parameter forms")
         n, L = model.n_dofs, len(idx)
         self.L = L
         self.parts = []

@@ -175,7 +175,7 @@ def collect_resonances(model, p, w, nearest, Phi, mode_no, params=None) -> Reson
     n = model.n_dofs
     sens = None
     if params is not None and len(params):
-        Ks, Ms = derivative_stack(model, params)
+        Ks, Ms = derivative_stack(model, params, p)
         L = len(params)
         dlam = np.einsum("nl,jnl->lj", Phi, (Ks @ Phi).reshape(L, n, -1))
         if Ms.nnz:

@@ -98,7 +98,7 @@ def direct_blocks(model, omega, force: Mapping, values=None, unknowns=None, damp
     f = force_vector(model, force)
     sys_ = LineSystems(model, p, w, damping)
     X = sys_.solve(f, on_singular="inf")  # (n_l, n)
-    Ks, Ms = derivative_stack(model, idx)
+    Ks, Ms = derivative_stack(model, idx, p)
     L, n = len(idx), model.n_dofs
     finite = np.all(np.isfinite(X), axis=1)
     Xf = np.where(finite[:, None], X, 0.0)

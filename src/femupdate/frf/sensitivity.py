@@ -175,7 +175,7 @@ def receptance_sensitivity(model, omega, response: Sequence[str] | None, excitat
     B = np.zeros((n, ne + nr))
     B[ie, np.arange(ne)] = 1.0
     B[ir, ne + np.arange(nr)] = 1.0
-    forms = ParameterForms(model, idx)
+    forms = ParameterForms(model, idx, p)
     sys_ = LineSystems(model, p, w, damping, method)
     small = n <= modal.DENSE_LIMIT  # every eigenvalue densely; above, a Lanczos search per line
     check = resonance_check if resonance_check != "auto" else (damping.undamped or small)

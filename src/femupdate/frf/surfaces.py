@@ -199,6 +199,8 @@ class AffineStack:
     """
 
     def __init__(self, model, names: Sequence[str], values=None):
+        from ..coefficients import route_refusal
+        route_refusal(model, 'the FRF and modal residual surfaces')
         if model.n_dofs > SURFACE_DENSE_LIMIT:
             raise InputError(f"stacked dense evaluation is for models up to {SURFACE_DENSE_LIMIT} dofs; "
                              f"{model.name!r} has {model.n_dofs}")

@@ -136,7 +136,7 @@ def model_geometry(model, segments=None) -> Geometry:
     xyz = np.array([model.nodes[int(i)] for i in ids], dtype=float)
     if segments is None:
         pattern = abs(model.K0).tocoo()
-        for A in model.dK:
+        for A in (*model.dK, *(t.K for t in getattr(model, "terms", ()))):  # non-linear terms too
             if A is not None:
                 pattern = pattern + abs(A).tocoo()
         pattern = sp.coo_array(pattern)

@@ -242,7 +242,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     for k in ("dofs", "K0", "M0"):
         if k not in mt:
             raise InputError(f"{src}: missing '{k}'")
-    other = sorted(set(data) - {"model", "matrices", "parameters", "provenance"})
+    other = sorted(set(data) - {"model", "matrices", "parameters", "provenance", "term"})
     if other:
         raise InputError(f"{path}: a [matrices] model cannot also have {', '.join(other)}")
     dofs, dofs_from = _dofs(mt["dofs"], base, src)
@@ -258,6 +258,8 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
     params: list[Parameter] = []
     dK: list = []
     dM: list = []
+    terms = _terms(data.get("term", []), path, base, len(dofs), dofs_from)
+    in_terms = {x for t in terms for x in t.parameters}
     for name, spec in data.get("parameters", {}).items():
         where = f"{path}: [parameters.{name}]"
         if not isinstance(spec, Mapping) or "value" not in spec:
@@ -265,8 +267,9 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "K", "M"})
         if unknown:
             raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, K, M)")
-        if "K" not in spec and "M" not in spec:
-            raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices)")
+        if "K" not in spec and "M" not in spec and name not in in_terms:
+            raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices) or a "
+                             "[[term]] that names it in its factors")
         bounds = spec.get("bounds", [-np.inf, np.inf])
         if not isinstance(bounds, list) or len(bounds) != 2:
             raise InputError(f"{where}: bounds must be [lower, upper], got {bounds!r}")
@@ -284,7 +287,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
                 files[name] = spec[key]
     name = data.get("model", {}).get("name", path.stem)
     try:
-        model = Model(tuple(dofs), K0, M0, tuple(params), tuple(dK), tuple(dM), name=name)
+        model = Model(tuple(dofs), K0, M0, tuple(params), tuple(dK), tuple(dM), name=name, terms=terms)
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
     stiffness = f"{path}: the stiffness of {', '.join(str(f) for f in files.values() if f != files['M0'])}"
@@ -295,6 +298,37 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
 
 #: model-file tables of matrices as an FE code writes them, and the keys that name their files
 EXTERNAL = {"abaqus": ("stiffness", "mass", "deck"), "nastran": ("op4", "op2", "dmig")}
+
+
+def _terms(raw, path: Path, base: Path, n: int, dofs_from: str) -> tuple:
+    """The ``[[term]]`` tables of a matrices model: ``factors = [["E", 1], ["t", 3]]`` (a factor is
+    ``[name, power]``, ``[name, {exp = a}]`` or ``[name, {poly = [c0, c1, ...]}]``) and ``K`` and/or
+    ``M`` files, the matrices the product multiplies (:mod:`femupdate.coefficients`)."""
+    from ..coefficients import Term, factor_from_table
+
+    if isinstance(raw, Mapping) or not isinstance(raw, list):
+        raise InputError(f"{path}: term must be an array of tables ([[term]] factors = [[\"t\", 3]] K = \"file\")")
+    out = []
+    for i, spec in enumerate(raw, start=1):
+        where = f"{path}: [[term]] #{i}"
+        if not isinstance(spec, Mapping):
+            raise InputError(f"{where} must be a table")
+        unknown = sorted(set(spec) - {"factors", "K", "M"})
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: factors, K, M)")
+        if "factors" not in spec or ("K" not in spec and "M" not in spec):
+            raise InputError(f"{where}: a term needs factors = [[\"name\", power], ...] and K and/or M")
+        fs = spec["factors"]
+        if not isinstance(fs, list) or not fs:
+            raise InputError(f"{where}: factors must be a non-empty list of pairs [parameter, power], got {fs!r}")
+        factors = [factor_from_table(f, f"{where} factors") for f in fs]
+        mats = {k: _sized(load_matrix(spec[k], base, f"{where} {k}"), n, f"{where} {k} ({spec[k]})", dofs_from)
+                for k in ("K", "M") if k in spec}
+        try:
+            out.append(Term(tuple(factors), **mats))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    return tuple(out)
 
 
 def _external_model(data: Mapping, path: Path, table: str) -> Model:

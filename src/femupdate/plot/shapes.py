@@ -83,7 +83,7 @@ def shape_geometry(model, segments=None) -> ShapeGeometry | None:
     xyz = np.array([model.nodes[i] for i in ids], float).reshape(-1, 3)
     if segments is None:
         pattern = abs(sp.coo_array(model.K0))
-        for A in model.dK:
+        for A in (*model.dK, *(t.K for t in getattr(model, "terms", ()))):  # non-linear terms too
             if A is not None:
                 pattern = pattern + abs(sp.coo_array(A))
         coo = sp.coo_array(pattern)

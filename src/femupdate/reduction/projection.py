@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -127,7 +127,8 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
         Dofs ``keep``; the same parameters (names, values, bounds, fixed flags).  With a fixed
         ``T`` the reduced model is affine in the parameters; it is the exact reduction only at the
         values ``T`` was built at (Guyan/IRS/modal/hybrid/SEREP build ``T`` from K(p), M(p) or the
-        modes).  A parameter whose reduced matrices vanish is dropped with a warning.
+        modes).  A parameter whose reduced matrices vanish is dropped with a warning.  A non-linear
+        model's terms are projected term by term (:math:`T^T K_k T`, same coefficients f_k(p)).
     """
     model_arg(model, "model", "reduce")
     if not (isinstance(T, Transformation) or sp.issparse(T)):
@@ -161,7 +162,8 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
     for j, par in enumerate(model.parameters):
         k = project(model.dK[j], Tm) if model.dK[j] is not None else None
         m = project(model.dM[j], Tm) if model.dM[j] is not None else None
-        if vanishes(k, model.dK[j]) and vanishes(m, model.dM[j]):
+        in_terms = any(par.name in t.parameters for t in model.terms)
+        if vanishes(k, model.dK[j]) and vanishes(m, model.dM[j]) and not in_terms:
             dropped.append(par.name)
             continue
         params.append(par)
@@ -177,6 +179,8 @@ def reduce(model: Model, T, keep: Sequence[str] | None = None, name: str | None 
         dM=tuple(_clean(m) if m is not None else None for m in dM),
         name=name or f"{model.name} ({method}, {len(keep)} dofs)",
         nodes={k: v for k, v in model.nodes.items() if k in nodes_kept},
+        terms=tuple(replace(t, K=None if t.K is None else _clean(project(t.K, Tm)),
+                            M=None if t.M is None else _clean(project(t.M, Tm))) for t in model.terms),
     )
 
 

@@ -121,6 +121,9 @@ def assemble(models: Sequence[Model], dofs: Sequence[str] | None = None, name: s
         No models; a ``dofs`` order that is not exactly the union; a parameter declared
         differently in two parts; and as :class:`Model`.
     """
+    from ..coefficients import route_refusal
+    for m in models:
+        route_refusal(m, "the superelement assembly")
     if not models:
         raise InputError("assemble: no models")
     union = sorted({d for m in models for d in m.dofs}, key=sort_key)

@@ -23,6 +23,20 @@ from .._errors import InputError, NumericalError
 REPEATED_TOL = rules.REPEATED_TOL  # relative eigenvalue gap below which modes count as repeated
 
 
+def tangent(model, values=None, modes=None):
+    """The model to differentiate: ``model`` itself when affine; for a non-linear one its
+    tangent affine model at ``values`` (:meth:`Model.linearised <femupdate.Model.linearised>`),
+    exact there to first order, so every route's formulas hold unchanged.  Without ``values`` the
+    values ``modes`` were computed at (their context), else the nominal ones."""
+    if getattr(model, "is_affine", True):
+        return model
+    if values is None and modes is not None:
+        ctx = getattr(modes, "context", None)
+        if ctx is not None and getattr(ctx, "model", None) is model and getattr(ctx, "before", None):
+            values = dict(ctx.before)
+    return model.linearised(values)
+
+
 def resolve_params(model, params) -> np.ndarray:
     if params is None:
         return np.asarray(model.free, dtype=np.intp)

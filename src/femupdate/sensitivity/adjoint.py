@@ -37,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .._errors import InputError
-from ._common import check_distinct, in_group, parameter_products, resolve_groups, resolve_params, resolve_which
+from ._common import tangent, check_distinct, in_group, parameter_products, resolve_groups, resolve_params, resolve_which
 from .factor import check_modes, prepare_factor
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
 
@@ -125,6 +125,7 @@ def adjoint_details(model, modes, which=None, params=None, sensors=None, values=
         :func:`~femupdate.sensitivity.series.omitted_modes_series`.
     """
     check_modes(model, modes)
+    model = tangent(model, values, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
     s = resolve_sensors(model, sensors)

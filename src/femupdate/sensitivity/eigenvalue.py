@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_distinct, param_products, resolve_groups, resolve_params, resolve_which
+from ._common import check_distinct, param_products, resolve_groups, resolve_params, resolve_which, tangent
 
 
-def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool = False, groups=None) -> np.ndarray:
+def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool = False, groups=None,
+                            values=None) -> np.ndarray:
     r"""∂λ_i/∂p_j = φ_iᵀ (∂K/∂p_j − λ_i ∂M/∂p_j) φ_i  (paper eq. 21), mass-normalised φ.
 
     Parameters
@@ -27,6 +28,10 @@ def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool
         the Rayleigh quotient of the computed mode
         (:func:`~femupdate.sensitivity.repeated.restricted_derivatives`).
 
+    values : None, mapping or array_like, optional
+        Parameter values of ``modes``, where a non-linear model is differentiated (default: the
+        values the modes were computed at, else nominal); an affine model ignores them.
+
     Returns
     -------
     ndarray (len(which), len(params))
@@ -39,6 +44,7 @@ def eigenvalue_derivatives(model, modes, which=None, params=None, relative: bool
     [[0.0670, 0.0773], [0.0580, 0.0893]] (condition number 14.5) — see the paper section
     ``eq22_sensitivity``.
     """
+    model = tangent(model, values, modes)
     which = resolve_which(modes, which)
     params = resolve_params(model, params)
     check_distinct(modes, which, groups=resolve_groups(modes, which, groups))

@@ -29,7 +29,7 @@ from .._errors import InputError, NumericalError
 from ..dofs import canonical
 from ..options.choices import SENSITIVITY_ROUTES
 from ..modal import DENSE_LIMIT  # models up to this size take Nelson's method under "auto"
-from ._common import check_distinct, resolve_groups, resolve_params, resolve_which
+from ._common import check_distinct, resolve_groups, resolve_params, resolve_which, tangent
 from .adjoint import adjoint_details, resolve_sensors
 from .factor import check_modes, prepare_factor
 from .finite_difference import finite_difference
@@ -261,6 +261,7 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
     if method == "auto":
         method = choose_method(model.n_dofs, s.size, params.size)
 
+    fd_model, model = model, tangent(model, values, modes)  # a non-linear model: its tangent at values
     n_terms = 0
     if method == "adjoint":
         dlam, dphi_s, n_terms = adjoint_details(model, modes, which, params, s, values, sigma, tol, lu,
@@ -282,8 +283,8 @@ def jacobian(model, modes, which, sensors, params=None, values=None, method: str
             dlam, dphi = modal_static_correction(model, modes, which, params, values, sigma, groups=g)
         dphi_s = dphi[s]
     else:  # "fd"
-        dlam, dphi_s = _finite_difference(model, modes, which, params, values, s, grouped)
-    restricted = tuple(restricted_derivatives(model, modes, grp, params) for grp in used)
+        dlam, dphi_s = _finite_difference(fd_model, modes, which, params, values, s, grouped)
+    restricted = tuple(restricted_derivatives(model, modes, grp, params, values) for grp in used)
 
     lam = modes.eigenvalues[which]
     if relative_eigenvalues:

@@ -9,7 +9,7 @@ from .._docs import DERIVATIVE_DOCS, shared_docs
 
 from .._errors import InputError
 from ..modal import NotPositiveDefinite, factorize, nearly_singular
-from ._common import group_rhs, in_group, mode_rhs, resolve_request
+from ._common import tangent, group_rhs, in_group, mode_rhs, resolve_request
 
 
 def modal_part(modes, i, F, mjj, group=None, Ng=None):
@@ -65,6 +65,7 @@ def modal(model, modes, which=None, params=None, values=None, groups=None) -> tu
 
     {{DERIVATIVE_RAISES}}
     """
+    model = tangent(model, values, modes)
     which, params, grouped = resolve_request(model, modes, which, params, groups)
     M = model.M(values)
     dlam = np.zeros((which.size, params.size))
@@ -102,6 +103,7 @@ def modal_static_correction(model, modes, which=None, params=None, values=None, 
     InputError
         K − σM singular, or K singular with no positive diagonal entry.
     """
+    model = tangent(model, values, modes)
     which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     lu, sigma = shifted_factor(K, M, sigma)

@@ -10,7 +10,7 @@ import scipy.sparse as sp
 
 from .._errors import NumericalError
 from ..modal import factorize
-from ._common import group_rhs, mode_rhs, resolve_request
+from ._common import tangent, group_rhs, mode_rhs, resolve_request
 
 DENSE_LIMIT = 1500
 
@@ -43,6 +43,7 @@ def nelson(model, modes, which=None, params=None, values=None, groups=None) -> t
     NumericalError
         The modified matrix of a mode is singular, or a derivative is not finite.
     """
+    model = tangent(model, values, modes)
     which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     n = model.n_dofs

@@ -63,7 +63,7 @@ from .. import rules
 from .._errors import InputError, NumericalError
 from ..close_modes import mode_groups
 from ..modal import model_modes
-from ._common import param_products, resolve_groups, resolve_params
+from ._common import tangent, param_products, resolve_groups, resolve_params
 
 
 def restricted_derivatives(model, modes, group, params=None, values=None) -> np.ndarray:
@@ -103,6 +103,7 @@ def restricted_derivatives(model, modes, group, params=None, values=None) -> np.
     del values  # K_j, M_j of an affine model do not depend on the point
     if modes.normalisation != "mass":
         raise InputError(f"sensitivities need mass-normalised modes, got {modes.normalisation!r}")
+    model = tangent(model, values, modes)
     params = resolve_params(model, params)
     a, b = _group(modes, group)
     lam, Phi = modes.eigenvalues[a:b], modes.shapes[:, a:b]
@@ -180,8 +181,13 @@ def adjacent_eigenvectors(model, modes, group, direction, params=None, values=No
         The direction does not split the eigenvalue at first order (repeated μ): the adjacent
         eigenvectors are then not determined by D.
     """
+    from ..coefficients import route_refusal
     from .nelson import nelson
 
+    # Dailey's derivatives need the second derivatives K'' and M'' along the direction, zero only when
+    # the parameters enter linearly (the tangent model has none)
+    route_refusal(model, "adjacent_eigenvectors (Dailey's eigenvector derivatives of a repeated eigenvalue, "
+                         "which take K'' = M'' = 0)")
     params = resolve_params(model, params)
     d = np.asarray(direction, dtype=float).ravel()
     if d.shape != (params.size,) or not np.all(np.isfinite(d)):

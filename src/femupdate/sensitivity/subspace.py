@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import resolve_request
+from ._common import tangent, resolve_request
 from .factor import check_modes, prepare_factor, single_thread_blas, solve
 from .modal import group_mode_rhs, modal_part
 from .series import DEFAULT_TOL, MAX_TERMS, omitted_modes_series
@@ -119,6 +119,7 @@ def subspace_details(model, modes, which=None, params=None, values=None, sigma=N
         not converge in ``max_terms``.
     """
     check_modes(model, modes)
+    model = tangent(model, values, modes)
     which, params, grouped = resolve_request(model, modes, which, params, groups)
     K, M = model.K(values), model.M(values)
     lu, sigma = prepare_factor(K, M, modes, sigma, lu)

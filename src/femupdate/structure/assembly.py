@@ -1,7 +1,8 @@
-"""The assembly of a :class:`~femupdate.structure.Structure` into the affine sparse
+"""The assembly of a :class:`~femupdate.structure.Structure` into the sparse
 :class:`~femupdate.model.Model` (:meth:`Structure.build <femupdate.structure.Structure.build>`):
 element terms per group, properties resolved to numbers or parameters, triplets summed into one
-sparse matrix per parameter (no dense global matrix)."""
+sparse matrix per parameter and one per product of parameter powers (E·t³: a non-linear term
+of the model, :mod:`femupdate.coefficients`); no dense global matrix."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from .. import elements_3d as e3
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
 from ..dofs import describe, parse_dof, sort_key
+from ..coefficients import Power, Term
 from ..model import Model
 from .groups import SHELLS, SOLIDS, ElementGroup, merge_groups, triplets
 from .units import parameter_units
@@ -49,15 +51,19 @@ def assemble(structure) -> Model:
     L, n = len(pnames), len(dofs)
     trip: dict[tuple[str, int], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
         (target, t): [] for target in ("K", "M") for t in range(-1, L)}  # every K key, then every M key
+    signatures: dict[tuple, int] = {}  # a product of parameter powers -> its owner id (L, L + 1, ...)
     for g in groups:
         terms = element_terms(self, g)
         idx = np.array([[index.get(lab, -1) for lab in row] for row in g.labels], dtype=np.int64)
         resolved = {k: resolve_property(self, g, k, pindex) for k in g.props}
         for target, tlist in (("K", terms.K), ("M", terms.M)):
             for factors, unit in tlist:
-                coef, pid = combine_factors(self, g, factors, resolved, target)
+                coef, pid = combine_factors(self, g, factors, resolved, signatures, L)
                 triplets(trip, target, unit, idx, coef, pid)
     mats: dict[tuple[str, int], sp.csr_array | None] = {}
+    for target in ("K", "M"):
+        for t in range(L, L + len(signatures)):
+            trip.setdefault((target, t), [])
     for (target, t), parts in trip.items():
         if not parts:
             mats[(target, t)] = None
@@ -78,6 +84,8 @@ def assemble(structure) -> Model:
                          for par in (self.parameters[p] for p in pnames)),
         dK=tuple(mats[("K", j)] for j in range(L)), dM=tuple(mats[("M", j)] for j in range(L)),
         name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
+        terms=tuple(Term(factors=tuple(Power(pnames[j], a) for j, a in sig), K=mats[("K", t)], M=mats[("M", t)])
+                    for sig, t in signatures.items()),
         positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
     )
 
@@ -151,24 +159,31 @@ def resolve_property(self, g: ElementGroup, prop: str, pindex: dict) -> tuple[np
                              "compute with" + (f" (parameter {v!r})" if isinstance(v, str) else ""))
     return num, pid
 
-def combine_factors(self, g: ElementGroup, factors, resolved, target) -> tuple[np.ndarray, np.ndarray]:
-    coef = np.ones(len(g.labels))
-    pid = np.full(len(g.labels), -1, dtype=np.int64)
-    for f in factors:
+def combine_factors(self, g: ElementGroup, factors, resolved, signatures: dict, L: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per element, the numeric coefficient of a term and its owner: -1 (no parameter, K0), j
+    (parameter j to the first power, the affine dK[j]) or an id from ``signatures`` (a product
+    of parameter powers such as E·t³, a non-linear :class:`~femupdate.coefficients.Term`;
+    ``signatures`` is updated in place)."""
+    n_el = len(g.labels)
+    coef = np.ones(n_el)
+    P = np.full((n_el, max(len(factors), 1)), -1, dtype=np.int64)
+    for c, f in enumerate(factors):
         num, p = resolved[f]
-        clash = np.flatnonzero((pid >= 0) & (p >= 0))
-        if clash.size:
-            i = clash[0]
-            names = list(self.parameters)
-            raise InputError(
-                f"{g.where[i]}: the {target} term {'*'.join(factors)} multiplies parameters "
-                f"{names[pid[i]]!r} and {names[p[i]]!r}; the model must stay affine in its parameters "
-                f"(K = K0 + sum p_j K_j), so make only one of them a parameter"
-                + (" or use the physical-term element type beam2d_terms / frame3d_terms" if g.type in ("beam2d", "frame3d") else "")
-            )
         coef = coef * num
-        pid = np.where(p >= 0, p, pid)
-    return coef, pid
+        P[:, c] = p
+    P.sort(axis=1)
+    rows, inverse = np.unique(P, axis=0, return_inverse=True)
+    owner_of_row = np.empty(len(rows), dtype=np.int64)
+    for r, row in enumerate(rows):
+        ids, counts = np.unique(row[row >= 0], return_counts=True)
+        sig = tuple((int(a), int(b)) for a, b in zip(ids, counts))
+        if not sig:
+            owner_of_row[r] = -1
+        elif len(sig) == 1 and sig[0][1] == 1:
+            owner_of_row[r] = sig[0][0]
+        else:
+            owner_of_row[r] = signatures.setdefault(sig, L + len(signatures))
+    return coef, owner_of_row[np.asarray(inverse).ravel()]
 
 
 __all__ = ["assemble", "element_terms", "resolve_property", "combine_factors"]

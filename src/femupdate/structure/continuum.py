@@ -13,11 +13,6 @@ from ..dofs import dof
 from ..elements_3d.shells import DRILL
 from .groups import NODE_DIRS, SHELLS, SOLIDS, mass_kind
 
-_NONLINEAR_T = ("enters the bending stiffness as t³ (and the rotary inertia as t³), not linearly; a thickness "
-                "parameter needs the non-linear parametrisation K = K0 + sum f_k(p) K_k, which femupdate does not "
-                "have yet: give t as a number and update E (or rho) of the set instead")
-
-
 def element_nodes(nodes, counts: dict[str, int], kind: str, where: str) -> tuple[str, np.ndarray]:
     """Element type (by node count) and the ``(n_el, n_nodes)`` integer node array."""
     try:
@@ -61,9 +56,6 @@ def add_shell(s, nodes, E, nu, t, rho, mass, drill, where) -> None:
     type_, arr = element_nodes(nodes, SHELLS, "shell", where)
     if nu is None:
         raise InputError(f"{where}: a shell needs Poisson's ratio nu")
-    for v in (t if isinstance(t, (list, tuple, np.ndarray)) else [t]):
-        if isinstance(v, str):
-            raise InputError(f"{where}: thickness t = {v!r} names a parameter; the thickness {_NONLINEAR_T}")
     if isinstance(drill, bool) or not isinstance(drill, (int, float)) or not (math.isfinite(drill) and drill > 0):
         raise InputError(f"{where}: drill must be a positive number, got {drill!r}")
     _add(s, type_, arr, {"E": E, "t": t, "rho": rho}, nu, mass, where, drill=float(drill))

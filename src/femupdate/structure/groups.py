@@ -231,7 +231,7 @@ def triplets(trip, target, unit, idx, coef, pid) -> None:
     r, c, v = rows[keep], cols[keep], vals[keep]
     for t in np.unique(owner):
         sel = owner == t
-        trip[(target, int(t))].append((r[sel], c[sel], v[sel]))
+        trip.setdefault((target, int(t)), []).append((r[sel], c[sel], v[sel]))
 
 
 __all__ = ["MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "EDGES", "node_pairs", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",

@@ -310,6 +310,8 @@ def exact_solutions(model, eigenvalues: Sequence | None = None, *, values=None, 
         eigenvalue that is not a (positive) number, or eigenvalues not ascending; with fewer than
         N eigenvalues, repeated ones.
     """
+    from ..coefficients import route_refusal
+    route_refusal(model, 'the exact-solution algebra (exact_solutions, uniqueness --exact)')
     _door(model, eigenvalues, values, n_modes, params, bounds)
     import sympy as sp
     from scipy.linalg import eigh

@@ -16,8 +16,8 @@ minimum over (p, u) is the minimum over p of the projected residual, so nothing 
 parameters' bounds, regularisation, multi-start clustering and diagnostics stay those of the
 parameters, and the covariance of the diagnostics is the parameters' marginal covariance (the
 Schur complement of the joint one).  The Jacobian of the projected residual is exact: with
-A = (K − λ_k M)/c_k, B = A[:, u] and A_j = (K_j − λ_k M_j)/c_k (the model is affine in p, so
-K_j, M_j are constant),
+A = (K − λ_k M)/c_k, B = A[:, u] and A_j = (K_j − λ_k M_j)/c_k (K_j = ∂K/∂p_j: constant for an
+affine model, taken at p by the chain rule for a non-linear one),
 
 .. math::  \frac{\partial r}{\partial p_j} = P^\perp A_j\varphi - B\,(B^T B)^{-1}
            A_j[:, u]^T r, \qquad P^\perp = I - B (B^T B)^{-1} B^T
@@ -138,15 +138,8 @@ class DynamicResidual:
         self.m = [np.asarray(targets.pos[targets.measured(k)], np.intp) for k in range(T)]
         self.u = [np.setdiff1d(np.arange(self.n), mk) for mk in self.m]
         self.psi = [np.asarray(targets.psi_e[targets.measured(k)], float) for k in range(T)]
-        # the derivative matrices stacked, (L·n, n), and their transposes: A_j φ and A_jᵀ r of every
-        # parameter in one product each
-        dK = [model.dK_dp(int(j)) for j in self.idx]
-        dM = [model.dM_dp(int(j)) for j in self.idx]
-        empty = sp.csr_array((0, self.n))
-        self.DK = sp.csr_array(sp.vstack(dK or [empty], format="csr"))
-        self.DM = sp.csr_array(sp.vstack(dM or [empty], format="csr"))
-        self.DKT = sp.csr_array(sp.vstack([d.T for d in dK] or [empty], format="csr"))
-        self.DMT = sp.csr_array(sp.vstack([d.T for d in dM] or [empty], format="csr"))
+        self._stacks_at: bytes | None = None
+        self._stacks(np.asarray(p_nominal, float))
         K0, M0 = model.K(p_nominal).tocsc(), model.M(p_nominal).tocsc()
         self.c = np.ones(T)
         for k in range(T):
@@ -161,6 +154,22 @@ class DynamicResidual:
             self.c[k] = c
         self._key: bytes | None = None
         self._cache: list[_Expansion] = []
+
+    def _stacks(self, p: np.ndarray) -> None:
+        """The derivative matrices stacked, (L·n, n), and their transposes: A_j φ and A_jᵀ r of every
+        parameter in one product each.  An affine model's once; a non-linear model's at each p (the
+        chain rule, :meth:`Model.dK_dp <femupdate.Model.dK_dp>`)."""
+        key = b"" if self.model.is_affine else p.tobytes()
+        if key == self._stacks_at:
+            return
+        dK = [self.model.dK_dp(int(j), p) for j in self.idx]
+        dM = [self.model.dM_dp(int(j), p) for j in self.idx]
+        empty = sp.csr_array((0, self.n))
+        self.DK = sp.csr_array(sp.vstack(dK or [empty], format="csr"))
+        self.DM = sp.csr_array(sp.vstack(dM or [empty], format="csr"))
+        self.DKT = sp.csr_array(sp.vstack([d.T for d in dK] or [empty], format="csr"))
+        self.DMT = sp.csr_array(sp.vstack([d.T for d in dM] or [empty], format="csr"))
+        self._stacks_at = key
 
     def _matrix(self, K, M, k: int):
         """A = (K − λ_k M) / c_k, dense (K and M given dense) or sparse."""
@@ -199,6 +208,7 @@ class DynamicResidual:
         """∂r/∂x at p, (T · n_dofs, L), with ∂p/∂x ``dpdx``."""
         tg = self.targets
         L = self.idx.size
+        self._stacks(np.asarray(p, float))
         out = np.zeros((tg.n_test * self.n, L))
         for e in self.expansions(p):
             lam, c = float(tg.lam_e[e.k]), self.c[e.k]

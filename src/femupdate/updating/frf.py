@@ -213,7 +213,8 @@ class FRFProblem(Parametrisation):
         real = damping.undamped and not np.iscomplexobj(self.f)
         self.w, self.target = R.prepare(xe, self.kind, w, real)
         self.xe = xe.real if real and np.iscomplexobj(xe) else xe
-        self.forms = ParameterForms(model, self.idx)
+        # a non-linear model's forms depend on p: made at each Jacobian (its tangent there)
+        self.forms = ParameterForms(model, self.idx) if model.is_affine else None
         n = model.n_dofs
         self.B = np.zeros((n, 1 + self.S.size), dtype=self.f.dtype)
         self.B[:, 0] = self.f
@@ -286,10 +287,11 @@ class FRFProblem(Parametrisation):
         NumericalError
             A singular dynamic stiffness at a line.
         """
-        _, sys_, X = self._evaluate(x)
+        p, sys_, X = self._evaluate(x)
+        forms = self.forms if self.forms is not None else ParameterForms(self.model, self.idx, p)
         L = self.idx.size
         # eq. 32 for the force vector: dx_S/dp_j = -Y_S^T (c_K K_j + c_M M_j) x, every j at once
-        dx = np.stack([-self.forms(X[i, :, 1:], X[i, :, :1], sys_.cK[i], sys_.cM[i])[:, :, 0].T
+        dx = np.stack([-forms(X[i, :, 1:], X[i, :, :1], sys_.cK[i], sys_.cM[i])[:, :, 0].T
                        for i in range(self.omega.size)])  # (n_l, n_s, L)
         J = R.jacobian(X[:, self.S, 0], dx, self.w, self.kind)
         return J.reshape(-1, L) * self.dp_dx(x)[None, :]

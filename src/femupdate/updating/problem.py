@@ -449,7 +449,8 @@ class Problem(Parametrisation):
             dlam, dphi = sens.dlam, sens.dpsi
             self.sensitivity_used = sens.method
         else:
-            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx, groups=groups or None), None
+            dlam, dphi = eigenvalue_derivatives(self.model, modes, which, self.idx, groups=groups or None,
+                                               values=p), None
             self.sensitivity_used = "fox-kapoor"
         dpdx = self.dp_dx(x)
         J = np.zeros((self.n_residuals, self.idx.size))

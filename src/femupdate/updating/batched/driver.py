@@ -63,6 +63,10 @@ def unsupported(model, options: UpdateOptions | Mapping | None = None, explicit:
     if not isinstance(options, UpdateOptions):
         options = UpdateOptions.of("unsupported", {k: v for k, v in dict(options or {}).items() if k != "values"})
     o = options
+    if getattr(model, "terms", ()):
+        t = model.terms[0]
+        return (f"parameter {t.parameters[0]!r} enters model {model.name!r} through {t.describe()}: the batched route "
+                "assumes the parameters enter linearly (K = K0 + sum p_j K_j)")
     if o.frf.changed():
         return f"FRF option(s) {', '.join(o.frf.changed())} are not implemented by the batched route"
     if o.solver.method != "trf":
@@ -137,6 +141,8 @@ class BatchedProblem:
     def __init__(self, model, names: Sequence[str], starts, data, row_dataset=None, *, values=None,
                  shape_scaling: str = "unit", min_mac: float = 0.5, pairing: str = "auto", close_modes: float = 0.0,
                  solver: SolverOptions | None = None, **shorthand):
+        from ...coefficients import route_refusal
+        route_refusal(model, 'the compiled batched route')
         solver = gather("BatchedProblem", shorthand, solver=(SolverOptions, solver))["solver"]
         if solver.method != "trf" or solver.regularization is not None:
             raise InputError(f"batched updating: the compiled route runs the 'trf' solver without regularization, "

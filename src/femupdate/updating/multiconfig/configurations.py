@@ -185,6 +185,8 @@ def configure(model: Model, modification: Modification) -> ConfiguredModel:
         culprit), a mass or spring on a dof the same modification supports, every dof supported,
         a value set for a parameter that no longer enters the model.
     """
+    from ...coefficients import route_refusal
+    route_refusal(model, 'the multi-configuration route')
     mod = modification
     where = f"modification {mod.name!r}"
     index = {d: i for i, d in enumerate(model.dofs)}
