@@ -607,7 +607,37 @@ def _statistics_told(expected, actual) -> bool:
     return changed
 
 
+def _paper_damage_one_pairing(expected, actual) -> bool:
+    """The paper's cantilever-versus-free damage study after damage pairs by update's rule and fits
+    every unknown afresh: accepted when the same cases ran and the paper's answer (cantilevered
+    locates more often than free-free) is unchanged; the counts, the finding and the runs move."""
+    if not (isinstance(expected, dict) and isinstance(actual, dict)):
+        return False
+    rec = (expected.get("sections") or {}).get("damage_cantilever_vs_free")
+    now = (actual.get("sections") or {}).get("damage_cantilever_vs_free") if isinstance(actual.get("sections"), dict) else None
+    if not (isinstance(rec, dict) and isinstance(now, dict)) or rec == now:
+        return False
+    same = (rec.get("agrees_with_paper") == now.get("agrees_with_paper") is True
+            and rec.get("description") == now.get("description")
+            and (rec.get("located_first") or {}).get("cases") == (now.get("located_first") or {}).get("cases"))
+    if not same:
+        return False
+    for key in ("located_first", "finding", "summary", "study"):
+        if key in now:
+            rec[key] = now[key]
+    return True
+
+
 PREPARATIONS = {
+    "the paper's damage study with one pairing": (
+        "`femupdate paper`'s cantilever-versus-free damage study (section damage_cantilever_vs_free) runs "
+        "detect_damage, which now pairs test and baseline modes by update's rule and fits every unknown afresh "
+        "from the baseline (issue 27 items 1 and 3): the damaged member is located (alone or first) in 19/24 "
+        "runs cantilevered (17 before), 10/24 free-free (10) and 20/24 free-free over the wide band (21).  The "
+        "paper's answer -- cantilevered locates more often than free-free in the same band -- is unchanged; the "
+        "counts, the finding's text and the runs are taken as they now are.",
+        _paper_damage_one_pairing,
+    ),
     "solutions told apart by statistics": (
         "Issue 27 item 4: two solutions are distinct only when they differ significantly against their own "
         "covariances (the Mahalanobis distance above the chi-square quantile at alpha = 0.01; the relative "
@@ -799,6 +829,7 @@ def main(names):
             if not strict:  # another machine: only what the preparations accept, the rest as the test compares it
                 rest: list[str] = []
                 portable_compare(expected, actual, "", rest, portable=True)
+                rest = [d for d in rest if not d.startswith(ROUND_OFF_DRIVEN.get(name, ("\0",)))]  # as the test
                 if rest:
                     raise SystemExit(f"{name}: {len(rest)} difference(s) beyond the preparations (portable "
                                      "comparison); nothing written:\n" + "\n".join(f"  {d[:300]}" for d in rest))
