@@ -5,6 +5,7 @@ and what a solver deck says of materials and sections."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -107,7 +108,7 @@ class Mesh:
         if len(folded) == 1:
             return folded[0], sets[folded[0]]
         have = ", ".join(sorted(sets)) or "none"
-        raise InputError(f"{self.source}: no {kind} set {name!r} (its {kind} sets: {have})")
+        raise InputError(f"no {kind} set {name!r} in {Path(self.source).name} (its {kind} sets: {have})")
 
 
 def int_id(text: str, what: str) -> int:

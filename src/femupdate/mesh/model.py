@@ -28,7 +28,10 @@ def _deck_sets(mesh: Mesh) -> dict[str, dict]:
     """Properties of each sectioned element set of a deck: E, nu, rho from its material, t."""
     out: dict[str, dict] = {}
     for sec in mesh.sections:
-        name, _ = mesh.set_of(sec.elset, "element")
+        try:
+            name, _ = mesh.set_of(sec.elset, "element")
+        except InputError as exc:
+            raise InputError(f"{sec.where}: {exc}") from None
         mat = mesh.materials.get(sec.material) or mesh.materials.get(sec.material.upper())
         if mat is None:
             raise InputError(f"{sec.where}: material {sec.material!r} is not defined in {mesh.source}")

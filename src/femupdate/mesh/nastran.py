@@ -35,14 +35,14 @@ def _fields(line: str) -> tuple[str, list[str], bool]:
     """(first field, data fields, large-field) of one physical line."""
     if "," in line:
         parts = [p.strip() for p in line.split(",")]
-        large = parts[0].endswith("*")
+        large = parts[0].endswith("*") or parts[0].startswith("*")
         per = 4 if large else 8
         data = parts[1:]
         if len(data) == per + 1 and data[-1][:1] in ("+", "*", ""):
             data = data[:-1]  # the continuation field
         return parts[0], data, large
     head = line[:8].strip()
-    large = head.endswith("*")
+    large = head.endswith("*") or head.startswith("*")  # a large-field card or its continuation
     width = 16 if large else 8
     body = line[8:72]
     return head, [body[i:i + width].strip() for i in range(0, 64, width)], large
