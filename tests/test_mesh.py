@@ -145,15 +145,26 @@ def _block_mesh():
     return g.reshape(-1, 3), np.array(hexes)
 
 
-@pytest.mark.parametrize("kind", ["hex", "tetra"])
+def _tet10(pts, tets):
+    """Quadratic tetrahedra from linear ones: mid-edge nodes 5 (1-2), 6 (2-3), 7 (3-1), 8 (1-4), 9 (2-4), 10 (3-4)."""
+    edges = np.sort(tets[:, [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]]], axis=2).reshape(-1, 2)
+    uniq, inv = np.unique(edges, axis=0, return_inverse=True)
+    mids = 0.5 * (pts[uniq[:, 0]] + pts[uniq[:, 1]])
+    return np.vstack([pts, mids]), np.hstack([tets, len(pts) + inv.reshape(-1, 6)])
+
+
+@pytest.mark.parametrize("kind", ["hex", "tetra", "tetra10"])
 def test_solid_block_three_formats(tmp_path, kind):
     """A clamped block (meshio writes Gmsh 2.2 and the Nastran nodes and elements): same K and M,
     equal to the Structure built from the same arrays by hand."""
     pts, hexes = _block_mesh()
-    if kind == "tetra":  # each hexahedron into six tetrahedra around its 1-7 diagonal, positive volume
+    if kind.startswith("tetra"):  # each hexahedron into six tetrahedra around its 1-7 diagonal, positive volume
         tets = [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]]
         cells = hexes[:, tets].reshape(-1, 4)
         ctype, abq = "tetra", "C3D4"
+        if kind == "tetra10":
+            pts, cells = _tet10(pts, cells)
+            ctype, abq = "tetra10", "C3D10"
     else:
         cells, ctype, abq = hexes, "hexahedron", "C3D8I"
     clamp = np.flatnonzero(pts[:, 0] == 0)
@@ -166,7 +177,8 @@ def test_solid_block_three_formats(tmp_path, kind):
         meshio.write(files[fmt], m, file_format=fmt, binary=False)
     files["bdf"] = tmp_path / "b.bdf"
     meshio.nastran.write(files["bdf"], meshio.Mesh(pts, [(ctype, cells)], cell_data={"nastran:ref": [np.full(len(cells), 3)]}))
-    files["bdf"].write_text(files["bdf"].read_text().replace("ENDDATA\n", "") + "PSOLID,3,9\nMAT1,9,2.0,,0.25,3.0\n")
+    bulk = files["bdf"].read_text().replace("ENDDATA\n", "").replace("CTETRA_", "CTETRA ")  # meshio's name for CTETRA with 10
+    files["bdf"].write_text(bulk + "PSOLID,3,9\nMAT1,9,2.0,,0.25,3.0\n")
     inp = tmp_path / "b.inp"
     lines = [f"{i + 1}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in enumerate(pts)]
     els = [", ".join(map(str, [e + 1, *(c + 1)])) for e, c in enumerate(cells)]
@@ -249,6 +261,16 @@ def test_model_file_mesh_table_cli(plate16, tmp_path):
     r = subprocess.run([sys.executable, "-m", "femupdate", "modes", "plate.toml", "--n-modes", "3", "--json", "-"],
                        cwd=tmp_path, capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr
+    run = [sys.executable, "-m", "femupdate"]
+    r = subprocess.run(run + ["modes", "plate.toml", "--n-modes", "4", "--set", "E_plate=1.3", "--uff", "test.uff"],
+                       cwd=tmp_path, capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run(run + ["update", "plate.toml", "test.uff", "--json", "u.json"], cwd=tmp_path, capture_output=True,
+                       text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    import json
+    res = json.loads((tmp_path / "u.json").read_text())
+    assert abs(res["parameters"]["E_plate"] / 1.3 - 1) < 1e-6, res["parameters"]
     (tmp_path / "bad.toml").write_text(toml.replace("mesh.sets.plate", "mesh.sets.plates"))
     r = subprocess.run([sys.executable, "-m", "femupdate", "modes", "bad.toml"], cwd=tmp_path, capture_output=True, text=True, env=ENV)
     assert r.returncode == 2 and "no element set 'plates'" in r.stderr + r.stdout and "Traceback" not in r.stderr
