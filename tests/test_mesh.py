@@ -216,6 +216,7 @@ def test_bad_decks_refused_by_name(tmp_path):
     _refused(tmp_path, "b.bdf", GRIDS + "GRID,12,,3.,0.,0.\nCQUAD4,1,5,11,12,13,14\n" + PROPS, "node 12 defined twice")
     _refused(tmp_path, "c.bdf", GRIDS + "CQUAD4,1,5,11,13,12,14\n" + PROPS, r"element 1 \(CQUAD4, set '5'\).*degenerate")
     _refused(tmp_path, "d.bdf", GRIDS + "CQUAD4,1,6,11,12,13,14\n" + PROPS, r"PSHELL 5\): no element set '5' in d.bdf")
+    _refused(tmp_path, "h.bdf", GRIDS + "CQUAD4,8,5,11,12,13,11\n" + PROPS, r"element 8 \(CQUAD4\) lists a node twice")
     _refused(tmp_path, "e.bdf", GRIDS + "CQUAD4,1,5,11,12,13,99\n" + PROPS, "element 1 .CQUAD4. uses node 99")
     _refused(tmp_path, "f.bdf", GRIDS + "CQUAD4,1,5,11,12,13,14\nPSHELL,5,1,-0.01,1,,1\nMAT1,1,1.0,,0.3,1.0\n",
              "non-positive property t")

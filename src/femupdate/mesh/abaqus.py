@@ -59,7 +59,8 @@ def read_abaqus(path) -> Mesh:
     """The mesh, sets, materials and sections of an Abaqus input file (:mod:`femupdate.mesh.abaqus`)."""
     path = Path(path)
     mesh = Mesh(str(path), np.empty(0, np.int64), np.empty((0, 3)))
-    nodes: list = []
+    nodes: list[int] = []
+    coords: list[list[float]] = []
     elems: dict = {}
     names: dict[str, str] = {}  # case-folded set name -> as first written
     unknown: list[str] = []
@@ -83,7 +84,8 @@ def read_abaqus(path) -> Mesh:
                 if len(f) < 3 or len(f) > 4:
                     raise InputError(f"{w}: a *NODE line is 'id, x, y[, z]', got {', '.join(f)}")
                 ids.append(int_id(f[0], w))
-                nodes.append((ids[-1], *(_num(v, w) for v in f[1:]), *([0.0] * (4 - len(f)))))
+                nodes.append(ids[-1])
+                coords.append([_num(v, w) for v in f[1:]] + [0.0] * (4 - len(f)))
             if "NSET" in opts:
                 _add_set(mesh.nsets, names, opts["NSET"], ids)
         elif kw == "ELEMENT":
@@ -131,8 +133,7 @@ def read_abaqus(path) -> Mesh:
         raise InputError(f"{path}: keyword(s) femupdate does not read: {', '.join(unknown[:10])}{more}{hint}")
     if not nodes:
         raise InputError(f"{path}: no *NODE data")
-    arr = np.array(nodes, dtype=float)
-    mesh.node_ids, mesh.xyz = arr[:, 0].astype(np.int64), arr[:, 1:]
+    mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
     for (type_, src), (ids, conn) in elems.items():
         mesh.blocks.append(Block(type_, np.array(ids, np.int64), np.array(conn, np.int64), src))
     return mesh.check()

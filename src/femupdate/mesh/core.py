@@ -82,7 +82,8 @@ class Mesh:
     ignored: list[str] = field(default_factory=list)
 
     def check(self) -> Mesh:
-        """Refuse duplicate node or element ids and elements on undefined nodes (named by id)."""
+        """Refuse duplicate node or element ids, elements that list a node twice and elements on
+        undefined nodes (named by id)."""
         ids, counts = np.unique(self.node_ids, return_counts=True)
         if np.any(counts > 1):
             raise InputError(f"{self.source}: node {int(ids[counts > 1][0])} defined twice")
@@ -91,6 +92,11 @@ class Mesh:
         if np.any(ecounts > 1):
             raise InputError(f"{self.source}: element {int(eids[ecounts > 1][0])} defined twice")
         for b in self.blocks:
+            srt = np.sort(b.conn, axis=1)
+            rep = np.flatnonzero(np.any(srt[:, 1:] == srt[:, :-1], axis=1))
+            if rep.size:
+                raise InputError(f"{self.source}: element {int(b.ids[rep[0]])} ({b.source_type}) lists a node twice "
+                                 f"({', '.join(map(str, b.conn[rep[0]].tolist()))}): degenerate")
             missing = ~np.isin(b.conn, self.node_ids)
             if missing.any():
                 r = int(np.flatnonzero(missing.any(axis=1))[0])

@@ -42,7 +42,8 @@ def _tags(path: Path, section: str, counts: list[int] | None = None):
         return np.array([int(ln.split()[0]) for ln in lines[1:] if ln.strip()], np.int64)
     if not head[0].startswith("4.1"):
         return None
-    nblocks, i, tags = int(lines[0].split()[0]), 1, []
+    nblocks, i = int(lines[0].split()[0]), 1
+    tags: list = []
     for _ in range(nblocks):
         n = int(lines[i].split()[3])
         if section == "Nodes":
@@ -94,7 +95,7 @@ def read_gmsh(path) -> Mesh:
             continue
         for tag in np.unique(phys[k]):
             sel = phys[k] == tag
-            name = names.get((dim, int(tag)), str(int(tag)))
+            name = names.get((-1 if dim is None else dim, int(tag)), str(int(tag)))
             prev = mesh.nsets.get(name, np.empty(0, np.int64))
             mesh.nsets[name] = np.union1d(prev, conn[sel].ravel())
             if dim == top:

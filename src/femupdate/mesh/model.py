@@ -148,7 +148,7 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str) -> None:
         dirs = sup["dofs"]
         if isinstance(dirs, str) or not all(isinstance(d, str) for d in dirs):
             raise InputError(f"{w}: dofs must be a list of directions such as [\"x\", \"y\", \"z\"], got {dirs!r}")
-        labels = []
+        labels: list[str] = []
         for n in nodes:
             have = dirs_at.get(int(n))
             if have is None:

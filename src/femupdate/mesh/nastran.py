@@ -101,8 +101,9 @@ def _field(data, i, default=""):
 def read_nastran(path) -> Mesh:
     """The mesh, properties and materials of a Nastran bulk-data deck (:mod:`femupdate.mesh.nastran`)."""
     path = Path(path)
-    nodes: list[tuple[int, float, float, float]] = []
-    elems: dict[str, tuple[list, list, list, str]] = {}
+    nodes: list[int] = []
+    coords: list[list[float]] = []
+    elems: dict[tuple, tuple[list, list, list, str]] = {}
     mesh = Mesh(str(path), np.empty(0, np.int64), np.empty((0, 3)))
     unknown: list[str] = []
     for name, d, at in cards(path):
@@ -116,7 +117,8 @@ def read_nastran(path) -> Mesh:
             if _field(d, 6):
                 raise InputError(f"{where}: GRID {gid} has permanent constraints PS = {d[6]}, which are not read: "
                                  "remove them and give supports in the model file's [[mesh.support]]")
-            nodes.append((gid, *(real(_field(d, k, "0"), where) for k in (2, 3, 4))))
+            nodes.append(gid)
+            coords.append([real(_field(d, k, "0"), where) for k in (2, 3, 4)])
         elif name in _ELEMENTS:
             _element(name, d, where, elems)
         elif name == "PSHELL":
@@ -136,9 +138,8 @@ def read_nastran(path) -> Mesh:
                          "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1; PARAM, EIGRL and EIGR are skipped)")
     if not nodes:
         raise InputError(f"{path}: no GRID cards")
-    arr = np.array(nodes, dtype=float)
-    mesh.node_ids, mesh.xyz = arr[:, 0].astype(np.int64), arr[:, 1:]
-    for (type_, card), (ids, pids, conn, _) in ((k, v) for k, v in elems.items()):
+    mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
+    for (type_, card), (ids, pids, conn, _) in elems.items():
         ids_a, pids_a = np.array(ids, np.int64), np.array(pids, np.int64)
         mesh.blocks.append(Block(type_, ids_a, np.array(conn, np.int64), card))
         for p in np.unique(pids_a):
