@@ -5,6 +5,7 @@ against Leissa; a solid block from the three formats; bad input refused naming t
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -16,6 +17,7 @@ import scipy.sparse.linalg as sla
 
 import femupdate
 from femupdate._errors import InputError
+from femupdate.io.model_file import load_model
 from femupdate.mesh import read_mesh
 from femupdate.mesh.nastran import cards, real
 from femupdate.structure import Structure
@@ -266,12 +268,14 @@ def test_model_file_mesh_table_cli(plate16, tmp_path):
     r = subprocess.run(run + ["modes", "plate.toml", "--n-modes", "4", "--set", "E_plate=1.3", "--uff", "test.uff"],
                        cwd=tmp_path, capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr
-    r = subprocess.run(run + ["update", "plate.toml", "test.uff", "--json", "u.json"], cwd=tmp_path, capture_output=True,
-                       text=True, env=ENV)
+    (tmp_path / "out").mkdir()
+    r = subprocess.run(run + ["update", "plate.toml", "test.uff", "--json", "u.json", "--write-model", "out/updated.toml"],
+                       cwd=tmp_path, capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr
-    import json
     res = json.loads((tmp_path / "u.json").read_text())
     assert abs(res["parameters"]["E_plate"] / 1.3 - 1) < 1e-6, res["parameters"]
+    updated = load_model(tmp_path / "out" / "updated.toml")  # its [mesh] file relative to the new folder
+    assert updated.dofs == load_model(tmp_path / "plate.toml").dofs and abs(updated.parameters[0].value / 1.3 - 1) < 1e-6
     (tmp_path / "bad.toml").write_text(toml.replace("mesh.sets.plate", "mesh.sets.plates"))
     r = subprocess.run([sys.executable, "-m", "femupdate", "modes", "bad.toml"], cwd=tmp_path, capture_output=True, text=True, env=ENV)
     assert r.returncode == 2 and "no element set 'plates'" in r.stderr + r.stdout and "Traceback" not in r.stderr
