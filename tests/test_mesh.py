@@ -308,3 +308,19 @@ def test_gmsh_tet10_cantilever_against_beam_theory(tmp_path):
     w = np.sqrt(sla.eigsh(model.K(), k=2, M=model.M(), sigma=0)[0])
     r = w / (1.875104068711961**2 * np.sqrt(1 / 12 / L**4))
     assert np.all((0.985 < r) & (r < 0.997)), r
+
+
+def test_gmsh_element_named_by_its_tag(plate16, tmp_path):
+    """A bow-tie made in Gmsh's own file (two nodes of its first quadrangle swapped) is refused by the
+    element's Gmsh tag."""
+    lines = plate16[0].read_text().splitlines()
+    start = lines.index("$Elements")
+    i = next(k for k in range(start + 2, len(lines))  # the header of a block of dimension 2, type 3 (quadrangles)
+             if len(lines[k].split()) == 4 and lines[k].split()[0] == "2" and lines[k].split()[2] == "3")
+    row = lines[i + 1].split()
+    tag, row[2], row[3] = row[0], row[3], row[2]
+    lines[i + 1] = " ".join(row)
+    bad = tmp_path / "bowtie.msh"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=rf"bowtie.msh: element {tag} \(quad, set 'plate'\).*degenerate"):
+        _model(bad)
