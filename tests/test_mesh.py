@@ -180,14 +180,15 @@ def test_solid_block_three_formats(tmp_path, kind):
     files["bdf"] = tmp_path / "b.bdf"
     meshio.nastran.write(files["bdf"], meshio.Mesh(pts, [(ctype, cells)], cell_data={"nastran:ref": [np.full(len(cells), 3)]}))
     bulk = files["bdf"].read_text().replace("ENDDATA\n", "").replace("CTETRA_", "CTETRA ")  # meshio's name for CTETRA with 10
-    files["bdf"].write_text(bulk + "PSOLID,3,9\nMAT1,9,2.0,,0.25,3.0\n")
+    spc = "".join(f"SPC1,1,123,{','.join(str(c + 1) for c in clamp[k:k + 6])}\n" for k in range(0, len(clamp), 6))
+    files["bdf"].write_text(bulk + "PSOLID,3,9\nMAT1,9,2.0,,0.25,3.0\n" + spc)
     inp = tmp_path / "b.inp"
     lines = [f"{i + 1}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in enumerate(pts)]
     els = [", ".join(map(str, [e + 1, *(c + 1)])) for e, c in enumerate(cells)]
     inp.write_text("*NODE, NSET=ALL\n" + "\n".join(lines) + f"\n*ELEMENT, TYPE={abq}, ELSET=Block\n" + "\n".join(els)
                    + "\n*NSET, NSET=clamp\n" + ",\n".join(str(c + 1) for c in clamp)
                    + "\n*MATERIAL, NAME=steel\n*ELASTIC\n2.0, 0.25\n*DENSITY\n3.0\n"
-                     "*SOLID SECTION, ELSET=BLOCK, MATERIAL=steel\n,\n*STEP\n*FREQUENCY\n5\n*END STEP\n")
+                     "*SOLID SECTION, ELSET=BLOCK, MATERIAL=steel\n,\n*BOUNDARY\nclamp, ENCASTRE\n*STEP\n*FREQUENCY\n5\n*END STEP\n")
     files["inp"] = inp
     hand = Structure("hand")
     hand.add_nodes(range(1, len(pts) + 1), pts)
@@ -196,7 +197,8 @@ def test_solid_block_three_formats(tmp_path, kind):
     ref = hand.build()
     for name, f in files.items():
         sets = {"block": {"E": 2.0, "nu": 0.25, "rho": 3.0}} if f.suffix == ".msh" else None
-        model = Structure.from_mesh(f, sets, [{"nodes": (clamp + 1).tolist()}]).build()
+        own = f.suffix in (".inp", ".bdf")  # *BOUNDARY, SPC1: the deck's own supports
+        model = Structure.from_mesh(f, sets, None if own else [{"nodes": (clamp + 1).tolist()}]).build()
         assert model.dofs == ref.dofs, name
         assert abs(model.K() - ref.K()).max() <= 1e-12 * abs(ref.K()).max(), name
         assert abs(model.M() - ref.M()).max() <= 1e-12 * abs(ref.M()).max(), name
@@ -226,7 +228,10 @@ def test_bad_decks_refused_by_name(tmp_path):
              "Poisson's ratio")
     inp = "*NODE\n1,0,0,0\n2,1,0,0\n3,1,1,0\n4,0,1,0\n*ELEMENT, TYPE={t}, ELSET=P\n7, 1, 2, 3, 4\n"
     _refused(tmp_path, "a.inp", inp.format(t="CPS4"), "element type 'CPS4' is not supported")
-    _refused(tmp_path, "b.inp", inp.format(t="S4") + "*BOUNDARY\n1, 1, 6\n", r"\*BOUNDARY \(line 8\)")
+    _refused(tmp_path, "b.inp", inp.format(t="S4") + "*CLOAD\n1, 1, 6\n", r"\*CLOAD \(line 8\)")
+    _refused(tmp_path, "i.inp", inp.format(t="S4") + "*BOUNDARY\n1, 1, 6, 0.1\n", r"line 9: \*BOUNDARY reads")
+    _refused(tmp_path, "i.bdf", GRIDS + "CQUAD4,1,5,11,12,13,14\nSPC1,1,123,11\nSPC1,2,3,12\n" + PROPS,
+             "SPC1 sets 1 and 2")
     _refused(tmp_path, "c.inp", inp.format(t="S4"), "no element set 'Q'", sets={"Q": {"E": 1.0}})
     _refused(tmp_path, "d.inp", inp.format(t="S4") + "*PART, NAME=x\n", "parts and instances")
     _refused(tmp_path, "e.inp", inp.format(t="S4"), r"set 'P': its S4 elements need t",

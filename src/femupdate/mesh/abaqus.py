@@ -1,7 +1,7 @@
 """Abaqus keyword decks (``.inp``) read by femupdate itself: ``*NODE``, ``*ELEMENT`` (S4, S4R ->
 mitc4; S3, S3R -> mitc3; C3D8, C3D8I -> hex8; C3D4 -> tet4; C3D10 -> tet10), ``*ELSET``,
 ``*NSET`` (with GENERATE), ``*MATERIAL`` with ``*ELASTIC`` and ``*DENSITY``, ``*SHELL SECTION``,
-``*SOLID SECTION``.  ``*HEADING`` and ``*PREPRINT`` are skipped; the history data from ``*STEP``
+``*SOLID SECTION``, ``*BOUNDARY`` in the model data (fixed dofs).  ``*HEADING`` and ``*PREPRINT`` are skipped; the history data from ``*STEP``
 to ``*END STEP`` is skipped and listed; any other keyword (``*PART``, ``*BOUNDARY``, ...) is
 refused, named with its line."""
 
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
-from .core import Block, Material, Mesh, Section, int_id
+from .core import DIRS, Block, Material, Mesh, Section, int_id
 
 ELEMENT_TYPES = {"S4": "mitc4", "S4R": "mitc4", "S3": "mitc3", "S3R": "mitc3", "C3D8": "hex8", "C3D8I": "hex8",
                  "C3D4": "tet4", "C3D10": "tet10"}
@@ -122,6 +122,8 @@ def read_abaqus(path) -> Mesh:
                     raise InputError(f"{where}: the thickness line is missing")
                 t = _num(data[0][1][0], f"{path}: line {data[0][0]}")
             mesh.sections.append(Section(opts["ELSET"], opts["MATERIAL"].upper(), t, where))
+        elif kw == "BOUNDARY":
+            _boundary(path, opts, data, where, mesh)
         elif kw in _SKIP:
             continue
         else:
@@ -137,6 +139,32 @@ def read_abaqus(path) -> Mesh:
     for (type_, src), (ids, conn) in elems.items():
         mesh.blocks.append(Block(type_, np.array(ids, np.int64), np.array(conn, np.int64), src))
     return mesh.check()
+
+
+_NAMED = {"ENCASTRE": "123456", "PINNED": "123"}
+
+
+def _boundary(path, opts, data, where, mesh) -> None:
+    """``*BOUNDARY`` in the model data: ``node or set, first dof[, last dof[, 0]]``, ENCASTRE, PINNED."""
+    if opts:
+        raise InputError(f"{where}: options {', '.join(opts)} are not read (fixed dofs only)")
+    for ln, f in data:
+        w = f"{path}: line {ln}"
+        f = [v for v in f if v != ""]
+        if len(f) < 2 or len(f) > 4 or (len(f) == 4 and _num(f[3], w) != 0):
+            raise InputError(f"{w}: *BOUNDARY reads 'node or set, first dof[, last dof]' (zero), ENCASTRE or PINNED; "
+                             f"got {', '.join(f)}")
+        named = _NAMED.get(f[1].upper())
+        if named is None:
+            a = int_id(f[1], w)
+            b = int_id(f[2], w) if len(f) > 2 else a
+            if not 1 <= a <= b <= 6:
+                raise InputError(f"{w}: dofs {a} to {b}: Abaqus dofs are 1 to 6")
+            named = "".join(str(k) for k in range(a, b + 1))
+        target = f[0]
+        nodes = [int(target)] if target.lstrip("-").isdigit() else None
+        mesh.supports.append({"nodes": nodes, "set": target if nodes is None else None,
+                              "dofs": [DIRS[c] for c in named], "where": w})
 
 
 def _num(text: str, where: str) -> float:

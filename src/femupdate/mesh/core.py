@@ -69,6 +69,9 @@ class Mesh:
         Deck sections: which element set has which material and thickness.
     ignored : list of str
         What the reader skipped on purpose (solution control), named with its line.
+    supports : list of dict
+        The deck's own fixed dofs (Abaqus ``*BOUNDARY``, Nastran ``SPC1``), each
+        ``{"nodes": [ids], "dofs": [directions], "where": text}``.
     """
 
     source: str
@@ -80,6 +83,7 @@ class Mesh:
     materials: dict[str, Material] = field(default_factory=dict)
     sections: list[Section] = field(default_factory=list)
     ignored: list[str] = field(default_factory=list)
+    supports: list[dict] = field(default_factory=list)
 
     def check(self) -> Mesh:
         """Refuse duplicate node or element ids, elements that list a node twice and elements on
@@ -128,4 +132,8 @@ def int_id(text: str, what: str) -> int:
     return int(v)
 
 
-__all__ = ["Mesh", "Block", "Material", "Section", "NODE_COUNT", "int_id"]
+#: direction of each dof number of Abaqus and Nastran (1-6)
+DIRS = {"1": "x", "2": "y", "3": "z", "4": "rx", "5": "ry", "6": "rz"}
+
+
+__all__ = ["DIRS", "Mesh", "Block", "Material", "Section", "NODE_COUNT", "int_id"]

@@ -117,10 +117,12 @@ def add_mesh(s, mesh: Mesh, sets: Mapping | None = None, support: Sequence | Non
             else:
                 s.solid(b.conn[rows], E=p["E"], nu=p["nu"], rho=p["rho"], where=w, **kw)
             s.groups[-1].where = [f"{mesh.source}: element {int(e)} ({b.source_type}, set {name!r})" for e in b.ids[rows]]
+    deck = [{k: v for k, v in d.items() if k in ("nodes", "set", "dofs") and v is not None} for d in mesh.supports]
+    _supports(s, mesh, deck, f"{where}: the file's own", [d["where"] for d in mesh.supports])
     _supports(s, mesh, support or [], where)
 
 
-def _supports(s, mesh: Mesh, support: Sequence, where: str) -> None:
+def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str] = ()) -> None:
     if isinstance(support, Mapping):
         support = [support]
     dirs_at: dict[int, set] = {}
@@ -128,7 +130,7 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str) -> None:
         for n in np.unique(b.conn):
             dirs_at.setdefault(int(n), set()).update(NODE_DIRS[b.type])
     for i, sup in enumerate(support, start=1):
-        w = f"{where}: support #{i}"
+        w = named[i - 1] if named else f"{where}: support #{i}"
         if not isinstance(sup, Mapping) or ("set" in sup) == ("nodes" in sup) or set(sup) - {"set", "nodes", "dofs"}:
             raise InputError(f"{w}: expected 'set' (a node set of the mesh) or 'nodes' (ids), and optionally 'dofs' "
                              "(directions such as [\"x\", \"y\", \"z\"])")

@@ -1,5 +1,5 @@
 """Nastran bulk data read by femupdate itself: GRID, CQUAD4, CTRIA3, CHEXA (8 nodes), CTETRA (4
-and 10 nodes), PSHELL, PSOLID, MAT1, in small-field, large-field and free-field format, with
+and 10 nodes), PSHELL, PSOLID, MAT1, SPC1 (one set), in small-field, large-field and free-field format, with
 continuations and INCLUDE.  Each property id becomes an element set named by the id (``"1"``).
 Executive and case control before ``BEGIN BULK`` are skipped; ``PARAM``, ``EIGRL`` and ``EIGR``
 are skipped and listed; any other card is refused, named with its line."""
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
-from .core import Block, Material, Mesh, Section, int_id
+from .core import DIRS, Block, Material, Mesh, Section, int_id
 
 _SKIPPED = {"PARAM", "EIGRL", "EIGR"}
 _ELEMENTS = {"CQUAD4": ("mitc4", (4,)), "CTRIA3": ("mitc3", (3,)), "CHEXA": ("hex8", (8,)), "CTETRA": (None, (4, 10))}
@@ -128,6 +128,8 @@ def read_nastran(path) -> Mesh:
             mesh.sections.append(Section(str(pid), str(mid), None, where))
         elif name == "MAT1":
             _mat1(d, where, mesh)
+        elif name == "SPC1":
+            _spc1(d, where, mesh)
         elif name in _SKIPPED:
             mesh.ignored.append(f"{name} ({at})")
         else:
@@ -135,7 +137,7 @@ def read_nastran(path) -> Mesh:
     if unknown:
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
         raise InputError(f"{path}: card(s) femupdate does not read: {', '.join(unknown[:10])}{more} (it reads GRID, "
-                         "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1; PARAM, EIGRL and EIGR are skipped)")
+                         "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1, SPC1; PARAM, EIGRL and EIGR are skipped)")
     if not nodes:
         raise InputError(f"{path}: no GRID cards")
     mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
@@ -174,6 +176,24 @@ def _element(name, d, where, elems) -> None:
     ids.append(eid)
     pids.append(pid)
     conn.append([int_id(x, where) for x in g])
+
+
+def _spc1(d, where, mesh) -> None:
+    """SPC1 SID C G1 G2 ... (or G1 THRU G2): fixed dofs; one SID only (the case control is not read)."""
+    sid, comp = _field(d, 0), _field(d, 1)
+    if not comp or any(c not in DIRS for c in comp) or len(set(comp)) != len(comp):
+        raise InputError(f"{where}: SPC1 component {comp or 'blank'!r} must be digits 1 to 6")
+    grids = [g for g in d[2:] if g != ""]
+    if len(grids) == 3 and grids[1].upper() == "THRU":
+        a, b = int_id(grids[0], where), int_id(grids[2], where)
+        nodes = list(range(a, b + 1))
+    else:
+        nodes = [int_id(g, where) for g in grids]
+    sids = {s_["sid"] for s_ in mesh.supports}
+    if sids and sid not in sids:
+        raise InputError(f"{where}: SPC1 sets {', '.join(sorted(sids))} and {sid}; femupdate does not read the case "
+                         "control that selects one: keep one set")
+    mesh.supports.append({"nodes": nodes, "set": None, "dofs": [DIRS[c] for c in comp], "where": where, "sid": sid})
 
 
 def _pshell(d, where, mesh) -> None:
