@@ -186,7 +186,7 @@ def test_solid_block_three_formats(tmp_path, kind):
     lines = [f"{i + 1}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in enumerate(pts)]
     els = [", ".join(map(str, [e + 1, *(c + 1)])) for e, c in enumerate(cells)]
     inp.write_text("*NODE, NSET=ALL\n" + "\n".join(lines) + f"\n*ELEMENT, TYPE={abq}, ELSET=Block\n" + "\n".join(els)
-                   + "\n*NSET, NSET=clamp\n" + ",\n".join(str(c + 1) for c in clamp)
+                   + "\n*NSET, NSET=clamp\n" + ",\n".join(str(c + 1) for c in clamp) + ","  # a trailing comma
                    + "\n*MATERIAL, NAME=steel\n*ELASTIC\n2.0, 0.25\n*DENSITY\n3.0\n"
                      "*SOLID SECTION, ELSET=BLOCK, MATERIAL=steel\n,\n*BOUNDARY\nclamp, ENCASTRE\n*STEP\n*FREQUENCY\n5\n*END STEP\n")
     files["inp"] = inp

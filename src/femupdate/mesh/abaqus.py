@@ -35,6 +35,8 @@ def _keywords(path: Path):
         if not line or line.startswith("**"):
             continue
         if line.startswith("*"):
+            if pending and out:  # a data line that ended in a comma before this keyword (set lists may)
+                out[-1][2].append((no - 1, pending))
             parts = [p.strip() for p in line[1:].split(",")]
             opts = {}
             for p in parts[1:]:
@@ -52,6 +54,8 @@ def _keywords(path: Path):
             continue
         pending = []
         out[-1][2].append((no, fields))
+    if pending and out:
+        out[-1][2].append((no, pending))
     return out
 
 
