@@ -238,6 +238,11 @@ def test_bad_decks_refused_by_name(tmp_path):
              sets={"P": {"E": 1.0, "nu": 0.3, "rho": 1.0}})
     _refused(tmp_path, "f.inp", inp.format(t="S4"), "no node set 'edge'",
              sets={"P": {"E": 1.0, "nu": 0.3, "rho": 1.0, "t": 0.1}}, support=[{"set": "edge"}])
+    ok = {"E": 1.0, "nu": 0.3, "rho": 1.0, "t": 0.1}
+    _refused(tmp_path, "j.inp", inp.format(t="S4"), "E must be a number or a parameter name, got True",
+             sets={"P": {**ok, "E": True}})
+    _refused(tmp_path, "k.inp", inp.format(t="S4"), r"dofs must be a list of directions \(x, y, z, rx, ry, rz\), got \['w'\]",
+             sets={"P": ok}, support=[{"nodes": [1], "dofs": ["w"]}])
     hexa = ("*NODE\n" + "".join(f"{i + 1},{x},{y},{z}\n" for i, (x, y, z) in enumerate(
         [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]))
         + "*ELEMENT, TYPE=C3D8, ELSET=B\n40, 5, 6, 7, 8, 1, 2, 3, 4\n")

@@ -22,6 +22,7 @@ from .core import Mesh
 
 SET_KEYS = {"E", "nu", "rho", "t", "mass", "drill"}
 TABLE_KEYS = {"file", "format", "sets", "support"}
+_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
 def _deck_sets(mesh: Mesh) -> dict[str, dict]:
@@ -53,6 +54,13 @@ def _property_sets(mesh: Mesh, sets: Mapping, where: str) -> dict[str, dict]:
         unknown = sorted(set(spec) - SET_KEYS)
         if unknown:
             raise InputError(f"{w}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(SET_KEYS))})")
+        for k, v in spec.items():
+            ok = isinstance(v, str) if k == "mass" else (
+                not isinstance(v, bool) and isinstance(v, (int, float) if k in ("nu", "t", "drill") else (int, float, str)))
+            if not ok:
+                kind = {"mass": "\"consistent\" or \"lumped\"", "E": "a number or a parameter name",
+                        "rho": "a number or a parameter name"}.get(k, "a number")
+                raise InputError(f"{w}: {k} must be {kind}, got {v!r}")
         try:
             written, _ = mesh.set_of(str(name), "element")
         except InputError as exc:
@@ -148,8 +156,8 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str]
             s.support_node([int(n) for n in nodes])
             continue
         dirs = sup["dofs"]
-        if isinstance(dirs, str) or not all(isinstance(d, str) for d in dirs):
-            raise InputError(f"{w}: dofs must be a list of directions such as [\"x\", \"y\", \"z\"], got {dirs!r}")
+        if isinstance(dirs, str) or not all(isinstance(d, str) and d in _DIRECTIONS for d in dirs):
+            raise InputError(f"{w}: dofs must be a list of directions ({', '.join(_DIRECTIONS)}), got {dirs!r}")
         labels: list[str] = []
         for n in nodes:
             have = dirs_at.get(int(n))
