@@ -204,6 +204,29 @@ def test_solid_block_three_formats(tmp_path, kind):
         assert abs(model.M() - ref.M()).max() <= 1e-12 * abs(ref.M()).max(), name
 
 
+def test_abaqus_part_and_instance_flattened(tmp_path):
+    """A deck as Abaqus/CAE writes it (a part, its instance translated by (1, 2, 3), assembly sets with
+    instance=, *Boundary on an assembly set): the same K and M as the plain deck, nodes moved."""
+    pts, hexes = _block_mesh()
+    nodes = "".join(f"{i + 1}, {x:.17g}, {y:.17g}, {z:.17g}\n" for i, (x, y, z) in enumerate(pts))
+    els = "".join(", ".join(map(str, [e + 1, *(c + 1)])) + "\n" for e, c in enumerate(hexes))
+    clamp = ", ".join(str(c + 1) for c in np.flatnonzero(pts[:, 0] == 0))
+    mat = "*Material, name=Steel\n*Elastic\n2.0, 0.25\n*Density\n3.0\n"
+    plain = tmp_path / "plain.inp"
+    plain.write_text(f"*Node\n{nodes}*Element, type=C3D8I, elset=Solid\n{els}*Nset, nset=Fix\n{clamp}\n"
+                     f"*Solid Section, elset=Solid, material=Steel\n,\n{mat}*Boundary\nFix, ENCASTRE\n")
+    cae = tmp_path / "cae.inp"
+    cae.write_text(f"*Heading\n*Part, name=Block\n*Node\n{nodes}*Element, type=C3D8I\n{els}"
+                   f"*Elset, elset=Solid, generate\n1, {len(hexes)}, 1\n*Solid Section, elset=Solid, material=Steel\n,\n"
+                   "*End Part\n*Assembly, name=Assembly\n*Instance, name=Block-1, part=Block\n1., 2., 3.\n*End Instance\n"
+                   f"*Nset, nset=Fix, instance=Block-1\n{clamp}\n*End Assembly\n{mat}"
+                   "*Boundary\nFix, ENCASTRE\n*Step, name=modes\n*Frequency\n4\n*End Step\n")
+    a, b = Structure.from_mesh(plain).build(), Structure.from_mesh(cae).build()
+    assert a.dofs == b.dofs and len(a.dofs) == 3 * 36
+    assert abs(a.K() - b.K()).max() <= 1e-12 * abs(a.K()).max() and abs(a.M() - b.M()).max() <= 1e-12 * abs(a.M()).max()
+    assert all(np.allclose(np.subtract(b.nodes[k], a.nodes[k]), [1, 2, 3]) for k in a.nodes)
+
+
 def _refused(tmp_path, name, text, match, **kw):
     p = tmp_path / name
     p.write_text(text)
@@ -233,7 +256,11 @@ def test_bad_decks_refused_by_name(tmp_path):
     _refused(tmp_path, "i.bdf", GRIDS + "CQUAD4,1,5,11,12,13,14\nSPC1,1,123,11\nSPC1,2,3,12\n" + PROPS,
              "SPC1 sets 1 and 2")
     _refused(tmp_path, "c.inp", inp.format(t="S4"), "no element set 'Q'", sets={"Q": {"E": 1.0}})
-    _refused(tmp_path, "d.inp", inp.format(t="S4") + "*PART, NAME=x\n", "parts and instances")
+    part = "*PART, NAME=x\n" + inp.format(t="S4") + "*END PART\n*ASSEMBLY, NAME=A\n"
+    _refused(tmp_path, "d.inp", part + "*INSTANCE, NAME=i, PART=x\n*END INSTANCE\n*INSTANCE, NAME=j, PART=x\n",
+             "part 'x' instanced twice")
+    _refused(tmp_path, "d2.inp", part + "*INSTANCE, NAME=i, PART=x\n1., 0., 0.\n0., 0., 0., 0., 0., 1., 90.\n",
+             "instance 'i' is rotated")
     _refused(tmp_path, "e.inp", inp.format(t="S4"), r"set 'P': its S4 elements need t",
              sets={"P": {"E": 1.0, "nu": 0.3, "rho": 1.0}})
     _refused(tmp_path, "f.inp", inp.format(t="S4"), "no node set 'edge'",

@@ -1,7 +1,8 @@
 """Abaqus keyword decks (``.inp``) read by femupdate itself: ``*NODE``, ``*ELEMENT`` (S4, S4R ->
 mitc4; S3, S3R -> mitc3; C3D8, C3D8I -> hex8; C3D4 -> tet4; C3D10 -> tet10), ``*ELSET``,
 ``*NSET`` (with GENERATE), ``*MATERIAL`` with ``*ELASTIC`` and ``*DENSITY``, ``*SHELL SECTION``,
-``*SOLID SECTION``, ``*BOUNDARY`` in the model data (fixed dofs).  ``*HEADING`` and ``*PREPRINT`` are skipped; the history data from ``*STEP``
+``*SOLID SECTION``, ``*BOUNDARY`` in the model data (fixed dofs); ``*PART``s instanced once each
+in an ``*ASSEMBLY`` (a translated ``*INSTANCE``) are flattened.  ``*HEADING`` and ``*PREPRINT`` are skipped; the history data from ``*STEP``
 to ``*END STEP`` is skipped and listed; any other keyword (``*PART``, ``*BOUNDARY``, ...) is
 refused, named with its line."""
 
@@ -70,6 +71,7 @@ def read_abaqus(path) -> Mesh:
     unknown: list[str] = []
     material = None
     in_step = None
+    parts: dict = {"instances": [], "part_nodes": {}, "open": None}
     for kw, opts, data, no in _keywords(path):
         where = f"{path}: *{kw} at line {no}"
         if in_step is not None:
@@ -79,6 +81,8 @@ def read_abaqus(path) -> Mesh:
             continue
         if kw == "STEP":
             in_step = no
+        elif kw in _PARTS:
+            _part(kw, opts, data, where, parts, len(nodes))
         elif kw == "NODE":
             if "SYSTEM" in opts:
                 raise InputError(f"{where}: SYSTEM = {opts['SYSTEM']} is not supported (rectangular coordinates only)")
@@ -134,15 +138,46 @@ def read_abaqus(path) -> Mesh:
             unknown.append(f"*{kw} (line {no})")
     if unknown:
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
-        hint = " (parts and instances are not flattened yet: write the deck without parts)" if any(
-            u.startswith(("*PART", "*INSTANCE", "*ASSEMBLY")) for u in unknown) else ""
-        raise InputError(f"{path}: keyword(s) femupdate does not read: {', '.join(unknown[:10])}{more}{hint}")
+        raise InputError(f"{path}: keyword(s) femupdate does not read: {', '.join(unknown[:10])}{more}")
     if not nodes:
         raise InputError(f"{path}: no *NODE data")
     mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
+    for name, shift in parts["instances"]:  # one instance of each part: its nodes moved by its translation
+        if name.casefold() not in parts["part_nodes"] and np.any(shift != 0):
+            raise InputError(f"{path}: the instance of part {name!r} is translated, but no *PART {name} ... *END PART "
+                             "defines its nodes")
+        lo, hi = parts["part_nodes"].get(name.casefold(), (0, 0))
+        mesh.xyz[lo:hi] += shift
     for (type_, src), (ids, conn) in elems.items():
         mesh.blocks.append(Block(type_, np.array(ids, np.int64), np.array(conn, np.int64), src))
     return mesh.check()
+
+
+_PARTS = {"PART", "END PART", "ASSEMBLY", "END ASSEMBLY", "INSTANCE", "END INSTANCE"}
+
+
+def _part(kw, opts, data, where, parts, n_nodes) -> None:
+    """``*PART`` ... ``*END PART`` and their ``*INSTANCE`` in an ``*ASSEMBLY``, flattened: each part
+    instanced once, moved by a translation (a rotation is refused); ids as the part writes them."""
+    if kw == "PART":
+        parts["open"] = (opts.get("NAME", ""), n_nodes)
+    elif kw == "END PART" and parts["open"] is not None:
+        name, lo = parts["open"]
+        parts["part_nodes"][name.casefold()] = (lo, n_nodes)
+        parts["open"] = None
+    elif kw == "INSTANCE":
+        part = opts.get("PART", "")
+        if any(p.casefold() == part.casefold() for p, _ in parts["instances"]):
+            raise InputError(f"{where}: part {part!r} instanced twice; femupdate flattens one instance of each part "
+                             "(two would repeat its node and element ids)")
+        if len(data) > 1:
+            raise InputError(f"{where}: instance {opts.get('NAME', '')!r} is rotated; femupdate flattens translated "
+                             "instances only")
+        shift = np.zeros(3)
+        if data:
+            f = [v for v in data[0][1] if v != ""]
+            shift[:len(f)] = [_num(v, f"{where.rsplit(' at ', 1)[0]} at line {data[0][0]}") for v in f[:3]]
+        parts["instances"].append((part, shift))
 
 
 _NAMED = {"ENCASTRE": "123456", "PINNED": "123"}

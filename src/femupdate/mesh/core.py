@@ -115,6 +115,8 @@ class Mesh:
         if name in sets:
             return name, sets[name]
         folded = [k for k in sets if k.casefold() == str(name).casefold()]
+        if not folded and "." in str(name):  # an Abaqus assembly's "Instance.Set"
+            folded = [k for k in sets if k.casefold() == str(name).split(".", 1)[1].casefold()]
         if len(folded) == 1:
             return folded[0], sets[folded[0]]
         have = ", ".join(sorted(sets)) or "none"
