@@ -361,3 +361,20 @@ def test_gmsh_element_named_by_its_tag(plate16, tmp_path):
     bad.write_text("\n".join(lines) + "\n")
     with pytest.raises(InputError, match=rf"bowtie.msh: element {tag} \(quad, set 'plate'\).*degenerate"):
         _model(bad)
+
+
+def test_nastran_grid_positions_in_cord2_systems(tmp_path):
+    """GRID CP in CORD2R, CORD2C and CORD2S (one defined in another, RID) against positions worked by hand."""
+    p = tmp_path / "c.bdf"
+    p.write_text("CORD2R,1,0,1.,2.,3.,1.,2.,4.,+\n+,2.,2.,3.\n"       # origin (1,2,3), z = basic z, x = basic x
+                 "CORD2R,2,1,0.,0.,0.,1.,0.,0.,+\n+,0.,1.,0.\n"       # in system 1: z along 1's x, x along 1's y
+                 "CORD2C,3,0,0.,0.,0.,0.,0.,1.,+\n+,1.,0.,0.\n"
+                 "CORD2S,4,0,0.,0.,0.,0.,0.,1.,+\n+,1.,0.,0.\n"
+                 "GRID,1,1,1.,1.,1.\nGRID,2,2,1.,1.,1.\nGRID,3,3,2.,90.,5.\nGRID,4,4,2.,90.,90.\n"
+                 "CTETRA,1,1,1,2,3,4\nPSOLID,1,1\nMAT1,1,1.,,0.3,1.\n")
+    xyz = read_mesh(p).xyz
+    # system 2: origin (1,2,3); z = basic x, x = basic y, y = z x x = basic z
+    assert np.allclose(xyz, [[2, 3, 4], [2, 3, 4], [0, 2, 5], [0, 2, 0]]), xyz
+    p.write_text(p.read_text().replace("CORD2R,1,0,", "CORD2R,1,2,"))
+    with pytest.raises(InputError, match="coordinate systems 1 -> 2 -> 1 refer to each other"):
+        read_mesh(p)

@@ -1,5 +1,5 @@
 """Nastran bulk data read by femupdate itself: GRID, CQUAD4, CTRIA3, CHEXA (8 nodes), CTETRA (4
-and 10 nodes), PSHELL, PSOLID, MAT1, SPC1 (one set), in small-field, large-field and free-field format, with
+and 10 nodes), PSHELL, PSOLID, MAT1, SPC1 (one set), CORD2R/C/S (GRID positions), in small-field, large-field and free-field format, with
 continuations and INCLUDE.  Each property id becomes an element set named by the id (``"1"``).
 Executive and case control before ``BEGIN BULK`` are skipped; ``PARAM``, ``EIGRL`` and ``EIGR``
 are skipped and listed; any other card is refused, named with its line."""
@@ -106,14 +106,16 @@ def read_nastran(path) -> Mesh:
     elems: dict[tuple, tuple[list, list, list, str]] = {}
     mesh = Mesh(str(path), np.empty(0, np.int64), np.empty((0, 3)))
     unknown: list[str] = []
+    cps: list[tuple[int, str]] = []
+    cords: dict[int, tuple] = {}
     for name, d, at in cards(path):
         where = f"{path}: {name} at {at}"
         if name == "GRID":
             gid = int_id(_field(d, 0), where)
-            for k, what in ((1, "CP"), (5, "CD")):
-                if _field(d, k, "0") not in ("0",):
-                    raise InputError(f"{where}: GRID {gid} uses coordinate system {what} = {d[k]}; femupdate reads "
-                                     "basic coordinates only (CORD2R/C/S are not supported yet)")
+            if _field(d, 5, "0") != "0":
+                raise InputError(f"{where}: GRID {gid} has displacement coordinate system CD = {d[5]}; femupdate's dofs "
+                                 "are in basic axes (CD blank or 0; CP, the position's system, may be a CORD2R/C/S)")
+            cps.append((int_id(_field(d, 1, "0"), where), where))
             if _field(d, 6):
                 raise InputError(f"{where}: GRID {gid} has permanent constraints PS = {d[6]}, which are not read: "
                                  "remove them and give supports in the model file's [[mesh.support]]")
@@ -121,6 +123,11 @@ def read_nastran(path) -> Mesh:
             coords.append([real(_field(d, k, "0"), where) for k in (2, 3, 4)])
         elif name in _ELEMENTS:
             _element(name, d, where, elems)
+        elif name in ("CORD2R", "CORD2C", "CORD2S"):
+            cid = int_id(_field(d, 0), where)
+            if cid in cords:
+                raise InputError(f"{where}: coordinate system {cid} defined twice")
+            cords[cid] = (name[-1], int_id(_field(d, 1, "0"), where), [real(_field(d, k, "0"), where) for k in range(2, 11)], where)
         elif name == "PSHELL":
             _pshell(d, where, mesh)
         elif name == "PSOLID":
@@ -137,10 +144,13 @@ def read_nastran(path) -> Mesh:
     if unknown:
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
         raise InputError(f"{path}: card(s) femupdate does not read: {', '.join(unknown[:10])}{more} (it reads GRID, "
-                         "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1, SPC1; PARAM, EIGRL and EIGR are skipped)")
+                         "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1, SPC1, CORD2R/C/S; PARAM, EIGRL and EIGR are skipped)")
     if not nodes:
         raise InputError(f"{path}: no GRID cards")
     mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
+    for k, (cp, where) in enumerate(cps):
+        if cp != 0:
+            mesh.xyz[k] = to_basic(cp, mesh.xyz[k], cords, where)
     for (type_, card), (ids, pids, conn, _) in elems.items():
         ids_a, pids_a = np.array(ids, np.int64), np.array(pids, np.int64)
         mesh.blocks.append(Block(type_, ids_a, np.array(conn, np.int64), card))
@@ -148,6 +158,33 @@ def read_nastran(path) -> Mesh:
             prev = mesh.elsets.get(str(p), np.empty(0, np.int64))
             mesh.elsets[str(p)] = np.concatenate([prev, ids_a[pids_a == p]])
     return mesh.check()
+
+
+def to_basic(cid: int, x, cords: dict, where: str, seen: tuple = ()) -> np.ndarray:
+    """A point given in coordinate system ``cid`` (CORD2R: x, y, z; CORD2C: r, theta deg, z; CORD2S: r,
+    theta deg, phi deg) in basic coordinates; its defining points A, B, C may be in another system (RID)."""
+    if cid not in cords:
+        raise InputError(f"{where}: coordinate system {cid} is not defined (femupdate reads CORD2R, CORD2C, CORD2S)")
+    if cid in seen:
+        raise InputError(f"{where}: coordinate systems {' -> '.join(map(str, seen + (cid,)))} refer to each other")
+    kind, rid, abc, at = cords[cid]
+    a, b, c = (np.array(abc[i:i + 3]) for i in (0, 3, 6))
+    if rid != 0:
+        a, b, c = (to_basic(rid, p, cords, at, seen + (cid,)) for p in (a, b, c))
+    ez = b - a
+    ex = (c - a) - ((c - a) @ ez) / (ez @ ez) * ez if ez @ ez > 0 else ez
+    if not (np.linalg.norm(ez) > 0 and np.linalg.norm(ex) > 1e-12 * np.linalg.norm(c - a)):
+        raise InputError(f"{at}: coordinate system {cid}: points A, B, C do not define axes (B = A, or C on the z axis)")
+    ez, ex = ez / np.linalg.norm(ez), ex / np.linalg.norm(ex)
+    ey = np.cross(ez, ex)
+    x = np.asarray(x, dtype=float)
+    if kind == "C":
+        t = np.radians(x[1])
+        x = np.array([x[0] * np.cos(t), x[0] * np.sin(t), x[2]])
+    elif kind == "S":
+        t, f = np.radians(x[1]), np.radians(x[2])
+        x = x[0] * np.array([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)])
+    return a + x[0] * ex + x[1] * ey + x[2] * ez
 
 
 def _element(name, d, where, elems) -> None:
