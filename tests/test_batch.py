@@ -332,9 +332,25 @@ def test_dispatch_and_options():
         multistart(model, data, starts=3, seed=1, method="dogbox", batched=True)
     with pytest.raises(InputError, match="cannot reach"):  # batched with a scheduler: chunks on its workers
         multistart(model, data, starts=3, seed=1, batched=True, scheduler="tcp://127.0.0.1:9", connect_timeout=0.5)
-    # update() would refuse every start alike (underdetermined): every run carries the message
-    ms = multistart(chain(K6, M6, bounds=(100.0, 5000.0)), measured(chain(K6, M6), ["1:x"], 3), starts=2, seed=0)
-    assert ms.best is None and all(isinstance(r, str) and "underdetermined" in r for r in ms.runs)
+    # update() refuses every start alike (underdetermined): the input is refused, as update refuses it
+    # (before: a result without a solution, every run carrying the message; the command line said
+    # "none of the starts converged", exit 1, for bad input)
+    with pytest.raises(InputError, match="underdetermined"):
+        multistart(chain(K6, M6, bounds=(100.0, 5000.0)), measured(chain(K6, M6), ["1:x"], 3), starts=2, seed=0)
+
+
+def test_input_every_start_refuses_alike_is_refused_by_name():
+    """--starts 3 --shape-scaling ref --ref-dof 9:x (a dof the test modes do not measure) exited
+    1 with "3 starts without a solution: 3 x test mode #" and "none of the 3 starts converged";
+    one start exits 2 naming the reference dof.  Both routes, and the command line."""
+    model = two_dof()
+    data = measured(model, ["1:x", "2:x"], 2)
+    for batched in (True, False):
+        with pytest.raises(InputError, match="reference dof 9:x is not measured"):
+            multistart(model, data, starts=3, seed=1, shape_scaling="ref", ref_dof="9:x", batched=batched)
+    # starts that fail for reasons of their own are still recorded, not raised
+    ms = multistart(model, data, starts=3, seed=1, max_nfev=1)
+    assert ms.total == 3
 
 
 def test_progress_is_reported():

@@ -304,3 +304,24 @@ def test_the_sampling_is_announced_from_the_measured_likelihood(caplog):
     assert tmcmc.levelno == logging.INFO  # 10,000 at 0.5 ms: 5 s
     assert "each TMCMC stage, 2000 samples x 5 moves = 10000 evaluations" in tmcmc.getMessage()
     assert ": about 5 s (0.5 ms a likelihood evaluation" in tmcmc.getMessage()
+
+
+# ------------------------------------------------------------------------------ max_nfev on the compiled route
+def test_max_nfev_is_bounded_by_the_iteration_histories_of_the_compiled_route(two_dof, memory):
+    """The compiled route keeps every start's iterations (cost and parameters) in arrays of
+    max_nfev + 1 entries made before the first iteration.  Before: max_nfev=10**7 with 200 starts
+    asked NumPy for 29.8 GiB ('out of memory (try fewer modes ...)', exit 1) and 10**20 raised
+    'ValueError: Maximum allowed dimension exceeded' with a traceback on the command line."""
+    model, data = two_dof
+    memory(10**6)
+    # 10 starts x 100001 entries x (cost + 2 parameters) x 8 bytes = 24 MB
+    with pytest.raises(InputError, match=r"^max_nfev=100000: about 24 MB for the iteration histories of 10 starts"):
+        fu.multistart(model, data, starts=10, max_nfev=100_000, batched=True)
+
+
+def test_an_astronomical_max_nfev_is_refused_by_name(two_dof):
+    model, data = two_dof
+    with pytest.raises(InputError, match=r"^max_nfev=100000000000000000000: about .* more than the"):
+        fu.multistart(model, data, starts=3, max_nfev=10**20, batched=True)
+    res = fu.multistart(model, data, starts=3, max_nfev=10**20, batched=False)   # SciPy keeps no history up front
+    assert res.best is not None and res.best.success

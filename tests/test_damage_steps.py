@@ -17,12 +17,11 @@ import femupdate
 from femupdate import InputError, model_modes
 from femupdate.damage import DamageOptions, detect_damage, element_parameters
 from femupdate.damage.bootstrap import (NOTHING_TO_VARY, Replicates, bootstrap, bootstrap_localised, simulated)
-from femupdate.damage.detect import judge
+from femupdate.damage.judge import UNCHECKED, binomial_rate, judge
 from femupdate.damage.examples import concentrated_mass_truss, noisy_modes
-from femupdate.damage.localise import (Equations, Localiser, NoiseLevels, StatedNoise, basis_size, expansion,
+from femupdate.damage.localise import (BASIS_ASSUMED, BASIS_CALLER, BASIS_DATA, BASIS_EXPANSION, Equations, Localiser, NoiseLevels, StatedNoise, basis_size, expansion,
                                        localise, make_localiser, measured_shapes, noise_levels, noise_weights,
                                        pair_with_baseline, realised_data, stated_noise)
-from femupdate.damage.rates import comparable_rate
 from femupdate.damage.solvers import L1Fit
 from femupdate.damage.verify import Refined, Refiner, Verification, verify
 from femupdate.paper.damage_sections import truss_sensors
@@ -118,12 +117,33 @@ def test_measured_shapes_keep_the_common_dofs_real_and_refuse_rigid_modes():
 
 
 def test_stated_noise_is_checked():
-    assert stated_noise(None) == StatedNoise(0.001, None)
-    assert stated_noise({"frequency": 0.0, "shape": 0.01}) == StatedNoise(0.0, 0.01)
+    assert stated_noise(None) == StatedNoise(0.001, None)  # assumed, and said to be
+    assert dict(stated_noise(None).basis) == {"frequency": BASIS_ASSUMED, "shape": None}
+    caller = stated_noise({"frequency": 0.0, "shape": 0.01})
+    assert (caller.frequency, caller.shape) == (0.0, 0.01)
+    assert dict(caller.basis) == {"frequency": BASIS_CALLER, "shape": BASIS_CALLER}
     with pytest.raises(InputError, match="unknown key"):
         stated_noise({"shapes": 0.01})
     with pytest.raises(InputError, match="must be >= 0"):
         stated_noise({"shape": -0.01})
+
+
+def test_the_noise_the_test_data_state_is_taken_per_mode_unless_the_caller_states_it():
+    # std_frequency 0.4 % and 1 %; std_shape (unit-length scaling, as update reads it) 0.002 and 0.004
+    a = MeasuredMode.from_frequency(10.0, ("1:x", "2:x", "3:x"), np.array([1.0, 2.0, 2.0]), std_frequency=0.004,
+                                    std_shape=0.002)
+    b = MeasuredMode.from_frequency(20.0, ("1:x", "2:x", "3:x"), np.array([2.0, -1.0, 0.0]), std_frequency=0.01,
+                                    std_shape=0.004)
+    st = stated_noise(None, TestData(modes=(a, b)))
+    assert st.frequency_modes == pytest.approx((0.004, 0.01))  # std_eigenvalue = 2 std_frequency, halved back
+    # relative to each shape's largest value: std_shape * |phi| / max|phi| (|phi| = 3 and sqrt(5); max 2 and 2)
+    assert st.shape_modes == pytest.approx((0.002 * 3 / 2, 0.004 * np.sqrt(5) / 2))
+    assert dict(st.basis) == {"frequency": BASIS_DATA, "shape": BASIS_DATA}
+    mixed = stated_noise({"frequency": 0.02}, TestData(modes=(a, b)))
+    assert mixed.frequency == 0.02 and mixed.frequency_modes is None and mixed.shape_modes is not None
+    assert dict(mixed.basis) == {"frequency": BASIS_CALLER, "shape": BASIS_DATA}
+    with pytest.raises(InputError, match="state it for every mode"):  # as update refuses it
+        stated_noise(None, TestData(modes=(a, MeasuredMode.from_frequency(20.0, ("1:x", "2:x"), np.array([1.0, 2.0])))))
 
 
 def test_pairing_gives_the_frequency_change_of_each_mode(truss):
@@ -186,9 +206,10 @@ def test_unstated_shape_noise_is_recovered_from_the_expansion_misfit(truss, sigm
     levels, notes = noise_levels(StatedNoise(), meas, exp)
     assert levels.shape == pytest.approx(sigma, rel=0.25)
     assert levels.shape < levels.shape_verify < 1.5 * levels.shape  # the upper end of its confidence interval
-    assert len(notes) == 1 and f"{levels.shape_verify:.3g}" in notes[0]
-    stated, notes = noise_levels(StatedNoise(0.002, 0.01), meas, exp)
-    assert stated == NoiseLevels(0.002, 0.01, 0.01) and notes == []
+    assert len(notes) == 2 and "0.001 assumed" in notes[0] and f"{levels.shape_verify:.3g}" in notes[1]
+    assert dict(levels.basis) == {"frequency": BASIS_ASSUMED, "shape": BASIS_EXPANSION}
+    stated, notes = noise_levels(stated_noise({"frequency": 0.002, "shape": 0.01}), meas, exp)
+    assert (stated.frequency, stated.shape, stated.shape_verify) == (0.002, 0.01, 0.01) and notes == []
 
 
 def test_noise_weights_whiten_the_equations_and_are_the_identity_without_noise(truss):
@@ -377,22 +398,50 @@ def test_judge_keeps_a_confirmed_set_the_replicates_agree_with():
     names = ["a", "b", "c"]
     reps = Replicates([{1}, {1}, {1, 2}], [np.array([0, -0.3, 0]), np.array([0, -0.32, 0]), np.array([0, -0.3, -0.1])], 3)
     levels = NoiseLevels(0.001, 0.004, 0.006)
+    healthy = Replicates([set(), {2}, set(), set()], [np.zeros(3)] * 4, 4)
     j = judge(names, _localisation(names, [1, 2]), Verification("confirmed"), _refined(names, [1]), reps, levels,
-              detected=True, sensor_fraction=0.5, n_modes=4)
+              detected=True, healthy=healthy, baseline_checked=True)
     assert j.status == "confirmed" and j.doubts == [] and j.order.tolist() == [1]
     conf = j.confidence
     assert conf["selection_frequency"] == {"b": 1.0, "c": pytest.approx(1 / 3)} and conf["same_set"] == pytest.approx(2 / 3)
     assert conf["standard_error"] == {"b": pytest.approx(np.std([-0.3, -0.32, -0.3], ddof=1))}
     assert conf["evidence"] == {"b": 50.0} and conf["bootstrap"] == 3 and conf["separation"] == 2.0
-    assert conf["noise"] == {"frequency": 0.001, "shape": 0.004}
-    assert conf["false_positive_rate"] == comparable_rate(0.006, 0.5, 4)
+    assert conf["noise"] == {"frequency": 0.001, "shape": 0.004, "shape_verify": 0.006, "basis": {}}
+    # the rates are those of the replicates: 1 healthy replicate of 4 located something; 3 of 3 found b
+    assert conf["false_positive_rate"]["rate"] == 0.25 and conf["false_positive_rate"]["n"] == 4
+    assert conf["detection_rate"]["rate"] == 1.0 and conf["detection_rate"]["count"] == 3
+    # the same set, its baseline unchecked: never confirmed, and the doubt says what is needed
+    u = judge(names, _localisation(names, [1, 2]), Verification("confirmed"), _refined(names, [1]), reps, levels,
+              detected=True, healthy=healthy)
+    assert u.status == "doubtful" and u.doubts == [UNCHECKED] and "--undamaged" in UNCHECKED
+
+
+def test_judge_calls_out_changes_a_uniform_baseline_error_would_explain():
+    names = ["a", "b", "c", "d"]
+    reps = Replicates([{0, 1, 2, 3}] * 3, [np.full(4, -0.09)] * 3, 3)
+    j = judge(names, _localisation(names, [0, 1, 2, 3]), Verification("confirmed"),
+              _refined(names, [0, 1, 2, 3], change=-0.09), reps, NoiseLevels(0.001, 0.004, 0.006), detected=True)
+    assert j.status == "doubtful" and j.doubts[0] == UNCHECKED and "4 of the 4 unknowns changed together" in j.doubts[1]
+    one = judge(names, _localisation(names, [1]), Verification("confirmed"), _refined(names, [1]), reps,
+                NoiseLevels(0.001, 0.004, 0.006), detected=True)
+    assert one.doubts[-1] == UNCHECKED and not any("together" in d for d in one.doubts)  # one member: nothing uniform
+
+
+@pytest.mark.parametrize("k, n", [(0, 20), (3, 20), (20, 20), (7, 50)])
+def test_binomial_rate_is_the_clopper_pearson_interval(k, n):
+    from scipy.stats import binomtest
+
+    r = binomial_rate(k, n)
+    ci = binomtest(k, n).proportion_ci(0.95, method="exact")  # SciPy's own route to the exact interval
+    assert r["rate"] == k / n and r["interval"] == pytest.approx([ci.low, ci.high], abs=1e-12)
+    assert r["standard_error"] == pytest.approx(np.sqrt(k / n * (1 - k / n) / n))
 
 
 def test_judge_doubts_a_set_most_replicates_do_not_locate():
     names = ["a", "b", "c"]
     reps = Replicates([{1}, {2}, {2}], [np.zeros(3)] * 3, 3)
     j = judge(names, _localisation(names, [1]), Verification("confirmed"), _refined(names, [1]), reps,
-              NoiseLevels(0.001, 0.004, 0.006), detected=True, sensor_fraction=0.5, n_modes=4)
+              NoiseLevels(0.001, 0.004, 0.006), detected=True, baseline_checked=True)
     assert j.status == "doubtful" and j.doubts == ["only 33 % of the 3 bootstrap replicates locate this set"]
 
 
@@ -400,16 +449,16 @@ def test_judge_of_the_localisation_alone_and_of_nothing_located():
     names = ["a", "b", "c"]
     reps = Replicates([{2}, {2}], [np.zeros(3)] * 2, 2)
     j = judge(names, _localisation(names, [0, 2]), Verification(), None, reps, NoiseLevels(0.001, 0.004, 0.004),
-              detected=False, sensor_fraction=1.0, n_modes=3)
+              detected=False)
     assert j.status == "unverified" and j.order.tolist() in ([0, 2], [2, 0]) and j.confidence["evidence"] == {}
     assert j.confidence["same_set"] == 0.0 and j.doubts == []  # no refinement: the replicates do not judge
+    assert UNCHECKED in j.notes
     nothing = judge(names, _localisation(names, []), Verification("confirmed", notes=["v"]), _refined(names, []),
-                    Replicates.none(NOTHING_TO_VARY), NoiseLevels(0.0, 0.0, 0.0), detected=True, sensor_fraction=1.0,
-                    n_modes=3)
+                    Replicates.none(NOTHING_TO_VARY), NoiseLevels(0.0, 0.0, 0.0), detected=True)
     assert nothing.notes == ["v", NOTHING_TO_VARY, "no unknown changed by more than min_change although the "
                                                     "frequencies changed"]
     refused = judge(names, _localisation(names, []), Verification("not localised", reason="r"), _refined(names, []),
-                    Replicates.none(), NoiseLevels(0.0, 0.0, 0.0), detected=True, sensor_fraction=1.0, n_modes=3)
+                    Replicates.none(), NoiseLevels(0.0, 0.0, 0.0), detected=True)
     assert refused.status == "not localised" and refused.reason == "r" and refused.notes == []
 
 

@@ -237,6 +237,34 @@ def test_write_report_is_atomic_and_returns_the_path(tmp_path):
     assert [f.name for f in tmp_path.iterdir()] == ["d.html"]
 
 
+def test_write_report_never_writes_over_the_result_it_reads(tmp_path):
+    """write_report("u.json", "u.json") replaced the result file with its report (exit 0 of a
+    script, the result lost), by its name or any other name of the same file."""
+    src = tmp_path / "u.json"
+    text = (RECORDED / "update_figure2.json").read_text()
+    src.write_text(text)
+    (tmp_path / "link.json").symlink_to(src)
+    for out in (src, str(src), tmp_path / "link.json", tmp_path / "." / "u.json"):
+        with pytest.raises(fu.InputError, match=r"is the result file .* it reads: writing there would destroy it"):
+            write_report(out, src)
+        assert src.read_text() == text
+    with pytest.raises(fu.InputError, match="the arguments look swapped"):
+        write_report(src, tmp_path / "u.html")    # the report's name where the result goes
+    assert src.read_text() == text
+
+
+def test_a_model_or_data_of_the_wrong_type_is_named(ex, tmp_path):
+    """A file name or a Model given as data ended in AttributeError ('str' object has no
+    attribute 'parameter_names', 'Model' object has no attribute 'modes')."""
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    model = fu.load_model(ex / "figure2.toml")
+    with pytest.raises(TypeError, match=r"^write_report: model must be a Model, got the str .*load_model"):
+        write_report(tmp_path / "r.html", result, model=str(ex / "figure2.toml"))
+    with pytest.raises(TypeError, match=r"^build_report: data must be a TestData or FRFData or None, got a Model"):
+        build_report(result, model=model, data=model)
+    assert not (tmp_path / "r.html").exists()
+
+
 def test_every_warning_of_the_run_is_in_the_report():
     result = json.loads((RECORDED / "update_figure2.json").read_text())
     result["success"], result["message"] = False, "The maximum number of function evaluations is exceeded."
@@ -259,6 +287,29 @@ def _report(args, capsys):
     err = capsys.readouterr().err
     assert "Traceback" not in err
     return e.value.code, err
+
+
+def test_report_refuses_a_model_with_parameters_the_result_does_not_have(ex, tmp_path, capsys):
+    """A two-dof update reported with --model figure2.toml (k1..k4, of which the result has k1
+    and k2) exited 0 with a report of "degrees of freedom 3, parameters 4" and the three-dof
+    model's shapes at k1 = 8, k2 = 6: another model's report."""
+    result = tmp_path / "u.json"
+    code, _ = _report_cli(["update", ex / "two_dof.toml", ex / "two_dof_frequencies.json", "--json", result], capsys)
+    assert code == 0
+    out = tmp_path / "r.html"
+    code, err = _report([result, "-o", out, "--model", ex / "figure2.toml"], capsys)
+    assert code == 2 and "the model 'three-dof chain with k4 (paper Figure 2)' has parameter(s) k3, k4 the result " \
+                          "does not have" in err, err
+    assert not out.exists()
+    code, err = _report([result, "-o", out, "--model", ex / "two_dof.toml"], capsys)
+    assert code == 0, err
+
+
+def _report_cli(args, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(list(map(str, args)))
+    capsys.readouterr()
+    return e.value.code, None
 
 
 def test_report_with_the_model_alone_draws_its_shapes(ex, tmp_path, capsys):
@@ -295,6 +346,26 @@ def test_report_refuses_a_kind_the_keys_contradict(tmp_path, capsys):
     assert code == 2 and "the result of update, not of damage (told from its keys)" in err
     code, err = _report([result, "-o", out, "--kind", "frf-update"], capsys)  # reported alike
     assert code == 0 and out.exists()
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda r: r.update(kind="damage"), "/kind: 'damage', but the keys are those of the result of update"),
+    (lambda r: r.update(schema_version=99), "schema_version 99: this femupdate reads results of schema 1 and older"),
+])
+def test_a_result_file_whose_kind_or_schema_cannot_be_reported_is_refused(tmp_path, capsys, edit, message):
+    """An update result whose "kind" says damage gave an empty damage report ("located none"),
+    and a result of a newer schema was reported as if it were this one's, both with exit 0
+    (load_result refused the second)."""
+    result = json.loads((RECORDED / "update_figure2.json").read_text())
+    edit(result)
+    path = tmp_path / "u.json"
+    path.write_text(json.dumps(result))
+    out = tmp_path / "r.html"
+    code, err = _report([path, "-o", out], capsys)
+    assert code == 2 and message in err, err
+    assert f"error: {path}: " in err and not out.exists()
+    with pytest.raises(fu.InputError, match=re.escape(message)):
+        write_report(out, result)
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -62,8 +62,9 @@ def test_damage_python_writes_the_json_and_report_of_the_command_line(ex, tmp_pa
     written = json.loads((tmp_path / "cli.json").read_text())
     assert _plain(res.to_json()) == written
     assert written["kind"] == "damage" and written["unknowns"] == "elements" and du.notes[0] in written["notes"]
-    # the bootstrap's progress, replicate by replicate, after the refinement
-    assert seen[:2] == [("refine", 0, 1), ("refine", 1, 1)] and seen[2:] == [("bootstrap", k, 4) for k in range(1, 5)]
+    # the bootstrap's progress, replicate by replicate, after the refinement; then the healthy baseline's replicates
+    assert seen[:2] == [("refine", 0, 1), ("refine", 1, 1)] and seen[2:6] == [("bootstrap", k, 4) for k in range(1, 5)]
+    assert seen[6:] == [("healthy", k, 4) for k in range(1, 5)]
     res.write_report(tmp_path / "py.html", segments=structure_segments(structure))
     assert _without_stamp((tmp_path / "py.html").read_text()) == _without_stamp((tmp_path / "cli.html").read_text())
     back = fu.load_result(written)

@@ -122,3 +122,20 @@ def test_reading_refuses_what_it_cannot_read(tmp_path):
     with pytest.raises(fu.InputError, match="/pairs/0"):
         fu.UpdateResult.from_json({"kind": "update", "parameters": {"k1": 1.0}, "pairs": [["a", 0, 1.0]]})
     assert issubclass(fu.UpdateResult, Serialisable)
+
+
+def test_a_null_parameter_reads_back_as_nan_and_a_missing_one_is_named():
+    """to_json writes NaN as null; reading it back raised "TypeError: float() argument must be a
+    string or a real number, not 'NoneType'".  A parameter named in "updated" with no value read
+    back as NaN without a word."""
+    obj = {"kind": "update", "updated": ["k1", "k2"], "parameters": {"k1": None, "k2": 6.0}}
+    back = fu.load_result(obj)
+    assert np.isnan(back.parameters["k1"]) and back.parameters["k2"] == 6.0
+    assert back.to_json()["parameters"] == {"k1": None, "k2": 6.0}
+    with pytest.raises(fu.InputError, match=r"^/parameters: no value of the updated parameter 'k2'"):
+        fu.load_result({"kind": "update", "updated": ["k1", "k2"], "parameters": {"k1": 8.0}})
+
+
+def test_a_schema_version_that_is_no_integer_is_not_called_newer():
+    with pytest.raises(fu.InputError, match=r"^/schema_version: expected an integer, got '1'"):
+        fu.load_result({"kind": "update", "schema_version": "1", "parameters": {}})

@@ -46,10 +46,18 @@ def diagnostics_extra(names: Sequence[str], d) -> dict:
     """The keys of :class:`~femupdate.updating.Diagnostics` for the bounds and the parameters the
     data cannot move: ``absolute``, ``at_bounds`` {name: ``"lower"`` | ``"upper"``},
     ``n_at_bounds``, ``free``, ``poorly_determined_reasons`` {name: reason}, ``relative_std``
-    {name: value}."""
-    return {"absolute": d.absolute, "at_bounds": dict(d.at_bounds), "n_at_bounds": d.n_at_bounds,
-            "free": list(d.free), "poorly_determined_reasons": dict(d.poorly_determined_reasons),
-            "relative_std": dict(zip(names, d.relative_std))}
+    {name: value}; with the noise analysed, ``noise`` (one record per noise component),
+    ``std_dof`` {name: effective dof, ``"inf"`` for stated noise only} and ``model_error``."""
+    out = {"absolute": d.absolute, "at_bounds": dict(d.at_bounds), "n_at_bounds": d.n_at_bounds,
+           "free": list(d.free), "poorly_determined_reasons": dict(d.poorly_determined_reasons),
+           "relative_std": dict(zip(names, d.relative_std))}
+    if getattr(d, "noise", None):  # what the standard deviations rest on (femupdate.updating.noise)
+        dof = np.asarray(d.std_dof, float)
+        out["noise"] = list(d.noise)
+        out["std_dof"] = {n: "inf" if np.isposinf(v) else None if np.isnan(v) else float(v)
+                          for n, v in zip(names, dof)}
+        out["model_error"] = dict(d.model_error) or None
+    return out
 
 
 def data_fields(data) -> dict:

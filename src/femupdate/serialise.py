@@ -207,11 +207,19 @@ def _read(obj) -> dict:
     return dict(obj)
 
 
-def _checked(obj: dict, kind: str) -> dict:
+def check_version(obj: Mapping) -> None:
+    """Refuse a JSON result of a newer schema than :data:`SCHEMA_VERSION` (or whose
+    ``schema_version`` is no integer); one without the key is taken as this schema's."""
     version = obj.get("schema_version", SCHEMA_VERSION)
-    if not isinstance(version, int) or isinstance(version, bool) or version > SCHEMA_VERSION:
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise InputError(f"/schema_version: expected an integer, got {version!r}")
+    if version > SCHEMA_VERSION:
         raise InputError(f"schema_version {version!r}: this femupdate reads results of schema {SCHEMA_VERSION} and "
                          "older; a newer femupdate wrote it")
+
+
+def _checked(obj: dict, kind: str) -> dict:
+    check_version(obj)
     from .report.build import REPORT_KINDS, check_result
     from .schema import check
 

@@ -5,7 +5,9 @@ minima, which are the likelihood's modes) is refined to the posterior's mode —
 likelihood times prior — by a damped Gauss–Newton iteration on :math:`f(x) = -\log p(x \mid d)`
 with the exact Jacobian of the updating core, within the bounds.  There the posterior is
 approximated by the Gaussian :math:`\mathcal N(\hat x_k, H_k^{-1})`, H_k the Gauss–Newton Hessian
-of f (JᵀJ over the squared noise, plus the prior's curvature), and the posterior mass near the
+of f (JᵀJ over the squared noise, plus the prior's curvature; with estimated noise each
+estimated pool's term over its restricted scale Q_b / (n_b − h_b), h_b its share of the
+parameters, :func:`femupdate.bayes.noise.objective_terms`), and the posterior mass near the
 solution by
 
 .. math::  Z_k = p(d \mid \hat x_k)\,\pi(\hat x_k)\,(2\pi)^{L/2}\,|H_k|^{-1/2}\;c_k ,
@@ -63,7 +65,8 @@ class Mode:
     at_bounds : tuple of str
         Parameters that sit on a bound at the mode (the Gaussian is then a poor description).
     hessian : numpy.ndarray, shape ``(L, L)``
-        H_k in the variables x.
+        H_k in the variables x (the Gaussian's; with estimated noise the restricted one, while
+        ``log_weight`` takes the determinant of the density's own Hessian).
     note : str
         Why the mode was left out of the mixture, or ``""``.
     """
@@ -88,11 +91,18 @@ class Mode:
         return np.linalg.inv(self.hessian)
 
 
+#: the mode search's significance level: every separate minimum is a candidate mode (a difference
+#: beyond the relative tolerance is kept), even two within each other's noise — they are two peaks
+#: of the posterior, and merging them would lose one (the two-dof chain's (8, 6) and (9, 16/3) at
+#: 1 % noise on its frequencies)
+EVERY_MINIMUM = 1.0 - 1e-12
+
+
 def candidates(post: Posterior, starts: int, seed: int | None, progress=None, scheduler=None,
                connect_timeout: float = 10.0) -> tuple[list[tuple[np.ndarray, int]], list[str]]:
-    """Starting points of the mode search: the distinct solutions of a multi-start study on the
-    first data set (each with its count of starts), or one update from the nominal values when
-    ``starts`` is 1 or a parameter has no finite bounds; and notes.
+    """Starting points of the mode search: the separate minima of a multi-start study on the
+    first data set (each with its count of starts; :data:`EVERY_MINIMUM`), or one update from the
+    nominal values when ``starts`` is 1 or a parameter has no finite bounds; and notes.
 
     Raises
     ------
@@ -113,7 +123,7 @@ def candidates(post: Posterior, starts: int, seed: int | None, progress=None, sc
                      "starts (a second solution, if any, is not looked for)")
     if starts > 1 and finite:
         ms = multistart(model, data, starts=starts, seed=seed, params=list(post.names), progress=progress,
-                        scheduler=scheduler, connect_timeout=connect_timeout, **opts)
+                        scheduler=scheduler, connect_timeout=connect_timeout, alpha=EVERY_MINIMUM, **opts)
         if not ms.solutions:
             raise NumericalError(f"none of the {starts} starts of the mode search converged"
                                  + (f" ({next(iter(ms.failures))})" if ms.failures else ""))
@@ -198,7 +208,10 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
         if not ok:
             notes.append("a posterior mode search stopped at its iteration limit")
         f, _, H, Q = post.objective(x, exact_hessian=True)
-        refined.append((x, count, f, H, Q))
+        # the Gaussian's covariance with the restricted (REML) noise scales of the estimated pools;
+        # the evidence keeps the Hessian of the density itself
+        Hr = post.objective(x, exact_hessian=True, restricted=True)[2] if post.noise == "estimate" else H
+        refined.append((x, count, f, H, Q, Hr))
     if not refined:
         raise NumericalError("no solution could be refined to a posterior mode")
     P = post.to_p(np.array([r[0] for r in refined]))
@@ -207,7 +220,7 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
     xl, xh = post.bounds_x()
     modes = []
     for g in groups:
-        x, _, f, H, Q = refined[g[0]]
+        x, _, f, H, Q, Hr = refined[g[0]]
         count = sum(refined[i][1] for i in g)
         p = post.to_p(x[None, :])[0]
         dpdx = post.param.dp_dx(x)
@@ -217,18 +230,20 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
         cov = np.full((post.L, post.L), np.nan)
         log_weight = -math.inf
         inside = math.nan
+        C: np.ndarray | None
+        Cr: np.ndarray | None
         try:
-            C = np.linalg.cholesky(H)
+            C, Cr = np.linalg.cholesky(H), np.linalg.cholesky(Hr)
         except np.linalg.LinAlgError:
-            C = None
-        if C is None or not np.all(np.isfinite(H)):
+            C = Cr = None
+        if C is None or Cr is None or not np.all(np.isfinite(H)) or not np.all(np.isfinite(Hr)):
             note = "the posterior's Hessian there is not positive definite: the data and prior do not confine it"
         else:
-            Hinv = np.linalg.inv(H)
+            Hinv = np.linalg.inv(Hr)
             cov = dpdx[:, None] * Hinv * dpdx[None, :]
             logdet = 2.0 * float(np.sum(np.log(np.diag(C))))
             z = rng.standard_normal((n_inside, post.L))
-            draws = x + np.linalg.solve(C.T, z.T).T
+            draws = x + np.linalg.solve(Cr.T, z.T).T
             inside = float(np.mean(np.all((draws >= xl) & (draws <= xh), axis=1) & np.isfinite(post.log_prior(draws))))
             log_weight = -f + 0.5 * post.L * math.log(2 * math.pi) - 0.5 * logdet + (math.log(inside) if inside > 0
                                                                                       else -math.inf)
@@ -236,7 +251,7 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
                 note = (f"{', '.join(at)} on a bound: the Gaussian is cut there ({inside:.0%} of it inside), and the "
                         "approximation is rough")
         modes.append(Mode(dict(zip(post.names, map(float, p))), x, cov, dict(zip(post.names, np.sqrt(np.diag(cov)))),
-                          float(log_weight), 0.0, 0.5 * Q, float(-f), count, inside, at, H, note))
+                          float(log_weight), 0.0, 0.5 * Q, float(-f), count, inside, at, Hr, note))
     lw = np.array([m.log_weight for m in modes])
     if not np.any(np.isfinite(lw)):
         raise NumericalError("no posterior mode has a positive definite Hessian: the data and priors do not determine "

@@ -9,13 +9,15 @@ with stated standard deviations every residual is a standard normal variable at 
 .. math::  \log L(\theta) = -\tfrac12 Q(\theta) - \tfrac m2 \log 2\pi, \qquad Q = \lVert r(\theta)\rVert^2
 
 (``noise="stated"``; m residuals).  When the data do not state a standard deviation for every
-residual, a common noise scale s multiplies them all, with Jeffreys' prior p(s) ∝ 1/s, and is
-integrated out analytically (``noise="estimate"``):
+residual, the blocks without one get a noise scale per kind of data (eigenvalues, shapes, FRFs,
+static deflections), each with Jeffreys' prior p(s_b) ∝ 1/s_b, integrated out analytically
+(:mod:`femupdate.bayes.noise`; ``noise="estimate"`` estimates every block's):
 
-.. math::  L(\theta) = \int_0^\infty (2\pi s^2)^{-m/2} e^{-Q/(2s^2)} \frac{ds}{s}
-           = \tfrac12\,\Gamma(\tfrac m2)\,(\pi Q)^{-m/2},
+.. math::  L_b(\theta) = \int_0^\infty (2\pi s^2)^{-n_b/2} e^{-Q_b/(2s^2)} \frac{ds}{s}
+           = \tfrac12\,\Gamma(\tfrac{n_b}2)\,(\pi Q_b)^{-n_b/2},
 
-and given θ, s² is inverse-gamma with shape m/2 and scale Q/2.  The likelihood is the density of
+and given θ, s_b² is inverse-gamma with shape n_b/2 and scale Q_b/2; the stated blocks keep their
+Gaussian.  The likelihood is the density of
 the weighted residuals: a log-evidence built on it compares models (parametrisations) of the
 *same* data and standard deviations; the data's own scaling adds the same constant to both.
 
@@ -102,9 +104,10 @@ class Posterior:
         The updating problem whose residuals make the likelihood (as :func:`femupdate.update`
         takes it; its solver's parametrisation gives the sampler's variables x).  Its
         ``noise.basis``: ``"stated"``: every residual is divided by a stated standard deviation
-        (an :class:`InputError` otherwise); ``"estimate"``: a common scale s on the residuals as
-        weighted, Jeffreys' prior, integrated out; ``"auto"``: stated when every residual has a
-        standard deviation, else estimated (with a note).
+        (an :class:`InputError` otherwise); ``"estimate"``: a scale per kind of data on the
+        residuals as weighted, Jeffreys' prior, integrated out; ``"auto"``: the blocks with
+        stated standard deviations as stated, a scale per kind estimated for the others (with a
+        note).
     **shorthand
         Fields of its option objects as keywords (``noise="estimate"``, ``min_mac=0.8``, ...).
 
@@ -196,20 +199,28 @@ class Posterior:
                              "the eigenvalues' and, when shapes are compared, the shapes' (--std-eigenvalue, --std-shape; "
                              "std_frequency, std_shape in the test data), and --std-frf / --std-static for FRFs and "
                              "static deflections; or use --noise estimate")
-        self.noise = "stated" if (noise == "stated" or (noise == "auto" and stated)) else "estimate"
+        from .noise import noise_pools
+
+        #: the noise pools: the stated blocks, and one estimated scale per kind of data (:mod:`.noise`)
+        self.pools, pool_notes = noise_pools(self.problems, noise, self.L)
+        self.noise = "stated" if all(p.basis == "stated" for p in self.pools) else "estimate"
         if self.noise == "estimate":
-            if self.n_residuals <= self.L:
-                raise InputError(f"{self.n_residuals} residuals for {self.L} parameters: a noise scale cannot be "
+            n_est = sum(p.n for p in self.pools if p.basis == "estimated")
+            if n_est <= self.L:
+                raise InputError(f"{n_est} residuals for {self.L} parameters: a noise scale cannot be "
                                  "estimated from the fit; state the measurement standard deviations (--std-eigenvalue, "
                                  "--std-shape, ...; std_frequency, std_shape in the test data)")
+            est = [p.label for p in self.pools if p.basis == "estimated"]
             self.notes.append(
-                ("the residuals are divided by the stated standard deviations, and a common scale s on them is "
-                 "estimated" if stated else
-                 "no measurement standard deviation is stated for every residual: a common noise scale s on the "
-                 "residuals as weighted (for modes the relative eigenvalue errors and the scaled shape entries) is "
-                 "estimated")
-                + " with Jeffreys' prior p(s) ∝ 1/s, integrated out (the likelihood is ∝ ‖r‖^-m); state the test's "
-                  "standard deviations to use its own uncertainty")
+                (f"the noise of {', '.join(est)} is estimated" + (", every block's, as asked (noise 'estimate')"
+                                                                 if noise == "estimate" else
+                                                                 " (no standard deviation stated for it)"))
+                + ": one noise scale per kind of data on the residuals as weighted, each with Jeffreys' prior "
+                  "p(s) ∝ 1/s, integrated out (the likelihood is ∝ Π ‖r_b‖^-n_b)"
+                + ("; the blocks with stated standard deviations use them as stated" if any(
+                    p.basis == "stated" for p in self.pools) else "")
+                + "; state the test's standard deviations to use its own uncertainty")
+            self.notes.extend(pool_notes)
         if self.improper:
             self.notes.append(f"improper flat prior on {', '.join(self.improper)} (an infinite bound and no prior "
                               "declared): the posterior is proper only if the data confine them, and the evidence is "
@@ -359,12 +370,19 @@ class Posterior:
     def sum_of_squares(self, X) -> tuple[np.ndarray, list]:
         """Q = ‖r‖² over every data set at the variables X (S, L): (S,) (NaN where the model
         cannot be evaluated), and per point None or the failure's message."""
+        Qp, messages = self.pool_squares(X)
+        return Qp.sum(axis=1), messages
+
+    def pool_squares(self, X) -> tuple[np.ndarray, list]:
+        """Q_b = ‖r_b‖² of each noise pool (:attr:`pools`) over every data set at the variables X
+        (S, L): (S, P) (NaN rows where the model cannot be evaluated), and per point None or the
+        failure's message."""
         X = np.atleast_2d(np.asarray(X, float))
-        S = X.shape[0]
-        Q = np.zeros(S)
+        S, P = X.shape[0], len(self.pools)
+        Qp = np.zeros((S, P))
         messages: list = [None] * S
         if not S:
-            return Q, messages
+            return Qp, messages
         if self.route == "compiled":
             n = len(self.problems)
             rows = np.repeat(np.arange(n, dtype=np.int64), S)
@@ -373,42 +391,43 @@ class Posterior:
                 self._pool = ThreadPoolExecutor(self.threads)
             ev = self.batched.residuals(np.tile(X, (n, 1)), rows, pool=self._pool if threads > 1 else None,
                                         threads=threads)
-            sq = np.einsum("ij,ij->i", ev.fun, ev.fun).reshape(n, S)
-            Q = sq.sum(axis=0)
+            for i in range(n):
+                fun = ev.fun[i * S:(i + 1) * S]
+                for b, pool in enumerate(self.pools):
+                    sub = fun[:, pool.rows[i]] * pool.w(i)[None, :]
+                    Qp[:, b] += np.einsum("ij,ij->i", sub, sub)
             for i, msg in enumerate(ev.messages):
                 if msg is not None and messages[i % S] is None:
                     messages[i % S] = msg
         else:
+            from .noise import pool_squares
+
             for i, x in enumerate(X):
-                for prob in self.problems:
-                    try:
-                        r = prob.residuals(x)
-                    except FemupdateError as exc:
-                        messages[i] = f"{type(exc).__name__}: {exc}"
-                        break
-                    Q[i] += float(r @ r)
+                try:
+                    Qp[i] = pool_squares(self.pools, lambda k: self.problems[k].residuals(x))
+                except FemupdateError as exc:
+                    messages[i] = f"{type(exc).__name__}: {exc}"
         bad = [i for i, m in enumerate(messages) if m is not None]
-        Q[bad] = np.nan
+        Qp[bad] = np.nan
         self.evaluations += S
         for i in bad:
             self.failures[messages[i]] += 1
-        return Q, messages
+        return Qp, messages
 
-    def log_likelihood_of(self, Q) -> np.ndarray:
-        """log L from Q = ‖r‖² (NaN: −inf), by the noise treatment (module docstring)."""
-        Q = np.asarray(Q, float)
-        m = self.n_residuals
-        with np.errstate(divide="ignore", invalid="ignore"):
-            if self.noise == "stated":
-                ll = -0.5 * Q - 0.5 * m * math.log(2 * math.pi)
-            else:
-                ll = math.lgamma(0.5 * m) - math.log(2.0) - 0.5 * m * np.log(math.pi * Q)
-        return np.where(np.isnan(Q), -np.inf, ll)
+    def log_likelihood_of(self, Qp) -> np.ndarray:
+        """log L from the pools' sums of squares Qp (S, P) (a single pool: also Q (S,)), by the
+        noise treatment (module docstring, :mod:`femupdate.bayes.noise`); NaN: −inf."""
+        from .noise import log_likelihood
+
+        Qp = np.asarray(Qp, float)
+        if Qp.ndim == 1:
+            Qp = Qp[:, None]
+        return log_likelihood(self.pools, Qp)
 
     def log_likelihood(self, X) -> np.ndarray:
         """log L at the variables X (S, L); −inf where the model cannot be evaluated."""
-        Q, _ = self.sum_of_squares(X)
-        return self.log_likelihood_of(Q)
+        Qp, _ = self.pool_squares(X)
+        return self.log_likelihood_of(Qp)
 
     def log_posterior(self, X, with_likelihood: bool = False):
         """log prior + log likelihood at X (S, L) — the likelihood evaluated only where the prior is
@@ -432,43 +451,39 @@ class Posterior:
             Js.append(prob.jacobian(x))
         return np.concatenate(rs), np.vstack(Js)
 
-    def objective(self, x, exact_hessian: bool = False) -> tuple[float, np.ndarray, np.ndarray, float]:
+    def objective(self, x, exact_hessian: bool = False,
+                  restricted: bool = False) -> tuple[float, np.ndarray, np.ndarray, float]:
         """f = −log posterior at x, its gradient and Gauss–Newton Hessian in x, and Q = ‖r‖².
 
-        Stated noise: f = Q/2 + m/2 log 2π − log π(x), Hessian JᵀJ − ∇² log π.  Estimated noise:
-        f = m/2 log(πQ) − log Γ(m/2) + log 2 − log π(x), gradient (m/Q) Jᵀr − ∇ log π, Hessian
-        (m/Q) JᵀJ − ∇² log π, and with ``exact_hessian`` the term −(2m/Q²)(Jᵀr)(Jᵀr)ᵀ of the
-        Gauss–Newton Hessian of m/2 log Q, which vanishes where Jᵀr = 0.
+        Per noise pool (:mod:`femupdate.bayes.noise`): stated, Q_b/2 + n_b/2 log 2π with
+        Hessian J_bᵀJ_b; estimated, n_b/2 log(πQ_b) − log Γ(n_b/2) + log 2 with gradient
+        (n_b/Q_b) J_bᵀr_b and Hessian (n_b/Q_b) J_bᵀJ_b, and with ``exact_hessian`` the term
+        −(2n_b/Q_b²)(J_bᵀr_b)(J_bᵀr_b)ᵀ of the Gauss–Newton Hessian of n_b/2 log Q_b, which
+        vanishes where J_bᵀr_b = 0; less the log prior's derivatives.  ``restricted``: each
+        estimated pool's Gauss–Newton term with n_b less its share of the parameters (the REML
+        scale, :func:`femupdate.bayes.noise.objective_terms`) — the Laplace covariance's Hessian.
 
         Raises
         ------
         NumericalError
             The model cannot be evaluated at x.
         """
+        from .noise import objective_terms
+
         r, J = self.residuals_and_jacobian(x)
-        Q = float(r @ r)
-        m = self.n_residuals
         lp, gp, hp = self.prior_derivatives(x)
-        Jr = J.T @ r
-        if self.noise == "stated":
-            f = 0.5 * Q + 0.5 * m * math.log(2 * math.pi)
-            g, H = Jr, J.T @ J
-        else:
-            f = 0.5 * m * math.log(math.pi * Q) - math.lgamma(0.5 * m) + math.log(2.0) if Q > 0 else -math.inf
-            g, H = (m / Q) * Jr, (m / Q) * (J.T @ J)
-            if exact_hessian:
-                H = H - (2 * m / Q ** 2) * np.outer(Jr, Jr)
+        offsets = np.cumsum([0] + [int(p.n_residuals) for p in self.problems])[:-1]
+        f, g, H, Q = objective_terms(self.pools, r, J, offsets, exact_hessian, -hp if restricted else None)
         return f - lp, g - gp, H - hp, Q
 
     # ------------------------------------------------------------------ noise scale and predictions
-    def noise_scale(self, Q, rng: np.random.Generator) -> np.ndarray | None:
-        """Draws of the noise scale s given each sample's Q (estimated noise; None when stated):
-        s² = Q / (2 g) with g ~ Gamma(m/2, 1), its conditional posterior under Jeffreys' prior."""
-        if self.noise == "stated":
-            return None
-        Q = np.asarray(Q, float)
-        g = rng.gamma(0.5 * self.n_residuals, 1.0, size=Q.shape)
-        return np.sqrt(Q / (2.0 * g))
+    def noise_scale(self, Qp, rng: np.random.Generator) -> dict:
+        """Draws of each estimated pool's noise scale given each sample's pool sums of squares
+        Qp (S, P): s_b² = Q_b / (2 g), g ~ Gamma(n_b/2, 1), its conditional posterior under
+        Jeffreys' prior; {pool label: draws} (empty when every pool is stated)."""
+        from .noise import scale_draws
+
+        return scale_draws(self.pools, Qp, rng)
 
     def modal_problem(self) -> Problem | None:
         """The first data set's modal problem (None without measured modes)."""

@@ -48,6 +48,7 @@ def posterior_kind(res, ctx: RunContext) -> dict:
         "solutions": [solution_fields(m, f) for m, f in zip(res.modes, res.mode_fractions)],
         "log_evidence": res.log_evidence, "log_evidence_error": res.log_evidence_error,
         "noise": res.noise,
+        "model_error": (res.noise or {}).get("model_error"),
         "prior": res.prior,
         "predictive": res.predictive,
         "diagnostics": res.diagnostics,

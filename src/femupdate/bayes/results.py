@@ -180,7 +180,10 @@ class PosteriorResult(Serialisable):
     def summary(self) -> str:
         """A few lines: the parameters' medians and intervals, the solutions and their
         probabilities, the evidence and the warnings."""
-        lines = [f"posterior by {self.method} ({self.samples.shape[0]} samples, {self.route} likelihood)"]
+        fit = (self.noise or {}).get("model_error") or {}
+        lines = [f"posterior by {self.method} ({self.samples.shape[0]} samples, {self.route} likelihood)"
+                 + ("; MODEL ERROR: the fit does not reproduce the data within the noise"
+                    if fit.get("verdict") == "model error" else "")]
         for n in self.names:
             lo, hi = self.interval[n]
             lines.append(f"  {n}: median {self.median[n]:.6g}, mean {self.mean[n]:.6g}, std {self.std[n]:.3g}, "
@@ -191,6 +194,9 @@ class PosteriorResult(Serialisable):
         if math.isfinite(self.log_evidence):
             lines.append(f"  log evidence {self.log_evidence:.4f}"
                          + (f" ± {self.log_evidence_error:.2g}" if math.isfinite(self.log_evidence_error) else ""))
+        from .noise import noise_lines
+
+        lines += [f"  {line}" for line in noise_lines(self.noise or {}, self.level)]
         lines += [f"  warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 

@@ -121,6 +121,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     given, rest = gather_some("posterior", shorthand, sampler=(SamplerOptions, sampler),
                               starts=(StartsOptions, starts), execution=(ExecutionOptions, execution))
     so, st, ex = given["sampler"], given["starts"], given["execution"]
+    _no_alpha(st)
     uo = UpdateOptions.of("posterior", rest, options=options)
     method, samples, ensembles, steps, burn = so.method, so.samples, so.ensembles, so.steps, so.burn
     segment, target_ess, tmcmc_steps, target_cov, chunks = so.segment, so.target_ess, so.tmcmc_steps, so.target_cov, so.chunks
@@ -139,11 +140,8 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         burn = steps // 4
     if method == "tmcmc" and post.improper:
         post.sample_prior(np.random.default_rng(0), 1)  # refuses, naming the parameters
-    settings = {"method": method, "samples": samples, "walkers": walkers, "ensembles": ensembles, "steps": steps,
-                "burn": burn, "segment": segment, "target_ess": target_ess, "tmcmc_steps": tmcmc_steps,
-                "target_cov": target_cov, "chunks": chunks, "starts": starts_n, "rel_tol": rel_tol}
-    key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route, settings,
-                  entropy)
+    key = run_key(model, post.sets, {k: v for k, v in post.definition.items() if k != "route"}, post.route,
+                  _settings(so, st, walkers, burn), entropy)
     ckpt = RunCheckpoint(checkpoint, key, {"method": method, "model": model.name, "parameters": list(post.names)})
 
     def tell(phase):
@@ -152,6 +150,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     runner = None
     try:
         points, notes = candidates(post, starts_n, seed, tell("solutions"), scheduler, connect_timeout)
+        from .noise import calibrate
+
+        calibrate(post, points[0][0])  # the relative weights of kinds that share a noise scale (REML)
         t_modes, n_modes = time.perf_counter(), post.evaluations
         modes, more = laplace_modes(post, points, np.random.Generator(np.random.PCG64(stream(entropy, 0))), rel_tol)
         _announce_sampling(so, walkers, time.perf_counter() - t_modes, post.evaluations - n_modes)
@@ -194,6 +195,9 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         P = post.to_p(X)
         stats = summarise(P, level)
         noise_info, pred = _noise_and_predictions(post, X, level, predictive, rng)
+        from .noise import fit_check
+
+        noise_info["model_error"] = fit_check(post, modes[0].x) or None  # at the most probable mode
         diag["evaluations"] = post.evaluations
         diag["failures"] = dict(post.failures)
         notes += _failure_notes(post)
@@ -245,12 +249,23 @@ def _noise_and_predictions(post: Posterior, X: np.ndarray, level: float, predict
     subset of ``predictive`` of the samples X (in the sampler's variables)."""
     sub = rng.choice(X.shape[0], size=min(predictive, X.shape[0]), replace=False) if predictive else np.zeros(0, int)
     Xs = X[np.sort(sub)]
-    Q, _ = post.sum_of_squares(Xs) if Xs.size else (np.zeros(0), [])
-    scale = post.noise_scale(Q, rng)
-    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals}
+    Qp, _ = post.pool_squares(Xs) if Xs.size else (np.zeros((0, len(post.pools))), [])
+    draws = post.noise_scale(Qp, rng)
+    noise_info: dict = {"kind": post.noise, "n_residuals": post.n_residuals, "pools": []}
+    a = (1 - level) / 2
+    for pool in post.pools:
+        rec = pool.record()
+        s = draws.get(pool.label)
+        if s is not None and np.isfinite(s).any():
+            s = s[np.isfinite(s)]
+            rec["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
+        noise_info["pools"].append(rec)
+    # the scale of the eigenvalues' noise (the frequencies' predictions): their pool's
+    eig = next((p.label for p in post.pools if p.basis == "estimated" and any(
+        mb.startswith("eigenvalue") or mb.startswith("dynamic") for mb in p.members)), None)
+    scale = draws.get(eig) if eig is not None else None
     if scale is not None and np.isfinite(scale).any():
         s = scale[np.isfinite(scale)]
-        a = (1 - level) / 2
         noise_info["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
         noise_info["draws"] = int(s.size)
     return noise_info, predictive_summary(post.predict(Xs) if Xs.size else None, scale, level, rng)
@@ -263,6 +278,24 @@ def _describe(post: Posterior, j: int) -> str:
         return f"uniform on [{lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else \
             f"flat (improper) on [{lo:g}, {hi:g}]"
     return f"{pr} on [{lo:g}, {hi:g}]" if pr.kind != "uniform" else f"uniform on [{lo:g}, {hi:g}]"
+
+
+def _no_alpha(st: StartsOptions) -> None:
+    """Refuse a significance level for telling solutions apart: it does not apply to a posterior."""
+    if st.alpha != StartsOptions().alpha:
+        raise InputError(f"posterior: alpha = {st.alpha:g} does not apply: the mode search keeps every separate minimum "
+                         "as a candidate mode (two minima within each other's noise are two peaks of one posterior, "
+                         "whose samples say how well the data tell them apart)")
+
+
+def _settings(so: SamplerOptions, st: StartsOptions, walkers: int, burn) -> dict:
+    """What identifies a posterior run's sampling in its checkpoint key (with the walkers and burn-in
+    as the run resolved them)."""
+    settings = {"method": so.method, "samples": so.samples, "walkers": walkers, "ensembles": so.ensembles,
+                "steps": so.steps, "burn": burn, "segment": so.segment, "target_ess": so.target_ess,
+                "tmcmc_steps": so.tmcmc_steps, "target_cov": so.target_cov, "chunks": so.chunks,
+                "starts": st.starts, "rel_tol": st.rel_tol}
+    return settings
 
 
 def _announce_sampling(so: SamplerOptions, walkers: int, seconds: float, evaluations: int) -> None:

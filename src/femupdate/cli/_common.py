@@ -378,6 +378,20 @@ def print_diagnostics(console, res) -> None:
                   f"condition number of the normalised sensitivity matrix {d.condition_number:.3g} "
                   f"(rank {d.rank}/{d.n_parameters - d.n_at_bounds} {what})", markup=False)
     print_identifiability(console, d)
+    print_noise_basis(console, d)
+
+
+def print_noise_basis(console, d) -> None:
+    """What each standard deviation rests on (one line per noise component: stated in the data
+    file, given as an option, estimated with its dof, pooled), how blocks were pooled, and the
+    fit's test for model error (:mod:`femupdate.updating.noise`)."""
+    for line in getattr(d, "basis_lines", []):
+        console.print(f"std basis: {line}", markup=False)
+    for note in getattr(d, "noise_notes", []):
+        console.print(f"std basis: {note}", markup=False)
+    line = getattr(d, "model_error_line", "")
+    if line:
+        console.print(line, markup=False)
 
 
 def print_identifiability(console, d) -> None:
@@ -420,11 +434,47 @@ def print_starts(console, ms, what: str = "starts") -> None:
                           + f"  (cost {sol.cost:.3g})")
         if len(local) > 10:
             console.print(f"  ... and {len(local) - 10} more (see the JSON)")
+    for line in distinct_lines(ms):
+        console.print(line, markup=False)
     failures = ms.failures
     if failures:
         console.print(f"{sum(failures.values())} {what} without a solution:")
         for reason, count in list(failures.items())[:10]:
             console.print(f"  {count:4d} x  {reason}")
+
+
+def distinct_lines(ms) -> list[str]:
+    """How a multi-start study's solutions were told apart, and ill-conditioning said apart from
+    non-uniqueness (``ms.distinct``, :func:`femupdate.updating.clustering.distinct_record`)."""
+    from ..distinct import conditioning_line
+
+    rec = getattr(ms, "distinct", None) or {}
+    if not rec or not ms.solutions:
+        return []
+    basis = str(rec.get("basis"))
+    how = {"statistic": f"solutions told apart at alpha = {rec['alpha']:g} against their own covariances",
+           "mixed": f"solutions told apart at alpha = {rec['alpha']:g} against their covariances where they have one, "
+                    "else by the relative tolerance",
+           }.get(basis, "solutions told apart by the relative tolerance only: no solution has a covariance (too few "
+                        "data for the residual variance and no noise stated)")
+    lines = [how]
+    fit = ms.fitting
+    if len(fit) > 1:
+        where = {id(s): i for i, s in enumerate(ms.solutions)}
+        why = []
+        for s in fit[1:]:
+            sep = (rec.get("separations") or [None] * len(ms.solutions))[where[id(s)]]
+            if sep and sep.get("basis") == "statistic":
+                why.append(f"d2 {sep['statistic']:.3g} > {sep['threshold']:.3g}")
+            elif sep and sep.get("basis") == "non-identifiable":
+                why.append("along a direction the data do not determine")
+            else:
+                why.append("beyond the tolerance")
+        lines.append(f"non-unique: {len(fit)} separated solutions fit the data equally well ({'; '.join(why)})")
+    cond = rec.get("conditioning")
+    if cond is not None:
+        lines.append(("the best solution: " if len(fit) > 1 else "the solution: ") + conditioning_line(cond))
+    return lines
 
 
 def update_parameter_table(res, title: str, units: dict | None = None) -> Table:

@@ -94,13 +94,21 @@ def spelled(message: str, params) -> str:
 
 # ---------------------------------------------------------------------------------- groups
 def starts_group(default: int = 1, starts_help: str | None = None, seed_help: str | None = "Seed of the random starts.",
-                 title: str = "Starts") -> Callable:
-    """``--starts``, ``--seed`` -> ``starts``: :class:`~femupdate.options.StartsOptions`."""
+                 title: str = "Starts", alpha: bool = True) -> Callable:
+    """``--starts``, ``--seed`` and (where solutions are told apart: ``alpha``) ``--alpha`` -> ``starts``:
+    :class:`~femupdate.options.StartsOptions`."""
+    options = [click.option("--starts", type=click.IntRange(min=1), default=default, show_default=True,
+                            help=starts_help or "1: start from the model's values; R > 1: R random starts within the "
+                                                "bounds."),
+               click.option("--seed", type=SEED, default=0, show_default=True, help=seed_help)]
+    if not alpha:
+        return option_group(title, "starts", lambda starts, seed: StartsOptions(starts=starts, seed=seed), *options)
     return option_group(
-        title, "starts", lambda starts, seed: StartsOptions(starts=starts, seed=seed),
-        click.option("--starts", type=click.IntRange(min=1), default=default, show_default=True,
-                     help=starts_help or "1: start from the model's values; R > 1: R random starts within the bounds."),
-        click.option("--seed", type=SEED, default=0, show_default=True, help=seed_help),
+        title, "starts", lambda starts, seed, alpha: StartsOptions(starts=starts, seed=seed, alpha=alpha), *options,
+        click.option("--alpha", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=0.01,
+                     show_default=True,
+                     help="Significance level at which two solutions are told apart: distinct only when they differ "
+                          "significantly against their own covariances (StartsOptions.alpha)."),
     )
 
 

@@ -71,19 +71,18 @@ def _pct(v) -> str:
     return "-" if v is None or not np.isfinite(v) else f"{v * 100:.1f} %"
 
 
-def _fp_line(rate) -> str:
-    """The benchmark's false-positive rate for comparable scenarios, as one line."""
-    bins = []
-    if rate.get("sensor_fraction"):
-        lo, hi = rate["sensor_fraction"]
-        bins.append(f"sensors on {lo * 100:.0f}-{min(hi, 1) * 100:.0f} % of the dofs")
-    if rate.get("modes"):
-        lo, hi = rate["modes"]
-        bins.append(f"{lo}-{hi - 1} modes")
-    return (f"benchmark: a healthy unknown was reported damaged in {rate['false_positives']} of {rate['scenarios']} "
-            f"comparable scenarios ({rate['false_positive_rate'] * 100:.0f} %; every damaged one found in "
-            f"{rate['detection_rate'] * 100:.0f} %) at {rate['noise'] * 100:g} % noise"
-            + (f", {', '.join(bins)}" if bins else "") + f" (bench_damage.py, {rate['date']})")
+def _rate_lines(conf) -> list[str]:
+    """The simulated false-positive and detection rates of this run, with their Monte Carlo error."""
+    out = []
+    for key, what in (("false_positive_rate", "healthy baseline simulated with this run's sensors, modes and noise: "
+                                              "some unknown reported damaged in"),
+                      ("detection_rate", "located model simulated likewise: every located unknown found again in")):
+        r = conf.get(key)
+        if r:
+            lo, hi = r["interval"]
+            out.append(f"{what} {r['count']} of {r['n']} replicates ({r['rate'] * 100:.0f} % ± "
+                       f"{r['standard_error'] * 100:.0f} %, {r['level'] * 100:g} % interval {lo * 100:.0f}-{hi * 100:.0f} %)")
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,6 +142,9 @@ def _method_group() -> Callable:
                      help="Baseline check: largest frequency error against --undamaged."),
         click.option("--min-mac", type=FiniteFloat(0, 1), default=0.9, show_default=True,
                      help="Baseline check: smallest MAC."),
+        click.option("--baseline-checked", is_flag=True,
+                     help="The baseline was checked against the undamaged structure (e.g. updated against its data); "
+                          "without it or --undamaged a located set is never confirmed."),
         click.option("--localise-min-mac", type=FiniteFloat(0, 1), default=0.8, show_default=True,
                      help="A damaged mode pairing with no baseline mode this well stops the localisation."),
     )
@@ -152,19 +154,22 @@ def _noise_group() -> Callable:
     """``--noise-frequency``, ``--noise-shape`` -> ``noise``: the stated noise, as
     :func:`~femupdate.damage.detect_damage` takes it."""
     def build(noise_frequency, noise_shape):
-        return {"frequency": noise_frequency} | ({"shape": noise_shape} if noise_shape is not None else {})
+        return ({"frequency": noise_frequency} if noise_frequency is not None else {}) \
+            | ({"shape": noise_shape} if noise_shape is not None else {})
 
     return option_group(
         "Stated noise", "noise", build,
-        click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=0.001, show_default=True,
-                     help="Relative frequency noise (0: noise-free data)."),
+        click.option("--noise-frequency", type=FiniteFloat(min=0, max=1), default=None,
+                     help="Relative frequency noise (0: noise-free data; default: the test data's std_frequency, "
+                          "else 0.001, said to be assumed)."),
         click.option("--noise-shape", type=FiniteFloat(min=0, max=1), default=None,
                      help="Shape noise relative to each shape's largest value (default: from the expansion misfit)."),
     )
 
 
 #: the phases of damage detection, as its progress shows them
-_PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicates"}
+_PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicates",
+           "healthy": "replicates of the healthy baseline"}
 
 
 @click.command(cls=GroupedCommand)
@@ -186,6 +191,7 @@ def damage(baseline_path, data_path, given: DamageData, options, noise, outputs:
         res = detect_damage(du, data, undamaged=undamaged, elements=_names(given.elements_text), noise=noise,
                             options=options, progress=tick)
     payload = res.to_json()
+    ctx.console.print(payload["headline"], markup=False)
     _print_damage(ctx.console, res, du.model, data, du.kind, options.min_change)
     for n in payload["notes"]:
         ctx.console.print(f"note: {n}", markup=False)
@@ -258,6 +264,11 @@ def _print_located(c, res, min_change: float) -> None:
                 "(--no-refine); its bootstrap varies the noise only", markup=False)
     for d in res.doubts:
         c.print(f"warning: doubtful: {d}", markup=False)
+    noise = res.confidence.get("noise") or {}
+    basis = noise.get("basis") or {}
+    if basis:
+        c.print(f"noise: frequency {noise.get('frequency', float('nan')):.3g} ({basis.get('frequency')}), shape "
+                f"{noise.get('shape_verify', noise.get('shape', float('nan'))):.3g} ({basis.get('shape')})", markup=False)
     if res.tikhonov:
         c.print(f"Tikhonov (GCV) for comparison changes {res.tikhonov['n_above_threshold']} unknown(s) by more than "
                 f"{min_change * 100:g} %")
@@ -267,18 +278,18 @@ def _print_damage(c, res, model, data, kind: str, min_change: float) -> None:
     """The pairing with the baseline, then the located set (or why there is none) and the benchmark's rate."""
     what = "element stiffnesses" if kind == "elements" else "stiffness parameters"
     t = Table(title=f"{model.name}: {len(res.changes)} {what}, {len(data.modes)} measured modes")
-    for col in ("test mode", "baseline mode", "MAC", "frequency change"):
-        t.add_column(col, justify="right")
+    flagged = {f["test_mode"]: f["why"] for f in (res.pairing or {}).get("flagged", [])}
+    for col in ("test mode", "baseline mode", "MAC", "frequency change") + (("pair to doubt",) if flagged else ()):
+        t.add_column(col, justify="left" if col == "pair to doubt" else "right")
     for (k, j, m), fc in zip(res.pairs, res.frequency_change):
-        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %")
+        t.add_row(str(k + 1), str(j + 1), f"{m:.3f}", f"{fc * 100:+.2f} %", *((flagged.get(k + 1, ""),) if flagged else ()))
     c.print(t)
     if res.localised:
         _print_located(c, res, min_change)
     else:
         c.print(f"[bold]not localised[/bold]: {res.reason}")
-    rate = res.confidence.get("false_positive_rate")
-    if rate:
-        c.print(_fp_line(rate), markup=False)
+    for line in _rate_lines(res.confidence):
+        c.print(line, markup=False)
 
 
 # ---------------------------------------------------------------------------------- update-multi

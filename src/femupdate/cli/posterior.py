@@ -12,6 +12,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
+from ..bayes.noise import noise_lines
 from ._common import CHECKPOINT_FILE, INPUT_FILE, OUTPUT_FILE, Ctx, OutputPath, fmt, load_data, model_values, write_report_output
 from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
 from .outputs import Outputs, outputs_group, phased_progress
@@ -53,7 +54,7 @@ def parse_priors(items) -> dict:
                    "residuals, estimated (Jeffreys' prior, integrated out); auto: stated when every residual has one.")
 @starts_group(default=20, starts_help="Random starts of the search for distinct solutions (1: one update from the "
                                       "model's values).", seed_help="Seed of every random stream.",
-              title="Search for solutions")
+              title="Search for solutions", alpha=False)
 @execution_group(jobs=False, scheduler_help="Run the starts, MCMC ensembles and TMCMC chunks on an existing Dask "
                                             "cluster (tcp://host:port).")
 @click.option("--checkpoint", "checkpoint_path", type=CHECKPOINT_FILE, default=None,
@@ -115,8 +116,10 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
 
 def _print(c, model, res, data, checkpoint) -> None:
     names = list(res.names)
-    t = Table(title=f"{model.name}: posterior by {res.method} ({res.samples.shape[0]} samples, {res.route} likelihood, "
-                    f"{res.diagnostics.get('evaluations', 0)} evaluations, {res.seconds:.1f} s)")
+    flagged = ((res.noise or {}).get("model_error") or {}).get("verdict") == "model error"
+    t = Table(title=("MODEL ERROR (the best fit does not reproduce the data within the noise) — " if flagged else "")
+              + f"{model.name}: posterior by {res.method} ({res.samples.shape[0]} samples, {res.route} likelihood, "
+                f"{res.diagnostics.get('evaluations', 0)} evaluations, {res.seconds:.1f} s)")
     for col in ("parameter", "prior", "median", "mean", "std", f"{res.level:.0%} interval"):
         t.add_column(col, justify="left" if col in ("parameter", "prior") else "right")
     units = {p.name: p.unit for p in model.parameters}
@@ -151,10 +154,8 @@ def _print(c, model, res, data, checkpoint) -> None:
         err = f" ± {res.log_evidence_error:.2g}" if math.isfinite(res.log_evidence_error) else ""
         c.print(f"log evidence: {res.log_evidence:.4f}{err} ({'TMCMC' if res.method == 'tmcmc' else 'Laplace'})")
     nz = res.noise
-    if nz.get("scale"):
-        s = nz["scale"]
-        c.print(f"noise scale (estimated): median {s['median']:.4g}, {res.level:.0%} interval "
-                f"[{s['interval'][0]:.4g}, {s['interval'][1]:.4g}]")
+    for line in noise_lines(nz, res.level):
+        c.print(line, markup=False)
     d = res.diagnostics
     if res.method == "mcmc":
         c.print(f"MCMC: {d['ensembles']} ensemble(s) x {d['walkers']} walkers x {d['steps']} steps ({d['burn']} burn-in), "

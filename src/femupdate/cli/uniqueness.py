@@ -175,7 +175,7 @@ def uniqueness(model_path, plans: Plans, starts, execution, units: Units, update
     try:
         with outputs.progress(ctx, "updates", study.n_rows) as tick:
             res = run_study(study, scheduler=execution.scheduler, workers=units.workers, checkpoint=checkpoint,
-                            rel_tol=updates.rel_tol, connect_timeout=execution.connect_timeout,
+                            rel_tol=updates.rel_tol, connect_timeout=execution.connect_timeout, alpha=starts.alpha,
                             cost_tol=updates.cost_tol, progress=tick)
     except KeyboardInterrupt:
         if checkpoint:
@@ -215,6 +215,32 @@ def _print_table(console, res) -> None:
     console.print("sol.: distinct solutions reproducing the data; conv./loc./n.c./fail: starts converged, at a local "
                   "minimum, out of evaluations, failed; cond(S): normalised sensitivity matrix at the truth; "
                   "paper: mn >= L and n > 1")
+    for line in _distinct_lines(res):
+        console.print(line, markup=False)
+
+
+def _distinct_lines(res) -> list[str]:
+    """How solutions were told apart, and per case ill-conditioning said apart from non-uniqueness:
+    a unique but ill-conditioned case with its ± statement, a non-unique one with why its
+    solutions are separated."""
+    from ..distinct import conditioning_line
+
+    bases = {cr.distinct.get("basis") for cr in res.cases if cr.distinct and cr.solutions}
+    out = [f"solutions told apart at alpha = {res.alpha:g} against the covariance of a fit at the cost tolerance "
+           "(sensitivity at the truth)" + ("; by the relative tolerance where a case has none" if "tolerance" in bases
+                                          else "")]
+    for cr in res.cases:
+        d = cr.case.measured_dofs
+        name = f"dofs {','.join(d)}, {cr.case.n_modes} mode(s)"
+        cond = (cr.distinct or {}).get("conditioning")
+        if cr.unique and cond and cond.get("ill_conditioned"):
+            out.append(f"{name}: unique, {conditioning_line(cond)}")
+        elif cr.unique is False and len(cr.solutions) > 1:
+            seps = [s for s in (cr.distinct or {}).get("separations", []) if s]
+            kinds = sorted({s["basis"] for s in seps})
+            out.append(f"{name}: non-unique: {len(cr.solutions)} separated solutions reproduce the data"
+                       + (f" (separated by: {', '.join(kinds)})" if kinds else ""))
+    return out if len(out) <= 21 else out[:21] + [f"... and {len(out) - 21} more case(s): see cases[].distinct in the JSON"]
 
 
 def _print_agreement(console, agree: dict) -> None:

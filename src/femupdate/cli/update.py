@@ -87,6 +87,8 @@ def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:
     figures, the diagnostics, the pairing, the damping ratios, the starts and the notes."""
     c = ctx.console
     title = f"{model.name}: iterative update from {', '.join(kinds)} ({res.iterations} iterations, {res.nfev} evaluations)"
+    if (res.diagnostics is not None and res.diagnostics.model_error.get("verdict") == "model error"):
+        title = f"MODEL ERROR (the best fit does not reproduce the data within the noise) — {title}"
     if ms is not None and len(ms.fitting) > 1:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"

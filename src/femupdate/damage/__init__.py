@@ -11,8 +11,11 @@
                                                 refine and verify (:mod:`.refine`, :mod:`.verify`),
                                                 bootstrap (:mod:`.bootstrap`), judge; :mod:`.detect`
 :class:`DamageOptions`                          its method's knobs, checked (:mod:`.options`)
-:func:`~.rates.comparable_rate`                 the benchmark's false-positive rate for comparable
-                                                noise, sensors and modes (:mod:`.rates`)
+:func:`~.judge.judge`                           the status, doubts and confidence: false-positive and
+                                                detection rates simulated for the run (:mod:`.judge`)
+:func:`~.noise.stated_noise`                    the noise and what it rests on: the caller's, the test
+                                                data's, estimated or assumed (:mod:`.noise`)
+:func:`~.rates.comparable_rate`                 the benchmark's rates on its own families (:mod:`.rates`)
 :func:`l1_solve`, :func:`~.solvers.tikhonov`    the regularised solvers (:mod:`.solvers`)
 ==============================================  =====================================================
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import InputError
-from ..correlation import mac, pair_modes
+from ..correlation import correlate
 from ..modal import model_modes
 from ..model import Model
 from ..testdata import TestData
@@ -31,7 +31,7 @@ class BaselineCheck:
     mac : ndarray, shape ``(n_test_modes,)``
         MAC of each test mode with its paired model mode; NaN where ``frequency_error`` is.
     pairs : list of (int, int, float)
-        (test mode, model mode, MAC) pairs, 0-based, as :func:`femupdate.correlation.pair_modes`.
+        (test mode, model mode, MAC) pairs, 0-based, by the one rule (:func:`paired_modes`).
     reasons : list of str
         One message per mode and limit exceeded.
     max_frequency_error : float
@@ -54,31 +54,30 @@ class BaselineCheck:
                 "limits": {"max_frequency_error": self.max_frequency_error, "min_mac": self.min_mac}}
 
 
-def paired_modes(model, data: TestData, values, min_pair: float):
-    """Model modes (enough of them) and the MAC pairing of the test modes with shapes.
+def paired_modes(model, data: TestData, values, min_pair: float = 0.5):
+    """Model modes (enough of them) and the test modes paired with them by the one rule
+    (:func:`femupdate.correlation.correlate`: the rule ``update`` pairs by, ``auto``, with its
+    frequency check and its groups of repeated or close modes).
 
     Parameters
     ----------
     model : Model
         The parametrised model.
     data : TestData
-        Test modes; those with a shape at two or more dofs are correlated, the others get a row of
-        zeros (never paired).
+        Test modes; those without a shape are paired by frequency order.
     values : None, mapping of str to float, or array_like of shape ``(n_parameters,)``
         Parameter values as :func:`femupdate.modal.model_modes` reads them (None: nominal).
-    min_pair : float
-        Smallest MAC of a kept pair.
+    min_pair : float, default 0.5
+        The MAC that confirms a pair (a pair below it is listed in ``unconfirmed``).
 
     Returns
     -------
     modes : Modes
         The model modes: :func:`~femupdate.modal.model_modes`'s default number up to 1500 dofs,
         else ``min(n_dofs - 2, 2 n_test + 12)``.
-    mac : ndarray, shape ``(n_test_modes, n_model_modes)``
-        MAC of each test mode with each model mode, zero for model modes with eigenvalue <= 0
-        (rigid-body modes are never paired).
-    pairs : list of (int, int, float)
-        (test mode, model mode, MAC), as :func:`femupdate.correlation.pair_modes`.
+    correlation : Correlation
+        The pairing: ``pairs`` (test mode, model mode, MAC), ``mac``, ``frequency_error``,
+        ``unconfirmed``, and the :class:`~femupdate.correlation.Pairing` (``large_change``).
 
     Raises
     ------
@@ -87,22 +86,15 @@ def paired_modes(model, data: TestData, values, min_pair: float):
     """
     n = len(data.modes)
     modes = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else min(model.n_dofs - 2, 2 * n + 12))
-    rows = []
-    for m in data.modes:
-        if m.has_shape and len(m.dofs) >= 2:
-            rows.append(mac(np.real(m.shape), modes.at(m.dofs))[0])
-        else:
-            rows.append(np.zeros(modes.n_modes))
-    M = np.array(rows)
-    M[:, modes.eigenvalues <= 0] = 0.0  # never pair with rigid-body modes
-    return modes, M, pair_modes(M, min_pair)
+    return modes, correlate(data, modes, min_mac=min_pair, pairing="auto")
 
 
 def check_baseline(model: Model, undamaged: TestData, values=None, *, max_frequency_error: float = 0.02,
                    min_mac: float = 0.9, raise_on_failure: bool = True) -> BaselineCheck:
     """Check that the baseline model reproduces the undamaged structure's test data.
 
-    Every undamaged test mode with a shape must pair (MAC) with a model mode with
+    Every undamaged test mode with a shape must pair (by the rule ``update`` pairs by,
+    :func:`paired_modes`) with a model mode with
     ``MAC >= min_mac`` and ``|f_model - f_test| / f_test <= max_frequency_error``.
 
     Parameters
@@ -134,7 +126,8 @@ def check_baseline(model: Model, undamaged: TestData, values=None, *, max_freque
     """
     if not undamaged.modes or not any(m.has_shape and len(m.dofs) >= 2 for m in undamaged.modes):
         raise InputError("the undamaged data hold no mode shapes: the baseline cannot be checked")
-    modes, M, pairs = paired_modes(model, undamaged, values, 0.0)
+    modes, corr = paired_modes(model, undamaged, values)
+    pairs = [p for p in corr.pairs if np.isfinite(p[2])]
     by_test = {k: (j, m) for k, j, m in pairs}
     errs, macs, reasons = [], [], []
     for k, tm in enumerate(undamaged.modes):

@@ -23,24 +23,27 @@ from .verify import Refined, Refiner
 NOTHING_TO_VARY = "no noise stated (zero): the bootstrap has nothing to vary and was skipped"
 
 
-def simulated(model, theta, data: TestData, pairs, sig_f: float, sig_s: float, rng: np.random.Generator) -> TestData:
+def simulated(model, theta, data: TestData, pairs, sig_f, sig_s, rng: np.random.Generator) -> TestData:
     """Replicate test data from the model at ``theta``: each test mode's paired model mode at its
-    dofs, scaled to 1 at its largest entry with the measured sign, plus the stated noise."""
+    dofs, scaled to 1 at its largest entry with the measured sign, plus the stated noise (``sig_f``,
+    ``sig_s``: one level, or one per test mode)."""
     from ..modal import model_modes
 
     T = len(data.modes)
     modes = model_modes(model, theta, n_modes=min(model.n_dofs, max(2 * T, T + 6)))
     by_test = {k: j for k, j, _ in pairs}
+    sf = np.broadcast_to(np.asarray(sig_f, float), (T,))
+    ss = np.broadcast_to(np.asarray(sig_s, float), (T,))
     out = []
     for k, m in enumerate(data.modes):
         j = by_test.get(k, k)
-        lam = modes.eigenvalues[j] * (1 + sig_f * rng.standard_normal()) ** 2
+        lam = modes.eigenvalues[j] * (1 + sf[k] * rng.standard_normal()) ** 2
         if m.has_shape and len(m.dofs) >= 2:
             sh = modes.shapes[model.dof_index(m.dofs), j]
             sh = sh / sh[np.argmax(np.abs(sh))]
             if sh @ realised(m) < 0:
                 sh = -sh
-            out.append(MeasuredMode(lam, m.dofs, sh + sig_s * rng.standard_normal(sh.size), m.label))
+            out.append(MeasuredMode(lam, m.dofs, sh + ss[k] * rng.standard_normal(sh.size), m.label))
         else:
             out.append(MeasuredMode(lam, label=m.label))
     return TestData(modes=tuple(out))
@@ -83,27 +86,47 @@ class Replicates:
         return sel, se, same
 
 
+def chain(refiner: Refiner, data: TestData, alpha: float | None) -> tuple[set[int], np.ndarray]:
+    """The whole chain on one data set: localised, refined and verified; (located set, changes)."""
+    L = len(refiner.names)
+    meas_k = measured_shapes(data)
+    fit_k, _, _ = refiner.localiser.solve(meas_k.eigenvalues, meas_k.shapes, alpha)
+    with single_thread_blas():
+        _, f_k = refiner.search(data, meas_k.eigenvalues, meas_k.shapes, fit_k)
+    d_k = f_k.delta if f_k.fits else np.zeros(L)
+    return ({i for i in f_k.members if abs(d_k[i]) >= refiner.min_change} if f_k.fits else set()), d_k
+
+
 def bootstrap_refined(n: int, refiner: Refiner, refined: Refined, data: TestData, alpha: float | None,
-                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
+                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None,
+                      delta: np.ndarray | None = None, pairs=None) -> Replicates:
     """``n`` replicates simulated from the refined model (its change ``refined.delta``, the data's
-    modes paired as the final fit paired them), each localised, refined and verified anew;
-    ``progress(done, n)`` after each."""
-    localiser, levels, L = refiner.localiser, refiner.levels, len(refiner.names)
-    theta_hat = localiser.equations.theta(refined.delta)
+    modes paired as the final fit paired them) — or from the change ``delta`` with ``pairs`` (the
+    healthy baseline: zero) — each localised, refined and verified anew; ``progress(done, n)`` after each."""
+    levels = refiner.levels
+    theta_hat = refiner.localiser.equations.theta(refined.delta if delta is None else delta)
+    pairs = refined.final.pairs if pairs is None else pairs
     sets, changes = [], []
     for _ in range(n):
-        data_k = simulated(refiner.model, theta_hat, data, refined.final.pairs, levels.frequency, levels.shape_verify,
-                           rng)
-        meas_k = measured_shapes(data_k)
-        fit_k, _, _ = localiser.solve(meas_k.eigenvalues, meas_k.shapes, alpha)
-        with single_thread_blas():
-            _, f_k = refiner.search(data_k, meas_k.eigenvalues, meas_k.shapes, fit_k)
-        d_k = f_k.delta if f_k.fits else np.zeros(L)
-        sets.append({i for i in f_k.members if abs(d_k[i]) >= refiner.min_change} if f_k.fits else set())
+        sig_f, sig_s = levels.verify_levels
+        data_k = simulated(refiner.model, theta_hat, data, pairs, sig_f, sig_s, rng)
+        s_k, d_k = chain(refiner, data_k, alpha)
+        sets.append(s_k)
         changes.append(d_k)
         if progress is not None:
             progress(len(sets), n)
     return Replicates(sets, changes, n)
+
+
+def bootstrap_healthy(n: int, refiner: Refiner, refined: Refined, data: TestData, pairs, alpha: float | None,
+                      rng: np.random.Generator, progress: Callable[[int, int], None] | None = None) -> Replicates:
+    """``n`` replicates simulated from the healthy baseline (every change zero; the test modes paired
+    with the baseline's as ``pairs``), each through the whole chain: the false-positive rate of this
+    run's model, sensors, modes and noise (none when the noise is zero or no set fits the data)."""
+    if not n or refiner.levels.zero or not refined.final.fits:
+        return Replicates.none()
+    return bootstrap_refined(n, refiner, refined, data, alpha, rng, progress, delta=np.zeros(len(refiner.names)),
+                             pairs=pairs)
 
 
 def bootstrap_localised(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels, alpha: float | None,
@@ -138,4 +161,4 @@ def bootstrap(n: int, localiser: Localiser, meas: Measured, levels: NoiseLevels,
     return bootstrap_refined(n, refiner, refined, data, alpha, rng, progress)
 
 
-__all__ = ["simulated", "Replicates", "bootstrap", "bootstrap_refined", "bootstrap_localised", "NOTHING_TO_VARY"]
+__all__ = ["simulated", "Replicates", "bootstrap", "bootstrap_refined", "bootstrap_healthy", "chain", "bootstrap_localised", "NOTHING_TO_VARY"]

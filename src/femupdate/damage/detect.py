@@ -60,8 +60,9 @@ the measured shapes with it "should be acceptable".  So:
    (``same_set``), and the spread of its estimated change (standard error); the rise of the
    misfit when each member is left out (``evidence``); the localisation's ratio of the smallest
    located change to the largest change elsewhere in the L1 solution (``separation``); and the
-   false-positive rate :mod:`.rates` holds from ``benchmarks/bench_damage.py`` for comparable
-   noise, sensors and modes.  With ``refine=False`` the measured data are perturbed instead and
+   false-positive and detection rates simulated for this run (:mod:`.judge`; not the benchmark's
+   families: :mod:`.rates` keeps ``benchmarks/bench_damage.py``'s table for comparable
+   noise, sensors and modes, for the benchmark).  With ``refine=False`` the measured data are perturbed instead and
    the localisation alone re-run (its confidence then ignores whether the set fits).
 
 The equations are weighted by the inverse square root of their covariance under that same noise
@@ -92,9 +93,11 @@ from ..options import gather
 from ..serialise import RunContext, Serialisable
 from ..testdata import TestData
 from .baseline import check_baseline
-from .bootstrap import Replicates, bootstrap
-from .localise import (Localisation, Localiser, NoiseLevels, Pairing, indices, localise, make_localiser,
+from .bootstrap import Replicates, bootstrap, bootstrap_healthy
+from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
+from .judge import Judgement, judge
+from .noise import estimated_noise
 from .options import DamageOptions
 from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
@@ -128,8 +131,10 @@ class DamageResult(Serialisable):
         ``evidence`` {unknown: rise of the chi-square misfit when it is left out},
         ``separation`` (the localisation step's smallest located ``|change|`` over the largest other
         ``|change|``), ``bootstrap`` (replicates), ``noise`` (levels used), and
-        ``false_positive_rate``: the benchmark's measured rate for comparable noise, sensors and
-        modes (:func:`femupdate.damage.rates.comparable_rate`; None without a comparable row).
+        ``false_positive_rate`` and ``detection_rate``: simulated for this run (:mod:`.judge`: the
+        whole chain on replicates of the healthy baseline and of the located model, with this run's
+        sensors, modes and noise), each ``rate``, ``count``, ``n``, ``standard_error`` (binomial),
+        ``interval`` (Clopper-Pearson, ``level``) and ``basis``; None without replicates.
     localised : bool
         False when the damage could not be localised (``reason`` says why).
     reason : str
@@ -149,7 +154,8 @@ class DamageResult(Serialisable):
         ``method``, ``n_basis``, ``error`` (per mode misfit), ``n_measured_dofs`` and
         ``n_rigid_modes``; only ``method`` when localisation was refused.
     pairs : list
-        (test mode, baseline mode, MAC) at the measured dofs.
+        (test mode, baseline mode, MAC) at the measured dofs, paired by the rule ``update`` pairs by
+        (:func:`femupdate.correlation.correlate`, ``auto``, close modes as groups).
     frequency_change : ndarray
         Relative frequency change of each measured mode from its baseline mode.
     baseline_check : dict or None
@@ -177,6 +183,10 @@ class DamageResult(Serialisable):
         the candidates the refinement started from.
     descriptions : dict
         {unknown: what it scales} as given (e.g. by :func:`~femupdate.damage.damage_unknowns`).
+    pairing : dict
+        ``rule``, ``used`` and ``flagged``: the pairs with the baseline to doubt (a frequency change
+        beyond ``large_change`` or a MAC below ``localise_min_mac``), each ``test_mode``,
+        ``baseline_mode`` (1-based), ``mac``, ``frequency_change``, ``why``.
     context : DamageContext, optional
         The baseline model, the test data, the kind of unknowns and the run's notes before the
         result's own (:class:`~femupdate.damage.record.DamageContext`): what :meth:`to_json` and
@@ -209,6 +219,7 @@ class DamageResult(Serialisable):
     verification: dict = field(default_factory=dict)
     localisation: dict = field(default_factory=dict)
     descriptions: dict = field(default_factory=dict)
+    pairing: dict = field(default_factory=dict)
     context: RunContext | None = field(default=None, compare=False, repr=False)
 
     def payload(self) -> dict:
@@ -232,71 +243,6 @@ class DamageResult(Serialisable):
                  "description": self.descriptions.get(n, "")} for n, c in self.changes.items()]
 
 
-# ------------------------------------------------------------------------------ judge
-@dataclass(frozen=True, eq=False)
-class Judgement:
-    """The final judgement of :func:`judge`.
-
-    Attributes
-    ----------
-    status : str
-        One of ``STATUSES``.
-    doubts : list of str
-        Why the location is doubtful.
-    reason : str
-        Why it is not localised (empty otherwise).
-    notes : list of str
-        Remarks of the verification, the bootstrap and the judgement, in that order.
-    confidence : dict
-        The result's ``confidence``.
-    delta : ndarray, shape ``(L,)``
-        The change of every unknown.
-    order : ndarray of int
-        The located unknowns, largest change first.
-    """
-
-    status: str
-    doubts: list[str]
-    reason: str
-    notes: list[str]
-    confidence: dict
-    delta: np.ndarray
-    order: np.ndarray
-
-
-def judge(names: Sequence[str], localisation: Localisation, verification: Verification, refined: Refined | None,
-          replicates: Replicates, levels: NoiseLevels, *, detected: bool, sensor_fraction: float,
-          n_modes: int) -> Judgement:
-    """The status, doubts, confidence figures and notes of the answer: the refined set (or, without
-    ``refined``, the localisation's), its bootstrap replicates, and the benchmark's false-positive
-    rate for comparable noise, sensors (``sensor_fraction`` of the dofs) and ``n_modes`` modes."""
-    from .rates import comparable_rate
-
-    if refined is not None:
-        delta, S, evidence = refined.delta, refined.support, refined.evidence
-    else:
-        delta, S, evidence = localisation.fit.debiased, localisation.support, {}
-    order = S[np.argsort(-np.abs(delta[S]))]
-    sel, se, same = replicates.summary(len(names), order.tolist())
-    confidence = {
-        "selection_frequency": {names[i]: float(sel[i]) for i in range(len(names)) if sel[i] > 0 or i in S},
-        "standard_error": {names[i]: float(se[i]) for i in S},
-        "separation": localisation.separation, "bootstrap": replicates.n,
-        "noise": {"frequency": levels.frequency, "shape": levels.shape},
-        "same_set": same, "evidence": {names[i]: float(v) for i, v in evidence.items() if i in set(S.tolist())},
-    }
-    status, doubts = verification.status, list(verification.doubts)
-    if refined is not None and status == "confirmed" and replicates.sets and same < 0.5:
-        status = "doubtful"
-        doubts.append(f"only {same * 100:.0f} % of the {len(replicates.sets)} bootstrap replicates locate this set")
-    confidence["false_positive_rate"] = comparable_rate(max(levels.frequency, levels.shape_verify), sensor_fraction,
-                                                        n_modes)
-    notes = verification.notes + ([replicates.note] if replicates.note else [])
-    if not order.size and status != "not localised":
-        notes.append("no unknown changed by more than min_change" + (" although the frequencies changed" if detected else ""))
-    return Judgement(status, doubts, verification.reason, notes, confidence, delta, order)
-
-
 # ------------------------------------------------------------------------------ detection
 def _unknowns(model: Model, elements: Sequence[str] | None) -> list[str]:
     names = list(elements) if elements is not None else [model.parameter_names[j] for j in model.free]
@@ -311,6 +257,7 @@ def _common(model: Model, names: Sequence[str], pairing: Pairing, sig_f: float, 
     baseline check and the descriptions."""
     return dict(baseline=dict(zip(names, map(float, model.values[indices(model, names)]))),
                 detected=bool(np.any(np.abs(pairing.frequency_change) > 3 * sig_f)), pairs=pairing.pairs,
+                pairing=pairing.record(),
                 frequency_change=pairing.frequency_change, baseline_check=chk,
                 descriptions={n: str(descriptions[n]) for n in names if descriptions and n in descriptions})
 
@@ -382,7 +329,8 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         and meaning).
     progress : callable ``(phase, done, total)``, optional
         Called as the work advances: phase ``"refine"`` (the search for the set that fits, one
-        step) and ``"bootstrap"`` (after each replicate).
+        step), ``"bootstrap"`` (after each replicate) and ``"healthy"`` (after each replicate of the
+        healthy baseline, which gives the false-positive rate).
     **shorthand
         Fields of :class:`~femupdate.damage.DamageOptions` as keywords (``bootstrap=0``,
         ``refine=False``, ...), changing ``options``.
@@ -420,10 +368,17 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
     chk = None if undamaged is None else check_baseline(
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
     meas = measured_shapes(data)
-    stated = stated_noise(noise)
-    pairing = pair_with_baseline(model, meas)
+    stated = stated_noise(noise, data)
+    estimated, _, noise_notes = estimated_noise(model, names, data, stated)  # its test is in its note
+    stated = estimated or stated
+    pairing = pair_with_baseline(model, meas, opts.localise_min_mac)
     common = _common(model, names, pairing, stated.frequency, chk, descriptions)
-    notes: list[str] = [meas.note] if meas.note else []
+    notes: list[str] = ([meas.note] if meas.note else []) + noise_notes
+    if pairing.flagged:
+        notes.append("pairs to doubt (test and baseline modes paired by the rule update pairs by): "
+                     + "; ".join(f"test mode {f['test_mode']} with baseline mode {f['baseline_mode']}: {f['why']}"
+                                 for f in pairing.flagged)
+                     + ": the localisation's expansion leans on them; the refinement pairs each fit anew")
     poor = _poor_pairing(pairing, opts)
     if poor and not opts.refine:
         return attach(_refused(names, opts, common, notes, poor + ": the damage changed the dynamics too much for an expansion "
@@ -449,8 +404,15 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         _tell(progress, "refine", 1, 1)
     reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
                      progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
-    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"],
-                    sensor_fraction=meas.n_sensors / model.n_dofs, n_modes=len(data.modes))
+    healthy = Replicates.none()
+    if refined is not None and reps.sets and not np.any(refined.delta):
+        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
+    elif refiner is not None and refined is not None and realised is not None:
+        healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
+                                    progress=None if progress is None else lambda done, total: progress("healthy", done,
+                                                                                                        total))
+    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
+                    baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
     return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
                   data, undamaged, du)
 

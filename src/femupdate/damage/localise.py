@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,13 +27,13 @@ from ..model import Model
 from ..sensitivity.factor import single_thread_blas
 from ..testdata import MeasuredMode, TestData
 from .baseline import paired_modes
+from .noise import (BASIS_ASSUMED, BASIS_CALLER, BASIS_DATA, BASIS_EXPANSION, DEFAULT_FREQUENCY_NOISE,  # noqa: F401
+                    DEFAULT_SHAPE_NOISE, NoiseLevels, StatedNoise, data_noise, noise_levels, perturbed, stated_noise)
 from .options import DamageOptions
 from .solvers import L1Fit, debias, l1_path, support_of, tikhonov
 
 log = logging.getLogger(__name__)
 
-DEFAULT_FREQUENCY_NOISE = 0.001  # relative frequency std when none is stated
-DEFAULT_SHAPE_NOISE = 0.005      # shape std when none is stated and the expansion misfit cannot tell it
 WHITEN_RANGE = 1e-6  # noise variances below this fraction of the largest are treated as this floor (weights within 1e3)
 
 
@@ -119,31 +119,10 @@ def measured_shapes(data: TestData) -> Measured:
     return Measured(tuple(common), Phi, np.array([m.eigenvalue for m in modes]), note)
 
 
-@dataclass(frozen=True)
-class StatedNoise:
-    """The noise levels the user stated: relative frequency std, and the shape std relative to
-    each shape's largest value (None: not stated)."""
-
-    frequency: float = DEFAULT_FREQUENCY_NOISE
-    shape: float | None = None
-
-
-def stated_noise(noise: Mapping | None) -> StatedNoise:
-    """``{"frequency": ..., "shape": ...}`` checked (:class:`InputError` for an unknown key or a
-    negative level)."""
-    noise = dict(noise or {})
-    unknown_noise = sorted(set(noise) - {"frequency", "shape"})
-    if unknown_noise:
-        raise InputError(f"noise: unknown key(s) {', '.join(unknown_noise)} (use frequency, shape)")
-    sig_f = float(noise.get("frequency", DEFAULT_FREQUENCY_NOISE))
-    if not sig_f >= 0 or not float(noise.get("shape", 0.0)) >= 0:
-        raise InputError("noise levels must be >= 0")
-    return StatedNoise(sig_f, float(noise["shape"]) if "shape" in noise else None)
-
-
 @dataclass(frozen=True, eq=False)
 class Pairing:
-    """The measured modes paired with the baseline's (at the measured dofs).
+    """The measured modes paired with the baseline's (at the measured dofs) by the one rule
+    (:func:`~femupdate.damage.baseline.paired_modes`: ``update``'s).
 
     Attributes
     ----------
@@ -153,11 +132,18 @@ class Pairing:
         Relative frequency change of each measured mode from its baseline mode.
     n_rigid : int
         Rigid-body modes of the baseline (among those computed).
+    flagged : list of dict
+        The pairs to doubt: ``test_mode``, ``baseline_mode`` (1-based), ``mac``, ``frequency_change``
+        and ``why`` (a frequency change beyond ``LARGE_CHANGE``, a MAC below ``min_mac``).
+    used : str
+        The rule that made the pairs (``order``, ``frequency`` or ``mac``).
     """
 
     best: dict[int, tuple[int, float]]
     frequency_change: np.ndarray
     n_rigid: int
+    flagged: tuple = ()
+    used: str = "order"
 
     @property
     def pairs(self) -> list[tuple[int, int, float]]:
@@ -173,15 +159,40 @@ class Pairing:
         """The measured modes that pair with no baseline mode at least ``min_mac`` well."""
         return [k for k in range(len(self.frequency_change)) if self.best[k][1] < min_mac]
 
+    def record(self) -> dict:
+        """The result's ``pairing``: the rule and the flagged pairs."""
+        return {"rule": "auto (as update pairs: by frequency order unless the shapes show a swap, close modes as "
+                        "groups)", "used": self.used, "large_change": LARGE_CHANGE,
+                "flagged": [dict(f) for f in self.flagged]}
 
-def pair_with_baseline(model: Model, meas: Measured) -> Pairing:
-    """Pair the measured modes with the baseline's by MAC at the measured dofs."""
+
+#: a relative frequency change of a pair beyond this is flagged (the pairing rule's own window)
+LARGE_CHANGE = 0.1
+
+
+def pair_with_baseline(model: Model, meas: Measured, min_mac: float = 0.8) -> Pairing:
+    """Pair the measured modes with the baseline's by the one rule (``update``'s, at the measured
+    dofs); pairs that cross a frequency change beyond ``LARGE_CHANGE`` or whose MAC is below
+    ``min_mac`` are flagged."""
     lam, Phi_a = meas.eigenvalues, meas.shapes
     measured = TestData(modes=tuple(MeasuredMode(lam[k], meas.dofs, Phi_a[:, k]) for k in range(meas.n_modes)))
-    base_modes, _, pairs = paired_modes(model, measured, None, 0.0)
-    best = {k: (j, mm) for k, j, mm in pairs}
+    base_modes, corr = paired_modes(model, measured, None)
+    best = {k: (j, mm) for k, j, mm in corr.pairs}
+    missing = [k for k in range(meas.n_modes) if k not in best]
+    if missing:
+        raise InputError(f"measured mode(s) {', '.join(str(k + 1) for k in missing)} pair with no baseline mode "
+                         f"(fewer baseline modes computed than measured)")
     fchange = np.array([math.sqrt(lam[k] / base_modes.eigenvalues[best[k][0]]) - 1.0 for k in range(meas.n_modes)])
-    return Pairing(best, fchange, int(np.sum(base_modes.eigenvalues <= 0)))
+    flagged = []
+    for k in range(meas.n_modes):
+        j, mm = best[k]
+        why = ([f"frequency change {fchange[k] * 100:+.1f} % (beyond {LARGE_CHANGE * 100:g} %)"]
+               if abs(fchange[k]) > LARGE_CHANGE else []) + ([f"MAC {mm:.2f} (below {min_mac:g})"] if mm < min_mac else [])
+        if why:
+            flagged.append({"test_mode": k + 1, "baseline_mode": j + 1, "mac": float(mm),
+                            "frequency_change": float(fchange[k]), "why": "; ".join(why)})
+    used = corr.pairing.used if corr.pairing is not None else "order"
+    return Pairing(best, fchange, int(np.sum(base_modes.eigenvalues <= 0)), tuple(flagged), used)
 
 
 # ------------------------------------------------------------------------------ expansion
@@ -280,68 +291,6 @@ def expansion(model: Model, theta0: np.ndarray, meas: Measured, pairing: Pairing
     pos = model.dof_index(dofs)
     misfit = np.linalg.norm(T0[pos] @ Phi_a - Phi_a, axis=0) / np.linalg.norm(Phi_a, axis=0)
     return Expansion(model, dofs, method, n_basis, T0, misfit), notes
-
-
-# ------------------------------------------------------------------------------ noise
-@dataclass(frozen=True)
-class NoiseLevels:
-    """The noise levels the steps use.
-
-    Attributes
-    ----------
-    frequency : float
-        Relative frequency std (as stated).
-    shape : float
-        Shape std relative to each shape's largest value, weighting the localisation: as stated;
-        else the median expansion misfit per mode where the basis is smaller than the sensor set;
-        else ``DEFAULT_SHAPE_NOISE``.
-    shape_verify : float
-        The shape std of the verification and the simulated replicates: as stated; else the
-        expansion misfit pooled over the modes, at the upper end of its 99 % confidence interval.
-    """
-
-    frequency: float
-    shape: float
-    shape_verify: float
-
-    @property
-    def zero(self) -> bool:
-        """No noise to verify against or to vary."""
-        return not (self.frequency > 0 or self.shape_verify > 0)
-
-
-def noise_levels(stated: StatedNoise, meas: Measured, exp: Expansion) -> tuple[NoiseLevels, list[str]]:
-    """The noise levels (:class:`NoiseLevels`) and a note when the verification's is not stated."""
-    Phi_a, misfit = meas.shapes, exp.error
-    n_s, m, n_basis, full = meas.n_sensors, meas.n_modes, exp.n_basis, exp.full
-    if stated.shape is not None:
-        sig_s = stated.shape
-    elif not full and n_s > n_basis:
-        sig_s = float(np.median(misfit * np.linalg.norm(Phi_a, axis=0) / np.sqrt(n_s - n_basis) / np.max(np.abs(Phi_a), axis=0)))
-    else:
-        sig_s = DEFAULT_SHAPE_NOISE
-    # the verification's shape noise: as stated; else, from the expansion misfit pooled over the modes, at the
-    # upper end of its 99 % confidence interval (a level underestimated would refuse the right set)
-    sig_s_verify = sig_s
-    notes = []
-    if stated.shape is None and not full and n_s > n_basis:
-        from scipy.special import chdtri
-
-        nu = m * (n_s - n_basis)
-        pooled = float(np.sqrt(np.sum((misfit * np.linalg.norm(Phi_a, axis=0) / np.max(np.abs(Phi_a), axis=0)) ** 2) / nu))
-        sig_s_verify = pooled * math.sqrt(nu / float(chdtri(nu, 1 - 0.01)))
-        notes.append(f"shape noise not stated: the verification takes {sig_s_verify:.3g} (the expansion misfit pooled over "
-                     "the modes, upper end of its 99 % confidence interval; --noise-shape to state it)")
-    return NoiseLevels(stated.frequency, sig_s, sig_s_verify), notes
-
-
-def perturbed(meas: Measured, levels: NoiseLevels, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """The measured eigenvalues and shapes with one draw of the noise (``levels.shape`` relative to
-    each shape's largest value)."""
-    lam, Phi_a = meas.eigenvalues, meas.shapes
-    peak = np.max(np.abs(Phi_a), axis=0)
-    return (lam * (1.0 + levels.frequency * rng.standard_normal(meas.n_modes)) ** 2,
-            Phi_a + levels.shape * peak * rng.standard_normal(Phi_a.shape))
 
 
 # ------------------------------------------------------------------------------ equations
@@ -556,6 +505,6 @@ def localise(localiser: Localiser, names: Sequence[str], meas: Measured, alpha: 
 
 
 __all__ = ["Measured", "measured_shapes", "StatedNoise", "stated_noise", "Pairing", "pair_with_baseline", "Expansion",
-           "expansion", "basis_size", "expansion_matrix", "NoiseLevels", "noise_levels", "perturbed", "Equations",
+           "expansion", "basis_size", "expansion_matrix", "NoiseLevels", "noise_levels", "data_noise", "perturbed", "Equations",
            "whitener", "noise_weights", "Localiser", "make_localiser", "Localisation", "localise", "indices", "realised",
            "realised_data"]

@@ -77,6 +77,10 @@ class DamageOptions(Options):
         (:func:`~femupdate.damage.check_baseline`; unused without them).
     min_mac : float in [0, 1], default 0.9
         Smallest MAC of the baseline against the undamaged structure's data (likewise).
+    baseline_checked : bool, default False
+        The caller states that the baseline was checked against the undamaged structure (e.g.
+        updated against its data) when no ``undamaged`` data are given.  Without either, a located
+        set is never "confirmed" (a wrong baseline reports its own errors as damage).
     """
 
     method: str = "l1"
@@ -95,6 +99,7 @@ class DamageOptions(Options):
     localise_min_mac: float = 0.8
     max_frequency_error: float = 0.02
     min_mac: float = 0.9
+    baseline_checked: bool = False
 
     def check(self) -> None:
         from ..reduction.expansion import EXPANSION_METHODS
@@ -125,6 +130,7 @@ class DamageOptions(Options):
         choice(self.expansion, EXPANSION_METHODS, "expansion")
         self.set("allow_increase", flag(self.allow_increase, "allow_increase"))
         self.set("refine", flag(self.refine, "refine"))
+        self.set("baseline_checked", flag(self.baseline_checked, "baseline_checked"))
         self.set("n_noise", count(self.n_noise, "n_noise", low=2, allow_none=True))
         check_count("bootstrap", self.bootstrap, REPLICATE_BYTES, "the bootstrap replicates")
         if self.n_noise is not None:

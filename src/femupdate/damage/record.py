@@ -62,6 +62,33 @@ def attach(result, model, data, undamaged=None, unknowns=None):
     return dataclasses.replace(result, context=ctx)
 
 
+def model_error_line(res) -> str | None:
+    """The model error the verification found (the fit of every unknown misses the data), as one line; None without."""
+    me = (res.verification or {}).get("model_error")
+    if not me or me.get("fits", True):
+        return None
+    return (f"MODEL ERROR: even every unknown changing at once leaves a chi-square misfit of {me['chi2']:.4g} for a "
+            f"limit of {me['limit']:.4g} ({me['dof']} degrees of freedom, p = {me['p_value']:.2g}): the model cannot "
+            "reproduce the data within the noise, so damage is not located with confidence")
+
+
+def headline(res) -> str:
+    """One line: the verdict, the located changes, and a model error or an unchecked baseline first."""
+    changes = ", ".join(f"{n} {res.changes[n] * 100:+.1f} %" for n in res.located)
+    what = {"confirmed": f"damage located and confirmed: {changes}",
+            "doubtful": f"damage located, DOUBTFUL: {changes or 'no unknown changed'}",
+            "unverified": f"damage located, not verified (--no-refine): {changes or 'no unknown changed'}",
+            "not localised": "damage NOT localised"}.get(res.status, res.status)
+    if res.status == "confirmed" and not res.located:
+        what = "no damage: the baseline reproduces the data"
+    me = model_error_line(res)
+    if me:
+        return me + "; " + what
+    if res.status == "doubtful" and any(d.startswith("the baseline was not checked") for d in res.doubts):
+        what += " (the baseline was not checked: undamaged data or a checked baseline are needed to confirm it)"
+    return what
+
+
 def damage_kind(res, ctx: RunContext) -> dict:
     """The JSON of kind ``damage``."""
     model = ctx.model
@@ -71,11 +98,11 @@ def damage_kind(res, ctx: RunContext) -> dict:
         described = {k: ctx.get(k) for k in ("parameter_units", "bounds") if k in ctx.stored}
     units = data_fields(ctx.data) if ctx.data is not None else {k: ctx.get(k) for k in ("units",) if k in ctx.stored}
     return {
-        "model": ctx.model_name, "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
+        "model": ctx.model_name, "headline": headline(res), "parameters": res.parameters, "baseline": res.baseline, "changes": res.changes,
         "located": res.located, "loss": res.loss, "confidence": res.confidence, "localised": res.localised,
         "reason": res.reason, "detected": res.detected, "method": res.method, "alpha": res.alpha,
         "alpha_max": res.alpha_max, "tikhonov": res.tikhonov, "expansion": res.expansion,
-        "pairs": [list(p) for p in res.pairs], "frequency_change": res.frequency_change,
+        "pairs": [list(p) for p in res.pairs], "pairing": res.pairing, "frequency_change": res.frequency_change,
         "baseline_check": res.baseline_check, "path": res.path,
         "notes": [*getattr(ctx, "notes", ()), *res.notes], **units,
         "status": res.status, "doubts": res.doubts, "verification": res.verification,
@@ -111,7 +138,7 @@ def damage_from(obj: Mapping) -> Any:
         baseline_check=obj.get("baseline_check"), path=list(obj.get("path") or []), notes=list(obj.get("notes") or []),
         status=str(obj.get("status") or "unverified"), doubts=list(obj.get("doubts") or []),
         verification=dict(obj.get("verification") or {}), localisation=dict(obj.get("localisation") or {}),
-        descriptions=dict(obj.get("descriptions") or {}), context=ctx)
+        descriptions=dict(obj.get("descriptions") or {}), pairing=dict(obj.get("pairing") or {}), context=ctx)
 
 
-__all__ = ["DamageContext", "attach", "damage_kind", "damage_from", "NO_UNDAMAGED"]
+__all__ = ["DamageContext", "attach", "damage_kind", "damage_from", "NO_UNDAMAGED", "headline", "model_error_line"]

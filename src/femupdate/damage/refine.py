@@ -50,6 +50,7 @@ NOISE_FLOOR = 1e-8    # smallest noise level the residuals are divided by (noise
 MAX_ALL = 200         # largest number of unknowns fitted all at once as the last enlargement
 TOL = 1e-10           # ftol, xtol and gtol of the least-squares fits
 MAX_NEIGHBOURS = 12   # neighbours of a member tried in its exchanges
+START_LOSS = 0.95     # a start is kept this far from the lower bound (a fit started on a bound stays there)
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,9 +97,9 @@ class SetSearch:
         The unknowns (stiffness parameters of ``model``).
     data : TestData
         The measured modes.
-    sigma : (float, float)
+    sigma : (float or array_like, float or array_like)
         Stated noise ``(sigma_f, sigma_s)``: relative frequency std, shape std relative to each
-        shape's largest value.
+        shape's largest value; each one level, or one per test mode (shape ``(n_test_modes,)``).
     allow_increase : bool
         Let stiffness increase (upper bound 2 θ0).
     min_change : float
@@ -118,7 +119,7 @@ class SetSearch:
         for a model with rigid-body modes (the order pairing would count them).
     """
 
-    def __init__(self, model, names: Sequence[str], data: TestData, sigma: tuple[float, float], *,
+    def __init__(self, model, names: Sequence[str], data: TestData, sigma: tuple, *,
                  allow_increase: bool, min_change: float, level: float, max_located: int, n_try: int = 4,
                  score: Callable[[np.ndarray], np.ndarray] | None = None, path_order: Sequence[int] = (),
                  pairing: str = "auto"):
@@ -134,7 +135,13 @@ class SetSearch:
             params[j] = dataclasses.replace(params[j], bounds=(v * (1 - MAX_LOSS), v * up) if v > 0 else params[j].bounds)
         self.model = dataclasses.replace(model, parameters=tuple(params))
         self.data = data
-        self.sigma_f, self.sigma_s = (float(v) for v in sigma)
+        sigma_f, sigma_s = sigma
+        T = len(data.modes)  # one level, or one per test mode (as the test data state them)
+        self.sf_modes = np.broadcast_to(np.asarray(sigma_f, float), (T,)).copy()
+        self.ss_modes = np.broadcast_to(np.asarray(sigma_s, float), (T,)).copy()
+        shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
+        self.sigma_f = float(np.median(self.sf_modes)) if T else float(np.max(sigma_f, initial=0.0))
+        self.sigma_s = float(np.median(self.ss_modes[shaped])) if shaped else float(np.max(sigma_s, initial=0.0))
         self.std = self._std(data)
         self.min_change = float(min_change)
         self.level = float(level)
@@ -154,15 +161,17 @@ class SetSearch:
         self.n_data = self._n_independent()
         self.scale = 1.0          # misfits are divided by it (rescale)
         self.noise_factor = 1.0   # the noise taken this many times the stated one
+        self.every_fit: SetFit | None = None  # the fit of every unknown, when the search made it
+        self._every_scale = 1.0
 
     # ------------------------------------------------------------------ noise and counts
     def _std(self, data: TestData) -> dict:
-        lam = [max(2 * self.sigma_f, NOISE_FLOOR)] * len(data.modes)
+        lam = [max(2 * sf, NOISE_FLOOR) for sf in self.sf_modes]
         shape = []
-        for m in data.modes:
+        for m, ss in zip(data.modes, self.ss_modes):
             if m.has_shape and len(m.dofs) >= 2:
                 s = np.abs(np.asarray(m.shape))
-                shape.append(max(self.sigma_s, NOISE_FLOOR) * float(np.max(s) / np.linalg.norm(s)))
+                shape.append(max(ss, NOISE_FLOOR) * float(np.max(s) / np.linalg.norm(s)))
             else:
                 shape.append(1.0)
         return {"eigenvalue": np.array(lam), "shape": np.array(shape)}
@@ -195,22 +204,30 @@ class SetSearch:
         return float(chdtri(dof, 1 - self.level)) if dof > 0 else 0.0
 
     # ------------------------------------------------------------------ one set
-    def fit(self, members, start: np.ndarray | None = None, want_wald: bool = False) -> SetFit:
+    def fit(self, members, start: np.ndarray | None = None, want_wald: bool = False, fresh: bool = False) -> SetFit:
         """Fit the set ``members`` (positions) from ``start`` (relative changes; default zero); with
-        ``want_wald``, each member's Wald statistic δ²/var(δ) at the fit."""
+        ``want_wald``, each member's Wald statistic δ²/var(δ) at the fit.  A set fitted before is
+        taken from the cache, unless ``fresh``: then it is fitted again from ``start`` and the better
+        of the two fits kept (a fit from one start may end in a local minimum another avoids)."""
         key = tuple(sorted(int(i) for i in members))
-        if key in self.cache:
-            return self.cache[key]
+        old = self.cache.get(key)
+        if old is not None and not (fresh or (want_wald and old.wald is None)):
+            return old
         with single_thread_blas():  # small dense eigenproblems: OpenBLAS threads only add hand-off time
             out = self._fit(key, start, want_wald)
+        if old is not None and not out.chi2 < old.chi2:
+            out = old if (old.wald is not None or not want_wald) else dataclasses.replace(old, wald=out.wald)
+            self.cache[key] = out
+            self.trail = [out if f.members == key else f for f in self.trail]
+            return out
         self.cache[key] = out
-        self.trail.append(out)
+        self.trail = [f for f in self.trail if f.members != key] + [out]
         return out
 
     def _fit(self, key: tuple[int, ...], start: np.ndarray | None, want_wald: bool) -> SetFit:
         from ..updating.solve import solve
 
-        start = np.zeros(self.L) if start is None else np.clip(start, -MAX_LOSS, 1.0)
+        start = np.zeros(self.L) if start is None else np.clip(start, -START_LOSS, 1.0)
         dof = self.n_data - len(key)
         delta = np.zeros(self.L)
         wald = None
@@ -338,16 +355,37 @@ class SetSearch:
         return self.exchange(f)
 
     def every(self) -> SetFit | None:
-        """Every unknown fitted at once from the baseline (plain updating), when the data allow it."""
+        """Every unknown fitted at once (plain updating), when the data allow it: from the baseline
+        (as ``update`` starts) and from the best set fitted so far, the better fit kept."""
         if self.L > MAX_ALL or self.n_data <= self.L:
             return None
-        return self.fit(range(self.L), want_wald=True)
+        e = self.fit(range(self.L), np.zeros(self.L), want_wald=True, fresh=True)
+        best = min((f for f in self.trail if math.isfinite(f.chi2)), key=lambda f: f.chi2, default=None)
+        if not e.fits and best is not None and best.members != e.members:
+            e = self.fit(range(self.L), best.delta, want_wald=True, fresh=True)
+        self.every_fit, self._every_scale = e, self.scale
+        return e
+
+    def model_error(self) -> dict | None:
+        """The chi-square test of the fit of every unknown against the stated noise: ``chi2``, ``dof``,
+        ``limit``, ``p_value`` and ``fits`` (None when it was not made: a smaller set fitted first,
+        or too few data)."""
+        from scipy.special import chdtrc
+
+        e = self.every_fit
+        if e is None or not math.isfinite(e.chi2) or e.dof < 1:
+            return None
+        chi2 = e.chi2 * self._every_scale  # against the stated noise, whatever rescaling followed
+        return {"chi2": chi2, "dof": e.dof, "limit": e.limit, "p_value": float(chdtrc(e.dof, chi2)),
+                "fits": bool(chi2 <= e.limit), "level": self.level}
 
     def _from_every(self, e: SetFit) -> SetFit | None:
         """The smallest set, among the leading ones of e's ranking (Wald statistic), that fits; trimmed."""
         order = [int(i) for i in np.argsort(-e.wald, kind="stable")] if e.wald is not None else []
         for k in range(1, min(self.max_located, self.L) + 1):
             g = self.fit(order[:k], e.delta)
+            if not g.fits:  # cached from another start, perhaps a local minimum
+                g = self.fit(order[:k], e.delta, fresh=True)
             if g.fits:
                 return self.trim(g)
         return None

@@ -96,7 +96,7 @@ class Refiner:
     def search(self, data: TestData, lam: np.ndarray, Phi: np.ndarray, fit: L1Fit) -> tuple[SetSearch, SetFit]:
         """The stepwise search from the localisation ``fit`` of ``data`` (whose common-dof shapes and
         eigenvalues are ``Phi`` and ``lam``, scoring the candidates)."""
-        srch = SetSearch(self.model, self.names, data, (self.levels.frequency, self.levels.shape_verify),
+        srch = SetSearch(self.model, self.names, data, self.levels.verify_levels,
                          allow_increase=self.allow_increase, min_change=self.min_change, level=self.level,
                          max_located=self.max_located, score=self.localiser.scorer(lam, Phi),
                          path_order=() if fit.order is None else fit.order.tolist(), pairing=self.pairing)
@@ -146,7 +146,7 @@ def _record(refined: Refined) -> dict:
     return {
         "level": srch.level, "noise": {"frequency": max(srch.sigma_f, NOISE_FLOOR) * srch.noise_factor,
                                        "shape": max(srch.sigma_s, NOISE_FLOOR) * srch.noise_factor},
-        "noise_factor": srch.noise_factor,
+        "noise_factor": srch.noise_factor, "model_error": srch.model_error(),
         "n_data": srch.n_data, "chi2": final.chi2, "dof": final.dof, "limit": final.limit, "fits": final.fits,
         "members": [names[i] for i in final.members],
         "sets": [{"members": [names[i] for i in f.members], "chi2": f.chi2, "limit": f.limit, "fits": f.fits}
@@ -184,9 +184,10 @@ def verify(refined: Refined) -> Verification:
     status, doubts, notes = "confirmed", [], []
     if srch.noise_factor > 1:
         status = "doubtful"
-        doubts.append(f"not even every unknown changing at once reproduces the data to the stated noise: the "
-                      f"noise is larger than stated, or the baseline model is wrong; the location was judged "
-                      f"with the noise taken {srch.noise_factor:.3g} times the stated one")
+        doubts.append(f"model error: not even every unknown changing at once reproduces the data to the noise "
+                      f"(chi-square test at {srch.level:g}): the model lacks something the structure has, or the noise "
+                      f"is larger than stated; the location was judged with the noise taken {srch.noise_factor:.3g} "
+                      "times the stated one and is not claimed with confidence")
     small = [names[i] for i in final.members if abs(final.delta[i]) < srch.min_change]
     if small:
         notes.append(f"{', '.join(small)} changed by less than min_change but are needed to reproduce the data "

@@ -69,6 +69,22 @@ class Options:
     #: the field a plain (non-mapping) value stands for, if any (``pairing="mac"``)
     main: ClassVar[str | None] = None
 
+    def __new__(cls, *args, **kwargs):
+        # a keyword that is no field, named with the closest field (the dataclass's own message names neither)
+        names = cls.field_names()
+        for key in kwargs:
+            if key not in names:
+                import difflib
+
+                if key in cls.aliases:
+                    hint = f"; it is the functions' shorthand of the field {cls.aliases[key]!r}"
+                else:
+                    close = difflib.get_close_matches(key, names, n=1)
+                    hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise TypeError(f"{cls.__name__}() got an unexpected keyword argument {key!r}{hint} (its options: "
+                                f"{', '.join(names)})")
+        return super().__new__(cls)
+
     def __post_init__(self) -> None:
         self.check()
 
@@ -128,6 +144,10 @@ class Options:
     @classmethod
     def from_dict(cls: type[O], data: Mapping[str, Any]) -> O:
         """The object of :meth:`to_dict`'s output (unknown keys refused by name)."""
+        if not isinstance(data, Mapping):
+            from .._checks import shown
+
+            raise TypeError(f"{cls.__name__}.from_dict: expected a mapping of {cls.__name__}' fields, got {shown(data)}")
         return cls.coerce(dict(data), f"{cls.__name__}.from_dict")
 
     def changed(self) -> dict[str, Any]:

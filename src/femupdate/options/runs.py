@@ -26,7 +26,18 @@ class StartsOptions(Options):
     log_uniform : bool, default False
         Draw the starts log-uniformly within the bounds (for parameters spanning decades).
     rel_tol : float, default 1e-4
-        Relative distance below which two solutions are the same.
+        Relative distance below which two solutions are always the same (round-off of the
+        solver), and the rule by which they are told apart where no covariance exists.
+    alpha : float, default 0.01
+        The significance level at which two solutions are told apart: they are distinct only when
+        they differ significantly against their own covariances — the Mahalanobis distance
+        d² = Δpᵀ (C_a + C_b)⁺ Δp above the χ² quantile at 1 − ``alpha`` (degrees of freedom the
+        rank of C_a + C_b) — or differ beyond ``rel_tol`` along a direction the data do not
+        determine (no covariance there: that is non-uniqueness).  One minimum found twice is then
+        split with probability about ``alpha``; smaller values split less and merge more
+        (:func:`femupdate.distinct.significant`).  Where no solution has a covariance (fewer data
+        than parameters plus one, without stated noise) ``rel_tol`` alone decides, and the output
+        says so.
     cost_tol : float, optional
         Converged starts whose cost exceeds this are failures (default: no limit).
     batched : bool, optional
@@ -38,6 +49,7 @@ class StartsOptions(Options):
     seed: int | None = 0
     log_uniform: bool = False
     rel_tol: float = 1e-4
+    alpha: float = 0.01
     cost_tol: float | None = None
     batched: bool | None = None
 
@@ -49,6 +61,7 @@ class StartsOptions(Options):
         self.set("seed", count(self.seed, "seed", low=0, allow_none=True))
         self.set("log_uniform", flag(self.log_uniform, "log_uniform"))
         self.set("rel_tol", number(self.rel_tol, "rel_tol", low=0.0, low_open=True))
+        self.set("alpha", number(self.alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True))
         if self.cost_tol is not None:
             self.set("cost_tol", number(self.cost_tol, "cost_tol", low=0.0))
         if self.batched is not None:

@@ -137,9 +137,13 @@ class NoiseOptions(Options):
     weights : mapping, optional
         Modal weights ``{"eigenvalue": w or one per test mode, "shape": w or one per test mode}``.
     basis : {"auto", "stated", "estimate"}, default ``"auto"``
-        What the standard deviations of the answer rest on: the stated ones, a noise scale
-        estimated from the fit, or ``"auto"`` — stated where every residual has one.
-        Shorthand keyword ``noise`` (:func:`femupdate.posterior`).
+        What the standard deviations of the answer rest on (:mod:`femupdate.updating.noise`):
+        ``"auto"`` — each block of residuals with stated standard deviations as stated, the
+        others estimated from the fit (REML variance components; in the posterior a scale per
+        kind of data); ``"estimate"`` — every block estimated, a stated one as a factor on its
+        deviations; ``"stated"`` — every block stated (:func:`femupdate.posterior` refuses data
+        without; an update estimates the blocks without and says so).  Shorthand keyword
+        ``noise`` (:func:`femupdate.posterior`).
     """
 
     std: Mapping | None = None
@@ -164,7 +168,26 @@ class NoiseOptions(Options):
             if bad:
                 raise InputError(f"unknown {'measurement_std' if name == 'std' else name} key {bad[0]!r}: use "
                                  f"{', '.join(allowed)}")
+            for key, value in v.items():
+                _check_values(name, key, value)
             self.set(name, dict(v))
+
+
+def _check_values(name: str, key: str, value) -> None:
+    """A standard deviation (finite, > 0) or a weight (finite, >= 0) of ``NoiseOptions``: one
+    number or an array of them; None (a kind without one) passes for standard deviations."""
+    if value is None and name == "std":
+        return
+    arr = as_array(value)
+    ok = arr is not None and arr.size > 0 and arr.dtype.kind in "iuf"
+    if ok and arr is not None:
+        arr = arr.astype(float)
+        ok = bool(np.all(np.isfinite(arr)) and (np.all(arr > 0) if name == "std" else np.all(arr >= 0)))
+    if not ok:
+        label = "measurement_std" if name == "std" else "weights"
+        rule = "positive and finite" if name == "std" else "finite and non-negative"
+        each = "one number or one per test mode" if key in ("eigenvalue", "shape") else "a number or an array of numbers"
+        raise InputError(f"{label}[{key!r}] must be {rule} ({each}), got {value!r}")
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
@@ -324,7 +347,9 @@ class UpdateOptions(Options):
            use=None, **parts) -> UpdateOptions:
         """The update's options from a call: ``options`` (or the defaults), its parts replaced by
         the objects given in ``parts`` (``modal=``, ``pairing=``, ...; None leaves a part as it
-        is), then changed by the shorthand keywords (fields of the parts; ``frf_options``, a
+        is) or among the shorthand keywords by the same names (an option object, or for ``modal``
+        and ``frf`` a mapping of its fields: ``multistart(..., solver=SolverOptions(...))``), then
+        changed by the other shorthand keywords (fields of the parts; ``frf_options``, a
         mapping of FRF fields, is the older spelling of ``frf``).
 
         Raises
@@ -340,6 +365,12 @@ class UpdateOptions(Options):
             parts["frf"] = shorthand.pop("frf_options")
         if "use" in shorthand:
             use = shorthand.pop("use")
+        fields = {f for pcls in cls.PARTS.values() for f in (*pcls.field_names(), *pcls.aliases)}
+        for name in cls.PARTS:  # a part by its keyword (multistart(solver=SolverOptions(...))), as update takes it
+            if name in shorthand and (isinstance(shorthand[name], Options) or name not in fields):
+                if parts.get(name) is not None:
+                    raise TypeError(f"{where}(): {name} given twice")
+                parts[name] = shorthand.pop(name)
         slots = {name: (pcls, getattr(base, name) if parts.get(name) is None else parts[name])
                  for name, pcls in cls.PARTS.items()}
         objs = gather(where, shorthand, **slots)

@@ -6,6 +6,7 @@ import base64
 import datetime as _dt
 import json
 import logging
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -153,6 +154,15 @@ def check_kind(result: Mapping, kind: str | None, where: str = "") -> str:
         ``kind`` None and the keys match no kind; ``kind`` given and the keys are another
         command's (``update`` and ``frf-update`` are reported alike and taken for each other).
     """
+    stated = result.get("kind")
+    if stated in REPORT_KINDS:  # the file's own kind: its keys must not be another command's
+        try:
+            by_keys = detect_kind({k: v for k, v in result.items() if k != "kind"})
+        except InputError:
+            by_keys = None
+        if by_keys is not None and BUILDERS[by_keys] is not BUILDERS[stated]:
+            raise InputError(f"{where}/kind: {stated!r}, but the keys are those of the result of {by_keys}: the report "
+                             f"would be empty or wrong; was the file edited?")
     try:
         told = detect_kind(result)
     except InputError as exc:
@@ -289,8 +299,9 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         (:func:`check_result`, or the builders failing on it); a model without the result's
         parameters or test data without its paired test modes (:func:`check_model_and_data`).
     """
-    from ..serialise import Serialisable
+    from ..serialise import Serialisable, check_version
 
+    _model_and_data_args(model, data, "build_report")
     if isinstance(result, Serialisable):  # a typed result: its JSON, and the model and data it carries
         ctx = result.run_context
         model = model if model is not None else ctx.model
@@ -306,6 +317,10 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
     where = f"{source}: " if source else ""
     if kind is not None and kind not in BUILDERS:
         raise InputError(f"unknown report kind {kind!r}; known: {', '.join(REPORT_KINDS)}")
+    try:
+        check_version(res)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
     kind = check_kind(res, kind, where)
     try:
         check_result(res)
@@ -350,7 +365,8 @@ def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str =
     Raises
     ------
     InputError
-        A result parameter the model lacks; a paired test mode the data lack.
+        A result parameter the model lacks, or a model parameter an update or direct result
+        lacks (it holds every parameter of its model); a paired test mode the data lack.
     """
     if model is not None and kind in ("direct", "update", "frf-update", "damage"):
         given = res.get("changes") if kind == "damage" else res.get("parameters")
@@ -359,6 +375,11 @@ def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str =
         if missing:
             raise InputError(f"{model_what}the model {model.name!r} has no parameter(s) {', '.join(missing[:6])} of the result "
                              f"(its parameters: {', '.join(model.parameter_names[:6])}): is it the model of this run?")
+        extra = [n for n in model.parameter_names if n not in names] if kind != "damage" and names else []
+        if extra:  # an update or direct result holds every parameter of its model
+            raise InputError(f"{model_what}the model {model.name!r} has parameter(s) {', '.join(extra[:6])} the result "
+                             f"does not have (its parameters: {', '.join(map(str, names[:6]))}): is it the model of this "
+                             "run?")
     if data is not None and kind in ("direct", "update", "frf-update", "damage"):
         tested = [int(p[0]) for p in res.get("pairs") or []]
         if tested and max(tested) >= len(data.modes):
@@ -430,6 +451,34 @@ def write_report(path, result, **kw) -> Path:
 
     path_arg(path, "path", "write_report")
     result_arg(result, "result", "write_report")
+    _model_and_data_args(kw.get("model"), kw.get("data"), "write_report")
+    if isinstance(result, (str, os.PathLike)):
+        _not_over_the_result(path, result)
     html = build_report(result, **kw)
     atomic_write_text(path, html)
     return Path(path)
+
+
+def _model_and_data_args(model, data, where: str) -> None:
+    """A :class:`TypeError` naming ``model`` or ``data`` when given and not a Model, TestData or
+    FRFData (a file name is told its loader)."""
+    from .._checks import data_arg, model_arg
+
+    if model is not None:
+        model_arg(model, "model", where)
+    data_arg(data, "data", where, frf=True, optional=True)
+
+
+def _not_over_the_result(path, result) -> None:
+    """Refuse a report path that is the result file it reads (by any name: :func:`os.path.samefile`),
+    and a report's name given for the result with a JSON file's for the report (swapped)."""
+    try:
+        same = os.path.samefile(path, result)
+    except (OSError, ValueError):
+        same = False
+    if same:
+        raise InputError(f"write_report: path {path} is the result file {result} it reads: writing there would destroy "
+                         "it; give the report another name")
+    if Path(result).suffix.lower() in (".html", ".htm") and Path(path).suffix.lower() == ".json":
+        raise InputError(f"write_report: the arguments look swapped: path {path} is a JSON file and result {result} "
+                         "an HTML file's name; call write_report(report_path, result)")

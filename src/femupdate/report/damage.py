@@ -13,7 +13,8 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
     doc.verdict = Cell(status, cls={"confirmed": "ok"}.get(status, "bad"))
     located = list(result.get("located") or [])
     changes = result.get("changes") or {}
-    doc.facts += [("unknowns", Cell(f"{len(changes)} ({result.get('unknowns', 'parameters')})")),
+    doc.facts += ([("verdict", Cell(str(result["headline"])))] if result.get("headline") else []) + [
+                  ("unknowns", Cell(f"{len(changes)} ({result.get('unknowns', 'parameters')})")),
                   ("located", Cell(", ".join(located) or "none"))]
     for d in result.get("doubts") or []:
         doc.warnings.append(f"doubtful: {d}")
@@ -49,12 +50,14 @@ def build_damage(doc: Document, result: dict, model, data, rec, segments, kind: 
     if conf.get("bootstrap"):
         sec.add(Text(f"Bootstrap: {conf['bootstrap']} replicates simulated from the identified model, each re-localised, "
                      f"refined and verified; {pct(conf.get('same_set'), 3, sign=False)} locate exactly this set."))
-    rate = conf.get("false_positive_rate")
-    if rate:
-        sec.add(Text(f"Benchmark for comparable data: a healthy unknown was reported damaged in {rate.get('false_positives')} "
-                     f"of {rate.get('scenarios')} scenarios ({pct(rate.get('false_positive_rate'), 2, sign=False)}); every "
-                     f"damaged one found in {pct(rate.get('detection_rate'), 3, sign=False)} (noise "
-                     f"{pct(rate.get('noise'), 2, sign=False)}; {rate.get('date', '')}).", "note"))
+    for key, what in (("false_positive_rate", "Healthy baseline simulated with this run's sensors, modes and noise: some "
+                                              "unknown reported damaged in"),
+                      ("detection_rate", "Located model simulated likewise: every located unknown found again in")):
+        rate = conf.get(key)
+        if isinstance(rate, dict) and "count" in rate:
+            lo, hi = (rate.get("interval") or [None, None])[:2]
+            sec.add(Text(f"{what} {rate['count']} of {rate['n']} replicates ({pct(rate.get('rate'), 2, sign=False)}; "
+                         f"95 % interval {pct(lo, 2, sign=False)} to {pct(hi, 2, sign=False)}).", "note"))
     names = list(changes)
     if names:
         sec.add(Figure(figures().damage_figure(names, changes, set(located), conf.get("standard_error")),

@@ -48,8 +48,20 @@ def identifiability_section(result: dict) -> Section | None:
         t.rows.append([Cell("rank / free parameters"), Cell(f"{d['rank']} / {len(d.get('free') or [])}")])
     if d.get("n_residuals") is not None:
         t.rows.append([Cell("residuals"), Cell(str(d["n_residuals"]))])
-    t.rows.append([Cell("covariance"), Cell("from the stated measurement standard deviations" if d.get("absolute")
-                                            else "scaled by the residual variance (no standard deviations stated)")])
+    noise = d.get("noise") or []
+    if noise:
+        from ..updating.noise import basis_lines, model_error_line
+        from ..variance import METHOD
+
+        for line in basis_lines(noise, METHOD):
+            t.rows.append([Cell("covariance basis"), Cell(line)])
+        fit = result.get("model_error") or d.get("model_error")
+        if fit:
+            t.rows.append([Cell("model error"), Cell(model_error_line(fit),
+                                                     cls="flag" if fit.get("verdict") == "model error" else "")])
+    else:
+        t.rows.append([Cell("covariance"), Cell("from the stated measurement standard deviations" if d.get("absolute")
+                                                else "scaled by the residual variance (no standard deviations stated)")])
     at = d.get("at_bounds") or {}
     t.rows.append([Cell("parameters on a bound"), Cell(", ".join(f"{n} ({s})" for n, s in at.items()) or "none",
                                                        cls="flag" if at else "")])
@@ -102,6 +114,24 @@ def combinations(result: dict) -> Table | None:
     return t
 
 
+def distinct_texts(rec: dict | None, fitting: int) -> list[str]:
+    """How the solutions were told apart, and the best solution's conditioning said apart from
+    non-uniqueness (``starts.distinct``)."""
+    from ..distinct import conditioning_line
+
+    if not rec:
+        return []
+    out = [f"Solutions are told apart at α = {rec.get('alpha', 0.01):g} against their own covariances (the "
+           "Mahalanobis distance above the χ² quantile)" if rec.get("basis") != "tolerance" else
+           "Solutions are told apart by the relative tolerance only: no solution has a covariance."]
+    cond = rec.get("conditioning")
+    if cond:
+        out.append(("The best solution: " if fitting > 1 else "The solution: ") + conditioning_line(cond) +
+                   ("" if fitting > 1 else " — one solution: the data determine it uniquely, "
+                    + ("though some combination poorly." if cond.get("ill_conditioned") else "and well.")))
+    return out
+
+
 def starts_section(result: dict) -> Section | None:
     st = result.get("starts") or {}
     sols = st.get("solutions") or []
@@ -117,6 +147,8 @@ def starts_section(result: dict) -> Section | None:
                  "(a likelihood-ratio test at 95 %)."
                  + (" The data do not determine the parameters uniquely." if fitting > 1 else ""),
                  "warning" if fitting > 1 else ""))
+    for line in distinct_texts(st.get("distinct"), fitting):
+        sec.add(Text(line, "note"))
     t = Table("", ["solution", *[unit_label(n, units.get(n)) for n in names], f"cost ½‖r‖² [{cost_unit(result)}]",
                    "starts [–]", "fits the data"])
     for i, s in enumerate(sols):

@@ -37,6 +37,7 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
                        Cell("yes" if (c.get("criteria") or {}).get("paper") else "no")])
     sec.add(t)
     doc.sections.append(sec)
+    _conditioning(doc, cases, result.get("alpha"))
     agree = result.get("criteria_agreement") or {}
     if agree:
         at = Table("counting criteria against the study's verdicts", ["criterion", "agrees", "wrong on (n × m)"])
@@ -70,3 +71,23 @@ def build_uniqueness(doc: Document, result: dict, model, data, rec, segments, ki
         if len(non_unique) > 6:
             sec.add(Text(f"The first 6 of {len(non_unique)} non-unique cases are listed.", "note"))
         doc.sections.append(sec)
+
+
+def _conditioning(doc: Document, cases: list, alpha) -> None:
+    """Unique but ill-conditioned cases, with their ± statement: ill-conditioning is not
+    non-uniqueness."""
+    from ..distinct import conditioning_line
+
+    rows = [(c, (c.get("distinct") or {}).get("conditioning")) for c in cases if c.get("verdict") == "unique"]
+    rows = [(c, k) for c, k in rows if k and k.get("ill_conditioned")]
+    if not rows:
+        return
+    sec = Section("conditioning", "Unique but ill-conditioned cases")
+    sec.add(Text(f"Solutions are told apart at α = {alpha if alpha is not None else 0.01:g} against their covariance; "
+                 "these cases have one solution, some combination of the unknowns determined poorly.", "note"))
+    t = Table("", ["measured dofs", "modes m", "conditioning"])
+    for c, k in rows[:20]:
+        t.rows.append([Cell(", ".join(c.get("measured_dofs") or [])), Cell(str(c.get("n_modes"))),
+                       Cell(conditioning_line(k or {}))])
+    sec.add(t)
+    doc.sections.append(sec)

@@ -19,8 +19,13 @@ DAMAGE_KEYS = (
         "stiffness per element)", (STRING,)),
     Key("descriptions", "`{unknown: text}`", "what each unknown scales, e.g. `element #5 (rod 102-103), model parameter "
         "E`", (OBJECT,)),
-    Key("status", "string", "`confirmed`, `doubtful`, `not localised` or `unverified` (`--no-refine`)", (STRING,)),
-    Key("doubts", "list", "why a location is doubtful (another set fits as well, the replicates disagree)", (ARRAY,)),
+    Key("headline", "string", "the verdict in one line: the located changes and the status; a model error first "
+        "(`MODEL ERROR: ...`), an unchecked baseline said", (STRING,)),
+    Key("status", "string", "`confirmed`, `doubtful`, `not localised` or `unverified` (`--no-refine`); never "
+        "`confirmed` with a model error or with a baseline neither checked against `--undamaged` data nor stated checked "
+        "(`--baseline-checked`)", (STRING,)),
+    Key("doubts", "list", "why a location is doubtful (another set fits as well, the replicates disagree, a model "
+        "error, the baseline unchecked, changes that move together as a uniform baseline error would)", (ARRAY,)),
     Key("parameters", "`{unknown: value}`", "identified stiffnesses (the baseline's where unchanged)", (OBJECT,)),
     Key("baseline", "`{unknown: value}`", "", (OBJECT,)),
     Key("changes", "`{unknown: relative change}`", "e.g. −0.4 for a 40 % loss", (OBJECT,)),
@@ -29,10 +34,18 @@ DAMAGE_KEYS = (
     Key("confidence", "object", "`selection_frequency` (share of the bootstrap replicates — each re-localised, refined "
         "and verified — locating each unknown), `same_set` (share locating exactly `located`), `standard_error`, "
         "`evidence` (rise of the misfit without each located unknown), `separation` (the localisation's smallest "
-        "located change over the largest elsewhere; `null` when nothing else changed), `bootstrap`, `noise`, "
-        "`false_positive_rate` (the benchmark's rate for comparable data, or `null`)", (OBJECT,)),
+        "located change over the largest elsewhere; `null` when nothing else changed), `bootstrap`, `noise` "
+        "(`frequency`, `shape`, `shape_verify`, per-mode `frequency_modes` and `shape_modes` when the test data state "
+        "them, and `basis`: what each level rests on — stated by the caller, stated in the test data, estimated from the "
+        "expansion misfit, or assumed), `false_positive_rate` and `detection_rate` (simulated for this run: the whole "
+        "chain on replicates of the healthy baseline and of the located model with this run's sensors, modes and noise; "
+        "each `rate`, `count`, `n`, `standard_error` (binomial), `interval` (Clopper-Pearson), `level`, `basis`; `null` "
+        "without replicates)", (OBJECT,)),
     Key("verification", "object", "`level`, `noise`, `chi2`, `dof`, `limit` and `fits` of the final set, `n_data`, "
-        "`sets` (every set fitted), `alternatives` (other sets that fit as well); empty with `--no-refine`", (OBJECT,)),
+        "`sets` (every set fitted), `alternatives` (other sets that fit as well), `noise_factor`, `model_error` (the "
+        "chi-square test of the fit of every unknown against the noise: `chi2`, `dof`, `limit`, `p_value`, `fits`, "
+        "`level`; `null` when a smaller set fitted first or the data are too few); empty with `--no-refine`",
+        (OBJECT,)),
     Key("localisation", "object", "the sparse localisation step's own answer: `method`, `located`, `changes` (the "
         "candidates the refinement started from)", (OBJECT,)),
     Key("localised", "bool", "`false` when localisation was refused or no set fits", (BOOLEAN,)),
@@ -42,7 +55,11 @@ DAMAGE_KEYS = (
         "(absolute; `null` when localisation was refused)"),
     Key("tikhonov", "`{changes, alpha, n_above_threshold}`", "the spread-out comparison", (OBJECT,)),
     Key("expansion", "`{method, n_basis, error, n_measured_dofs, n_rigid_modes}`", "", (OBJECT,)),
-    Key("pairs", "`[[test, baseline, mac]]`", "test modes against baseline modes", (ARRAY,)),
+    Key("pairs", "`[[test, baseline, mac]]`", "test modes against baseline modes, paired by the rule `update` pairs "
+        "by (close modes as groups)", (ARRAY,)),
+    Key("pairing", "`{rule, used, large_change, flagged}`", "the pairs to doubt: each `test_mode`, `baseline_mode` "
+        "(1-based), `mac`, `frequency_change` and `why` (a frequency change beyond `large_change`, a MAC below "
+        "`--localise-min-mac`)", (OBJECT,)),
     Key("frequency_change", "list", "relative frequency change of each test mode from its baseline mode", (ARRAY,)),
     Key("baseline_check", "object or `null`", "with `--undamaged`: `ok`, `frequency_error`, `mac`, `pairs`, `reasons`, "
         "`limits`", (OBJECT,)),

@@ -29,8 +29,15 @@ register(Kind(
          "error (a lower bound), or the Laplace approximation (no error); `null` for `mcmc`. It is the log density "
          "of the residuals as weighted: compare it between models of the same data and standard deviations",
          (NUMBER,)),
-     Key("noise", "object", "`kind` (`stated` or `estimate`), `n_residuals`; when estimated, `scale` {`median`, "
-         "`interval`} (the posterior of the common scale s on the residuals) and `draws`", (OBJECT,), True),
+     Key("noise", "object", "`kind` (`stated` when every block's noise is stated, else `estimate`), `n_residuals`, "
+         "`pools` (what the standard deviations rest on: [{`label`, `basis` (`stated` or `estimated`), `n_residuals`, "
+         "`source` (`stated in the data file`, `given as an option`, or `estimated (Jeffreys' prior, integrated out)`), "
+         "`members` (the blocks), `scale` {`median`, `interval`} when estimated}]: the stated blocks, and one scale per "
+         "kind of data estimated); when the eigenvalues' noise is estimated, `scale` {`median`, `interval`} (its "
+         "scale) and `draws`; `model_error` (as the top-level key)", (OBJECT,), True),
+     Key("model_error", "object or `null`", "the test of the fit at the most probable solution, as `update`'s: "
+         "`test`, `statistic`, `dof`, `p_value`, `alpha`, `verdict` (`model error`, `consistent`, `untested`), "
+         "`detail`", (OBJECT,)),
      Key("prior", "`{name: text}`", "the prior used, e.g. `\"normal(6, 0.5) on [1, 11]\"`, `\"uniform on [3, 13]\"`",
          (OBJECT,)),
      Key("predictive", "object or `null`", "with measured modes: `modes` [{`test_mode` (0-based), `frequency_hz` "

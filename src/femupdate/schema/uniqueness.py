@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from . import ARRAY, BOOLEAN, INTEGER, NUMBER, OBJECT, STRING, Key, Kind, register
 
+#: what differs from ``starts.distinct`` of ``update``
+DISTINCT_CASE = ("without `non_unique`; each start's covariance is that of a fit whose residuals have the length "
+                 "`cost_tol` allows, from the sensitivity at the truth; `conditioning` at the truth, its "
+                 "`relative_std` at the first noise level, else per 0.01 noise on the residuals")
+
 CASE_KEYS = (
     Key("measured_dofs", "list", "", (ARRAY,), True),
     Key("n_measured", "integer", "", (INTEGER,)),
@@ -15,7 +20,8 @@ CASE_KEYS = (
     Key("local_minima, not_converged, failed", "integers",
         "starts that ended at a local minimum, ran out of evaluations, failed", (INTEGER,)),
     Key("solutions", "list of `{parameters, count, cost, max_rel_error, is_truth}`",
-        "distinct solutions that reproduce the data", (ARRAY,), True),
+        "distinct solutions that reproduce the data (told apart by statistics: `distinct`); `is_truth`: not "
+        "significantly different from the truth", (ARRAY,), True),
     Key("unique", "bool or `null`", "`true`: every converged start reached the truth; `false`: another solution "
         "reproduces the data too; `null`: no start converged", (BOOLEAN,), True),
     Key("verdict", "string", "`unique`, `non-unique` or `not converging`", (STRING,)),
@@ -27,6 +33,7 @@ CASE_KEYS = (
     Key("noise", "list of `{level, starts, converged, rms_rel_error, median_max_rel_error, predicted_std}`",
         "with `--noise`", (ARRAY,)),
     Key("failure_examples", "list of strings", "", (ARRAY,)),
+    Key("distinct", "object", "as `starts.distinct` of `update` (" + DISTINCT_CASE + ")", (OBJECT,)),
     Key("exact", "object", "with `--exact` (`result.with_exact()`), single-sensor cases: `n_solutions`, "
         "`zero_dimensional`, `n_complex`, `solutions` `[{parameters, exact}]` (exact values as strings such as "
         "`\"13/2\"`), `exact_data`, `notes`; or `{skipped: reason}`", (OBJECT,)),
@@ -42,6 +49,7 @@ register(Kind(
      Key("n_dofs, starts, seed", "integers", "", (INTEGER,)),
      Key("noise_levels", "list", "relative noise levels studied besides the noise-free data", (ARRAY,)),
      Key("rel_tol, cost_tol, max_nfev, min_mac", "numbers", "options used", (NUMBER,)),
+     Key("alpha", "number", "the significance level at which solutions were told apart", (NUMBER,)),
      Key("route", "string", "`local`, or the Dask cluster used", (STRING,)),
      Key("units", "`{total, computed, resumed}`", "work units (not physical units)", (OBJECT,)),
      Key("seconds", "number", "", (NUMBER,)),

@@ -10,7 +10,24 @@ _DIAGNOSTICS = (
     "on a bound), `covariance`, `n_residuals`, `n_parameters`; `absolute` (the covariance comes from stated standard "
     "deviations), `at_bounds` `{name: \"lower\" \\| \"upper\"}` (parameters held by a bound), `n_at_bounds`, `free` "
     "(the parameters the figures describe), `poorly_determined_reasons` `{name: reason}`, `relative_std` "
-    "`{name: std / \\|value\\|}` (docs/cli.md, \"What the diagnostics say\")")
+    "`{name: std / \\|value\\|}`; `noise` (what the standard deviations rest on, one record per noise component: "
+    "`label`, `kind`, `basis` (`stated`, `estimated`, `pooled`, `not estimable`), `source` (`stated in the data file`, "
+    "`given as an option`, or the basis), `std` (in the residuals' units), `dof` (`null` for stated), `redundancy`, "
+    "`n_residuals`, `members`), `std_dof` `{name: effective dof}` (Satterthwaite; `\"inf\"` when only stated noise "
+    "enters), `model_error` (as the top-level key) (docs/cli.md, \"What the diagnostics say\"; docs/numerics.md, "
+    "\"Noise and variance components\")")
+
+#: ``distinct`` of a multi-start study (femupdate.updating.clustering.distinct_record) and of a uniqueness case
+DISTINCT = ("how the solutions were told apart and how well the best is determined: `alpha` (the significance level), "
+            "`basis` (`statistic`: against each solution's covariance, the Mahalanobis distance above the chi-square "
+            "quantile; `tolerance`: no covariance, by `rel_tol` alone; `mixed`), `non_unique` (more than one "
+            "solution fits the data as well as the best), `separations` (per solution, why it is "
+            "distinct from the lowest-cost one: `{basis, statistic, dof, threshold}`, `basis` `statistic`, `non-identifiable` "
+            "(differs along a direction the data do not determine) or `tolerance`; `null` for that one), "
+            "`conditioning` (ill-conditioning, apart from non-uniqueness: `{condition_number, ill_conditioned, "
+            "relative_std {name: value}, weakest {direction {name: component}, relative_std}, basis}`, the "
+            "standard deviations relative to the values and what they rest on; `null` without a covariance)")
+
 
 UPDATE_KEYS = (
     Key("kind", "string", "`update` (the command that wrote it; `frf-update` for `frf-update`)", (STRING,), True),
@@ -46,13 +63,18 @@ UPDATE_KEYS = (
         (ARRAY,)),
     Key("parameter_units, bounds", "objects", "as `direct`", (OBJECT,)),
     Key("diagnostics", "object", _DIAGNOSTICS, (OBJECT,)),
+    Key("model_error", "object", "whether the best fit reproduces the data within the noise: `test` (`chi-square` "
+        "against stated noise, `plausibility` of estimated noise, `none`), `statistic`, `dof`, `p_value`, `alpha`, "
+        "`verdict` (`model error`, `consistent`, `untested`), `detail` (each test made, Bonferroni-adjusted p-values) "
+        "(docs/numerics.md, \"Model error\")", (OBJECT,)),
     Key("blocks", "list", "with more than one kind of data: per block `{kind, label, n_residuals, scale, weighting, "
         "cost}`", (ARRAY,)),
     Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
     Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
         "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
-        "`--scheduler` also `seed`, `fitting`, `fit_cost`, `failed` (messages of failed starts), `failures` "
+        "`--scheduler` also `seed`, `fitting`, `fit_cost`, `distinct` (" + DISTINCT + "), `failed` (messages of "
+        "failed starts), `failures` "
         "`{reason: count}`, `runs` (one record per start: `start`, `outcome`, `cost`, `iterations`, `nfev`, "
         "`solution`, `message`, `seconds`, `cpu_seconds`, `pairing`) and `seconds`", (OBJECT,), True),
 )

@@ -341,6 +341,8 @@ def combined_problem(model, data: TestData, params: Sequence[str] | None = None,
                                         o.modal.use_shapes and o.modal.formulation != "dynamic")
             prob = Problem(model, data, names, x0=x0, values=values, parametrisation=parametrisation, modal=o.modal,
                            pairing=o.pairing, noise=o.noise.replace(std=given))
+            mine = {k for k, v in dict(std.get("modes") or {}).items() if v is not None}  # the caller's own
+            prob.stated_sources = {k: "given" if k in mine else "data" for k in prob.stated_sources}
             n_data += prob.targets.n_independent
             weighting = "stated std" if given else "dimensionless (relative eigenvalues, scaled shapes)"
             blocks.append(Block("modes", "modes", prob, 1.0, weighting))

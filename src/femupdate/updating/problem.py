@@ -215,8 +215,13 @@ class Problem(Parametrisation):
             self.notes.append("the test data's std_shape are not used: the dynamic formulation holds the measured "
                               "shape entries at the test values (the eigenvalue's std weighs each mode's residual)")
         # the dynamic formulation has no shape residual: the data's shape std are not needed
+        given_std = {k for k, v in dict(measurement_std or {}).items() if v is not None}
         weights, measurement_std = mode_uncertainty(data, weights, measurement_std, use_shapes and not dynamic)
         w, self.sigma = modal_weights(weights, measurement_std)
+        #: the kinds whose residuals are divided by stated deviations, {kind: "given" | "data"}
+        #: (given as options, or stated in the test data file; :mod:`femupdate.updating.noise`)
+        self.stated_sources = {k: "given" if k in given_std else "data" for k in ("eigenvalue", "shape")
+                               if self.sigma is not None and k in self.sigma}
         self.model = model
         self.data = data
         self.scaling = shape_scaling

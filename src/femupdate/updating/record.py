@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .._errors import InputError
 from ..recording import damping_fields, data_fields, diagnostics_fields, flags, parameter_fields
 
 
@@ -50,6 +51,8 @@ def update_fields(res, ctx, starts: dict | None = None) -> dict:
         **_model_fields(res, ctx),
         "diagnostics": None if d is None else diagnostics_fields(res.names, d),
     }
+    if d is not None and getattr(d, "model_error", None):  # the fit's test, also at the top (femupdate.variance)
+        out["model_error"] = d.model_error
     if res.blocks:
         out["blocks"] = res.blocks
     if starts is None:
@@ -115,7 +118,7 @@ def starts_fields(ms) -> dict:
         "total": ms.total, "converged": ms.converged, "seed": ms.seed,
         "solutions": [{"parameters": s.parameters, "cost": s.cost, "count": s.count, "fits": s.fits}
                       for s in ms.solutions],
-        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost,
+        "fitting": len(ms.fitting), "fit_cost": ms.fit_cost, "distinct": ms.distinct or None,
         "failed": [r for r in ms.runs if isinstance(r, str)],
         "failures": ms.failures,
         "runs": ms.records(),
@@ -178,7 +181,16 @@ def diagnostics_from(obj: Mapping | None, names) -> Any:
         n_parameters=int(obj.get("n_parameters", len(names))), absolute=bool(obj.get("absolute", False)),
         at_bounds=dict(obj.get("at_bounds") or {}), free=tuple(obj.get("free") or ()),
         poorly_determined_reasons=dict(obj.get("poorly_determined_reasons") or {}),
-        relative_std=_floats([rel.get(n) for n in names]))
+        relative_std=_floats([rel.get(n) for n in names]), noise=list(obj.get("noise") or []),
+        std_dof=np.array([_dof((obj.get("std_dof") or {}).get(n, math.nan)) for n in names], dtype=float),
+        model_error=dict(obj.get("model_error") or {}))
+
+
+def _dof(v) -> float:
+    """A ``std_dof`` entry as read: a number, ``"inf"`` (stated noise only) or None (NaN)."""
+    if v is None:
+        return math.nan
+    return math.inf if v == "inf" else float(v)
 
 
 #: keys of an update's JSON kept as read, for writing it again (they come from the model and data)
@@ -195,7 +207,11 @@ def update_from(obj: Mapping) -> Any:
     from .results import UpdateResult
 
     names = tuple(obj.get("updated") or ())
-    params = {k: float(v) for k, v in (obj.get("parameters") or {}).items()}
+    params = {k: math.nan if v is None else float(v) for k, v in (obj.get("parameters") or {}).items()}
+    missing = [n for n in names if n not in params]
+    if missing:
+        raise InputError(f"/parameters: no value of the updated parameter {missing[0]!r} (named in /updated); the "
+                         "update result is not as femupdate writes it")
     freqs = obj.get("frequencies_hz") or {}
     common = dict(
         parameters=params, names=names, x=np.array([params.get(n, math.nan) for n in names], dtype=float),

@@ -38,8 +38,8 @@ class Diagnostics:
         deviation exceeds their value's magnitude
         (:data:`~femupdate.updating.solve.POOR_RELATIVE_STD`).
     covariance : numpy.ndarray, shape ``(L, L)``
-        In parameter units (squared) — from the stated measurement standard deviations when
-        given, else from the residual variance; NaN when not estimable, and in the rows and
+        In parameter units (squared), built on the noise of each block of residuals (``noise``:
+        stated, or estimated from the fit by REML); NaN when not estimable, and in the rows and
         columns of the parameters on a bound.
     std : numpy.ndarray, shape ``(L,)``
         Standard deviations (parameter units), the square roots of the covariance's diagonal (NaN
@@ -49,8 +49,8 @@ class Diagnostics:
     n_parameters : int
         L, the number of updated parameters.
     absolute : bool
-        The residuals are divided by stated measurement standard deviations: the covariance is
-        absolute (else scaled by the residual variance).
+        Every block's noise is stated (the residuals are divided by stated standard deviations):
+        the covariance is absolute; else some of it is estimated from the fit (``noise``).
     at_bounds : dict of str to str
         The parameters sitting on a bound at the solution, {name: ``"lower"`` or ``"upper"``}, in
         the order of the updated parameters (empty when the solver ignored the bounds).
@@ -61,6 +61,23 @@ class Diagnostics:
     relative_std : numpy.ndarray, shape ``(L,)``
         ``std / |value|`` (``std`` itself for a value of 0): the standard deviation in the
         normalised variables of S; NaN where ``std`` is.
+    noise : list of dict
+        What the standard deviations rest on, one record per noise component
+        (:func:`femupdate.updating.noise.basis_records`): ``label``, ``kind``, ``basis``
+        (``"stated"``, ``"estimated"``, ``"pooled"``, ``"not estimable"``), ``source`` (``"stated
+        in the data file"``, ``"given as an option"``, or the basis), ``std`` (in the residuals'
+        units; 1 for stated), ``dof`` (its degrees of freedom, None for stated), ``redundancy``,
+        ``n_residuals``, ``members`` (the blocks it covers).
+    std_dof : numpy.ndarray, shape ``(L,)``
+        Satterthwaite effective degrees of freedom of each standard deviation (inf: it rests on
+        stated noise only; NaN where ``std`` is): intervals are Student-t with them
+        (:meth:`interval`).
+    model_error : dict
+        The test of the fit (:meth:`femupdate.variance.FitTest.record`): ``test``,
+        ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict`` (``"model error"``,
+        ``"consistent"``, ``"untested"``), ``detail``; empty when not tested.
+    noise_notes : list of str
+        How blocks were pooled, and noise that could not be estimated.
     """
 
     singular_values: np.ndarray
@@ -76,6 +93,36 @@ class Diagnostics:
     free: tuple[str, ...] = ()
     poorly_determined_reasons: dict[str, str] = field(default_factory=dict)
     relative_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    noise: list[dict] = field(default_factory=list)
+    std_dof: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    model_error: dict = field(default_factory=dict)
+    noise_notes: list[str] = field(default_factory=list)
+
+    def interval(self, level: float = 0.95) -> np.ndarray:
+        """Half-widths of each parameter's two-sided interval at ``level`` (parameter units):
+        Student-t quantiles with ``std_dof`` times ``std`` (normal where the dof are infinite or
+        unknown)."""
+        from ..variance import t_quantile
+
+        dof = np.asarray(self.std_dof, float) if np.size(self.std_dof) == np.size(self.std) else \
+            np.full(np.size(self.std), np.inf)
+        return t_quantile(0.5 + level / 2, dof) * self.std
+
+    @property
+    def basis_lines(self) -> list[str]:
+        """One line per noise component: what the standard deviations rest on, and the fit's
+        test (:mod:`femupdate.updating.noise`)."""
+        from ..variance import METHOD
+        from .noise import basis_lines
+
+        return basis_lines(self.noise, METHOD)
+
+    @property
+    def model_error_line(self) -> str:
+        """The fit's test in one line ('' when not tested)."""
+        from .noise import model_error_line
+
+        return model_error_line(self.model_error)
 
     @property
     def n_at_bounds(self) -> int:
@@ -280,7 +327,9 @@ class UpdateResult(RunResult, Serialisable):
             determined parameter with its reason, the notes and the number of mode swaps, if any.
         """
         d = self.diagnostics
-        lines = [f"{'converged' if self.success else 'NOT converged'}: {self.message}",
+        lines = [f"{'converged' if self.success else 'NOT converged'}: {self.message}"
+                 + ("; MODEL ERROR: the fit does not reproduce the data within the noise"
+                    if d is not None and d.model_error.get("verdict") == "model error" else ""),
                  f"cost {self.cost:.6g} after {self.iterations} iterations ({self.nfev} evaluations)"]
         lines.append(f"{'parameter':<16}{'start':>14}{'updated':>14}{'change':>10}{'std':>12}")
         for j, (n, v) in enumerate(zip(self.names, self.x)):
@@ -296,6 +345,10 @@ class UpdateResult(RunResult, Serialisable):
         if d is not None:
             lines.append(repr(d))
             lines.extend(f"poorly determined: {n}: {why}" for n, why in d.poorly_determined_reasons.items())
+            lines.extend(d.basis_lines)
+            lines.extend(f"note: {n}" for n in d.noise_notes)
+            if d.model_error_line:
+                lines.append(d.model_error_line)
         lines.extend(f"note: {note}" for note in self.notes)
         if self.swaps:
             lines.append(f"{len(self.swaps)} mode swap(s) during the iteration")
@@ -323,6 +376,12 @@ class Solution:
         The solution fits the data as well as the best one: its cost exceeds the best by less
         than the statistical fluctuation of the fit allows (:func:`~femupdate.updating.clustering.fit_threshold`).
         Solutions that do not are local minima.
+    separation : Separation or None
+        Why it is distinct from the lowest-cost solution (:func:`femupdate.distinct.compare`:
+        ``"statistic"``, ``"non-identifiable"`` or ``"tolerance"``); None for that one.
+    basis : str
+        How the runs were grouped: ``"statistic"`` (every run had a covariance), ``"tolerance"``
+        (none had: the relative tolerance alone) or ``"mixed"``.
     """
 
     parameters: dict[str, float]
@@ -330,6 +389,8 @@ class Solution:
     count: int
     starts: list[int]
     fits: bool = field(default=False, kw_only=True)
+    separation: object = field(default=None, kw_only=True)
+    basis: str = field(default="tolerance", kw_only=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -367,6 +428,11 @@ class MultiStartResult(Serialisable):
         threads included); None on the compiled route.
     batch_seconds : float or None
         The compiled route's wall-clock seconds for all the starts together (None per start).
+    distinct : dict
+        How the solutions were told apart and how well the best one is determined
+        (:func:`~femupdate.updating.clustering.distinct_record`): ``alpha``, ``basis``,
+        ``non_unique``, ``separations``, ``conditioning`` (ill-conditioning — "k2 known to ±x %",
+        the condition number, the weakest direction — apart from non-uniqueness).
 
     The solutions are ordered: those that fit the data first (most frequent first), then the
     local minima (lowest cost first).
@@ -384,6 +450,7 @@ class MultiStartResult(Serialisable):
     seconds: list | None = field(default=None, kw_only=True)
     cpu_seconds: list | None = field(default=None, kw_only=True)
     batch_seconds: float | None = field(default=None, kw_only=True)
+    distinct: dict = field(default_factory=dict, kw_only=True)
     context: RunContext | None = field(default=None, kw_only=True, compare=False, repr=False)
 
     kind: ClassVar[str] = "update"

@@ -332,9 +332,10 @@ def global_search(model, data, *, method: str = "differential_evolution", method
     infos = [p[1] for p in pairs]
 
     ok, solutions = converged_solutions(results, names, UpdateResult, st.cost_tol, st.rel_tol,
-                                        parameter_scale(model, names))
+                                        parameter_scale(model, names), st.alpha)
     best = min((results[k] for k in ok), key=lambda r: r.cost) if ok else None
     starts_x = np.array([[i.get("x", {}).get(n, np.nan) for n in names] for i in infos])
     # marked as fitting or not, as multi-start results are (else every run is listed as a local minimum)
     return attach(classify(GlobalSearchResult(best, solutions, results, starts_x, names, runs, len(ok), seed, method,
-                                              infos, global_residual=global_residual)), model, data, "frf-update")
+                                              infos, global_residual=global_residual), st.alpha),
+                  model, data, "frf-update")

@@ -23,6 +23,7 @@ from ..testdata import TestData
 from .parametrisation import start_error, x_bounds
 from .groups import describe as describe_groups
 from .groups import notes as group_notes
+from .noise import analyse, basis_records
 from .problem import Problem, check_determined
 from .results import Diagnostics, UpdateResult
 
@@ -62,13 +63,19 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
       NaN).
     * **Singular values** of S restricted to the free columns, descending; its rank (singular
       values above :data:`RANK_RTOL` σ_max) and condition number.
-    * **Covariance** of the free parameters, D V Σ⁻² Vᵀ D from the SVD S_free = U Σ Vᵀ
-      (D = diag |p|) — that is (J_freeᵀ J_free)⁻¹ in parameter units — times the residual variance
-      ‖r‖² / (m − L_free) unless the residuals are divided by stated standard deviations (m the
-      problem's ``residual_dof``, its independent equations, where it has one: fewer than its
-      residuals for the dynamic formulation, whose unknown shape entries take up the others).  A free
-      parameter the data do not depend on (a zero column) is left out of it too (NaN): the
-      others' covariance does not depend on it.
+    * **Noise and covariance** of the free parameters (:mod:`femupdate.updating.noise`): the
+      residuals are split into blocks (per test mode its eigenvalue and its shape; each FRF set,
+      each static case), each block's noise is stated (its residuals divided by standard
+      deviations from the data file or the options) or estimated from the fit by REML
+      (:func:`femupdate.variance.variance_components`: Förstner's iterative variance components,
+      each with its redundancy as degrees of freedom; blocks too small to estimate alone pooled —
+      the eigenvalues of all modes into one), and the covariance is that of the fit under these
+      components, D A (Σ_b σ_b² S_bᵀS_b) A D with A = (S_freeᵀS_free)⁻¹ and D = diag |p|: the
+      absolute (S_freeᵀS_free)⁻¹ in parameter units when every block is stated.  ``noise``
+      records each component's basis, ``std_dof`` each standard deviation's Satterthwaite
+      degrees of freedom (inf: stated noise only), ``model_error`` the test of the fit
+      (:func:`femupdate.variance.fit_test`).  A free parameter the data do not depend on (a
+      zero column) is left out of it too (NaN): the others' covariance does not depend on it.
     * **Poorly determined** parameters, each with its reason (``poorly_determined_reasons``):
       a column of S below :data:`RANK_RTOL` times the largest (the data do not depend on the
       parameter; checked for every parameter, on a bound or not); an entry of at least
@@ -87,9 +94,9 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     J : numpy.ndarray, shape ``(m, L)``
         The Jacobian ∂r/∂x at x.
     sigma : object or None
-        Not None when the residuals are already divided by the measurement standard deviations:
-        the covariance is then (JᵀJ)⁻¹ in parameter units (absolute); None: it is scaled by the
-        residual variance ‖r‖² / (m − L_free) (NaN unless m > L_free).
+        Not None when every residual is already divided by the measurement standard deviations
+        (for a problem without its own block layout: then stated, else estimated); a modal or
+        combined problem says block by block which are stated.
     bounds : tuple of numpy.ndarray, optional
         The model's ``(lo, hi)`` over its full parameter vector, when the solver kept to them;
         None (default, and for Levenberg–Marquardt, which ignores bounds): no bound is active.
@@ -145,13 +152,19 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
     nC = cols.size
     svC, VtC = (sv, Vt) if nC == nF else _svd(S[:, cols])
     cov = np.full((L, L), np.nan)
-    m_dof = int(getattr(prob, "residual_dof", m))  # independent equations (fewer than m: dynamic formulation)
-    if nC and m > 0 and np.sum(svC > RANK_RTOL * svC[0]) == nC:
-        V = VtC.T
-        covF = (mag[cols][:, None] * V) @ np.diag(1.0 / svC ** 2) @ (V.T * mag[cols][None, :])
-        if sigma is None:
-            covF = covF * float(r @ r) / (m_dof - nC) if m_dof > nC else np.full((nC, nC), np.nan)
-        cov[np.ix_(cols, cols)] = covF
+    std_dof = np.full(L, np.nan)
+    noise: list[dict] = []
+    fit: dict = {}
+    noise_notes: list[str] = []
+    absolute = sigma is not None
+    if nC and m > 0:
+        # the noise of each block of residuals: stated, or estimated by REML (femupdate.variance)
+        vc, test, lay = analyse(prob, S[:, cols], r, sigma, _basis(prob))
+        noise, fit, noise_notes = basis_records(vc, lay.stated), test.record(), list(vc.notes)
+        absolute = vc.absolute
+        if np.sum(svC > RANK_RTOL * svC[0]) == nC:
+            cov[np.ix_(cols, cols)] = mag[cols][:, None] * vc.covariance * mag[cols][None, :]
+            std_dof[cols] = vc.dof
     diag = np.diag(cov)
     std = np.where(np.isfinite(diag), np.sqrt(np.clip(np.nan_to_num(diag, nan=0.0), 0, None)), np.nan)
     rel = std / mag
@@ -160,9 +173,16 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
             reasons.setdefault(names[j], f"its standard deviation {std[j]:.3g} is {rel[j] * 100:.0f} % of its value "
                                          f"(above {POOR_RELATIVE_STD * 100:.0f} %): the data barely move it")
     poor = sorted(reasons)
-    return Diagnostics(sv, cond, rank, poor, cov, std, m, L, sigma is not None, at_bounds=at,
+    return Diagnostics(sv, cond, rank, poor, cov, std, m, L, absolute, at_bounds=at,
                        free=tuple(names[j] for j in free), poorly_determined_reasons={n: reasons[n] for n in poor},
-                       relative_std=rel)
+                       relative_std=rel, noise=noise, std_dof=std_dof, model_error=fit, noise_notes=noise_notes)
+
+
+def _basis(prob) -> str:
+    """The problem's noise basis (:class:`~femupdate.options.NoiseOptions` ``basis``)."""
+    options = getattr(prob, "options", None)
+    noise = options.get("noise") if isinstance(options, dict) else None
+    return getattr(noise, "basis", "auto") or "auto"
 
 
 def check_start_residuals(r: np.ndarray) -> None:

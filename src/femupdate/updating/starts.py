@@ -143,7 +143,8 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         The measured data.
     starts : StartsOptions or int, optional
         The starts and how solutions are told apart (:class:`~femupdate.options.StartsOptions`:
-        number — an int is that —, seed, log-uniform draws, ``rel_tol``, ``cost_tol`` and the
+        number — an int is that —, seed, log-uniform draws, ``alpha`` and ``rel_tol`` (how
+        solutions are told apart), ``cost_tol`` and the
         compiled ``batched`` route: ``None`` takes it when only modal data are used, the model
         has at most :data:`femupdate.updating.batched.AUTO_MAX_DOFS` dofs and the options are
         supported — the compiled route implements ``formulation="shapes"`` only —, locally or in
@@ -183,8 +184,9 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         (:func:`draw_starts`); a scheduler not reached within ``connect_timeout``; more starts
         than the available memory holds the records of (estimated from the data's residuals and
         the parameters, :func:`femupdate._budget.start_bytes`; named with the estimate, before any
-        start is drawn).  The errors of :func:`update` itself (refused input, numerical failure) do not propagate: each start
-        that fails is recorded as its message in ``runs``.
+        start is drawn); input that :func:`update` refuses alike at every start (the same
+        InputError).  Otherwise the errors of :func:`update` itself (refused input, numerical
+        failure) do not propagate: each start that fails is recorded as its message in ``runs``.
     TypeError
         A keyword no option object has.
     """
@@ -228,7 +230,17 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
                         progress=Pace("starts", progress))
     from .run import _damping_of
 
+    refused_alike(ms)
     return attach(ms, model, data, "update", damping=_damping_of(uo))
+
+
+def refused_alike(ms: MultiStartResult) -> None:
+    """Raise the :class:`InputError` that every start was refused with, when it is one message:
+    the input itself is refused (as one :func:`update` refuses it), not its starts."""
+    runs = ms.runs
+    head = "InputError: "
+    if runs and all(isinstance(r, str) and r.startswith(head) for r in runs) and len(set(runs)) == 1:
+        raise InputError(runs[0][len(head):])
 
 
 def _check_once(model, data, names, o: UpdateOptions, values) -> None:
@@ -262,8 +274,8 @@ def run_starts(model, data, names, X0, kwargs, *, starts: StartsOptions | None =
     kwargs : dict
         Options passed to ``runner`` (neither ``x0`` nor ``params``).
     starts : StartsOptions, optional
-        Its ``seed`` (the seed the starts were drawn with, recorded in the result), ``rel_tol``
-        (relative distance under which two solutions are the same) and ``cost_tol`` (largest
+        Its ``seed`` (the seed the starts were drawn with, recorded in the result), ``alpha`` and
+        ``rel_tol`` (how two solutions are told apart, :class:`~femupdate.options.StartsOptions`) and ``cost_tol`` (largest
         cost of a converged run; default no limit); its number of starts is ``len(X0)``.
     execution : ExecutionOptions, optional
         ``scheduler`` (a Dask scheduler's address; local runs otherwise), ``connect_timeout``
@@ -309,10 +321,10 @@ def run_starts(model, data, names, X0, kwargs, *, starts: StartsOptions | None =
     seconds = [float(p[1]) for p in pairs]
     cpu = [float(p[2]) for p in pairs]
     ok, solutions = converged_solutions(runs, names, UpdateResult, st.cost_tol, st.rel_tol,
-                                        parameter_scale(model, names))
+                                        parameter_scale(model, names), st.alpha)
     best = min((runs[k] for k in ok), key=lambda r: r.cost) if ok else None
     return classify(MultiStartResult(best, solutions, runs, X0, tuple(names), len(X0), len(ok), st.seed,
-                                     seconds=seconds, cpu_seconds=cpu))
+                                     seconds=seconds, cpu_seconds=cpu), st.alpha)
 
 
 def local_jobs(model, n_starts: int) -> int:
@@ -455,7 +467,8 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
         A parameter without finite bounds, an unknown parameter, or a bound <= 0 with
         ``log_uniform`` (:func:`draw_starts`); ``x0`` given; an unreachable scheduler.  The
         errors of :func:`frf_update` itself (refused input, numerical failure) do not propagate:
-        each start that fails is recorded as its message in ``runs``.
+        each start that fails is recorded as its message in ``runs`` — unless every start is
+        refused with the same InputError, which is raised.
     TypeError
         A keyword no option object has.
     """
@@ -468,4 +481,5 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     ms = run_starts(model, data, names, X0, dict(o, values=values), starts=st, execution=ex.replace(jobs=None),
                     progress=Pace("starts", progress), runner=partial(run_with, _frf_update_start))
+    refused_alike(ms)
     return attach(ms, model, data, "frf-update")

@@ -38,7 +38,7 @@ def study_fields(res, ctx) -> dict:
         units = dict(s.get("units") or {})
         out = {"model": s.get("model", ""), "parameters": names, "truth": s.get("truth"), "n_dofs": s.get("n_dofs"),
                "starts": s.get("starts"), "seed": s.get("seed"), "noise_levels": s.get("noise_levels"),
-               "rel_tol": res.rel_tol, "cost_tol": res.cost_tol, "max_nfev": s.get("max_nfev"),
+               "rel_tol": res.rel_tol, "alpha": res.alpha, "cost_tol": res.cost_tol, "max_nfev": s.get("max_nfev"),
                "min_mac": s.get("min_mac"), "route": res.route,
                "units": {"total": units.get("total"), "computed": res.units_computed, "resumed": res.units_resumed},
                "seconds": res.seconds, "study_key": s.get("study_key"),
@@ -114,7 +114,8 @@ def case_from(obj: Mapping) -> Any:
         failed=int(obj.get("failed") or 0), solutions=sols, condition_number=_float(obj.get("condition_number"), math.inf),
         singular_values=np.array([_float(v) for v in obj.get("singular_values") or []], dtype=float),
         rank=int(obj.get("rank") or 0), n_residuals=int(obj.get("n_residuals") or 0), noise=noise,
-        failure_examples=list(obj.get("failure_examples") or []), exact=obj.get("exact"))
+        failure_examples=list(obj.get("failure_examples") or []), exact=obj.get("exact"),
+        distinct=dict(obj.get("distinct") or {}))
 
 
 def study_from(obj: Mapping) -> Any:
@@ -128,6 +129,7 @@ def study_from(obj: Mapping) -> Any:
     return StudyResult(None, [case_from(c) for c in obj.get("cases") or []], _float(obj.get("seconds")),
                        int(units.get("computed") or 0), int(units.get("resumed") or 0), str(obj.get("route") or ""),
                        _float(obj.get("rel_tol")), _float(obj.get("cost_tol")), figure=obj.get("figure"),
+                       alpha=_float(obj.get("alpha"), 0.01),
                        context=RunContext(kind="uniqueness", stored={k: obj[k] for k in STORED if k in obj}))
 
 

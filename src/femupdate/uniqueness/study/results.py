@@ -14,7 +14,7 @@ import numpy as np
 from ..._errors import InputError
 from ...serialise import RunContext, Serialisable
 from ...updating.batched import FAILED
-from ...updating.clustering import cluster
+from ...distinct import ALPHA, compare, conditioning as conditioning_record, significant
 from ...updating.results import Solution as _MultiStartSolution
 from ..criteria import counting_criteria
 from .definition import Case, Study
@@ -41,7 +41,8 @@ class Solution(_MultiStartSolution):
     max_rel_error : float, default NaN
         Largest ``|p / p_true - 1|`` over the unknowns (``|p - p_true|`` where ``p_true`` is 0).
     is_truth : bool, default False
-        ``max_rel_error`` within the study's ``rel_tol``.
+        Not significantly different from the truth (:func:`femupdate.distinct.compare` against
+        the case's covariance at α; within ``rel_tol`` where the case has none).
     """
 
     max_rel_error: float = math.nan  #: largest ``|p / p_true − 1|`` over the unknowns
@@ -104,7 +105,8 @@ class CaseResult:
     failed : int
         Starts whose evaluation failed (status ``FAILED``).
     solutions : list of Solution
-        The converged starts clustered (``rel_tol``), most frequent first.
+        The converged starts grouped (:func:`femupdate.distinct.significant` against the case's
+        covariance, :func:`case_covariance`), most frequent first.
     condition_number : float
         Of the normalised sensitivity matrix at the truth (:func:`conditioning`).
     singular_values : ndarray, shape ``(min(m, L),)``
@@ -120,6 +122,12 @@ class CaseResult:
     exact : dict, optional
         A single-sensor case's exact solution set from the frequencies
         (:meth:`StudyResult.with_exact`), as the JSON's ``exact`` holds it.
+    distinct : dict, default ``{}``
+        How the solutions were told apart and how well the truth is determined: ``alpha``,
+        ``basis``, ``separations`` (per solution, from the lowest-cost one) and
+        ``conditioning`` (:func:`femupdate.distinct.conditioning` at the truth: ill-conditioning —
+        "k2 known to ±x %" at the study's first noise level, else per 1 % noise on the residuals —
+        apart from non-uniqueness).
     """
 
     case: Case
@@ -137,6 +145,7 @@ class CaseResult:
     noise: list[NoiseResult] = field(default_factory=list)
     failure_examples: list[str] = field(default_factory=list)
     exact: dict | None = None
+    distinct: dict = field(default_factory=dict)
 
     @property
     def truth_found(self) -> bool:
@@ -186,6 +195,7 @@ class CaseResult:
                        "rms_rel_error": z.rms_rel_error, "median_max_rel_error": z.median_max_rel_error,
                        "predicted_std": z.predicted_std} for z in self.noise],
             "failure_examples": self.failure_examples,
+            "distinct": self.distinct,
         }
         if self.exact is not None:
             out["exact"] = self.exact
@@ -215,13 +225,16 @@ class StudyResult(Serialisable):
     route : str
         ``"local"``, or ``"dask:<scheduler>"`` / ``"dask:local cluster of <n> workers"``.
     rel_tol : float
-        Relative tolerance of two starts reaching the same solution.
+        Relative round-off floor of two starts reaching the same solution (the rule where a case
+        has no covariance).
     cost_tol : float
         Largest cost of a converged start.
     raw : list of dict, default ``[]``
         Per-start results of every piece (see :func:`~femupdate.uniqueness.study.units.solve_unit`).
     figure : str, optional
         The path of the study's heat map, when one was drawn (:meth:`with_figure`).
+    alpha : float, default 0.01
+        The significance level at which solutions were told apart.
     context : RunContext, optional
         What a result read back from JSON keeps of the study (:mod:`femupdate.serialise`).
     """
@@ -236,6 +249,7 @@ class StudyResult(Serialisable):
     cost_tol: float
     raw: list = field(default_factory=list)  #: per-start results of every piece (see :func:`solve_unit`)
     figure: str | None = None
+    alpha: float = ALPHA
     context: RunContext | None = field(default=None, compare=False, repr=False)
 
     kind: ClassVar[str] = "uniqueness"
@@ -301,7 +315,7 @@ class StudyResult(Serialisable):
             "model": st.model.name, "parameters": list(st.names),
             "truth": dict(zip(st.names, st.truth[[st.model.parameter_index(n) for n in st.names]])),
             "n_dofs": st.model.n_dofs, "starts": st.n_starts, "seed": st.seed, "noise_levels": list(st.noise),
-            "rel_tol": self.rel_tol, "cost_tol": self.cost_tol, "max_nfev": st.max_nfev, "min_mac": st.min_mac,
+            "rel_tol": self.rel_tol, "alpha": self.alpha, "cost_tol": self.cost_tol, "max_nfev": st.max_nfev, "min_mac": st.min_mac,
             "route": self.route, "units": {"total": len(st.units()), "computed": self.units_computed,
                                            "resumed": self.units_resumed},
             "seconds": self.seconds, "study_key": st.key(),
@@ -374,8 +388,39 @@ def conditioning(S: np.ndarray, m: int):
     return cond, s, rank
 
 
+def case_covariance(S: np.ndarray, rank: int, scale: np.ndarray, variance: float) -> np.ndarray:
+    """``variance`` · D (SᵀS)⁺ D over S's first ``rank`` singular directions (D = diag ``scale``):
+    the covariance (physical units) of a solution whose residuals scatter with that variance; the
+    directions beyond the rank have none (zero here: :func:`femupdate.distinct.compare` compares
+    along them by the tolerance — non-identifiable)."""
+    L = S.shape[1]
+    if rank == 0 or not S.size:
+        return np.full((L, L), np.nan)
+    _, sv, Vt = np.linalg.svd(S, full_matrices=False)
+    V = Vt[:rank].T * scale[:, None]
+    return variance * (V / sv[:rank] ** 2) @ V.T
+
+
+def _solutions(study, pts, costs, who, p_true, scale, cov, alpha, rel_tol):
+    """The converged starts of a case grouped (:func:`~femupdate.distinct.significant`), and the
+    record of how (``distinct`` of :class:`CaseResult`, without ``conditioning``)."""
+    covs = None if cov is None else [cov] * len(pts)
+    grouping = significant(pts, costs, covs, alpha, rel_tol, scale)
+    sols = []
+    for g, sep in zip(grouping.groups, grouping.separations):
+        rep = pts[g[0]]
+        err = float(np.max(np.abs(rep - p_true) / scale))
+        truth = (compare(p_true, rep, np.zeros_like(cov), cov, alpha, rel_tol, scale) is None if cov is not None
+                 else err <= rel_tol)
+        sols.append(Solution(dict(zip(study.names, map(float, rep))), float(costs[g[0]]), len(g),
+                             sorted(int(who[i]) for i in g), err, truth, separation=sep, basis=grouping.basis))
+    sols.sort(key=lambda s: (-s.count, s.cost))
+    return sols, {"alpha": alpha, "basis": grouping.basis,
+                  "separations": [None if s.separation is None else s.separation.to_dict() for s in sols]}
+
+
 def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_tol: float = 1e-12,
-              sensitivities=None) -> list[CaseResult]:
+              sensitivities=None, alpha: float = ALPHA) -> list[CaseResult]:
     """Case results from raw unit results (any split, any order).
 
     Parameters
@@ -387,12 +432,24 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
         :func:`~femupdate.uniqueness.study.units.reference_unit`); starts missing from them count as
         absent.
     rel_tol : float, default 1e-4
-        Two converged starts are the same solution when every unknown agrees within this (relative);
-        a solution is the truth when within this of it.
+        Two converged starts within this of each other (relative) are always the same solution.
     cost_tol : float, default 1e-12
         A start with solver success converges when its cost ½‖r‖² is at most this.
     sensitivities : list of (ndarray, int), optional
         :func:`truth_sensitivities` of the study, if at hand.
+    alpha : float, default 0.01
+        The significance level at which two converged starts are distinct solutions.
+
+    Notes
+    -----
+    The data are noise-free: what scatters the converged starts of one solution is the fit
+    tolerance, ``cost_tol``.  Each start is given the covariance of a fit whose residual vector
+    has the largest length a converged start may have, ‖r‖² = 2 ``cost_tol``
+    (:func:`case_covariance` with the sensitivity at the truth), so that two starts of one minimum
+    — whose residual vectors differ by at most twice that length — are never told apart, while
+    separated exact solutions are; directions the data do not determine (beyond the rank at the
+    truth) are compared by ``rel_tol`` and a difference along them is non-uniqueness.  A
+    solution is the truth when it does not differ significantly from it.
 
     Returns
     -------
@@ -429,17 +486,18 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
         st, cs, xs = status[c, 0][h], cost[c, 0][h], x[c, 0][h]
         ks = np.flatnonzero(h)
         conv = (st > 0) & (cs <= cost_tol)
-        sols = []
-        if conv.any():
-            pts, costs, who = xs[conv], cs[conv], ks[conv]
-            for g in cluster(pts, costs, rel_tol):
-                rep = pts[g[0]]
-                err = float(np.max(np.abs(rep - p_true) / scale))
-                sols.append(Solution(dict(zip(study.names, map(float, rep))), float(costs[g[0]]), len(g),
-                                     sorted(int(who[i]) for i in g), err, err <= rel_tol))
-            sols.sort(key=lambda s: (-s.count, s.cost))
         S, m_own = sens[c]
         cond, sv, rank = conditioning(S, m_own)
+        cov = case_covariance(S, rank, scale, 2.0 * cost_tol) if rank else None
+        sols: list = []
+        distinct: dict = {"alpha": alpha, "basis": "statistic" if rank else "tolerance", "separations": []}
+        if conv.any():
+            sols, distinct = _solutions(study, xs[conv], cs[conv], ks[conv], p_true, scale, cov, alpha, rel_tol)
+        level = study.levels[1] if len(study.levels) > 1 else 0.01
+        said = (f"at noise {level:g} on the residuals (the study's first noise level)" if len(study.levels) > 1
+                else "per 0.01 noise on the residuals (no noise level given)")
+        distinct["conditioning"] = conditioning_record(study.names, p_true, case_covariance(S, rank, scale, level ** 2)
+                                                       if rank == L else np.full((L, L), np.nan), cond, said)
         noise = []
         for lv in range(1, len(study.levels)):
             hz = have[c, lv]
@@ -461,8 +519,10 @@ def summarise(study: Study, raw: Sequence[dict], *, rel_tol: float = 1e-4, cost_
             case=case, criteria=crit, starts=int(h.sum()), converged=int(conv.sum()),
             local_minima=int(np.sum((st > 0) & ~(cs <= cost_tol))), not_converged=int(np.sum(st == 0)),
             failed=int(np.sum(st == FAILED)), solutions=sols, condition_number=cond, singular_values=sv, rank=rank,
-            n_residuals=m_own, noise=noise, failure_examples=sorted(set(messages.get((c, 0), [])))[:3]))
+            n_residuals=m_own, noise=noise, failure_examples=sorted(set(messages.get((c, 0), [])))[:3],
+            distinct=distinct))
     return out
 
 
-__all__ = ["Solution", "NoiseResult", "CaseResult", "StudyResult", "truth_sensitivities", "conditioning", "summarise"]
+__all__ = ["Solution", "NoiseResult", "CaseResult", "StudyResult", "truth_sensitivities", "conditioning", "summarise",
+           "case_covariance"]

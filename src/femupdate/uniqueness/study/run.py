@@ -38,7 +38,7 @@ def _dask_client(scheduler: str | None, workers: int | None, timeout: float):
     return Client(cluster), cluster
 
 
-def _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout) -> None:
+def _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout, alpha=0.01) -> None:
     """:func:`run_study`'s arguments by type (:mod:`femupdate._checks`); at most
     :data:`femupdate._budget.MAX_PROCESSES` local workers."""
     where = "run_study"
@@ -52,12 +52,13 @@ def _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, co
     callable_arg(progress, "progress", where)
     real_arg(rel_tol, "rel_tol", where, low=0.0, high=1.0, low_open=True)
     real_arg(cost_tol, "cost_tol", where, low=0.0)
+    real_arg(alpha, "alpha", where, low=0.0, high=0.5, low_open=True)
     real_arg(connect_timeout, "connect_timeout", where, low=0.0, low_open=True)
 
 
 def run_study(study: Study, *, scheduler: str | None = None, workers: int | None = None, checkpoint=None,
               progress: Callable[[int, int], None] | None = None, rel_tol: float = 1e-4, cost_tol: float = 1e-12,
-              connect_timeout: float = 10.0) -> StudyResult:
+              connect_timeout: float = 10.0, alpha: float = 0.01) -> StudyResult:
     """Run (or resume) ``study`` and summarise it.
 
     Parameters
@@ -75,11 +76,15 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
     progress : callable, optional
         ``progress(rows_done, rows_total)``, called as rows finish.
     rel_tol : float, default 1e-4
-        Two solutions are the same when every unknown agrees within this (relative).
+        Two solutions within this of each other (relative) are always the same (round-off).
     cost_tol : float, default 1e-12
         A converged start reproduces the data when its cost ½‖r‖² is at most this.
     connect_timeout : float, default 10.0
         Seconds to wait for the scheduler (then an InputError).
+    alpha : float, default 0.01
+        The significance level at which two converged starts are distinct solutions
+        (:func:`~femupdate.uniqueness.study.results.summarise`, as
+        :class:`~femupdate.options.StartsOptions` documents it).
 
     Returns
     -------
@@ -91,7 +96,7 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
         A checkpoint that is unreadable or belongs to another study; the scheduler not reached in
         time; Dask needed but not installed.
     """
-    _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout)
+    _door(study, scheduler, workers, checkpoint, progress, rel_tol, cost_tol, connect_timeout, alpha)
     progress = Pace("updates", progress)
     t0 = time.perf_counter()
     units = study.units()
@@ -135,10 +140,11 @@ def run_study(study: Study, *, scheduler: str | None = None, workers: int | None
             ck.add(i, solve_unit(study, i, progress=unit_progress))
             done = base + size[i]
     raw = [p for i in range(len(units)) for p in ck.units[i]]
-    cases = summarise(study, raw, rel_tol=rel_tol, cost_tol=cost_tol)
+    cases = summarise(study, raw, rel_tol=rel_tol, cost_tol=cost_tol, alpha=alpha)
     log.info("uniqueness study: %d cases, %d rows in %d units (%d resumed), %.2f s", len(study.cases), total,
              len(units), len(resumed), time.perf_counter() - t0)
-    return StudyResult(study, cases, time.perf_counter() - t0, len(todo), len(resumed), route, rel_tol, cost_tol, raw)
+    return StudyResult(study, cases, time.perf_counter() - t0, len(todo), len(resumed), route, rel_tol, cost_tol, raw,
+                       alpha=alpha)
 
 
 __all__ = ["run_study"]

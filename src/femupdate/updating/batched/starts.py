@@ -233,7 +233,9 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, study: Star
     else:
         runs = batched_runs(model, data, names, X0, options, values, progress=progress)
     batch_seconds = time.perf_counter() - t0
-    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol, parameter_scale(model, names))
+    covariance = _covariances(model, data, names, options, values) if any(isinstance(r, BatchRun) for r in runs) else None
+    ok, solutions = converged_solutions(runs, names, BatchRun, cost_tol, rel_tol, parameter_scale(model, names),
+                                        st.alpha, covariance)
     best = None
     if ok:
         k_best = min(ok, key=lambda k: runs[k].cost)
@@ -248,7 +250,37 @@ def multistart_batched(model, data, names: Sequence[str], starts, *, study: Star
         k_best = min(ok, key=lambda k: runs[k].cost)
         solutions = [dataclasses.replace(sol, parameters=dict(zip(names, map(float, best.x))), cost=float(best.cost))
                      if k_best in sol.starts else sol for sol in solutions]
-    return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed, batch_seconds=batch_seconds))
+    return classify(MultiStartResult(best, solutions, runs, X0, names, R, len(ok), seed, batch_seconds=batch_seconds),
+                    st.alpha)
+
+
+def _covariances(model, data, names, o: UpdateOptions, values):
+    """``run -> covariance`` of a :class:`BatchRun` (physical units), as the local route's
+    :func:`~femupdate.updating.solve.diagnostics` computes it from the run's residuals and
+    Jacobian (in the variables of the parametrisation from the run's start); None where it
+    cannot be had."""
+    from ..parametrisation import Parametrisation
+    from ..solve import diagnostics
+
+    try:
+        prob = _problem(model, data, names, o, values)
+    except FemupdateError:
+        return None
+
+    def cov(run):
+        if not isinstance(run, BatchRun) or run.jac.size == 0:
+            return None
+        try:
+            base = np.array(prob.p_base, float)
+            base[prob.idx] = [run.start.get(n, v) for n, v in zip(names, run.x)]
+            par = Parametrisation(model, names, o.solver.parametrisation, base)
+            par.residual_dof = getattr(prob, "residual_dof", run.fun.size)
+            d = diagnostics(par, par.from_p(run.x), run.fun, run.jac, prob.sigma, bounds=model.bounds)
+        except (FemupdateError, np.linalg.LinAlgError, ValueError):
+            return None
+        return d.covariance, prob.sigma is not None
+
+    return cov
 
 
 def _polish(model, data, names, run: BatchRun, o: UpdateOptions, values) -> UpdateResult | None:

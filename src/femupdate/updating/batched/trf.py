@@ -92,9 +92,16 @@ def new_state(x0, lb, ub, m: int, m_row, m_qr, history: int):
 
     ``m_row`` (R,) each row's residual count for SciPy's rank test; ``m_qr`` (R,) how many
     leading residual rows enter the QR (the others are zero); ``history`` the iterations kept
-    per row (0: none).
+    per row (0: none); an :class:`~femupdate.InputError` names ``max_nfev`` (``history - 1``) when
+    those arrays would exceed the available memory.
     """
     R, n = x0.shape
+    if history:  # made before any iteration: refused by max_nfev when it would not fit (history = max_nfev + 1)
+        from ..._budget import check_memory
+
+        check_memory(f"max_nfev={history - 1}", float(min(8 * R * history * (n + 1), 10**30)),
+                     f"the iteration histories of {R} start{'s' if R != 1 else ''} on the compiled route (8 bytes "
+                     "per evaluation and parameter)")
     z = np.zeros
     st = dict(
         x=np.array(x0, float), f=z((R, m)), J=z((R, m, n)), cost=z(R), g=z((R, n)), scale_inv=np.ones((R, n)),
