@@ -28,6 +28,8 @@ _MATRIX_KEYS = ("dofs", "K0", "M0")
 #: keys of an ``[abaqus]`` and a ``[nastran]`` table that name files
 _ABAQUS_KEYS = ("stiffness", "mass", "deck")
 _NASTRAN_KEYS = ("op4", "op2", "dmig")
+#: keys of a ``[mesh]`` table that name files
+_MESH_KEYS = ("file",)
 
 
 def _moved(spec, src_dir: Path, out_dir: Path):
@@ -55,7 +57,7 @@ def updated_model_text(source, out_path, values: Mapping[str, float], provenance
     source : str or os.PathLike
         The model file the update started from (TOML).
     out_path : str or os.PathLike
-        Where the text will be written (matrix paths are made relative to its folder).
+        Where the text will be written (matrix and mesh file paths are made relative to its folder).
     values : mapping of str to float
         The updated parameters' values.
     provenance : mapping
@@ -90,8 +92,9 @@ def updated_model_text(source, out_path, values: Mapping[str, float], provenance
             spec["exported_at"] = spec["value"]  # the value the element matrices were written at
         spec["value"] = v
     src_dir, out_dir = source.parent, out_path.parent
-    param_keys = {"matrices": ("K", "M"), "abaqus": ("K_elements", "M_elements"), "nastran": ()}  # nastran: names
-    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS), ("nastran", _NASTRAN_KEYS)):
+    param_keys = {"matrices": ("K", "M"), "abaqus": ("K_elements", "M_elements"), "nastran": (), "mesh": ()}
+    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS), ("nastran", _NASTRAN_KEYS),
+                        ("mesh", _MESH_KEYS)):
         if not isinstance(raw.get(table), dict):
             continue
         mt = raw[table]

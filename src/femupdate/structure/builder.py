@@ -500,6 +500,44 @@ class Structure:
         """
         return structure_from_dict(cls, data, source)
 
+    @classmethod
+    def from_mesh(cls, file, sets: Mapping | None = None, support=None, *, format: str | None = None,
+                  name: str | None = None) -> Structure:
+        """Structure from a mesh file: Gmsh ``.msh`` (through meshio), Abaqus ``.inp``, Nastran bulk data.
+
+        Nodes keep the file's ids (dof labels ``"id:dir"``) and coordinates; each element set with a
+        section (the deck's, or ``sets``) becomes a shell or solid group (:mod:`femupdate.mesh`).
+        Declare the parameters that ``sets`` names with :meth:`parameter` before :meth:`build`.
+
+        Parameters
+        ----------
+        file : str or os.PathLike
+            The mesh file.
+        sets : mapping, optional
+            Element set name -> properties ``E``, ``nu``, ``rho``, ``t`` (shells), ``mass``,
+            ``drill``; each a number or (``E``, ``rho``) a parameter name; overrides the deck's.
+        support : sequence of mapping, optional
+            Each ``{"set": NODE_SET}`` or ``{"nodes": [ids]}``, optionally ``"dofs": ["x", ...]``
+            (directions; default every dof of the nodes).
+        format : {"gmsh", "nastran", "abaqus"}, optional
+            Default by suffix.
+        name : str, optional
+            Name of the structure (default: the file's stem).
+
+        Raises
+        ------
+        InputError
+            As :func:`femupdate.mesh.read_mesh` and the ``[mesh]`` table (docs/file-formats.md).
+        """
+        from pathlib import Path
+
+        from ..mesh import read_mesh
+        from ..mesh.model import add_mesh
+
+        s = cls(name if name is not None else Path(file).stem)
+        add_mesh(s, read_mesh(file, format), sets, support, where=str(file))
+        return s
+
     # ------------------------------------------------------------------ assembly
     def build(self) -> Model:
         """Assemble the affine sparse model (no dense global matrix is formed).

@@ -19,10 +19,10 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
     cls : type
         :class:`~femupdate.structure.Structure` or a subclass; called with the model name.
     data : mapping
-        The parsed file: top-level keys ``model``, ``parameters``, ``node``, ``element``, ``support``
-        (docs/file-formats.md).
+        The parsed file: top-level keys ``model``, ``parameters``, ``node``, ``element``, ``support``,
+        ``mesh`` (docs/file-formats.md).
     source : str, default "model"
-        Name of the file, prefixed to error messages.
+        Name of the file, prefixed to error messages; a ``[mesh]`` table's file is relative to its folder.
 
     Returns
     -------
@@ -37,7 +37,7 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
     """
     if not isinstance(data, Mapping):
         raise InputError(f"{source}: expected a table at the top level")
-    known = {"model", "parameters", "node", "element", "support", "provenance"}
+    known = {"model", "parameters", "node", "element", "support", "provenance", "mesh"}
     extra = sorted(set(data) - known)
     if extra:
         raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
@@ -79,6 +79,10 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
             raise InputError(f"{where}: {exc}") from None
         except (TypeError, ValueError):
             raise InputError(f"{where}: xyz must be 2 or 3 numbers, got {nd['xyz']!r}") from None
+    if "mesh" in data:  # a mesh file: its nodes, elements by set and supports (femupdate.mesh.model)
+        from ..mesh.model import mesh_from_table
+
+        mesh_from_table(s, data["mesh"], source)
     for i, e in enumerate(list_of_tables(data, "element", source), start=1):
         element_from_dict(s, e, f"{source}: element #{i}")
     for i, sup in enumerate(list_of_tables(data, "support", source), start=1):
