@@ -351,7 +351,8 @@ def _parse(argv=None):
     ap.add_argument("--distinct-seeds", type=int, default=5, help="seeds per family and setting for multistart")
     ap.add_argument("--starts", type=int, default=4, help="starts of each multistart")
     ap.add_argument("--bootstrap", type=int, default=20, help="damage's own bootstrap replicates")
-    ap.add_argument("--families", nargs="+", default=list(FAMILIES), choices=FAMILIES)
+    ap.add_argument("--families", nargs="*", default=list(FAMILIES), choices=FAMILIES,
+                    help="families of the update and posterior runs (none: damage only)")
     ap.add_argument("--quick", action="store_true", help="3 seeds, 2 damage seeds, 1 multistart seed")
     ap.add_argument("--output", default=None)
     a = ap.parse_args(argv)
