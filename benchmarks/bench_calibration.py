@@ -12,7 +12,8 @@ Families (the updated model is built by :mod:`femupdate.generators`):
 * ``chain``  — a shear building of 8 storeys (``shear_building``, 8 storey stiffnesses updated),
   6 modes at every floor;
 * ``planar`` — a planar frame, 3 bays x 3 storeys in one plane (``frame_lattice(4, 1, 4)``, 3
-  storey moduli), 6 modes at the in-plane dofs (x, z) of the nodes above the base;
+  storey moduli), 6 modes at the translations (x, y, z) of the nodes above the base (its lowest
+  modes include out-of-plane ones, which in-plane sensors alone would not see);
 * ``space``  — a space frame, 2 x 2 bays x 3 storeys (``frame_lattice(2, 2, 4)``, plan 1 x 1.4 m,
   3 storey moduli), 6 modes at the 24 horizontal dofs above the base;
 * ``model-error`` — the chain's structure holds a grounded spring at the top floor (5.5 % of the
@@ -129,7 +130,7 @@ def make_family(name: str) -> Family:
         K, M = _chain_matrices(true, MASS, MISSING_SPRING if name == "model-error" else 0.0)
         return Family(name, model, true, K, M, tuple(model.dofs), 6, name == "model-error")
     if name == "planar":
-        return _frame(name, 4, 1, 4, 1.0, ("x", "z"))
+        return _frame(name, 4, 1, 4, 1.0, ("x", "y", "z"))
     if name == "space":
         return _frame(name, 2, 2, 4, (1.0, 1.4, 1.0), ("x", "y"))
     raise SystemExit(f"unknown family {name!r}: choose from {', '.join(FAMILIES)}")
