@@ -303,7 +303,7 @@ def _row(family: str, setting: str, what: str, s: dict, model_error: bool) -> st
 def markdown(results: dict) -> str:
     """The Markdown tables of a run's results."""
     lines = ["| family | noise | run | seeds | 68 % coverage [99 % band] | 95 % coverage [99 % band] | RMS z "
-             "| flagged model error |", "|---|---|---|---|---|---|---|---|"]
+             "| flagged model error |", "|---|---|---|---|---|---|---|---|"] if results["families"] else []
     for key, r in results["families"].items():
         fam, setting = key.split("/")
         for what in ("update", "posterior"):
