@@ -398,12 +398,14 @@ def _finish(J, r, comps, it, conv, notes) -> VarianceComponents:
         contrib[i] = c.variance * np.diag(G)
     d = np.diag(cov).copy()
     std = np.sqrt(np.where(np.isfinite(d) & (d >= 0), d, np.nan))
+    # Satterthwaite: dof = d² / Σ_b (c_b² / ν_b), written with the shares c_b / d so that the squares
+    # cannot overflow (data of 1e149: their variances and contributions are ~1e298)
     den = np.zeros(L)
-    for i, c in enumerate(comps):
-        if c.basis in ("estimated", "pooled"):
-            den += contrib[i] ** 2 / c.dof
     with np.errstate(divide="ignore", invalid="ignore"):
-        dof = np.where(den > 0, d ** 2 / den, math.inf)
+        for i, c in enumerate(comps):
+            if c.basis in ("estimated", "pooled"):
+                den += (contrib[i] / d) ** 2 / c.dof
+        dof = np.where(den > 0, 1.0 / den, math.inf)
     dof = np.where(np.isfinite(d), dof, math.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = r / scale

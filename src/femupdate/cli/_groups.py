@@ -105,7 +105,7 @@ def starts_group(default: int = 1, starts_help: str | None = None, seed_help: st
         return option_group(title, "starts", lambda starts, seed: StartsOptions(starts=starts, seed=seed), *options)
     return option_group(
         title, "starts", lambda starts, seed, alpha: StartsOptions(starts=starts, seed=seed, alpha=alpha), *options,
-        click.option("--alpha", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=0.01,
+        click.option("--alpha", type=FiniteFloat(min=0, max=1, min_open=True, max_open=True), default=0.01,
                      show_default=True,
                      help="Significance level at which two solutions are told apart: distinct only when they differ "
                           "significantly against their own covariances (StartsOptions.alpha)."),
