@@ -130,7 +130,9 @@ def test_a_multistart_is_bounded_by_its_records_from_the_model_and_data(ex, memo
     """The starts' floor passes, the estimate from the FRF data's residuals does not."""
     model, frf = fu.load_model(ex / "two_dof.toml"), fu.load_test_data(ex / "two_dof_frf.json")
     n_res = 2 * frf.frf.omega.size * len(frf.frf.dofs)  # complex residuals
-    each = 13_000 + 16 * n_res * (2 + 2) + 32 * 2**2
+    # the record, its residuals and Jacobian, its covariance-sized matrices and std dof, its noise record
+    # (once, and the one FRF set's component and test)
+    each = 13_000 + 16 * n_res * (2 + 2) + 32 * 2**2 + 8 * 2 + 2_300 + (700 + 400) * 1
     memory(10_000_000)
     StartsOptions(starts=1000)  # 4.0 MB: within
     for call in (fu.multistart, fu.frf_multistart):
@@ -229,7 +231,8 @@ def test_a_starts_record_is_what_the_estimate_says(ex, model_file, data_file, ba
         held, _ = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    estimate = _budget.start_bytes(_budget.residual_count(data), len(res.names), batched is None)
+    estimate = _budget.start_bytes(_budget.residual_count(data), len(res.names), batched is None,
+                                _budget.block_count(data))
     assert 0.5 * estimate <= held / n <= estimate, (held / n, estimate)
 
 

@@ -139,8 +139,17 @@ def test_b_active_bound_reported_and_free_covariance_is_that_without_its_column(
     JF = Jp[:, 1:]
     cov = np.linalg.inv(JF.T @ JF)
     if std is None:
+        # the noise not stated is estimated (docs/numerics.md, "Noise and variance components"):
+        # 3 eigenvalues and 3 unit-scaled shapes of 3 entries are too few for a component per
+        # kind, so one component pools them all (the premise, from the result's record); with one
+        # component the REML estimate is the textbook s^2 = |r|^2 / (m - L - c), where each
+        # unit-scaled shape loses one degree of freedom to its own normalisation (c = 3: the
+        # measured and model shapes both of unit length, their difference has 2 free entries to
+        # first order), and the sandwich reduces to s^2 (J_F^T J_F)^-1
+        assert [(c["label"], c["n_residuals"]) for c in d.noise] == [("all estimated data", 12)]
         m = res.fun.size
-        cov *= float(res.fun @ res.fun) / (m - 5)
+        c = sum(1 for mode in data.modes if len(mode.dofs))  # unit scaling: no reference dof
+        cov *= float(res.fun @ res.fun) / (m - 5 - c)
     np.testing.assert_allclose(d.covariance[1:, 1:], cov, rtol=1e-8)
     assert np.all(np.isnan(d.covariance[0])) and np.all(np.isnan(d.covariance[:, 0]))
     assert np.isnan(d.std[0])

@@ -28,6 +28,18 @@ log = logging.getLogger(__name__)
 START_BYTES = 4_000
 #: the per-start route's record beyond its arrays: 8.6-14 kB measured on the same models
 START_RECORD_BYTES = 13_000
+#: the per-start route's noise record of a fit beyond START_RECORD_BYTES (its diagnostics, since the
+#: per-block noise components), once: the fit's test (``model_error``, a dict of 7 entries: 860
+#: bytes measured), up to three pooling notes (650 measured on Figure 2), the χ² test of the stated
+#: blocks and the plausibility test of the pooled eigenvalues in its detail (390 each)
+NOISE_RECORD_BYTES = 2_300
+#: a noise component's record (a dict of 10 entries with its label and members: 700 bytes measured
+#: on the truss); at most one per block of residuals
+NOISE_COMPONENT_BYTES = 700
+#: a plausibility test's record in ``model_error``'s detail (390 bytes measured); at most one per
+#: block of more than one residual (a mode's shape, an FRF set, a static case): a single
+#: eigenvalue is stated (tested in the one χ²) or pooled with the other eigenvalues
+NOISE_TEST_BYTES = 400
 #: one uniqueness-study row (case x noise level x start): its start, solution, cost and status
 STUDY_ROW_BYTES = 200
 #: one posterior sample of one parameter: the sample, its parameter value and the copies the
@@ -148,13 +160,35 @@ def residual_count(data) -> int:
     return max(n, 1)
 
 
-def start_bytes(n_residuals: int, n_params: int, batched: bool = False) -> float:
-    """What one start's record holds: on the per-start route :data:`START_RECORD_BYTES` and its
-    residuals, Jacobian and parameter-sized matrices (covariance, correlation, ...); on the
-    compiled route :data:`START_BYTES` and its residuals and Jacobian with their copies."""
+def block_count(data) -> tuple[int, int]:
+    """The blocks of residuals whose noise is stated or estimated apart
+    (:func:`femupdate.updating.noise.layout`) test data give at most: ``(single, larger)``, the
+    blocks of one residual (each mode's eigenvalue) and the larger ones (each mode's shape, FRF
+    set, static case); a sequence of sets: their sum."""
+    if isinstance(data, (list, tuple)):
+        counts = [block_count(d) for d in data]
+        return sum(c[0] for c in counts), sum(c[1] for c in counts)
+    modes = getattr(data, "modes", ())
+    larger = sum(1 for m in modes if len(getattr(m, "dofs", ())))
+    sets = getattr(data, "frf_sets", None)
+    if sets is None and hasattr(data, "omega"):
+        sets = (data,)
+    larger += len(sets or ()) + len(getattr(data, "static", ()))
+    return len(modes), larger
+
+
+def start_bytes(n_residuals: int, n_params: int, batched: bool = False, blocks: tuple[int, int] = (0, 1)) -> float:
+    """What one start's record holds: on the per-start route :data:`START_RECORD_BYTES`, its
+    residuals, Jacobian and parameter-sized matrices (covariance, correlation, ...; the standard
+    deviations' degrees of freedom) and its noise record (:data:`NOISE_RECORD_BYTES`, a component
+    per block and a test per larger block, ``blocks`` as :func:`block_count` gives them); on the
+    compiled route :data:`START_BYTES` and its residuals and Jacobian with their copies (it keeps
+    no noise record)."""
     if batched:
         return START_BYTES + 16.0 * n_residuals * (n_params + 2)
-    return START_RECORD_BYTES + 16.0 * n_residuals * (n_params + 2) + 32.0 * n_params ** 2
+    single, larger = blocks
+    noise = NOISE_RECORD_BYTES + NOISE_COMPONENT_BYTES * (single + larger) + NOISE_TEST_BYTES * larger
+    return START_RECORD_BYTES + 16.0 * n_residuals * (n_params + 2) + 32.0 * n_params ** 2 + 8.0 * n_params + noise
 
 
 def check_processes(what: str, n: int | None) -> int | None:
@@ -217,6 +251,8 @@ class Pace:
             self.progress(done, total)
 
 
-__all__ = ["available_memory", "size", "check_memory", "check_count", "check_processes", "residual_count", "start_bytes",
-           "duration", "announce", "Pace", "START_BYTES", "START_RECORD_BYTES", "STUDY_ROW_BYTES", "SAMPLE_BYTES",
+__all__ = ["available_memory", "size", "check_memory", "check_count", "check_processes", "residual_count", "block_count", "start_bytes",
+           "duration", "announce", "Pace", "START_BYTES", "START_RECORD_BYTES", "NOISE_RECORD_BYTES", "NOISE_COMPONENT_BYTES",
+           "NOISE_TEST_BYTES",
+           "STUDY_ROW_BYTES", "SAMPLE_BYTES",
            "CHAIN_BYTES", "REPLICATE_BYTES", "NOISE_DRAW_BYTES", "LINE_BYTES", "MAX_PROCESSES"]

@@ -11,7 +11,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .._budget import announce, check_count, residual_count, start_bytes
+from .._budget import announce, block_count, check_count, residual_count, start_bytes
 from .._checks import callable_arg, mapping_arg, path_arg, problem_args
 from .._errors import InputError
 from ..options import (SAMPLER_METHODS, ExecutionOptions, SamplerOptions, StartsOptions, UpdateOptions,
@@ -135,7 +135,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
     # the compiled route evaluates a half-ensemble at once: more walkers cost little more per step
     walkers = so.walkers if so.walkers is not None else (max(64, 8 * L) if post.route == "compiled" else max(32, 4 * L))
     so.bound(L, walkers)
-    check_count("starts", starts_n, start_bytes(residual_count(data), L), "the starts' records")
+    check_count("starts", starts_n, start_bytes(residual_count(data), L, blocks=block_count(data)), "the starts' records")
     if burn is None and target_ess is None:
         burn = steps // 4
     if method == "tmcmc" and post.improper:

@@ -14,7 +14,7 @@ from functools import partial
 
 import numpy as np
 
-from .._budget import Pace, check_count, residual_count, start_bytes
+from .._budget import Pace, block_count, check_count, residual_count, start_bytes
 from .._checks import callable_arg, count_arg, frf_fit, problem_args
 from .._errors import FemupdateError, InputError
 from ..options import (ExecutionOptions, FRFOptions, NoiseOptions, SolverOptions, StartsOptions, UpdateOptions, gather,
@@ -218,7 +218,8 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
         if reason:
             raise InputError(f"batched=True: {reason}; use batched=False")
     n_res = residual_count(data)
-    check_count("starts", st.starts, start_bytes(n_res, len(names), bool(batched)), "the starts' records")
+    check_count("starts", st.starts, start_bytes(n_res, len(names), bool(batched), block_count(data)),
+                "the starts' records")
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     if batched:  # all starts at once for small dense models
         from .batched import multistart_batched
@@ -477,7 +478,8 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     st, ex, rest = _starts_options("frf_multistart", shorthand, starts, execution)
     o = frf_run_options("frf_multistart", rest, data)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
-    check_count("starts", st.starts, start_bytes(residual_count(data), len(names)), "the starts' records")
+    check_count("starts", st.starts, start_bytes(residual_count(data), len(names), blocks=block_count(data)),
+                "the starts' records")
     X0 = draw_starts(model, names, st.starts, st.seed, st.log_uniform)
     ms = run_starts(model, data, names, X0, dict(o, values=values), starts=st, execution=ex.replace(jobs=None),
                     progress=Pace("starts", progress), runner=partial(run_with, _frf_update_start))
