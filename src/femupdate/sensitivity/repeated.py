@@ -88,7 +88,8 @@ def restricted_derivatives(model, modes, group, params=None, values=None) -> np.
     params : sequence of int or str, optional
         Parameters (default the free ones); L = ``len(params)``.
     values : None, mapping of str to float, or array_like, optional
-        Parameter values of ``modes`` (default nominal; not read: the products are affine).
+        Parameter values of ``modes`` (default nominal): where the model is linearised when
+        parameters enter non-linearly.
 
     Returns
     -------
@@ -100,7 +101,6 @@ def restricted_derivatives(model, modes, group, params=None, values=None) -> np.
     InputError
         Modes not mass-normalised; a bad group or parameter.
     """
-    del values  # K_j, M_j of an affine model do not depend on the point
     if modes.normalisation != "mass":
         raise InputError(f"sensitivities need mass-normalised modes, got {modes.normalisation!r}")
     model = tangent(model, values, modes)
