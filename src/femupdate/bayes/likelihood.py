@@ -201,7 +201,7 @@ class Posterior:
                              "static deflections; or use --noise estimate")
         from .noise import noise_pools
 
-        #: the noise pools: the stated blocks, and one estimated scale per kind of data (:mod:`.noise`)
+        #: the noise pools: the stated blocks, and one estimated scale per kind of data (:mod:`femupdate.bayes.noise`)
         self.pools, pool_notes = noise_pools(self.problems, noise, self.L)
         self.noise = "stated" if all(p.basis == "stated" for p in self.pools) else "estimate"
         if self.noise == "estimate":

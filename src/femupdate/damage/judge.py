@@ -28,7 +28,7 @@ from .bootstrap import Replicates
 from .localise import Localisation, NoiseLevels
 from .verify import Refined, Verification
 
-#: located changes whose spread (std / |mean|) is below this move together: a uniform baseline error explains them
+#: located changes whose spread (std / ``|mean|``) is below this move together: a uniform baseline error explains them
 UNIFORM_SPREAD = 0.25
 #: the doubt of a located set whose baseline was not checked
 UNCHECKED = ("the baseline was not checked against the undamaged structure: a baseline that is wrong reports its own "
