@@ -370,6 +370,8 @@ def variance_components(J, r, blocks: Mapping, *, kinds: Mapping | None = None, 
     final = []
     n_est = sum(1 for c in comps if c.basis != "stated")
     for c, v, d in zip(comps, var, dof):
+        if abs(d) < 1e-9 * max(c.n, 1):  # a redundancy of zero (as many data as parameters) computed as round-off
+            d = 0.0
         least = min_pool_dof if n_est == 1 else min_dof  # the last estimated component: the last resort
         if c.basis != "stated" and not d >= least:
             notes.append(f"{c.label}: redundancy {d:.3g} below {least:g}: its noise cannot be estimated from the fit "
