@@ -372,13 +372,13 @@ class SetSearch:
         """The chi-square test of the fit of every unknown against the stated noise: ``chi2``, ``dof``,
         ``limit``, ``p_value`` and ``fits`` (None when it was not made: a smaller set fitted first,
         or too few data)."""
-        from scipy.special import chdtrc
+        from ..variance import chi2_sf
 
         e = self.every_fit
         if e is None or not math.isfinite(e.chi2) or e.dof < 1:
             return None
         chi2 = e.chi2 * self._every_scale  # against the stated noise, whatever rescaling followed
-        return {"chi2": chi2, "dof": e.dof, "limit": e.limit, "p_value": float(chdtrc(e.dof, chi2)),
+        return {"chi2": chi2, "dof": e.dof, "limit": e.limit, "p_value": chi2_sf(chi2, e.dof),
                 "fits": bool(chi2 <= e.limit), "level": self.level}
 
     def _from_every(self, e: SetFit) -> SetFit | None:
