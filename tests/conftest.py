@@ -1,7 +1,14 @@
+import os
+
 import numpy as np
 import pytest
 
 from femupdate import Structure
+
+
+#: the long versions of the heavier checks run with FEMUPDATE_HEAVY=1 (CI runs the short ones)
+HEAVY = bool(os.environ.get("FEMUPDATE_HEAVY"))
+heavy = pytest.mark.skipif(not HEAVY, reason="set FEMUPDATE_HEAVY=1 for the long versions")
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 
 import numpy as np
 import pytest
@@ -27,7 +26,7 @@ import femupdate as fu
 from femupdate import Structure
 from femupdate.testdata import MeasuredMode, TestData
 
-HEAVY = bool(os.environ.get("FEMUPDATE_HEAVY"))
+from conftest import HEAVY  # noqa: E402
 SEEDS = 50 if HEAVY else 12
 N, T = 8, 6
 NOMINAL = np.array([2e6, 1.8e6, 1.7e6, 1.5e6, 1.4e6, 1.2e6, 1.0e6, 0.9e6])

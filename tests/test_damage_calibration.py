@@ -13,7 +13,6 @@ The six-unknown frame scenarios run with FEMUPDATE_HEAVY=1.
 """
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -30,8 +29,7 @@ from femupdate.generators import frame_lattice
 from femupdate.testdata import MeasuredMode, TestData
 from femupdate.updating import Problem, update
 
-HEAVY = bool(os.environ.get("FEMUPDATE_HEAVY"))
-heavy = pytest.mark.skipif(not HEAVY, reason="set FEMUPDATE_HEAVY=1 for the long versions")
+from conftest import HEAVY, heavy  # noqa: E402
 
 
 def frame(nx=2, ny=2, nz=3):

@@ -3,7 +3,6 @@ differ significantly against their own covariances; an ill-conditioned but uniqu
 solution with a ± statement, separated exact solutions stay separate, and one minimum is split in
 about α of noisy repetitions, no more than the binomial 99 % band allows."""
 
-import os
 import tempfile
 from pathlib import Path
 
@@ -17,8 +16,7 @@ from femupdate.examples import two_dof
 from femupdate.io.model_file import load_model
 from femupdate.updating import multistart
 
-HEAVY = bool(os.environ.get("FEMUPDATE_HEAVY"))
-heavy = pytest.mark.skipif(not HEAVY, reason="set FEMUPDATE_HEAVY=1 for the long versions")
+from conftest import HEAVY, heavy  # noqa: E402
 
 SERIES = """
 [model]

@@ -19,7 +19,6 @@ samples assumed): across seeds its spread was 1.0–1.6 times the reported error
 """
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -30,8 +29,7 @@ from femupdate.bayes import Posterior, effective_sample_size, integrated_time, s
 from femupdate.examples import two_dof
 from femupdate.priors import Prior
 
-HEAVY = bool(os.environ.get("FEMUPDATE_HEAVY"))
-heavy = pytest.mark.skipif(not HEAVY, reason="set FEMUPDATE_HEAVY=1 for the long versions")
+from conftest import HEAVY, heavy  # noqa: E402
 pytest.importorskip("emcee")
 
 
