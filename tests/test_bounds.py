@@ -123,7 +123,7 @@ def test_the_mcmc_chains_are_refused_above_the_memory():
     with pytest.raises(InputError, match=r"^ensembles=4, walkers=1000000, steps=1000000: about 128 TB for the MCMC "
                                          r"chains \(32 bytes a walker and step\)"):
         SamplerOptions(method="mcmc", ensembles=4, walkers=10**6, steps=10**6)
-    SamplerOptions(method="laplace", ensembles=4, walkers=10**6, steps=10**6)  # no chains without MCMC
+    SamplerOptions(method="tmcmc", ensembles=4, steps=10**6)  # no chains without MCMC
 
 
 def test_a_multistart_is_bounded_by_its_records_from_the_model_and_data(ex, memory):

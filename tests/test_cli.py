@@ -5,6 +5,7 @@ import sys
 import numpy as np
 import pytest
 
+import femupdate as fu
 from femupdate.cli import main
 from femupdate.examples import figure2_model_toml, figure2_test_data
 
@@ -175,3 +176,25 @@ def test_modes_table_shows_the_units_of_every_column(tmp_path, capsys):
     assert info.value.code in (0, None)
     out = capsys.readouterr().out
     assert "frequency [Hz]" in out and "eigenvalue [rad²/s²]" in out
+
+
+def test_a_shape_noise_for_data_without_shapes_in_use_is_refused(tmp_path, capsys):
+    """--std-shape where no shape is used would be silently ignored: it is refused, with the reason."""
+    from femupdate.examples import two_dof, two_dof_model_toml
+
+    model = tmp_path / "m.toml"
+    model.write_text(two_dof_model_toml())
+    modes = fu.model_modes(two_dof())
+    freq = tmp_path / "freq.json"
+    freq.write_text(json.dumps({"modes": [{"eigenvalue": float(v)} for v in modes.eigenvalues]}))
+    shapes = tmp_path / "shapes.json"
+    shapes.write_text(json.dumps({"modes": [{"eigenvalue": float(v),
+                                             "shape": dict(zip(modes.dofs, map(float, modes.shapes[:, i])))}
+                                            for i, v in enumerate(modes.eigenvalues)]}))
+    for data, extra, message in ((freq, [], "--std-shape: the data used have no mode shapes"),
+                                 (shapes, ["--eigenvalues-only"],
+                                  "--std-shape with --eigenvalues-only: the mode shapes are not used")):
+        with pytest.raises(SystemExit) as info:
+            main(["update", str(model), str(data), "--std-shape", "0.01", *extra])
+        err = capsys.readouterr().err
+        assert info.value.code == 2 and message in err and "Traceback" not in err

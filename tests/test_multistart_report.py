@@ -80,6 +80,9 @@ def test_failures_are_counted_by_reason_and_recorded_per_start():
     assert failure_reason("NumericalError: test mode(s) [3] pair with no model mode (MAC below 0.5 for all 12 "
                           "computed modes): check the dof labels") == \
         "test mode(s) [#] pair with no model mode (MAC below # for all # computed modes)"
+    # a subject and what befell it: the subject alone ("test mode #") would tell nothing
+    assert failure_reason("NumericalError: test mode 2: no model mode left to pair with") == \
+        "test mode #: no model mode left to pair with"
     runs = ["NumericalError: test mode(s) [3] pair with no model mode (MAC below 0.5): x",
             "NumericalError: test mode(s) [1] pair with no model mode (MAC below 0.5): y",
             "InputError: starting value(s) outside the bounds for: k1"]

@@ -115,3 +115,22 @@ def test_a_misspelt_field_of_an_option_object_gets_the_closest_named():
 
     o = SolverOptions(max_nfev=3)
     assert pickle.loads(pickle.dumps(o)) == o and o.replace(ftol=1e-6).max_nfev == 3
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: fu.SamplerOptions(walkers=16), "walkers=16 applies to method=mcmc only, not method=laplace"),
+    (lambda: fu.SamplerOptions(method="tmcmc", burn=5), "burn=5 applies to method=mcmc only, not method=tmcmc"),
+    (lambda: fu.SamplerOptions(method="mcmc", walkers=33), "walkers=33: the ensemble sampler needs an even number"),
+])
+def test_sampler_options_that_would_do_nothing_are_refused_when_made(make, message):
+    with pytest.raises(fu.InputError, match=message):
+        make()
+    assert fu.SamplerOptions(method="mcmc", walkers=32, burn=5).walkers == 32
+
+
+def test_damage_alpha_is_refused_with_the_tikhonov_localisation():
+    from femupdate.damage import DamageOptions
+
+    with pytest.raises(fu.InputError, match="alpha=0.3 .* applies to method=l1 only, not method=tikhonov"):
+        DamageOptions(method="tikhonov", alpha=0.3)
+    assert DamageOptions(method="l1", alpha=0.3).alpha == 0.3

@@ -48,6 +48,7 @@ def no_computation(monkeypatch):
     ("--json", "{d}", "is a folder; give a file name"),
     ("--json", "{d}/two_dof.toml/out.json", "two_dof.toml is a file, not a folder"),
     ("--plot", "{d}/two_dof.toml", "is a file; give a folder"),
+    ("--json", "{d}/new/", "ends with '/', so names a folder; give a file name"),
 ])
 def test_bad_output_paths_are_refused_before_computing(files, capsys, no_computation, option, target, message):
     code, out = run(["update", str(files / "two_dof.toml"), str(files / "two_dof_frequencies.json"), option,
@@ -296,3 +297,17 @@ def test_outputs_as_an_unprivileged_user(files):
         assert res["read-only kept"]
     finally:
         shutil.rmtree(d, ignore_errors=True)
+
+
+def test_a_result_written_from_python_to_a_folder_name_is_refused(tmp_path):
+    """``write_report("out/")`` meant a folder: no file named ``out`` is made."""
+    import femupdate as fu
+    from femupdate.examples import two_dof
+
+    model = two_dof()
+    lam = fu.model_modes(model, {"k1": 8.0, "k2": 6.0}).eigenvalues
+    res = fu.update(model, fu.TestData(modes=tuple(fu.MeasuredMode(v) for v in lam)))
+    for write in (res.write_report, res.write_json):
+        with pytest.raises(fu.InputError, match="ends with '/', so names a folder"):
+            write(f"{tmp_path}/out/")
+    assert not (tmp_path / "out").exists()

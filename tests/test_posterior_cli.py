@@ -90,7 +90,7 @@ def test_mcmc_samples_as_npz_with_the_chains(files, tmp_path, capsys):
     (["--prior", "k1"], "--prior: 'k1' is not of the form NAME=SPEC"),
     (["--prior", "k9=uniform"], "prior given for 'k9', which is not an updated parameter"),
     (["--noise", "stated", "--std-eigenvalue", "0.01", "--eigenvalues-only"], None),
-    (["--std-shape", "0.01", "--noise", "stated"], None),
+    (["--std-shape", "0.01", "--noise", "stated"], "--std-shape: the data used have no mode shapes"),
 ])
 def test_bad_options_are_refused_by_name(files, tmp_path, capsys, args, message):
     model, data = files
@@ -212,3 +212,26 @@ def test_figures_return_their_figure_and_axes():
     lap = fu.posterior(model, _data(), method="laplace", starts=2)
     with pytest.raises(ValueError, match="no chains or stages"):
         trace_figure(lap)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--walkers", "8"], "--walkers applies to --method mcmc only, not --method laplace"),
+    (["--steps", "100"], "--steps applies to --method mcmc only, not --method laplace"),
+    (["--method", "tmcmc", "--segment", "10"], "--segment applies to --method mcmc only, not --method tmcmc"),
+    (["--method", "mcmc", "--chunks", "4"], "--chunks applies to --method tmcmc only, not --method mcmc"),
+    (["--method", "mcmc", "--samples", "100"], "--samples applies to --method laplace or tmcmc only, not --method mcmc"),
+    (["--method", "mcmc", "--walkers", "9"], "--walkers 9: the ensemble sampler needs an even number of walkers"),
+])
+def test_a_sampler_option_that_would_do_nothing_is_refused(files, capsys, args, message):
+    """An option the chosen method does not use is said, not silently ignored (exit 2, before any work)."""
+    model, data = files
+    code, out, err = run(["posterior", str(model), str(data), *args], capsys)
+    assert code == 2 and message in err and "Traceback" not in err
+
+
+def test_the_default_of_an_option_is_not_taken_for_a_choice(files, capsys, tmp_path):
+    """The check looks at what the command line gave, not at values equal to the defaults."""
+    model, data = files
+    code, out, err = run(["posterior", str(model), str(data), "--samples", "300", "--json", str(tmp_path / "r.json")],
+                         capsys)
+    assert code == 0, err

@@ -157,15 +157,19 @@ class Serialisable:
 
     def write_json(self, path) -> Path | None:
         """Write :meth:`to_json` to ``path`` (``"-"``: standard output), atomically."""
+        from .io.outputs import check_output
         from .io.results import write_json
 
+        check_output(path, "write_json:")
         write_json(path, self.to_json())
         return None if str(path) == "-" else Path(path)
 
     def write_report(self, path, **kw) -> Path:
         """Write the HTML report of the result to ``path`` (:func:`femupdate.report.write_report`)."""
+        from .io.outputs import check_output
         from .report import write_report
 
+        check_output(path, "write_report:")
         return write_report(path, self, **kw)
 
     def to_frame(self):

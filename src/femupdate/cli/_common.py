@@ -422,8 +422,11 @@ def fitting_table(ms, what: str = "starts") -> Table:
 def print_starts(console, ms, what: str = "starts") -> None:
     """The outcome of every start: solutions that fit, local minima, failures by reason."""
     fit, local = ms.fitting, ms.local_minima
-    console.print(f"{ms.converged}/{ms.total} {what} converged: {len(fit)} distinct solution(s) fit as well as the "
-                  f"best (cost up to {ms.fit_cost:.3g})" + (f", {len(local)} local minima" if local else ""))
+    if not ms.converged:
+        console.print(f"0/{ms.total} {what} converged")
+    else:
+        console.print(f"{ms.converged}/{ms.total} {what} converged: {len(fit)} distinct solution(s) fit as well as "
+                      f"the best (cost up to {ms.fit_cost:.3g})" + (f", {len(local)} local minima" if local else ""))
     for sol in fit[:10]:
         console.print(f"  {sol.count:4d} x  " + ", ".join(f"{k}={fmt(v)}" for k, v in sol.parameters.items())
                       + f"  (cost {sol.cost:.3g})")

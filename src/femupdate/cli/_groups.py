@@ -39,10 +39,16 @@ class GroupedCommand(click.Command):
                 formatter.write_dl(rows)
 
 
-def option_group(title: str, target: str, build: Callable[..., Any], *options: Callable) -> Callable:
+def option_group(title: str, target: str, build: Callable[..., Any], *options: Callable,
+                 applies: dict[str, tuple[str, tuple[str, ...]]] | None = None) -> Callable:
     """A decorator that adds ``options`` (click option decorators, listed as they appear in
     ``--help``) to a command under the heading ``title`` and passes ``build(**their values)`` to
     the command's function as the keyword ``target`` instead of the values themselves.
+
+    An option that does nothing with the others given is refused rather than ignored: ``applies``
+    maps an option's name to ``(other, values)``, and giving it on the command line while the
+    option ``other`` is not one of ``values`` is an error (``--walkers applies to --method mcmc
+    only, not --method laplace``).
 
     Parameters
     ----------
@@ -53,6 +59,8 @@ def option_group(title: str, target: str, build: Callable[..., Any], *options: C
     build : callable
         Called with the group's parameters by name; returns the object.
     *options : click option decorators
+    applies : dict, optional
+        ``{name: (other, values)}``: ``name`` applies only when ``other`` is one of ``values``.
     """
     def probe() -> None:  # pragma: no cover - never called
         pass
@@ -69,6 +77,7 @@ def option_group(title: str, target: str, build: Callable[..., Any], *options: C
         def wrapper(*args, **kwargs):
             values = {n: kwargs.pop(n) for n in names}
             try:
+                _refuse_unused(values, applies or {}, params)
                 kwargs[target] = build(**values)
             except InputError as exc:  # a field named as the command line spells it
                 raise InputError(spelled(str(exc), params)) from None
@@ -78,6 +87,21 @@ def option_group(title: str, target: str, build: Callable[..., Any], *options: C
         return wrapper
 
     return decorator
+
+
+def _refuse_unused(values: dict, applies: dict[str, tuple[str, tuple[str, ...]]], params) -> None:
+    """Refuse an option given on the command line that ``applies`` says does nothing with the
+    values of the others (see :func:`option_group`)."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return
+    spelling = {p.name: max(p.opts, key=len) for p in params}
+    for name, (other, allowed) in applies.items():
+        if ctx.get_parameter_source(name) in (click.core.ParameterSource.COMMANDLINE,
+                                               click.core.ParameterSource.ENVIRONMENT) \
+                and values[other] not in allowed:
+            raise InputError(f"{spelling[name]} applies to {spelling[other]} {' or '.join(allowed)} only, not "
+                             f"{spelling[other]} {values[other]}")
 
 
 def spelled(message: str, params) -> str:
@@ -162,6 +186,7 @@ def sampler_group() -> Callable:
                               burn=burn, segment=segment, target_ess=target_ess, tmcmc_steps=tmcmc_steps,
                               chunks=chunks, level=level)
 
+    mcmc, tmcmc = ("method", ("mcmc",)), ("method", ("tmcmc",))
     return option_group(
         "Sampler", "sampler", build,
         click.option("--method", type=click.Choice(["laplace", "mcmc", "tmcmc"]), default="laplace", show_default=True,
@@ -187,6 +212,8 @@ def sampler_group() -> Callable:
                      help="TMCMC's chains in this many pieces (random streams; Dask tasks)."),
         click.option("--level", type=FiniteFloat(0, 1, min_open=True, max_open=True), default=0.95, show_default=True,
                      help="Probability of the credible intervals."),
+        applies={"samples": ("method", ("laplace", "tmcmc")), "walkers": mcmc, "ensembles": mcmc, "steps": mcmc,
+                 "burn": mcmc, "segment": mcmc, "target_ess": mcmc, "tmcmc_steps": tmcmc, "chunks": tmcmc},
     )
 
 

@@ -88,6 +88,11 @@ class ProblemSpec:
         if self.reciprocity and "frf" not in kinds:
             raise InputError(f"--reciprocity: no FRF data are used ({', '.join(kinds)})")
         data = apply_reciprocity(data, self.reciprocity)
+        if std_shape is not None:  # said rather than ignored
+            if "modes" not in kinds or not any(m.dofs for m in data.modes):
+                raise InputError("--std-shape: the data used have no mode shapes")
+            if self.eigenvalues_only:
+                raise InputError("--std-shape with --eigenvalues-only: the mode shapes are not used")
         damping = parse_damping(self.damping_text, data)  # with modes alone: compared with their damping ratios
         frf = FRFOptions()
         if "frf" in kinds:

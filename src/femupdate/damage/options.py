@@ -110,6 +110,9 @@ class DamageOptions(Options):
             raise InputError(f"min_change must lie in (0, 1), got {self.min_change!r}")
         if self.alpha is not None and (not _real(self.alpha) or not 0 < self.alpha <= 1):
             raise InputError(f"alpha is a fraction of alpha_max in (0, 1], got {self.alpha!r}")
+        if self.alpha is not None and self.method != "l1":
+            raise InputError(f"alpha={self.alpha} (the L1 factor) applies to method=l1 only, not method={self.method} "
+                             "(whose factor is chosen by GCV)")
         for name in ("iterations", "bootstrap", "max_located"):
             v = getattr(self, name)
             if _real(v) and not isinstance(v, numbers.Integral):

@@ -172,6 +172,8 @@ def check_output(path, what: str, kind: str = "file") -> Path | None:
     if kind == "file" and str(path) == "-":
         return None
     p = Path(path)
+    if kind == "file" and str(os.fspath(path)).endswith(("/", os.sep)):  # Path() would drop the slash
+        raise InputError(f"{what} {os.fspath(path)}: ends with '/', so names a folder; give a file name")
     if any(len(part.encode()) > 255 for part in p.parts):
         raise InputError(f"{what} {p}: a name in the path is longer than 255 bytes")
     if kind == "dir":

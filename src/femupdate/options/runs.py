@@ -170,6 +170,13 @@ class SamplerOptions(Options):
             self.set(name, count(getattr(self, name), name, low=low))
         self.set("walkers", count(self.walkers, "walkers", low=2, allow_none=True))
         self.set("burn", count(self.burn, "burn", low=0, allow_none=True))
+        if self.walkers is not None and self.walkers % 2:
+            raise InputError(f"walkers={self.walkers}: the ensemble sampler needs an even number of walkers")
+        if self.method != "mcmc":  # options of the chains only, said rather than ignored
+            given = [n for n in ("walkers", "burn", "target_ess") if getattr(self, n) is not None]
+            if given:
+                raise InputError(f"{given[0]}={getattr(self, given[0])} applies to method=mcmc only, not "
+                                 f"method={self.method}")
         self.bound()
         self.set("level", number(self.level, "level", low=0.0, high=1.0, low_open=True, high_open=True))
         self.set("target_cov", number(self.target_cov, "target_cov", low=0.0, low_open=True))

@@ -559,7 +559,10 @@ def failure_reason(message: str) -> str:
     import re
 
     text = re.sub(r"^\w+Error: ", "", message.strip())
-    head = text.split(": ", 1)[0] if ": " in text else text
+    parts = text.split(": ")
+    head = parts[0]
+    if len(parts) > 1 and len(head.split()) <= 3:  # a subject ("test mode 2") and what befell it
+        head = f"{head}: {parts[1]}"
     return re.sub(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", head)[:200]
 
 
