@@ -395,3 +395,12 @@ def test_modes_with_static_data_in_each_formulation(formulation):
     np.testing.assert_allclose(res.x, truth, rtol=1e-8)
     assert (res.expanded_shapes is not None) == (formulation == "dynamic")
     assert not math.isnan(res.diagnostics.condition_number)
+
+
+def test_a_frequency_only_update_does_not_claim_the_shape_formulation(files, capsys):
+    """With no mode shape used (--eigenvalues-only) the result says "eigenvalues", not "shapes"."""
+    out = files / "freq.json"
+    code, text = cli(["update", str(files / "chain.toml"), str(files / "test.json"), "--eigenvalues-only",
+                      "--json", str(out)], capsys)[:2]
+    assert code == 0 and json.loads(out.read_text())["formulation"] == "eigenvalues"
+    assert "formulation: eigenvalues" in text and "formulation: shapes" not in text

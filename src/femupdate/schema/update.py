@@ -52,7 +52,7 @@ UPDATE_KEYS = (
     Key("sensitivity", "string", "the derivative route used (e.g. `fox-kapoor`, `nelson`; `dynamic residual (exact, no "
         "eigen-solution)` for `--formulation dynamic`)", (STRING,)),
     Key("formulation", "string or `null`", "the residuals of the measured modes: `shapes` (default), `mac` or "
-        "`dynamic`; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
+        "`dynamic`; `eigenvalues` when no mode shape is used; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
     Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
         "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
     Key("expanded_shapes", "list of `{dof: value}`", "with `--formulation dynamic`: the full shape of each test mode "

@@ -495,6 +495,12 @@ class Problem(Parametrisation):
             return int(np.diff(self.targets.pptr).sum())
         return self.n_residuals
 
+    @property
+    def formulation_used(self) -> str:
+        """The formulation as results report it: ``"eigenvalues"`` when no mode shape is used
+        (frequencies alone), else :attr:`formulation`."""
+        return self.formulation if self.any_shape else "eigenvalues"
+
     def expanded_shapes(self, x) -> np.ndarray | None:
         """The full shapes of the dynamic formulation at x, (n_dofs, T): the measured entries the
         test shape (unit length over them), the others the unknowns solved for; None for the

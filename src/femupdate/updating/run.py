@@ -278,7 +278,7 @@ def combined_result(prob: CombinedProblem, data: TestData, x, sol=None, history=
         paired = paired_modes(modal, modes, mpairs)
         swaps, routes = list(modal.swaps), [modal.sensitivity_used]
         natural = modes.frequencies_hz[:10]
-        formulation, expanded = modal.formulation, modal.expanded_shapes(x)
+        formulation, expanded = modal.formulation_used, modal.expanded_shapes(x)
     else:
         mp, f_test, f_model, natural = modal_report(model, data, p_final)
         paired = dict(pairs=mp, test_frequencies_hz=f_test, model_frequencies_hz=f_model)

@@ -504,7 +504,7 @@ def result_at(prob: Problem, x, sol=None, history=None, reg=None, bounded: bool 
         **paired,
         swaps=list(prob.swaps), diagnostics=diag, regularization=reg or {},
         start=dict(zip(prob.names, map(float, prob.start))), sensitivity=prob.sensitivity_used,
-        notes=list(prob.notes) + group_notes(paired["pairing"].get("groups", []), prob.close_modes) + diag.notes, formulation=prob.formulation, expanded_shapes=prob.expanded_shapes(x),
+        notes=list(prob.notes) + group_notes(paired["pairing"].get("groups", []), prob.close_modes) + diag.notes, formulation=prob.formulation_used, expanded_shapes=prob.expanded_shapes(x),
         solver=getattr(modes, "solver", ""),
     )
 
