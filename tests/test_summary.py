@@ -10,6 +10,7 @@ import json
 import numpy as np
 import pytest
 
+from femupdate import schema
 from femupdate.io.model_file import load_model
 from femupdate.modal import model_modes
 from femupdate.structure import Structure
@@ -46,6 +47,7 @@ def test_command_line_text_json_and_bad_input(tmp_path, capsys):
     assert code == 0, err
     assert "210 free dofs" in out and "24 mitc4" in out and "left (12 elements)" in out and "E_right" in out
     js = json.loads((tmp_path / "s.json").read_text())
+    schema.check(js, "summary")  # the keys and types docs/file-formats.md describes
     assert js["parameters"][1] == {"name": "E_right", "value": 3.0, "unit": "Pa", "bounds": [None, None],
                                    "fixed": False, "enters": ["K"]}
     assert js["mass"]["total"]["z"] == pytest.approx(RHO * A * B * T, rel=1e-12)
