@@ -7,6 +7,8 @@ against finite differences of C φ on the untransformed model; bad input refused
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import scipy.sparse.linalg as sla
@@ -318,3 +320,40 @@ def test_bad_input_refused_by_name():
     with pytest.raises(InputError, match="has no shell or solid elements to interpolate in"):
         locate_points(lines, {1: (0.5, 0.0, 0.0)}, 0.1)
     assert locate_points(lines, {1: (0.5, 0.0, 0.0)}, 0.6, "nearest").links[0].mesh_nodes in ((1,), (2,))
+
+
+# ------------------------------------------------------------------ the command line
+def _block_toml(tmp_path):
+    _, _, idx = _block(tmp_path)  # writes block.msh
+    clamp = ", ".join(str(int(i) + 1) for i in idx[0].ravel())
+    sets = "".join(f'[mesh.sets.{k}]\nE = "E_{k}"\nnu = 0.3\nrho = 1.0\n\n' for k in ("root", "tip"))
+    (tmp_path / "block.toml").write_text("[parameters.E_root]\nvalue = 1.0\n\n[parameters.E_tip]\nvalue = 1.0\n\n"
+                                         f'[mesh]\nfile = "block.msh"\n\n{sets}[[mesh.support]]\nnodes = [{clamp}]\n')
+    return tmp_path / "block.toml"
+
+
+def test_update_command_with_test_points_json_and_report(tmp_path, capsys):
+    from femupdate import schema
+    from test_cli import run
+
+    path, truth, mm = _uff(tmp_path)
+    model = _block_toml(tmp_path)
+    code, out, err = run(["update", str(model), str(path), "--test-points", "1e-6", "--json", str(tmp_path / "u.json"),
+                          "--report", str(tmp_path / "u.html")], capsys)
+    assert code == 0, out + err
+    assert "test points: 8 placed on the mesh (interpolate; 7 inside elements" in out
+    res = json.loads((tmp_path / "u.json").read_text())
+    schema.check(res, "update")
+    for k, v in TRUTH.items():
+        assert res["parameters"][k] == pytest.approx(v, rel=2e-5)  # 6-digit universal file (see above)
+    tp = res["test_points"]
+    assert tp["method"] == "interpolate" and len(tp["points"]) == 8 and tp["points"][0]["dofs"]["z"] == "T1:z"
+    html = (tmp_path / "u.html").read_text()
+    assert "Test points on the mesh" in html and "T5:y" in html
+    # bad input: a point beyond the tolerance (named), a tolerance that is not > 0
+    code, out, err = run(["update", str(model), str(path), "--test-points", "1e-12", "--test-points-method", "nearest"],
+                         capsys)
+    assert code == 2 and "test points farther than the tolerance 1e-12" in out + err and "test node 1 at" in out + err
+    assert "Traceback" not in err
+    code, out, err = run(["update", str(model), str(path), "--test-points", "0"], capsys)
+    assert code == 2 and "--test-points" in out + err

@@ -60,13 +60,13 @@ class TestPointsSpec:
 def test_points_group() -> Callable:
     """``--test-points``, ``--test-points-method`` -> ``test_points``: :class:`TestPointsSpec`."""
     return option_group(
-        "Test points", "test_points", lambda **kw: TestPointsSpec(**kw),
-        click.option("--test-points", "tolerance", type=FiniteFloat(min=0, min_open=True), default=None,
+        "Test points", "test_points", lambda tp_tolerance, tp_method: TestPointsSpec(tp_tolerance, tp_method),
+        click.option("--test-points", "tp_tolerance", type=FiniteFloat(min=0, min_open=True), default=None,
                      metavar="TOL",
                      help="Place the test data's nodes on MODEL's mesh by their coordinates (a universal file's "
                           "datasets 15/2411, coordinate systems applied) instead of by id: a point farther than "
                           "TOL (model length unit) from the mesh is refused by name."),
-        click.option("--test-points-method", "method", type=click.Choice(["interpolate", "nearest"]),
+        click.option("--test-points-method", "tp_method", type=click.Choice(["interpolate", "nearest"]),
                      default="interpolate", show_default=True,
                      help="interpolate: by the shape functions of the shell or solid element the point lies in; "
                           "nearest: the nearest mesh node."),
