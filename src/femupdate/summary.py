@@ -136,7 +136,8 @@ def model_summary(model, structure=None, values=None, n_modes: int = 3) -> dict:
     Returns
     -------
     dict
-        ``kind`` (``"summary"``), ``schema_version``, ``name``, ``n_dofs``, ``dofs_by_direction``, ``n_nodes``, ``elements`` (by type),
+        ``kind`` (``"summary"``), ``schema_version``, ``name``, ``n_dofs``, ``dofs_by_direction``,
+        ``n_nodes``, ``elements`` (by type),
         ``sets`` (elements per set), ``parameters`` (name, value, unit, bounds — None where
         unbounded —, fixed, enters: ``K``, ``M`` and the non-linear terms it is a factor of),
         ``mass`` (``free``, ``total``, ``by_type``; kg along x, y, z), ``stiffness_shares``.
@@ -148,11 +149,13 @@ def model_summary(model, structure=None, values=None, n_modes: int = 3) -> dict:
     params = []
     for j, prm in enumerate(model.parameters):
         enters = [m for m, A in (("K", model.dK[j]), ("M", model.dM[j])) if A is not None and A.nnz]
-        params.append({"name": prm.name, "value": float(p[j]), "unit": prm.unit, "bounds": [b if np.isfinite(b) else None for b in prm.bounds],
+        bounds = [b if np.isfinite(b) else None for b in prm.bounds]
+        params.append({"name": prm.name, "value": float(p[j]), "unit": prm.unit, "bounds": bounds,
                        "fixed": prm.fixed, "enters": enters + in_terms[prm.name]})
     from .serialise import SCHEMA_VERSION
 
-    out = {"kind": "summary", "schema_version": SCHEMA_VERSION, "name": model.name, "n_dofs": model.n_dofs, "dofs_by_direction": dict(dirs), "n_nodes": len(used_nodes),
+    out = {"kind": "summary", "schema_version": SCHEMA_VERSION, "name": model.name, "n_dofs": model.n_dofs,
+           "dofs_by_direction": dict(dirs), "n_nodes": len(used_nodes),
            "elements": {}, "sets": {}, "parameters": params,
            "mass": {"free": _translation_masses(model.M(p), model.dofs), "total": None, "by_type": None}}
     if structure is not None:

@@ -204,7 +204,7 @@ def _interpolate(structure, ids, xyz, points) -> list[tuple]:
         el = np.repeat(np.arange(len(conn)), conn.shape[1])
         ok = rows.ravel() >= 0
         incid.append(sp.csr_array((np.ones(ok.sum()), (rows.ravel()[ok], el[ok])), shape=(len(ids), len(conn))))
-    out = []
+    out: list[tuple] = []
     for p in points:
         _, near = tree.query(p, k=min(NEAREST_NODES, len(ids)))
         near = np.atleast_1d(near)
@@ -270,10 +270,10 @@ def locate_points(structure, points: Mapping, tolerance: float, method: str = "i
     ids, xyz = _node_table(structure)
     if method == "nearest":
         d, k = cKDTree(xyz).query(P)
-        placed = [("node", (int(ids[j]),), (1.0,), "", (), float(dd)) for dd, j in zip(d, k)]
+        placed: list[tuple] = [("node", (int(ids[j]),), (1.0,), "", (), float(dd)) for dd, j in zip(d, k)]
     else:
         placed = _interpolate(structure, ids, xyz, P)
-    links = tuple(PointLink(n, tuple(float(v) for v in P[i]), *placed[i]) for i, n in enumerate(names))
+    links = tuple(PointLink(n, (float(P[i, 0]), float(P[i, 1]), float(P[i, 2])), *placed[i]) for i, n in enumerate(names))
     far = [lk for lk in links if lk.distance > tolerance]
     if far:
         shown = "; ".join(f"test node {lk.test_node} at ({', '.join(f'{v:.6g}' for v in lk.xyz)}): {lk.distance:.4g} "
