@@ -357,3 +357,21 @@ def test_update_command_with_test_points_json_and_report(tmp_path, capsys):
     assert "Traceback" not in err
     code, out, err = run(["update", str(model), str(path), "--test-points", "0"], capsys)
     assert code == 2 and "--test-points" in out + err
+
+
+def test_a_point_in_a_large_element_whose_nodes_are_not_the_nearest():
+    """A 10 x 10 x 10 hexahedron beside a cluster of small ones: the point's 8 nearest nodes belong to the
+    cluster, yet it lies inside the large element (found by its bounding box)."""
+    s = Structure("coarse and fine")
+    big = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [0, 0, 10], [10, 0, 10], [10, 10, 10], [0, 10, 10]],
+                   float)
+    _, small, idx = _grid((2, 2, 2), (0.2, 0.2, 0.2))
+    small = small + [10.0, 4.9, 4.9]  # against the big element's face x = 10
+    s.add_nodes(range(1, 9), big)
+    s.add_nodes(range(101, 101 + len(small)), small)
+    s.solid([list(range(1, 9))], E=1.0, nu=0.3, rho=1.0)
+    s.solid(_hexes(idx) + 101, E=1.0, nu=0.3, rho=1.0)
+    p = (9.7, 5.0, 5.0)  # 0.3 inside the big element, 0.3 from the cluster's nearest nodes
+    lk = locate_points(s, {1: p}, 1e-9).links[0]
+    assert lk.mesh_nodes == tuple(range(1, 9)) and lk.distance < 1e-12
+    np.testing.assert_allclose(np.array(lk.weights) @ big, p, atol=1e-12)

@@ -10,10 +10,11 @@ mesh's: a test point is placed on the mesh by its coordinates only.
   :math:`\xi` of one element: Gauss-Newton on :math:`|x(\xi) - p|^2` with
   :math:`x(\xi) = \sum_i N_i(\xi) X_i`, :math:`\xi` kept in the element's reference domain
   (square, cube or simplex), over the elements that hold one of the 8 mesh nodes nearest the
-  point.  The measured motion is then :math:`u(p) = \sum_i N_i(\xi)\, u_i` — the element's own
-  interpolation (exact for a field the element represents exactly: a linear field in every
-  element here).  A point on a shell's face at an offset (the surface of a plate of thickness
-  t) lies at that offset from the mid-surface: the tolerance must cover it.
+  point and those whose bounding box (widened by the tolerance) holds it.  The measured motion
+  is then :math:`u(p) = \sum_i N_i(\xi)\, u_i` — the element's own interpolation (exact for
+  a field the element represents exactly: a linear field in every element here).  A point on a
+  shell's face at an offset (the surface of a plate of thickness t) lies at that offset from the
+  mid-surface: the tolerance must cover it.
 
 A point farther than ``tolerance`` (in the mesh's length unit) from the mesh is refused, naming
 it and its distance.
@@ -191,30 +192,33 @@ def _node_table(structure) -> tuple[np.ndarray, np.ndarray]:
     return ids, np.array([structure.nodes[int(i)] for i in ids], dtype=float)
 
 
-def _interpolate(structure, ids, xyz, points) -> list[tuple]:
+def _interpolate(structure, ids, xyz, points, tolerance: float) -> list[tuple]:
     sets = _element_sets(structure)
     if not sets:
         raise InputError(f"structure {structure.name!r} has no shell or solid elements to interpolate in; map the "
                          "test points to the nearest nodes (method 'nearest')")
     tree = cKDTree(xyz)
     pos = {int(i): k for k, i in enumerate(ids)}
-    incid = []
-    for _, conn, _ in sets:  # node position -> elements holding it
+    incid, boxes, coords = [], [], []
+    for _, conn, _ in sets:  # node position -> elements holding it; each element's box, widened by the tolerance
         rows = np.array([pos.get(int(n), -1) for n in conn.ravel()]).reshape(conn.shape)
         el = np.repeat(np.arange(len(conn)), conn.shape[1])
         ok = rows.ravel() >= 0
         incid.append(sp.csr_array((np.ones(ok.sum()), (rows.ravel()[ok], el[ok])), shape=(len(ids), len(conn))))
+        X = np.array([[structure.nodes[int(n)] for n in row] for row in conn], dtype=float).reshape(*conn.shape, 3)
+        coords.append(X)
+        boxes.append((X.min(axis=1) - tolerance, X.max(axis=1) + tolerance))
     out: list[tuple] = []
     for p in points:
         _, near = tree.query(p, k=min(NEAREST_NODES, len(ids)))
         near = np.atleast_1d(near)
         best: tuple | None = None
-        for (kind, conn, names), inc in zip(sets, incid):
-            cand = np.unique(inc[near].tocoo().col)
+        for (kind, conn, names), inc, (lo, hi), X in zip(sets, incid, boxes, coords):
+            inside = np.flatnonzero(np.all((lo <= p) & (p <= hi), axis=1))  # elements the point may lie in
+            cand = np.union1d(inc[near].tocoo().col, inside)
             if not len(cand):
                 continue
-            X = np.array([[structure.nodes[int(n)] for n in row] for row in conn[cand]], dtype=float)
-            xi, N, dist = closest_in_elements(kind, X, p)
+            xi, N, dist = closest_in_elements(kind, X[cand], p)
             k = int(np.argmin(dist))
             if best is None or dist[k] < best[-1]:
                 best = (kind, conn[cand[k]], names[cand[k]], xi[k], N[k], float(dist[k]))
@@ -225,8 +229,9 @@ def _interpolate(structure, ids, xyz, points) -> list[tuple]:
         kind, nodes, name, xi, N, dist = best
         keep = np.abs(N) > WEIGHT_ZERO
         w = N[keep] / N[keep].sum()
-        out.append(("node" if keep.sum() == 1 else "element", tuple(int(n) for n in nodes[keep]), tuple(float(v) for v in w),
-                    name if name.startswith(kind) else f"{kind} {name}", tuple(float(v) for v in xi), dist))
+        out.append(("node" if keep.sum() == 1 else "element", tuple(int(n) for n in nodes[keep]),
+                    tuple(float(v) for v in w), name if name.startswith(kind) else f"{kind} {name}",
+                    tuple(float(v) for v in xi), dist))
     return out
 
 
@@ -272,7 +277,7 @@ def locate_points(structure, points: Mapping, tolerance: float, method: str = "i
         d, k = cKDTree(xyz).query(P)
         placed: list[tuple] = [("node", (int(ids[j]),), (1.0,), "", (), float(dd)) for dd, j in zip(d, k)]
     else:
-        placed = _interpolate(structure, ids, xyz, P)
+        placed = _interpolate(structure, ids, xyz, P, float(tolerance))
     links = tuple(PointLink(n, (float(P[i, 0]), float(P[i, 1]), float(P[i, 2])), *placed[i]) for i, n in enumerate(names))
     far = [lk for lk in links if lk.distance > tolerance]
     if far:

@@ -86,11 +86,13 @@ def observed_model(model, rows: Mapping[str, Mapping[int, float]], fixed: Sequen
     for i, lab in enumerate(labels):
         for j, w in rows[lab].items():
             Cd[i, colpos[j]] = w
-    blocked = np.array([j in set(fixed) for j in cols])
-    usable = np.flatnonzero(~blocked)
-    _, R, piv = sla.qr(Cd[:, usable], mode="economic", pivoting=True)
+    direct = set(fixed)
+    usable = np.flatnonzero([j not in direct for j in cols])
     m = len(labels)
-    diag = np.abs(np.diag(R))
+    diag = np.zeros(0)
+    if len(usable) >= m:
+        _, R, piv = sla.qr(Cd[:, usable], mode="economic", pivoting=True)
+        diag = np.abs(np.diag(R))
     if len(diag) < m or diag[m - 1] <= RANK_TOL * max(diag[0], 1e-300):
         raise InputError(f"test points: the measured dofs {describe(labels)} are not independent combinations of the "
                          "model's free dofs (two test points on the same spot and direction, or a point that sees "
