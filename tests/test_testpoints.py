@@ -306,8 +306,10 @@ def test_bad_input_refused_by_name():
     with pytest.raises(InputError, match=r"the measured dofs T1:x, T2:x are not independent"):
         map_test_data(s, twice, 0.01, model=model)
     lost = TestData(modes=(MeasuredMode(1.0, ("1:x", "3:x"), np.ones(2)),), nodes={1: (0.5, 0.4, 0.3)})
-    with pytest.raises(InputError, match="test node 3 has no coordinates"):
+    with pytest.raises(InputError, match=r"test node\(s\) 3 have measured dofs but no coordinates"):
         map_test_data(s, lost, 0.01, model=model)
+    aside = TestData(modes=(MeasuredMode(1.0, ("1:x",), np.ones(1)),), nodes={1: (0.5, 0.4, 0.3), 8: (9.0, 9.0, 9.0)})
+    assert map_test_data(s, aside, 0.01, model=model).rename == {"1:x": "T1:x"}  # node 8: geometry only, not placed
     s.support_node([1])
     fixed = TestData(modes=(MeasuredMode(1.0, ("1:x", "4:z"), np.ones(2)),),
                      nodes={1: (0.5, 0.4, 0.3), 4: tuple(pts[0])})

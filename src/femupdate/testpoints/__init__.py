@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import scipy.sparse as sp
 
 from .._errors import InputError
+from ..dofs import parse_dof
 from .locate import METHODS, PointLink, PointMap, closest_in_elements, locate_points
 from .observe import measured_labels, observation_rows, observed_model, relabel
 
@@ -61,7 +62,8 @@ def map_test_data(structure, data, tolerance: float, method: str = "interpolate"
     data : TestData
         Read without a model (:func:`femupdate.io.uff.read_uff` ``(path)``): labels
         ``"<test node>:<dir>"`` in the global axes (local displacement systems already rotated),
-        ``data.nodes`` the test nodes' global coordinates in the mesh's length unit.
+        ``data.nodes`` the test nodes' global coordinates in the mesh's length unit.  Only the
+        nodes with measured dofs are placed (geometry-only nodes of the file are not).
     tolerance : float
         Largest distance from a test point to the mesh (mesh length unit).
     method : {"interpolate", "nearest"}, default "interpolate"
@@ -82,10 +84,15 @@ def map_test_data(structure, data, tolerance: float, method: str = "interpolate"
     """
     if model is None:
         model = structure.build()
-    pmap = locate_points(structure, dict(data.nodes), tolerance, method)
     labels = measured_labels(data)
     if not labels:
         raise InputError("test points: the test data measure no dof")
+    used = list(dict.fromkeys(parse_dof(lab)[0] for lab in labels))  # nodes of the geometry only are not placed
+    lost = [n for n in used if n not in data.nodes]
+    if lost:
+        raise InputError(f"test node(s) {', '.join(map(str, lost[:8]))} have measured dofs but no coordinates: give "
+                         "them in the test file's geometry (dataset 15 or 2411)")
+    pmap = locate_points(structure, {n: data.nodes[n] for n in used}, tolerance, method)
     sdofs = {lab for g in structure.groups for row in g.labels for lab in row}
     rename, rows = observation_rows(pmap, labels, model, sdofs, prefix)
     index = {d: i for i, d in enumerate(model.dofs)}
