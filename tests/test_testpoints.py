@@ -377,3 +377,19 @@ def test_a_point_in_a_large_element_whose_nodes_are_not_the_nearest():
     lk = locate_points(s, {1: p}, 1e-9).links[0]
     assert lk.mesh_nodes == tuple(range(1, 9)) and lk.distance < 1e-12
     np.testing.assert_allclose(np.array(lk.weights) @ big, p, atol=1e-12)
+
+
+def test_correlate_command_with_test_points(tmp_path, capsys):
+    from femupdate import schema
+    from test_cli import run
+
+    path, truth, mm = _uff(tmp_path)
+    model = _block_toml(tmp_path)
+    code, out, err = run(["correlate", str(model), str(path), "--test-points", "1e-6", "--set", "E_root=1.25,E_tip=0.85",
+                          "--json", str(tmp_path / "c.json")], capsys)
+    assert code == 0, out + err
+    res = json.loads((tmp_path / "c.json").read_text())
+    schema.check(res, "correlate")
+    assert [p[:2] for p in res["pairs"]] == [[0, 0], [1, 1], [2, 2], [3, 3]]
+    assert min(p[2] for p in res["pairs"]) > 1 - 1e-9  # the truth at the test points (6-digit file)
+    assert len(res["test_points"]["points"]) == 8
