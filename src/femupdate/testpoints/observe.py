@@ -48,6 +48,16 @@ def _congruence(A, T):
     return ((B + B.T) * 0.5).tocsr()
 
 
+def _dependent(C: np.ndarray, labels: list[str]) -> list[str]:
+    """The rows of C that are (nearly) combinations of the others: those a row-pivoted QR takes last."""
+    if C.shape[1] == 0:
+        return labels
+    _, R, piv = sla.qr(C.T, mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    rank = int(np.sum(d > RANK_TOL * max(d[0], 1e-300))) if len(d) else 0
+    return [labels[i] for i in piv[rank:]] or labels
+
+
 def observed_model(model, rows: Mapping[str, Mapping[int, float]], fixed: Sequence[int] = ()):
     """The model in coordinates that hold the observed combinations as dofs (module docstring).
 
@@ -94,9 +104,9 @@ def observed_model(model, rows: Mapping[str, Mapping[int, float]], fixed: Sequen
         _, R, piv = sla.qr(Cd[:, usable], mode="economic", pivoting=True)
         diag = np.abs(np.diag(R))
     if len(diag) < m or diag[m - 1] <= RANK_TOL * max(diag[0], 1e-300):
-        raise InputError(f"test points: the measured dofs {describe(labels)} are not independent combinations of the "
-                         "model's free dofs (two test points on the same spot and direction, or a point that sees "
-                         "only what another measured dof sees); drop the duplicates")
+        raise InputError(f"test points: the measured dofs {describe(_dependent(Cd[:, usable], labels))} are "
+                         "combinations of the other measured dofs (two test points on the same spot and direction, "
+                         "or a point that sees only what other measured dofs see); drop them")
     masters = [cols[k] for k in usable[piv[:m]]]
     n = model.n_dofs
     C = sp.csr_array((Cd.ravel(), (np.repeat(np.arange(m), len(cols)), np.tile(cols, m))), shape=(m, n))
