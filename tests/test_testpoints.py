@@ -393,3 +393,9 @@ def test_correlate_command_with_test_points(tmp_path, capsys):
     assert [p[:2] for p in res["pairs"]] == [[0, 0], [1, 1], [2, 2], [3, 3]]
     assert min(p[2] for p in res["pairs"]) > 1 - 1e-9  # the truth at the test points (6-digit file)
     assert len(res["test_points"]["points"]) == 8
+    code, out, err = run(["correlate", str(model), str(path), "--test-points", "1e-6", "--measured-dofs", "1:z,2:z,5:z"],
+                         capsys)
+    assert code == 0, out + err
+    code, out, err = run(["correlate", str(model), str(path), "--test-points", "1e-6", "--measured-dofs", "1:z,99:z"],
+                         capsys)
+    assert code == 2 and "--measured-dofs: 99:z not in" in out + err

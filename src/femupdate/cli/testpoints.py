@@ -50,6 +50,14 @@ class TestPointsSpec:
             items = [t.strip() for t in str(measured_text).split(",") if t.strip()]
             sensors = canonical_all(items, "--measured-dofs")
         data = load_testdata(data_path, None, sensors=sensors)
+        if sensors is not None:  # read without a model, a sensor the file does not hold would pass unseen
+            from ..testpoints import measured_labels
+
+            held = set(measured_labels(data))
+            absent = [d for d in sensors if d not in held]
+            if absent:
+                raise InputError(f"--measured-dofs: {', '.join(absent[:8])} not in {data_path} (its test nodes and "
+                                 "directions in the global axes)")
         try:
             mapped = map_test_data(structure, data, self.tolerance, self.method, model=model)
         except InputError as exc:
