@@ -42,10 +42,25 @@ def _results(ex):
     yield from _modal_results(ex)
     yield from _damage_results(ex)
     yield from _posterior_results(two)
+    yield _Summary(ex / "truss.toml")
     from femupdate.paper import run_sections
 
     yield run_sections(ex / "paper", ["two_dof_characteristic"], figures=False, jobs=1)
 
+
+
+class _Summary:
+    """``femupdate summary``'s JSON (a plain dict, not a result object) as the loop above takes it."""
+
+    def __init__(self, path):
+        from femupdate.io.model_file import read_toml
+        from femupdate.summary import model_summary
+
+        s = fu.Structure.from_dict(read_toml(path))
+        self.obj = model_summary(s.build(), s)
+
+    def to_json(self) -> dict:
+        return self.obj
 
 
 def _frf_and_uniqueness_results(ex, two, fig2):

@@ -18,6 +18,7 @@ from .modes import correlate, modes
 from .paper import paper
 from .posterior import posterior
 from .reduce import reduce
+from .summary import summary
 from .report import report
 from .uniqueness import uniqueness
 from .update import update
@@ -70,6 +71,6 @@ def _say_replaced(files) -> None:
 for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness, convert_data, report):
+                 reduce, uniqueness, convert_data, report, summary):
     cli.add_command(_command)
 del _command

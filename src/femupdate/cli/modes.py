@@ -15,6 +15,7 @@ from ._common import INPUT_FILE, Ctx, correlation_table, fmt, model_values, opti
 from ._groups import GroupedCommand, option_group
 from .data_options import DataSpec, pairing_group, test_data_group
 from .outputs import Outputs, outputs_group
+from .testpoints import TestPointsSpec, test_points_group
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,8 +94,10 @@ def modes(model_path, modal: ModesSpec, outputs: Outputs):
 @click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @pairing_group()
 @test_data_group(damping=True)
+@test_points_group()
 @outputs_group(report=False)
-def correlate(model_path, data_path, pairing: tuple[PairingOptions, float], data_spec: DataSpec, outputs: Outputs):
+def correlate(model_path, data_path, pairing: tuple[PairingOptions, float], data_spec: DataSpec,
+              test_points: TestPointsSpec, outputs: Outputs):
     """Pair test and model modes by MAC; frequency errors and COMAC; measured damping ratios against
     the model's (--damping)."""
     from ..correlation import correlate as _correlate
@@ -104,7 +107,10 @@ def correlate(model_path, data_path, pairing: tuple[PairingOptions, float], data
     ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
     values = model_values(model, outputs.set_text)
-    data = data_spec.load(data_path, model)
+    if test_points.tolerance is None:
+        data, mapped = data_spec.load(data_path, model), None
+    else:  # test nodes placed on the mesh by their coordinates
+        model, data, mapped = test_points.load(model_path, model, data_path, data_spec.measured_text)
     if not data.modes:
         raise InputError(f"{data_path}: no modes to correlate")
     mm = model_modes(model, values, n_modes=None if model.n_dofs <= 1500 else max(len(data.modes) + 4, 10))
@@ -114,4 +120,7 @@ def correlate(model_path, data_path, pairing: tuple[PairingOptions, float], data
     corr = corr.with_context(damping=data_spec.damping(data))
     print_damping(ctx.console, data, corr.payload().get("damping_ratio"))  # as computed (the JSON's NaN are null)
     print_data_notes(ctx, data)
-    outputs.emit(ctx, corr.to_json())
+    payload = corr.to_json()
+    if mapped is not None:
+        payload["test_points"] = mapped.to_json()
+    outputs.emit(ctx, payload)

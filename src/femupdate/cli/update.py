@@ -10,11 +10,12 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, load_data, model_values, print_diagnostics, print_damping, print_flags,
+from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
+from .testpoints import TestPointsSpec, test_points_group
 from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 
 
@@ -25,9 +26,11 @@ from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 @starts_group()
 @execution_group()
 @problem_group(sensitivity=True)
+@test_points_group()
 @solver_group()
 @outputs_group(plot=True, model_out=True, uff=True, report=True)
-def update(model_path, data_path, starts, execution, problem: ProblemSpec, solver, outputs: Outputs):
+def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_points: TestPointsSpec, solver,
+           outputs: Outputs):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -41,7 +44,13 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
 
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
     values = model_values(model, outputs.set_text)
-    data = load_data(data_path, model, problem.measured_text)
+    base = model  # the structure's own dofs (--uff), whatever the test points add
+    model, data, mapped = test_points.load(model_path, model, data_path, problem.measured_text)
+    if mapped is not None:
+        lk = mapped.map.links
+        ctx.console.print(f"test points: {len(lk)} placed on the mesh ({mapped.map.method}; "
+                          f"{sum(x.kind == 'element' for x in lk)} inside elements, largest distance "
+                          f"{max(x.distance for x in lk):.3g})", markup=False)
     run = problem.resolve(model, data, solver)
     data = run.data
     before = None if values is None else dict(zip(model.parameter_names, values))
@@ -57,6 +66,10 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
         res = ms.best
     result = result.with_context(damping=run.damping, before=before)
     payload = result.to_json()
+    report_of: object = result
+    if mapped is not None:  # the map into the result, and the report drawn from it
+        payload["test_points"] = mapped.to_json()
+        report_of = payload
     if res is None:
         assert ms is not None
         outputs.emit(ctx, payload)
@@ -67,7 +80,11 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
     if outputs.plot_dir is not None:
         _figures(ctx, model, data, run, res, outputs.plot_dir)
     outputs.emit(ctx, payload)
-    write_report_output(ctx, outputs.report_path, result, model_path=model_path)
+    if mapped is None:
+        write_report_output(ctx, outputs.report_path, result, model_path=model_path)
+    else:
+        write_report_output(ctx, outputs.report_path, report_of, model=model, data=data, model_path=model_path,
+                            before=before, damping=run.damping, kind="update")
     if not res.success:
         if outputs.write_model_path or outputs.csv_dir or outputs.uff_path:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")
@@ -78,7 +95,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
         from ..io.uff import write_uff_modes
         from ..modal import model_modes
 
-        write_uff_modes(outputs.uff_path, model_modes(model, res.parameters), nodes=model.nodes, model_name=model.name)
+        write_uff_modes(outputs.uff_path, model_modes(base, res.parameters), nodes=base.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
 
 

@@ -6,6 +6,7 @@ from .document import Cell, Document, Figure, Section, Table, num, numcell
 from .parts import (collect_notes, correlation_section, cost_unit, damping_section, figures, pairs_table,
                     parameter_table, shapes_section, summary_section)
 from .sections import convergence_section, frf_section, identifiability_section, starts_section
+from .testpoints import test_points_section
 
 # ====================================================================================== per kind
 def _verdict_update(result: dict) -> Cell:
@@ -38,6 +39,7 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
             parameter_table(result, names, result.get("start"), std, "start and updated values")))
     for sec in (correlation_section(result, rec), damping_section(result),
                 shapes_section(model, data, rec, segments, result.get("pairs")),
+                test_points_section(result, model, segments),
                 frf_section(result, rec) if kind == "frf-update" or result.get("omega_rad_s") else None,
                 convergence_section(result), identifiability_section(result), starts_section(result)):
         if sec is not None:

@@ -42,6 +42,8 @@ register(Kind(
      Key("pairing", "string", "the pairing policy asked for (`auto`, `mac`, `order` or `frequency`)", (STRING,)),
      Key("notes", "list", "what the reader of the test data decided; present only when there are any", (ARRAY,)),
      Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
+     Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh, as `update`'s",
+         (OBJECT,)),
      Key("damping_ratio", "object", "with damping: see below", (OBJECT,))),
     intro="The result of `femupdate correlate` and `femupdate.correlate` (`correlation.to_json()`; the model's "
           "damping of `--damping` is `correlation.with_context(damping=...)`).",

@@ -71,6 +71,11 @@ UPDATE_KEYS = (
         "cost}`", (ARRAY,)),
     Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
+    Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh: `method` "
+        "(`interpolate` or `nearest`), `tolerance`, `largest_distance`, `points` (per test node `test_node`, `xyz`, "
+        "`kind` (`element`: inside an element; `node`: on one mesh node), `mesh_nodes`, `weights` (the shape "
+        "functions' values), `element`, `natural` (natural coordinates), `distance`, `dofs` `{direction: label}` "
+        "(the label its measured dofs carry in the run: a mesh dof, or `T<test node>:<direction>`))", (OBJECT,)),
     Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
         "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
         "`--scheduler` also `seed`, `fitting`, `fit_cost`, `distinct` (" + DISTINCT + "), `failed` (messages of "

@@ -1,0 +1,81 @@
+"""``--test-points`` of the commands that read test data: test nodes placed on a structure's mesh by
+their coordinates (:func:`femupdate.testpoints.map_test_data`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import click
+
+from .._errors import InputError
+from ._common import FiniteFloat
+from ._groups import option_group
+
+
+@dataclasses.dataclass(frozen=True)
+class TestPointsSpec:
+    """``--test-points TOL`` and ``--test-points-method``, as typed."""
+
+    __test__ = False  # not a pytest test class
+
+    tolerance: float | None = None
+    method: str = "interpolate"
+
+    def load(self, model_path, model, data_path, measured_text: str | None = None):
+        """``(model, data, mapped)``: without ``--test-points`` the model, the data read against it
+        and None; with it, the data read without the model (their own node ids), placed on the
+        mesh of ``model_path``, and the model in the coordinates that hold the measured dofs.
+
+        Raises
+        ------
+        InputError
+            A matrices model (no mesh), and as :func:`femupdate.testpoints.map_test_data`.
+        """
+        from ._common import load_data
+
+        if self.tolerance is None:
+            return model, load_data(data_path, model, measured_text), None
+        from ..dofs import canonical_all
+        from ..io.testdata_json import load_testdata
+        from ..testpoints import map_test_data
+        from .summary import _structure_of
+
+        structure = _structure_of(model_path)
+        if structure is None:
+            raise InputError(f"--test-points: {model_path} is a matrices model; test points are placed on a "
+                             "structure's or a mesh's nodes and elements")
+        sensors = None
+        if measured_text is not None:
+            items = [t.strip() for t in str(measured_text).split(",") if t.strip()]
+            sensors = canonical_all(items, "--measured-dofs")
+        data = load_testdata(data_path, None, sensors=sensors)
+        if sensors is not None:  # read without a model, a sensor the file does not hold would pass unseen
+            from ..testpoints import measured_labels
+
+            held = set(measured_labels(data))
+            absent = [d for d in sensors if d not in held]
+            if absent:
+                raise InputError(f"--measured-dofs: {', '.join(absent[:8])} not in {data_path} (its test nodes and "
+                                 "directions in the global axes)")
+        try:
+            mapped = map_test_data(structure, data, self.tolerance, self.method, model=model)
+        except InputError as exc:
+            raise InputError(f"--test-points {self.tolerance:g}: {data_path}: {exc}") from None
+        return mapped.model, mapped.data, mapped
+
+
+def test_points_group() -> Callable:
+    """``--test-points``, ``--test-points-method`` -> ``test_points``: :class:`TestPointsSpec`."""
+    return option_group(
+        "Test points", "test_points", lambda tp_tolerance, tp_method: TestPointsSpec(tp_tolerance, tp_method),
+        click.option("--test-points", "tp_tolerance", type=FiniteFloat(min=0, min_open=True), default=None,
+                     metavar="TOL",
+                     help="Place the test data's nodes on MODEL's mesh by their coordinates (a universal file's "
+                          "datasets 15/2411, coordinate systems applied) instead of by id: a point farther than "
+                          "TOL (model length unit) from the mesh is refused by name."),
+        click.option("--test-points-method", "tp_method", type=click.Choice(["interpolate", "nearest"]),
+                     default="interpolate", show_default=True,
+                     help="interpolate: by the shape functions of the shell or solid element the point lies in; "
+                          "nearest: the nearest mesh node."),
+    )
