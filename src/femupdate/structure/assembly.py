@@ -143,7 +143,8 @@ def element_terms(self, g: ElementGroup, xa=None, xb=None) -> el.ElementTerms:
         if g.type == "beam2d_terms":
             return el.beam2d_physical_terms(xa, xb, mass=g.mass)
         if g.type == "frame3d":
-            return el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+            t = el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+            return t if g.torsion_mass else el.ElementTerms(K=t.K, M=[x for x in t.M if x[0] == ("rho", "A")])
         if g.type == "frame3d_terms":
             return el.frame3d_physical_terms(xa, xb, g.orientation, mass=g.mass)
     except InputError as exc:

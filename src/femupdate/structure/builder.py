@@ -325,7 +325,7 @@ class Structure(LinkMethods):
         self._line("beam2d_terms", nodes, props, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d",
-                offsets=None) -> None:
+                offsets=None, torsion_mass: bool = True) -> None:
         """12-dof space frame member(s); ``orientation`` lies in the local x-y plane.
 
         Parameters
@@ -345,6 +345,8 @@ class Structure(LinkMethods):
         offsets : array_like, shape ``(2, 3)`` or ``(n_el, 2, 3)``, optional
             Rigid end offsets [o_a, o_b] (global components): the member runs between x_a + o_a
             and x_b + o_b, joined rigidly to its nodes (exact, :mod:`femupdate.structure.links`).
+        torsion_mass : bool, default True
+            Include the torsional inertia rho (Iy + Iz); False leaves the twist massless (Nastran's CBAR).
 
         Raises
         ------
@@ -352,7 +354,7 @@ class Structure(LinkMethods):
             A missing or malformed ``orientation`` or ``offsets``, and as :meth:`rod`.
         """
         props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
-        self._frame("frame3d", nodes, props, orientation, mass, where, offsets)
+        self._frame("frame3d", nodes, props, orientation, mass, where, offsets, torsion_mass=bool(torsion_mass))
 
     def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, *, mass: str = "consistent",
                       where: str = "frame3d_terms", offsets=None, **bending) -> None:
@@ -407,7 +409,7 @@ class Structure(LinkMethods):
             props[b + "_z"] = both if both is not None else z
         self._frame("frame3d_terms", nodes, props, orientation, mass, where, offsets)
 
-    def _frame(self, type_, nodes, props, orientation, mass, where, offsets=None):
+    def _frame(self, type_, nodes, props, orientation, mass, where, offsets=None, **kw):
         if orientation is None:
             raise InputError(f"{where}: {type_} needs an orientation vector [vx, vy, vz] in its local x-y plane")
         pairs = self._node_pairs(nodes, where)
@@ -425,7 +427,7 @@ class Structure(LinkMethods):
             if off.shape != (len(pairs), 2, 3) or not np.all(np.isfinite(off)):
                 raise InputError(f"{where}: offsets must be [[ax, ay, az], [bx, by, bz]] (or one such pair per element), finite")
             data = off.reshape(len(pairs), 6).copy()
-        self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o), data=data)
+        self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o), data=data, **kw)
 
     def shell(self, nodes, E, nu, t, rho, mass: str = "consistent", drill: float = 0.1, where: str = "shell") -> None:
         """Flat shell element(s): MITC4 quadrilaterals (4 nodes) or MITC3 triangles (3 nodes).

@@ -92,6 +92,8 @@ class ElementGroup:
     data : numpy.ndarray, optional
         Per-element numbers of the type: the end offsets of frames ``(n_el, 6)``, the offset
         and inertia of point masses ``(n_el, 12)`` (:mod:`femupdate.structure.links`).
+    torsion_mass : bool, default True
+        Frames: with the torsional inertia rho (Iy + Iz) (False: without, as Nastran's CBAR).
     """
 
     type: str
@@ -105,12 +107,13 @@ class ElementGroup:
     nu: np.ndarray | None = None  # (n_el,) Poisson's ratio of shells and solids
     drill: float = 0.1
     data: np.ndarray | None = None
+    torsion_mass: bool = True
 
     @property
     def key(self):
         """``(type, mass, dim, dofs per element, sorted property names, drill, no data)``: groups with equal keys merge."""
         return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)), self.drill,
-                self.data is None)
+                self.data is None, self.torsion_mass)
 
 
 def per_element(value, n: int, what: str) -> list:
@@ -203,7 +206,7 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
             orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
             where=[w for g in gs for w in g.where],
             nu=None if g0.nu is None else np.concatenate([g.nu for g in gs]), drill=g0.drill,
-            data=None if g0.data is None else np.concatenate([g.data for g in gs]),
+            data=None if g0.data is None else np.concatenate([g.data for g in gs]), torsion_mass=g0.torsion_mass,
         ))
     return out
 
