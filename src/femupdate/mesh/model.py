@@ -180,6 +180,8 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str]
     for b in mesh.blocks:
         for n in np.unique(b.conn):
             dirs_at.setdefault(int(n), set()).update(NODE_DIRS[b.type])
+    for c in mesh.links:  # a constraint's independent node (a reference node) has the six
+        dirs_at.setdefault(int(c["independent"]), set()).update(_DIRECTIONS)
     for i, sup in enumerate(support, start=1):
         w = named[i - 1] if named else f"{where}: support #{i}"
         if not isinstance(sup, Mapping) or ("set" in sup) == ("nodes" in sup) or set(sup) - {"set", "nodes", "dofs"}:

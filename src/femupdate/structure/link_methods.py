@@ -40,7 +40,7 @@ class LinkMethods:
         """
         add_link(self, "rigid", independent, dependent, dofs, where)
 
-    def equal_dofs(self, independent, dependent, dofs: Sequence[str], where: str = "equal dofs") -> None:
+    def equal_dofs(self, independent, dependent, dofs: Sequence[str] | None = None, where: str = "equal dofs") -> None:
         """Tie dofs: ``d:dir = i:dir`` for each direction (OpenSees ``equalDOF``), an exact constraint.
 
         Parameters
@@ -49,8 +49,9 @@ class LinkMethods:
             The independent node.
         dependent : int, str or sequence of them
             The dependent node(s).
-        dofs : sequence of str
+        dofs : sequence of str, optional
             The directions tied (``"x"``, ..., ``"rz"`` or 1-6); each must exist at the dependent node.
+            Default: every dof the dependent node has (Abaqus ``*MPC`` TIE).
         where : str, default ``"equal dofs"``
             Name of the tie in messages.
 

@@ -83,8 +83,6 @@ def add_link(s, kind: str, independent, dependent, dofs, where: str) -> None:
     if dup:
         raise InputError(f"{where}: dependent node {dup[0]} listed twice")
     dirs = _dirs(dofs, where)
-    if kind == "equal" and dirs is None:
-        raise InputError(f"{where}: equal_dofs needs the directions it ties (dofs = [\"x\", ...])")
     s.constraints.append(Link(kind, ind, tuple(deps), dirs, where))
 
 

@@ -239,7 +239,7 @@ def constraint_from_dict(s, c: Mapping, where: str) -> None:
         Structure to add to.
     c : mapping
         The table: ``type`` (``"rigid"`` or ``"equal"``), ``independent`` (a node), ``dependent``
-        (a node or a list of nodes) and ``dofs`` (directions; optional for ``"rigid"``).
+        (a node or a list of nodes) and ``dofs`` (directions; default every dof of the dependent node).
     where : str
         The table's position, prefixed to error messages.
 
@@ -266,8 +266,6 @@ def constraint_from_dict(s, c: Mapping, where: str) -> None:
         if t == "rigid":
             s.rigid_link(c["independent"], c["dependent"], dofs, where=where)
         else:
-            if dofs is None:
-                raise InputError(f"{where}: an equal-dof tie needs dofs = [\"x\", ...]")
             s.equal_dofs(c["independent"], c["dependent"], dofs, where=where)
     except InputError as exc:
         msg = str(exc)
