@@ -292,3 +292,25 @@ def test_dependent_dof_in_test_data_is_named():
     m = s.build()
     with pytest.raises(InputError, match="dof '3:z' is a dependent dof of rigid link"):
         m.dof_index(["2:z", "3:z"], "test mode 1 shape")
+
+
+def test_damage_element_parameters_keep_links_offsets_and_point_masses():
+    """Damage detection rebuilds the structure with one parameter per element: its model at the nominal
+    values is the original one (links, offsets, torsion mass and point masses carried over)."""
+    from femupdate.damage.parameters import element_parameters
+
+    s = fu.Structure("jac")
+    s.parameter("E", 70e9)
+    for i, x in {1: (0, 0, 0), 2: (1.5, 0, 0), 3: (3, 0, 0), 4: (1.5, 0.4, 0.3)}.items():
+        s.node(i, x)
+    common = dict(G=27e9, A=2e-4, Iy=3e-9, Iz=5e-9, J=8e-9, rho=2700.0, orientation=(0, 0, 1))
+    s.frame3d([1, 2], E="E", torsion_mass=False, **common)
+    s.frame3d([2, 3], E="E", offsets=[[0, 0.05, 0.02], [0.03, 0, -0.04]], **common)
+    s.rigid_link(2, 4)
+    s.point_mass(4, 0.7, offset=[0.1, 0, 0], inertia=np.diag([1e-3, 1e-3, 2e-3]))
+    s.support_node([1])
+    a = s.build()
+    out, _ = element_parameters(s)
+    b = out.build()
+    assert a.dofs == b.dofs and a.constraints.labels == b.constraints.labels
+    assert abs(a.K() - b.K()).max() <= 1e-12 * abs(a.K()).max() and abs(a.M() - b.M()).max() <= 1e-12 * abs(a.M()).max()

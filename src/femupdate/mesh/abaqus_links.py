@@ -66,7 +66,8 @@ def resolve(mesh, pending: list) -> None:
     for c in pending:
         w = c["where"]
         ref_nodes, ref_set = _target(c["ref"], w)
-        if ref_set is not None:
+        if ref_nodes is None:
+            assert ref_set is not None
             try:
                 _, ids = mesh.set_of(ref_set, "node")
             except InputError as exc:
@@ -75,7 +76,8 @@ def resolve(mesh, pending: list) -> None:
                 raise InputError(f"{w}: the independent (reference) node set {ref_set!r} has {len(ids)} nodes; one needed")
             ref_nodes = [int(ids[0])]
         nodes, name = _target(c["target"], w)
-        if name is not None:
+        if nodes is None:
+            assert name is not None
             try:
                 _, ids = mesh.set_of(name, "node")
             except InputError as exc:

@@ -53,6 +53,7 @@ def frame_card(name: str, d, where: str, frames: dict) -> None:
     x1, x2, x3 = _f(d, 4), _f(d, 5), _f(d, 6)
     if x1 == "":
         raise InputError(f"{where}: no orientation vector (X1, X2, X3 or G0); femupdate reads no BAROR/BEAMOR defaults")
+    orient: tuple[str, int | list[float]]
     if x2 == "" and x3 == "" and "." not in x1 and "e" not in x1.lower():
         orient = ("grid", int_id(x1, where))
     else:

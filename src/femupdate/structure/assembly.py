@@ -124,6 +124,7 @@ def element_terms(self, g: ElementGroup, xa=None, xb=None) -> el.ElementTerms:
     if g.type == "mass":
         return el.mass_terms(n_el, len(g.labels[0]))
     if g.type == "point_mass":
+        assert g.data is not None  # the offset and inertia of each point mass
         return point_mass_terms(g.data, len(g.labels[0]))
     if xa is None:
         xyz = _coords(self, g)

@@ -325,7 +325,7 @@ class Structure(LinkMethods):
         self._line("beam2d_terms", nodes, props, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
     def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d",
-                offsets=None, torsion_mass: bool = True) -> None:
+                **options) -> None:
         """12-dof space frame member(s); ``orientation`` lies in the local x-y plane.
 
         Parameters
@@ -342,19 +342,24 @@ class Structure(LinkMethods):
             ``"consistent"`` or ``"lumped"``.
         where : str, default ``"frame3d"``
             Name of the element(s) in messages.
-        offsets : array_like, shape ``(2, 3)`` or ``(n_el, 2, 3)``, optional
-            Rigid end offsets [o_a, o_b] (global components): the member runs between x_a + o_a
-            and x_b + o_b, joined rigidly to its nodes (exact, :mod:`femupdate.structure.links`).
-        torsion_mass : bool, default True
-            Include the torsional inertia rho (Iy + Iz); False leaves the twist massless (Nastran's CBAR).
+        **options
+            ``offsets``, array_like of shape ``(2, 3)`` or ``(n_el, 2, 3)``: rigid end offsets
+            [o_a, o_b] (global components), the member runs between x_a + o_a and x_b + o_b, joined
+            rigidly to its nodes (exact, :mod:`femupdate.structure.links`); ``torsion_mass``, bool
+            (default True): include the torsional inertia rho (Iy + Iz), False leaves the twist
+            massless (Nastran's CBAR).
 
         Raises
         ------
         InputError
-            A missing or malformed ``orientation`` or ``offsets``, and as :meth:`rod`.
+            A missing or malformed ``orientation`` or ``offsets``, an unknown option, and as :meth:`rod`.
         """
+        unknown = sorted(set(options) - {"offsets", "torsion_mass"})
+        if unknown:
+            raise InputError(f"{where}: unknown option(s) {', '.join(unknown)} of frame3d (offsets, torsion_mass)")
         props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
-        self._frame("frame3d", nodes, props, orientation, mass, where, offsets, torsion_mass=bool(torsion_mass))
+        self._frame("frame3d", nodes, props, orientation, mass, where, options.get("offsets"),
+                    torsion_mass=bool(options.get("torsion_mass", True)))
 
     def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, *, mass: str = "consistent",
                       where: str = "frame3d_terms", offsets=None, **bending) -> None:
