@@ -82,3 +82,43 @@ def test_linked_frame_matches_opensees():
     f_os = opensees_frequencies(ops, 10)
     rel = np.abs(f - f_os) / f_os
     assert rel.max() < 1e-8, (f, f_os)
+
+
+def test_rigid_floor_matches_opensees_rigid_diaphragm():
+    """One storey: four columns, their tops joined by a rigid floor in its plane (x, y, rz follow a
+    master node off the centroid, which carries the floor's mass and rotary inertia): femupdate's
+    rigid_link(..., dofs=["x", "y", "rz"]) against OpenSees's rigidDiaphragm(3, ...)."""
+    ops = _opensees()
+    base = {1: (-2, -1.5, 0), 2: (2, -1.5, 0), 3: (2, 1.5, 0), 4: (-2, 1.5, 0)}
+    top = {k + 4: (x, y, 3.0) for k, (x, y, _) in base.items()}
+    master, mxy, Izz = 9, 4000.0, 9000.0
+    s = fu.Structure("storey")
+    for i, x in {**base, **top, master: (0.3, 0.2, 3.0)}.items():
+        s.node(i, x)
+    for k in base:
+        s.frame3d([k, k + 4], E=E, G=G, A=A, Iy=Iy, Iz=Iz, J=J, rho=rho, orientation=(1, 0, 0))
+    s.mass([f"{master}:x", f"{master}:y"], m=mxy)
+    s.mass([f"{master}:rz"], m=Izz)
+    s.rigid_link(master, list(top), dofs=["x", "y", "rz"])
+    s.support_node(list(base))
+    model = s.build()
+    lam = sl.eigh(model.K().toarray(), model.M().toarray(), eigvals_only=True)
+    f = np.sqrt(lam[:8]) / (2 * np.pi)
+
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for i, x in {**base, **top, master: (0.3, 0.2, 3.0)}.items():
+        ops.node(i, *map(float, x))
+    for k in base:
+        ops.geomTransf("Linear", k, *map(float, np.cross((0, 0, 1), (1, 0, 0))))
+        ops.element("elasticBeamColumn", k, k, k + 4, A, E, G, J, Iy, Iz, k, "-mass", rho * A, "-cMass")
+        ops.fix(k, 1, 1, 1, 1, 1, 1)
+    ops.fix(master, 0, 0, 1, 1, 1, 0)
+    ops.mass(master, mxy, mxy, 0.0, 0.0, 0.0, Izz)
+    ops.rigidDiaphragm(3, master, *top)
+    ops.constraints("Transformation")
+    ops.numberer("Plain")
+    ops.system("FullGeneral")
+    f_os = np.sqrt(np.array(ops.eigen("-fullGenLapack", 8))) / (2 * np.pi)
+    ops.wipe()
+    assert np.max(np.abs(f - f_os) / f_os) < 1e-8, (f, f_os, np.abs(f - f_os) / f_os)
