@@ -208,3 +208,26 @@ def test_what_is_not_modelled_is_listed(tmp_path, caplog):
         fu.Structure.from_mesh(tmp_path / "deck.bdf")
     text = caplog.text
     assert "shear flexibility of PBEAM 2" in text and "default lumped mass of CBAR/CBEAM" in text
+
+
+def test_deck_with_rbe2_through_modes_and_update(tmp_path):
+    """The deck's bar modulus as a parameter: ``modes --set E_bar=8.4e10 --uff`` writes the shapes on every
+    dof, the RBE2's dependent ones recovered; ``update`` refuses those by name (they are not model dofs)
+    and, measured at independent nodes only, recovers E_bar."""
+    import json
+
+    (tmp_path / "deck.bdf").write_text(SMALL)
+    (tmp_path / "m.toml").write_text('[parameters.E_bar]\nvalue = 7e10\nbounds = [1e10, 2e11]\n[mesh]\nfile = "deck.bdf"\n'
+                                     '[mesh.sets."1"]\nE = "E_bar"\nnu = 0.3\n')
+    env = {"PYTHONPATH": ENV_PATH, "PATH": "/usr/bin:/bin"}
+    run = [sys.executable, "-m", "femupdate"]
+    r = subprocess.run(run + ["modes", "m.toml", "--n-modes", "6", "--set", "E_bar=8.4e10", "--uff", "t.uff"],
+                       cwd=tmp_path, capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run(run + ["update", "m.toml", "t.uff"], cwd=tmp_path, capture_output=True, text=True, env=env)
+    assert r.returncode == 2 and "3:x, 3:y, 3:z, 3:rx, 3:ry, 3:rz, 4:z, 5:z: dependent dofs of rigid links" in r.stderr
+    sensors = "2:x,2:y,2:z,6:x,6:y,6:z,7:x,7:y,7:z"
+    r = subprocess.run(run + ["update", "m.toml", "t.uff", "--measured-dofs", sensors, "--json", "u.json"],
+                       cwd=tmp_path, capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert abs(json.loads((tmp_path / "u.json").read_text())["parameters"]["E_bar"] / 8.4e10 - 1) < 1e-6

@@ -87,6 +87,17 @@ def expand_shapes(model, shapes) -> tuple[tuple[str, ...], np.ndarray]:
     return dep.expand(model.dofs, shapes)
 
 
+def dependent_note(model, labels) -> str:
+    """A sentence for a message about test dofs that are not model dofs: those among ``labels`` that the
+    model's constraints eliminated, and what to do (empty when there are none)."""
+    dep = getattr(model, "constraints", None)
+    hit = [lab for lab in labels if dep is not None and lab in dep.labels]
+    if not hit:
+        return ""
+    return (f" ({describe(hit)}: dependent dofs of rigid links or ties, eliminated from the model, their motion "
+            "follows the independent nodes'; measure at the independent nodes or leave them out, --measured-dofs)")
+
+
 def check_dependent(dep, n: int, dofs) -> DependentDofs | None:
     """Validate a :class:`Model`'s ``constraints`` field (None, or DependentDofs on its ``n`` dofs)."""
     if dep is None:
@@ -177,4 +188,4 @@ def reduce_model(model, T, kept, dependent=(), sources=()):
                    terms=tuple(replace(t, K=reduce(t.K), M=reduce(t.M)) for t in model.terms), constraints=dep)
 
 
-__all__ = ["DependentDofs", "expand_shapes", "transformation", "reduce_model", "check_dependent"]
+__all__ = ["DependentDofs", "expand_shapes", "dependent_note", "transformation", "reduce_model", "check_dependent"]
