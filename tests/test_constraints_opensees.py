@@ -122,3 +122,40 @@ def test_rigid_floor_matches_opensees_rigid_diaphragm():
     f_os = np.sqrt(np.array(ops.eigen("-fullGenLapack", 8))) / (2 * np.pi)
     ops.wipe()
     assert np.max(np.abs(f - f_os) / f_os) < 1e-8, (f, f_os, np.abs(f - f_os) / f_os)
+
+
+def test_plane_frame_with_a_rigid_link_matches_opensees():
+    """The plane case (beam2d, dofs x, y, rz): a portal whose beam hangs off the column tops on rigid
+    links, u_d = u_i − θ r_y, v_d = v_i + θ r_x; OpenSees's 2-D rigidLink('beam', ...)."""
+    ops = _opensees()
+    nodes = {1: (0.0, 0.0), 2: (0.0, 3.0), 3: (5.0, 0.0), 4: (5.0, 3.0), 5: (0.25, 3.3), 6: (4.8, 3.3)}
+    members = [(1, 2), (3, 4), (5, 6)]
+    s = fu.Structure("plane portal")
+    for i, x in nodes.items():
+        s.node(i, x)
+    s.beam2d(members, E=E, A=A, I=Iz, rho=rho)
+    s.rigid_link(2, 5)
+    s.rigid_link(4, 6)
+    s.support_node([1, 3])
+    model = s.build()
+    assert model.constraints.labels == ("5:x", "5:y", "5:rz", "6:x", "6:y", "6:rz")
+    lam = sl.eigh(model.K().toarray(), model.M().toarray(), eigvals_only=True)
+    f = np.sqrt(lam) / (2 * np.pi)  # all six
+
+    ops.wipe()
+    ops.model("basic", "-ndm", 2, "-ndf", 3)
+    for i, x in nodes.items():
+        ops.node(i, *x)
+    ops.geomTransf("Linear", 1)
+    for k, (a, b) in enumerate(members, start=1):
+        ops.element("elasticBeamColumn", k, a, b, A, E, Iz, 1, "-mass", rho * A, "-cMass")
+    ops.fix(1, 1, 1, 1)
+    ops.fix(3, 1, 1, 1)
+    ops.rigidLink("beam", 2, 5)
+    ops.rigidLink("beam", 4, 6)
+    ops.constraints("Transformation")
+    ops.numberer("Plain")
+    ops.system("FullGeneral")
+    f_os = np.sqrt(np.array(ops.eigen("-fullGenLapack", 6))) / (2 * np.pi)
+    ops.wipe()
+    assert np.max(np.abs(f - f_os) / f_os) < 1e-8, (f, f_os, np.abs(f - f_os) / f_os)
