@@ -4,7 +4,10 @@
 Property sets are the deck's sections (Abaqus ``*SHELL SECTION``/``*SOLID SECTION`` by element
 set, Nastran ``PSHELL``/``PSOLID`` by property id) and the sets the table names; a set's table
 overrides the deck key by key (``E = "E_skin"`` makes the modulus of that set a parameter).
-Every element of the mesh's structural dimension belongs to exactly one property set.
+Every element of the mesh's structural dimension belongs to exactly one property set.  Beam
+sets (Nastran PBAR/PBEAM) become frame3d groups; a deck's springs, point masses and exact
+constraints (``Mesh.springs``, ``masses``, ``links``) are added as they are; what the deck holds
+that is not modelled (``Mesh.ignored``) is logged as a warning.
 """
 
 from __future__ import annotations

@@ -528,7 +528,9 @@ class Structure(LinkMethods):
         """Structure from a mesh file: Gmsh ``.msh`` (through meshio), Abaqus ``.inp``, Nastran bulk data.
 
         Nodes keep the file's ids (dof labels ``"id:dir"``) and coordinates; each element set with a
-        section (the deck's, or ``sets``) becomes a shell or solid group (:mod:`femupdate.mesh`).
+        section (the deck's, or ``sets``) becomes a shell, solid or frame group (:mod:`femupdate.mesh`);
+        a deck's springs, point masses and exact constraints (Nastran CELAS, CONM2, RBE2; Abaqus
+        ``*KINEMATIC COUPLING``, ``*MPC``) come with it.
         Declare the parameters that ``sets`` names with :meth:`parameter` before :meth:`build`.
 
         Parameters
@@ -537,7 +539,8 @@ class Structure(LinkMethods):
             The mesh file.
         sets : mapping, optional
             Element set name -> properties ``E``, ``nu``, ``rho``, ``t`` (shells), ``mass``,
-            ``drill``; each a number or (``E``, ``rho``) a parameter name; overrides the deck's.
+            ``drill``, and for beams ``G``, ``A``, ``Iy``, ``Iz``, ``J``; each a number or (``E``,
+            ``rho`` and the beam properties) a parameter name; overrides the deck's.
         support : sequence of mapping, optional
             Each ``{"set": NODE_SET}`` or ``{"nodes": [ids]}``, optionally ``"dofs": ["x", ...]``
             (directions; default every dof of the nodes).
