@@ -314,3 +314,27 @@ def test_damage_element_parameters_keep_links_offsets_and_point_masses():
     b = out.build()
     assert a.dofs == b.dofs and a.constraints.labels == b.constraints.labels
     assert abs(a.K() - b.K()).max() <= 1e-12 * abs(a.K()).max() and abs(a.M() - b.M()).max() <= 1e-12 * abs(a.M()).max()
+
+
+def test_solid_with_a_rigid_spider_keeps_exactly_six_rigid_body_modes():
+    """A free hexahedral block whose end face is joined by a rigid spider (a rigid link on the face's
+    translations) to a reference node off the block carrying an offset point mass: rigid motions of the
+    whole are admissible, so exactly 6 zero modes (a wrong lever arm that varies over the face would lose
+    rotations; one the same for every face node, here r_x, is absorbed by the reference node's motion)."""
+    from _meshes3d import box_hex
+
+    nodes, conn = box_hex(4, 1, 1, size=(2.0, 0.5, 0.5))
+
+    def block():
+        s = fu.Structure("block")
+        s.add_nodes(np.arange(1, len(nodes) + 1), nodes)
+        s.solid(conn + 1, E=7e10, nu=0.3, rho=2700.0)
+        s.node(1000, [2.3, 0.25, 0.25])
+        face = [int(i) + 1 for i in np.flatnonzero(np.isclose(nodes[:, 0], 2.0))]
+        s.point_mass(1000, 5.0, offset=[0.1, 0.05, 0.0], inertia=np.diag([0.1, 0.2, 0.3]))
+        s.rigid_link(1000, face)
+        return s.build()
+
+    lam = eig(block())
+    scale = lam.max()
+    assert np.sum(np.abs(lam) < 1e-10 * scale) == 6 and lam[6] > 1e-6 * scale, lam[:8]
