@@ -231,3 +231,12 @@ def test_deck_with_rbe2_through_modes_and_update(tmp_path):
                        cwd=tmp_path, capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     assert abs(json.loads((tmp_path / "u.json").read_text())["parameters"]["E_bar"] / 8.4e10 - 1) < 1e-6
+
+
+def test_spc1_on_a_node_that_only_a_conm2_and_a_celas_use(tmp_path):
+    """A grid with a CONM2 (translations only) and a CELAS2 on x, held in y and z by SPC1: x stays free."""
+    deck = SMALL.replace("ENDDATA", "GRID    50              5.      0.      0.\nCONM2   51      50              2.0\n"
+                                    "CELAS2  52      1.+3    50      1       7       1\nSPC1    1       23      50\nENDDATA")
+    (tmp_path / "deck.bdf").write_text(deck)
+    m = fu.Structure.from_mesh(tmp_path / "deck.bdf").build()
+    assert [d for d in m.dofs if d.startswith("50:")] == ["50:x"]

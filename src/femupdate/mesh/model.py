@@ -185,6 +185,13 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str]
             dirs_at.setdefault(int(n), set()).update(NODE_DIRS[b.type])
     for c in mesh.links:  # a constraint's independent node (a reference node) has the six
         dirs_at.setdefault(int(c["independent"]), set()).update(_DIRECTIONS)
+    for sp_ in mesh.springs:
+        for lab in sp_["dofs"]:
+            node, d = lab.split(":")
+            dirs_at.setdefault(int(node), set()).add(d)
+    for m in mesh.masses:  # a point mass: translations, and rotations with an offset or inertia
+        full = bool(np.any(np.asarray(m["offset"]) != 0) or np.any(np.asarray(m["inertia"]) != 0))
+        dirs_at.setdefault(int(m["node"]), set()).update(_DIRECTIONS if full else _DIRECTIONS[:3])
     for i, sup in enumerate(support, start=1):
         w = named[i - 1] if named else f"{where}: support #{i}"
         if not isinstance(sup, Mapping) or ("set" in sup) == ("nodes" in sup) or set(sup) - {"set", "nodes", "dofs"}:
