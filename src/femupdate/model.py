@@ -25,6 +25,7 @@ from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
 from .coefficients import check_terms, linearise, term_derivative
+from .constraints import DependentDofs, check_dependent
 from .priors import Prior, parse_prior
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -192,6 +193,9 @@ class Model:
     terms : sequence of femupdate.coefficients.Term, optional
         Non-linear terms f_k(p) K_k, f_k(p) M_k (a shell's E t³, a product E·I); each factor names a
         declared parameter.  Empty (default): the model is affine.
+    constraints : femupdate.constraints.DependentDofs, optional
+        The dofs that exact multipoint constraints (rigid links, ties) eliminated, and how they
+        follow the model's dofs (:func:`femupdate.constraints.expand_shapes`); None: there are none.
 
     Attributes
     ----------
@@ -224,6 +228,7 @@ class Model:
     nodes: Mapping[int, tuple[float, float, float]] = field(default_factory=dict)
     positive: frozenset[str] = frozenset()
     terms: tuple = ()
+    constraints: DependentDofs | None = None
 
     def __post_init__(self):
         with input_errors():
@@ -256,6 +261,7 @@ class Model:
         object.__setattr__(self, "dK", dK)
         object.__setattr__(self, "dM", dM)
         object.__setattr__(self, "terms", terms)
+        object.__setattr__(self, "constraints", check_dependent(self.constraints, n, dofs))
         object.__setattr__(self, "nodes", dict(self.nodes))
         object.__setattr__(self, "positive", frozenset(self.positive) & frozenset(names))
 
@@ -359,6 +365,13 @@ class Model:
         InputError
             A label is not a model dof (every unknown label is named).
         """
+        dep = self.constraints
+        if dep is not None:
+            hit = [lab for lab in labels if isinstance(lab, str) and lab in dep.labels]
+            if hit:
+                k = dep.labels.index(hit[0])
+                raise InputError(f"{what}: dof {hit[0]!r} is a dependent dof of {dep.sources[k]}, eliminated from the "
+                                 "model (its motion follows the independent node's); pair the test at that node's dofs")
         return index_of(self.dofs, labels, what)
 
     # ------------------------------------------------------------------ evaluation

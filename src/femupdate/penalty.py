@@ -292,7 +292,7 @@ def eliminate_penalty_links(model, what: str | None = None):
     InputError
         As :func:`tie_penalty_links`.
     """
-    from dataclasses import replace
+    from .constraints import reduce_model
 
     what = what or f"model {model.name!r}: K"
     p = model.values
@@ -304,13 +304,8 @@ def eliminate_penalty_links(model, what: str | None = None):
         return model
     for note in notes:
         log.warning("%s", note)
-
-    def reduce(A):
-        return None if A is None else sp.csr_array(T.T @ A @ T)
-
-    return replace(model, dofs=tuple(model.dofs[i] for i in kept), K0=reduce(model.K0), M0=reduce(model.M0),
-                   dK=tuple(reduce(A) for A in model.dK), dM=tuple(reduce(A) for A in model.dM),
-                   terms=tuple(replace(t, K=reduce(t.K), M=reduce(t.M)) for t in model.terms))
+    dependent = np.setdiff1d(np.arange(model.n_dofs), kept).tolist()
+    return reduce_model(model, T, kept, dependent, ("a penalty tie",) * len(dependent))
 
 
 __all__ = ["PENALTY_RATIO", "PRECISION_TOL", "PenaltyGroup", "find_penalty_links", "tie_matrix", "tie_penalty_links",

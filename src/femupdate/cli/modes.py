@@ -83,7 +83,13 @@ def modes(model_path, modal: ModesSpec, outputs: Outputs):
     if outputs.uff_path is not None:
         from ..io.uff import write_uff_modes
 
-        write_uff_modes(outputs.uff_path, res, nodes=model.nodes, model_name=model.name)
+        from types import SimpleNamespace
+
+        from ..constraints import expand_shapes
+
+        dofs, shapes = expand_shapes(model, res.shapes)  # the dofs rigid links eliminated, recovered
+        full = SimpleNamespace(eigenvalues=res.eigenvalues, shapes=shapes, dofs=dofs)
+        write_uff_modes(outputs.uff_path, full, nodes=model.nodes, model_name=model.name)
         ctx.console.print(f"modes written to {outputs.uff_path}")
     outputs.emit(ctx, res.to_json())
 

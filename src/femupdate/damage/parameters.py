@@ -235,6 +235,12 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
             for i in range(n_el):
                 out.mass(g.labels[i], m=props["m"][i], where=g.where[i])
             continue
+        if g.type == "point_mass":
+            for i in range(n_el):
+                assert g.data is not None
+                out.point_mass(parse_dof(g.labels[i][0])[0], props["m"][i], offset=g.data[i, :3].tolist(),
+                               inertia=g.data[i, 3:].reshape(3, 3), where=g.where[i])
+            continue
         if g.type not in MODULUS:
             raise InputError(f"{g.where[0]}: damage detection gives each element one stiffness parameter (k or E); "
                              f"a {g.type} element has several stiffness terms: build the baseline with "
@@ -271,7 +277,9 @@ def element_parameters(structure: Structure, values: Mapping | None = None, boun
         elif g.type in ("hex8", "tet4", "tet10"):
             out.solid(g.nodes, nu=g.nu, mass=g.mass, where=g.where[0], **props)
         else:
-            out.frame3d(g.nodes, orientation=g.orientation, mass=g.mass, where=g.where[0], **props)
+            out.frame3d(g.nodes, orientation=g.orientation, mass=g.mass, where=g.where[0], torsion_mass=g.torsion_mass,
+                        offsets=None if g.data is None else g.data.reshape(-1, 2, 3), **props)
+    out.constraints = list(structure.constraints)  # rigid links and ties, as they were
     out.supports = list(structure.supports)
     out.support_nodes = list(structure.support_nodes)
     return out, described

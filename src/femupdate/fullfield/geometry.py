@@ -80,8 +80,8 @@ class Geometry:
 
 
 def structure_segments(structure) -> np.ndarray:
-    """Node pairs of every line element (and the edges of shells and solids) of a
-    :class:`~femupdate.Structure`, supported ends included.
+    """Node pairs of every line element (and the edges of shells and solids, and the rigid links and
+    ties) of a :class:`~femupdate.Structure`, supported ends included.
 
     Parameters
     ----------
@@ -96,6 +96,10 @@ def structure_segments(structure) -> np.ndarray:
     from ..structure.groups import node_pairs
 
     pairs = [node_pairs(g) for g in structure.groups if g.nodes is not None]
+    links = [(c.independent, d) for c in getattr(structure, "constraints", ()) for d in c.dependent
+             if isinstance(c.independent, int) and isinstance(d, int)]  # rigid links and ties, drawn as members
+    if links:
+        pairs.append(np.array(links, np.int64))
     return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
 
 

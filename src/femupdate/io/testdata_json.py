@@ -136,7 +136,10 @@ def check_dofs(data: TestData, model, source: str) -> None:
     if bad:
         from ..dofs import describe
 
-        raise InputError(f"{source}: dof(s) not in the model {model.name!r}: {describe(list(bad))}")
+        from ..constraints import dependent_note
+
+        raise InputError(f"{source}: dof(s) not in the model {model.name!r}: {describe(list(bad))}"
+                         f"{dependent_note(model, list(bad))}")
 
 
 def _number(v, what):

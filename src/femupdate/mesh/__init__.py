@@ -1,8 +1,10 @@
 """Meshes in: a neutral :class:`Mesh` and readers into it (:func:`read_mesh`).
 
 * :mod:`.gmsh`: Gmsh ``.msh`` (and other pure mesh formats) through meshio (optional);
-* :mod:`.nastran`: Nastran bulk data (``.bdf``, ``.dat``, ``.nas``, ``.blk``), read by femupdate;
-* :mod:`.abaqus`: Abaqus input files (``.inp``), read by femupdate;
+* :mod:`.nastran`: Nastran bulk data (``.bdf``, ``.dat``, ``.nas``, ``.blk``), read by femupdate
+  (beams, springs, masses and RBE2 in :mod:`.nastran_cards`);
+* :mod:`.abaqus`: Abaqus input files (``.inp``), read by femupdate (couplings and MPCs in
+  :mod:`.abaqus_links`);
 * :mod:`.model`: a :class:`~femupdate.structure.Structure` from a mesh and a model file's
   ``[mesh]`` table (:meth:`Structure.from_mesh`).
 """

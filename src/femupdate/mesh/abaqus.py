@@ -1,7 +1,8 @@
 """Abaqus keyword decks (``.inp``) read by femupdate itself: ``*NODE``, ``*ELEMENT`` (S4, S4R ->
 mitc4; S3, S3R -> mitc3; C3D8, C3D8I -> hex8; C3D4 -> tet4; C3D10 -> tet10), ``*ELSET``,
 ``*NSET`` (with GENERATE), ``*MATERIAL`` with ``*ELASTIC`` and ``*DENSITY``, ``*SHELL SECTION``,
-``*SOLID SECTION``, ``*BOUNDARY`` in the model data (fixed dofs); ``*PART``s instanced once each
+``*SOLID SECTION``, ``*BOUNDARY`` in the model data (fixed dofs), ``*KINEMATIC COUPLING`` and ``*MPC``
+BEAM/TIE (exact constraints, :mod:`.abaqus_links`); ``*PART``s instanced once each
 in an ``*ASSEMBLY`` (a translated ``*INSTANCE``) are flattened.  ``*HEADING`` and ``*PREPRINT`` are skipped; the history data from ``*STEP``
 to ``*END STEP`` is skipped and listed; any other keyword (``*PART``, ``*BOUNDARY``, ...) is
 refused, named with its line."""
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
+from . import abaqus_links
 from .core import DIRS, Block, Material, Mesh, Section, int_id
 
 ELEMENT_TYPES = {"S4": "mitc4", "S4R": "mitc4", "S3": "mitc3", "S3R": "mitc3", "C3D8": "hex8", "C3D8I": "hex8",
@@ -72,6 +74,7 @@ def read_abaqus(path) -> Mesh:
     material = None
     in_step = None
     parts: dict = {"instances": [], "part_nodes": {}, "open": None}
+    links: list = []
     for kw, opts, data, no in _keywords(path):
         where = f"{path}: *{kw} at line {no}"
         if in_step is not None:
@@ -132,6 +135,10 @@ def read_abaqus(path) -> Mesh:
             mesh.sections.append(Section(opts["ELSET"], opts["MATERIAL"].upper(), t, where))
         elif kw == "BOUNDARY":
             _boundary(path, opts, data, where, mesh)
+        elif kw == "KINEMATIC COUPLING":
+            abaqus_links.kinematic_coupling(path, opts, data, where, links)
+        elif kw == "MPC":
+            abaqus_links.mpc(path, opts, data, where, links)
         elif kw in _SKIP:
             continue
         else:
@@ -150,6 +157,7 @@ def read_abaqus(path) -> Mesh:
         mesh.xyz[lo:hi] += shift
     for (type_, src), (ids, conn) in elems.items():
         mesh.blocks.append(Block(type_, np.array(ids, np.int64), np.array(conn, np.int64), src))
+    abaqus_links.resolve(mesh, links)
     return mesh.check()
 
 

@@ -12,7 +12,7 @@ import numpy as np
 from .._errors import InputError
 
 #: node count of each femupdate element type a mesh may hold
-NODE_COUNT = {"mitc4": 4, "mitc3": 3, "hex8": 8, "tet4": 4, "tet10": 10}
+NODE_COUNT = {"mitc4": 4, "mitc3": 3, "hex8": 8, "tet4": 4, "tet10": 10, "frame3d": 2}
 
 
 @dataclass
@@ -24,6 +24,8 @@ class Block:
     ids: np.ndarray
     conn: np.ndarray
     source_type: str
+    orientation: np.ndarray | None = None  # frame3d: (n, 3) vectors in each member's local x-y plane
+    offsets: np.ndarray | None = None  # frame3d: (n, 2, 3) rigid end offsets (global), or None
 
 
 @dataclass
@@ -44,6 +46,7 @@ class Section:
     material: str
     thickness: float | None = None
     where: str = ""
+    beam: dict | None = None  # a beam section: A, Iy, Iz, J (femupdate's frame3d names)
 
 
 @dataclass
@@ -72,6 +75,14 @@ class Mesh:
     supports : list of dict
         The deck's own fixed dofs (Abaqus ``*BOUNDARY``, Nastran ``SPC1``), each
         ``{"nodes": [ids], "dofs": [directions], "where": text}``.
+    springs : list of dict
+        Springs (Nastran CELAS1/CELAS2): ``{"dofs": [labels], "k": value, "where": text}``.
+    masses : list of dict
+        Point masses (Nastran CONM2): ``{"node", "m", "offset", "inertia", "where"}``.
+    links : list of dict
+        Exact multipoint constraints (Nastran RBE2, Abaqus ``*KINEMATIC COUPLING`` and ``*MPC``):
+        ``{"kind": "rigid" | "equal", "independent", "dependent": [ids], "dofs": [directions] or
+        None, "where"}``.
     """
 
     source: str
@@ -84,6 +95,9 @@ class Mesh:
     sections: list[Section] = field(default_factory=list)
     ignored: list[str] = field(default_factory=list)
     supports: list[dict] = field(default_factory=list)
+    springs: list[dict] = field(default_factory=list)
+    masses: list[dict] = field(default_factory=list)
+    links: list[dict] = field(default_factory=list)
 
     def check(self) -> Mesh:
         """Refuse duplicate node or element ids, elements that list a node twice and elements on
@@ -106,6 +120,15 @@ class Mesh:
                 r = int(np.flatnonzero(missing.any(axis=1))[0])
                 raise InputError(f"{self.source}: element {int(b.ids[r])} ({b.source_type}) uses node "
                                  f"{int(b.conn[r][missing[r]][0])}, which the file does not define")
+        known = set(self.node_ids.tolist())
+        from ..dofs import parse_dof
+
+        used = [(parse_dof(lab)[0], x["where"]) for x in self.springs for lab in x["dofs"]]
+        used += [(x["node"], x["where"]) for x in self.masses]
+        used += [(n, x["where"]) for x in self.links for n in [x["independent"], *x["dependent"]]]
+        bad = next(((n, w) for n, w in used if n not in known), None)
+        if bad is not None:
+            raise InputError(f"{bad[1]}: node {bad[0]} is not defined in {Path(self.source).name}")
         return self
 
     def set_of(self, name: str, kind: str) -> tuple[str, np.ndarray]:

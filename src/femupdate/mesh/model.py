@@ -4,7 +4,10 @@
 Property sets are the deck's sections (Abaqus ``*SHELL SECTION``/``*SOLID SECTION`` by element
 set, Nastran ``PSHELL``/``PSOLID`` by property id) and the sets the table names; a set's table
 overrides the deck key by key (``E = "E_skin"`` makes the modulus of that set a parameter).
-Every element of the mesh's structural dimension belongs to exactly one property set.
+Every element of the mesh's structural dimension belongs to exactly one property set.  Beam
+sets (Nastran PBAR/PBEAM) become frame3d groups; a deck's springs, point masses and exact
+constraints (``Mesh.springs``, ``masses``, ``links``) are added as they are; what the deck holds
+that is not modelled (``Mesh.ignored``) is logged as a warning.
 """
 
 from __future__ import annotations
@@ -14,13 +17,16 @@ from pathlib import Path
 
 import numpy as np
 
+import logging
+
 from .._errors import InputError
 from ..dofs import dof
 from ..structure.groups import NODE_DIRS, SHELLS
 from . import read_mesh
 from .core import Mesh
 
-SET_KEYS = {"E", "nu", "rho", "t", "mass", "drill"}
+log = logging.getLogger(__name__)
+SET_KEYS = {"E", "nu", "rho", "t", "mass", "drill", "G", "A", "Iy", "Iz", "J"}
 TABLE_KEYS = {"file", "format", "sets", "support"}
 _DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
@@ -39,6 +45,7 @@ def _deck_sets(mesh: Mesh) -> dict[str, dict]:
         if name in out:
             raise InputError(f"{sec.where}: element set {name!r} has a second section")
         props = {k: v for k, v in (("E", mat.E), ("nu", mat.nu), ("rho", mat.rho), ("t", sec.thickness)) if v is not None}
+        props.update(sec.beam or {})
         out[name] = props
     return out
 
@@ -57,9 +64,9 @@ def _property_sets(mesh: Mesh, sets: Mapping, where: str) -> dict[str, dict]:
         for k, v in spec.items():
             ok = isinstance(v, str) if k == "mass" else (
                 not isinstance(v, bool) and isinstance(v, (int, float) if k in ("nu", "t", "drill") else (int, float, str)))
+            kind = {"mass": "\"consistent\" or \"lumped\"", "nu": "a number", "t": "a number", "drill": "a number"}.get(
+                k, "a number or a parameter name")
             if not ok:
-                kind = {"mass": "\"consistent\" or \"lumped\"", "E": "a number or a parameter name",
-                        "rho": "a number or a parameter name"}.get(k, "a number")
                 raise InputError(f"{w}: {k} must be {kind}, got {v!r}")
         try:
             written, _ = mesh.set_of(str(name), "element")
@@ -115,19 +122,58 @@ def add_mesh(s, mesh: Mesh, sets: Mapping | None = None, support: Sequence | Non
             if rows.size == 0:
                 continue
             w = f"{where}: set {name!r}"
-            missing = [x for x in (("E", "nu", "rho", "t") if b.type in SHELLS else ("E", "nu", "rho")) if x not in p]
+            need = ("E", "nu", "rho", "t") if b.type in SHELLS else ("E", "rho", "A", "Iy", "Iz", "J") if b.type == "frame3d" \
+                else ("E", "nu", "rho")
+            missing = [x for x in need if x not in p]
             if missing:
                 raise InputError(f"{w}: its {b.source_type} elements need {', '.join(missing)} (from the file's "
                                  f"section and material, or [mesh.sets.{name}])")
-            if b.type in SHELLS:
+            if b.type == "frame3d":
+                _frame(s, b, rows, p, w, kw)
+            elif b.type in SHELLS:
                 s.shell(b.conn[rows], E=p["E"], nu=p["nu"], t=p["t"], rho=p["rho"], drill=p.get("drill", 0.1),
                         where=w, **kw)
             else:
                 s.solid(b.conn[rows], E=p["E"], nu=p["nu"], rho=p["rho"], where=w, **kw)
             s.groups[-1].where = [f"{mesh.source}: element {int(e)} ({b.source_type}, set {name!r})" for e in b.ids[rows]]
+    _extras(s, mesh)
+    if mesh.ignored:
+        log.warning("%s: not read or not modelled: %s", mesh.source, "; ".join(mesh.ignored))
     deck = [{k: v for k, v in d.items() if k in ("nodes", "set", "dofs") and v is not None} for d in mesh.supports]
     _supports(s, mesh, deck, f"{where}: the file's own", [d["where"] for d in mesh.supports])
     _supports(s, mesh, support or [], where)
+
+
+def _frame(s, b, rows, p: dict, w: str, kw: dict) -> None:
+    """A set's CBAR/CBEAM members as frame3d: G from the set (a number or parameter name) or from E and nu;
+    with E a parameter and no G, the torsion term G J is written E · J / (2 (1 + nu)), exact."""
+    J, G = p["J"], p.get("G")
+    if G is None:
+        if "nu" not in p:
+            raise InputError(f"{w}: its {b.source_type} elements need G, or nu to derive it (from the material, or "
+                             "G in the set's table)")
+        if isinstance(p["E"], str):
+            if isinstance(J, str):
+                raise InputError(f"{w}: E and J are both parameters; give G (a number or a parameter name)")
+            G, J = p["E"], J / (2 * (1 + p["nu"]))
+        else:
+            G = p["E"] / (2 * (1 + p["nu"]))
+    s.frame3d(b.conn[rows], E=p["E"], G=G, A=p["A"], Iy=p["Iy"], Iz=p["Iz"], J=J, rho=p["rho"],
+              orientation=b.orientation[rows], offsets=None if b.offsets is None else b.offsets[rows], where=w,
+              torsion_mass=b.source_type != "CBAR", **kw)
+
+
+def _extras(s, mesh: Mesh) -> None:
+    """A deck's springs, point masses and exact constraints (Nastran CELAS, CONM2, RBE2; Abaqus couplings)."""
+    for sp_ in mesh.springs:
+        s.spring(sp_["dofs"], k=sp_["k"], where=sp_["where"])
+    for m in mesh.masses:
+        s.point_mass(m["node"], m["m"], offset=m["offset"], inertia=m["inertia"], where=m["where"])
+    for c in mesh.links:
+        if c["kind"] == "rigid":
+            s.rigid_link(c["independent"], c["dependent"], c["dofs"], where=c["where"])
+        else:
+            s.equal_dofs(c["independent"], c["dependent"], c["dofs"], where=c["where"])
 
 
 def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str] = ()) -> None:
@@ -137,6 +183,15 @@ def _supports(s, mesh: Mesh, support: Sequence, where: str, named: Sequence[str]
     for b in mesh.blocks:
         for n in np.unique(b.conn):
             dirs_at.setdefault(int(n), set()).update(NODE_DIRS[b.type])
+    for c in mesh.links:  # a constraint's independent node (a reference node) has the six
+        dirs_at.setdefault(int(c["independent"]), set()).update(_DIRECTIONS)
+    for sp_ in mesh.springs:
+        for lab in sp_["dofs"]:
+            node, d = lab.split(":")
+            dirs_at.setdefault(int(node), set()).add(d)
+    for m in mesh.masses:  # a point mass: translations, and rotations with an offset or inertia
+        full = bool(np.any(np.asarray(m["offset"]) != 0) or np.any(np.asarray(m["inertia"]) != 0))
+        dirs_at.setdefault(int(m["node"]), set()).update(_DIRECTIONS if full else _DIRECTIONS[:3])
     for i, sup in enumerate(support, start=1):
         w = named[i - 1] if named else f"{where}: support #{i}"
         if not isinstance(sup, Mapping) or ("set" in sup) == ("nodes" in sup) or set(sup) - {"set", "nodes", "dofs"}:

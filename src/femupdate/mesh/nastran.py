@@ -1,6 +1,7 @@
 """Nastran bulk data read by femupdate itself: GRID, CQUAD4, CTRIA3, CHEXA (8 nodes), CTETRA (4
-and 10 nodes), PSHELL, PSOLID, MAT1, SPC1 (one set), CORD2R/C/S (GRID positions), in small-field, large-field and free-field format, with
-continuations and INCLUDE.  Each property id becomes an element set named by the id (``"1"``).
+and 10 nodes), PSHELL, PSOLID, MAT1, SPC1 (one set), CORD2R/C/S (GRID positions), and (in
+:mod:`.nastran_cards`) CBAR/CBEAM with PBAR/PBEAM, CELAS1/CELAS2 with PELAS, CONM2 and RBE2, in
+small-field, large-field and free-field format, with continuations and INCLUDE.  Each property id becomes an element set named by the id (``"1"``).
 Executive and case control before ``BEGIN BULK`` are skipped; ``PARAM``, ``EIGRL`` and ``EIGR``
 are skipped and listed; any other card is refused, named with its line."""
 
@@ -12,9 +13,13 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import InputError
+from . import nastran_cards as nc
 from .core import DIRS, Block, Material, Mesh, Section, int_id
 
 _SKIPPED = {"PARAM", "EIGRL", "EIGR"}
+_FRAMES = ("CBAR", "CBEAM")
+_READ = ("GRID, CQUAD4, CTRIA3, CHEXA, CTETRA, CBAR, CBEAM, CELAS1, CELAS2, CONM2, RBE2, PSHELL, PSOLID, PBAR, PBEAM, "
+         "PELAS, MAT1, SPC1, CORD2R/C/S")
 _ELEMENTS = {"CQUAD4": ("mitc4", (4,)), "CTRIA3": ("mitc3", (3,)), "CHEXA": ("hex8", (8,)), "CTETRA": (None, (4, 10))}
 _REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")  # Nastran's 1.-3 for 1.e-3
 
@@ -78,15 +83,20 @@ def cards(path) -> list[tuple[str, list[str], str]]:
     if begin is not None:
         lines = lines[begin + 1:]
     out: list[tuple[str, list[str], str]] = []
+    width = 8
     for f, no, line in lines:
         if line.strip().upper().startswith("ENDDATA"):
             break
-        head, data, _ = _fields(line)
+        head, data, large = _fields(line)
         if head[:1] in ("+", "*") or (head == "" and out):
             if not out:
                 raise InputError(f"{f}:{no}: a continuation line before any card")
-            out[-1][1].extend(data)
+            prev = out[-1][1]
+            prev.extend([""] * (-len(prev) % width))  # a short free-field line: its blank fields
+            prev.extend(data)
+            width = 4 if large else 8
             continue
+        width = 4 if large else 8
         out.append((head.rstrip("*").upper(), data, f"{f.name}:{no}"))
     for _, data, _ in out:
         while data and data[-1] == "":
@@ -108,6 +118,9 @@ def read_nastran(path) -> Mesh:
     unknown: list[str] = []
     cps: list[tuple[int, str]] = []
     cords: dict[int, tuple] = {}
+    frames: dict[str, dict] = {}
+    pelas: dict[int, float] = {}
+    coupled = False
     for name, d, at in cards(path):
         where = f"{path}: {name} at {at}"
         if name == "GRID":
@@ -137,20 +150,40 @@ def read_nastran(path) -> Mesh:
             _mat1(d, where, mesh)
         elif name == "SPC1":
             _spc1(d, where, mesh)
+        elif name in _FRAMES:
+            nc.frame_card(name, d, where, frames)
+        elif name == "PBAR":
+            nc.pbar(d, where, mesh)
+        elif name == "PBEAM":
+            nc.pbeam(d, where, mesh)
+        elif name in ("CELAS1", "CELAS2"):
+            nc.celas(name, d, where, mesh, pelas)
+        elif name == "PELAS":
+            nc.pelas_card(d, where, mesh, pelas)
+        elif name == "CONM2":
+            nc.conm2(d, where, mesh, cords)
+        elif name == "RBE2":
+            nc.rbe2(d, where, mesh)
         elif name in _SKIPPED:
+            if name == "PARAM" and _field(d, 0).upper() == "COUPMASS":
+                coupled = real(_field(d, 1, "-1"), where) > 0
             mesh.ignored.append(f"{name} ({at})")
         else:
             unknown.append(f"{name} ({at})")
     if unknown:
         more = f" and {len(unknown) - 10} more" if len(unknown) > 10 else ""
-        raise InputError(f"{path}: card(s) femupdate does not read: {', '.join(unknown[:10])}{more} (it reads GRID, "
-                         "CQUAD4, CTRIA3, CHEXA, CTETRA, PSHELL, PSOLID, MAT1, SPC1, CORD2R/C/S; PARAM, EIGRL and EIGR are skipped)")
+        raise InputError(f"{path}: card(s) femupdate does not read: {', '.join(unknown[:10])}{more} (it reads {_READ}; "
+                         "PARAM, EIGRL and EIGR are skipped)")
     if not nodes:
         raise InputError(f"{path}: no GRID cards")
     mesh.node_ids, mesh.xyz = np.array(nodes, np.int64), np.array(coords, dtype=float)
     for k, (cp, where) in enumerate(cps):
         if cp != 0:
             mesh.xyz[k] = to_basic(cp, mesh.xyz[k], cords, where)
+    _frames_and_masses(mesh, frames, pelas)
+    if frames and not coupled:
+        mesh.ignored.append("Nastran's default lumped mass of CBAR/CBEAM (no PARAM COUPMASS > 0): femupdate gives "
+                            "them their coupled (consistent) mass, as COUPMASS 1 does")
     for (type_, card), (ids, pids, conn, _) in elems.items():
         ids_a, pids_a = np.array(ids, np.int64), np.array(pids, np.int64)
         mesh.blocks.append(Block(type_, ids_a, np.array(conn, np.int64), card))
@@ -158,6 +191,30 @@ def read_nastran(path) -> Mesh:
             prev = mesh.elsets.get(str(p), np.empty(0, np.int64))
             mesh.elsets[str(p)] = np.concatenate([prev, ids_a[pids_a == p]])
     return mesh.check()
+
+
+def _frames_and_masses(mesh: Mesh, frames: dict, pelas: dict) -> None:
+    """CBAR/CBEAM blocks (orientations from G0 resolved), CELAS1 stiffness, CONM2 absolute offsets."""
+    row = {int(n): k for k, n in enumerate(mesh.node_ids)}
+
+    def xyz_of(n):
+        return mesh.xyz[row[int(n)]]
+
+    for name, f in frames.items():
+        ids, pids = np.array(f["ids"], np.int64), np.array(f["pids"], np.int64)
+        offsets = np.array(f["offsets"])
+        mesh.blocks.append(Block("frame3d", ids, np.array(f["conn"], np.int64), name,
+                                 orientation=nc.frame_orientations(f, xyz_of),
+                                 offsets=offsets if np.any(offsets != 0) else None))
+        for p in np.unique(pids):
+            prev = mesh.elsets.get(str(p), np.empty(0, np.int64))
+            mesh.elsets[str(p)] = np.concatenate([prev, ids[pids == p]])
+    nc.resolve_springs(mesh, pelas)
+    for m in mesh.masses:
+        if m.pop("absolute"):
+            if int(m["node"]) not in row:
+                raise InputError(f"{m['where']}: grid {m['node']} is not defined")
+            m["offset"] = m["offset"] - xyz_of(m["node"])
 
 
 def to_basic(cid: int, x, cords: dict, where: str, seen: tuple = ()) -> np.ndarray:

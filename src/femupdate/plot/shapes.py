@@ -73,8 +73,8 @@ def shape_geometry(model, segments=None) -> ShapeGeometry | None:
     """
     if not model.nodes:
         return None
-    node_of = [parse_dof(d)[0] for d in model.dofs]
-    dirs = [parse_dof(d)[1] for d in model.dofs]
+    node_of = [parse_dof(d)[0] for d in _all_dofs(model)]
+    dirs = [parse_dof(d)[1] for d in _all_dofs(model)]
     moving = {nd for nd, dr in zip(node_of, dirs) if dr in _AXES}
     if not moving or any(nd not in model.nodes for nd in moving):
         return None
@@ -89,6 +89,12 @@ def shape_geometry(model, segments=None) -> ShapeGeometry | None:
         coo = sp.coo_array(pattern)
         pairs = {(pos[node_of[r]], pos[node_of[c]]) for r, c in zip(coo.row, coo.col)
                  if node_of[r] in pos and node_of[c] in pos and node_of[r] != node_of[c]}
+        dep = getattr(model, "constraints", None)
+        if dep is not None:  # a rigid link drawn from each dependent node to the nodes it follows
+            R = sp.coo_array(dep.R)
+            n = len(model.dofs)
+            pairs |= {(pos[node_of[n + r]], pos[node_of[c]]) for r, c in zip(R.row, R.col)
+                      if node_of[n + r] in pos and node_of[c] in pos and node_of[n + r] != node_of[c]}
         segs = np.array(sorted({tuple(sorted(p)) for p in pairs}), dtype=np.int64).reshape(-1, 2)
     else:
         raw = np.asarray(segments).reshape(-1, 2)
@@ -104,6 +110,23 @@ def _real(values: np.ndarray) -> np.ndarray:
         k = int(np.argmax(np.abs(v)))
         v = (v * np.exp(-1j * np.angle(v[k]))).real
     return np.asarray(v, float)
+
+
+def _all_dofs(model) -> tuple[str, ...]:
+    """The model's dofs and those its constraints eliminated (:mod:`femupdate.constraints`)."""
+    dep = getattr(model, "constraints", None)
+    return tuple(model.dofs) + (dep.labels if dep is not None else ())
+
+
+def _model_shape(model, shape) -> dict[str, float]:
+    """A model shape as {dof: value}, the dofs its constraints eliminated recovered."""
+    dep = getattr(model, "constraints", None)
+    if dep is not None and shape is not None and not isinstance(shape, Mapping):
+        v = np.asarray(shape)
+        if v.shape == (len(model.dofs),):
+            labels, full = dep.expand(model.dofs, v)
+            return _as_dict(full, labels)
+    return _as_dict(shape, model.dofs)
 
 
 def _as_dict(shape, dofs) -> dict[str, float]:
@@ -202,13 +225,13 @@ def member_points(xa, xb, ua, ub, ta=None, tb=None, scale: float = 1.0, n: int =
 
 def _rotation_nodes(model, geom: ShapeGeometry) -> np.ndarray:
     """Per node of ``geom``: whether the model has a rotation dof there."""
-    have = {parse_dof(d)[0] for d in model.dofs if parse_dof(d)[1] in _ROT}
+    have = {parse_dof(d)[0] for d in _all_dofs(model) if parse_dof(d)[1] in _ROT}
     return np.array([nd in have for nd in geom.node_ids])
 
 
 def _moving_nodes(model, geom: ShapeGeometry) -> np.ndarray:
     """Per node of ``geom``: whether the model has any dof there (a fully supported node has none)."""
-    have = {parse_dof(d)[0] for d in model.dofs}
+    have = {parse_dof(d)[0] for d in _all_dofs(model)}
     return np.array([nd in have for nd in geom.node_ids])
 
 
@@ -223,7 +246,7 @@ def needs_3d(model, shape=None, test=None, segments=None) -> bool:
     geom = shape_geometry(model, segments)
     if geom is None:
         return False
-    motions = [_displacements(geom, _as_dict(s, model.dofs))[0] for s in (shape, test) if s is not None]
+    motions = [_displacements(geom, _model_shape(model, s))[0] for s in (shape, test) if s is not None]
     return _wants_3d(geom, motions)
 
 
@@ -271,7 +294,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     """
     if projection not in ("auto", "2d", "3d"):
         raise ValueError(f"projection must be 'auto', '2d' or '3d', got {projection!r}")
-    mshape = _as_dict(shape, model.dofs)
+    mshape = _model_shape(model, shape)
     tshape = _as_dict(test, model.dofs)
     if not mshape and not tshape:
         raise ValueError("give a model shape, a test shape or both")

@@ -19,7 +19,9 @@ from .._limits import MAX_MAGNITUDE
 from ..dofs import describe, parse_dof, sort_key
 from ..coefficients import Power, Term
 from ..model import Model
+from ..constraints import reduce_model, transformation
 from .groups import SHELLS, SOLIDS, ElementGroup, merge_groups, triplets
+from .links import constraint_rows, offset_terms, point_mass_terms, supported_rows
 from .units import parameter_units
 
 
@@ -31,6 +33,10 @@ def assemble(structure) -> Model:
         raise InputError(f"structure {self.name!r} has no elements")
     groups = merge_groups(self.groups)
     all_labels = sorted({lab for g in groups for row in g.labels for lab in row}, key=sort_key)
+    rows: dict = {}
+    if self.constraints:  # rigid links and ties: the independent dofs no element uses join the model
+        rows, source, extra = constraint_rows(self, set(all_labels))
+        all_labels = sorted(set(all_labels) | extra, key=sort_key)
     present = set(all_labels)
     unknown_sup = [d for d in self.supports if d not in present]
     if unknown_sup:
@@ -42,6 +48,8 @@ def assemble(structure) -> Model:
         raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
     sup_nodes = set(self.support_nodes)
     fixed = set(self.supports) | {lab for lab, nd in node_of.items() if nd in sup_nodes}
+    if rows:
+        supported_rows(rows, source, fixed)
     dofs = [lab for lab in all_labels if lab not in fixed]
     if not dofs:
         raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
@@ -78,7 +86,7 @@ def assemble(structure) -> Model:
     K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
     M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
     units = parameter_units(groups, pnames)
-    return Model(
+    model = Model(
         dofs=tuple(dofs), K0=K0, M0=M0,
         parameters=tuple(par if par.unit else replace(par, unit=units[par.name])
                          for par in (self.parameters[p] for p in pnames)),
@@ -88,6 +96,12 @@ def assemble(structure) -> Model:
                     for sig, t in signatures.items()),
         positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
     )
+    if not rows:
+        return model
+    if len(rows) == len(dofs):
+        raise InputError(f"structure {self.name!r}: every free dof is a dependent dof of a constraint; nothing is free")
+    T, kept, dep = transformation(dofs, rows)
+    return reduce_model(model, T, kept, dep, [source[dofs[i]] for i in dep])
 
 
 def _coords(self, g: ElementGroup) -> np.ndarray:
@@ -101,15 +115,23 @@ def _coords(self, g: ElementGroup) -> np.ndarray:
         raise InputError(f"{g.where[k]}: node(s) {missing[:8]} are not defined in the node table")
     return np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(*g.nodes.shape, 3)
 
-def element_terms(self, g: ElementGroup) -> el.ElementTerms:
-    """The element terms of a group (its element type's stacks)."""
+def element_terms(self, g: ElementGroup, xa=None, xb=None) -> el.ElementTerms:
+    """The element terms of a group (its element type's stacks); ``xa``, ``xb``: a line group's
+    end points when they are not its nodes (offset ends)."""
     n_el = len(g.labels)
     if g.type == "spring":
         return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
     if g.type == "mass":
         return el.mass_terms(n_el, len(g.labels[0]))
-    xyz = _coords(self, g)
-    xa, xb = xyz[:, 0], xyz[:, -1]
+    if g.type == "point_mass":
+        assert g.data is not None  # the offset and inertia of each point mass
+        return point_mass_terms(g.data, len(g.labels[0]))
+    if xa is None:
+        xyz = _coords(self, g)
+        xa, xb = xyz[:, 0], xyz[:, -1]
+    if g.data is not None and g.type in ("frame3d", "frame3d_terms"):  # rigid end offsets
+        oa, ob = g.data[:, :3], g.data[:, 3:]
+        return offset_terms(element_terms(self, replace(g, data=None), xa + oa, xb + ob), oa, ob)
     try:
         if g.type in SHELLS:
             return (e3.mitc4_terms if g.type == "mitc4" else e3.mitc3_terms)(xyz, g.nu, mass=g.mass, drill=g.drill)
@@ -122,7 +144,8 @@ def element_terms(self, g: ElementGroup) -> el.ElementTerms:
         if g.type == "beam2d_terms":
             return el.beam2d_physical_terms(xa, xb, mass=g.mass)
         if g.type == "frame3d":
-            return el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+            t = el.frame3d_terms(xa, xb, g.orientation, mass=g.mass)
+            return t if g.torsion_mass else el.ElementTerms(K=t.K, M=[x for x in t.M if x[0] == ("rho", "A")])
         if g.type == "frame3d_terms":
             return el.frame3d_physical_terms(xa, xb, g.orientation, mass=g.mass)
     except InputError as exc:

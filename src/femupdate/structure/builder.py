@@ -13,6 +13,7 @@ from .._errors import InputError
 from ..dofs import Node, canonical, canonical_all, dof, node_id
 from ..model import Model, Parameter
 from .groups import BENDING, NODE_DIRS, PROPS, ElementGroup, mass_kind, per_element
+from .link_methods import LinkMethods
 from .tables import structure_from_dict
 
 
@@ -23,7 +24,7 @@ def _is_integer_text(v: str) -> bool:
         return False
 
 
-class Structure:
+class Structure(LinkMethods):
     """Editable description of a physical-parameter structure; :meth:`build` makes the Model.
 
     Declare parameters, nodes, elements and supports with the methods below (or read them from
@@ -45,6 +46,7 @@ class Structure:
         self.groups: list[ElementGroup] = []
         self.supports: list[str] = []
         self.support_nodes: list[Node] = []
+        self.constraints: list = []  # rigid links and ties (femupdate.structure.links.Link)
 
     # ------------------------------------------------------------------ declarations
     def parameter(self, name: str, value: float, bounds=None, fixed: bool = False, prior=None) -> None:
@@ -322,7 +324,8 @@ class Structure:
         props = {"EA_l": EA_l, "k12": k12, "k6": k6, "k2": k2, "rho": rho, "A": A}
         self._line("beam2d_terms", nodes, props, where, NODE_DIRS["beam2d"], mass=mass_kind(mass, where))
 
-    def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d") -> None:
+    def frame3d(self, nodes, E, G, A, Iy, Iz, J, rho, orientation, mass: str = "consistent", where: str = "frame3d",
+                **options) -> None:
         """12-dof space frame member(s); ``orientation`` lies in the local x-y plane.
 
         Parameters
@@ -339,17 +342,27 @@ class Structure:
             ``"consistent"`` or ``"lumped"``.
         where : str, default ``"frame3d"``
             Name of the element(s) in messages.
+        **options
+            ``offsets``, array_like of shape ``(2, 3)`` or ``(n_el, 2, 3)``: rigid end offsets
+            [o_a, o_b] (global components), the member runs between x_a + o_a and x_b + o_b, joined
+            rigidly to its nodes (exact, :mod:`femupdate.structure.links`); ``torsion_mass``, bool
+            (default True): include the torsional inertia rho (Iy + Iz), False leaves the twist
+            massless (Nastran's CBAR).
 
         Raises
         ------
         InputError
-            A missing or malformed ``orientation``, and as :meth:`rod`.
+            A missing or malformed ``orientation`` or ``offsets``, an unknown option, and as :meth:`rod`.
         """
+        unknown = sorted(set(options) - {"offsets", "torsion_mass"})
+        if unknown:
+            raise InputError(f"{where}: unknown option(s) {', '.join(unknown)} of frame3d (offsets, torsion_mass)")
         props = {"E": E, "G": G, "A": A, "Iy": Iy, "Iz": Iz, "J": J, "rho": rho}
-        self._frame("frame3d", nodes, props, orientation, mass, where)
+        self._frame("frame3d", nodes, props, orientation, mass, where, options.get("offsets"),
+                    torsion_mass=bool(options.get("torsion_mass", True)))
 
     def frame3d_terms(self, nodes, EA_l, GJ_l, rho, A, Ip, orientation, *, mass: str = "consistent",
-                      where: str = "frame3d_terms", **bending) -> None:
+                      where: str = "frame3d_terms", offsets=None, **bending) -> None:
         """Space frame with the Appendix's independent stiffness terms as properties.
 
         Give ``k12, k6, k2`` (shared by both bending planes: Iy = Iz, the Appendix's five
@@ -369,6 +382,8 @@ class Structure:
             ``"consistent"`` or ``"lumped"``.
         where : str, default ``"frame3d_terms"``
             Name of the element(s) in messages.
+        offsets : array_like, shape ``(2, 3)`` or ``(n_el, 2, 3)``, optional
+            Rigid end offsets, as :meth:`frame3d`.
         **bending : float, str or sequence
             The bending terms, as the model file names them: ``k12``, ``k6``, ``k2`` (12EI/l³,
             6EI/l², 2EI/l) shared by both planes, or per bending plane ``k12_y``, ``k6_y``,
@@ -397,9 +412,9 @@ class Structure:
                 raise InputError(f"{where}: frame3d_terms needs {b} (both planes) or both {b}_y and {b}_z")
             props[b + "_y"] = both if both is not None else y
             props[b + "_z"] = both if both is not None else z
-        self._frame("frame3d_terms", nodes, props, orientation, mass, where)
+        self._frame("frame3d_terms", nodes, props, orientation, mass, where, offsets)
 
-    def _frame(self, type_, nodes, props, orientation, mass, where):
+    def _frame(self, type_, nodes, props, orientation, mass, where, offsets=None, **kw):
         if orientation is None:
             raise InputError(f"{where}: {type_} needs an orientation vector [vx, vy, vz] in its local x-y plane")
         pairs = self._node_pairs(nodes, where)
@@ -410,7 +425,14 @@ class Structure:
             raise InputError(f"{where}: orientation must be three finite numbers (or one triple per element)")
         dirs = NODE_DIRS[type_]
         labels = [[dof(a, d) for d in dirs] + [dof(b, d) for d in dirs] for a, b in pairs]
-        self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o))
+        data = None
+        if offsets is not None:
+            off = np.asarray(offsets, dtype=float)
+            off = np.broadcast_to(off, (len(pairs), 2, 3)) if off.shape == (2, 3) else off
+            if off.shape != (len(pairs), 2, 3) or not np.all(np.isfinite(off)):
+                raise InputError(f"{where}: offsets must be [[ax, ay, az], [bx, by, bz]] (or one such pair per element), finite")
+            data = off.reshape(len(pairs), 6).copy()
+        self._add(type_, labels, props, where, nodes=pairs, mass=mass_kind(mass, where), orientation=np.array(o), data=data, **kw)
 
     def shell(self, nodes, E, nu, t, rho, mass: str = "consistent", drill: float = 0.1, where: str = "shell") -> None:
         """Flat shell element(s): MITC4 quadrilaterals (4 nodes) or MITC3 triangles (3 nodes).
@@ -506,7 +528,9 @@ class Structure:
         """Structure from a mesh file: Gmsh ``.msh`` (through meshio), Abaqus ``.inp``, Nastran bulk data.
 
         Nodes keep the file's ids (dof labels ``"id:dir"``) and coordinates; each element set with a
-        section (the deck's, or ``sets``) becomes a shell or solid group (:mod:`femupdate.mesh`).
+        section (the deck's, or ``sets``) becomes a shell, solid or frame group (:mod:`femupdate.mesh`);
+        a deck's springs, point masses and exact constraints (Nastran CELAS, CONM2, RBE2; Abaqus
+        ``*KINEMATIC COUPLING``, ``*MPC``) come with it.
         Declare the parameters that ``sets`` names with :meth:`parameter` before :meth:`build`.
 
         Parameters
@@ -515,7 +539,8 @@ class Structure:
             The mesh file.
         sets : mapping, optional
             Element set name -> properties ``E``, ``nu``, ``rho``, ``t`` (shells), ``mass``,
-            ``drill``; each a number or (``E``, ``rho``) a parameter name; overrides the deck's.
+            ``drill``, and for beams ``G``, ``A``, ``Iy``, ``Iz``, ``J``; each a number or (``E``,
+            ``rho`` and the beam properties) a parameter name; overrides the deck's.
         support : sequence of mapping, optional
             Each ``{"set": NODE_SET}`` or ``{"nodes": [ids]}``, optionally ``"dofs": ["x", ...]``
             (directions; default every dof of the nodes).

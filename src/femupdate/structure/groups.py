@@ -16,6 +16,7 @@ MASS_KINDS = el.MASS_KINDS
 PROPS: dict[str, tuple[tuple[str, ...], dict]] = {
     "spring": (("k",), {}),
     "mass": (("m",), {}),
+    "point_mass": (("m",), {}),
     "rod": (("E", "A", "rho"), {}),
     "beam2d": (("E", "A", "I", "rho"), {}),
     "beam2d_terms": (("EA_l", "k12", "k6", "k2", "rho", "A"), {}),
@@ -88,6 +89,11 @@ class ElementGroup:
         Poisson's ratio of shell and solid elements (a fixed number: it enters non-linearly).
     drill : float, default 0.1
         Drilling penalty factor of shell elements (:mod:`femupdate.elements_3d.shells`).
+    data : numpy.ndarray, optional
+        Per-element numbers of the type: the end offsets of frames ``(n_el, 6)``, the offset
+        and inertia of point masses ``(n_el, 12)`` (:mod:`femupdate.structure.links`).
+    torsion_mass : bool, default True
+        Frames: with the torsional inertia rho (Iy + Iz) (False: without, as Nastran's CBAR).
     """
 
     type: str
@@ -100,11 +106,14 @@ class ElementGroup:
     where: list[str] = field(default_factory=list)  # per-element description for messages
     nu: np.ndarray | None = None  # (n_el,) Poisson's ratio of shells and solids
     drill: float = 0.1
+    data: np.ndarray | None = None
+    torsion_mass: bool = True
 
     @property
     def key(self):
-        """``(type, mass, dim, dofs per element, sorted property names, drill)``: groups with equal keys merge."""
-        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)), self.drill)
+        """``(type, mass, dim, dofs per element, sorted property names, drill, no data)``: groups with equal keys merge."""
+        return (self.type, self.mass, self.dim, len(self.labels[0]), tuple(sorted(self.props)), self.drill,
+                self.data is None, self.torsion_mass)
 
 
 def per_element(value, n: int, what: str) -> list:
@@ -197,6 +206,7 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
             orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
             where=[w for g in gs for w in g.where],
             nu=None if g0.nu is None else np.concatenate([g.nu for g in gs]), drill=g0.drill,
+            data=None if g0.data is None else np.concatenate([g.data for g in gs]), torsion_mass=g0.torsion_mass,
         ))
     return out
 

@@ -37,7 +37,7 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
     """
     if not isinstance(data, Mapping):
         raise InputError(f"{source}: expected a table at the top level")
-    known = {"model", "parameters", "node", "element", "support", "provenance", "mesh"}
+    known = {"model", "parameters", "node", "element", "support", "provenance", "mesh", "constraint"}
     extra = sorted(set(data) - known)
     if extra:
         raise InputError(f"{source}: unknown top-level key(s) {', '.join(extra)} (expected {', '.join(sorted(known))})")
@@ -85,6 +85,8 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         mesh_from_table(s, data["mesh"], source)
     for i, e in enumerate(list_of_tables(data, "element", source), start=1):
         element_from_dict(s, e, f"{source}: element #{i}")
+    for i, c in enumerate(list_of_tables(data, "constraint", source), start=1):
+        constraint_from_dict(s, c, f"{source}: constraint #{i}")
     for i, sup in enumerate(list_of_tables(data, "support", source), start=1):
         where = f"{source}: support #{i}"
         unknown = sorted(set(sup) - {"dofs", "nodes"})
@@ -138,13 +140,14 @@ def list_of_tables(data, key, source):
     return items
 
 
-ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation", "nu", "drill"}
+ELEMENT_KEYS = {"type", "dofs", "nodes", "mass", "dim", "orientation", "nu", "drill", "offsets", "node", "offset", "inertia"}
 TYPE_KEYS = {  # non-property keys that apply to each line-element type
     "rod": {"nodes", "mass", "dim"},
     "beam2d": {"nodes", "mass"},
     "beam2d_terms": {"nodes", "mass"},
-    "frame3d": {"nodes", "mass", "orientation"},
-    "frame3d_terms": {"nodes", "mass", "orientation"},
+    "frame3d": {"nodes", "mass", "orientation", "offsets"},
+    "frame3d_terms": {"nodes", "mass", "orientation", "offsets"},
+    "point_mass": {"node", "offset", "inertia"},
     **{t: {"nodes", "mass", "nu", "drill"} for t in SHELLS},
     **{t: {"nodes", "mass", "nu"} for t in SOLIDS},
 }
@@ -185,7 +188,7 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
     for k, v in props.items():
         if isinstance(v, bool) or not isinstance(v, (int, float, str)):
             raise InputError(f"{where}: {k} must be a number or a parameter name, got {_shown(v)}")
-    for k in ("nodes", "orientation", "dim", "nu", "drill"):
+    for k in ("nodes", "orientation", "dim", "nu", "drill", "offsets", "node", "offset", "inertia"):
         _no_booleans(e.get(k), f"{where}: {k}")
     try:
         if t == "spring":
@@ -196,6 +199,10 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
             if "dofs" not in e or "m" not in e:
                 raise InputError("mass needs 'dofs' and 'm'")
             s.mass(list(e["dofs"]), m=e["m"], where=where)
+        elif t == "point_mass":
+            if "node" not in e or "m" not in e:
+                raise InputError("point_mass needs 'node' and 'm'")
+            s.point_mass(e["node"], m=e["m"], offset=e.get("offset"), inertia=e.get("inertia"), where=where)
         elif t in SHELLS or t in SOLIDS:
             _continuum_from_dict(s, t, e, props, where)
         else:
@@ -209,11 +216,57 @@ def element_from_dict(s, e: Mapping, where: str) -> None:
             elif t == "beam2d_terms":
                 s.beam2d_terms(e["nodes"], **props, **kw)
             elif t == "frame3d":
-                s.frame3d(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+                s.frame3d(e["nodes"], orientation=e.get("orientation"), offsets=e.get("offsets"), **props, **kw)
             else:
-                s.frame3d_terms(e["nodes"], orientation=e.get("orientation"), **props, **kw)
+                s.frame3d_terms(e["nodes"], orientation=e.get("orientation"), offsets=e.get("offsets"), **props, **kw)
     except TypeError as exc:  # missing required keyword arguments
         raise InputError(f"{where}: {exc}".replace("() missing", " is missing")) from None
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+
+
+CONSTRAINT_KEYS = {"type", "independent", "dependent", "dofs"}
+CONSTRAINT_TYPES = ("rigid", "equal")
+
+
+def constraint_from_dict(s, c: Mapping, where: str) -> None:
+    """Add one [[constraint]] table (a rigid link or an equal-dof tie) to the structure ``s``.
+
+    Parameters
+    ----------
+    s : Structure
+        Structure to add to.
+    c : mapping
+        The table: ``type`` (``"rigid"`` or ``"equal"``), ``independent`` (a node), ``dependent``
+        (a node or a list of nodes) and ``dofs`` (directions; default every dof of the dependent node).
+    where : str
+        The table's position, prefixed to error messages.
+
+    Raises
+    ------
+    InputError
+        An unknown type or key, a missing key, or anything :meth:`Structure.rigid_link` refuses.
+    """
+    t = c.get("type")
+    if t not in CONSTRAINT_TYPES:
+        raise InputError(f"{where}: type must be one of {', '.join(map(repr, CONSTRAINT_TYPES))}, got {_shown(t)}")
+    where = f"{where} ({t})"
+    unknown = sorted(set(c) - CONSTRAINT_KEYS)
+    if unknown:
+        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(CONSTRAINT_KEYS))})")
+    for k in ("independent", "dependent"):
+        if k not in c:
+            raise InputError(f"{where}: needs '{k}' (a node{', or a list of nodes' if k == 'dependent' else ''})")
+        _no_booleans(c[k], f"{where}: {k}")
+    dofs = c.get("dofs")
+    if dofs is not None and (isinstance(dofs, str) or not isinstance(dofs, list)):
+        raise InputError(f"{where}: dofs must be a list of directions such as [\"x\", \"rz\"], got {_shown(dofs)}")
+    try:
+        if t == "rigid":
+            s.rigid_link(c["independent"], c["dependent"], dofs, where=where)
+        else:
+            s.equal_dofs(c["independent"], c["dependent"], dofs, where=where)
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
@@ -238,7 +291,8 @@ def _continuum_from_dict(s, t: str, e: Mapping, props: dict, where: str) -> None
         s.solid(rows, nu=e["nu"], **props, **kw)
 
 
-__all__ = ["structure_from_dict", "list_of_tables", "element_from_dict", "ELEMENT_KEYS", "TYPE_KEYS"]
+__all__ = ["structure_from_dict", "list_of_tables", "element_from_dict", "constraint_from_dict", "ELEMENT_KEYS",
+           "TYPE_KEYS", "CONSTRAINT_KEYS"]
 
 
 def _prior(spec: Mapping, where: str) -> Prior | None:

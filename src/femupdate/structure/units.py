@@ -51,6 +51,8 @@ def property_unit(element_type: str, prop: str, labels: Iterable[str] = ()) -> s
         if element_type == "spring":
             return "N·m/rad" if rot.pop() else "N/m"
         return "kg·m²" if rot.pop() else "kg"
+    if element_type == "point_mass":
+        return "kg"
     return PROPERTY_UNITS.get(prop, "")
 
 

@@ -39,7 +39,15 @@ def _known_dofs(model_dofs, model) -> frozenset[str] | None:
         return None
     if isinstance(model_dofs, str):
         raise InputError("read_uff: model_dofs must be a sequence of labels such as ['1:x', '2:x'], not one string")
-    return frozenset(canonical_all(model_dofs, "model_dofs"))
+    known = _Known(canonical_all(model_dofs, "model_dofs"))
+    known.model = model
+    return known
+
+
+class _Known(frozenset):
+    """The model's dofs, and the model (for the note on dofs its constraints eliminated)."""
+
+    model = None
 
 
 def _check_in_model(labels: Iterable[str], known: frozenset[str] | None, where: str) -> None:
@@ -47,7 +55,10 @@ def _check_in_model(labels: Iterable[str], known: frozenset[str] | None, where: 
         return
     missing = [lab for lab in labels if lab not in known]
     if missing:
-        raise InputError(f"{where}: dof(s) not in the model: {describe(missing)}")
+        from ...constraints import dependent_note
+
+        note = dependent_note(getattr(known, "model", None), missing)
+        raise InputError(f"{where}: dof(s) not in the model: {describe(missing)}{note}")
 
 
 # ---------------------------------------------------------------------------- reading
