@@ -71,6 +71,7 @@ class SensitivityBank:
     def __init__(self, model, dofs: Sequence[str], target: Sequence[int], params: Sequence[str], values=None,
                  reference: np.ndarray | None = None):
         self.values = model.resolve(values)
+        self.dof_labels = tuple(dofs)
         n = max(target) + 1
         n_modes = min(model.n_dofs, max(n + 6, 2 * n))
         modes = model_modes(model, self.values, n_modes=n_modes)
@@ -145,8 +146,10 @@ def design_value(F: np.ndarray, design: str) -> float:
         return -math.inf
 
 
-def parameter_points(model, params: Sequence[str], n_points: int, box=None, seed: int = 0) -> list[np.ndarray]:
-    """The nominal point and ``n_points`` random points (uniform) of the parameter box.
+def parameter_points(model, params: Sequence[str], n_points: int, box=None, seed: int = 0
+                     ) -> tuple[list[np.ndarray], dict[str, tuple[float, float]]]:
+    """The nominal point and ``n_points`` random points (uniform) of the parameter box, and the box
+    ({name: (lower, upper)}).
 
     Parameters
     ----------
@@ -185,7 +188,7 @@ def parameter_points(model, params: Sequence[str], n_points: int, box=None, seed
         p = p0.copy()
         p[idx] = rng.uniform(lo, hi)
         points.append(p)
-    return points
+    return points, {n: (a, b) for n, a, b in zip(params, lo, hi)}
 
 
 __all__ = ["Noise", "SensitivityBank", "fisher", "rank_and_condition", "design_value", "parameter_points"]
