@@ -113,9 +113,12 @@ def candidates(model, given: Sequence[str] | None = None, kind: str = "uniaxial"
                 try:
                     lab = canonical(str(raw))
                 except InputError:
-                    bad.append(str(raw))
+                    bad.append(str(raw).strip())
                     continue
-                (out if lab in model.dofs else bad).append(lab if lab in model.dofs else str(raw))
+                if lab in model.dofs:
+                    out.append(lab)
+                else:
+                    bad.append(str(raw).strip())
             if bad:
                 raise InputError(f"{where}: unknown candidate dof(s) {', '.join(bad)} (not dofs of the model "
                                  f"{model.name!r}: {model.describe_dofs()})")
