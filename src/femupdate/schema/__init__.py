@@ -80,6 +80,7 @@ MODULES: tuple[str, ...] = ("femupdate.schema.update",)
 MODULES += ("femupdate.schema.frf", "femupdate.schema.uniqueness")
 MODULES += ("femupdate.schema.modes", "femupdate.schema.direct", "femupdate.schema.reduction")
 MODULES += ("femupdate.schema.damage", "femupdate.schema.posterior")
+MODULES += ("femupdate.schema.plan",)
 
 
 def register(kind: Kind) -> Kind:
