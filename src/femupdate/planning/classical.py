@@ -174,6 +174,10 @@ def classical_placement(shapes: np.ndarray, groups: Sequence[Sequence[int]], n_s
     else:
         energy = np.zeros_like(phi)
     if criterion in ("efi", "efi-dpr"):
+        fewest = sum(sorted(len(g) for g in groups)[:n_sensors])
+        if fewest < phi.shape[1]:
+            raise InputError(f"{criterion}: {n_sensors} sensor(s) may measure fewer dofs than the {phi.shape[1]} target "
+                             "modes; effective independence needs at least one measured dof per target mode")
         s = np.linalg.svd(phi.T @ phi, compute_uv=False)
         if s[-1] <= 1e-12 * s[0]:
             raise InputError("the candidate sensors cannot tell the target modes apart (Fisher information "
