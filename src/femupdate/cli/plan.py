@@ -96,9 +96,9 @@ def targets_group():
                 sep = ""
             if not sep:
                 raise InputError(f"--band: {band!r} is not lower:upper in Hz (e.g. 5:200)")
-            if not band_hz[0] < band_hz[1]:  # type: ignore[index]
-                raise InputError(f"--band: the lower frequency {band_hz[0]:g} Hz must be below the upper "  # type: ignore[index]
-                                 f"{band_hz[1]:g} Hz")  # type: ignore[index]
+            if not band_hz[0] < band_hz[1]:
+                raise InputError(f"--band: the lower frequency {band_hz[0]:g} Hz must be below the upper "
+                                 f"{band_hz[1]:g} Hz")
         if method == "lowest" and n_modes is None and band_hz is None:
             n_modes = 3
         return TargetOptions(method=method, n_modes=n_modes, band_hz=band_hz, direction=direction,

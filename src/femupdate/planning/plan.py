@@ -124,10 +124,10 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
 def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_req):
     """(chosen, greedy or eliminated set, swaps) of one criterion."""
     if criterion == "identifiability":
-        res = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
-                                        max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
-                                        max_passes=50 if p_opt.exchange else 0)
-        return res.chosen, res.greedy, res.swaps
+        ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
+                                          max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
+                                          max_passes=50 if p_opt.exchange else 0)
+        return ident.chosen, ident.greedy, ident.swaps
     b = banks[0]
     m = b.phi.shape[1]
     n = n_req if n_req is not None else max(m, len(cand.fixed))

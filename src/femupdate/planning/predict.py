@@ -39,7 +39,8 @@ def chain_positions(model, params: Sequence[str]) -> dict[str, int] | None:
     idx = model.parameter_indices(list(params))
     p = model.values
     Ksum = sp.csr_matrix((N, N))
-    ground, links = None, {}
+    ground: int | None = None
+    links: dict[int, list[int]] = {}
     for j in idx:
         if model.dM_dp(j, p).count_nonzero():
             return None

@@ -113,7 +113,7 @@ class PlanResult(Serialisable):
 
     @classmethod
     def from_payload(cls, obj: Mapping[str, Any]):
-        kw = {k: obj.get(k) for k in KEYS}
+        kw: dict[str, Any] = {k: obj.get(k) for k in KEYS}
         for k in ("comparison", "nodes", "options"):
             kw[k] = kw[k] or {}
         return cls(**kw)
