@@ -193,3 +193,17 @@ def test_bad_input_is_named():
         plan(model, std_shape=0.0)
     with pytest.raises(fu.InputError, match="unknown candidate node"):
         plan(portal_frame(), kind="triaxial", candidates=["99"])
+
+
+def test_parameters_no_sensor_set_identifies_are_named():
+    s = fu.Structure("two springs side by side")  # ka and kb act only through ka + kb
+    for name, v in (("ka", 100.0), ("kb", 200.0), ("kc", 300.0)):
+        s.parameter(name, v, (10.0, 1000.0))
+    s.spring(["1:x"], k="ka")
+    s.spring(["1:x"], k="kb")
+    s.spring(["1:x", "2:x"], k="kc")
+    s.mass(["1:x"], m=1.0)
+    s.mass(["2:x"], m=1.0)
+    with pytest.raises(fu.InputError, match=r"no sensor set identifies ka, kb from these 2 target mode\(s\).*only 2 "
+                                            "of the 3"):
+        plan(s.build(), n_modes=2)

@@ -12,7 +12,7 @@ from ..modal import model_modes
 from ..options import PlacementOptions, TargetOptions, gather
 from .candidates import Candidates, candidates as make_candidates
 from .classical import classical_placement
-from .fisher import Noise, SensitivityBank, parameter_points
+from .fisher import Noise, SensitivityBank, parameter_points, rank_and_condition
 from .placement import identifiability_placement, score_set
 from .predict import automac, monte_carlo, predicted_std, uniqueness_verdict
 from .result import PlanResult
@@ -92,6 +92,8 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
     banks += [SensitivityBank(model, cand.dofs, target.indices, names, p, reference=banks[0].shapes_full)
               for p in points[1:]]
     groups = [cand.rows([i]) for i in range(len(cand.sensors))]
+    if p_opt.criterion == "identifiability":
+        _identifiable_at_all(banks[0], names, len(cand.dofs), len(target.indices))
     chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req)
     rows = cand.rows(chosen)
     dofs = [cand.dofs[r] for r in rows]
@@ -139,6 +141,22 @@ def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_re
     res = classical_placement(b.phi, groups, n, criterion, fixed=cand.fixed, eigenvalues=b.eigenvalues,
                               energy=energy, exchange=p_opt.exchange)
     return res.chosen, res.eliminated, res.swaps
+
+
+def _identifiable_at_all(bank, names, n_rows: int, n_modes: int) -> None:
+    """Refuse a problem no sensor set solves: with every candidate measured, S is still
+    rank-deficient at the nominal point; the parameters of its null space are named."""
+    S = bank.matrix(range(n_rows), normalised=True)
+    rank, _, _ = rank_and_condition(S)
+    if rank == len(names):
+        return
+    _, s, Vt = np.linalg.svd(S)
+    null = Vt[rank:]
+    weight = np.sqrt(np.sum(null ** 2, axis=0))
+    involved = [n for n, w in zip(names, weight) if w > 1e-3]
+    raise InputError(f"params: no sensor set identifies {', '.join(involved)} from these {n_modes} target mode(s): "
+                     f"with every candidate measured the data determine only {rank} of the {len(names)} parameters' "
+                     "combinations; add target modes or candidates, or fix some of them")
 
 
 def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
