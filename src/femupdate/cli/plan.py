@@ -235,7 +235,8 @@ def _print(c, model, res) -> None:
     c.print(tab)
     if mc:
         c.print(f"Monte Carlo: {mc['converged']}/{mc['runs']} updates converged; std / predicted within "
-                f"{min(mc['ratio']):.3f}..{max(mc['ratio']):.3f} (sampling error of a std: {mc['sampling_error']:.3f})")
+                f"{min(mc['ratio']):.3f}..{max(mc['ratio']):.3f} (sampling error of a std: {mc['sampling_error']:.3f}); "
+                f"rms relative parameter error {mc['rms_relative_error']:.3%}")
     u = res.uniqueness
     c.print(f"largest off-diagonal auto-MAC {res.automac_max:.3f}")
     c.print(f"expected verdict: {u['verdict']} - {u['explanation']}")
@@ -245,15 +246,20 @@ def _print(c, model, res) -> None:
                                            if u["layout_rank_bound"] is not None else ""))
     if res.comparison:
         ct = Table(title=f"other criteria with {len(res.sensors)} sensor(s)")
-        for col in ("criterion", "sensors", "identifiable", "rank", "mean relative std"):
+        with_mc = any("monte_carlo" in v for v in res.comparison.values())
+        for col in ("criterion", "sensors", "identifiable", "rank", "mean relative std") + (
+                ("Monte Carlo rms error",) if with_mc else ()):
             ct.add_column(col)
         for crit, v in res.comparison.items():
             if "error" in v:
-                ct.add_row(crit, v["error"][:60], "-", "-", "-")
+                ct.add_row(crit, v["error"][:60], *(["-"] * (4 if with_mc else 3)))
                 continue
             m = v["mean_relative_std"]
-            ct.add_row(crit, "; ".join(",".join(s) for s in v["sensors"]), "yes" if v["identifiable"] else "no",
-                       str(v["rank"]), "inf" if m is None or not math.isfinite(m) else f"{m:.3%}")
+            row = [crit, "; ".join(",".join(s) for s in v["sensors"]), "yes" if v["identifiable"] else "no",
+                   str(v["rank"]), "inf" if m is None or not math.isfinite(m) else f"{m:.3%}"]
+            if with_mc:
+                row.append(f"{v['monte_carlo']['rms_relative_error']:.3%}" if "monte_carlo" in v else "not run")
+            ct.add_row(*row)
         c.print(ct)
 
 

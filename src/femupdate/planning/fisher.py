@@ -94,6 +94,7 @@ class SensitivityBank:
         self.phi = jr.psi  # (n_c, m), mass-normalised
         self.dphi = jr.dpsi  # (n_c, m, L)
         self.parameter_values = self.values[model.parameter_indices(list(params))]
+        self.parameter_names = tuple(params)
 
     def matrix(self, rows: Sequence[int], noise: Noise | None = None, normalised: bool = False) -> np.ndarray:
         """S of the sensor set whose dofs are ``rows`` (divided by the noise's std when given;

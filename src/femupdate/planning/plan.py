@@ -168,8 +168,14 @@ def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
     sc = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition)
     std = predicted_std(banks[0], rows, noise)
     rel = std / np.abs(banks[0].parameter_values)
-    return {"sensors": [list(cand.sensors[i]) for i in chosen], "identifiable": sc.identifiable,
-            "rank": sc.ranks[0], "condition": sc.conditions[0], "mean_relative_std": float(np.mean(rel))}
+    out = {"sensors": [list(cand.sensors[i]) for i in chosen], "identifiable": sc.identifiable,
+           "rank": sc.ranks[0], "condition": sc.conditions[0], "mean_relative_std": float(np.mean(rel))}
+    if p_opt.monte_carlo >= 2 and sc.ranks[0] == len(banks[0].parameter_values):  # the same noisy tests, this plan
+        mc = monte_carlo(model, list(banks[0].parameter_names), [cand.dofs[r] for r in rows], banks[0], noise,
+                         p_opt.monte_carlo, p_opt.seed)
+        out["monte_carlo"] = {"runs": mc["runs"], "converged": mc["converged"],
+                              "rms_relative_error": mc["rms_relative_error"]}
+    return out
 
 
 def _xyz(model, node):

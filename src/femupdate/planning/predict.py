@@ -176,9 +176,12 @@ def monte_carlo(model, params: Sequence[str], dofs: Sequence[str], bank: Sensiti
     X = np.array(est)
     pred = predicted_std(bank, full_rows, noise)
     std = X.std(axis=0, ddof=1)
+    rel = (X - truth) / np.abs(truth)
     return {"runs": int(runs), "converged": converged, "seed": seed, "mean": X.mean(axis=0), "std": std,
             "bias": X.mean(axis=0) - truth, "predicted_std": pred, "ratio": std / pred,
-            "sampling_error": 1.0 / math.sqrt(2 * (runs - 1)), "estimates": X}
+            "sampling_error": 1.0 / math.sqrt(2 * (runs - 1)),
+            "rms_relative_error": float(np.sqrt(np.mean(rel ** 2))),
+            "predicted_rms_relative_error": float(np.sqrt(np.mean((pred / np.abs(truth)) ** 2))), "estimates": X}
 
 
 __all__ = ["chain_positions", "predicted_std", "automac", "uniqueness_verdict", "monte_carlo"]
