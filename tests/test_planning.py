@@ -61,6 +61,25 @@ def test_effective_independence_agrees_with_kammer_written_from_the_definition()
         assert ex.objective == pytest.approx(np.linalg.slogdet(P.T @ P)[1], rel=1e-12)
 
 
+def test_triaxial_effective_independence_removes_the_node_that_costs_least_information():
+    """A triaxial sensor is removed as a block: each step drops the node whose removal leaves the
+    largest det(ΦᵀΦ), checked by trying every removal."""
+    model = portal_frame()
+    cand = candidates(model, kind="triaxial")
+    modes = model_modes(model, n_modes=4)
+    phi = modes.shapes[model.dof_index(cand.dofs)]
+    phi = phi / np.linalg.norm(phi, axis=0)
+    groups = [cand.rows([i]) for i in range(len(cand.sensors))]
+    res = classical_placement(phi, groups, 3, "efi", exchange=False)
+    active = list(range(len(groups)))
+    for removed in res.removed:
+        dets = {g: np.linalg.det(phi[[r for h in active if h != g for r in groups[h]]].T
+                                 @ phi[[r for h in active if h != g for r in groups[h]]]) for g in active}
+        assert removed == max(dets, key=lambda g: dets[g])
+        active.remove(removed)
+    assert sorted(active) == list(res.chosen)
+
+
 def test_fixed_sensors_stay_and_kinetic_energy_keeps_the_most_energetic():
     model = portal_frame()
     cand = candidates(model)

@@ -84,6 +84,21 @@ def test_universal_file_carries_the_sensor_directions(tmp_path):
     assert [int(v) for v in ds15["disp_cs"]] == [int(d.split(":")[0]) for d in res.dofs]
 
 
+def test_candidates_from_a_file_and_fixed_sensors(chain_file, tmp_path, capsys):
+    cands = tmp_path / "cands.txt"
+    cands.write_text("# where accelerometers fit\n2:x\n3:x  # the tip\n")
+    out_json = tmp_path / "p.json"
+    code, out, err = run(["plan", str(chain_file), "--modes", "3", "--candidates-file", str(cands), "--fixed", "1:x",
+                          "--points", "2", "--json", str(out_json)], capsys)
+    assert code == 0, err
+    obj = json.loads(out_json.read_text())
+    assert obj["fixed"] == [["1:x"]] and ["1:x"] in obj["sensors"]
+    assert {d for s in obj["sensors"] for d in s} <= {"1:x", "2:x", "3:x"}
+    cands.write_text("2:x\n4:x\n")
+    code, _, err = run(["plan", str(chain_file), "--candidates-file", str(cands)], capsys)
+    assert code == 2 and "--candidates-file: unknown candidate dof(s) 4:x" in err
+
+
 def test_plan_command_bad_input(chain_file, capsys):
     code, _, err = run(["plan", str(chain_file), "--sensors", "4"], capsys)
     assert code == 2 and "--sensors: 4 asked, but there are only 3 candidate" in err and "Traceback" not in err

@@ -156,10 +156,8 @@ def monte_carlo(model, params: Sequence[str], dofs: Sequence[str], bank: Sensiti
         raise InputError(f"monte carlo: at least 2 runs, got {runs}")
     rng = np.random.default_rng(seed)
     truth = bank.parameter_values
-    rows = list(range(len(dofs)))
     full_rows = [list(bank.dof_labels).index(d) for d in dofs]
     psi = bank.shapes(full_rows)
-    del rows
     est, converged = [], 0
     for _ in range(int(runs)):
         modes = []
