@@ -88,6 +88,10 @@ class SensitivityBank:
             jr = jacobian(model, modes, which, list(dofs), params=list(params), values=self.values,
                           shape_scaling="mass")
         except NumericalError as exc:
+            if "repeated" in str(exc):
+                raise NumericalError(f"target modes repeated at {_point_text(model, self.values)} (a symmetric "
+                                     f"structure?): {str(exc).split(':')[0]}; planning does not treat repeated modes "
+                                     "yet - target other modes (--modes, --band) or break the symmetry") from None
             raise NumericalError(f"sensitivities at {_point_text(model, self.values)}: {exc}") from None
         self.eigenvalues = jr.eigenvalues
         self.dlam = jr.dlam  # (m, L), relative
