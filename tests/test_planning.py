@@ -226,3 +226,37 @@ def test_parameters_no_sensor_set_identifies_are_named():
     with pytest.raises(fu.InputError, match=r"no sensor set identifies ka, kb from these 2 target mode\(s\).*only 2 "
                                             "of the 3"):
         plan(s.build(), n_modes=2)
+
+
+def _plate(nx=4, ny=3, a=0.6, b=0.35):
+    """A cantilever aluminium plate of shells in three zones of E (nodes slightly skewed: no symmetry)."""
+    s = fu.Structure("cantilever plate")
+    for name in ("E_root", "E_mid", "E_tip"):
+        s.parameter(name, 7.0e10, (3.5e10, 1.4e11))
+
+    def nid(i, j):
+        return 1 + i + (nx + 1) * j
+
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            s.node(nid(i, j), (a * i / nx, b * j / ny + 0.02 * (i / nx) ** 2, 0.0))
+    for j in range(ny):
+        for i in range(nx):
+            zone = ("E_root", "E_mid", "E_tip")[min(2, 3 * i // nx)]
+            s.shell([nid(i, j), nid(i + 1, j), nid(i + 1, j + 1), nid(i, j + 1)], E=zone, nu=0.33, t=0.003,
+                    rho=2700.0)
+    s.support_node([nid(0, j) for j in range(ny + 1)])
+    return s.build()
+
+
+def test_plate_plan_tells_the_target_modes_apart_when_asked(tmp_path):
+    from femupdate.io.plan_uff import write_plan_uff
+
+    model = _plate()
+    loose = plan(model, n_modes=4, kind="triaxial", points=2, compare=False)
+    strict = plan(model, n_modes=4, kind="triaxial", points=2, compare=False, max_automac=0.8)
+    assert loose.score["identifiable"] and strict.score["identifiable"]
+    assert strict.automac_max <= 0.8 < loose.automac_max  # one node sees the modes alike; more sensors do not
+    assert len(strict.sensors) > len(loose.sensors)
+    info = write_plan_uff(tmp_path / "plate.uff", strict)
+    assert not info["placed"] and set(info["systems"].values()) == {"global"}  # triaxial: global axes

@@ -122,10 +122,10 @@ def targets_group():
 
 def placement_group():
     """The placement options -> ``placement``: :class:`~femupdate.options.PlacementOptions`."""
-    def build(criterion, n_sensors, triaxial, design, points, max_condition, std_eigenvalue, std_shape, monte_carlo,
-              exchange, restarts, seed):
+    def build(criterion, n_sensors, triaxial, design, points, max_condition, max_automac, std_eigenvalue, std_shape,
+              monte_carlo, exchange, restarts, seed):
         return PlacementOptions(criterion=criterion, n_sensors=n_sensors, kind="triaxial" if triaxial else "uniaxial",
-                                design=design, points=points, max_condition=max_condition,
+                                design=design, points=points, max_condition=max_condition, max_automac=max_automac,
                                 std_eigenvalue=std_eigenvalue, std_shape=std_shape, monte_carlo=monte_carlo,
                                 exchange=exchange, restarts=restarts, seed=seed)
 
@@ -146,6 +146,9 @@ def placement_group():
         click.option("--max-condition", type=FiniteFloat(min=1), default=1e6, show_default=True,
                      help="Largest condition number of the value-scaled sensitivity matrix counted as well "
                           "conditioned."),
+        click.option("--max-automac", type=FiniteFloat(0, 1, min_open=True), default=1.0, show_default=True,
+                     help="Largest off-diagonal auto-MAC of the target modes at the sensors of an identifiable plan "
+                          "(1: no requirement)."),
         click.option("--std-eigenvalue", type=FiniteFloat(min=0), default=0.002, show_default=True,
                      help="Relative standard deviation of the measured eigenvalues (twice the frequencies')."),
         click.option("--std-shape", type=FiniteFloat(min=0), default=0.01, show_default=True,

@@ -88,6 +88,9 @@ class PlacementOptions(Options):
     max_condition : float, default 1e6
         The largest condition number of the value-scaled sensitivity matrix counted as well
         conditioned.
+    max_automac : float, default 1.0
+        The largest off-diagonal auto-MAC of the target modes at the sensors of an identifiable
+        plan (modes that look alike at the sensors cannot be paired by MAC); 1: no requirement.
     std_eigenvalue : float, default 0.002
         Relative standard deviation of the measured eigenvalues (> 0; twice the frequencies').
     std_shape : float, default 0.01
@@ -108,6 +111,7 @@ class PlacementOptions(Options):
     design: str = "d"
     points: int = 10
     max_condition: float = 1e6
+    max_automac: float = 1.0
     std_eigenvalue: float = 0.002
     std_shape: float = 0.01
     monte_carlo: int = 0
@@ -124,6 +128,7 @@ class PlacementOptions(Options):
         self.set("n_sensors", count(self.n_sensors, "n_sensors", low=1, allow_none=True))
         self.set("points", count(self.points, "points", low=0))
         self.set("max_condition", number(self.max_condition, "max_condition", low=1.0))
+        self.set("max_automac", number(self.max_automac, "max_automac", low=0.0, high=1.0, low_open=True))
         for name in ("std_eigenvalue", "std_shape"):
             v = getattr(self, name)
             if isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0:

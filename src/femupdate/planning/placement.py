@@ -7,7 +7,9 @@ this order:
 
 1. the smallest rank over the points (full rank L everywhere: locally identifiable everywhere);
 2. whether every point is well conditioned (condition number of S at most ``max_condition``);
-3. the design criterion at the nominal point: D-optimal ``log det F`` or A-optimal
+3. at least two measured dofs, and (with ``max_automac``) the target modes told apart at the
+   sensors: the largest off-diagonal auto-MAC at the nominal point at most ``max_automac``;
+4. the design criterion at the nominal point: D-optimal ``log det F`` or A-optimal
    ``-trace F^-1`` (the sum of the relative variances); for a rank-deficient set the sum of the
    logarithms of its non-zero squared singular values instead (how far it has got).
 
@@ -28,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import InputError
-from .classical import _better, exchange_pass
+from .classical import _better, automac_max, exchange_pass
 from .fisher import Noise, SensitivityBank, design_value, rank_and_condition
 
 DESIGNS = ("d", "a")
@@ -52,6 +54,10 @@ class SetScore:
     max_condition : float
     n_dofs : int
         Measured dofs of the set.
+    automac_max : float
+        The largest off-diagonal auto-MAC of the target modes at the set's dofs (nominal point).
+    max_automac : float
+        The largest counted as telling the modes apart (1: no requirement).
     """
 
     ranks: tuple[int, ...]
@@ -60,6 +66,8 @@ class SetScore:
     n_parameters: int
     max_condition: float
     n_dofs: int
+    automac_max: float = 0.0
+    max_automac: float = 1.0
 
     @property
     def min_rank(self) -> int:
@@ -76,21 +84,28 @@ class SetScore:
         return self.full_rank and max(self.conditions) <= self.max_condition
 
     @property
+    def distinct_modes(self) -> bool:
+        """The largest off-diagonal auto-MAC is at most ``max_automac``."""
+        return self.automac_max <= self.max_automac + 1e-12
+
+    @property
     def identifiable(self) -> bool:
-        """Well conditioned everywhere, with at least two measured dofs (the paper's n > 1)."""
-        return self.well_conditioned and self.n_dofs > 1
+        """Well conditioned everywhere, with at least two measured dofs (the paper's n > 1) and the
+        target modes told apart as ``max_automac`` asks."""
+        return self.well_conditioned and self.n_dofs > 1 and self.distinct_modes
 
     def key(self) -> tuple:
-        return (self.min_rank, int(self.well_conditioned), int(self.n_dofs > 1), self.design)
+        return (self.min_rank, int(self.well_conditioned), int(self.n_dofs > 1), int(self.distinct_modes), self.design)
 
     def to_dict(self) -> dict:
         return {"ranks": list(self.ranks), "conditions": list(self.conditions), "design": self.design,
                 "min_rank": self.min_rank, "full_rank": self.full_rank, "well_conditioned": self.well_conditioned,
-                "identifiable": self.identifiable, "max_condition": self.max_condition}
+                "identifiable": self.identifiable, "max_condition": self.max_condition,
+                "automac_max": self.automac_max, "max_automac": self.max_automac}
 
 
 def score_set(banks: Sequence[SensitivityBank], rows: Sequence[int], noise: Noise, design: str = "d",
-              max_condition: float = 1e6) -> SetScore:
+              max_condition: float = 1e6, max_automac: float = 1.0) -> SetScore:
     """Ranks and conditions at every point, and the design criterion at the first (nominal).
 
     ``rows``: the measured dofs of the set, as positions among the banks' candidate dofs.
@@ -109,7 +124,9 @@ def score_set(banks: Sequence[SensitivityBank], rows: Sequence[int], noise: Nois
             else:
                 nz = s[s > max(S.shape) * np.finfo(float).eps * s[0]] if s.size and s[0] > 0 else s[:0]
                 value = float(np.sum(np.log(nz ** 2))) if nz.size else -math.inf
-    return SetScore(tuple(ranks), tuple(conds), value, banks[0].dlam.shape[1], max_condition, len(rows))
+    P = banks[0].phi[list(rows)]
+    return SetScore(tuple(ranks), tuple(conds), value, banks[0].dlam.shape[1], max_condition, len(rows),
+                    automac_max(P), max_automac)
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +161,7 @@ class IdentifiabilityPlacement:
 def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence[Sequence[int]],
                               n_sensors: int | None, noise: Noise, *, fixed: Sequence[int] = (), design: str = "d",
                               max_condition: float = 1e6, restarts: int = 0, seed: int = 0,
-                              max_passes: int = 50) -> IdentifiabilityPlacement:
+                              max_passes: int = 50, max_automac: float = 1.0) -> IdentifiabilityPlacement:
     """Greedy selection with exchange of the sensors that identify the parameters (module docstring).
 
     Parameters
@@ -166,6 +183,9 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     seed : int, default 0
     max_passes : int, default 50
         The most exchanges per start.
+    max_automac : float, default 1.0
+        The largest off-diagonal auto-MAC of the target modes at the sensors that tells them
+        apart (1: no requirement).
 
     Returns
     -------
@@ -187,7 +207,8 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
 
     def score(sel):
         count[0] += 1
-        return score_set(banks, [r for g in sorted(sel) for r in groups[g]], noise, design, max_condition)
+        return score_set(banks, [r for g in sorted(sel) for r in groups[g]], noise, design, max_condition,
+                         max_automac)
 
     def key(sel):
         return score(sel).key()

@@ -97,7 +97,7 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
     chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req)
     rows = cand.rows(chosen)
     dofs = [cand.dofs[r] for r in rows]
-    score = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition)
+    score = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
     std = predicted_std(banks[0], rows, noise)
     mac, mac_max = automac(banks[0], rows)
     nominal = dict(zip(names, banks[0].parameter_values.tolist()))
@@ -128,7 +128,7 @@ def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_re
     if criterion == "identifiability":
         ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
                                           max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
-                                          max_passes=50 if p_opt.exchange else 0)
+                                          max_passes=50 if p_opt.exchange else 0, max_automac=p_opt.max_automac)
         return ident.chosen, ident.greedy, ident.swaps
     b = banks[0]
     m = b.phi.shape[1]
@@ -165,7 +165,7 @@ def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
     except InputError as exc:
         return {"error": str(exc)}
     rows = cand.rows(chosen)
-    sc = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition)
+    sc = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
     std = predicted_std(banks[0], rows, noise)
     rel = std / np.abs(banks[0].parameter_values)
     out = {"sensors": [list(cand.sensors[i]) for i in chosen], "identifiable": sc.identifiable,

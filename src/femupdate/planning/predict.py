@@ -127,6 +127,9 @@ def uniqueness_verdict(model, params: Sequence[str], dofs: Sequence[str], n_mode
     if verdict in ("unique", "locally identifiable") and not score.well_conditioned:
         worst = max(score.conditions)
         text += f"; ill-conditioned (condition {worst:.3g} > {score.max_condition:.3g})"
+    if not score.distinct_modes:
+        text += (f"; the target modes look alike at the sensors (auto-MAC up to {score.automac_max:.3f} > "
+                 f"{score.max_automac:g})")
     return {"verdict": verdict, "explanation": text, "criteria": crit,
             "counting_lower_bound": {"formula": "mn >= L and n > 1", "n_min": lower},
             "layout_rank_bound": bound, "rank": r, "ranks": list(score.ranks)}
