@@ -23,7 +23,8 @@ register(Kind(
          (OBJECT,)),
      Key("design", "string", "`d` (log det F) or `a` (trace of F⁻¹)", (STRING,)),
      Key("score", "object", "the plan at the nominal point and the random points: `ranks`, `conditions` (null: "
-         "infinite), `design`, `min_rank`, `full_rank`, `well_conditioned`, `identifiable`, `max_condition`",
+         "infinite), `design`, `min_rank`, `full_rank`, `well_conditioned`, `identifiable`, `max_condition`, `automac_max`, "
+         "`max_automac`",
          (OBJECT,), True),
      Key("greedy", "list of lists", "the greedy (or eliminated) set before the exchanges", (ARRAY,)),
      Key("swaps", "integer", "exchanges that improved it", (INTEGER,)),
