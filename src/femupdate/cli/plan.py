@@ -123,11 +123,11 @@ def targets_group():
 def placement_group():
     """The placement options -> ``placement``: :class:`~femupdate.options.PlacementOptions`."""
     def build(criterion, n_sensors, triaxial, design, points, max_condition, max_automac, std_eigenvalue, std_shape,
-              monte_carlo, exchange, restarts, seed):
+              monte_carlo, exchange, restarts, seed, exhaustive_limit):
         return PlacementOptions(criterion=criterion, n_sensors=n_sensors, kind="triaxial" if triaxial else "uniaxial",
                                 design=design, points=points, max_condition=max_condition, max_automac=max_automac,
                                 std_eigenvalue=std_eigenvalue, std_shape=std_shape, monte_carlo=monte_carlo,
-                                exchange=exchange, restarts=restarts, seed=seed)
+                                exchange=exchange, restarts=restarts, seed=seed, exhaustive_limit=exhaustive_limit)
 
     return option_group(
         "Placement", "placement", build,
@@ -161,6 +161,9 @@ def placement_group():
                      help="Random starting sets of the exchange."),
         click.option("--seed", type=SEED, default=0, show_default=True,
                      help="Seed of the box's points, the restarts and the Monte Carlo noise."),
+        click.option("--exhaustive-limit", type=click.IntRange(min=0), default=0, show_default=True,
+                     help="With --sensors: score every candidate set when there are at most this many (the exact "
+                          "optimum) instead of greedy selection and exchange."),
     )
 
 

@@ -103,6 +103,9 @@ class PlacementOptions(Options):
         Random starting sets of the exchange besides the greedy one.
     seed : int, default 0
         Seed of the box's points, the restarts and the Monte Carlo noise.
+    exhaustive_limit : int, default 0
+        ``"identifiability"`` with ``n_sensors``: up to this many candidate sets, score every one
+        (the exact optimum) instead of greedy selection and exchange.
     """
 
     criterion: str = "identifiability"
@@ -118,6 +121,7 @@ class PlacementOptions(Options):
     exchange: bool = True
     restarts: int = 0
     seed: int = 0
+    exhaustive_limit: int = 0
 
     main: ClassVar[str | None] = "criterion"
 
@@ -142,6 +146,7 @@ class PlacementOptions(Options):
         self.set("exchange", flag(self.exchange, "exchange"))
         self.set("restarts", count(self.restarts, "restarts", low=0))
         self.set("seed", count(self.seed, "seed", low=0))
+        self.set("exhaustive_limit", count(self.exhaustive_limit, "exhaustive_limit", low=0))
 
 
 __all__ = ["TargetOptions", "PlacementOptions", "TARGET_METHODS", "PLACEMENT_CRITERIA", "DESIGN_CRITERIA",

@@ -15,7 +15,9 @@ this order:
 
 Greedy: from the fixed sensors add, one at a time, the candidate that gives the best set; then
 exchange (swap a chosen sensor for an unchosen one while that improves the set); ``restarts``
-random sets are exchanged as well and the best kept.  With ``n_sensors=None`` the plan grows
+random sets are exchanged as well and the best kept.  The exchange ends at a set no single swap
+improves, which need not be the best set; with ``exhaustive_limit`` small problems (at most that
+many sets) are solved exactly by scoring every set.  With ``n_sensors=None`` the plan grows
 until it is identifiable and well conditioned at every point (the smallest identifiable plan the
 greedy search finds) — with at least two measured dofs, the paper's n > 1: one sensor's
 frequencies can be full rank and still have several solutions.
@@ -23,6 +25,7 @@ frequencies can be full rank and still have several solutions.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -161,7 +164,8 @@ class IdentifiabilityPlacement:
 def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence[Sequence[int]],
                               n_sensors: int | None, noise: Noise, *, fixed: Sequence[int] = (), design: str = "d",
                               max_condition: float = 1e6, restarts: int = 0, seed: int = 0,
-                              max_passes: int = 50, max_automac: float = 1.0) -> IdentifiabilityPlacement:
+                              max_passes: int = 50, max_automac: float = 1.0,
+                              exhaustive_limit: int = 0) -> IdentifiabilityPlacement:
     """Greedy selection with exchange of the sensors that identify the parameters (module docstring).
 
     Parameters
@@ -186,6 +190,9 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     max_automac : float, default 1.0
         The largest off-diagonal auto-MAC of the target modes at the sensors that tells them
         apart (1: no requirement).
+    exhaustive_limit : int, default 0
+        With ``n_sensors`` given and at most this many sets of the free sensors, every set is
+        scored and the best kept (the exact optimum; ``greedy`` is then that set, ``swaps`` 0).
 
     Returns
     -------
@@ -213,6 +220,16 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     def key(sel):
         return score(sel).key()
 
+    free = [h for h in range(n_c) if h not in fixed]
+    if n_sensors is not None and 0 < math.comb(len(free), n_sensors - len(fixed)) <= exhaustive_limit:
+        sets = [sorted(list(fixed) + list(c)) for c in itertools.combinations(free, n_sensors - len(fixed))]
+        best_set, best_key = sets[0], key(sets[0])
+        for sel in sets[1:]:
+            k = key(sel)
+            if _better(k, best_key):
+                best_set, best_key = sel, k
+        chosen = tuple(best_set)
+        return IdentifiabilityPlacement(chosen, chosen, score(chosen), 0, count[0], design)
     cur = list(fixed)
     target = n_c if n_sensors is None else n_sensors
     while len(cur) < target:
@@ -233,7 +250,6 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     best, swaps = exchange_pass(cur, n_c, fixed, key, max_passes)
     best_key = key(best)
     rng = np.random.default_rng(seed)
-    free = [h for h in range(n_c) if h not in fixed]
     for _ in range(int(restarts)):
         start = list(fixed) + [int(h) for h in rng.choice(free, size=len(best) - len(fixed), replace=False)]
         cand, s = exchange_pass(start, n_c, fixed, key, max_passes)

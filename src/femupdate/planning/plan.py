@@ -128,7 +128,8 @@ def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_re
     if criterion == "identifiability":
         ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
                                           max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
-                                          max_passes=50 if p_opt.exchange else 0, max_automac=p_opt.max_automac)
+                                          max_passes=50 if p_opt.exchange else 0, max_automac=p_opt.max_automac,
+                                          exhaustive_limit=p_opt.exhaustive_limit)
         return ident.chosen, ident.greedy, ident.swaps
     b = banks[0]
     m = b.phi.shape[1]
