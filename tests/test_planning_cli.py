@@ -108,3 +108,5 @@ def test_plan_command_bad_input(chain_file, capsys):
     assert code == 2 and "--box: parameter k1 has lower 2000 >= upper 100" in err
     code, _, err = run(["plan", str(chain_file), "--std-shape", "0"], capsys)
     assert code == 2 and "--std-shape must be > 0" in err
+    code, _, err = run(["plan", str(chain_file), "--std-eigenvalue", "5e-324"], capsys)
+    assert code == 2 and "--std-eigenvalue must be a finite number >= 1e-100" in err

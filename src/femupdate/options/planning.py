@@ -92,9 +92,9 @@ class PlacementOptions(Options):
         The largest off-diagonal auto-MAC of the target modes at the sensors of an identifiable
         plan (modes that look alike at the sensors cannot be paired by MAC); 1: no requirement.
     std_eigenvalue : float, default 0.002
-        Relative standard deviation of the measured eigenvalues (> 0; twice the frequencies').
+        Relative standard deviation of the measured eigenvalues (>= 1e-100; twice the frequencies').
     std_shape : float, default 0.01
-        Standard deviation of the unit-scaled shape entries (> 0).
+        Standard deviation of the unit-scaled shape entries (>= 1e-100).
     monte_carlo : int, default 0
         Noisy updates that check the predicted standard deviations (0: none; else at least 2).
     exchange : bool, default True
@@ -138,7 +138,7 @@ class PlacementOptions(Options):
             if isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0:
                 raise InputError(f"{name} must be > 0: with zero noise the information is infinite and nothing "
                                  "tells plans apart")
-            self.set(name, number(v, name, low=0.0, low_open=True))
+            self.set(name, number(v, name, low=1e-100))  # 1/std² stays finite
         mc = count(self.monte_carlo, "monte_carlo", low=0)
         if mc == 1:
             raise InputError("monte_carlo must be 0 or at least 2 (a standard deviation needs two runs), got 1")
