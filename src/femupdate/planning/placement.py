@@ -232,6 +232,8 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
         return IdentifiabilityPlacement(chosen, chosen, score(chosen), 0, count[0], design)
     cur = list(fixed)
     target = n_c if n_sensors is None else n_sensors
+    if n_sensors is None and cur and score(cur).identifiable:  # the fixed sensors suffice
+        target = len(cur)
     while len(cur) < target:
         best_h, best_k = None, None
         for h in range(n_c):
