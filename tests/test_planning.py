@@ -277,3 +277,10 @@ def test_design_criteria_exchange_against_every_set():
             greedy = identifiability_placement(banks, groups, 3, Noise(), design=design)
             assert exact.score.identifiable and exact.score.design == best
             assert greedy.score.identifiable and greedy.score.design <= best
+
+
+def test_fixed_sensors_are_kept_and_completed_only_as_needed():
+    model = six_dof_model()
+    assert plan(model, n_modes=3, fixed=["1:x", "5:x"], points=2, compare=False).dofs == ["1:x", "5:x"]
+    res = plan(model, n_modes=3, fixed=["1:x", "2:x"], points=2, compare=False)  # rank 5 alone (layout bound)
+    assert res.dofs[:2] == ["1:x", "2:x"] and len(res.dofs) == 3 and res.verdict == "unique"
