@@ -43,6 +43,9 @@ def _results(ex):
     yield from _damage_results(ex)
     yield from _posterior_results(two)
     yield _Summary(ex / "truss.toml")
+    from femupdate.planning import plan
+
+    yield plan(two, n_modes=2, points=2, monte_carlo=3)
     from femupdate.paper import run_sections
 
     yield run_sections(ex / "paper", ["two_dof_characteristic"], figures=False, jobs=1)

@@ -16,6 +16,7 @@ from .frf import frf_command, frf_select_command, surface_command
 from .frf_update import frf_update_command
 from .modes import correlate, modes
 from .paper import paper
+from .plan import plan
 from .posterior import posterior
 from .reduce import reduce
 from .summary import summary
@@ -71,6 +72,6 @@ def _say_replaced(files) -> None:
 for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness, convert_data, report, summary):
+                 reduce, uniqueness, plan, convert_data, report, summary):
     cli.add_command(_command)
 del _command

@@ -35,3 +35,8 @@ __all__ = ["Options", "UpdateOptions", "PairingOptions", "ModalOptions", "NoiseO
            "LSQ_METHODS", "REGULARIZATION_RULES", "FRF_RESIDUALS", "RESONANCE_POLICIES", "FRF_SOLVERS", "DATA_KINDS",
            "STD_KEYS", "NOISE_BASES", "SAMPLER_METHODS", "LIKELIHOOD_ROUTES"]
 __all__ += ["SelectionOptions", "SELECTION_EQUATIONS"]
+from .planning import (DESIGN_CRITERIA, PLACEMENT_CRITERIA, SENSOR_KINDS, TARGET_METHODS, PlacementOptions,
+                       TargetOptions)
+
+__all__ += ["TargetOptions", "PlacementOptions", "TARGET_METHODS", "PLACEMENT_CRITERIA", "DESIGN_CRITERIA",
+            "SENSOR_KINDS"]

@@ -81,6 +81,7 @@ MODULES += ("femupdate.schema.frf", "femupdate.schema.uniqueness")
 MODULES += ("femupdate.schema.modes", "femupdate.schema.direct", "femupdate.schema.reduction")
 MODULES += ("femupdate.schema.damage", "femupdate.schema.posterior")
 MODULES += ("femupdate.schema.summary",)
+MODULES += ("femupdate.schema.plan",)
 
 
 def register(kind: Kind) -> Kind:

@@ -1,0 +1,189 @@
+"""One entry point: :func:`plan`, a sensor plan for a model and the parameters to update."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from .._errors import InputError
+from ..dofs import parse_dof
+from ..modal import model_modes
+from ..options import PlacementOptions, TargetOptions, gather
+from .candidates import Candidates, candidates as make_candidates
+from .classical import classical_placement
+from .fisher import Noise, SensitivityBank, parameter_points, rank_and_condition
+from .placement import identifiability_placement, score_set
+from .predict import automac, monte_carlo, predicted_std, uniqueness_verdict
+from .result import PlanResult
+from .targets import target_modes
+
+COMPARED = ("identifiability", "efi", "kinetic")
+
+
+def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str] | None = None,
+         fixed: Sequence[str] = (), box: Mapping[str, tuple[float, float]] | None = None,
+         targets: TargetOptions | None = None, placement: PlacementOptions | None = None, values=None,
+         compare: bool = True, **shorthand) -> PlanResult:
+    """A test plan: target modes, sensors, and what they promise for the parameters.
+
+    Parameters
+    ----------
+    model : Model
+    params : sequence of str, optional
+        The parameters the test is to identify (default: every parameter not fixed).
+    candidates : sequence of str, optional
+        Candidate dofs (uniaxial) or nodes (triaxial); default every translational dof (node).
+    fixed : sequence of str
+        Sensors always in the plan (dofs or nodes, as ``candidates``).
+    box : mapping of str to (float, float), optional
+        The parameter box of the random points (default the model's bounds, else ±50 %).
+    targets : TargetOptions, optional
+        The target modes (:class:`~femupdate.options.TargetOptions`; default the lowest 3).
+    placement : PlacementOptions, optional
+        The criterion, number and kind of sensors, noise, points, Monte Carlo
+        (:class:`~femupdate.options.PlacementOptions`).
+    values : optional
+        Parameter values of the nominal model (default the model's).
+    compare : bool, default True
+        Also place the same number of sensors by the other criteria of :data:`COMPARED` and score them.
+    **shorthand
+        Fields of the option objects as keywords (``n_sensors=4``, ``criterion="efi"``, ``n_modes=3``).
+
+    Returns
+    -------
+    PlanResult
+
+    Raises
+    ------
+    InputError
+        Unknown parameters or candidate dofs (named); more sensors asked than candidates; a
+        parameter box with lower >= upper; zero noise; bad options.
+    NumericalError
+        An eigen-solution or sensitivity fails at a point of the box.
+    """
+    o = gather("plan", shorthand, targets=(TargetOptions, targets), placement=(PlacementOptions, placement))
+    t_opt: TargetOptions = o["targets"]
+    p_opt: PlacementOptions = o["placement"]
+    if values is not None:
+        model = model.with_values(values)
+    names = list(params) if params is not None else [p.name for p in model.parameters if not p.fixed]
+    model.parameter_indices(names, "params")
+    if not names:
+        raise InputError("params: no parameter to identify (every parameter is fixed)")
+    cand = make_candidates(model, candidates, p_opt.kind, fixed)
+    n_req = p_opt.n_sensors
+    if n_req is not None and n_req > len(cand.sensors):
+        raise InputError(f"sensors: {n_req} asked, but there are only {len(cand.sensors)} candidate "
+                         f"{p_opt.kind} sensors")
+    if n_req is not None and n_req < len(cand.fixed):
+        raise InputError(f"sensors: {n_req} asked, fewer than the {len(cand.fixed)} fixed sensors")
+    n_lowest = t_opt.n_modes if t_opt.n_modes is not None else (3 if t_opt.method == "lowest" and t_opt.band_hz is None
+                                                                else None)
+    n_solve = min(model.n_dofs, max(20, 2 * (n_lowest or 10)))
+    modes = model_modes(model, n_modes=n_solve)
+    if t_opt.method == "lowest" and n_lowest is None:  # a band without a count: every mode in it
+        n_lowest = int(np.sum((modes.frequencies_hz >= t_opt.band_hz[0]) & (modes.frequencies_hz <= t_opt.band_hz[1])))  # type: ignore[index]
+    target = target_modes(model, modes, method=t_opt.method, n_modes=n_lowest, band_hz=t_opt.band_hz,
+                          direction=t_opt.direction, min_fraction=t_opt.min_fraction, candidate_dofs=cand.dofs)
+    noise = Noise(p_opt.std_eigenvalue, p_opt.std_shape)
+    points, the_box = parameter_points(model, names, p_opt.points, box, p_opt.seed)
+    banks = [SensitivityBank(model, cand.dofs, target.indices, names, points[0])]
+    banks += [SensitivityBank(model, cand.dofs, target.indices, names, p, reference=banks[0].shapes_full)
+              for p in points[1:]]
+    groups = [cand.rows([i]) for i in range(len(cand.sensors))]
+    if p_opt.criterion == "identifiability":
+        _identifiable_at_all(banks[0], names, len(cand.dofs), len(target.indices))
+    chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req)
+    rows = cand.rows(chosen)
+    dofs = [cand.dofs[r] for r in rows]
+    score = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
+    std = predicted_std(banks[0], rows, noise)
+    mac, mac_max = automac(banks[0], rows)
+    nominal = dict(zip(names, banks[0].parameter_values.tolist()))
+    comparison = {}
+    if compare:
+        for crit in COMPARED:
+            if crit != p_opt.criterion:
+                comparison[crit] = _compared(crit, p_opt, model, cand, banks, groups, noise, len(chosen))
+    mc = None
+    if p_opt.monte_carlo >= 2 and score.ranks[0] == len(names):
+        mc = monte_carlo(model, names, dofs, banks[0], noise, p_opt.monte_carlo, p_opt.seed)
+    nodes = {str(parse_dof(s[0])[0]): _xyz(model, parse_dof(s[0])[0]) for s in cand.sensors}
+    return PlanResult(
+        model=model.name, criterion=p_opt.criterion, sensor_kind=p_opt.kind,
+        sensors=[list(cand.sensors[i]) for i in chosen], dofs=dofs, fixed=[list(cand.sensors[i]) for i in cand.fixed],
+        target=target.to_dict(), parameters=names, nominal=nominal, box={k: list(v) for k, v in the_box.items()},
+        noise={"eigenvalue": noise.eigenvalue, "shape": noise.shape}, design=p_opt.design, score=score.to_dict(),
+        greedy=[list(cand.sensors[i]) for i in greedy], swaps=swaps,
+        predicted_std=dict(zip(names, std.tolist())),
+        relative_std={n: s / abs(v) if v else s for (n, v), s in zip(nominal.items(), std.tolist())},
+        automac=mac, automac_max=mac_max, uniqueness=uniqueness_verdict(model, names, dofs, len(target.indices), score),
+        comparison=comparison, monte_carlo=mc, nodes={k: v for k, v in nodes.items() if v is not None},
+        options={"targets": t_opt.to_dict(), "placement": p_opt.to_dict()})
+
+
+def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_req):
+    """(chosen, greedy or eliminated set, swaps) of one criterion."""
+    if criterion == "identifiability":
+        ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
+                                          max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
+                                          max_passes=50 if p_opt.exchange else 0, max_automac=p_opt.max_automac,
+                                          exhaustive_limit=p_opt.exhaustive_limit)
+        return ident.chosen, ident.greedy, ident.swaps
+    b = banks[0]
+    m = b.phi.shape[1]
+    n = n_req if n_req is not None else max(m, len(cand.fixed))
+    if n > len(groups):
+        raise InputError(f"sensors: {n} needed for {m} target modes, but there are only {len(groups)} candidate "
+                         "sensors")
+    rows = model.dof_index(list(cand.dofs), "candidates")
+    energy = b.phi * (model.M(b.values) @ b.shapes_full)[rows]
+    res = classical_placement(b.phi, groups, n, criterion, fixed=cand.fixed, eigenvalues=b.eigenvalues,
+                              energy=energy, exchange=p_opt.exchange)
+    return res.chosen, res.eliminated, res.swaps
+
+
+def _identifiable_at_all(bank, names, n_rows: int, n_modes: int) -> None:
+    """Refuse a problem no sensor set solves: with every candidate measured, S is still
+    rank-deficient at the nominal point; the parameters of its null space are named."""
+    S = bank.matrix(range(n_rows), normalised=True)
+    rank, _, _ = rank_and_condition(S)
+    if rank == len(names):
+        return
+    _, s, Vt = np.linalg.svd(S)
+    null = Vt[rank:]
+    weight = np.sqrt(np.sum(null ** 2, axis=0))
+    involved = [n for n, w in zip(names, weight) if w > 1e-3]
+    raise InputError(f"params: no sensor set identifies {', '.join(involved)} from these {n_modes} target mode(s): "
+                     f"with every candidate measured the data determine only {rank} of the {len(names)} parameters' "
+                     "combinations; add target modes or candidates, or fix some of them")
+
+
+def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
+    try:
+        chosen, _, _ = _place(crit, p_opt, model, cand, banks, groups, noise, n)
+    except InputError as exc:
+        return {"error": str(exc)}
+    rows = cand.rows(chosen)
+    sc = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
+    std = predicted_std(banks[0], rows, noise)
+    rel = std / np.abs(banks[0].parameter_values)
+    out = {"sensors": [list(cand.sensors[i]) for i in chosen], "identifiable": sc.identifiable,
+           "rank": sc.ranks[0], "condition": sc.conditions[0], "mean_relative_std": float(np.mean(rel))}
+    if p_opt.monte_carlo >= 2 and sc.ranks[0] == len(banks[0].parameter_values):  # the same noisy tests, this plan
+        mc = monte_carlo(model, list(banks[0].parameter_names), [cand.dofs[r] for r in rows], banks[0], noise,
+                         p_opt.monte_carlo, p_opt.seed)
+        out["monte_carlo"] = {"runs": mc["runs"], "converged": mc["converged"],
+                              "rms_relative_error": mc["rms_relative_error"]}
+    return out
+
+
+def _xyz(model, node):
+    for key in (node, str(node)):
+        if key in model.nodes:
+            return [float(v) for v in model.nodes[key]]
+    return None
+
+
+__all__ = ["plan", "COMPARED"]

@@ -1,0 +1,112 @@
+"""``femupdate plan``: the command, its JSON, and the universal file re-read with pyuff."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import pyuff
+
+from femupdate.cli import main
+from femupdate.examples import portal_frame
+from femupdate.io.plan_uff import write_plan_uff
+from femupdate.io.uff.systems import read_2420
+from femupdate.planning import PlanResult, plan
+from femupdate import schema
+
+CHAIN = """
+[model]
+name = "three-dof chain"
+""" + "".join(f"""
+[parameters.k{i}]
+value = {v}
+bounds = [{v / 4}, {v * 4}]
+""" for i, v in ((1, 1000.0), (2, 1800.0), (3, 1500.0))) + "".join(f"""
+[[element]]
+type = "spring"
+dofs = [{'"1:x"' if i == 1 else f'"{i - 1}:x", "{i}:x"'}]
+k = "k{i}"
+
+[[element]]
+type = "mass"
+dofs = ["{i}:x"]
+m = {m}
+""" for i, m in ((1, 1.0), (2, 1.2), (3, 0.8)))
+
+
+def run(args, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+@pytest.fixture
+def chain_file(tmp_path):
+    p = tmp_path / "chain.toml"
+    p.write_text(CHAIN)
+    return p
+
+
+def test_plan_command_writes_json_and_universal_file(chain_file, tmp_path, capsys):
+    out_json, out_uff = tmp_path / "plan.json", tmp_path / "plan.uff"
+    code, out, err = run(["plan", str(chain_file), "--modes", "2", "--points", "3", "--json", str(out_json),
+                          "--uff", str(out_uff)], capsys)
+    assert code == 0, err
+    assert "expected verdict: unique" in out
+    obj = json.loads(out_json.read_text())
+    schema.check(obj, "plan")
+    assert obj["kind"] == "plan" and obj["uniqueness"]["layout_rank_bound"] == 3
+    assert len(obj["dofs"]) == 2  # m n >= 3 with n > 1: two sensors for two modes
+    res = PlanResult.from_json(out_json)
+    assert res.sensors == obj["sensors"]
+    sets = pyuff.UFF(str(out_uff)).read_sets()
+    assert [d["type"] for d in sets] == [164, 2420, 15, 82]
+    nodes = [int(d.split(":")[0]) for d in obj["dofs"]]
+    assert [int(v) for v in sets[2]["node_nums"]] == nodes
+    assert [int(v) for v in sets[3]["nodes"]] == nodes
+
+
+def test_universal_file_carries_the_sensor_directions(tmp_path):
+    model = portal_frame()
+    res = plan(model, n_modes=4, n_sensors=3, points=2, compare=False)
+    path = tmp_path / "frame.uff"
+    write_plan_uff(path, res)
+    sets = pyuff.UFF(str(path)).read_sets()
+    ds2420, ds15 = sets[1], sets[2]
+    systems: dict = {}
+    read_2420(ds2420, "frame.uff", systems)  # femupdate's own reader accepts the systems
+    for (node, direction), x, y in zip([d.split(":") for d in res.dofs], ds15["x"], ds15["y"]):
+        assert [x, y, 0.0] == pytest.approx(res.nodes[node])
+        axis = systems[int(node)].R[0]  # local +x in global axes: the measuring direction
+        assert axis == pytest.approx(np.eye(3)["xyz".index(direction)])
+    assert [int(v) for v in ds15["disp_cs"]] == [int(d.split(":")[0]) for d in res.dofs]
+
+
+def test_candidates_from_a_file_and_fixed_sensors(chain_file, tmp_path, capsys):
+    cands = tmp_path / "cands.txt"
+    cands.write_text("# where accelerometers fit\n2:x\n3:x  # the tip\n")
+    out_json = tmp_path / "p.json"
+    code, out, err = run(["plan", str(chain_file), "--modes", "3", "--candidates-file", str(cands), "--fixed", "1:x",
+                          "--points", "2", "--json", str(out_json)], capsys)
+    assert code == 0, err
+    obj = json.loads(out_json.read_text())
+    assert obj["fixed"] == [["1:x"]] and ["1:x"] in obj["sensors"]
+    assert {d for s in obj["sensors"] for d in s} <= {"1:x", "2:x", "3:x"}
+    cands.write_text("2:x\n4:x\n")
+    code, _, err = run(["plan", str(chain_file), "--candidates-file", str(cands)], capsys)
+    assert code == 2 and "--candidates-file: unknown candidate dof(s) 4:x" in err
+
+
+def test_plan_command_bad_input(chain_file, capsys):
+    code, _, err = run(["plan", str(chain_file), "--sensors", "4"], capsys)
+    assert code == 2 and "--sensors: 4 asked, but there are only 3 candidate" in err and "Traceback" not in err
+    code, _, err = run(["plan", str(chain_file), "--candidates", "1:x,7:x"], capsys)
+    assert code == 2 and "--candidates: unknown candidate dof(s) 7:x" in err
+    code, _, err = run(["plan", str(chain_file), "--box", "k1=2000:100"], capsys)
+    assert code == 2 and "--box: parameter k1 has lower 2000 >= upper 100" in err
+    code, _, err = run(["plan", str(chain_file), "--std-shape", "0"], capsys)
+    assert code == 2 and "--std-shape must be > 0" in err
+    code, _, err = run(["plan", str(chain_file), "--std-eigenvalue", "5e-324"], capsys)
+    assert code == 2 and "--std-eigenvalue must be a finite number >= 1e-100" in err
