@@ -302,7 +302,7 @@ def model_segments(model_path):
 
     path = Path(model_path)
     raw = read_toml(path)
-    if {"matrices", "abaqus", "nastran"} & set(raw):
+    if {"matrices", "abaqus", "nastran", "ansys"} & set(raw):
         return None
     segs = structure_segments(Structure.from_dict(raw, source=str(path)))
     return segs if len(segs) else None
