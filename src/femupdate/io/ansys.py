@@ -49,17 +49,18 @@ def _reader():
     return FullFile
 
 
-def _records(p: Path, count: int) -> list[np.ndarray]:
+def _records(p: Path, count: int, what: str = "full") -> list[np.ndarray]:
     """The first ``count`` records of an ANSYS binary file: each ``[n][flags] n words [pad]``."""
     out = []
+    bad = f"{what}: {p}: its headers do not read (a file cut short, or not an ANSYS .full file)"
     with open(p, "rb") as fh:
         for _ in range(count):
             head = np.fromfile(fh, "<i4", 2)
-            if head.size < 2 or head[0] < 0:
-                raise InputError(f"{p}: ends inside its headers: not a whole .full file")
+            if head.size < 2 or not 0 < head[0] <= 4096:
+                raise InputError(bad)
             words = np.fromfile(fh, "<i4", int(head[0]))
             if words.size < head[0] or np.fromfile(fh, "<i4", 1).size < 1:
-                raise InputError(f"{p}: ends inside its headers: not a whole .full file")
+                raise InputError(bad)
             out.append(words)
     return out
 
@@ -109,7 +110,7 @@ def read_full(path, what: str = "full") -> FullMatrices:
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{what}: ANSYS .full file {p} not found" + (" (it is a folder)" if p.is_dir() else ""))
-    types = _records(p, 3)[2]
+    types = _records(p, 3, what)[2]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
