@@ -27,7 +27,7 @@ from .results import atomic_write_text
 _MATRIX_KEYS = ("dofs", "K0", "M0")
 #: keys of an ``[abaqus]`` and a ``[nastran]`` table that name files
 _ABAQUS_KEYS = ("stiffness", "mass", "deck")
-_NASTRAN_KEYS = ("op4", "op2", "dmig")
+_NASTRAN_KEYS = ("op4", "op2", "dmig", "deck")
 _ANSYS_KEYS = ("full", "deck")
 #: keys of a ``[mesh]`` table that name files
 _MESH_KEYS = ("file",)

@@ -158,7 +158,7 @@ def nastran_model(table, parameters, path: Path, name: str):
 
     src = f"{path}: [nastran]"
     base = path.parent
-    allowed = {"op4", "op2", "set", "dmig", "K", "M"}
+    allowed = {"op4", "op2", "set", "dmig", "K", "M", "deck"}  # deck: only where updated values are written
     if set(table) - allowed:
         raise InputError(f"{src}: unknown key(s) {', '.join(sorted(set(table) - allowed))} (allowed: "
                          f"{', '.join(sorted(allowed))})")
