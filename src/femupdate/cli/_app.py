@@ -21,6 +21,7 @@ from .reduce import reduce
 from .report import report
 from .uniqueness import uniqueness
 from .update import update
+from .write_back import write_back_command
 
 __all__ = ["cli"]
 
@@ -70,6 +71,6 @@ def _say_replaced(files) -> None:
 for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness, convert_data, report):
+                 reduce, uniqueness, convert_data, report, write_back_command):
     cli.add_command(_command)
 del _command

@@ -370,4 +370,32 @@ def write_back(model_path, values: Mapping[str, float], out_dir) -> list[Path]:
     return written
 
 
-__all__ = ["Edit", "plan", "write_back", "NASTRAN_FIELDS", "ABAQUS_KEYWORDS"]
+
+
+def result_values(result) -> dict[str, float]:
+    """The values an update result identified: its ``parameters`` of its ``updated`` (``update``,
+    ``frf-update``; ``unknowns`` of ``direct``), from a result object, a JSON result (dict) or the
+    path of one (``--json``).
+
+    Raises
+    ------
+    InputError
+        Not a result with ``parameters``; a run that did not succeed.
+    """
+    from ..serialise import _read, check_version
+
+    obj = result.to_json() if hasattr(result, "to_json") else _read(result)
+    check_version(obj)
+    where = str(result) if isinstance(result, (str, Path)) else "the result"
+    params = obj.get("parameters")
+    if not isinstance(params, Mapping) or not params:
+        raise InputError(f"{where}: no parameters (write-back reads the JSON of update, frf-update or direct)")
+    if obj.get("success") is False:
+        raise InputError(f"{where}: the run did not succeed: nothing to write back")
+    names = obj.get("updated") or obj.get("unknowns") or list(params)
+    if not isinstance(names, list) or not all(isinstance(n, str) and n in params for n in names):
+        raise InputError(f"{where}: its updated parameters {names!r} are not all in its parameters")
+    return {n: float(params[n]) for n in names}
+
+
+__all__ = ["Edit", "plan", "write_back", "result_values", "NASTRAN_FIELDS", "ABAQUS_KEYWORDS"]
