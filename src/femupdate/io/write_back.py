@@ -6,8 +6,9 @@ Each parameter maps to one field of one card, keyword or command:
 * **explicitly**, by a ``card`` key in its ``[parameters.NAME]`` table:
 
   - Nastran ``"MAT1 3 E"`` (card, id, field): ``MAT1`` ``E G NU RHO``, ``PSHELL`` ``T NSM``,
-    ``PBAR`` ``A I1 I2 J NSM``, ``PROD`` ``A J``; the card is re-written in large-field format
-    (16 columns: eleven significant digits) in a copy of the deck;
+    ``PBAR`` ``A I1 I2 J NSM``, ``PROD`` ``A J``, ``PELAS`` ``K GE`` (its first property); the
+    card is re-written in large-field format (16 columns: eleven significant digits) in a copy
+    of the deck; a ``MAT1`` with both G and NU gets G = E / 2(1 + NU) with a new E;
   - ANSYS ``"MP,EX,3"`` (a material property: ``EX``, ``DENS``, ``NUXY``, ...) or ``"R,2,1"``
     (real constant set 2, its first value): commands ``MP,EX,3,<value>`` and
     ``RMODIF,2,1,<value>`` in a macro, to run after the model is read (``/INPUT``);
@@ -39,7 +40,8 @@ from .results import atomic_write_text
 
 #: the fields of the Nastran cards a value can be written into (their positions after the id)
 NASTRAN_FIELDS = {"MAT1": {"E": 1, "G": 2, "NU": 3, "RHO": 4}, "PSHELL": {"T": 2, "NSM": 7},
-                  "PBAR": {"A": 2, "I1": 3, "I2": 4, "J": 5, "NSM": 6}, "PROD": {"A": 2, "J": 3}}
+                  "PBAR": {"A": 2, "I1": 3, "I2": 4, "J": 5, "NSM": 6}, "PROD": {"A": 2, "J": 3},
+                  "PELAS": {"K": 1, "GE": 2}}
 ABAQUS_KEYWORDS = ("ELASTIC", "DENSITY", "SHELL SECTION", "PARAMETER")
 _NASTRAN_SUFFIXES = {".bdf", ".dat", ".nas", ".blk", ".bulk"}
 
@@ -81,7 +83,7 @@ def _parse_card(text, pname: str, where: str) -> tuple[str, str, str, str]:
                              f"{', '.join(NASTRAN_FIELDS[parts[0]])}")
         return "nastran", parts[0], parts[1], parts[2]
     raise InputError(f"{where}: card {text!r} is not one femupdate writes: Nastran \"MAT1 3 E\" (MAT1, PSHELL, PBAR, "
-                     "PROD), ANSYS \"MP,EX,3\" or \"R,2,1\", Abaqus \"ELASTIC STEEL\", \"DENSITY STEEL\", "
+                     "PROD, PELAS), ANSYS \"MP,EX,3\" or \"R,2,1\", Abaqus \"ELASTIC STEEL\", \"DENSITY STEEL\", "
                      "\"SHELL SECTION PLATE\" or \"PARAMETER name\"")
 
 
@@ -238,7 +240,8 @@ def _nastran_deck(deck: Path, edits: list[Edit]) -> str:
     while i < len(lines):
         if i in out_spans:
             end, new = out_spans[i]
-            text += [f"$ femupdate: updated {lines[i].split()[0].rstrip('*,').upper()} (was lines {i + 1}-{end})"] + new
+            span = f"line {i + 1}" if end == i + 1 else f"lines {i + 1}-{end}"
+            text += [f"$ femupdate: updated {lines[i].split(',')[0].split()[0].rstrip('*').upper()} (was {span})"] + new
             i = end
         else:
             text.append(lines[i])
@@ -252,8 +255,10 @@ def _large_card(name: str, data: list[str]) -> list[str]:
     out = []
     for k, row in enumerate(rows):
         first = f"{name}*" if k == 0 else "*"
-        body = "".join(f"{v.strip():>16s}" if len(v.strip()) <= 16 else v.strip()[:16] for v in row)
-        out.append(f"{first:<8s}{body}")
+        long = [v.strip() for v in row if len(v.strip()) > 16]
+        if long:
+            raise InputError(f"write-back: {name} field {long[0]!r} is longer than the 16 columns of a large field")
+        out.append(f"{first:<8s}" + "".join(f"{v.strip():<16s}" for v in row).rstrip())
     return out
 
 
