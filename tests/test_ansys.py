@@ -171,3 +171,35 @@ def test_bad_files_named(tmp_path):
     p = _model(tmp_path, "[parameters.E]\nvalue = 1.0\nscales = \"C\"\n")
     with pytest.raises(InputError, match=r"\[parameters\.E\]: scales must be \"K\" or \"M\""):
         load_model(p)
+
+
+def test_without_the_package_the_reader_says_what_to_install(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ansys.mapdl.reader.full", None)  # import fails as if it were absent
+    with pytest.raises(InputError, match=r"needs ansys-mapdl-reader: pip install ansys-mapdl-reader \(or "
+                                         r"femupdate\[ansys\]\)"):
+        read_full(FULL)
+
+
+def test_cli_reads_the_file_and_refuses_a_cut_one(tmp_path, capsys):
+    """``modes`` on an [ansys] model; a cut file exits 2 naming it; ``--write-model`` keeps the
+    value the file was written at (exported_at), so the written model reloads to the update."""
+    from femupdate.cli import main
+
+    p = _model(tmp_path, "[parameters.E]\nvalue = 1.0\nbounds = [0.5, 2.0]\nscales = \"K\"\n")
+    with pytest.raises(SystemExit) as info:
+        main(["modes", str(p), "--n-modes", "3"])
+    assert info.value.code == 0 and "1283.2" in capsys.readouterr().out
+    (tmp_path / "beam.full").write_bytes(FULL.read_bytes()[:400_000])
+    with pytest.raises(SystemExit) as info:
+        main(["modes", str(p)])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "beam.full is cut short" in err and "Traceback" not in err
+    from femupdate.io.model_write import updated_model_text
+
+    shutil.copy(FULL, tmp_path / "beam.full")
+    (tmp_path / "out").mkdir()
+    text = updated_model_text(p, tmp_path / "out" / "u.toml", {"E": 1.3}, {"command": "update"})
+    (tmp_path / "out" / "u.toml").write_text(text)
+    m = load_model(tmp_path / "out" / "u.toml")
+    assert m.parameters[0].value == 1.3
+    assert abs(m.K() - 1.3 * read_full(FULL).K).max() <= 1e-12 * abs(read_full(FULL).K).max()
