@@ -121,7 +121,7 @@ def test_a_modulus_updated_from_the_file(tmp_path):
     m = load_model(p)
     assert len(m.nodes) == 300  # the archive's coordinates of the free nodes
     tm = model_modes(m, {"E": 1.21})
-    data = TestData(modes=tuple(MeasuredMode(tm.eigenvalues[j], m.dofs, tm.shapes[:, j]) for j in (2, 5)))
+    data = TestData(modes=tuple(MeasuredMode(tm.eigenvalues[j]) for j in range(3)))  # frequencies, in order
     res = update(m, data)
     assert res.success
     assert res.parameters["E"] == pytest.approx(1.21, rel=1e-8)
