@@ -205,7 +205,7 @@ def _nastran_deck(deck: Path, edits: list[Edit]) -> str:
     from ..mesh.nastran import _fields
 
     lines = deck.read_text(encoding="utf-8").splitlines()
-    todo = {(e.card, int(e.ident)): [] for e in edits}
+    todo: dict[tuple[str, int], list[Edit]] = {(e.card, int(e.ident)): [] for e in edits}
     for e in edits:
         todo[(e.card, int(e.ident))].append(e)
     out_spans: dict[int, tuple[int, list[str]]] = {}
@@ -266,7 +266,7 @@ def _large_card(name: str, data: list[str]) -> list[str]:
 def _abaqus_deck(deck: Path, edits: list[Edit]) -> str:
     lines = deck.read_text(encoding="utf-8").splitlines()
     pending = {(e.card, e.ident.upper()): e for e in edits}
-    done = set()
+    done: set[tuple[str, str]] = set()
     material = None
     for i, raw in enumerate(lines):
         s = raw.strip()
