@@ -170,3 +170,21 @@ def test_cli_write_back(tmp_path, capsys, monkeypatch):
             main(["write-back", str(p), "v.json", "--out", "deck"])
         err = capsys.readouterr().err
         assert info.value.code == 2 and needle in err and "Traceback" not in err, err
+
+
+def test_pbar_fields_and_a_mat1_with_g_and_nu(tmp_path):
+    """PBAR A and I1 land in their fields (re-read by femupdate's card reader), the card's other
+    fields kept; a MAT1 that gives E, G and NU gets G = E / 2(1 + NU), so the deck stays
+    consistent (femupdate's reader refuses a G that disagrees)."""
+    deck = tmp_path / "bar.bdf"
+    deck.write_text("BEGIN BULK\nPBAR    7       3       0.01    2.0-6   3.0-6   4.0-6   0.5\n"
+                    "MAT1    3       7.0+10  2.6+10  0.33    2700.\nENDDATA\n", encoding="utf-8")
+    p = tmp_path / "m.toml"
+    p.write_text('[nastran]\ndmig = "x.pch"\nK = "KAAX"\nM = "MAAX"\ndeck = "bar.bdf"\n'
+                 '[parameters.A]\nvalue = 0.01\ncard = "PBAR 7 A"\n[parameters.I]\nvalue = 2e-6\ncard = "pbar 7 i1"\n'
+                 '[parameters.E]\nvalue = 7e10\ncard = "MAT1 3 E"\n', encoding="utf-8")
+    (out,) = write_back(p, {"A": 0.0123, "I": 2.5e-6, "E": 7.3e10}, tmp_path / "o")
+    got = {c[0]: c[1] for c in cards(out)}
+    assert got["PBAR"] == ["7", "3", "1.2300000000E-02", "2.5000000000E-06", "3.0-6", "4.0-6", "0.5"]
+    assert got["MAT1"][:2] == ["3", "7.3000000000E+10"] and got["MAT1"][3:] == ["0.33", "2700."]
+    assert float(got["MAT1"][2]) == pytest.approx(7.3e10 / 2.66, rel=1e-10)

@@ -232,10 +232,10 @@ def ansys_model(table, parameters, path: Path, name: str):
             A = (fm.K if spec["scales"] == "K" else fm.M) / x0
             dK.append(A if spec["scales"] == "K" else None)
             dM.append(A if spec["scales"] == "M" else None)
-            if spec["scales"] == "K":
-                K0 = K0 - A * x0
+            if spec["scales"] == "K":  # A · x0 is the file's matrix: taken off exactly
+                K0 = K0 - fm.K
             else:
-                M0 = M0 - A * x0
+                M0 = M0 - fm.M
             continue
         at = spec.get("full_at")
         if isinstance(at, bool) or not isinstance(at, (int, float)) or not np.isfinite(at) or at == x0:
