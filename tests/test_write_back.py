@@ -188,3 +188,33 @@ def test_pbar_fields_and_a_mat1_with_g_and_nu(tmp_path):
     assert got["PBAR"] == ["7", "3", "1.2300000000E-02", "2.5000000000E-06", "3.0-6", "4.0-6", "0.5"]
     assert got["MAT1"][:2] == ["3", "7.3000000000E+10"] and got["MAT1"][3:] == ["0.33", "2700."]
     assert float(got["MAT1"][2]) == pytest.approx(7.3e10 / 2.66, rel=1e-10)
+
+
+def test_update_write_back_option(tmp_path, capsys, monkeypatch):
+    """``update --write-back DIR`` writes the deck after a converged update (the value the update
+    found); a parameter without a card stops with exit 2 before any file is written."""
+    from femupdate.cli import main
+
+    (tmp_path / "plate.bdf").write_text(nastran_deck(), encoding="utf-8")
+    p = _model_file(tmp_path, "plate.bdf", "[mesh.sets.1]\nE = \"E\"\n", "[parameters.E]\nvalue = 7e10\n"
+                    "bounds = [1e10, 2e11]\n")
+    lam = model_modes(load_model(p), {"E": 7.35e10}).eigenvalues[:3]
+    (tmp_path / "f.json").write_text(json.dumps({"modes": [{"eigenvalue": float(v)} for v in lam]}))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        main(["update", str(p), "f.json", "--write-back", "out", "--json", "u.json"])
+    assert info.value.code == 0, capsys.readouterr().err
+    assert "wrote out/plate_updated.bdf" in capsys.readouterr().out.replace("\\", "/")
+    e = float([c for c in cards(tmp_path / "out" / "plate_updated.bdf") if c[0] == "MAT1"][0][1][1])
+    assert e == pytest.approx(json.loads((tmp_path / "u.json").read_text())["parameters"]["E"], rel=1e-10)
+    assert e == pytest.approx(7.35e10, rel=1e-7)
+    # a spring beside the mesh: its parameter k has no card
+    p.write_text(p.read_text().replace("[mesh]", "[parameters.k]\nvalue = 1000.0\nbounds = [1.0, 1e6]\n\n[mesh]")
+                 + '\n[[element]]\ntype = "spring"\ndofs = ["16:z"]\nk = "k"\n')
+    lam = model_modes(load_model(p), {"E": 7.35e10, "k": 1000.0}).eigenvalues[:3]
+    (tmp_path / "f.json").write_text(json.dumps({"modes": [{"eigenvalue": float(v)} for v in lam]}))
+    with pytest.raises(SystemExit) as info:
+        main(["update", str(p), "f.json", "--write-back", "out2"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "parameter(s) k of" in err and "map to no card" in err, err
+    assert not (tmp_path / "out2").exists() and "Traceback" not in err
