@@ -203,3 +203,20 @@ def test_cli_reads_the_file_and_refuses_a_cut_one(tmp_path, capsys):
     m = load_model(tmp_path / "out" / "u.toml")
     assert m.parameters[0].value == 1.3
     assert abs(m.K() - 1.3 * read_full(FULL).K).max() <= 1e-12 * abs(read_full(FULL).K).max()
+
+
+def test_a_free_structure_of_another_mapdl_version():
+    """tests/data/ansys/sparse.full (MAPDL 20.1, no constraints; MIT, from ansys-mapdl-reader's
+    repository): a free body, so K r = 0 for the three rigid translations and K, M have exactly six
+    eigenvalues at zero (below 1e-10 of the first elastic one); a wrong symmetrisation or dof map
+    breaks both."""
+    fm = read_full(Path(__file__).parent / "data" / "ansys" / "sparse.full")
+    assert len(fm.dofs) == 345 and fm.constrained == () and fm.dofs[:3] == ("1:x", "1:y", "1:z")
+    for d in "xyz":
+        r = np.array([lab.endswith(":" + d) for lab in fm.dofs], float)
+        assert np.abs(fm.K @ r).max() <= 1e-12 * abs(fm.K).max()
+        assert r @ (fm.M @ r) > 0
+    import scipy.linalg as la
+
+    w = la.eigh(fm.K.toarray(), fm.M.toarray(), eigvals_only=True)
+    assert np.all(np.abs(w[:6]) < 1e-10 * w[6]) and w[6] > 0
