@@ -59,8 +59,8 @@ def test_labels_and_constrained_dofs(beam):
 
 def test_frequencies_as_the_package_reports_them(beam):
     # the frequencies ansys-mapdl-reader's own example asserts for this file (examples.load_km)
-    f, _ = beam
-    assert np.allclose(beam[1][0][:6], [1283.20036921, 1283.20036921, 5781.97486169, 6919.39887714, 6919.39887714,
+    _, (f, _) = beam
+    assert np.allclose(f[:6], [1283.20036921, 1283.20036921, 5781.97486169, 6919.39887714, 6919.39887714,
                                         10172.61497694], rtol=1e-8)
 
 

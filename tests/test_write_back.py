@@ -22,9 +22,8 @@ def _plate_grid(n=3, a=0.3):
         for i in range(n + 1):
             ids.append(1 + i + (n + 1) * j)
             xyz.append((a * i / n, a * j / n))
-    quads = [[1 + i + (n + 1) * j, 2 + i + (n + 1) * j, 3 + i + (n + 1) * (j + 1) - 1 + 0, 1 + i + (n + 1) * (j + 1)]
-             for j in range(n) for i in range(n)]
-    quads = [[q[0], q[1], q[1] + n + 1, q[0] + n + 1] for q in quads]
+    corner = [1 + i + (n + 1) * j for j in range(n) for i in range(n)]  # each quad's first node
+    quads = [[c, c + 1, c + n + 2, c + n + 1] for c in corner]
     clamped = [1 + i for i in range(n + 1)]  # the edge y = 0
     return ids, xyz, quads, clamped
 
