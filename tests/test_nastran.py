@@ -94,3 +94,38 @@ def test_the_uset_of_a_param_post_op2_labels_grids_and_scalar_points():
     assert labels[:6] == ["3:x", "3:y", "3:z", "3:rx", "3:ry", "3:rz"]
     assert labels[-8:] == [f"{2995001 + k}:s" for k in range(8)]
     assert len(set(labels)) == len(labels)
+
+
+CHAIN_PCH = """DMIG    KAAX           0       6       2       0       0               2
+DMIG*   KAAX                           1               1
+*                      1               1 6.000000000D+00
+*                      2               1-6.000000000D+00
+DMIG*   KAAX                           2               1
+*                      2               1 6.000000000D+00
+DMIG    MAAX           0       6       2       0       0               2
+DMIG*   MAAX                           1               1
+*                      1               1 2.000000000D+00
+DMIG*   MAAX                           2               1
+*                      2               1 4.000000000D+00
+DMIG    KK1            0       6       2       0       0               1
+DMIG*   KK1                            1               1
+*                      1               1 1.000000000D+00
+DMIG    KK7            0       6       2       0       0               1
+DMIG*   KK7                            7               1
+*                      7               1 1.000000000D+00
+"""
+
+
+def test_a_dmig_on_some_of_the_dofs_is_placed_on_them(tmp_path):
+    """KK1 (grid 1 only) beside KAAX (grids 1, 2): the chain k1 + k2, masses 2 and 4; its
+    eigenvalues at k1 = 8, k2 = 6 in closed form: the roots of 8 λ² − (4·14 + 2·6) λ + (14·6 − 36) = 0."""
+    (tmp_path / "chain.pch").write_text(CHAIN_PCH)
+    model = load_model(toml(tmp_path, '[nastran]\ndmig = "chain.pch"\nK = "KAAX"\nM = "MAAX"\n'
+                                      '[parameters.k1]\nvalue = 7.0\nK = "KK1"\n'))
+    assert model.dofs == ("1:x", "2:x")
+    a, b, c = 8.0, -(4 * 14 + 2 * 6), 14 * 6 - 36
+    exact = sorted([(-b - np.sqrt(b * b - 4 * a * c)) / (2 * a), (-b + np.sqrt(b * b - 4 * a * c)) / (2 * a)])
+    np.testing.assert_allclose(model_modes(model, {"k1": 8.0}).eigenvalues, exact, rtol=1e-12)
+    bad = toml(tmp_path, '[nastran]\ndmig = "chain.pch"\nK = "KAAX"\nM = "MAAX"\n[parameters.k7]\nvalue = 1.0\nK = "KK7"\n')
+    with pytest.raises(InputError, match=r"DMIG KK7 has dof\(s\) 7:x that KAAX does not have"):
+        load_model(bad)

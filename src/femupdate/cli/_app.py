@@ -23,6 +23,7 @@ from .summary import summary
 from .report import report
 from .uniqueness import uniqueness
 from .update import update
+from .write_back import write_back_command
 
 __all__ = ["cli"]
 
@@ -72,6 +73,6 @@ def _say_replaced(files) -> None:
 for _command in (modes, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
-                 reduce, uniqueness, plan, convert_data, report, summary):
+                 reduce, uniqueness, plan, convert_data, report, summary, write_back_command):
     cli.add_command(_command)
 del _command

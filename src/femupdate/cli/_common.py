@@ -285,6 +285,9 @@ write_model_option = click.option("--write-model", "write_model_path", type=Outp
                                   default=None, metavar="FILE.toml",
                                   help="Write the updated model file: the same schema with the updated values and "
                                        "a [provenance] table.")
+write_back_option = click.option("--write-back", "write_back_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
+                                 help="Write the updated values back into the model's deck (Nastran cards, Abaqus "
+                                      "keyword lines) or as ANSYS commands, in this folder (as femupdate write-back).")
 csv_option = click.option("--csv", "csv_dir", type=OUTPUT_DIR, default=None, metavar="DIR",
                           help="Write parameters.csv (and modes.csv with paired modes) to this folder.")
 #: ``--report FILE.html``: the run's HTML report (:func:`write_report_output`)
@@ -302,7 +305,7 @@ def model_segments(model_path):
 
     path = Path(model_path)
     raw = read_toml(path)
-    if {"matrices", "abaqus", "nastran"} & set(raw):
+    if {"matrices", "abaqus", "nastran", "ansys"} & set(raw):
         return None
     segs = structure_segments(Structure.from_dict(raw, source=str(path)))
     return segs if len(segs) else None
@@ -325,10 +328,18 @@ def write_report_output(ctx: Ctx, report_path, payload, *, model=None, data=None
 
 
 def write_model_outputs(ctx: Ctx, model_path, data_path, command: str, model, values: dict, names, cost,
-                        write_model_path=None, csv_dir=None, res=None, damping: dict | None = None) -> None:
-    """The updated model file and the CSV tables a command was asked for, each named on the
-    terminal (:mod:`femupdate.io.model_write`)."""
+                        write_model_path=None, csv_dir=None, res=None, damping: dict | None = None,
+                        write_back_dir=None) -> None:
+    """The updated model file, the CSV tables and the values written back into the model's deck a
+    command was asked for, each named on the terminal (:mod:`femupdate.io.model_write`,
+    :mod:`femupdate.io.write_back`)."""
     from ..io.model_write import provenance, write_result_tables, write_updated_model
+
+    if write_back_dir is not None:  # first: a parameter that maps to no card stops the run before any file
+        from ..io.write_back import write_back
+
+        for path in write_back(model_path, {n: values[n] for n in names}, write_back_dir):
+            ctx.console.print(f"wrote {path}")
 
     if write_model_path is not None:
         write_updated_model(model_path, write_model_path, {n: values[n] for n in names},

@@ -40,7 +40,7 @@ def _load_structure(path: Path):
     if path.suffix.lower() != ".toml":
         return None, load_model(path)
     raw = read_toml(path)
-    if {"matrices", "abaqus", "nastran"} & set(raw):
+    if {"matrices", "abaqus", "nastran", "ansys"} & set(raw):
         return None, load_model(path)
     try:
         s = Structure.from_dict(raw, source=str(path))

@@ -76,11 +76,11 @@ def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, out
     outputs.emit(ctx, payload)
     write_report_output(ctx, outputs.report_path, res, model_path=model_path)
     if not res.unique:
-        if outputs.write_model_path or outputs.csv_dir:
+        if outputs.write_model_path or outputs.csv_dir or outputs.write_back_dir:
             ctx.console.print("not written: the updated model and tables (the parameters are not determined uniquely)")
         raise NumericalError(f"the data do not determine every parameter uniquely: {res.notes[-1]}")
     write_model_outputs(ctx, model_path, data_path, "direct", model, res.parameters, list(res.unknowns), None,
-                        outputs.write_model_path, None)
+                        outputs.write_model_path, None, write_back_dir=outputs.write_back_dir)
     if outputs.csv_dir is not None:
         from ..io.model_write import write_parameter_table
 

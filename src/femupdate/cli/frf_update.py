@@ -146,11 +146,11 @@ def frf_update_command(model_path, data_path, starts, execution, search: GlobalS
     outputs.emit(ctx, payload)
     write_report_output(ctx, outputs.report_path, result, model_path=model_path)
     if not res.success:
-        if outputs.write_model_path or outputs.csv_dir:
+        if outputs.write_model_path or outputs.csv_dir or outputs.write_back_dir:
             ctx.console.print("not written: the updated model and tables (the update did not converge)")
         raise NumericalError(f"the FRF update did not converge: {res.message}")
     write_model_outputs(ctx, model_path, data_path, "frf-update", model, res.parameters, res.names, res.cost,
-                        outputs.write_model_path, outputs.csv_dir, res)
+                        outputs.write_model_path, outputs.csv_dir, res, write_back_dir=outputs.write_back_dir)
 
 
 def _run(ctx: Ctx, outputs: Outputs, model, data, problem: dict, starts, execution, search, solver):

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from ._common import (OUTPUT_DIR, OUTPUT_FILE, Ctx, csv_option, emit, json_option, report_option, set_option,
-                      write_model_option)
+                      write_back_option, write_model_option)
 from ._groups import option_group
 
 #: a run shows progress once it has lasted this long (seconds); shorter runs stay quiet
@@ -34,6 +34,7 @@ class Outputs:
     csv_dir: Path | None = None
     uff_path: Path | None = None
     set_text: str | None = None
+    write_back_dir: Path | None = None
 
     def emit(self, ctx: Ctx, payload: dict) -> None:
         """Write the JSON result where ``--json`` says."""
@@ -46,14 +47,14 @@ class Outputs:
 
 def outputs_group(plot: bool | str = False, model_out: bool = False, uff: bool | str = False, report: bool = True) -> Callable:
     """``--json``, ``--set`` and, as asked, ``--report``, ``--plot`` (``plot`` a string: its help),
-    ``--write-model``, ``--csv`` and ``--uff`` (``uff`` a string: its help) -> ``outputs``: :class:`Outputs`."""
+    ``--write-model``, ``--write-back``, ``--csv`` and ``--uff`` (``uff`` a string: its help) -> ``outputs``: :class:`Outputs`."""
     options: list = []
     if plot:
         options.append(click.option("--plot", "plot_dir", type=OUTPUT_DIR, default=None,
                                     help=plot if isinstance(plot, str) else
                                     "Write convergence and MAC figures to this folder."))
     if model_out:
-        options += [write_model_option, csv_option]
+        options += [write_model_option, write_back_option, csv_option]
     if uff:
         options.append(click.option("--uff", "uff_path", type=OUTPUT_FILE, default=None,
                                     help=uff if isinstance(uff, str) else

@@ -17,7 +17,7 @@ def _report_model(model_path: Path, result: dict, kind: str):
     parameter-wise) model of its unknowns."""
     from ..io.model_file import load_model, read_toml
 
-    if kind != "damage" or Path(model_path).suffix.lower() != ".toml" or {"matrices", "abaqus", "nastran"} & set(read_toml(model_path)):
+    if kind != "damage" or Path(model_path).suffix.lower() != ".toml" or {"matrices", "abaqus", "nastran", "ansys"} & set(read_toml(model_path)):
         return load_model(model_path)
     from ..damage import damage_unknowns
     from ..structure import Structure

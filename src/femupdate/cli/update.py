@@ -86,11 +86,11 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         write_report_output(ctx, outputs.report_path, report_of, model=model, data=data, model_path=model_path,
                             before=before, damping=run.damping, kind="update")
     if not res.success:
-        if outputs.write_model_path or outputs.csv_dir or outputs.uff_path:
+        if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
-                        outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"))
+                        outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"), outputs.write_back_dir)
     if outputs.uff_path is not None:
         from ..io.uff import write_uff_modes
         from ..modal import model_modes

@@ -396,7 +396,7 @@ def abaqus_model(table, parameters, path: Path, name: str):
         where = f"{path}: [parameters.{pname}]"
         if not isinstance(spec, dict) or "value" not in spec:
             raise InputError(f"{where} must be a table with at least 'value'")
-        allowed = {"value", "bounds", "fixed", "prior", "K_elements", "M_elements", "exported_at"}
+        allowed = {"value", "bounds", "fixed", "prior", "K_elements", "M_elements", "exported_at", "card"}
         if set(spec) - allowed or not ({"K_elements", "M_elements"} & set(spec)):
             raise InputError(f"{where}: an Abaqus parameter takes {', '.join(sorted(allowed))}, with K_elements and/or "
                              f"M_elements (the *ELEMENT MATRIX OUTPUT file of its element set); got {', '.join(spec)}")

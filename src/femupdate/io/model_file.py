@@ -264,9 +264,9 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
         where = f"{path}: [parameters.{name}]"
         if not isinstance(spec, Mapping) or "value" not in spec:
             raise InputError(f"{where} must be a table with at least 'value'")
-        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "K", "M"})
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "K", "M", "card"})
         if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, K, M)")
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, K, M, card)")
         if "K" not in spec and "M" not in spec and name not in in_terms:
             raise InputError(f"{where}: a matrix-model parameter needs K and/or M (its derivative matrices) or a "
                              "[[term]] that names it in its factors")
@@ -297,7 +297,7 @@ def _matrix_model(data: Mapping, path: Path) -> Model:
 
 
 #: model-file tables of matrices as an FE code writes them, and the keys that name their files
-EXTERNAL = {"abaqus": ("stiffness", "mass", "deck"), "nastran": ("op4", "op2", "dmig")}
+EXTERNAL = {"abaqus": ("stiffness", "mass", "deck"), "nastran": ("op4", "op2", "dmig", "deck"), "ansys": ("full", "deck")}
 
 
 def _terms(raw, path: Path, base: Path, n: int, dofs_from: str) -> tuple:
@@ -333,7 +333,7 @@ def _terms(raw, path: Path, base: Path, n: int, dofs_from: str) -> tuple:
 
 def _external_model(data: Mapping, path: Path, table: str) -> Model:
     """A model from an FE code's own files (:func:`femupdate.io.abaqus.abaqus_model`,
-    :func:`femupdate.io.nastran.nastran_model`), through the same door as a ``[matrices]`` model
+    :func:`femupdate.io.nastran.nastran_model`, :func:`femupdate.io.ansys.ansys_model`), through the same door as a ``[matrices]`` model
     (penalty ties, a definite stiffness)."""
     other = sorted(set(data) - {"model", table, "parameters", "provenance"})
     if other:
@@ -347,6 +347,9 @@ def _external_model(data: Mapping, path: Path, table: str) -> Model:
     if table == "abaqus":
         from .abaqus import abaqus_model as build
         stiffness = f"{path}: the stiffness of {data['abaqus'].get('stiffness')}"
+    elif table == "ansys":
+        from .ansys import ansys_model as build
+        stiffness = f"{path}: the stiffness of {data['ansys'].get('full')}"
     else:
         from .nastran import nastran_model as build
         t = data["nastran"]

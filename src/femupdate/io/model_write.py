@@ -27,7 +27,8 @@ from .results import atomic_write_text
 _MATRIX_KEYS = ("dofs", "K0", "M0")
 #: keys of an ``[abaqus]`` and a ``[nastran]`` table that name files
 _ABAQUS_KEYS = ("stiffness", "mass", "deck")
-_NASTRAN_KEYS = ("op4", "op2", "dmig")
+_NASTRAN_KEYS = ("op4", "op2", "dmig", "deck")
+_ANSYS_KEYS = ("full", "deck")
 #: keys of a ``[mesh]`` table that name files
 _MESH_KEYS = ("file",)
 
@@ -88,12 +89,14 @@ def updated_model_text(source, out_path, values: Mapping[str, float], provenance
         if not math.isfinite(v) or not lo <= v <= hi:
             raise InputError(f"updated model: {name} = {v:.6g} lies outside its bounds [{lo:g}, {hi:g}] in {source}; "
                              "the model file would not load (update with bounds, not --method lm)")
-        if "abaqus" in raw and ({"K_elements", "M_elements"} & set(spec)) and "exported_at" not in spec:
+        exported = ("abaqus" in raw and {"K_elements", "M_elements"} & set(spec)) or ("ansys" in raw and
+                                                                                     {"scales", "full"} & set(spec))
+        if exported and "exported_at" not in spec:
             spec["exported_at"] = spec["value"]  # the value the element matrices were written at
         spec["value"] = v
     src_dir, out_dir = source.parent, out_path.parent
-    param_keys = {"matrices": ("K", "M"), "abaqus": ("K_elements", "M_elements"), "nastran": (), "mesh": ()}
-    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS), ("nastran", _NASTRAN_KEYS),
+    param_keys = {"matrices": ("K", "M"), "abaqus": ("K_elements", "M_elements"), "nastran": (), "ansys": ("full",), "mesh": ()}
+    for table, keys in (("matrices", _MATRIX_KEYS), ("abaqus", _ABAQUS_KEYS), ("nastran", _NASTRAN_KEYS), ("ansys", _ANSYS_KEYS),
                         ("mesh", _MESH_KEYS)):
         if not isinstance(raw.get(table), dict):
             continue

@@ -152,13 +152,14 @@ def read_dmig(path, name: str, where: str = "dmig") -> tuple[list[str], np.ndarr
 def nastran_model(table, parameters, path: Path, name: str):
     """A :class:`~femupdate.Model` from a model file's ``[nastran]`` table (docs/file-formats.md):
     ``K``, ``M`` (and each parameter's ``K``, ``M``) are matrix names in the ``op4`` file, on
-    the dofs of ``set`` in the USET of ``op2``; or in the ``dmig`` file, labelled by it."""
+    the dofs of ``set`` in the USET of ``op2``; or in the ``dmig`` file, labelled by it (a
+    parameter's DMIG may hold some of the dofs of ``K``: it is placed on them)."""
     from ..model import Model, Parameter
     from ..priors import parse_prior
 
     src = f"{path}: [nastran]"
     base = path.parent
-    allowed = {"op4", "op2", "set", "dmig", "K", "M"}
+    allowed = {"op4", "op2", "set", "dmig", "K", "M", "deck"}  # deck: only where updated values are written
     if set(table) - allowed:
         raise InputError(f"{src}: unknown key(s) {', '.join(sorted(set(table) - allowed))} (allowed: "
                          f"{', '.join(sorted(allowed))})")
@@ -181,9 +182,17 @@ def nastran_model(table, parameters, path: Path, name: str):
 
         def get(mname, where):
             lab, A = read_dmig(base / str(table["dmig"]), mname, where)
-            if lab != dofs:
-                raise InputError(f"{where}: DMIG {mname} is on other dofs than {table['K']}")
-            return A
+            if lab == dofs:
+                return A
+            pos = {d: i for i, d in enumerate(dofs)}
+            extra = [d for d in lab if d not in pos]
+            if extra:
+                raise InputError(f"{where}: DMIG {mname} has dof(s) {', '.join(extra[:6])} that {table['K']} does not "
+                                 "have")
+            idx = np.array([pos[d] for d in lab])  # a matrix on some of the dofs (a spring's, a panel's): placed
+            out = np.zeros((len(dofs), len(dofs)))
+            out[np.ix_(idx, idx)] = A
+            return out
     K0, M0 = get(table["K"], f"{src} K"), get(table["M"], f"{src} M")
     params, dK, dM = [], [], []
     for pname, spec in parameters.items():

@@ -52,9 +52,9 @@ def structure_from_dict(cls, data: Mapping, source: str = "model"):
         where = f"{source}: [parameters.{name}]"
         if not isinstance(spec, Mapping):
             raise InputError(f"{where} must be a table with at least 'value'")
-        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior"})
+        unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "card"})
         if unknown:
-            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior)")
+            raise InputError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, card)")
         if "value" not in spec:
             raise InputError(f"{where} has no 'value'")
         prior = _prior(spec, f"{where} prior")  # its message names the file and table already
