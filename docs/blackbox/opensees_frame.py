@@ -8,8 +8,8 @@ consistent mass.  Run as a command::
     python opensees_frame.py E_cols=2.1e11 h=0.3
 
 it writes, in the folder it runs in, ``K.mtx`` and ``M.mtx`` (Matrix Market) and ``dofs.txt``
-(one label ``node:dir`` per equation).  :func:`matrices` is the same as a Python callable and
-:func:`frequencies` OpenSees' own eigen-solution.
+(one label ``node:dir`` per equation).  :func:`matrices` is the same as a Python callable;
+:func:`frequencies` and :func:`eigen` are OpenSees' own eigen-solution.
 """
 
 from __future__ import annotations
@@ -97,6 +97,19 @@ def frequencies(values: dict, n: int = 4) -> np.ndarray:
     return np.sqrt(lam) / (2 * np.pi)
 
 
+def eigen(values: dict, n: int = 4):
+    """OpenSees' own eigen-solution: the first ``n`` eigenvalues (rad²/s²) and the shapes
+    ``[{"node:dir": value}, ...]`` at the translational dofs of the free nodes."""
+    ops = opensees()
+    build(ops, float(values["E_cols"]), float(values["h"]))
+    lam = np.array(ops.eigen("-fullGenLapack", n))
+    free = [t for t in NODES if t not in (1, 4)]
+    shapes = [{f"{t}:{d}": float(ops.nodeEigenvector(t, k + 1, i + 1)) for t in free for i, d in enumerate("xy")}
+              for k in range(n)]
+    ops.wipe()
+    return lam, shapes
+
+
 def main(argv: list[str]) -> None:
     values = dict(NOMINAL)
     for arg in argv:
@@ -110,6 +123,7 @@ def main(argv: list[str]) -> None:
     import scipy.sparse as sp
 
     K, M, labels = matrices(values)
+    # a "symmetric" Matrix Market file stores the lower triangle: SciPy drops entries above it
     scipy.io.mmwrite("K.mtx", sp.coo_array(np.tril(K)), symmetry="symmetric", precision=17)
     scipy.io.mmwrite("M.mtx", sp.coo_array(np.tril(M)), symmetry="symmetric", precision=17)
     with open("dofs.txt", "w") as fh:

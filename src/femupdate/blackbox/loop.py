@@ -10,7 +10,7 @@ than the last move (the polynomials become local), and starts from it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -97,6 +97,7 @@ def update_black_box(box: BlackBox, data, **kwargs) -> BlackBoxResult:
     center = None
     steps = None
     rounds: list[dict] = []
+    first_start: dict = {}
     for k in range(opt.rounds):
         runs0 = box.cache.runs
         probed = probe_model(box, center, steps)
@@ -106,7 +107,11 @@ def update_black_box(box: BlackBox, data, **kwargs) -> BlackBoxResult:
         rounds.append({"center": probed.center, "steps": probed.steps, "affine": probed.affine, "parameters": p,
                        "matrix_deviation": mat, "frequency_deviation": freq, "runs": box.cache.runs - runs0})
         if max(mat, freq) <= opt.tolerance:
+            if k:  # the start the user gave (or the nominal values), not the last round's
+                res = replace(res, start=dict(first_start))
             return BlackBoxResult(res, probed.model, p, rounds, box.cache.runs, box.cache.hits)
+        if not k:
+            first_start = dict(res.start)
         moved = {n: abs(p[n] - probed.center[n]) for n in box.names}
         steps = {n: min(probed.steps[n] / 2, max(moved[n], 1e-3 * probed.steps[n])) for n in box.names}
         center = p

@@ -55,11 +55,12 @@ class Run:
     M: sp.csr_array
 
 
-def _check_run(values: Mapping[str, float], dofs, K, M, source: str) -> Run:
+def _check_run(values: Mapping[str, float], dofs, K, M, source: str, files: Mapping[str, str] | None = None) -> Run:
     """The run's matrices as CSR, square, of one size with the labels, finite (else refused by name)."""
     where = f"the black-box run at {shown_values(values)} ({source})"
     out = []
     for what, A in (("K", K), ("M", M)):
+        what = f"{what} ({files[what]})" if files else what
         try:
             A = sp.csr_array(A if sp.issparse(A) else np.asarray(A, dtype=float), dtype=float)
         except (TypeError, ValueError):
@@ -214,7 +215,9 @@ class Command:
 
             dofs, K = read_dmig(folder / str(self.file), self.K, where)
             _, M = read_dmig(folder / str(self.file), self.M, where)
-        return _check_run(values, dofs, K, M, source)
+        named = {"K": self.K, "M": self.M} if self.format in ("matrices", "abaqus") else \
+            {k: f"{getattr(self, k)} of {self.file}" for k in ("K", "M")}
+        return _check_run(values, dofs, K, M, source, named)
 
 
 def _tail(output: str) -> str:
@@ -347,7 +350,7 @@ def run_all(runner, batch: Sequence[Mapping[str, float]], cache: Cache, jobs: in
     for k, v in zip(keys, batch):
         if cache.get(k) is None and k not in todo:
             todo[k] = dict(v)
-    cache.hits += len(batch) - len(todo)
+    cache.hits += len(set(keys)) - len(todo)
     if todo and scheduler:
         from ..dask_cluster import Task, collect, connect
 

@@ -48,7 +48,19 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
     result: UpdateResult | MultiStartResult
     res: UpdateResult | None
     ms: MultiStartResult | None = None
-    if starts.starts == 1 and not execution.scheduler:
+    box = _black_box(model_path)
+    if box is not None and starts.starts == 1 and not execution.scheduler:
+        from ..blackbox import update_black_box
+
+        bb = update_black_box(box, data, params=run.params, values=values, options=run.options)
+        result = res = bb.result
+        model = bb.model
+        last = bb.rounds[-1]
+        ctx.console.print(f"black box: {len(bb.rounds)} round(s), {bb.runs} run(s) of the command "
+                          f"({bb.cache_hits} from the cache); at the answer the command's own run and the fitted model "
+                          f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
+                          "(paired frequencies)")
+    elif starts.starts == 1 and not execution.scheduler:
         result = res = _update(model, data, params=run.params, values=values, options=run.options)
     else:
         with outputs.progress(ctx, "starts", starts.starts) as tick:
@@ -80,6 +92,18 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
 
         write_uff_modes(outputs.uff_path, model_modes(model, res.parameters), nodes=model.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _black_box(model_path):
+    """The black box of a model file with a ``[blackbox]`` table (its runs re-probed near the
+    answer), else None."""
+    from ..io.model_file import read_toml
+
+    if Path(model_path).suffix.lower() != ".toml" or "blackbox" not in read_toml(model_path):
+        return None
+    from ..blackbox import load_black_box
+
+    return load_black_box(model_path)
 
 
 def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:
