@@ -249,3 +249,15 @@ def test_cache_folder_and_local_processes_give_the_same_model(tmp_path):
     assert reread.cache.runs == 0 and reread.cache.hits == parallel.runs
     with pytest.raises(InputError, match="need a picklable runner"):
         probe_model(BlackBox(Function(lambda v: kink(v)), params, jobs=2))
+
+
+def test_runs_on_a_dask_cluster_give_the_same_model():
+    distributed = pytest.importorskip("distributed")
+    params = [Parameter("p", 1.0, (0.5, 2.0))]
+    here = probe_model(BlackBox(Function(kink), params, options=ProbeOptions(checks=2)))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address=None) as cl:
+        box = BlackBox(Function(kink), params, scheduler=cl.scheduler_address, options=ProbeOptions(checks=2))
+        there = probe_model(box)
+    assert box.cache.runs == here.runs
+    assert np.array_equal(here.model.K({"p": 1.3}).toarray(), there.model.K({"p": 1.3}).toarray())

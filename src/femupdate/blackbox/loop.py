@@ -11,11 +11,16 @@ than the last move (the polynomials become local), and starts from it.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._errors import NumericalError
 from .probe import BlackBox, Probed, _rel, probe_model
+
+if TYPE_CHECKING:
+    from ..model import Model
+    from ..updating.results import UpdateResult
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,8 +44,8 @@ class BlackBoxResult:
         Runs of the code in all, and runs read back from the cache.
     """
 
-    result: object
-    model: object
+    result: UpdateResult
+    model: Model
     parameters: dict
     rounds: list
     runs: int

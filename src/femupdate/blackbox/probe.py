@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from .._errors import InputError
 from ..coefficients import Polynomial, Term
 from ..model import Model, Parameter
-from .runs import Cache, Run, run_all, shown_values
+from .runs import Cache, Command, Function, Run, run_all, shown_values
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ class BlackBox:
     options : ProbeOptions
     """
 
-    runner: object
+    runner: Command | Function
     parameters: tuple
     name: str = "black box"
     cache: Cache = field(default_factory=Cache)
@@ -116,7 +116,7 @@ class BlackBox:
         bad = [p for p in self.parameters if not isinstance(p, Parameter)]
         if bad or not self.parameters:
             raise InputError(f"black box: parameters must be a non-empty list of Parameter, got {self.parameters!r}")
-        self.runner.check_placeholders(self.names)  # type: ignore[attr-defined]
+        self.runner.check_placeholders(self.names)
         if isinstance(self.jobs, bool) or not isinstance(self.jobs, int) or self.jobs < 1:
             raise InputError(f"black box: jobs must be a positive integer, got {self.jobs!r}")
         self.first: Run | None = None

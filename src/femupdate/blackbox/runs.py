@@ -357,7 +357,10 @@ def run_all(runner, batch: Sequence[Mapping[str, float]], cache: Cache, jobs: in
         client = connect(scheduler, timeout)
         try:
             futures = {client.submit(Task(_execute, parallel=False), runner, v, pure=False): k for k, v in todo.items()}
-            collect(client, futures, scheduler, timeout, lambda k, run: cache.put(k, run))
+            def keep(key, run) -> None:
+                cache.put(str(key), run)
+
+            collect(client, futures, scheduler, timeout, keep)
         finally:
             client.close()
     elif len(todo) > 1 and jobs > 1:
