@@ -19,6 +19,8 @@ import scipy.linalg as sl
 from femupdate import InputError, MeasuredMode, Parameter, TestData, load_model
 from femupdate.blackbox import BlackBox, Cache, Command, Function, ProbeOptions, probe_model, update_black_box
 
+from conftest import heavy
+
 HERE = Path(__file__).resolve().parent
 DOCS = HERE.parent / "docs" / "blackbox"
 
@@ -234,6 +236,9 @@ def test_nan_in_a_callable_run_and_unknown_placeholders_refused():
     box = BlackBox(Function(nan), [Parameter("p", 1.0, (0.5, 2.0))])
     with pytest.raises(InputError, match=r"the black-box run at p=1 \(.*\.nan\(\)\): its K holds NaN"):
         probe_model(box)
+    idle = BlackBox(Function(cubic), [Parameter("p", 1.0, (0.5, 2.0)), Parameter("q", 1.0)])
+    with pytest.raises(InputError, match=r"the code's matrices do not change with parameter\(s\) q$"):
+        probe_model(idle)
     with pytest.raises(InputError, match=r"placeholder\(s\) \{t\} name no parameter \(parameters: p;"):
         BlackBox(Command("run {p} {t}"), [Parameter("p", 1.0)])
 
@@ -261,3 +266,38 @@ def test_runs_on_a_dask_cluster_give_the_same_model():
         there = probe_model(box)
     assert box.cache.runs == here.runs
     assert np.array_equal(here.model.K({"p": 1.3}).toarray(), there.model.K({"p": 1.3}).toarray())
+
+
+@heavy
+def test_opensees_frame_as_a_command_through_the_command_line(frame, tmp_path):
+    """The page's model file and script, run as printed: OpenSees as a subprocess, two processes."""
+    import shutil
+
+    shutil.copy(DOCS / "opensees_frame.py", tmp_path)
+    page = (HERE.parent / "docs" / "blackbox.md").read_text()
+    toml = page.split("## The model file: `[blackbox]`", 1)[1].split("```toml\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "frame.toml").write_text(toml)
+    truth = {"E_cols": 1.9e11, "h": 0.34}
+    lam, shapes = frame.eigen(truth, 4)
+    modes = [{"eigenvalue": float(v), "shape": s} for v, s in zip(lam, shapes)]
+    (tmp_path / "test.json").write_text(json.dumps({"modes": modes}))
+    out = femupdate("update", "frame.toml", "test.json", "--json", "out.json", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    got = json.loads((tmp_path / "out.json").read_text())["parameters"]
+    assert np.max(np.abs(frame.frequencies(got, 4) / frame.frequencies(truth, 4) - 1)) < 1e-6
+
+
+def cubic(values):
+    p = values["p"]
+    return chain([1000.0 * p**3, 800.0, 800.0], [1.0 + 0.5 * p, 1.0, 1.0])
+
+
+def test_an_answer_on_a_bound_is_re_probed_from_inside():
+    """The truth p = 1.3 lies beyond the upper bound 1.2: the update ends on the bound, where the code's
+    run agrees with the last fit (centred inside the bounds) to 1e-6."""
+    data = TestData(modes=tuple(MeasuredMode(float(v)) for v in spring_truth(1.3)))
+    box = BlackBox(Function(cubic), [Parameter("p", 1.0, (0.5, 1.2))])
+    res = update_black_box(box, data)
+    assert 1.2 - 1e-9 < res.parameters["p"] <= 1.2  # on the bound, as the bounded solver ends there
+    assert all(r["center"]["p"] < 1.2 for r in res.rounds)
+    assert res.rounds[-1]["matrix_deviation"] <= 1e-6

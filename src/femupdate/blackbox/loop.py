@@ -119,7 +119,11 @@ def update_black_box(box: BlackBox, data, **kwargs) -> BlackBoxResult:
             first_start = dict(res.start)
         moved = {n: abs(p[n] - probed.center[n]) for n in box.names}
         steps = {n: min(probed.steps[n] / 2, max(moved[n], 1e-3 * probed.steps[n])) for n in box.names}
-        center = p
+        center = {}  # the answer, moved inside its bounds by enough to probe both sides
+        for prm in box.parameters:
+            lo, hi = prm.bounds
+            margin = min(steps[prm.name] * (2 if opt.degree > 2 else 1), (hi - lo) / 4)
+            center[prm.name] = min(max(p[prm.name], lo + margin), hi - margin)
         kwargs["x0"] = {n: p[n] for n in (kwargs.get("params") or box.names)}
     last = rounds[-1]
     raise NumericalError(

@@ -101,6 +101,8 @@ class BlackBox:
     scheduler : str, optional
         A Dask scheduler's address: the runs go there.
     options : ProbeOptions
+    connect_timeout : float
+        Seconds to wait for the scheduler and its workers.
     """
 
     runner: Command | Function
@@ -110,6 +112,7 @@ class BlackBox:
     jobs: int = 1
     scheduler: str | None = None
     options: ProbeOptions = field(default_factory=ProbeOptions)
+    connect_timeout: float = 30.0
 
     def __post_init__(self):
         self.parameters = tuple(self.parameters)
@@ -130,7 +133,7 @@ class BlackBox:
     def run(self, points) -> list[Run]:
         """Runs at ``points`` (arrays of values in declaration order), each on the first run's dofs."""
         batch = [dict(zip(self.names, map(float, x))) for x in points]
-        runs = run_all(self.runner, batch, self.cache, self.jobs, self.scheduler)
+        runs = run_all(self.runner, batch, self.cache, self.jobs, self.scheduler, self.connect_timeout)
         for values, r in zip(batch, runs):
             if self.first is None:
                 self.first, self.first_values = r, values
@@ -146,16 +149,17 @@ class BlackBox:
         return runs
 
 
-def _steps(box: BlackBox, center: np.ndarray) -> np.ndarray:
-    s = box.options.step * np.where(center != 0, np.abs(center), 1.0)
+def _steps(box: BlackBox, center: np.ndarray, wanted: np.ndarray | None = None) -> np.ndarray:
+    """The probe steps: ``wanted`` (default ``step`` × |value|), shortened so that every probe
+    (up to ±2 steps for degree 3 and 4) stays inside the bounds."""
+    s = box.options.step * np.where(center != 0, np.abs(center), 1.0) if wanted is None else wanted
     lo, hi = (np.array([p.bounds[k] for p in box.parameters]) for k in (0, 1))
-    room = np.minimum(center - lo, hi - center) / box.options.degree
-    small = room < s
-    if np.any(small & (room <= 0)):
-        j = int(np.flatnonzero(small & (room <= 0))[0])
+    room = np.minimum(center - lo, hi - center) / np.abs(_offsets(box.options.degree)).max()
+    if np.any(room <= 0):
+        j = int(np.flatnonzero(room <= 0)[0])
         raise InputError(f"black box: parameter {box.names[j]!r} = {center[j]:g} lies on its bound: no room to probe "
                          "on both sides")
-    return np.where(small, room, s)
+    return np.minimum(s, room)
 
 
 def _offsets(degree: int) -> np.ndarray:
@@ -194,7 +198,7 @@ def probe_model(box: BlackBox, center: Mapping[str, float] | None = None, steps=
     """
     names, opt = box.names, box.options
     c = np.array([p.value for p in box.parameters]) if center is None else np.array([float(center[n]) for n in names])
-    s = _steps(box, c) if steps is None else np.array([float(steps[n]) for n in names])
+    s = _steps(box, c, None if steps is None else np.array([float(steps[n]) for n in names]))
     n, t = len(names), _offsets(opt.degree)
     runs_before = box.cache.runs
     axis = [c] + [c + tk * s[j] * np.eye(n)[j] for j in range(n) for tk in t]
@@ -206,6 +210,12 @@ def probe_model(box: BlackBox, center: Mapping[str, float] | None = None, steps=
     slope = {j: ((on_axis[j][0].K - on_axis[j][1].K) / (2 * s[j]), (on_axis[j][0].M - on_axis[j][1].M) / (2 * s[j]))
              for j in range(n)} if opt.degree >= 2 else \
         {j: ((on_axis[j][0].K - R0.K) / s[j], (on_axis[j][0].M - R0.M) / s[j]) for j in range(n)}
+    idle = [names[j] for j in range(n) if all(_rel(r.K, R0.K, 1.0) == 0 and _rel(r.M, R0.M, 1.0) == 0
+                                                for r in on_axis[j])]
+    if idle:
+        hint = f" (is {{{idle[0]}}} in the command?)" if isinstance(box.runner, Command) else ""
+        raise InputError(f"black box {box.name!r}: the code's matrices do not change with parameter(s) "
+                         f"{', '.join(idle)}{hint}")
     dev = {j: 0.0 for j in range(n)}
     for j in range(n):
         for tk, r in zip(t, on_axis[j]):

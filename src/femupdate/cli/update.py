@@ -49,8 +49,13 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
     res: UpdateResult | None
     ms: MultiStartResult | None = None
     box = _black_box(model_path)
-    if box is not None and starts.starts == 1 and not execution.scheduler:
+    if box is not None and starts.starts == 1:
         from ..blackbox import update_black_box
+
+        if execution.scheduler:  # the runs of the command go to the cluster
+            box.scheduler, box.connect_timeout = execution.scheduler, execution.connect_timeout
+        if execution.jobs:
+            box.jobs = execution.jobs
 
         bb = update_black_box(box, data, params=run.params, values=values, options=run.options)
         result = res = bb.result
