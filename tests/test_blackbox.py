@@ -301,3 +301,25 @@ def test_an_answer_on_a_bound_is_re_probed_from_inside():
     assert 1.2 - 1e-9 < res.parameters["p"] <= 1.2  # on the bound, as the bounded solver ends there
     assert all(r["center"]["p"] < 1.2 for r in res.rounds)
     assert res.rounds[-1]["matrix_deviation"] <= 1e-6
+
+
+ABAQUS_SCRIPT = textwrap.dedent("""\
+    import sys
+    p = float(sys.argv[1])
+    k1, k2 = 1000.0 * p, 800.0
+    with open("job_STIF1.mtx", "w") as fh:  # *MATRIX GENERATE, matrix input format, one triangle
+        fh.write("** assembled stiffness\\n")
+        fh.write(f"10,1, 10,1, {k1 + k2!r}\\n20,1, 10,1, {-k2!r}\\n20,1, 20,1, {k2!r}\\n")
+    with open("job_MASS1.mtx", "w") as fh:
+        fh.write("10,1, 10,1, 1.0\\n20,1, 20,1, 2.0\\n")
+    """)
+
+
+def test_command_writing_abaqus_matrix_files(tmp_path):
+    """The dof labels come from the Abaqus files themselves (nodes 10 and 20); k1 = 1000 p is affine."""
+    (tmp_path / "abq.py").write_text(ABAQUS_SCRIPT)
+    runner = Command("{python} {base}/abq.py {p}", K="job_STIF1.mtx", M="job_MASS1.mtx", dofs=None, format="abaqus",
+                     base=str(tmp_path))
+    probed = probe_model(BlackBox(runner, [Parameter("p", 1.0, (0.5, 2.0))], options=ProbeOptions(checks=1)))
+    assert probed.model.dofs == ("10:x", "20:x") and probed.affine == {"p": True}
+    assert np.allclose(probed.model.K({"p": 1.7}).toarray(), [[2500.0, -800.0], [-800.0, 800.0]], rtol=1e-12)
