@@ -12,6 +12,8 @@
     [parameters.h]
     value = 0.3
     bounds = [0.1, 0.6]
+
+Paths are relative to the model file; the keys and their defaults are in docs/blackbox.md.
 """
 
 from __future__ import annotations
