@@ -323,3 +323,30 @@ def test_command_writing_abaqus_matrix_files(tmp_path):
     probed = probe_model(BlackBox(runner, [Parameter("p", 1.0, (0.5, 2.0))], options=ProbeOptions(checks=1)))
     assert probed.model.dofs == ("10:x", "20:x") and probed.affine == {"p": True}
     assert np.allclose(probed.model.K({"p": 1.7}).toarray(), [[2500.0, -800.0], [-800.0, 800.0]], rtol=1e-12)
+
+
+def test_update_scheduler_option_sends_the_runs_to_dask(tmp_path):
+    """`femupdate update --scheduler`: the command's runs go to the cluster (its worker runs the script);
+    the answer is the local one's."""
+    distributed = pytest.importorskip("distributed")
+    model = write_model(tmp_path)
+    (tmp_path / "test.json").write_text(json.dumps({"modes": [{"eigenvalue": float(v)} for v in spring_truth(1.3)]}))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address=None) as cl:
+        out = femupdate("update", model, "test.json", "--scheduler", cl.scheduler_address, "--json", "out.json",
+                        cwd=tmp_path)
+        with distributed.Client(cl.scheduler_address) as client:
+            ran = client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.task_prefixes))
+    assert out.returncode == 0, out.stderr
+    assert ran > 0  # tasks reached the scheduler
+    assert abs(json.loads((tmp_path / "out.json").read_text())["parameters"]["p"] / 1.3 - 1) < 1e-6
+
+
+def test_a_fixed_parameter_stays_at_its_value_through_the_rounds(frame):
+    """E_cols fixed at a value that is not the truth's: h alone is updated, in several rounds."""
+    truth = {"E_cols": 2.1e11, "h": 0.34}
+    box = BlackBox(Function(frame_matrices), [Parameter("E_cols", 2.1e11, (1e11, 4e11), fixed=True),
+                                              Parameter("h", 0.3, (0.1, 0.6))])
+    res = update_black_box(box, opensees_data(frame, truth))
+    assert tuple(res.result.names) == ("h",) and res.parameters["E_cols"] == 2.1e11
+    assert abs(res.parameters["h"] / 0.34 - 1) < 1e-5 and len(res.rounds) >= 2

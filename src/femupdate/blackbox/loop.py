@@ -124,7 +124,7 @@ def update_black_box(box: BlackBox, data, **kwargs) -> BlackBoxResult:
             lo, hi = prm.bounds
             margin = min(steps[prm.name] * (2 if opt.degree > 2 else 1), (hi - lo) / 4)
             center[prm.name] = min(max(p[prm.name], lo + margin), hi - margin)
-        kwargs["x0"] = {n: p[n] for n in (kwargs.get("params") or box.names)}
+        kwargs["x0"] = {n: p[n] for n in res.names}  # the updated ones
     last = rounds[-1]
     raise NumericalError(
         f"black box {box.name!r}: after {opt.rounds} rounds the code run at the updated values "
