@@ -227,6 +227,12 @@ def test_a_failing_command_is_exit_2_without_traceback(tmp_path):
     assert "failed with exit status 3; its output:\nsolver: negative pivot in row 2" in out.stderr, out.stderr
 
 
+def test_a_command_past_its_timeout_is_named_with_what_it_printed():
+    slow = Command("echo computing; sleep 5", timeout=0.5)
+    with pytest.raises(InputError, match=r"command `echo computing; sleep 5` took more than 0.5 s; its output:\ncomputing"):
+        slow({"p": 1.0})
+
+
 def test_nan_in_a_callable_run_and_unknown_placeholders_refused():
     def nan(values):
         K, M, d = chain([1000.0, 800.0], [1.0, 1.0])

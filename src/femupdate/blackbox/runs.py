@@ -17,6 +17,7 @@ processes (``jobs``) or on a Dask cluster (``scheduler``).  A run that fails is 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
 import json
@@ -166,17 +167,10 @@ class Command:
         folder = tempfile.mkdtemp(prefix="femupdate-run-")
         try:
             cmd = self.command(values, folder)
-            try:
-                done = subprocess.run(cmd, shell=True, cwd=folder, capture_output=True, text=True, errors="replace",
-                                      timeout=self.timeout)
-            except subprocess.TimeoutExpired as exc:
-                out = (exc.stdout or "") + (exc.stderr or "") if isinstance(exc.stdout, str) else ""
-                raise InputError(f"the black-box run at {shown_values(values)}: command `{cmd}` took more than "
-                                 f"{self.timeout:g} s{_tail(out)}") from None
-            output = done.stdout + done.stderr
-            if done.returncode != 0:
+            output, code = _shell(cmd, folder, self.timeout, values)
+            if code != 0:
                 raise InputError(f"the black-box run at {shown_values(values)}: command `{cmd}` failed with exit "
-                                 f"status {done.returncode}{_tail(output)}")
+                                 f"status {code}{_tail(output)}")
             return self._read(Path(folder), values, cmd, output)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
@@ -218,6 +212,26 @@ class Command:
         named = {"K": self.K, "M": self.M} if self.format in ("matrices", "abaqus") else \
             {k: f"{getattr(self, k)} of {self.file}" for k in ("K", "M")}
         return _check_run(values, dofs, K, M, source, named)
+
+
+def _shell(cmd: str, folder: str, timeout: float | None, values) -> tuple[str, int]:
+    """Run ``cmd`` in ``folder`` in a process group of its own, which is ended with it on a timeout
+    or an interrupt (a solver the script started does not outlive the run); its output and status."""
+    import signal
+
+    proc = subprocess.Popen(cmd, shell=True, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            errors="replace", start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        if isinstance(exc, subprocess.TimeoutExpired):
+            raise InputError(f"the black-box run at {shown_values(values)}: command `{cmd}` took more than "
+                             f"{timeout:g} s{_tail(out)}") from None
+        raise
+    return out, proc.returncode
 
 
 def _tail(output: str) -> str:
