@@ -331,6 +331,7 @@ def test_command_writing_abaqus_matrix_files(tmp_path):
     assert np.allclose(probed.model.K({"p": 1.7}).toarray(), [[2500.0, -800.0], [-800.0, 800.0]], rtol=1e-12)
 
 
+@heavy  # the representative that always runs: test_runs_on_a_dask_cluster_give_the_same_model
 def test_update_scheduler_option_sends_the_runs_to_dask(tmp_path):
     """`femupdate update --scheduler`: the command's runs go to the cluster (its worker runs the script);
     the answer is the local one's."""
