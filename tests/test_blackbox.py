@@ -258,6 +258,9 @@ def test_cache_folder_and_local_processes_give_the_same_model(tmp_path):
     reread = BlackBox(Function(kink), params, cache=Cache(tmp_path / "runs"), options=ProbeOptions(checks=2))
     probe_model(reread)
     assert reread.cache.runs == 0 and reread.cache.hits == parallel.runs
+    (tmp_path / "file").write_text("")
+    with pytest.raises(InputError, match=r"cannot write the cache folder .*file/runs .*name another with cache ="):
+        probe_model(BlackBox(Function(kink), params, cache=Cache(tmp_path / "file" / "runs")))
     with pytest.raises(InputError, match="need a picklable runner"):
         probe_model(BlackBox(Function(lambda v: kink(v)), params, jobs=2))
 

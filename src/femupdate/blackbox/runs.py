@@ -327,11 +327,15 @@ class Cache:
         self.memory[key] = run
         if self.folder is None:
             return
-        self.folder.mkdir(parents=True, exist_ok=True)
         tmp = self.folder / f".{key}.{os.getpid()}.npz"
-        np.savez(tmp, n=run.K.shape[0], dofs=np.array(run.dofs), K_data=run.K.data, K_indices=run.K.indices,
-                 K_indptr=run.K.indptr, M_data=run.M.data, M_indices=run.M.indices, M_indptr=run.M.indptr)
-        os.replace(tmp, self.folder / f"{key}.npz")
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            np.savez(tmp, n=run.K.shape[0], dofs=np.array(run.dofs), K_data=run.K.data, K_indices=run.K.indices,
+                     K_indptr=run.K.indptr, M_data=run.M.data, M_indices=run.M.indices, M_indptr=run.M.indptr)
+            os.replace(tmp, self.folder / f"{key}.npz")
+        except OSError as exc:
+            raise InputError(f"black box: cannot write the cache folder {self.folder} ({exc.strerror or exc}); "
+                             "name another with cache = \"FOLDER\" in [blackbox]") from None
 
 
 def _execute(runner, values: dict) -> Run:
