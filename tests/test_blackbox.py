@@ -200,8 +200,14 @@ def test_command_route_updates_a_cubic_spring_through_the_command_line(tmp_path)
     out = femupdate("update", model, tmp_path / "test.json", "--json", tmp_path / "out.json", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert "black box:" in out.stdout and "round(s)" in out.stdout
-    got = json.loads((tmp_path / "out.json").read_text())["parameters"]["p"]
+    written = json.loads((tmp_path / "out.json").read_text())
+    got = written["parameters"]["p"]
     assert abs(got / 1.3 - 1) < 1e-6, got
+    rounds = written["black_box"]["rounds"]
+    assert len(rounds) >= 2 and rounds[-1]["matrix_deviation"] <= 1e-6 and rounds[0]["affine"] == {"p": False}
+    from femupdate import schema
+
+    schema.check(written, "update")
     assert len(list((tmp_path / "springs.toml.runs").glob("*.npz"))) >= 7
     # the probed model at the nominal value, from the cache: the same K as the script's at p = 1
     m = load_model(model)

@@ -4,6 +4,7 @@ measured modes, FRFs and static deflections at any dofs, alone or mixed."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -16,6 +17,9 @@ from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
 from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
+
+if TYPE_CHECKING:
+    from ..blackbox import BlackBoxResult
 
 
 
@@ -49,6 +53,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
     res: UpdateResult | None
     ms: MultiStartResult | None = None
     box = _black_box(model_path)
+    bb: BlackBoxResult | None = None
     if box is not None and starts.starts == 1:
         from ..blackbox import update_black_box
 
@@ -74,6 +79,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
         res = ms.best
     result = result.with_context(damping=run.damping, before=before)
     payload = result.to_json()
+    if bb is not None:
+        payload["black_box"] = {"rounds": bb.rounds, "runs": bb.runs, "cache_hits": bb.cache_hits}
     if res is None:
         assert ms is not None
         outputs.emit(ctx, payload)
