@@ -63,7 +63,7 @@ def test_every_page_and_reference_is_there(site):
     proc, html = site
     assert proc.returncode == 0, "the build failed (see the test above)"
     for page in ("getting-started", "capabilities", "cli", "file-formats", "python-api", "paper", "numerics",
-                 "limitations", "benchmarks", "changelog", "reference/commands", "reference/api"):
+                 "limitations", "benchmarks", "changelog", "reference/commands", "reference/api", "blackbox"):
         assert (html / f"{page}.html").is_file(), page
     commands = (html / "reference" / "commands.html").read_text(encoding="utf-8")
     from femupdate.cli import cli

@@ -4,6 +4,7 @@ measured modes, FRFs and static deflections at any dofs, alone or mixed."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -17,6 +18,9 @@ from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
 from .testpoints import TestPointsSpec, test_points_group
 from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
+
+if TYPE_CHECKING:
+    from ..blackbox import BlackBoxResult
 
 
 
@@ -57,7 +61,25 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     result: UpdateResult | MultiStartResult
     res: UpdateResult | None
     ms: MultiStartResult | None = None
-    if starts.starts == 1 and not execution.scheduler:
+    box = _black_box(model_path)
+    bb: BlackBoxResult | None = None
+    if box is not None and starts.starts == 1:
+        from ..blackbox import update_black_box
+
+        if execution.scheduler:  # the runs of the command go to the cluster
+            box.scheduler, box.connect_timeout = execution.scheduler, execution.connect_timeout
+        if execution.jobs:
+            box.jobs = execution.jobs
+
+        bb = update_black_box(box, data, params=run.params, values=values, options=run.options)
+        result = res = bb.result
+        model = bb.model
+        last = bb.rounds[-1]
+        ctx.console.print(f"black box: {len(bb.rounds)} round(s), {bb.runs} run(s) of the command "
+                          f"({bb.cache_hits} from the cache); at the answer the command's own run and the fitted model "
+                          f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
+                          "(paired frequencies)")
+    elif starts.starts == 1 and not execution.scheduler:
         result = res = _update(model, data, params=run.params, values=values, options=run.options)
     else:
         with outputs.progress(ctx, "starts", starts.starts) as tick:
@@ -70,6 +92,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     if mapped is not None:  # the map into the result, and the report drawn from it
         payload["test_points"] = mapped.to_json()
         report_of = payload
+    if bb is not None:
+        payload["black_box"] = {"rounds": bb.rounds, "runs": bb.runs, "cache_hits": bb.cache_hits}
     if res is None:
         assert ms is not None
         outputs.emit(ctx, payload)
@@ -97,6 +121,18 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
 
         write_uff_modes(outputs.uff_path, model_modes(base, res.parameters), nodes=base.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _black_box(model_path):
+    """The black box of a model file with a ``[blackbox]`` table (its runs re-probed near the
+    answer), else None."""
+    from ..io.model_file import read_toml
+
+    if Path(model_path).suffix.lower() != ".toml" or "blackbox" not in read_toml(model_path):
+        return None
+    from ..blackbox import load_black_box
+
+    return load_black_box(model_path)
 
 
 def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:

@@ -120,6 +120,15 @@ def load_model(path) -> Model:
     data = read_toml(path)
     if "matrices" in data:
         return _matrix_model(data, path)
+    if "blackbox" in data:
+        from ..blackbox import probe_model
+        from ..blackbox.table import black_box_from_table
+
+        model = probe_model(black_box_from_table(data, path)).model
+        stiffness = f"{path}: the stiffness the [blackbox] command writes"
+        model = eliminate_penalty_links(model, stiffness)
+        _definite(model, stiffness)
+        return model
     for table in EXTERNAL:
         if table in data:
             return _external_model(data, path, table)

@@ -62,6 +62,11 @@ UPDATE_KEYS = (
     Key("flags", "list", "as `direct`: updated values on or outside their bounds, or not > 0 where they must be",
         (ARRAY,)),
     Key("parameter_units, bounds", "objects", "as `direct`", (OBJECT,)),
+    Key("black_box", "object", "a `[blackbox]` model (`update` only, one start): `rounds` (per round of probing: "
+        "`center`, `steps`, `affine` `{name: bool}`, `parameters` (the round's answer), `matrix_deviation` and "
+        "`frequency_deviation` (the code's own run at the answer against the fitted model, relative), `runs`), "
+        "`runs` and `cache_hits` (the code's runs in all, and those read back from the cache) (docs/blackbox.md)",
+        (OBJECT,)),
     Key("diagnostics", "object", _DIAGNOSTICS, (OBJECT,)),
     Key("model_error", "object", "whether the best fit reproduces the data within the noise: `test` (`chi-square` "
         "against stated noise, `plausibility` of estimated noise, `none`), `statistic`, `dof`, `p_value`, `alpha`, "
