@@ -165,7 +165,7 @@ def complex_modes(dm: DampedModel, n_modes: int | None = None, values=None, meth
     dense = method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
     scale = _scale(K, M)
     if dense:
-        A, B = _pencil(Kc, M, C, dense=True)
+        A, B = _pencil(Kc, M, C, dense=True, s=scale)
         lam, Z = la.eig(A, B)
         solver = "dense"
     else:
@@ -183,10 +183,11 @@ def _scale(K, M) -> float:
     return float(np.sqrt(np.median(d[both] / md[both]))) if np.any(both) else 1.0
 
 
-def _pencil(Kc, M, C, dense: bool):
+def _pencil(Kc, M, C, dense: bool, s: float = 1.0):
+    """The state-space pencil of z = [s φ; λ φ] (s the frequency scale balances the blocks)."""
     n = M.shape[0]
     eye = sp.identity(n, format="csr")
-    A = sp.block_array([[None, eye], [-Kc, -C]], format="csc")
+    A = sp.block_array([[None, s * eye], [-Kc / s, -C]], format="csc")
     B = sp.block_array([[eye, None], [None, M]], format="csc")
     A = A.astype(complex if np.iscomplexobj(Kc.data) else float)
     return (A.toarray(), B.toarray()) if dense else (A, B)
@@ -194,7 +195,7 @@ def _pencil(Kc, M, C, dense: bool):
 
 def _sparse(Kc, K, M, C, k: int, sigma, scale: float):
     n = M.shape[0]
-    A, B = _pencil(Kc, M, C, dense=False)
+    A, B = _pencil(Kc, M, C, dense=False, s=scale)
     A = A.astype(complex)
     k = min(k, 2 * n - 2)
     s = complex(sigma) if sigma is not None else 0.0
@@ -290,10 +291,9 @@ def _modal_coordinates(dm, K, M, C, D, n_modes):
     Kr = np.diag(w ** 2).astype(complex if D is not None else float)
     if D is not None:
         Kr = Kr + 1j * (Phi.T @ (D @ Phi))
-    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Kr, -Cr]])
-    B = np.eye(2 * m)
-    lam, Z = la.eig(A, B)
     scale = float(np.max(w)) if np.any(w > 0) else 1.0
+    A = np.block([[np.zeros((m, m)), scale * np.eye(m)], [-Kr / scale, -Cr]])
+    lam, Z = la.eig(A)
     lam, Q, n_rigid, n_over = _select(dm, lam, Z[:m], scale, n_modes)
     Q = normalise(Q, lam, np.eye(m), Cr)
     return ComplexModes(lam, Phi @ Q, dm.dofs, f"modal coordinates ({m} modes)", n_rigid, n_over, modal=True)

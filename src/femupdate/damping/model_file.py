@@ -121,7 +121,7 @@ def _parameters(raw, where: str, base: Path, load_matrix) -> tuple[tuple, tuple]
         unknown = sorted(set(spec) - {"value", "bounds", "fixed", "prior", "C"})
         if unknown:
             raise InputError(f"{w}: unknown key(s) {', '.join(unknown)} (allowed: value, bounds, fixed, prior, C)")
-        bounds = spec.get("bounds", [0.0, float("inf")])
+        bounds = spec.get("bounds", [float("-inf"), float("inf")])  # DampedModel: lower bound 0
         if not isinstance(bounds, list) or len(bounds) != 2:
             raise InputError(f"{w}: bounds must be [lower, upper], got {bounds!r}")
         try:

@@ -1,0 +1,284 @@
+"""Damping in the model and complex modes (issue 31, first slice).
+
+References: the characteristic polynomial det(λ²M + λC + K) = 0 of a 2-dof system with
+non-proportional damping (numpy.roots), SciPy's dense state-space eigen-solution as a second
+route, the closed form λ = -ζω ± iω√(1-ζ²) of proportional damping, central finite differences
+for the sensitivities, and the recovery of damping parameters from noise-free complex eigenvalues.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg as la
+
+from femupdate import Model
+from femupdate._errors import InputError
+from femupdate.damping import (DampedModel, Damper, LossFactor, complex_modes, complex_sensitivities, fit_damping,
+                               load_damped_model, mean_phase_deviation, modal_phase_collinearity, realise,
+                               target_eigenvalues)
+from femupdate.examples import truss_model_toml
+from femupdate.model import Parameter
+
+DOFS = ["1:x", "2:x"]
+
+
+def two_dof(c=3.0, beta=2e-3, alpha=0.0, grounded=True):
+    """Masses 1 and 2 kg, springs k1 (ground-1) and k2 (1-2), a damper c at dof 1 (non-proportional)."""
+    k1 = np.array([[1.0, 0.0], [0.0, 0.0]])
+    k2 = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    m = Model(DOFS, np.zeros((2, 2)), np.diag([1.0, 2.0]), (Parameter("k1", 1000.0), Parameter("k2", 500.0)),
+              (k1, k2), (None, None))
+    params = [Parameter("c", c), Parameter("b", beta)]
+    return DampedModel(m, params, alpha=alpha, beta="b", dampers=(Damper(("1:x",) if grounded else DOFS, "c"),))
+
+
+def characteristic_roots(M, C, K):
+    """Roots of det(λ²M + λC + K) for 2 x 2 matrices, upper half-plane, ascending |λ|."""
+    P = [[np.array([M[i, j], C[i, j], K[i, j]]) for j in range(2)] for i in range(2)]
+    poly = np.polysub(np.polymul(P[0][0], P[1][1]), np.polymul(P[0][1], P[1][0]))
+    r = np.roots(poly)
+    r = r[r.imag > 0]
+    return r[np.argsort(np.abs(r))]
+
+
+def test_two_dof_eigenvalues_match_the_characteristic_polynomial_and_scipy():
+    dm = two_dof()
+    res = complex_modes(dm)
+    K, M, C = (A.toarray() for A in (dm.K(), dm.M(), dm.C()))
+    ref = characteristic_roots(M, C, K)
+    assert res.n_modes == 2
+    np.testing.assert_allclose(res.eigenvalues, ref, rtol=1e-10)
+    # the damper makes the damping non-proportional: the modes are complex (MPC < 1)
+    assert np.all(res.mpc < 1 - 1e-5) and np.all(res.mpd > 0.01)
+    # second route: SciPy's quadratic problem via the other companion form (λ M φ = ..., B = [[C, M],[M, 0]])
+    A2 = np.block([[-K, np.zeros((2, 2))], [np.zeros((2, 2)), M]])
+    B2 = np.block([[C, M], [M, np.zeros((2, 2))]])
+    w = la.eigvals(A2, B2)
+    w = w[w.imag > 0]
+    np.testing.assert_allclose(np.sort_complex(w[np.argsort(np.abs(w))]), np.sort_complex(ref), rtol=1e-10)
+    # each pair satisfies the quadratic problem and the normalisation
+    for lam, phi in zip(res.eigenvalues, res.shapes.T):
+        F = lam ** 2 * M + lam * C + K
+        assert np.linalg.norm(F @ phi) <= 1e-10 * np.linalg.norm(F) * np.linalg.norm(phi)
+        assert abs(phi @ ((2 * lam * M + C) @ phi) - 1) < 1e-12
+
+
+def test_sparse_shift_invert_agrees_with_dense():
+    dm = two_dof(grounded=False)
+    dense = complex_modes(dm)
+    sparse = complex_modes(dm, n_modes=1, method="sparse")
+    np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues[:1], rtol=1e-10)
+    np.testing.assert_allclose(np.abs(sparse.shapes), np.abs(dense.shapes[:, :1]), rtol=1e-8)
+
+
+def test_proportional_damping_gives_real_modes_with_the_closed_form_eigenvalues():
+    s = _truss(alpha=0.7, beta=3e-5, dampers=False)
+    res = complex_modes(s)
+    K, M = s.K().toarray(), s.M().toarray()
+    w2, Phi = la.eigh(K, M)
+    w = np.sqrt(w2)
+    zeta = 0.7 / (2 * w) + 3e-5 * w / 2
+    lam = -zeta * w + 1j * w * np.sqrt(1 - zeta ** 2)
+    np.testing.assert_allclose(res.eigenvalues, lam, rtol=1e-10)
+    np.testing.assert_allclose(res.damping_ratios, zeta, rtol=1e-9)
+    np.testing.assert_allclose(res.mpc, 1.0, atol=1e-10)
+    np.testing.assert_allclose(res.mpd, 0.0, atol=1e-5)
+    # realised shapes are the undamped modes (up to scale)
+    R = realise(res.shapes)
+    for r in range(res.n_modes):
+        a, b = R[:, r], Phi[:, r]
+        assert abs(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b)) > 1 - 1e-10
+
+
+def test_modal_damping_ratios_act_in_modal_coordinates():
+    m = two_dof().model
+    dm = DampedModel(m, modal=(0.02, 0.05))
+    res = complex_modes(dm)
+    w = np.sqrt(la.eigh(m.K().toarray(), m.M().toarray(), eigvals_only=True))
+    np.testing.assert_allclose(res.damping_ratios, [0.02, 0.05], rtol=1e-10)
+    np.testing.assert_allclose(np.abs(res.eigenvalues), w, rtol=1e-10)
+    np.testing.assert_allclose(res.mpc, 1.0, atol=1e-10)
+    with pytest.raises(InputError, match="modal coordinates"):
+        complex_sensitivities(dm, res)
+
+
+def test_hysteretic_loss_factor_on_the_whole_stiffness():
+    m = two_dof().model
+    dm = DampedModel(m, losses=(LossFactor(0.04),))
+    res = complex_modes(dm)
+    w = np.sqrt(la.eigh(m.K().toarray(), m.M().toarray(), eigvals_only=True))
+    np.testing.assert_allclose(res.eigenvalues, 1j * w * np.sqrt(1 + 0.04j), rtol=1e-10)  # λ² = -ω²(1 + iη)
+
+
+def test_complexity_indicators_on_known_shapes():
+    real = np.array([1.0, -2.0, 0.5]) * np.exp(0.7j)
+    assert modal_phase_collinearity(real) == pytest.approx(1.0, abs=1e-14)
+    assert mean_phase_deviation(real) == pytest.approx(0.0, abs=1e-6)
+    circle = np.array([1.0, 1j, -1.0, -1j])
+    assert modal_phase_collinearity(circle) == pytest.approx(0.0, abs=1e-14)
+    assert mean_phase_deviation(circle) == pytest.approx(45.0, abs=1e-9)
+    np.testing.assert_allclose(realise(real), [-1.0, 2.0, -0.5], atol=1e-14)  # largest entry positive
+    two = np.array([1.0, 1.0 + 1.0j])  # one entry 45° off the best line: MPC from the 2 x 2 eigenvalues
+    x, y = two.real, two.imag
+    s = np.linalg.eigvalsh([[x @ x, x @ y], [x @ y, y @ y]])
+    assert modal_phase_collinearity(two) == pytest.approx(((s[1] - s[0]) / (s[1] + s[0])) ** 2, rel=1e-12)
+
+
+@pytest.mark.parametrize("hysteretic", [False, True])
+def test_sensitivities_match_central_differences(hysteretic):
+    dm = two_dof(alpha=0.0)
+    if hysteretic:
+        dm = DampedModel(dm.model, dm.parameters + (Parameter("eta", 0.03),), beta="b", dampers=dm.dampers,
+                         losses=(LossFactor("eta", on="k2"),))
+    res = complex_modes(dm)
+    S = complex_sensitivities(dm, res, vectors=True)
+    p0 = dm.resolve()
+    for j, name in enumerate(dm.parameter_names):
+        h = 1e-5 * max(abs(p0[j]), 1e-3)
+        up, down = p0.copy(), p0.copy()
+        up[j] += h
+        down[j] -= h
+        a, b = complex_modes(dm, values=up), complex_modes(dm, values=down)
+        fd = (a.eigenvalues - b.eigenvalues) / (2 * h)
+        np.testing.assert_allclose(S.d_eigenvalues[:, j], fd, rtol=1e-6, atol=1e-9 * np.abs(fd).max(), err_msg=name)
+        fdv = (a.shapes - b.shapes) / (2 * h)
+        assert np.abs(S.d_shapes[:, :, j] - fdv).max() <= 1e-5 * np.abs(fdv).max(), name
+    # derived: natural frequency and damping ratio derivatives against differences of those
+    j = dm.parameter_names.index("c")
+    up = p0.copy()
+    up[j] += 1e-6
+    dz = (complex_modes(dm, values=up).damping_ratios - res.damping_ratios) / 1e-6
+    np.testing.assert_allclose(S.d_damping_ratios[:, j], dz, rtol=1e-4)
+
+
+def test_rayleigh_beta_times_a_stiffness_parameter_is_exact():
+    dm = two_dof(alpha=0.0)
+    dK, dM, dC, dD = dm.derivatives("k2")
+    np.testing.assert_allclose(dC.toarray(), 2e-3 * np.array([[1.0, -1.0], [-1.0, 1.0]]))
+    _, _, dCb, _ = dm.derivatives("b")
+    np.testing.assert_allclose(dCb.toarray(), dm.K().toarray())
+
+
+def _truss(alpha=0.5, beta="b", dampers=True, c=(40.0, 25.0)):
+    from femupdate.io.model_file import build_model
+    import tomllib
+
+    model = build_model(tomllib.loads(truss_model_toml()), Path("truss.toml"))
+    params = [Parameter("b", 2e-5)] if beta == "b" else []
+    ds = ()
+    if dampers:
+        params += [Parameter("c1", c[0]), Parameter("c2", c[1])]
+        ds = (Damper(("4:x", "104:y"), "c1"), Damper(("103:y",), "c2"))
+    return DampedModel(model, params, alpha=alpha, beta=beta, dampers=ds)
+
+
+def test_dampers_and_rayleigh_recovered_from_noise_free_complex_eigenvalues():
+    truth = _truss()
+    target = complex_modes(truth, n_modes=6).eigenvalues
+    start = _truss(alpha=0.2, c=(10.0, 60.0)).with_values({"b": 5e-5})
+    dm = DampedModel(start.model, start.parameters + (Parameter("a", 0.2),), alpha="a", beta="b",
+                     dampers=start.dampers)
+    fit = fit_damping(dm, target, ["a", "b", "c1", "c2"])
+    assert fit.success
+    for name, true in (("a", 0.5), ("b", 2e-5), ("c1", 40.0), ("c2", 25.0)):
+        assert fit.values[name] == pytest.approx(true, rel=1e-6), name
+    # the same from frequencies and damping ratios
+    tr = complex_modes(truth, n_modes=6)
+    lam = target_eigenvalues(tr.natural_frequencies_hz, tr.damping_ratios)
+    np.testing.assert_allclose(lam, target, rtol=1e-12)
+
+
+def test_model_file_damping_table(tmp_path):
+    text = truss_model_toml() + """
+[damping]
+alpha = 0.5
+beta = "b"
+
+[damping.parameters.b]
+value = 2.0e-5
+
+[damping.parameters.c1]
+value = 40.0
+
+[damping.parameters.c2]
+value = 25.0
+
+[[damping.damper]]
+dofs = ["4:x", "104:y"]
+c = "c1"
+
+[[damping.damper]]
+dofs = ["103:y"]
+c = "c2"
+"""
+    (tmp_path / "truss.toml").write_text(text)
+    dm = load_damped_model(tmp_path / "truss.toml")
+    ref = _truss()
+    np.testing.assert_allclose(dm.C().toarray(), ref.C().toarray(), rtol=1e-14)
+    out = _cli(tmp_path / "truss.toml")
+    assert out.returncode == 0, out.stderr
+    assert "MPC" in out.stdout and "complex modes" in out.stdout
+
+
+def _cli(path):
+    import os
+
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    return subprocess.run([sys.executable, "-m", "femupdate", "complex-modes", str(path)], capture_output=True,
+                          text=True, timeout=120, env=env)
+
+
+BAD = {
+    "negative damper": ("""
+[damping.parameters.c1]
+value = 40.0
+[[damping.damper]]
+dofs = ["4:x"]
+c = -3.0
+""", "c = -3.0 is negative"),
+    "unstable": ("""
+[damping]
+C0 = "C0.npy"
+""", "is unstable"),
+    "percent": ("""
+[damping]
+modal = [2.0, 3.0]
+""", "looks like a percentage, write 0.02"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_damping_input_one_message_exit_2(tmp_path, case):
+    extra, message = BAD[case]
+    if case == "negative damper":
+        extra = extra.replace("[damping.parameters.c1]\nvalue = 40.0\n", "")
+    if case == "unstable":  # a C with a negative entry at a dof: a damper that feeds energy in
+        from femupdate.io.model_file import build_model
+        import tomllib
+
+        n = build_model(tomllib.loads(truss_model_toml()), tmp_path / "t.toml").n_dofs
+        C = np.zeros((n, n))
+        C[0, 0] = -50.0
+        np.save(tmp_path / "C0.npy", C)
+    (tmp_path / "m.toml").write_text(truss_model_toml() + "\n" + extra)
+    out = _cli(tmp_path / "m.toml")
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert message in out.stderr and "Traceback" not in out.stderr
+    assert out.stderr.strip().count("\n") <= 1, out.stderr
+
+
+def test_negative_damping_parameter_and_unknown_names_refused():
+    m = two_dof().model
+    with pytest.raises(InputError, match="'c' = -1 .*negative"):
+        DampedModel(m, (Parameter("c", -1.0),), dampers=(Damper(("1:x",), "c"),))
+    with pytest.raises(InputError, match="not a damping parameter"):
+        DampedModel(m, (), dampers=(Damper(("1:x",), "k1"),))
+    with pytest.raises(InputError, match="used by no damping"):
+        DampedModel(m, (Parameter("c", 1.0),))
+    with pytest.raises(InputError, match="percentage"):
+        target_eigenvalues([10.0], [5.0])
