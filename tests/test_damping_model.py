@@ -8,8 +8,7 @@ for the sensitivities, and the recovery of damping parameters from noise-free co
 
 from __future__ import annotations
 
-import subprocess
-import sys
+import json
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,7 @@ from femupdate._errors import InputError
 from femupdate.damping import (DampedModel, Damper, LossFactor, complex_modes, complex_sensitivities, fit_damping,
                                load_damped_model, mean_phase_deviation, modal_phase_collinearity, realise,
                                target_eigenvalues)
-from femupdate.examples import truss_model_toml
+from femupdate.examples import TRUSS_DAMPING, truss_damped_model_toml, truss_model_toml
 from femupdate.model import Parameter
 
 DOFS = ["1:x", "2:x"]
@@ -193,83 +192,53 @@ def test_dampers_and_rayleigh_recovered_from_noise_free_complex_eigenvalues():
     np.testing.assert_allclose(lam, target, rtol=1e-12)
 
 
-def test_model_file_damping_table(tmp_path):
-    text = truss_model_toml() + """
-[damping]
-alpha = 0.5
-beta = "b"
-
-[damping.parameters.b]
-value = 2.0e-5
-
-[damping.parameters.c1]
-value = 40.0
-
-[damping.parameters.c2]
-value = 25.0
-
-[[damping.damper]]
-dofs = ["4:x", "104:y"]
-c = "c1"
-
-[[damping.damper]]
-dofs = ["103:y"]
-c = "c2"
-"""
-    (tmp_path / "truss.toml").write_text(text)
+def test_model_file_damping_table(tmp_path, capsys):
+    (tmp_path / "truss.toml").write_text(truss_damped_model_toml())
     dm = load_damped_model(tmp_path / "truss.toml")
-    ref = _truss()
+    ref = _truss(c=(TRUSS_DAMPING["c1"], TRUSS_DAMPING["c2"]))
     np.testing.assert_allclose(dm.C().toarray(), ref.C().toarray(), rtol=1e-14)
-    out = _cli(tmp_path / "truss.toml")
-    assert out.returncode == 0, out.stderr
-    assert "MPC" in out.stdout and "complex modes" in out.stdout
+    code, out, err = _cli([tmp_path / "truss.toml", "--n-modes", "3", "--json", tmp_path / "cm.json"], capsys)
+    assert code == 0, err
+    assert "MPC" in out and "3 complex modes" in out
+    obj = json.loads((tmp_path / "cm.json").read_text())
+    lam = complex_modes(ref, n_modes=3).eigenvalues
+    np.testing.assert_allclose([complex(*v) for v in obj["eigenvalues"]], lam, rtol=1e-12)
+    assert obj["parameters"]["c1"] == TRUSS_DAMPING["c1"]
 
 
-def _cli(path):
-    import os
+def _cli(args, capsys):
+    from femupdate.cli import main
 
-    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
-    return subprocess.run([sys.executable, "-m", "femupdate", "complex-modes", str(path)], capture_output=True,
-                          text=True, timeout=120, env=env)
+    with pytest.raises(SystemExit) as info:
+        main(["complex-modes", *map(str, args)])
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
 
 
 BAD = {
-    "negative damper": ("""
-[damping.parameters.c1]
-value = 40.0
-[[damping.damper]]
-dofs = ["4:x"]
-c = -3.0
-""", "c = -3.0 is negative"),
-    "unstable": ("""
-[damping]
-C0 = "C0.npy"
-""", "is unstable"),
-    "percent": ("""
-[damping]
-modal = [2.0, 3.0]
-""", "looks like a percentage, write 0.02"),
+    "negative damper": ('[[damping.damper]]\ndofs = ["4:x"]\nc = -3.0\n', "[damping]: damper ['4:x'] c = -3.0 is negative"),
+    "negative parameter": ('[damping]\nalpha = "a"\n[damping.parameters.a]\nvalue = -0.1\n',
+                           "damping parameter 'a' = -0.1 (value) is negative"),
+    "unstable": ('[damping]\nC0 = "C0.npy"\n', "is unstable: eigenvalue"),
+    "percent": ("[damping]\nmodal = [2.0, 3.0]\n", "mode 1 = 2.0 is above 1: damping ratios are fractions of critical "
+                "damping (2 % is 0.02); it looks like a percentage, write 0.02"),
 }
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
-def test_bad_damping_input_one_message_exit_2(tmp_path, case):
+def test_bad_damping_input_one_message_exit_2(tmp_path, capsys, case):
     extra, message = BAD[case]
-    if case == "negative damper":
-        extra = extra.replace("[damping.parameters.c1]\nvalue = 40.0\n", "")
     if case == "unstable":  # a C with a negative entry at a dof: a damper that feeds energy in
-        from femupdate.io.model_file import build_model
-        import tomllib
-
-        n = build_model(tomllib.loads(truss_model_toml()), tmp_path / "t.toml").n_dofs
+        n = _truss().n_dofs
         C = np.zeros((n, n))
         C[0, 0] = -50.0
         np.save(tmp_path / "C0.npy", C)
     (tmp_path / "m.toml").write_text(truss_model_toml() + "\n" + extra)
-    out = _cli(tmp_path / "m.toml")
-    assert out.returncode == 2, out.stdout + out.stderr
-    assert message in out.stderr and "Traceback" not in out.stderr
-    assert out.stderr.strip().count("\n") <= 1, out.stderr
+    code, out, err = _cli([tmp_path / "m.toml"], capsys)
+    assert code == 2, out + err
+    assert message in err and "Traceback" not in err
+    assert str(tmp_path / "m.toml") in err  # the file named
+    assert err.strip().count("\n") == 0, err  # one message
 
 
 def test_negative_damping_parameter_and_unknown_names_refused():

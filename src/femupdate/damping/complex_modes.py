@@ -108,18 +108,29 @@ class ComplexModes:
         """Mean phase deviation of each shape, degrees (:func:`~femupdate.damping.mean_phase_deviation`)."""
         return mean_phase_deviation(self.shapes)
 
-    def to_json(self) -> dict:
-        """A JSON-ready dict: per mode λ (re, im), frequencies, ζ, MPC, MPD; the shapes as re/im lists."""
-        modes = [{"mode": r + 1, "eigenvalue": [float(lam.real), float(lam.imag)],
-                  "natural_frequency_hz": float(fn), "damped_frequency_hz": float(fd), "damping_ratio": float(z),
-                  "mpc": float(c), "mpd_deg": float(d),
-                  "shape_real": self.shapes[:, r].real.tolist(), "shape_imag": self.shapes[:, r].imag.tolist()}
-                 for r, (lam, fn, fd, z, c, d) in enumerate(zip(self.eigenvalues, self.natural_frequencies_hz,
-                                                                 self.damped_frequencies_hz, self.damping_ratios,
-                                                                 self.mpc, self.mpd))]
-        return {"kind": "complex_modes", "dofs": list(self.dofs), "solver": self.solver,
-                "normalisation": "phi^T (2 lambda M + C) phi = 1", "n_rigid": self.n_rigid,
-                "n_overdamped": self.n_overdamped, "modes": modes}
+    def to_json(self, model: str = "", parameters=None) -> dict:
+        """The ``complex-modes`` result (docs/file-formats.md): per mode λ as ``[re, im]``, the
+        frequencies, ζ, MPC and MPD, and the shapes as ``[re, im]`` pairs.
+
+        Parameters
+        ----------
+        model : str, default ""
+            The model's name.
+        parameters : mapping of str to float, optional
+            The parameter values used.
+        """
+        from ..serialise import SCHEMA_VERSION
+
+        pairs = lambda z: [[float(v.real), float(v.imag)] for v in z]  # noqa: E731
+        return {"kind": "complex-modes", "schema_version": SCHEMA_VERSION, "model": model,
+                "eigenvalues": pairs(self.eigenvalues),
+                "natural_frequencies_hz": self.natural_frequencies_hz.tolist(),
+                "damped_frequencies_hz": self.damped_frequencies_hz.tolist(),
+                "damping_ratios": self.damping_ratios.tolist(), "mpc": self.mpc.tolist(), "mpd_deg": self.mpd.tolist(),
+                "dofs": list(self.dofs), "shapes": [pairs(self.shapes[:, r]) for r in range(self.n_modes)],
+                "normalisation": "modal coordinates" if self.modal else "phi^T (2 lambda M + C) phi = 1",
+                "solver": self.solver, "n_rigid": self.n_rigid, "n_overdamped": self.n_overdamped,
+                "parameters": None if parameters is None else {k: float(v) for k, v in dict(parameters).items()}}
 
 
 def complex_modes(dm: DampedModel, n_modes: int | None = None, values=None, method: str = "auto",
