@@ -83,8 +83,8 @@ def test_proportional_damping_gives_real_modes_with_the_closed_form_eigenvalues(
     w = np.sqrt(w2)
     zeta = 0.7 / (2 * w) + 3e-5 * w / 2
     lam = -zeta * w + 1j * w * np.sqrt(1 - zeta ** 2)
-    np.testing.assert_allclose(res.eigenvalues, lam, rtol=1e-10)
-    np.testing.assert_allclose(res.damping_ratios, zeta, rtol=1e-9)
+    np.testing.assert_allclose(res.eigenvalues, lam, rtol=1e-12)  # 1e-9 without the pencil's balancing
+    np.testing.assert_allclose(res.damping_ratios, zeta, rtol=1e-10)
     np.testing.assert_allclose(res.mpc, 1.0, atol=1e-10)
     np.testing.assert_allclose(res.mpd, 0.0, atol=1e-5)
     # realised shapes are the undamped modes (up to scale)
