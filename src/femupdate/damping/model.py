@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -196,6 +196,7 @@ class DampedModel:
     C0: object = None
     dC: tuple = ()
     modal: tuple = ()
+    _pieces: tuple = field(default=(), init=False, repr=False)
 
     def __post_init__(self):
         if not isinstance(self.model, Model):

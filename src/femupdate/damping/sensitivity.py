@@ -115,7 +115,7 @@ def complex_sensitivities(dm: DampedModel, modes: ComplexModes, values=None, par
     lam, Phi = modes.eigenvalues, modes.shapes
     m, P, n = lam.size, len(names), dm.n_dofs
     dlam = np.zeros((m, P), dtype=complex)
-    dphi = np.zeros((n, m, P), dtype=complex) if vectors else None
+    dphi = np.zeros((n, m, P), dtype=complex)
     for r in range(m):
         v, phi = lam[r], Phi[:, r]
         dF = [v * v * dM + v * dC + dK + 1j * dD for dK, dM, dC, dD in ders]
@@ -123,7 +123,7 @@ def complex_sensitivities(dm: DampedModel, modes: ComplexModes, values=None, par
             dlam[r, j] = -(phi @ (A @ phi))
         if vectors:
             dphi[:, r, :], _ = _bordered(Kc, M, C, v, phi, dF, ders)
-    return ComplexSensitivities(names, lam.copy(), dlam, dphi)
+    return ComplexSensitivities(names, lam.copy(), dlam, dphi if vectors else None)
 
 
 def _bordered(Kc, M, C, v, phi, dF, ders):
