@@ -251,3 +251,89 @@ def test_negative_damping_parameter_and_unknown_names_refused():
         DampedModel(m, (Parameter("c", 1.0),))
     with pytest.raises(InputError, match="percentage"):
         target_eigenvalues([10.0], [5.0])
+
+
+@pytest.mark.parametrize("hysteretic", [False, True])
+def test_sparse_shift_invert_on_the_truss(hysteretic):
+    t = _truss()
+    if hysteretic:  # K + iD complex: the pencil is complex
+        t = DampedModel(t.model, (Parameter("eta", 0.03),), losses=(LossFactor("eta"),), dampers=(Damper(["4:x"], 30.0),))
+    dense = complex_modes(t)
+    sparse = complex_modes(t, n_modes=3, method="sparse")
+    np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues[:3], rtol=1e-12)
+    for r in range(3):  # the same normalised shapes, up to sign
+        a, b = sparse.shapes[:, r], dense.shapes[:, r]
+        assert min(np.abs(a - b).max(), np.abs(a + b).max()) <= 1e-9 * np.abs(b).max()
+
+
+def test_sparse_solver_on_a_free_free_chain_shifts_left_of_zero():
+    dofs, ks = ["1:x", "2:x", "3:x", "4:x"], []
+    for i in range(3):  # springs between neighbours only: free-free
+        e = np.zeros(4)
+        e[i], e[i + 1] = 1.0, -1.0
+        ks.append(np.outer(e, e))
+    m = Model(dofs, np.zeros((4, 4)), np.diag([1.0, 2.0, 1.5, 1.0]),
+              [Parameter("k1", 400.0), Parameter("k2", 300.0), Parameter("k3", 200.0)], ks, [None] * 3)
+    dm = DampedModel(m, alpha=0.2, dampers=(Damper(["2:x", "4:x"], 2.0),))
+    dense = complex_modes(dm)
+    sparse = complex_modes(dm, method="sparse", n_modes=2)
+    assert dense.n_rigid == 1 and dense.n_overdamped == 1  # α M damps the rigid motion: 0 and -α
+    np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues[:2], rtol=1e-10)
+    assert sparse.solver.startswith("sparse (sigma=-")
+
+
+def test_free_free_and_overdamped_motions_are_counted_and_left_out():
+    k2 = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    m = Model(DOFS, np.zeros((2, 2)), np.diag([1.0, 2.0]), (Parameter("k", 500.0),), (k2,), (None,))
+    free = DampedModel(m, dampers=(Damper(DOFS, 3.0),))  # rigid-body motion undamped: a double zero
+    res = complex_modes(free)
+    # relative motion: m_r = 2/3 kg, k = 500, c = 3: λ = -c/2m_r + i√(k/m_r - (c/2m_r)²)
+    mr = 2.0 / 3.0
+    np.testing.assert_allclose(res.eigenvalues, [-3 / (2 * mr) + 1j * np.sqrt(500 / mr - (3 / (2 * mr)) ** 2)],
+                               rtol=1e-12)
+    assert (res.n_rigid, res.n_overdamped) == (2, 0)
+    with pytest.raises(InputError, match="found 0 underdamped mode.*use method='dense'"):  # 2 dofs: ARPACK's 2 nearest are 0
+        complex_modes(free, method="sparse", n_modes=1)
+    grounded = DampedModel(m, dampers=(Damper(["1:x"], 300.0),))  # the rigid motion creeps: one 0, one real root
+    assert (complex_modes(grounded).n_rigid, complex_modes(grounded).n_overdamped) == (1, 1)
+
+
+def test_rayleigh_on_a_model_with_nonlinear_terms_differentiates_the_products():
+    from femupdate.coefficients import Power, Term
+
+    Kb, Km = np.diag([2.0, 1.0]), np.array([[1.0, -0.5], [-0.5, 1.0]])
+    shell = Model(DOFS, np.diag([5.0, 5.0]), np.diag([1.0, 2.0]), [Parameter("E", 70.0), Parameter("t", 0.4)],
+                  [None, None], [None, np.diag([0.1, 0.1])], terms=[Term([Power("E"), Power("t", 3)], K=Kb),
+                                                                    Term([Power("E"), Power("t")], K=Km)])
+    dm = DampedModel(shell, [Parameter("a", 0.3), Parameter("b", 1e-3)], alpha="a", beta="b")
+    p0 = dm.resolve()
+    for name in dm.parameter_names:  # dC/dp against central differences of C(p)
+        j = dm.parameter_names.index(name)
+        h = 1e-6 * abs(p0[j])
+        up, down = p0.copy(), p0.copy()
+        up[j] += h
+        down[j] -= h
+        fd = (dm.C(up) - dm.C(down)).toarray() / (2 * h)
+        np.testing.assert_allclose(dm.derivatives(name)[2].toarray(), fd, rtol=1e-7, atol=1e-9 * np.abs(fd).max(),
+                                   err_msg=name)
+    np.testing.assert_allclose(dm.C().toarray(), 0.3 * dm.M().toarray() + 1e-3 * dm.K().toarray(), rtol=1e-14)
+
+
+def test_stiffness_and_damping_recovered_together():
+    truth = _truss()
+    target = complex_modes(truth, n_modes=6).eigenvalues
+    start = _truss(c=(10.0, 60.0)).with_values({"b": 5e-5, "E": 6.0e10})
+    fit = fit_damping(start, target, ["E", "b", "c1", "c2"])
+    assert fit.success
+    for name, true in (("E", 7.0e10), ("b", 2e-5), ("c1", 40.0), ("c2", 25.0)):
+        assert fit.values[name] == pytest.approx(true, rel=1e-6), name
+
+
+def test_a_damping_table_read_as_an_undamped_model_is_said(tmp_path, caplog):
+    from femupdate import load_model
+
+    (tmp_path / "t.toml").write_text(truss_damped_model_toml())
+    with caplog.at_level("WARNING"):
+        model = load_model(tmp_path / "t.toml")
+    assert "the [damping] table is read by complex modes" in caplog.text and "undamped K and M are used" in caplog.text
+    np.testing.assert_allclose(model.K().toarray(), _truss().K().toarray())

@@ -41,6 +41,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .._errors import InputError, NumericalError
+from ..workspace import nearly_singular
 from .complexity import mean_phase_deviation, modal_phase_collinearity
 from .model import DampedModel
 
@@ -178,11 +179,21 @@ def complex_modes(dm: DampedModel, n_modes: int | None = None, values=None, meth
     if dense:
         A, B = _pencil(Kc, M, C, dense=True, s=scale)
         lam, Z = la.eig(A, B)
+        lam, Phi, n_rigid, n_over = _select(dm, lam, Z[:n], scale, n_modes)
         solver = "dense"
     else:
-        lam, Z, s = _sparse(Kc, K, M, C, 2 * (n_modes or 6) + 4, sigma, scale)
+        want, k = n_modes or min(6, n - 1), 2 * (n_modes or min(6, n - 1)) + 4
+        while True:  # more eigenvalues when rigid-body or overdamped ones took the places of modes
+            lam, Z, s = _sparse(Kc, M, C, k, sigma, scale)
+            found = _select(dm, lam, Z[:n], scale, None)
+            if found[0].size >= want or k >= 2 * n - 2:
+                break
+            k = min(2 * k, 2 * n - 2)
+        if found[0].size < want:
+            raise InputError(f"complex modes: the sparse solver found {found[0].size} underdamped mode(s) among the "
+                             f"{k} eigenvalues nearest sigma = {s:.4g}, {want} asked for; use method='dense'")
+        lam, Phi, n_rigid, n_over = found[0][:want], found[1][:, :want], found[2], found[3]
         solver = f"sparse (sigma={s:.4g})"
-    lam, Phi, n_rigid, n_over = _select(dm, lam, Z[:n], scale, n_modes)
     Phi = normalise(Phi, lam, M, C)
     return ComplexModes(lam, Phi, dm.dofs, solver, n_rigid, n_over)
 
@@ -204,7 +215,7 @@ def _pencil(Kc, M, C, dense: bool, s: float = 1.0):
     return (A.toarray(), B.toarray()) if dense else (A, B)
 
 
-def _sparse(Kc, K, M, C, k: int, sigma, scale: float):
+def _sparse(Kc, M, C, k: int, sigma, scale: float):
     n = M.shape[0]
     A, B = _pencil(Kc, M, C, dense=False, s=scale)
     A = A.astype(complex)
@@ -213,7 +224,7 @@ def _sparse(Kc, K, M, C, k: int, sigma, scale: float):
     for attempt in range(2):
         try:
             lu = spla.splu(sp.csc_array(A - s * B))
-            if not np.all(np.isfinite(lu.U.diagonal())) or np.min(np.abs(lu.U.diagonal())) == 0:
+            if not np.all(np.isfinite(lu.U.diagonal())) or nearly_singular(lu):
                 raise RuntimeError("singular")
             break
         except RuntimeError:
