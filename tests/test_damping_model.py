@@ -337,3 +337,43 @@ def test_a_damping_table_read_as_an_undamped_model_is_said(tmp_path, caplog):
         model = load_model(tmp_path / "t.toml")
     assert "the [damping] table is read by complex modes" in caplog.text and "undamped K and M are used" in caplog.text
     np.testing.assert_allclose(model.K().toarray(), _truss().K().toarray())
+
+
+def test_complexity_of_test_data_equals_that_of_the_model_shapes_at_the_measured_dofs():
+    from femupdate import MeasuredMode, TestData
+    from femupdate.damping import data_complexity
+
+    dm = load_damped_model_text(truss_damped_model_toml())
+    res = complex_modes(dm, n_modes=3)
+    at = ["4:x", "4:y", "104:y", "103:y"]
+    idx = dm.model.dof_index(at)
+    data = TestData(modes=(*(MeasuredMode(abs(v) ** 2, at, 2.5j * res.shapes[idx, r]) for r, v in
+                             enumerate(res.eigenvalues)), MeasuredMode(1.0e6)))
+    table = data_complexity(data)
+    for r in range(3):
+        assert table[r]["mpc"] == pytest.approx(float(modal_phase_collinearity(res.shapes[idx, r])), rel=1e-12)
+        assert table[r]["mpd_deg"] == pytest.approx(float(mean_phase_deviation(res.shapes[idx, r])), rel=1e-9)
+        assert table[r]["mpc"] < 1 - 1e-6
+    assert table[3] == {"mode": 4, "mpc": None, "mpd_deg": None}
+
+
+def load_damped_model_text(text):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        (Path(d) / "m.toml").write_text(text)
+        return load_damped_model(Path(d) / "m.toml")
+
+
+def test_matrix_model_with_damping_matrices(tmp_path):
+    K = np.array([[3.0, -1.0], [-1.0, 1.0]]) * 1e3
+    Cc = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    for name, A in (("K0", K), ("M0", np.diag([1.0, 2.0])), ("C0", np.diag([0.5, 0.0])), ("Cc", Cc)):
+        np.save(tmp_path / f"{name}.npy", A)
+    (tmp_path / "m.toml").write_text('[matrices]\ndofs = ["1:x", "2:x"]\nK0 = "K0.npy"\nM0 = "M0.npy"\n\n'
+                                     '[damping]\nC0 = "C0.npy"\n\n[damping.parameters.c]\nvalue = 4.0\nC = "Cc.npy"\n')
+    dm = load_damped_model(tmp_path / "m.toml")
+    np.testing.assert_allclose(dm.C().toarray(), np.diag([0.5, 0.0]) + 4.0 * Cc)
+    np.testing.assert_allclose(dm.derivatives("c")[2].toarray(), Cc)
+    ref = characteristic_roots(np.diag([1.0, 2.0]), dm.C().toarray(), K)
+    np.testing.assert_allclose(complex_modes(dm).eigenvalues, ref, rtol=1e-10)

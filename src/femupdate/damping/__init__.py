@@ -17,12 +17,12 @@ a loss factor η for the receptances) is separate and unchanged.
 """
 
 from .complex_modes import ComplexModes, complex_modes
-from .complexity import mean_phase_deviation, modal_phase_collinearity, realise
+from .complexity import data_complexity, mean_phase_deviation, modal_phase_collinearity, realise
 from .fit import DampingFit, fit_damping, target_eigenvalues
 from .model import DampedModel, Damper, LossFactor
 from .model_file import load_damped_model
 from .sensitivity import ComplexSensitivities, complex_sensitivities
 
 __all__ = ["DampedModel", "Damper", "LossFactor", "ComplexModes", "complex_modes", "modal_phase_collinearity",
-           "mean_phase_deviation", "realise", "ComplexSensitivities", "complex_sensitivities", "DampingFit",
+           "mean_phase_deviation", "realise", "data_complexity", "ComplexSensitivities", "complex_sensitivities", "DampingFit",
            "fit_damping", "target_eigenvalues", "load_damped_model"]

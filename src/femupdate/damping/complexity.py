@@ -22,6 +22,10 @@ For a shape :math:`\varphi = x + iy` (one column per mode) let
   ("Realisation of complex mode shapes", Proc. IMAC XI, 1993); exact for a mode that is real up
   to a common phase, and for a lightly, non-proportionally damped structure an approximation
   whose error the MPC and MPD measure.
+
+Existing parts of femupdate that compare a complex test shape with real model shapes (the
+updating targets, damage localisation, shape plots) turn it so that its largest entry is real;
+:func:`realise` is the least-squares rotation, which uses every entry.
 """
 
 from __future__ import annotations
@@ -112,4 +116,28 @@ def realise(shapes) -> np.ndarray:
     return out[:, 0] if vec else out
 
 
-__all__ = ["modal_phase_collinearity", "mean_phase_deviation", "realise"]
+def data_complexity(data) -> list[dict]:
+    """MPC and MPD of every measured shape of test data.
+
+    Parameters
+    ----------
+    data : TestData
+        Test modes (:class:`femupdate.TestData`); real shapes give MPC 1 and MPD 0.
+
+    Returns
+    -------
+    list of dict
+        Per test mode ``{"mode": r (1-based), "mpc": float or None, "mpd_deg": float or None}``
+        (None for a mode without a shape).
+    """
+    out = []
+    for r, m in enumerate(data.modes, start=1):
+        if m.has_shape:
+            out.append({"mode": r, "mpc": float(modal_phase_collinearity(m.shape)),
+                        "mpd_deg": float(mean_phase_deviation(m.shape))})
+        else:
+            out.append({"mode": r, "mpc": None, "mpd_deg": None})
+    return out
+
+
+__all__ = ["modal_phase_collinearity", "mean_phase_deviation", "realise", "data_complexity"]
