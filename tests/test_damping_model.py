@@ -251,6 +251,16 @@ def test_negative_damping_parameter_and_unknown_names_refused():
         DampedModel(m, (Parameter("c", 1.0),))
     with pytest.raises(InputError, match="percentage"):
         target_eigenvalues([10.0], [5.0])
+    with pytest.raises(InputError, match="'k1' has the name of a parameter of model"):
+        DampedModel(m, (Parameter("k1", 1.0),), alpha="k1")
+    with pytest.raises(InputError, match="between 1:x and itself"):
+        Damper(["1:x", "1:x"], 1.0)
+    with pytest.raises(InputError, match="damper \\['9:x'\\]"):
+        DampedModel(m, dampers=(Damper(["9:x"], 1.0),))
+    with pytest.raises(InputError, match="parameter 'E' is not in model"):
+        DampedModel(m, losses=(LossFactor(0.01, on="E"),))
+    with pytest.raises(InputError, match="modal damping ratio of mode 2 = 1 is critical"):
+        DampedModel(m, modal=(0.02, 1.0))
 
 
 @pytest.mark.parametrize("hysteretic", [False, True])
