@@ -387,3 +387,31 @@ def test_matrix_model_with_damping_matrices(tmp_path):
     np.testing.assert_allclose(dm.derivatives("c")[2].toarray(), Cc)
     ref = characteristic_roots(np.diag([1.0, 2.0]), dm.C().toarray(), K)
     np.testing.assert_allclose(complex_modes(dm).eigenvalues, ref, rtol=1e-10)
+
+
+def test_fit_with_standard_deviations_gives_the_covariance_of_the_parameters():
+    truth = _truss()
+    tr = complex_modes(truth, n_modes=6)
+    s_zeta, s_f = np.full(6, 0.002), np.full(6, 0.001)
+    fit = fit_damping(_truss(c=(10.0, 60.0)), tr.eigenvalues, ["b", "c1", "c2"], std_damping_ratio=s_zeta,
+                      std_frequency=s_f)
+    assert fit.values["c1"] == pytest.approx(40.0, rel=1e-6)
+    # second route: the covariance from central differences of the damping ratios and frequencies
+    names, p0 = ["b", "c1", "c2"], truth.resolve()
+    J = np.zeros((12, 3))
+    for k, name in enumerate(names):
+        j = truth.parameter_names.index(name)
+        h = 1e-4 * p0[j]  # central differences: truncation O(h²) ~ 1e-8, round-off small against h
+        up, down = p0.copy(), p0.copy()
+        up[j] += h
+        down[j] -= h
+        a, b = complex_modes(truth, n_modes=6, values=up), complex_modes(truth, n_modes=6, values=down)
+        J[:6, k] = -(a.eigenvalues.real - b.eigenvalues.real) / np.abs(tr.eigenvalues) / (2 * h) / s_zeta
+        J[6:, k] = (a.eigenvalues.imag - b.eigenvalues.imag) / np.abs(tr.eigenvalues) / (2 * h) / s_f
+    ref = np.linalg.inv(J.T @ J)
+    sd, sd_ref = np.sqrt(np.diag(fit.covariance)), np.sqrt(np.diag(ref))
+    np.testing.assert_allclose(sd, sd_ref, rtol=1e-6)  # standard deviations
+    np.testing.assert_allclose(fit.covariance / np.outer(sd, sd), ref / np.outer(sd_ref, sd_ref), atol=1e-6)  # correlations
+    assert set(fit.std) == set(names)
+    with pytest.raises(InputError, match="together"):
+        fit_damping(truth, tr.eigenvalues, ["c1"], std_frequency=0.01)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._errors import InputError
+from .._errors import InputError, NumericalError
 from .complex_modes import complex_modes
 from .model import DampedModel, check_ratio
 from .sensitivity import complex_sensitivities
@@ -79,6 +79,9 @@ class DampingFit:
     nfev : int
     success : bool
     message : str
+    covariance : numpy.ndarray or None
+        With standard deviations given: :math:`(J^T J)^{-1}` of the standardised residuals at the
+        solution, in the parameters' units, shape ``(n_parameters, n_parameters)``; else None.
     """
 
     parameters: tuple
@@ -90,9 +93,25 @@ class DampingFit:
     nfev: int
     success: bool
     message: str
+    covariance: np.ndarray | None = None
+
+    @property
+    def std(self) -> dict | None:
+        """Standard deviations of the parameters (from :attr:`covariance`), or None."""
+        if self.covariance is None:
+            return None
+        return dict(zip(self.parameters, np.sqrt(np.diag(self.covariance)).tolist()))
 
 
-def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xtol: float = 1e-12) -> DampingFit:
+def _std(std, n: int, what: str) -> np.ndarray:
+    s = np.broadcast_to(np.asarray(std, dtype=float), (n,)) if np.ndim(std) == 0 else np.asarray(std, float).ravel()
+    if s.shape != (n,) or not np.all(np.isfinite(s) & (s > 0)):
+        raise InputError(f"fit_damping: {what} must be one positive number or one per target mode ({n}), got {std!r}")
+    return s
+
+
+def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xtol: float = 1e-12,
+                std_damping_ratio=None, std_frequency=None) -> DampingFit:
     """Update ``parameters`` of ``dm`` so that its lowest complex eigenvalues match ``target``.
 
     Parameters
@@ -108,6 +127,11 @@ def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xto
         Starting values of ``parameters`` (default: their nominal values).
     xtol : float, default 1e-12
         Step tolerance of the least-squares solver.
+    std_damping_ratio, std_frequency : float or array_like of shape ``(n_modes,)``, optional
+        Standard deviations of the measured damping ratios (absolute) and frequencies (relative,
+        σ_f/f), both or neither: the real and imaginary parts of each residual are divided by
+        them (to first order they are the damping-ratio error and the relative frequency error),
+        and the result carries the parameters' covariance.
 
     Returns
     -------
@@ -116,7 +140,10 @@ def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xto
     Raises
     ------
     InputError
-        Unknown parameters; more unknowns than data; a target with Im <= 0 or not finite.
+        Unknown parameters; more unknowns than data; a target with Im <= 0 or not finite; one
+        standard deviation given without the other, or not positive.
+    NumericalError
+        With standard deviations: a Jacobian singular at the solution (no covariance).
     """
     lam_t = np.asarray(target, dtype=complex).ravel()
     if lam_t.size == 0 or not np.all(np.isfinite(lam_t)) or np.any(lam_t.imag <= 0):
@@ -138,6 +165,13 @@ def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xto
     lo = np.array([dm.all_parameters[j].bounds[0] for j in idx])
     hi = np.array([dm.all_parameters[j].bounds[1] for j in idx])
     scale = np.abs(lam_t)
+    if (std_damping_ratio is None) != (std_frequency is None):
+        raise InputError("fit_damping: give std_damping_ratio and std_frequency together (or neither)")
+    if std_damping_ratio is None:
+        w_re = w_im = np.ones(lam_t.size)
+    else:
+        w_re = 1 / _std(std_damping_ratio, lam_t.size, "std_damping_ratio")
+        w_im = 1 / _std(std_frequency, lam_t.size, "std_frequency")
     cache: dict = {}
 
     def evaluate(x):
@@ -153,12 +187,12 @@ def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xto
     def fun(x):
         _, modes = evaluate(x)
         r = (modes.eigenvalues - lam_t) / scale
-        return np.concatenate([r.real, r.imag])
+        return np.concatenate([w_re * r.real, w_im * r.imag])
 
     def jac(x):
         p, modes = evaluate(x)
         S = complex_sensitivities(dm, modes, p, names).d_eigenvalues / scale[:, None]
-        return np.vstack([S.real, S.imag])
+        return np.vstack([w_re[:, None] * S.real, w_im[:, None] * S.imag])
 
     from scipy.optimize import least_squares
 
@@ -168,8 +202,18 @@ def fit_damping(dm: DampedModel, target, parameters: Sequence[str], x0=None, xto
     p = p0.copy()
     p[idx] = sol.x
     final = complex_modes(dm, n_modes=lam_t.size, values=p)
+    cov = None
+    if std_damping_ratio is not None:
+        J = jac(sol.x)
+        d = np.linalg.norm(J, axis=0)  # column scaling: the parameters' units differ by decades
+        d[d == 0] = 1.0
+        _, sv, vt = np.linalg.svd(J / d, full_matrices=False)
+        if sv[-1] <= 1e-12 * sv[0]:
+            raise NumericalError(f"fit_damping: the parameters {', '.join(names)} are not identifiable from these "
+                                 f"{lam_t.size} modes (singular Jacobian at the solution): no covariance")
+        cov = (vt.T / sv ** 2) @ vt / np.outer(d, d)
     return DampingFit(names, dict(zip(names, sol.x.tolist())), dm.with_values(p), final.eigenvalues, sol.fun,
-                      float(sol.cost), int(sol.nfev), bool(sol.success), str(sol.message))
+                      float(sol.cost), int(sol.nfev), bool(sol.success), str(sol.message), cov)
 
 
 __all__ = ["DampingFit", "fit_damping", "target_eigenvalues"]
