@@ -130,7 +130,7 @@ def data_complexity(data) -> list[dict]:
         Per test mode ``{"mode": r (1-based), "mpc": float or None, "mpd_deg": float or None}``
         (None for a mode without a shape).
     """
-    out = []
+    out: list[dict] = []
     for r, m in enumerate(data.modes, start=1):
         if m.has_shape:
             out.append({"mode": r, "mpc": float(modal_phase_collinearity(m.shape)),
