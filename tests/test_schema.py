@@ -103,6 +103,9 @@ def _modal_results(ex):
     yield fu.direct_update(fig2, data, bounded=True, unknowns=["k1", "k2"])
     yield demo()
     yield reduce_model(truss, ["4:x", "4:y", "104:x", "104:y", "3:y", "103:y"])
+    from femupdate.damping import DampedModel, Damper, complex_modes
+
+    yield complex_modes(DampedModel(truss, alpha=0.5, dampers=(Damper(("4:x", "104:y"), 40.0),)), n_modes=3)
     inputs = Path(__file__).resolve().parent / "behaviour" / "inputs"
     structure = fu.Structure.from_dict(read_toml(inputs / "beam.toml"))
     yield full_field_direct(structure.build(), load_scan(inputs / "beam_scan.json"),

@@ -316,6 +316,42 @@ def truss_model_toml() -> str:
     return "\n".join(lines)
 
 
+#: the damping of ``truss_damped.toml``: Rayleigh α (1/s), β (s) and two dampers' coefficients (N s/m)
+TRUSS_DAMPING = {"alpha": 0.5, "beta": 2.0e-5, "c1": 400.0, "c2": 250.0}
+
+
+def truss_damped_model_toml() -> str:
+    """TOML of the 3-bay truss (:func:`truss_model_toml`) with a ``[damping]`` table: Rayleigh
+    damping (α a number, β a damping parameter) and two viscous dampers, ``c1`` across the right
+    bay's diagonal (4:x to 104:y) and ``c2`` from joint 103 to the ground (vertical)."""
+    d = TRUSS_DAMPING
+    return truss_model_toml().replace('name = "3-bay plane truss"', 'name = "3-bay plane truss with dampers"') + f"""
+[damping]
+alpha = {d['alpha']}
+beta = "b"
+
+[damping.parameters.b]
+value = {d['beta']:.1e}
+bounds = [0.0, 1.0e-3]
+
+[damping.parameters.c1]
+value = {d['c1']}
+bounds = [0.0, 1.0e4]
+
+[damping.parameters.c2]
+value = {d['c2']}
+bounds = [0.0, 1.0e4]
+
+[[damping.damper]]
+dofs = ["4:x", "104:y"]
+c = "c1"
+
+[[damping.damper]]
+dofs = ["103:y"]
+c = "c2"
+"""
+
+
 def _modes_object(data) -> dict:
     return {"modes": [{"eigenvalue": float(m.eigenvalue), "shape": {d: float(v) for d, v in zip(m.dofs, m.shape)}}
                       for m in data.modes]}
@@ -331,7 +367,9 @@ def example_files() -> dict[str, str]:
       ``plus_2kg.toml`` and ``two_dof_plus_2kg.json`` (the same test with 2 kg added at dof 2),
       ``candidates.toml`` (modifications to rank before testing);
     * ``truss.toml`` (3-bay truss, baseline), ``truss_undamaged.json``, ``truss_damaged.json`` (member
-      ``E.102-103`` has lost 40 % of its stiffness; 4 modes at every joint, 0.1 % noise).
+      ``E.102-103`` has lost 40 % of its stiffness; 4 modes at every joint, 0.1 % noise),
+      ``truss_damped.toml`` (the truss with Rayleigh damping and two viscous dampers,
+      :data:`TRUSS_DAMPING`).
     """
     import json
     import tomllib
@@ -366,6 +404,7 @@ def example_files() -> dict[str, str]:
                                 '[[candidate]]\nname = "2 kg at dof 1"\n[[candidate.mass]]\ndofs = ["1:x"]\nm = 2.0\n\n'
                                 '[[candidate]]\nname = "2 kg at dof 2"\n[[candidate.mass]]\ndofs = ["2:x"]\nm = 2.0\n')
     files["truss.toml"] = truss_model_toml()
+    files["truss_damped.toml"] = truss_damped_model_toml()
     em = element_parameters(Structure.from_dict(tomllib.loads(files["truss.toml"])))[0].build()
     joints = list(em.dofs)
     base = {TRUSS_DAMAGED: em.values[em.parameter_index(TRUSS_DAMAGED)] * (1 - TRUSS_LOSS)}

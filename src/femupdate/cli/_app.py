@@ -7,6 +7,7 @@ import logging
 
 import click
 
+from .complex_modes import complex_modes_command
 from .damage import damage, rank_modifications, update_multi
 from .fullfield import fullfield
 from .data import convert_data
@@ -70,7 +71,7 @@ def _say_replaced(files) -> None:
 
 
 # in this order (the order of `cli.commands`; `femupdate --help` lists them sorted by name)
-for _command in (modes, direct, update, posterior, correlate, paper, demo,
+for _command in (modes, complex_modes_command, direct, update, posterior, correlate, paper, demo,
                  damage, update_multi, rank_modifications, fullfield,
                  frf_command, frf_update_command, frf_select_command, surface_command,
                  reduce, uniqueness, plan, convert_data, report, summary, write_back_command):

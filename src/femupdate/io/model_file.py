@@ -118,6 +118,15 @@ def load_model(path) -> Model:
     if path.suffix.lower() != ".toml":
         raise InputError(f"{path}: model files are TOML (.toml); for plain matrices write a small TOML with a [matrices] table")
     data = read_toml(path)
+    if "damping" in data:
+        log.warning("%s: the [damping] table is read by complex modes (femupdate complex-modes, "
+                    "femupdate.damping.load_damped_model); here the model's undamped K and M are used", path)
+        data.pop("damping")
+    return build_model(data, path)
+
+
+def build_model(data: dict, path: Path) -> Model:
+    """The :class:`Model` of a parsed model file (``data`` without a ``[damping]`` table)."""
     if "matrices" in data:
         return _matrix_model(data, path)
     if "blackbox" in data:

@@ -51,3 +51,24 @@ register(Kind(
           "model}` one value per test mode (`null` where not known: the model's is its modal damping ratio at the "
           "paired mode), `model_damping` (`{alpha, beta, eta}` or `null`) and `rayleigh_fit` (`{alpha, beta, "
           "rms_error, n_modes}` or `null`)."))
+
+register(Kind(
+    "complex-modes",
+    (*opening("complex-modes"),
+     Key("model", "string", "model name", (STRING,)),
+     Key("eigenvalues", "list of `[re, im]`", "λ = −ζω + iω√(1 − ζ²), rad/s, Im λ > 0, ascending |λ|", (ARRAY,), True),
+     Key("natural_frequencies_hz", "list", "|λ| / 2π", (ARRAY,), True),
+     Key("damped_frequencies_hz", "list", "Im λ / 2π", (ARRAY,)),
+     Key("damping_ratios", "list", "ζ = −Re λ / |λ| (fractions of critical damping)", (ARRAY,), True),
+     Key("mpc", "list", "modal phase collinearity per mode, 0 to 1 (1: a real mode)", (ARRAY,)),
+     Key("mpd_deg", "list", "mean phase deviation per mode, degrees (0: a real mode)", (ARRAY,)),
+     Key("dofs", "list of labels", "the model's free dofs", (ARRAY,), True),
+     Key("shapes", "list of lists of `[re, im]`", "one list per mode, ordered as `dofs`", (ARRAY,), True),
+     Key("normalisation", "string", "`phi^T (2 lambda M + C) phi = 1`, or `modal coordinates` with modal damping "
+         "ratios", (STRING,)),
+     Key("solver", "string", "`dense`, `sparse (sigma=...)` or `modal coordinates (N modes)`", (STRING,)),
+     Key("n_rigid", "integer", "zero eigenvalues (rigid-body motion) left out", (INTEGER,)),
+     Key("n_overdamped", "integer", "real eigenvalues (overdamped motion) left out", (INTEGER,)),
+     Key("parameters", "`{name: value}`", "the parameter values used (model's and damping's)", (OBJECT,))),
+    intro="The result of `femupdate complex-modes` and `femupdate.damping.complex_modes` (`modes.to_json(model, "
+          "parameters)`): the complex modes of a model with a `[damping]` table ([Damping](#damping-damping))."))
