@@ -36,15 +36,18 @@ class TestPointsSpec:
 
         if self.tolerance is None:
             return model, load_data(data_path, model, measured_text), None
-        from ..dofs import canonical_all
-        from ..io.testdata_json import load_testdata
-        from ..testpoints import map_test_data
         from .summary import _structure_of
 
-        structure = _structure_of(model_path)
-        if structure is None:
-            raise InputError(f"--test-points: {model_path} is a matrices model; test points are placed on a "
-                             "structure's or a mesh's nodes and elements")
+        mapped = self.place(_structure_of(model_path), model, self.read(data_path, measured_text), data_path,
+                            model_path)
+        return mapped.model, mapped.data, mapped
+
+    def read(self, data_path, measured_text: str | None = None):
+        """The test data of ``data_path`` read without a model: their own node ids, global axes
+        (``--measured-dofs``, if given, in the same terms, each one checked to be in the file)."""
+        from ..dofs import canonical_all
+        from ..io.testdata_json import load_testdata
+
         sensors = None
         if measured_text is not None:
             items = [t.strip() for t in str(measured_text).split(",") if t.strip()]
@@ -58,11 +61,43 @@ class TestPointsSpec:
             if absent:
                 raise InputError(f"--measured-dofs: {', '.join(absent[:8])} not in {data_path} (its test nodes and "
                                  "directions in the global axes)")
+        return data
+
+    def place(self, structure, model, data, data_path, model_path):
+        """:func:`femupdate.testpoints.map_test_data` of ``data`` (:meth:`read`) on ``structure``'s
+        mesh, ``model`` its model (a damage run's element-wise one); None for ``structure``: a
+        matrices model, refused."""
+        from ..testpoints import map_test_data
+
+        if structure is None:
+            raise InputError(f"--test-points: {model_path} is a matrices model; test points are placed on a "
+                             "structure's or a mesh's nodes and elements")
         try:
-            mapped = map_test_data(structure, data, self.tolerance, self.method, model=model)
+            return map_test_data(structure, data, self.tolerance, self.method, model=model)
         except InputError as exc:
             raise InputError(f"--test-points {self.tolerance:g}: {data_path}: {exc}") from None
-        return mapped.model, mapped.data, mapped
+
+    def relabel(self, mapped, data, data_path):
+        """Further test data (``--undamaged``, a repeated test) on the test points of ``mapped``:
+        their labels renamed as the first file's; a dof the first file does not measure is refused
+        by name (it has no place in the transformed model)."""
+        from ..testpoints import measured_labels, relabel
+
+        lost = [d for d in measured_labels(data) if d not in mapped.rename]
+        if lost:
+            raise InputError(f"--test-points: {data_path}: test dof(s) {', '.join(lost[:8])} are not measured in the "
+                             "first test file, whose test points the model holds; measure the same points, or leave "
+                             "them out (--measured-dofs)")
+        return relabel(data, mapped.rename)
+
+    def announce(self, ctx, mapped) -> None:
+        """The terminal's one line on where the test points went."""
+        if mapped is None:
+            return
+        lk = mapped.map.links
+        ctx.console.print(f"test points: {len(lk)} placed on the mesh ({mapped.map.method}; "
+                          f"{sum(x.kind == 'element' for x in lk)} inside elements, largest distance "
+                          f"{max(x.distance for x in lk):.3g})", markup=False)
 
 
 def test_points_group() -> Callable:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import scipy.sparse as sp
 
 from .._errors import InputError
@@ -31,6 +32,8 @@ class MappedTest:
         Test label (test node id, global direction) -> label in ``data``.
     T : scipy.sparse.csr_array
         ``u = T q``: the structure model's dofs from ``model``'s.
+    base : Model or None
+        The structure's model itself (its dofs are the rows of ``T``).
     """
 
     model: object
@@ -38,6 +41,36 @@ class MappedTest:
     map: PointMap
     rename: dict
     T: sp.csr_array
+    base: object = None
+
+    def mesh_shapes(self, shapes) -> np.ndarray:
+        """Shapes of ``model`` (its dofs, one column per shape) on the structure's own dofs:
+        ``u = T q``, the mesh dofs a test point replaced given back their values.
+
+        Parameters
+        ----------
+        shapes : array_like, shape ``(n,)`` or ``(n, r)``
+            In ``model``'s dofs (e.g. ``model_modes(mapped.model).shapes``).
+
+        Returns
+        -------
+        numpy.ndarray
+            Same number of columns, one row per dof of ``base`` (``base.dofs``).
+        """
+        q = np.asarray(shapes)
+        return np.asarray(self.T @ q)
+
+    def mesh_shape_json(self, shape: dict) -> dict:
+        """A shape written ``{dof: value}`` at every dof of ``model`` (an update's
+        ``expanded_shapes``) on the structure's dofs (:meth:`mesh_shapes`), followed by the values at
+        the test points' own dofs (``T<test node>:<dir>``, the observed combinations)."""
+        assert self.base is not None
+        q = np.array([float(shape.get(d, 0.0)) for d in self.model.dofs])
+        u = self.mesh_shapes(q)
+        out = {d: float(v) for d, v in zip(self.base.dofs, u)}
+        base = set(self.base.dofs)
+        out.update({d: float(shape[d]) for d in self.model.dofs if d not in base and d in shape})
+        return out
 
     def to_json(self) -> dict:
         """The map for results: :meth:`PointMap.to_json` with each point's dofs as the data now label them."""
@@ -98,7 +131,7 @@ def map_test_data(structure, data, tolerance: float, method: str = "interpolate"
     index = {d: i for i, d in enumerate(model.dofs)}
     direct = [index[v] for v in rename.values() if v in index]
     new, T = observed_model(model, rows, direct)
-    return MappedTest(new, relabel(data, rename), pmap, rename, T)
+    return MappedTest(new, relabel(data, rename), pmap, rename, T, model)
 
 
 __all__ = ["METHODS", "MappedTest", "PointLink", "PointMap", "closest_in_elements", "locate_points",
