@@ -7,6 +7,7 @@ import dataclasses
 from collections.abc import Callable
 
 import click
+import numpy as np
 
 from .._errors import InputError
 from ._common import FiniteFloat
@@ -81,13 +82,24 @@ class TestPointsSpec:
         """Further test data (``--undamaged``, a repeated test) on the test points of ``mapped``:
         their labels renamed as the first file's; a dof the first file does not measure is refused
         by name (it has no place in the transformed model)."""
+        from ..dofs import parse_dof
         from ..testpoints import measured_labels, relabel
 
-        lost = [d for d in measured_labels(data) if d not in mapped.rename]
+        labels = measured_labels(data)
+        lost = [d for d in labels if d not in mapped.rename]
         if lost:
             raise InputError(f"--test-points: {data_path}: test dof(s) {', '.join(lost[:8])} are not measured in the "
                              "first test file, whose test points the model holds; measure the same points, or leave "
                              "them out (--measured-dofs)")
+        first = mapped.data.nodes
+        for node in dict.fromkeys(parse_dof(d)[0] for d in labels):  # the same id must be the same point
+            if node not in data.nodes:
+                raise InputError(f"--test-points: {data_path}: test node {node} has measured dofs but no coordinates")
+            gap = float(np.linalg.norm(np.subtract(data.nodes[node], first[node])))
+            if gap > self.tolerance:
+                raise InputError(f"--test-points: {data_path}: test node {node} lies {gap:.3g} from where the first "
+                                 f"test file puts it (more than the tolerance {self.tolerance:g}): the model holds the "
+                                 "first file's test points; number the points alike in both files")
         return relabel(data, mapped.rename)
 
     def announce(self, ctx, mapped) -> None:
