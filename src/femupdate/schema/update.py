@@ -56,7 +56,8 @@ UPDATE_KEYS = (
     Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
         "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
     Key("expanded_shapes", "list of `{dof: value}`", "with `--formulation dynamic`: the full shape of each test mode "
-        "at the solution, its measured entries the test shape scaled to unit length over them", (ARRAY,)),
+        "at the solution, its measured entries the test shape scaled to unit length over them (with `--test-points`: "
+        "at every mesh dof, u = T q, then at the test points' own dofs `T<test node>:<direction>`)", (ARRAY,)),
     Key("notes", "list", "what the user should know: first what the reader of the test data decided, then the run's "
         "own notes", (ARRAY,)),
     Key("flags", "list", "as `direct`: updated values on or outside their bounds, or not > 0 where they must be",
