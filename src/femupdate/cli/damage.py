@@ -193,7 +193,7 @@ def damage(baseline_path, data_path, given: DamageData, options, noise, test_poi
         undamaged = (load_data(given.undamaged_path, du.model, given.measured_text)
                      if given.undamaged_path is not None else None)
     else:  # test nodes placed on the baseline's mesh; the unknowns' model in the coordinates that hold them
-        mapped = test_points.place(structure, du.model, test_points.read(data_path, given.measured_text), data_path,
+        mapped = test_points.place(structure, du.model, *test_points.read(data_path, given.measured_text), data_path,
                                    baseline_path)
         test_points.announce(ctx, mapped)
         du, data = dataclasses.replace(du, model=mapped.model), mapped.data

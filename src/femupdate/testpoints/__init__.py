@@ -4,7 +4,7 @@ exactly transformed model (:mod:`.observe`).  :func:`map_test_data` does both.""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,6 +34,8 @@ class MappedTest:
         ``u = T q``: the structure model's dofs from ``model``'s.
     base : Model or None
         The structure's model itself (its dofs are the rows of ``T``).
+    axes : dict
+        Test nodes measured along their own axes: {node: R, rows the axes in global axes}.
     """
 
     model: object
@@ -42,6 +44,7 @@ class MappedTest:
     rename: dict
     T: sp.csr_array
     base: object = None
+    axes: dict = field(default_factory=dict)
 
     def mesh_shapes(self, shapes) -> np.ndarray:
         """Shapes of ``model`` (its dofs, one column per shape) on the structure's own dofs:
@@ -81,11 +84,13 @@ class MappedTest:
             by_node.setdefault(node, {})[old.rsplit(":", 1)[1]] = new
         for p in out["points"]:
             p["dofs"] = by_node.get(str(p["test_node"]), {})
+            if p["test_node"] in self.axes:  # its directions are along these axes, not the global ones
+                p["axes"] = np.asarray(self.axes[p["test_node"]], float).tolist()
         return out
 
 
 def map_test_data(structure, data, tolerance: float, method: str = "interpolate", *, model=None,
-                  prefix: str = "T") -> MappedTest:
+                  prefix: str = "T", axes=None) -> MappedTest:
     """Place test data measured at test nodes on a structure's mesh.
 
     Parameters
@@ -105,6 +110,10 @@ def map_test_data(structure, data, tolerance: float, method: str = "interpolate"
         ``structure.build()`` if not given.
     prefix : str, default "T"
         Node-name prefix of the new dofs (``"T101:z"``).
+    axes : mapping of node to array_like (3, 3), optional
+        Test nodes whose labels are along their own axes (rows: those axes in global axes):
+        :func:`femupdate.io.uff.read_uff`'s ``keep_local``, a single component along a skewed
+        axis (:func:`observation_rows`).
 
     Returns
     -------
@@ -127,11 +136,11 @@ def map_test_data(structure, data, tolerance: float, method: str = "interpolate"
                          "them in the test file's geometry (dataset 15 or 2411)")
     pmap = locate_points(structure, {n: data.nodes[n] for n in used}, tolerance, method)
     sdofs = {lab for g in structure.groups for row in g.labels for lab in row}
-    rename, rows = observation_rows(pmap, labels, model, sdofs, prefix)
+    rename, rows = observation_rows(pmap, labels, model, sdofs, prefix, axes)
     index = {d: i for i, d in enumerate(model.dofs)}
     direct = [index[v] for v in rename.values() if v in index]
     new, T = observed_model(model, rows, direct)
-    return MappedTest(new, relabel(data, rename), pmap, rename, T, model)
+    return MappedTest(new, relabel(data, rename), pmap, rename, T, model, dict(axes or {}))
 
 
 __all__ = ["METHODS", "MappedTest", "PointLink", "PointMap", "closest_in_elements", "locate_points",
