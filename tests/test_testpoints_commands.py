@@ -211,3 +211,70 @@ def _pointdata(pts):
     labels = [f"{k + 1}:z" for k in range(len(pts))]
     return TestData(modes=(MeasuredMode(1.0, labels, np.ones(len(labels))),),
                     nodes={k + 1: tuple(p) for k, p in enumerate(pts)})
+
+
+# ------------------------------------------------------------------ a single component along a skewed axis
+def _skewed_uff(tmp_path, single=4):
+    """As tests/test_testpoints.py's file, test node ``single + 1`` measuring only its local y (a
+    skewed axis: x and z written as zeros in every mode, the padding the reader drops)."""
+    from test_testpoints import _truth_at_points
+
+    truth, mm, values = _truth_at_points(tmp_path)
+    R = _rotation(0.4, -0.3, 0.7).T
+    origin = np.array([0.1, -0.2, 0.05])
+    ids = np.arange(1, len(TEST_POINTS) + 1)
+    loc_xyz = (TEST_POINTS - origin) @ R.T
+    sets = [pyuff.prepare_2420(Part_UID=1, Part_Name="test", CS_sys_labels=[5], CS_types=[0], CS_colors=[8],
+                               CS_names=["SKEW"], CS_matrices=[np.vstack([R, origin])]),
+            pyuff.prepare_2411(node_nums=ids, def_cs=np.full(len(ids), 5), disp_cs=np.full(len(ids), 5),
+                               color=np.ones(len(ids), int), x=loc_xyz[:, 0].copy(), y=loc_xyz[:, 1].copy(),
+                               z=loc_xyz[:, 2].copy())]
+    for r, g in enumerate(values):
+        loc = g @ R.T
+        loc[single, [0, 2]] = 0.0
+        sets.append(pyuff.prepare_55(model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+                                     n_data_per_node=3, node_nums=ids, load_case=1, mode_n=r + 1,
+                                     freq=float(mm.frequencies_hz[r]), modal_m=0.0, modal_damp_vis=0.0,
+                                     modal_damp_his=0.0, r1=loc[:, 0].copy(), r2=loc[:, 1].copy(), r3=loc[:, 2].copy()))
+    path = tmp_path / "skew.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    return path, truth, mm, R, values
+
+
+def test_single_component_along_a_skewed_axis(tmp_path, capsys):
+    from femupdate import schema
+    from femupdate._errors import InputError
+    from femupdate.io.uff import read_uff
+    from test_cli import run
+
+    path, truth, mm, R, values = _skewed_uff(tmp_path)
+    with pytest.raises(InputError, match=r"node 5: the measured component\(s\) y along the axes of coordinate system 5"):
+        read_uff(path)  # into the global axes, as every other command reads it
+    axes: dict = {}
+    data = read_uff(path, keep_local=axes)
+    assert list(axes) == [5] and np.allclose(axes[5], R, atol=1e-9)
+    assert [d for d in data.modes[0].dofs if d.startswith("5:")] == ["5:y"]  # along the system's y
+    assert any("node(s) 5: measured components kept along" in n for n in data.notes)
+    s, *_ = _block(tmp_path)
+    mt = map_test_data(s, data, 1e-6, model=truth, axes=axes)
+    assert mt.rename["5:y"] == "T5:y"
+    q = model_modes(mt.model, n_modes=4)
+    k = mt.model.dofs.index("T5:y")
+    u = mt.mesh_shapes(q.shapes)
+    for r in range(4):  # the new dof: the truth's motion at the point (SciPy's trilinear) along the skewed y, R[1]·u(p)
+        sign = np.sign(u[:, r] @ mm.shapes[:, r])
+        np.testing.assert_allclose(sign * q.shapes[k, r], R[1] @ values[r][4], rtol=0,
+                                   atol=1e-10 * np.abs(values[r]).max())
+    for r, m in enumerate(mt.data.modes):
+        sh = q.shapes[[mt.model.dofs.index(d) for d in m.dofs], r]
+        assert abs(sh @ m.shape) / (np.linalg.norm(sh) * np.linalg.norm(m.shape)) == pytest.approx(1.0, abs=1e-9)
+    model = _block_toml(tmp_path)
+    code, out, err = run(["update", str(model), str(path), "--test-points", "1e-6", "--json", str(tmp_path / "u.json")],
+                         capsys)
+    assert code == 0, out + err
+    res = json.loads((tmp_path / "u.json").read_text())
+    schema.check(res, "update")
+    for name, v in TRUTH.items():
+        assert res["parameters"][name] == pytest.approx(v, rel=2e-5)  # 6-digit universal file
+    point = res["test_points"]["points"][4]
+    assert point["dofs"] == {"y": "T5:y"} and np.allclose(point["axes"], R, atol=1e-9)
