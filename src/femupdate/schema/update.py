@@ -76,7 +76,9 @@ UPDATE_KEYS = (
         "(`interpolate` or `nearest`), `tolerance`, `largest_distance`, `points` (per test node `test_node`, `xyz`, "
         "`kind` (`element`: inside an element; `node`: on one mesh node), `mesh_nodes`, `weights` (the shape "
         "functions' values), `element`, `natural` (natural coordinates), `distance`, `dofs` `{direction: label}` "
-        "(the label its measured dofs carry in the run: a mesh dof, or `T<test node>:<direction>`))", (OBJECT,)),
+        "(the label its measured dofs carry in the run: a mesh dof, or `T<test node>:<direction>`), and for a test "
+        "node measured along its own axes `axes` (their rows in global axes; its directions are along them))",
+        (OBJECT,)),
     Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
         "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
         "`--scheduler` also `seed`, `fitting`, `fit_cost`, `distinct` (" + DISTINCT + "), `failed` (messages of "
