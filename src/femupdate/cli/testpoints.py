@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import Any
 
 import click
 import numpy as np
@@ -43,7 +44,7 @@ class TestPointsSpec:
                             model_path)
         return mapped.model, mapped.data, mapped
 
-    def read(self, data_path, measured_text: str | None = None):
+    def read(self, data_path, measured_text: str | None = None) -> tuple[Any, dict]:
         """``(data, axes)``: the test data of ``data_path`` read without a model, their own node ids,
         global axes except at the nodes of ``axes`` ({node: R}), whose components a universal file
         gives along a local system's axes that cannot be rotated alone (a single one along a skewed

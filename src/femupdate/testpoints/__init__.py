@@ -5,6 +5,7 @@ exactly transformed model (:mod:`.observe`).  :func:`map_test_data` does both.""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,12 +39,12 @@ class MappedTest:
         Test nodes measured along their own axes: {node: R, rows the axes in global axes}.
     """
 
-    model: object
+    model: Any
     data: object
     map: PointMap
     rename: dict
     T: sp.csr_array
-    base: object = None
+    base: Any = None
     axes: dict = field(default_factory=dict)
 
     def mesh_shapes(self, shapes) -> np.ndarray:
