@@ -29,6 +29,7 @@ def _aligned(ref, u):
 def test_report_draws_the_shapes_on_every_mesh_dof(block_case, monkeypatch):
     """Fails when the transformed model's shapes are drawn: its dofs lack the masters (drawn at zero)."""
     import femupdate.plot.report as figs
+    import femupdate.plot.testpoints as tp_figs
     from femupdate.report import build_report
     from femupdate.updating import update
 
@@ -37,6 +38,7 @@ def test_report_draws_the_shapes_on_every_mesh_dof(block_case, monkeypatch):
     drawn = []
     monkeypatch.setattr(figs, "mode_shape_figure",
                         lambda model, shape, *a, **k: drawn.append((model, np.array(shape))) or {"svg": "<svg></svg>"})
+    monkeypatch.setattr(tp_figs, "test_points_figure", lambda *a, **k: {"svg": "<svg></svg>"})  # drawn elsewhere
     html = build_report(res, test_points=mt)
     base = s.build()
     ref = model_modes(base, res.parameters)  # the untransformed model at the same (updated) values
@@ -52,6 +54,7 @@ def test_report_draws_the_shapes_on_every_mesh_dof(block_case, monkeypatch):
         np.testing.assert_allclose(u[idx], phi[idx], rtol=0, atol=tol)
         np.testing.assert_allclose(u, phi, rtol=0, atol=tol)
     assert "shapes are drawn on every mesh dof (u = T q)" in html
+    assert "Test points on the mesh" in html and "T5:y" in html  # the map, though the result object lacks it
 
 
 def test_shapes_written_on_the_mesh_at_the_truth(block_case):

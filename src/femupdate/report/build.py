@@ -419,6 +419,12 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
         BUILDERS[kind](doc, res, model, data, rec, segments, kind, images=images)  # type: ignore[call-arg]
     else:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind)
+    if test_points is not None and not any(sec.id == "test-points" for sec in doc.sections):
+        from .testpoints import test_points_section  # every kind's report shows where the test points went
+
+        tp = test_points_section({"test_points": res.get("test_points") or test_points.to_json()}, model, segments)
+        if tp is not None:
+            doc.sections.append(tp)
     if rec is not None:
         doc.notes.extend(rec.notes)
     from .parts import notes_section
