@@ -161,8 +161,14 @@ def test_direct_with_test_points(tmp_path, capsys):
     assert res["test_points"]["points"][-1]["dofs"]["x"] == f"T{len(points)}:x"
     from femupdate.io.uff import read_uff
 
-    written = read_uff(tmp_path / "m.uff")  # the identified modes on the mesh's own nodes
-    assert {f"{gone}:x", f"{gone}:y", f"{gone}:z"} <= set(written.modes[0].dofs)
+    written = read_uff(tmp_path / "m.uff")  # the identified modes on the mesh's own nodes, u = T q
+    for r in range(4):
+        w = written.modes[r]
+        assert {f"{gone}:x", f"{gone}:y", f"{gone}:z"} <= set(w.dofs)
+        phi = mm.shapes[[truth.dofs.index(d) for d in w.dofs], r]
+        w_scaled = w.shape * (phi @ w.shape) / (w.shape @ w.shape)
+        # the identified values (to 1e-4) and 6 digits of the file: the truth's shape, the replaced node too
+        np.testing.assert_allclose(w_scaled, phi, rtol=0, atol=1e-3 * np.abs(phi).max())
 
 
 def test_frf_update_with_test_points(tmp_path, capsys):
