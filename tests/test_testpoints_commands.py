@@ -172,7 +172,8 @@ def test_direct_with_test_points(tmp_path, capsys):
 
 
 def test_frf_update_with_test_points(tmp_path, capsys):
-    """Receptances at test points inside elements, the force at one of them: C (K - ω²M)⁻¹ Cᵀ."""
+    """Receptances at test points inside elements along a skewed axis (the z of the test's rotated system,
+    kept along it: refused by every other reading), the force at one of them: C (K - ω²M)⁻¹ Cᵀ."""
     from femupdate import schema
     from test_cli import run
 
@@ -182,11 +183,12 @@ def test_frf_update_with_test_points(tmp_path, capsys):
     R = _rotation(0.4, -0.3, 0.7).T
     origin = np.array([0.1, -0.2, 0.05])
     mt = map_test_data(s, _pointdata(pts), 1e-6, model=truth)
-    C = np.zeros((len(pts), truth.n_dofs))  # z at each point, by the element's shape functions
+    C = np.zeros((len(pts), truth.n_dofs))  # along the system's z (R[2]) at each point, by the shape functions
     for k, lk in enumerate(mt.map.links):
         for n, w in zip(lk.mesh_nodes, lk.weights):
-            if f"{n}:z" in truth.dofs:
-                C[k, truth.dofs.index(f"{n}:z")] = w
+            for g, c in zip("xyz", R[2]):
+                if f"{n}:{g}" in truth.dofs:
+                    C[k, truth.dofs.index(f"{n}:{g}")] += c * w
     f_hz = np.sqrt(model_modes(truth, n_modes=3).eigenvalues) / (2 * np.pi)
     lines = np.concatenate([np.linspace(0.3, 0.8, 3) * f_hz[0], [0.5 * (f_hz[0] + f_hz[1])]])
     K, M = truth.K(), truth.M()
@@ -195,7 +197,7 @@ def test_frf_update_with_test_points(tmp_path, capsys):
     loc = (pts - origin) @ R.T
     sets = [pyuff.prepare_2420(Part_UID=1, Part_Name="test", CS_sys_labels=[5], CS_types=[0], CS_colors=[8],
                                CS_names=["SKEW"], CS_matrices=[np.vstack([R, origin])]),
-            pyuff.prepare_2411(node_nums=ids, def_cs=np.full(len(ids), 5), disp_cs=np.zeros(len(ids), int),
+            pyuff.prepare_2411(node_nums=ids, def_cs=np.full(len(ids), 5), disp_cs=np.full(len(ids), 5),
                                color=np.ones(len(ids), int), x=loc[:, 0].copy(), y=loc[:, 1].copy(), z=loc[:, 2].copy())]
     for k in range(len(pts)):
         sets.append(pyuff.prepare_58(binary=0, func_type=4, rsp_node=k + 1, rsp_dir=3, ref_node=2, ref_dir=3,
@@ -203,6 +205,11 @@ def test_frf_update_with_test_points(tmp_path, capsys):
                                      orddenom_spec_data_type=13, data=H[:, k].astype(complex), x=lines))
     path = tmp_path / "frf.uff"
     pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    from femupdate._errors import InputError
+    from femupdate.io.uff import read_uff
+
+    with pytest.raises(InputError, match="direction z of coordinate system 5 .* does not lie along one of the model"):
+        read_uff(path)
     model = _block_toml(tmp_path)
     code, out, err = run(["frf-update", str(model), str(path), "--test-points", "1e-6", "--json",
                           str(tmp_path / "f.json")], capsys)
@@ -211,7 +218,9 @@ def test_frf_update_with_test_points(tmp_path, capsys):
     schema.check(res, "frf-update")
     for k, v in TRUTH.items():
         assert res["parameters"][k] == pytest.approx(v, rel=1e-4)  # 6-digit universal file
-    assert [p["dofs"] for p in res["test_points"]["points"]] == [{"z": "T1:z"}, {"z": "T2:z"}, {"z": "T3:z"}]
+    points = res["test_points"]["points"]
+    assert [p["dofs"] for p in points] == [{"z": "T1:z"}, {"z": "T2:z"}, {"z": "T3:z"}]
+    assert all(np.allclose(p["axes"], R, atol=1e-9) for p in points)
 
 
 def _pointdata(pts):

@@ -452,7 +452,7 @@ def read_uff(
         a mode's components at a node that cannot be rotated into the global axes (a single one
         along a skewed axis) are kept along the node's own axes, labels ``"<node>:<dir>"`` in
         them, instead of refused, and ``keep_local[node]`` is set to R (rows: those axes in
-        global axes); FRF directions are not kept.
+        global axes); an FRF's response or excitation at a node in a local system is kept so too.
 
     Returns
     -------
@@ -546,7 +546,7 @@ def read_uff(
             if m is not None:
                 raws.append(m)
         elif t == 58:
-            rsp_ref = add_frf_record(sets, dset, where, k, nodes, systems, units, notes)
+            rsp_ref = add_frf_record(sets, dset, where, k, nodes, systems, units, notes, keep_local)
             if rsp_ref is not None:
                 _check_in_model(rsp_ref, known, where)
     frf_sets = frf_sets_of(sets, name, notes)
