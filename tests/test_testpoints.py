@@ -161,7 +161,7 @@ TEST_POINTS = np.array([[0.13, 0.05, 0.1], [0.27, 0.17, 0.0], [0.41, 0.0, 0.033]
                         [0.55, 0.031, 0.1], [0.6, 0.11, 0.0], [0.33, 0.2, 0.07], [0.48, 0.13, 0.1]])
 
 
-def _truth_at_points(tmp_path, n_modes=4):
+def _truth_at_points(tmp_path, n_modes=4, points=TEST_POINTS):
     """The truth's modes at the test points, global components (points, 3) per mode, by SciPy's
     trilinear interpolation on the grid (the hexahedra's interpolation on a regular grid)."""
     s, axes, idx = _block(tmp_path, TRUTH)
@@ -173,18 +173,18 @@ def _truth_at_points(tmp_path, n_modes=4):
         for i, lab in enumerate(truth.dofs):
             node, c = lab.split(":")
             grid[np.unravel_index(int(node) - 1, idx.shape) + ("xyz".index(c),)] = mm.shapes[i, r]
-        values.append(RegularGridInterpolator(axes, grid, method="linear")(TEST_POINTS))
+        values.append(RegularGridInterpolator(axes, grid, method="linear")(points))
     return truth, mm, values
 
 
-def _uff(tmp_path, n_modes=4):
+def _uff(tmp_path, n_modes=4, points=TEST_POINTS):
     """The truth's modes at the test points written by pyuff, positions and directions in coordinate
     system 5 (rotated, shifted); test node ids 1.. (mesh node ids too, unrelated)."""
-    truth, mm, values = _truth_at_points(tmp_path, n_modes)
+    truth, mm, values = _truth_at_points(tmp_path, n_modes, points)
     R = _rotation(0.4, -0.3, 0.7).T  # rows: the system's axes in global coordinates
     origin = np.array([0.1, -0.2, 0.05])
-    ids = np.arange(1, len(TEST_POINTS) + 1)
-    local_xyz = (TEST_POINTS - origin) @ R.T
+    ids = np.arange(1, len(points) + 1)
+    local_xyz = (points - origin) @ R.T
     sets = [pyuff.prepare_2420(Part_UID=1, Part_Name="test", CS_sys_labels=[5], CS_types=[0], CS_colors=[8],
                                CS_names=["SKEW"], CS_matrices=[np.vstack([R, origin])]),
             pyuff.prepare_2411(node_nums=ids, def_cs=np.full(len(ids), 5), disp_cs=np.full(len(ids), 5),

@@ -312,10 +312,11 @@ def model_segments(model_path):
 
 
 def write_report_output(ctx: Ctx, report_path, payload, *, model=None, data=None, model_path=None,
-                        before=None, damping=None, kind: str | None = None, segments=None) -> None:
+                        before=None, damping=None, kind: str | None = None, segments=None, test_points=None) -> None:
     """Write the run's HTML report (``--report``) from its result object (or its JSON payload,
     with the model and the data for what needs recomputing; :func:`femupdate.report.write_report`),
-    and name it."""
+    and name it.  ``test_points``: the :class:`~femupdate.testpoints.MappedTest` of ``--test-points``
+    (shapes drawn on the mesh's own dofs)."""
     if report_path is None:
         return
     from ..report import write_report
@@ -323,7 +324,7 @@ def write_report_output(ctx: Ctx, report_path, payload, *, model=None, data=None
     if segments is None and model_path is not None:
         segments = model_segments(model_path)
     write_report(report_path, payload, model=model, data=data, kind=kind, segments=segments, before=before,
-                 damping=damping, source=f"run on {model_path}" if model_path else "")
+                 damping=damping, source=f"run on {model_path}" if model_path else "", test_points=test_points)
     ctx.console.print(f"wrote the report {report_path}")
 
 

@@ -28,6 +28,7 @@ from ._common import (INPUT_FILE, OUTPUT_FILE, SEED, Ctx, FiniteFloat, check_set
                       write_report_output)
 from ._groups import GroupedCommand, option_group
 from .outputs import Outputs, outputs_group, phased_progress
+from .testpoints import TestPointsSpec, test_points_group
 
 _path = INPUT_FILE
 
@@ -178,19 +179,32 @@ _PHASES = {"refine": "refining and verifying", "bootstrap": "bootstrap replicate
 @_data_group()
 @_method_group()
 @_noise_group()
+@test_points_group()
 @outputs_group(report=True)
-def damage(baseline_path, data_path, given: DamageData, options, noise, outputs: Outputs):
+def damage(baseline_path, data_path, given: DamageData, options, noise, test_points: TestPointsSpec, outputs: Outputs):
     """Localise, refine and verify damage in DATA from the validated BASELINE_MODEL."""
     from ..damage import detect_damage
 
     ctx = Ctx(outputs.json_path)
     structure, du = _damage_model(baseline_path, given.unknowns_kind, outputs.set_text)
-    data = load_data(data_path, du.model, given.measured_text)
-    undamaged = load_data(given.undamaged_path, du.model, given.measured_text) if given.undamaged_path is not None else None
+    mapped = None
+    if test_points.tolerance is None:
+        data = load_data(data_path, du.model, given.measured_text)
+        undamaged = (load_data(given.undamaged_path, du.model, given.measured_text)
+                     if given.undamaged_path is not None else None)
+    else:  # test nodes placed on the baseline's mesh; the unknowns' model in the coordinates that hold them
+        mapped = test_points.place(structure, du.model, *test_points.read(data_path, given.measured_text), data_path,
+                                   baseline_path)
+        test_points.announce(ctx, mapped)
+        du, data = dataclasses.replace(du, model=mapped.model), mapped.data
+        undamaged = None if given.undamaged_path is None else test_points.relabel(
+            mapped, test_points.read(given.undamaged_path, given.measured_text), given.undamaged_path)
     with phased_progress(_PHASES, console=ctx.console, quiet=outputs.json_path == "-") as tick:
         res = detect_damage(du, data, undamaged=undamaged, elements=_names(given.elements_text), noise=noise,
                             options=options, progress=tick)
     payload = res.to_json()
+    if mapped is not None:
+        payload["test_points"] = mapped.to_json()
     ctx.console.print(payload["headline"], markup=False)
     _print_damage(ctx.console, res, du.model, data, du.kind, options.min_change)
     for n in payload["notes"]:
@@ -200,7 +214,8 @@ def damage(baseline_path, data_path, given: DamageData, options, noise, outputs:
         from ..fullfield import structure_segments
 
         write_report_output(ctx, outputs.report_path, res,
-                            segments=structure_segments(structure) if structure is not None else None)
+                            segments=structure_segments(structure) if structure is not None else None,
+                            test_points=mapped)
     if res.status == "doubtful":
         click.echo("warning: the location is doubtful: " + "; ".join(res.doubts), err=True)
     if not res.localised:

@@ -16,6 +16,7 @@ from ._common import INPUT_FILE, Ctx, correlation_table, fmt, model_values, prin
 from ._groups import GroupedCommand, option_group
 from .data_options import DataSpec, test_data_group
 from .outputs import Outputs, outputs_group
+from .testpoints import TestPointsSpec, test_points_group
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,8 +47,10 @@ def direct_group() -> Callable:
 @click.argument("data_path", metavar="DATA", type=INPUT_FILE)
 @direct_group()
 @test_data_group()
+@test_points_group()
 @outputs_group(model_out=True, uff="Write the updated model's modes as universal file datasets 55.", report=True)
-def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, outputs: Outputs):
+def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, test_points: TestPointsSpec,
+           outputs: Outputs):
     """Identify MODEL's parameters directly from DATA measured at every model dof."""
     from ..direct import direct_update
     from ..io.model_file import load_model
@@ -59,7 +62,9 @@ def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, out
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "direct --uff")  # before the solution: named nodes cannot be written
-    data = data_spec.load(data_path, model)
+    base = model  # the structure's own dofs (--uff), whatever the test points add
+    model, data, mapped = test_points.load(model_path, model, data_path, data_spec.measured_text)
+    test_points.announce(ctx, mapped)
     res = direct_update(model, data, use=solution.use, values=values, unknowns=solution.unknowns,
                         bounded=solution.bounded)
     _print(ctx, model, res)
@@ -69,12 +74,15 @@ def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, out
         if outputs.uff_path is not None:
             from ..io.uff import write_uff_modes
 
-            write_uff_modes(outputs.uff_path, after.modes, nodes=model.nodes, model_name=model.name)
+            modes = after.modes if mapped is None else _mesh_modes(after.modes, mapped)
+            write_uff_modes(outputs.uff_path, modes, nodes=base.nodes, model_name=model.name)
     payload = res.to_json()
+    if mapped is not None:
+        payload["test_points"] = mapped.to_json()
     for note in payload["notes"]:
         ctx.console.print(f"note: {note}", markup=False)
     outputs.emit(ctx, payload)
-    write_report_output(ctx, outputs.report_path, res, model_path=model_path)
+    write_report_output(ctx, outputs.report_path, res, model_path=model_path, test_points=mapped)
     if not res.unique:
         if outputs.write_model_path or outputs.csv_dir or outputs.write_back_dir:
             ctx.console.print("not written: the updated model and tables (the parameters are not determined uniquely)")
@@ -89,6 +97,11 @@ def direct(model_path, data_path, solution: DirectSpec, data_spec: DataSpec, out
                                         [p0[model.parameter_index(n)] for n in res.unknowns],
                                         [res.parameters[n] for n in res.unknowns], res.standard_error)
         ctx.console.print(f"wrote {written}")
+
+
+def _mesh_modes(modes, mapped):
+    """The modes of a model test points were placed on, on the mesh's own dofs (u = T q)."""
+    return dataclasses.replace(modes, shapes=mapped.mesh_shapes(modes.shapes), dofs=tuple(mapped.base.dofs))
 
 
 def _print(ctx: Ctx, model, res) -> None:

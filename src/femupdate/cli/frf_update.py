@@ -18,6 +18,7 @@ from ._common import (INPUT_FILE, Ctx, FiniteFloat, fitting_table, fmt, model_va
 from ._groups import GroupedCommand, execution_group, option_group, starts_group
 from .frf import apply_reciprocity, frf_line_options, frf_options, reciprocity_option
 from .outputs import Outputs, outputs_group
+from .testpoints import TestPointsSpec, test_points_group
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,9 +111,10 @@ def _solver_group():
 @global_group()
 @frf_problem_group()
 @_solver_group()
+@test_points_group()
 @outputs_group(plot="Write the FRF overlay and convergence figures to this folder.", model_out=True, report=True)
 def frf_update_command(model_path, data_path, starts, execution, search: GlobalSearch | None,
-                       problem: FRFProblemSpec, solver: SolverOptions, outputs: Outputs):
+                       problem: FRFProblemSpec, solver: SolverOptions, test_points: TestPointsSpec, outputs: Outputs):
     """Update MODEL's parameters from FRFs in DATA measured at any dofs (eqs. 30-32)."""
     from ..io.model_file import load_model
     from ..io.testdata_json import load_testdata
@@ -122,7 +124,13 @@ def frf_update_command(model_path, data_path, starts, execution, search: GlobalS
     ctx = Ctx(outputs.json_path)
     model = load_model(model_path)
     values = model_values(model, outputs.set_text)
-    data = apply_reciprocity(load_testdata(data_path, model), problem.reciprocity)
+    mapped = None
+    if test_points.tolerance is None:
+        data = load_testdata(data_path, model)
+    else:  # FRFs at test points are C H: the transformed model's FRFs at their dofs
+        model, data, mapped = test_points.load(model_path, model, data_path)
+        test_points.announce(ctx, mapped)
+    data = apply_reciprocity(data, problem.reciprocity)
     if search is not None or data.n_frf_sets <= 1:
         frf_data(data)  # no FRF data, or several sets for the global search: refused by name
     params, frf, noise = problem.resolve(data)
@@ -134,17 +142,19 @@ def frf_update_command(model_path, data_path, starts, execution, search: GlobalS
     res = ms.best if ms is not None else result
     what = f"{search.method} runs" if search is not None else "starts"
     payload = result.to_json()
+    if mapped is not None:
+        payload["test_points"] = mapped.to_json()
     if res is None:
         assert ms is not None
         outputs.emit(ctx, payload)
         print_starts(ctx.console, ms, what)
-        write_report_output(ctx, outputs.report_path, result, model_path=model_path)
+        write_report_output(ctx, outputs.report_path, result, model_path=model_path, test_points=mapped)
         raise NumericalError(f"none of the {ms.total} {'runs' if search is not None else 'starts'} converged")
     _print(ctx, model, data, res, ms, what, payload)
     if outputs.plot_dir is not None:
         _figures(ctx, model, data, res, frf.damping, outputs.plot_dir)
     outputs.emit(ctx, payload)
-    write_report_output(ctx, outputs.report_path, result, model_path=model_path)
+    write_report_output(ctx, outputs.report_path, result, model_path=model_path, test_points=mapped)
     if not res.success:
         if outputs.write_model_path or outputs.csv_dir or outputs.write_back_dir:
             ctx.console.print("not written: the updated model and tables (the update did not converge)")

@@ -17,6 +17,7 @@ from ._common import CHECKPOINT_FILE, INPUT_FILE, OUTPUT_FILE, Ctx, OutputPath, 
 from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
 from .outputs import Outputs, outputs_group, phased_progress
 from .problem import ProblemSpec, problem_group
+from .testpoints import TestPointsSpec, test_points_group
 
 
 def _default_checkpoint(json_path, method: str):
@@ -61,11 +62,12 @@ def parse_priors(items) -> dict:
               help="The sampler's state after each MCMC segment or TMCMC stage, resumed by a re-run (default: next "
                    "to the --json output; none with --json - or without --json).")
 @problem_group()
+@test_points_group()
 @click.option("--samples-out", "samples_path", type=OutputPath("file", suffixes=(".csv", ".npz"), why="its format"),
               default=None, metavar="FILE.csv|.npz", help="Write the posterior samples (CSV or NumPy .npz).")
 @outputs_group(plot="Write corner, trace and predictive figures to this folder.", report=True)
 def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execution, checkpoint_path,
-              problem: ProblemSpec, samples_path, outputs: Outputs):
+              problem: ProblemSpec, test_points: TestPointsSpec, samples_path, outputs: Outputs):
     """The posterior of MODEL's parameters given the test data in DATA (several files: repeated tests,
     their likelihoods multiplied): how far to trust the updated model."""
     from ..bayes import posterior as _posterior
@@ -75,9 +77,16 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
     model = load_model(model_path)
     values = model_values(model, outputs.set_text)
     priors = parse_priors(prior_items)
-    sets, run = [], None
+    sets, run, mapped = [], None, None
     for path in data_paths:
-        run = problem.resolve(model, load_data(path, model, problem.measured_text))
+        if test_points.tolerance is None:
+            data = load_data(path, model, problem.measured_text)
+        elif mapped is None:  # the first file's test points placed on the mesh; the others' renamed as its
+            model, data, mapped = test_points.load(model_path, model, path, problem.measured_text)
+            test_points.announce(ctx, mapped)
+        else:
+            data = test_points.relabel(mapped, test_points.read(path, problem.measured_text), path)
+        run = problem.resolve(model, data)
         sets.append(run.data)
     assert run is not None
     options = run.options.replace(noise=run.options.noise.replace(basis=noise))
@@ -97,6 +106,8 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
             raise
     _print(c, model, res, sets[0], checkpoint)
     payload = res.to_json()
+    if mapped is not None:
+        payload["test_points"] = mapped.to_json()
     if samples_path is not None:
         from ..io.samples import write_samples
 

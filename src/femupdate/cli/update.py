@@ -50,11 +50,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     values = model_values(model, outputs.set_text)
     base = model  # the structure's own dofs (--uff), whatever the test points add
     model, data, mapped = test_points.load(model_path, model, data_path, problem.measured_text)
-    if mapped is not None:
-        lk = mapped.map.links
-        ctx.console.print(f"test points: {len(lk)} placed on the mesh ({mapped.map.method}; "
-                          f"{sum(x.kind == 'element' for x in lk)} inside elements, largest distance "
-                          f"{max(x.distance for x in lk):.3g})", markup=False)
+    test_points.announce(ctx, mapped)
     run = problem.resolve(model, data, solver)
     data = run.data
     before = None if values is None else dict(zip(model.parameter_names, values))
@@ -91,6 +87,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     report_of: object = result
     if mapped is not None:  # the map into the result, and the report drawn from it
         payload["test_points"] = mapped.to_json()
+        if payload.get("expanded_shapes"):  # on the mesh's own dofs, u = T q
+            payload["expanded_shapes"] = [mapped.mesh_shape_json(sh) for sh in payload["expanded_shapes"]]
         report_of = payload
     if bb is not None:
         payload["black_box"] = {"rounds": bb.rounds, "runs": bb.runs, "cache_hits": bb.cache_hits}
@@ -98,7 +96,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         assert ms is not None
         outputs.emit(ctx, payload)
         print_starts(ctx.console, ms)
-        write_report_output(ctx, outputs.report_path, result, model_path=model_path)
+        write_report_output(ctx, outputs.report_path, result, model_path=model_path, test_points=mapped)
         raise NumericalError(f"none of the {starts.starts} starts converged")
     _print(ctx, model, data, run.kinds, res, ms, payload)
     if outputs.plot_dir is not None:
@@ -108,7 +106,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         write_report_output(ctx, outputs.report_path, result, model_path=model_path)
     else:
         write_report_output(ctx, outputs.report_path, report_of, model=model, data=data, model_path=model_path,
-                            before=before, damping=run.damping, kind="update")
+                            before=before, damping=run.damping, kind="update", test_points=mapped)
     if not res.success:
         if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")

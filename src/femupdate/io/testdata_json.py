@@ -26,7 +26,7 @@ MODE_KEYS = frozenset({"frequency_hz", "eigenvalue", "shape", "label", "referenc
                        *MODE_ALIASES})
 
 
-def load_testdata(path, model=None, numbering=None, sensors=None, channels=None) -> TestData:
+def load_testdata(path, model=None, numbering=None, sensors=None, channels=None, keep_local=None) -> TestData:
     """Read test data from JSON or a universal file (``.uff``/``.unv``).
 
     With ``model``, every dof in the data must be a model dof (the message names the others), and
@@ -53,6 +53,9 @@ def load_testdata(path, model=None, numbering=None, sensors=None, channels=None)
     channels : sequence or mapping, optional
         The channel map of an identification result (``.npz`` only), replacing the file's
         (:func:`femupdate.io.adapters.channel_map`).
+    keep_local : dict, optional
+        A universal file's ``keep_local`` (:func:`femupdate.io.uff.read_uff`; test points only);
+        other formats have no local axes and leave it empty.
 
     Returns
     -------
@@ -81,7 +84,7 @@ def load_testdata(path, model=None, numbering=None, sensors=None, channels=None)
     if path.suffix.lower() in UFF_SUFFIXES:
         from .uff import read_uff
 
-        data = read_uff(path, model=model, sensors=sensors)  # measured dofs: sensors, FRF records or the zero rule
+        data = read_uff(path, model=model, sensors=sensors, keep_local=keep_local)  # sensors, FRF records or zero rule
     elif path.suffix.lower() == ".npz":
         from .adapters import read_identification
 

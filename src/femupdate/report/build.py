@@ -251,7 +251,8 @@ def _values(model, given) -> dict | None:
 
 
 def build_report(result, *, model=None, data=None, kind: str | None = None, segments=None, before=None,
-                 damping=None, images: Mapping | None = None, source: str = "", title: str | None = None) -> str:
+                 damping=None, images: Mapping | None = None, source: str = "", title: str | None = None,
+                 test_points=None) -> str:
     """The HTML report of a run, as text.
 
     Parameters
@@ -285,6 +286,11 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         Where the result came from (shown in the header).
     title : str, optional
         The page title (default from the model and the kind).
+    test_points : MappedTest, optional
+        When ``model`` is a model test points were placed on (``map_test_data(...).model``,
+        :func:`femupdate.testpoints.map_test_data`): its map, so that the mode shapes are drawn on
+        the structure's own dofs, ``u = T q`` (without it the mesh dofs the test points replaced
+        would be drawn at zero).
 
     Returns
     -------
@@ -328,7 +334,7 @@ def build_report(result, *, model=None, data=None, kind: str | None = None, segm
         raise InputError(f"{where}{exc}") from None
     check_model_and_data(res, kind, model, data)
     try:
-        return _build(res, kind, model, data, segments, before, damping, images, source, title)
+        return _build(res, kind, model, data, segments, before, damping, images, source, title, test_points)
     except FemupdateError:
         raise
     except (KeyError, IndexError, TypeError, ValueError, AttributeError, ArithmeticError) as exc:  # not checked above
@@ -387,7 +393,8 @@ def check_model_and_data(res: Mapping, kind: str, model, data, model_what: str =
                              f"mode(s): are they the test data of this run?")
 
 
-def _build(res: dict, kind: str, model, data, segments, before, damping, images, source, title) -> str:
+def _build(res: dict, kind: str, model, data, segments, before, damping, images, source, title,
+           test_points=None) -> str:
     """:func:`build_report` once the result is checked."""
     if model is not None and kind != "paper":
         _describe_parameters(res, model)
@@ -405,12 +412,19 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
         start = {k: v for k, v in (start or {}).items() if k in known and v is not None} or None
         pairing = (res.get("pairing") or {}).get("policy", "auto") if isinstance(res.get("pairing"), Mapping) else "auto"
         rec = recompute(model, data, _values(model, start), _values(model, after), res, pairing=pairing, damping=damping)
+        rec.test_points = test_points
     name = res.get("model") or (model.name if model is not None else "")
     doc = Document(title=title or (f"{name}: {kind}" if name else kind), kind=REPORT_KINDS[kind], source=source)
     if kind in WITH_IMAGES:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind, images=images)  # type: ignore[call-arg]
     else:
         BUILDERS[kind](doc, res, model, data, rec, segments, kind)
+    if test_points is not None and not any(sec.id == "test-points" for sec in doc.sections):
+        from .testpoints import test_points_section  # every kind's report shows where the test points went
+
+        tp = test_points_section({"test_points": res.get("test_points") or test_points.to_json()}, model, segments)
+        if tp is not None:
+            doc.sections.append(tp)
     if rec is not None:
         doc.notes.extend(rec.notes)
     from .parts import notes_section

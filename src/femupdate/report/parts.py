@@ -229,7 +229,9 @@ def shapes_section(model, data, rec, segments, pairs) -> Section | None:
     figs = figures()
     modes = rec.after.modes
     sec = Section("shapes", "Mode shapes on the model")
-    geom = shape_geometry(model, segments)
+    tp = rec.test_points  # test points placed on a mesh: drawn on the mesh's own dofs, u = T q
+    drawn = model if tp is None or tp.base is None else tp.base
+    geom = shape_geometry(drawn, segments)
     if geom is None:
         sec.add(Text(f"The model has no node coordinates, so its shapes have no geometry to be drawn on: {NO_GEOMETRY}; "
                      "measured shapes as red circles, scaled to the model shape by least squares.", "note"))
@@ -238,6 +240,11 @@ def shapes_section(model, data, rec, segments, pairs) -> Section | None:
                      "as red circles at the nodes they displace (scaled to the model shape by least squares, "
                      "unmeasured directions at zero). Beams and frames bend with their end rotations; rods and "
                      "springs are straight."))
+    on_mesh = set(drawn.dofs)
+    if drawn is not model:
+        sec.add(Text("Test points were placed on the mesh: the model's shapes are drawn on every mesh dof (u = T q); "
+                     "measured values at test points inside elements are not drawn here (the test points' section "
+                     "shows where they lie).", "note"))
     items: list[tuple[Any, int, Any]]
     if pairs:
         items = [(int(k), int(j), m) for k, j, m in pairs]
@@ -256,11 +263,14 @@ def shapes_section(model, data, rec, segments, pairs) -> Section | None:
             f_t = tm.frequency_hz
             if len(tm.dofs):
                 test = dict(zip(tm.dofs, np.asarray(tm.shape)))
+                if drawn is not model:  # a test point inside an element is no node of the mesh
+                    test = {d: v for d, v in test.items() if d in on_mesh} or None
         f_m = float(modes.frequencies_hz[j])
         title = (f"test mode {k + 1} ↔ model mode {j + 1}: " + (f"{num(f_t, 5)} / " if f_t is not None else "")
                  + f"{num(f_m, 5)} Hz" + (f", MAC {mac:.4f}" if mac is not None and fin(mac) else "")) \
             if k is not None else f"model mode {j + 1}: {num(f_m, 5)} Hz"
-        sec.add(Figure(figs.mode_shape_figure(model, modes.shapes[:, j], test, title, segments)))
+        shape = modes.shapes[:, j] if drawn is model else tp.mesh_shapes(modes.shapes[:, j])
+        sec.add(Figure(figs.mode_shape_figure(drawn, shape, test, title, segments)))
     if len(items) > MAX_SHAPES:
         sec.add(Text(f"The first {MAX_SHAPES} of {len(items)} paired modes are drawn.", "note"))
     return sec

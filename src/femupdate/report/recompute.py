@@ -39,6 +39,7 @@ class Recomputed:
     frf: dict | None = None
     surface: object = None
     notes: list[str] = field(default_factory=list)
+    test_points: object = None  # MappedTest: shapes drawn on the structure's dofs, u = T q
 
 
 def _n_modes(model, data) -> int | None:

@@ -67,6 +67,7 @@ DAMAGE_KEYS = (
     Key("notes", "list", "first the test data's and the undamaged data's readers', how the unknowns were chosen, then "
         "the run's own", (ARRAY,)),
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
+    Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh, as `update`'s", (OBJECT,)),
     Key("parameter_units, bounds", "objects", "of the unknowns (an element's `E` in Pa, a spring's `k` in N/m), as "
         "`direct`", (OBJECT,)),
 )

@@ -44,7 +44,8 @@ register(Kind(
      Key("start", "`{name: value}`", "the values the model had (with `--set`)", (OBJECT,)),
      Key("frequencies_hz", "`{test, model}`", "when the data hold modes: the test frequencies and the paired "
          "frequencies of the updated model", (OBJECT,)),
-     Key("pairs", "`[[test, model, mac]]`", "when the data hold modes", (ARRAY,))),
+     Key("pairs", "`[[test, model, mac]]`", "when the data hold modes", (ARRAY,)),
+     Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh, as `update`'s", (OBJECT,))),
     intro="The result of `femupdate direct` and `femupdate.direct_update` (`result.to_json()`)."))
 
 register(Kind(

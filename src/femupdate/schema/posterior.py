@@ -56,7 +56,8 @@ register(Kind(
      Key("warnings, notes", "list of strings", "what makes the answer doubtful; what the user should know (first what "
          "the reader of the test data decided, then the noise treatment, improper priors, failed evaluations, "
          "solutions on a bound)", (ARRAY,)),
-     Key("units", "object", "the (first) test data's units, when they state them", (OBJECT,))),
+     Key("units", "object", "the (first) test data's units, when they state them", (OBJECT,)),
+     Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh, as `update`'s", (OBJECT,))),
     intro="The result of `femupdate posterior` and `femupdate.posterior` (`result.to_json()`; the samples are not in "
           "it: `--samples-out`, `result.samples`)."))
 

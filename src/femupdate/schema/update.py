@@ -56,7 +56,8 @@ UPDATE_KEYS = (
     Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
         "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
     Key("expanded_shapes", "list of `{dof: value}`", "with `--formulation dynamic`: the full shape of each test mode "
-        "at the solution, its measured entries the test shape scaled to unit length over them", (ARRAY,)),
+        "at the solution, its measured entries the test shape scaled to unit length over them (with `--test-points`: "
+        "at every mesh dof, u = T q, then at the test points' own dofs `T<test node>:<direction>`)", (ARRAY,)),
     Key("notes", "list", "what the user should know: first what the reader of the test data decided, then the run's "
         "own notes", (ARRAY,)),
     Key("flags", "list", "as `direct`: updated values on or outside their bounds, or not > 0 where they must be",
@@ -80,7 +81,9 @@ UPDATE_KEYS = (
         "(`interpolate` or `nearest`), `tolerance`, `largest_distance`, `points` (per test node `test_node`, `xyz`, "
         "`kind` (`element`: inside an element; `node`: on one mesh node), `mesh_nodes`, `weights` (the shape "
         "functions' values), `element`, `natural` (natural coordinates), `distance`, `dofs` `{direction: label}` "
-        "(the label its measured dofs carry in the run: a mesh dof, or `T<test node>:<direction>`))", (OBJECT,)),
+        "(the label its measured dofs carry in the run: a mesh dof, or `T<test node>:<direction>`), and for a test "
+        "node measured along its own axes `axes` (their rows in global axes; its directions are along them))",
+        (OBJECT,)),
     Key("starts", "object", "**`total`**, **`converged`**, **`solutions`** `[{parameters, cost, count, fits}]` "
         "(distinct solutions: those that fit the data as well as the best first); with `--starts R > 1` or "
         "`--scheduler` also `seed`, `fitting`, `fit_cost`, `distinct` (" + DISTINCT + "), `failed` (messages of "

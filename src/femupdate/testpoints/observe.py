@@ -34,7 +34,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .._errors import InputError
-from ..dofs import describe, dof, parse_dof
+from ..dofs import DIRECTIONS, describe, dof, parse_dof
 
 #: columns of C whose pivot falls below this fraction of the largest: rows that are (nearly) combinations
 #: of each other (two test points observing the same motion)
@@ -133,7 +133,7 @@ def observed_model(model, rows: Mapping[str, Mapping[int, float]], fixed: Sequen
 
 
 def observation_rows(pmap, labels: Sequence[str], model, structure_dofs: set[str] | frozenset[str],
-                     prefix: str = "T") -> tuple[dict[str, str], dict[str, dict[int, float]]]:
+                     prefix: str = "T", axes: Mapping | None = None) -> tuple[dict[str, str], dict[str, dict[int, float]]]:
     """Rows of C for measured labels ``"<test node>:<dir>"`` (global directions).
 
     Parameters
@@ -149,6 +149,10 @@ def observation_rows(pmap, labels: Sequence[str], model, structure_dofs: set[str
         supported dof is dropped: it does not move).
     prefix : str, default "T"
         Prefix of the new dofs' node names.
+    axes : mapping of node to array_like (3, 3), optional
+        Test nodes whose labels' directions are along their own axes (rows: those axes in global
+        axes; a universal file's ``keep_local``): the row of ``"<node>:<dir>"`` is the direction
+        cosines' combination of the global rows, the new dof keeps the local direction's name.
 
     Returns
     -------
@@ -171,13 +175,14 @@ def observation_rows(pmap, labels: Sequence[str], model, structure_dofs: set[str
         node, d = parse_dof(lab)
         lk = pmap.link(node)
         row: dict[int, float] = {}
-        for mn, w in zip(lk.mesh_nodes, lk.weights):
-            md = dof(mn, d)
-            if md in index:
-                row[index[md]] = row.get(index[md], 0.0) + w
-            elif md not in structure_dofs:
-                raise InputError(f"test dof {lab}: mesh node {mn} (where test node {node} lies"
-                                 f"{', in ' + lk.element if lk.element else ''}) has no '{d}' dof")
+        for g, c in _components(d, None if axes is None else axes.get(node)):
+            for mn, w in zip(lk.mesh_nodes, lk.weights):
+                md = dof(mn, g)
+                if md in index:
+                    row[index[md]] = row.get(index[md], 0.0) + c * w
+                elif md not in structure_dofs:
+                    raise InputError(f"test dof {lab}: mesh node {mn} (where test node {node} lies"
+                                     f"{', in ' + lk.element if lk.element else ''}) has no '{g}' dof")
         if not row:
             raise InputError(f"test dof {lab}: test node {node} lies where the model's {d} motion is supported "
                              f"(mesh node(s) {', '.join(map(str, lk.mesh_nodes))}): it cannot move; leave it out")
@@ -195,6 +200,15 @@ def observation_rows(pmap, labels: Sequence[str], model, structure_dofs: set[str
                              "the same mesh node); keep one, or interpolate with a smaller tolerance")
         seen[new] = lab
     return rename, rows
+
+
+def _components(d: str, R) -> list[tuple[str, float]]:
+    """[(global direction, cosine)] of direction ``d``: itself, or along row ``d`` of R (local axes)."""
+    if R is None:
+        return [(d, 1.0)]
+    j = DIRECTIONS.index(d)
+    row = np.asarray(R, float)[j % 3]
+    return [(DIRECTIONS[3 * (j // 3) + i], float(row[i])) for i in range(3) if row[i] != 0.0]
 
 
 def relabel(data, rename: Mapping[str, str]):

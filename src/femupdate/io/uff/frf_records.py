@@ -32,9 +32,10 @@ class FRFSet:
 
 
 def _frf_dof(node: int, direction: str, sign: float, nodes, systems: Mapping[int, System], where: str,
-             role: str) -> tuple[str, float]:
+             role: str, keep: dict | None = None) -> tuple[str, float]:
     """The global dof and sign of a transducer along ``direction`` of its node's displacement
-    system; a direction that does not lie along a global axis is refused."""
+    system; a direction that does not lie along a global axis is refused.  With ``keep`` (test
+    points only) a node in a local system keeps its own axes: ``keep[node] = R``."""
     cs = nodes.disp.get(node, 0)
     if cs == 0:
         return dof(node, direction), sign
@@ -43,6 +44,9 @@ def _frf_dof(node: int, direction: str, sign: float, nodes, systems: Mapping[int
         R = s.cartesian(node, "displacement")
     except InputError as exc:
         raise InputError(f"{where}: {role}: {exc}") from None
+    if keep is not None:  # along the node's own axes, placed by their direction cosines (test points)
+        keep[node] = R
+        return dof(node, direction), sign
     j = DIRECTIONS.index(direction)
     axis = aligned_axis(R[j % 3])
     if axis is None:
@@ -119,7 +123,7 @@ def _si_factor(units: Mapping[str, Any], rsp_dir: str, ref_dir: str) -> float:
 
 
 def read_frf_record(dset: dict, where: str, nodes, systems: Mapping[int, System], units: Mapping[str, Any],
-                    notes: list[str]):
+                    notes: list[str], keep: dict | None = None):
     """One function-type-4 dataset 58 record -> (abscissa in file units, omega, response dof,
     excitation dof, receptance in SI); what was decided about its ordinate goes to ``notes``."""
     (rsp_node, rsp_dir, rsp_sign), (ref_node, ref_dir, ref_sign), x, y = _values(dset, where, nodes)
@@ -136,8 +140,8 @@ def read_frf_record(dset: dict, where: str, nodes, systems: Mapping[int, System]
     if ordinate.note:
         notes.append(ordinate.note)
     h = _receptance(y.astype(complex if np.iscomplexobj(y) else float), omega, ordinate.kind, where)
-    rsp, rsp_sign = _frf_dof(rsp_node, rsp_dir, rsp_sign, nodes, systems, where, "response")
-    ref, ref_sign = _frf_dof(ref_node, ref_dir, ref_sign, nodes, systems, where, "reference (excitation)")
+    rsp, rsp_sign = _frf_dof(rsp_node, rsp_dir, rsp_sign, nodes, systems, where, "response", keep)
+    ref, ref_sign = _frf_dof(ref_node, ref_dir, ref_sign, nodes, systems, where, "reference (excitation)", keep)
     # H measured between transducers oriented s_rsp, s_ref: H_+ = s_rsp * s_ref * H_measured
     h = h * (rsp_sign * ref_sign)
     if ordinate.factor is not None:  # the record's own units label: dataset 164's length does not apply
@@ -161,14 +165,14 @@ def same_axis(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def add_frf_record(sets: dict[str, FRFSet], dset: dict, where: str, k: int, nodes, systems: Mapping[int, System],
-                   units: Mapping[str, Any], notes: list[str]) -> tuple[str, str] | None:
+                   units: Mapping[str, Any], notes: list[str], keep: dict | None = None) -> tuple[str, str] | None:
     """Add dataset 58 record ``k`` to the FRF set of its excitation dof; (response, excitation)
     dofs, or None for a record that is not an FRF (skipped)."""
     func = int(dset.get("func_type", 0))
     if func != 4:
         log.info("%s: function type %d is not an FRF (4); record skipped", where, func)
         return None
-    x, omega, rsp, ref, h = read_frf_record(dset, where, nodes, systems, units, notes)
+    x, omega, rsp, ref, h = read_frf_record(dset, where, nodes, systems, units, notes, keep)
     fs = sets.get(ref)
     if fs is None:
         fs = sets[ref] = FRFSet(f"dataset 58 record {k}", x, omega)

@@ -20,7 +20,7 @@ from ...testdata import FRFData, MeasuredMode, TestData
 from .conventions import AXIS_RTOL, NODE_SETS, READ_SETS, UNIT_SYSTEMS
 from .conventions import check_nodes as _check_nodes, node_id as _node_id
 from .frf_records import FRFSet, add_frf_record, frf_sets_of
-from .systems import System, read_18, read_2420, resolve_18
+from .systems import System, read_18, read_2420, resolve_18, unrotatable
 
 __all__ = ["read_uff"]
 
@@ -311,7 +311,7 @@ def _is_zero(v) -> bool:
 
 
 def _to_global(raw: _RawMode, measured: set[tuple[int, str]], nodes: _Nodes, systems: Mapping[int, System],
-               ) -> dict[str, Any]:
+               kept: Mapping[int, Any] | None = None) -> dict[str, Any]:
     """The mode's measured values in the global axes, {label: value}, node by node in the order of
     the record.  At a node whose displacement system is a local one, a global component is
     measured when every local component it is made of is measured; a measured local component
@@ -322,7 +322,7 @@ def _to_global(raw: _RawMode, measured: set[tuple[int, str]], nodes: _Nodes, sys
         by_node.setdefault(n, {})[d] = v
     for n, vals in by_node.items():
         cs = nodes.disp.get(n, 0)
-        if cs == 0:
+        if cs == 0 or n in (kept or {}):  # global, or kept along the node's own axes (keep_local)
             for d, v in vals.items():
                 if (n, d) in measured:
                     out[dof(n, d)] = v
@@ -355,7 +355,7 @@ def _to_global(raw: _RawMode, measured: set[tuple[int, str]], nodes: _Nodes, sys
 
 def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, System], sensors: frozenset[str] | None,
                  sensor_source: str, units: Mapping[str, Any], known: frozenset[str] | None, name: str,
-                 notes: list[str]) -> list[MeasuredMode]:
+                 notes: list[str], keep: dict | None = None) -> list[MeasuredMode]:
     """The measured modes from the records: measured components chosen (the sensor list, or the
     zero rule), rotated into the global axes, converted to SI, checked against the model."""
     keys: dict[tuple[int, str], None] = {}
@@ -392,8 +392,10 @@ def _build_modes(raws: list[_RawMode], nodes: _Nodes, systems: Mapping[int, Syst
     dropped_nonzero: dict[str, None] = {}
     model_padding: dict[str, None] = {}
     model_nodes = {parse_dof(k)[0] for k in known} if known is not None else set()
+    if keep is not None:
+        keep.update(unrotatable(measured, nodes.disp, systems))
     for r in raws:
-        vals = _to_global(r, measured, nodes, systems)
+        vals = _to_global(r, measured, nodes, systems, keep)
         if sensors is not None:
             for lab, v in vals.items():
                 if lab not in sensors:
@@ -439,6 +441,7 @@ def read_uff(
     model_dofs: Sequence[str] | None = None,
     model=None,
     sensors: Iterable[str] | None = None,
+    keep_local: dict | None = None,
 ) -> TestData:
     r"""Read test data from a universal file.
 
@@ -455,6 +458,12 @@ def read_uff(
     sensors : iterable of str, optional
         The measured dofs (labels in the global axes): the modes keep their components at these
         dofs only, zeros included (:ref:`the measured dofs <uff-measured>` below).
+    keep_local : dict, optional
+        For test points on a mesh only (:func:`femupdate.testpoints.map_test_data`'s ``axes``):
+        a mode's components at a node that cannot be rotated into the global axes (a single one
+        along a skewed axis) are kept along the node's own axes, labels ``"<node>:<dir>"`` in
+        them, instead of refused, and ``keep_local[node]`` is set to R (rows: those axes in
+        global axes); an FRF's response or excitation at a node in a local system is kept so too.
 
     Returns
     -------
@@ -548,7 +557,7 @@ def read_uff(
             if m is not None:
                 raws.append(m)
         elif t == 58:
-            rsp_ref = add_frf_record(sets, dset, where, k, nodes, systems, units, notes)
+            rsp_ref = add_frf_record(sets, dset, where, k, nodes, systems, units, notes, keep_local)
             if rsp_ref is not None:
                 _check_in_model(rsp_ref, known, where)
     frf_sets = frf_sets_of(sets, name, notes)
@@ -575,7 +584,10 @@ def read_uff(
                 measured_at.update(dict.fromkeys(data_set.force))
         given = frozenset(measured_at)
         sensor_source = "the dofs of the file's FRF records (dataset 58)"
-    modes = _build_modes(raws, nodes, systems, given, sensor_source, units, known, name, notes)
+    modes = _build_modes(raws, nodes, systems, given, sensor_source, units, known, name, notes, keep_local)
+    if keep_local:
+        notes.append(f"{name}: node(s) {', '.join(map(str, sorted(keep_local)[:12]))}: measured components kept along "
+                     "their own displacement system's axes (they cannot be rotated into the global axes alone)")
     if not modes and not frf_sets:
         raise InputError(f"{name}: no usable data: no mode records (dataset 55) and no FRF records (dataset 58)")
     length = float(units.get("length", 1.0)) if units else 1.0

@@ -25,8 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._errors import InputError
+from ...dofs import DIRECTIONS
 
-__all__ = ["System", "read_2420", "read_18", "resolve_18", "aligned_axis", "ORTHO_TOL", "ALIGN_TOL"]
+__all__ = ["System", "read_2420", "read_18", "resolve_18", "aligned_axis", "unrotatable", "ORTHO_TOL", "ALIGN_TOL"]
 
 #: ``|R Rᵀ − I|`` above this: not a rotation (16-digit matrices meet 1e-12; 6-digit ones about 1e-5)
 ORTHO_TOL = 1e-4
@@ -254,3 +255,37 @@ def aligned_axis(v: np.ndarray) -> tuple[int, float] | None:
         return None
     i = int(big[0])
     return i, (1.0 if float(v[i]) > 0 else -1.0)
+
+
+def unrotatable(measured, disp, systems) -> dict:
+    """The nodes in a local Cartesian displacement system with a measured component that enters
+    no global component all of whose local components are measured (a single component along a
+    skewed axis): ``{node: R}``, R's rows the system's axes in global axes.
+
+    Parameters
+    ----------
+    measured : collection of (int, str)
+        The measured (node, local direction) pairs.
+    disp : mapping of int to int
+        Each node's displacement system.
+    systems : mapping of int to System
+    """
+    by_node: dict = {}
+    for n, d in measured:
+        by_node.setdefault(n, set()).add(d)
+    out = {}
+    for n, ds in by_node.items():
+        cs = disp.get(n, 0)
+        if cs == 0 or cs not in systems or systems[cs].kind != 0:
+            continue  # global, or refused by name where the data are rotated
+        R = systems[cs].R
+        for group in (DIRECTIONS[:3], DIRECTIONS[3:]):
+            known = np.array([d in ds for d in group])
+            lost = set(np.flatnonzero(known).tolist())
+            for i in range(3):
+                needs = np.flatnonzero(R[:, i] != 0)
+                if known[needs].all():
+                    lost -= set(needs.tolist())
+            if lost:
+                out[n] = R
+    return out
