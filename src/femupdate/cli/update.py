@@ -15,6 +15,7 @@ from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, load_data, model_valu
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
+from ._rom import rom_group
 from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 
 
@@ -26,8 +27,9 @@ from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 @execution_group()
 @problem_group(sensitivity=True)
 @solver_group()
+@rom_group()
 @outputs_group(plot=True, model_out=True, uff=True, report=True)
-def update(model_path, data_path, starts, execution, problem: ProblemSpec, solver, outputs: Outputs):
+def update(model_path, data_path, starts, execution, problem: ProblemSpec, solver, rom, outputs: Outputs):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -48,7 +50,9 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
     result: UpdateResult | MultiStartResult
     res: UpdateResult | None
     ms: MultiStartResult | None = None
-    if starts.starts == 1 and not execution.scheduler:
+    if rom is not None:
+        result, res, ms = _reduced(ctx, outputs, model, data, starts, execution, run, values, rom)
+    elif starts.starts == 1 and not execution.scheduler:
         result = res = _update(model, data, params=run.params, values=values, options=run.options)
     else:
         with outputs.progress(ctx, "starts", starts.starts) as tick:
@@ -72,6 +76,10 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
         if outputs.write_model_path or outputs.csv_dir or outputs.uff_path:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
+    rb = payload.get("reduced_basis")
+    if rb is not None and not rb["passed"]:
+        raise NumericalError("the reduced model's answer did not pass its full-model check (reduced_basis.checks "
+                             "in the JSON); raise --rom-rounds or --rom-points")
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
                         outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"))
     if outputs.uff_path is not None:
@@ -80,6 +88,19 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, solve
 
         write_uff_modes(outputs.uff_path, model_modes(model, res.parameters), nodes=model.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _reduced(ctx: Ctx, outputs: Outputs, model, data, starts, execution, run, values, rom):
+    """``update --reduced-basis``: the reduced route, one start or several."""
+    from ..rom.update import rom_multistart, rom_update
+
+    if starts.starts == 1 and not execution.scheduler:
+        res = rom_update(model, data, rom=rom, params=run.params, values=values, options=run.options)
+        return res, res, None
+    with outputs.progress(ctx, "starts", starts.starts) as tick:
+        ms = rom_multistart(model, data, starts, rom=rom, params=run.params, values=values, execution=execution,
+                            progress=tick, options=run.options)
+    return ms, ms.best, ms
 
 
 def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:

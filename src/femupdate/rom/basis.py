@@ -9,8 +9,8 @@ unless K is singular) and, for each mode and parameter, its *static correction*
 the part of :math:`\partial\phi_i/\partial p_j` the modes themselves do not hold (Nelson's
 particular solution without its modal part), from the same factorisation.  The vectors are
 added to the basis :math:`V` by block Gram–Schmidt in the mass inner product, twice, then
-orthonormalised among themselves through the eigen-decomposition of their Gram matrix; a
-direction whose M-norm left after the projection is below ``deflation`` times its own is
+column by column against each other (Gram–Schmidt, twice); a direction whose M-norm left after
+the projections is below ``deflation`` times its own is
 *deflated* (dropped as already held), so that :math:`V^T M V = I` stays well conditioned however
 many snapshots are near-dependent.  Nothing of size n × n is formed: the basis is n × r.
 """
@@ -61,16 +61,20 @@ def orthonormalise(W: np.ndarray, M, V: np.ndarray | None = None, deflation: flo
     for _ in range(2):  # classical Gram-Schmidt twice against V is as stable as the modified one
         if V is not None and V.shape[1]:
             W -= V @ (V.T @ (M @ W))
-    MW = M @ W
-    G = W.T @ MW
-    G = 0.5 * (G + G.T)
-    g, U = np.linalg.eigh(G)
-    good = g > deflation ** 2 * max(1.0, float(g.max(initial=0.0))) if g.size else g > 0
-    Q = (W @ U[:, good]) / np.sqrt(g[good])
-    if V is not None and V.shape[1] and Q.shape[1]:  # a last pass: round-off of the Gram route
-        Q -= V @ (V.T @ (M @ Q))
-        Q /= m_norms(Q, M)
-    return Q
+    Q = np.empty_like(W)
+    k = 0
+    for i in range(W.shape[1]):  # within the block: Gram-Schmidt column by column, twice
+        w = W[:, i]
+        for _ in range(2):
+            if V is not None and V.shape[1]:
+                w = w - V @ (V.T @ (M @ w))
+            if k:
+                w = w - Q[:, :k] @ (Q[:, :k].T @ (M @ w))
+        nw = float(np.sqrt(max(w @ (M @ w), 0.0)))
+        if nw > deflation:  # the column had M-norm 1: nw is what is new in it, relative
+            Q[:, k] = w / nw
+            k += 1
+    return Q[:, :k]
 
 
 def shift_of(K, M) -> float:

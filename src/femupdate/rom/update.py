@@ -44,6 +44,11 @@ class ROMOptions:
         Add each mode's static corrections (its derivative's static part) to a snapshot.
     seed : int, default 0
         Of the training points.
+    polish : bool, default True
+        After a passed check, add the full modes computed there (and their static corrections)
+        to the basis once and resume: the reduced model is then exact for those modes at the
+        answer, and the answer moves to the full model's to within the solver's tolerance
+        rather than the check's; a second check follows.
     """
 
     n_modes: int | None = None
@@ -54,6 +59,7 @@ class ROMOptions:
     max_rounds: int = 4
     corrections: bool = True
     seed: int = 0
+    polish: bool = True
 
     def __post_init__(self):
         for name in ("freq_tol", "shape_tol"):
@@ -93,6 +99,7 @@ def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, 
 
     if res is not None and not hasattr(res, "pairs"):  # a compiled route's light run: resumed from its answer
         x0, res = dict(zip(res.names, map(float, res.x))), None
+    polished = False
     for rnd in range(rom.max_rounds):
         if res is None:
             res = update(reduced, data, params=params, x0=x0, values=values, options=options)
@@ -103,9 +110,11 @@ def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, 
         if label is not None:
             rec["start"] = label
         checks.append(rec)
-        if rec["passed"]:
+        if rec["passed"] and (polished or not rom.polish or rnd + 1 == rom.max_rounds):
             break
-        rb.add_snapshot(p, f"check failed at round {rnd + 1}" + (f" of start {label}" if label else ""), modes)
+        why = "polish: the passed answer's modes" if rec["passed"] else f"check failed at round {rnd + 1}"
+        polished = polished or rec["passed"]
+        rb.add_snapshot(p, why + (f" (start {label})" if label else ""), modes)
         reduced, _ = rb.reduced()
         x0 = dict(zip(res.names, map(float, res.x)))
         res = None
@@ -191,21 +200,34 @@ def rom_multistart(model, data, starts=None, *, rom: ROMOptions | None = None, b
     ms = multistart(reduced, data, starts, params=params, values=values, options=options, **shorthand)
     checks: list = []
     runs = list(ms.runs)
+    best_at = _index_of(ms.best, runs)
+    final = {}
     for i, run in enumerate(runs):
         if isinstance(run, str) or not run.success:
             continue
         res, reduced = _resolve_start(rb, reduced, data, params, None, values, options, rom, checks, label=i + 1,
                                       res=run)
-        if res is not None and checks and checks[-1]["round"] > 1:
+        final[i] = res
+        if res is not run:
             runs[i] = res
     seconds = {"basis": t1 - t0 if basis is None else rb.seconds, "update_and_checks": time.perf_counter() - t1}
     record = _record(rb, rom, checks, seconds)
     record["passed"] = bool(checks) and all(_last_per_start(checks))
-    best = ms.best
+    best = final.get(best_at, ms.best) if best_at is not None else ms.best  # the best start, resumed
     if best is not None:
         best = finish(best, model, data, record)
     out = dataclasses.replace(ms, runs=runs, best=best)
     return out if best is None else dataclasses.replace(out, context=best.context)
+
+
+def _index_of(best, runs) -> int | None:
+    """The start whose run is the study's best (the same answer)."""
+    if best is None:
+        return None
+    for i, run in enumerate(runs):
+        if not isinstance(run, str) and np.array_equal(np.asarray(run.x), np.asarray(best.x)):
+            return i
+    return None
 
 
 def _last_per_start(checks: list) -> list[bool]:
