@@ -210,6 +210,9 @@ def test_cli_reduced_basis(tmp_path):
              tmp_path)
     assert r.returncode == 0, r.stderr
     out = json.loads((tmp_path / "out.json").read_text())
+    from femupdate import schema
+
+    schema.check(out, "update")  # the keys and types the schema states
     rec = out["reduced_basis"]
     assert rec["passed"] and rec["checks"] and rec["freq_tol"] == 1e-6
     assert all(set(c) >= {"parameters", "modes", "passed", "basis"} for c in rec["checks"])
