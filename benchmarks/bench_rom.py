@@ -87,7 +87,10 @@ def peak_mb() -> float:
 
 def _in_child(fn, q):
     t, c = time.perf_counter(), time.process_time()
-    out = fn()
+    try:
+        out = fn()
+    except BaseException as exc:  # the parent waits for a record: give it the failure
+        out = {"error": f"{type(exc).__name__}: {exc}"}
     q.put({"wall_seconds": time.perf_counter() - t, "cpu_seconds": time.process_time() - c, "peak_mb": peak_mb(),
            **out})
 
@@ -144,6 +147,9 @@ def main(argv=None) -> int:
     res["full"] = f = forked(full)
     print(f"(full) {f['wall_seconds']:.1f} s wall, peak {f['peak_mb']:.0f} MB, {f['nfev']} evaluations", flush=True)
     res["rom"] = r = forked(reduced)
+    if "error" in f or "error" in r:
+        print(f.get("error"), r.get("error"))
+        return 1
     t_upd = r["wall_seconds"] - r["basis_seconds"]
     print(f"(rom) basis {r['basis_seconds']:.1f} s ({r['size']} vectors), update and checks {t_upd:.1f} s, "
           f"peak {r['peak_mb']:.0f} MB, checks passed: {r['passed']}", flush=True)

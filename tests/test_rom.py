@@ -233,3 +233,8 @@ def test_basis_for_takes_the_data_dofs(small):
     m, dofs, data = small
     rb = basis_for(m, data, ROMOptions(n_train=0, max_points=1))
     assert rb.dofs == dofs and rb.n_modes == 8
+    few = basis_for(m, data, ROMOptions(n_modes=2, corrections=False, n_train=0, max_points=1))
+    assert [p["why"].split(":")[0] for p in few.points] == ["nominal", "attachment"]  # 3 modes for 6 dofs
+    reduced, Vh = few.reduced()
+    assert reduced.dofs[:6] == tuple(dofs)
+    np.testing.assert_allclose(Vh[m.dof_index(dofs)], np.eye(6, Vh.shape[1]), atol=0)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class ReducedBasis:
         Per greedy step: the basis size and the largest estimate over the training points.
     """
 
-    model: object
+    model: Any
     dofs: list
     V: np.ndarray
     n_modes: int
@@ -162,6 +163,9 @@ def _build(model, dofs, n_modes, names, n_train, max_points, tol, corrections, s
                       corrections=corrections, deflation=deflation)
     rb.add_snapshot(p0, "nominal", (lam0, Phi0, pencil0))
     K0, M0, lu0, sigma0 = pencil0
+    if not interpolates(rb.V, model.dof_index(list(dofs), "data")):
+        rb.add(attachment(lu0, model.n_dofs, model.dof_index(list(dofs), "data")), p0,
+               "attachment: static responses to unit loads at the data's dofs")
     reference = ((K0 - sigma0 * M0).tocsr(), lu0, sigma0)
     train = training_points(model, names, n_train, seed) if names and n_train else np.zeros((0, p0.size))
     while True:
@@ -178,6 +182,21 @@ def _build(model, dofs, n_modes, names, n_train, max_points, tol, corrections, s
             break
     rb.seconds = time.perf_counter() - t0
     return rb
+
+
+def interpolates(V: np.ndarray, rows: np.ndarray) -> bool:
+    """Whether the basis moves the data's dofs independently (rank of its rows there)."""
+    if V.shape[1] < rows.size:
+        return False
+    S = np.linalg.svd(V[rows, :], compute_uv=False)
+    return bool(S.size == 0 or S[-1] > 1e-8 * S[0])
+
+
+def attachment(lu, n: int, rows: np.ndarray) -> np.ndarray:
+    """The static responses ``(K - σM)^{-1} e_d`` to unit loads at the data's dofs (n × s)."""
+    E = np.zeros((n, rows.size))
+    E[rows, np.arange(rows.size)] = 1.0
+    return np.asarray(lu.solve(E), float).reshape(E.shape)
 
 
 def _modes(model, p, n_modes):

@@ -72,7 +72,7 @@ def _matrices(model) -> list:
 def extend(proj: list | None, model, V: np.ndarray, Q: np.ndarray) -> list:
     """The projections ``V_new^T A V_new`` of every parameter matrix, ``V_new = [V Q]``, from those
     on ``V`` (``proj``): only the new blocks are computed (``A Q``: one sparse product per matrix)."""
-    out = []
+    out: list = []
     for k, A in enumerate(_matrices(model)):
         if A is None:
             out.append(None)
@@ -138,7 +138,7 @@ def reduced_model(model, V: np.ndarray, dofs, proj: list | None = None) -> tuple
     terms = tuple(replace(t, K=P[2 + 2 * L + k], M=P[2 + 2 * L + nt + k]) for k, t in enumerate(model.terms))
     names = {d.rsplit(":", 1)[0] for d in labels}
     nodes = {k: v for k, v in model.nodes.items() if f"{k}" in names}
-    reduced = Model(dofs=labels, K0=P[0], M0=P[1], parameters=model.parameters, dK=tuple(P[2:2 + L]),
+    reduced = Model(dofs=tuple(labels), K0=P[0], M0=P[1], parameters=model.parameters, dK=tuple(P[2:2 + L]),
                     dM=tuple(P[2 + L:2 + 2 * L]), name=f"{model.name} (reduced, {Vh.shape[1]} Ritz vectors)",
                     nodes=nodes, positive=model.positive, terms=terms)
     return reduced, Vh
