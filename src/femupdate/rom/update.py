@@ -92,14 +92,17 @@ def _record(rb: ReducedBasis, rom: ROMOptions, checks: list, seconds: dict) -> d
             "passed": bool(checks) and all(c["passed"] for c in checks[-1:]), "seconds": seconds}
 
 
-def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, label=None, res=None):
+def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, label=None, res=None,
+                   polish: bool | None = None):
     """One start on the reduced model (``res``: its run already made), checked and resumed until its
-    check passes; the final run."""
+    check passes (then polished once, unless ``polish`` is False); the final run, the reduced model
+    and the full modes of the last check."""
     from ..updating import update
 
     if res is not None and not hasattr(res, "pairs"):  # a compiled route's light run: resumed from its answer
         x0, res = dict(zip(res.names, map(float, res.x))), None
-    polished = False
+    polish = rom.polish if polish is None else polish
+    polished, modes = False, None
     for rnd in range(rom.max_rounds):
         if res is None:
             res = update(reduced, data, params=params, x0=x0, values=values, options=options)
@@ -110,7 +113,7 @@ def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, 
         if label is not None:
             rec["start"] = label
         checks.append(rec)
-        if rec["passed"] and (polished or not rom.polish or rnd + 1 == rom.max_rounds):
+        if rec["passed"] and (polished or not polish or rnd + 1 == rom.max_rounds):
             break
         why = "polish: the passed answer's modes" if rec["passed"] else f"check failed at round {rnd + 1}"
         polished = polished or rec["passed"]
@@ -119,8 +122,8 @@ def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, 
         x0 = dict(zip(res.names, map(float, res.x)))
         res = None
     if res is None:  # the last round's check failed: the run on the enriched basis, unchecked
-        res = update(reduced, data, params=params, x0=x0, values=values, options=options)
-    return res, reduced
+        res, modes = update(reduced, data, params=params, x0=x0, values=values, options=options), None
+    return res, reduced, modes
 
 
 def _shape_dofs(data) -> list[str]:
@@ -160,7 +163,7 @@ def rom_update(model, data, *, rom: ROMOptions | None = None, basis: ReducedBasi
     t1 = time.perf_counter()
     reduced, _ = rb.reduced()
     checks: list = []
-    res, _ = _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks)
+    res, _, _ = _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks)
     seconds = {"basis": t1 - t0 if basis is None else rb.seconds, "update_and_checks": time.perf_counter() - t1}
     return finish(res, model, data, _record(rb, rom, checks, seconds))
 
@@ -182,7 +185,8 @@ def finish(res, model, data, record: dict):
 def rom_multistart(model, data, starts=None, *, rom: ROMOptions | None = None, basis: ReducedBasis | None = None,
                    params=None, values=None, options=None, **shorthand):
     """:func:`femupdate.multistart` on a reduced model, every converged start checked on the full
-    model; a start whose check fails is resumed (from its answer) on the enriched basis.
+    model; a start whose check fails is resumed (from its answer) on the enriched basis; the best
+    start is polished (:class:`ROMOptions`) and checked again.
 
     Returns
     -------
@@ -205,15 +209,24 @@ def rom_multistart(model, data, starts=None, *, rom: ROMOptions | None = None, b
     for i, run in enumerate(runs):
         if isinstance(run, str) or not run.success:
             continue
-        res, reduced = _resolve_start(rb, reduced, data, params, None, values, options, rom, checks, label=i + 1,
-                                      res=run)
-        final[i] = res
+        res, reduced, modes = _resolve_start(rb, reduced, data, params, None, values, options, rom, checks,
+                                             label=i + 1, res=run, polish=False)
+        final[i] = (res, modes)
         if res is not run:
             runs[i] = res
+    if rom.polish and best_at in final and final[best_at][1] is not None:  # the best start polished
+        res, modes = final[best_at]
+        p = reduced.resolve(res.parameters)
+        rb.add_snapshot(p, f"polish: the passed answer's modes (best start {best_at + 1})", modes)
+        reduced, _ = rb.reduced()
+        res, reduced, _ = _resolve_start(rb, reduced, data, params, dict(zip(res.names, map(float, res.x))), values,
+                                         options, rom, checks, label=best_at + 1, polish=False)
+        final[best_at] = (res, None)
+        runs[best_at] = res
     seconds = {"basis": t1 - t0 if basis is None else rb.seconds, "update_and_checks": time.perf_counter() - t1}
     record = _record(rb, rom, checks, seconds)
     record["passed"] = bool(checks) and all(_last_per_start(checks))
-    best = final.get(best_at, ms.best) if best_at is not None else ms.best  # the best start, resumed
+    best = final[best_at][0] if best_at in final else ms.best  # the best start, resumed
     if best is not None:
         best = finish(best, model, data, record)
     out = dataclasses.replace(ms, runs=runs, best=best)
