@@ -222,6 +222,17 @@ def test_cli_reduced_basis(tmp_path):
     assert bad.returncode == 2 and "--rom-freq-tol" in bad.stderr and "Traceback" not in bad.stderr
 
 
+def test_arguments_refused_by_name(small):
+    m, _, data = small
+    with pytest.raises(TypeError, match="rom_update: model"):
+        rom_update("tower.toml", data)
+    with pytest.raises(TypeError, match="rom must be a ROMOptions"):
+        rom_update(m, data, rom={"freq_tol": 1e-6})
+    with pytest.raises(femupdate.InputError, match="hold none"):
+        rom_update(m, TestData(static=(femupdate.testdata.StaticData(force={"321:x": 1.0}, dofs=("321:x",),
+                                                                             displacement=np.ones(1)),)))
+
+
 def test_options_refused_by_name():
     with pytest.raises(femupdate.InputError, match="freq_tol"):
         ROMOptions(freq_tol=0.0)

@@ -76,9 +76,24 @@ class ROMOptions:
             raise InputError(f"reduced basis: n_modes must be a whole number >= 1, got {self.n_modes!r}")
 
 
+def _args(model, data, rom, basis, where: str) -> ROMOptions:
+    """The arguments' types (a TypeError naming the first wrong one); the options."""
+    from .._checks import data_arg, model_arg
+
+    model_arg(model, "model", where)
+    data_arg(data, "data", where)
+    if rom is not None and not isinstance(rom, ROMOptions):
+        raise TypeError(f"{where}: rom must be a ROMOptions (femupdate.rom.ROMOptions), got {type(rom).__name__}")
+    if basis is not None and (not isinstance(basis, ReducedBasis) or basis.model is not model):
+        raise TypeError(f"{where}: basis must be a ReducedBasis of this model (femupdate.rom.basis_for(model, data))")
+    if not data.modes:
+        raise InputError(f"{where}: the reduced route checks measured modes; these data hold none")
+    return rom or ROMOptions()
+
+
 def basis_for(model, data, rom: ROMOptions | None = None, params=None) -> ReducedBasis:
     """The greedy reduced basis of ``model`` for the test data ``data``."""
-    rom = rom or ROMOptions()
+    rom = _args(model, data, rom, None, "basis_for")
     dofs = data_dofs(data)
     n_modes = rom.n_modes or len(getattr(data, "modes", ())) + 4
     return build(model, dofs, n_modes, names=params, n_train=rom.n_train, max_points=rom.max_points,
@@ -157,7 +172,7 @@ def rom_update(model, data, *, rom: ROMOptions | None = None, basis: ReducedBasi
         ``reduced_basis`` (the basis, the greedy history and every check) and its notes a line
         per check.
     """
-    rom = rom or ROMOptions()
+    rom = _args(model, data, rom, basis, "rom_update")
     t0 = time.perf_counter()
     rb = basis if basis is not None else basis_for(model, data, rom, params)
     t1 = time.perf_counter()
@@ -196,7 +211,7 @@ def rom_multistart(model, data, starts=None, *, rom: ROMOptions | None = None, b
     """
     from ..updating import multistart
 
-    rom = rom or ROMOptions()
+    rom = _args(model, data, rom, basis, "rom_multistart")
     t0 = time.perf_counter()
     rb = basis if basis is not None else basis_for(model, data, rom, params)
     t1 = time.perf_counter()
