@@ -206,8 +206,8 @@ def _cli(args, cwd):
 
 def test_cli_reduced_basis(tmp_path):
     truth = _chain_files(tmp_path)
-    r = _cli(["update", "chain.toml", "data.json", "--reduced-basis", "--rom-points", "2", "--json", "out.json"],
-             tmp_path)
+    r = _cli(["update", "chain.toml", "data.json", "--reduced-basis", "--rom-points", "2", "--json", "out.json",
+              "--report", "out.html"], tmp_path)
     assert r.returncode == 0, r.stderr
     out = json.loads((tmp_path / "out.json").read_text())
     from femupdate import schema
@@ -217,6 +217,8 @@ def test_cli_reduced_basis(tmp_path):
     assert rec["passed"] and rec["checks"] and rec["freq_tol"] == 1e-6
     assert all(set(c) >= {"parameters", "modes", "passed", "basis"} for c in rec["checks"])
     assert "full-model check" in "\n".join(out["notes"])
+    html = (tmp_path / "out.html").read_text()
+    assert "Reduced model and its full-model checks" in html and html.count(">passed<") >= 4
     np.testing.assert_allclose([out["parameters"][f"k{g + 1}"] for g in range(4)], truth, rtol=1e-6)
     bad = _cli(["update", "chain.toml", "data.json", "--rom", "--rom-freq-tol", "-1"], tmp_path)
     assert bad.returncode == 2 and "--rom-freq-tol" in bad.stderr and "Traceback" not in bad.stderr
