@@ -77,33 +77,36 @@ def orthonormalise(W: np.ndarray, M, V: np.ndarray | None = None, deflation: flo
     return Q[:, :k]
 
 
-def shift_of(K, M) -> float:
-    """The shift σ of the snapshot factorisation: 0 for a positive definite K, else just below
-    zero (:func:`femupdate.modal_sparse.rigid_body_shift`)."""
+def shift_of(K, M):
+    """The shift σ of the snapshot factorisation and, for σ = 0, the factor of K: 0 for a positive
+    definite K, else just below zero (:func:`femupdate.modal_sparse.rigid_body_shift`) and None."""
     from ..workspace import NotPositiveDefinite, factorize, nearly_singular
 
     try:
         lu = factorize(sp.csc_array(K), definite=True)
         if not nearly_singular(lu):
-            return 0.0
+            return 0.0, lu
     except (RuntimeError, NotPositiveDefinite):
         pass
     from ..modal_sparse import rigid_body_shift
 
-    return rigid_body_shift(K, M)
+    return rigid_body_shift(K, M), None
 
 
 def factor_pencil(model, p: np.ndarray, sigma: float | None = None):
-    """``(K, M, factor of K - σM, σ)`` of the full model at ``p``."""
+    """``(K, M, factor of K - σM, σ)`` of the full model at ``p`` (one factorisation when K is
+    positive definite)."""
     from ..workspace import factorize
 
     K, M = model.K(p), model.M(p)
+    lu = None
     if sigma is None:
-        sigma = shift_of(K, M)
-    try:
-        lu = factorize(sp.csc_array(K - sigma * M))
-    except RuntimeError as exc:
-        raise NumericalError(f"the full model's K - sigma M is singular at sigma = {sigma:g} ({exc})") from None
+        sigma, lu = shift_of(K, M)
+    if lu is None:
+        try:
+            lu = factorize(sp.csc_array(K - sigma * M))
+        except RuntimeError as exc:
+            raise NumericalError(f"the full model's K - sigma M is singular at sigma = {sigma:g} ({exc})") from None
     return K, M, lu, float(sigma)
 
 
