@@ -226,7 +226,7 @@ def rom_multistart(model, data, starts=None, *, rom: ROMOptions | None = None, b
             continue
         res, reduced, modes = _resolve_start(rb, reduced, data, params, None, values, options, rom, checks,
                                              label=i + 1, res=run, polish=False)
-        final[i] = (res, modes)
+        final[i] = (res, modes if i == best_at else None)  # one factorisation kept, the best start's
         if res is not run:
             runs[i] = res
     if rom.polish and best_at in final and final[best_at][1] is not None:  # the best start polished
