@@ -251,3 +251,16 @@ def test_basis_for_takes_the_data_dofs(small):
     reduced, Vh = few.reduced()
     assert reduced.dofs[:6] == tuple(dofs)
     np.testing.assert_allclose(Vh[m.dof_index(dofs)], np.eye(6, Vh.shape[1]), atol=0)
+
+
+@heavy
+def test_benchmark_runs_quick(tmp_path):
+    """benchmarks/bench_rom.py --quick: the two routes agree, every check passed."""
+    out = tmp_path / "bench.json"
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_rom.py"
+    proc = subprocess.run([sys.executable, str(script), "--quick", "--starts", "0", "--output", str(out)],
+                          capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    res = json.loads(out.read_text())
+    assert res["rom"]["passed"] and res["comparison"]["frequencies_max_rel_diff"] < 1e-6
+    assert res["comparison"]["parameters_max_rel_diff"] < 1e-6
