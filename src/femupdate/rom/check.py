@@ -85,7 +85,8 @@ def check_line(rec: dict) -> str:
     """One line of a check for the notes and the terminal."""
     worst_f = max((m["frequency_error"] for m in rec["modes"]), default=0.0)
     worst_s = max((m["one_minus_mac"] for m in rec["modes"]), default=0.0)
-    return (f"full-model check ({len(rec['modes'])} paired modes, basis {rec['basis']}): largest frequency error "
+    where = (f"start {rec['start']}, " if rec.get("start") is not None else "") + f"round {rec.get('round', 1)}, "
+    return (f"full-model check ({where}{len(rec['modes'])} paired modes, basis {rec['basis']}): largest frequency error "
             f"{worst_f:.2e} (tolerance {rec['freq_tol']:.0e}), largest 1-MAC at the data's dofs {worst_s:.2e} "
             f"(tolerance {rec['shape_tol']:.0e}): {'passed' if rec['passed'] else 'FAILED'}")
 
