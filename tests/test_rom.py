@@ -139,6 +139,16 @@ def test_poor_basis_is_detected_and_enrichment_fixes_it(small):
     np.testing.assert_allclose(res.x, full.x, rtol=1e-6)
 
 
+def test_a_start_out_of_rounds_reports_its_failed_check(small):
+    m, dofs, data = small
+    poor = build(m, dofs, 6, n_train=0, max_points=1, corrections=False)
+    res = rom_update(m, data, basis=poor, rom=ROMOptions(max_rounds=1))
+    rec = res.to_json()["reduced_basis"]
+    assert len(rec["checks"]) == 1 and not rec["passed"]
+    assert rec["checks"][0]["parameters"] == res.parameters  # the answer reported is the one checked
+    assert any("did not pass its full-model check" in n for n in res.notes)
+
+
 def _compare_with_full(m, data):
     full = femupdate.update(m, data)
     res = rom_update(m, data)

@@ -132,12 +132,12 @@ def _resolve_start(rb, reduced, data, params, x0, values, options, rom, checks, 
             break
         why = "polish: the passed answer's modes" if rec["passed"] else f"check failed at round {rnd + 1}"
         polished = polished or rec["passed"]
+        if not rec["passed"] and rnd + 1 == rom.max_rounds:  # no round left: the failed answer is reported
+            return res, reduced, None
         rb.add_snapshot(p, why + (f" (start {label})" if label else ""), modes)
         reduced, _ = rb.reduced()
         x0 = dict(zip(res.names, map(float, res.x)))
         res = None
-    if res is None:  # the last round's check failed: the run on the enriched basis, unchecked
-        res, modes = update(reduced, data, params=params, x0=x0, values=values, options=options), None
     return res, reduced, modes
 
 
