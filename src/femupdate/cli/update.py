@@ -17,6 +17,7 @@ from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
 from .testpoints import TestPointsSpec, test_points_group
+from ._rom import rom_group
 from ..updating.results import MultiStartResult, UpdateResult, pairing_warnings
 
 if TYPE_CHECKING:
@@ -32,9 +33,10 @@ if TYPE_CHECKING:
 @problem_group(sensitivity=True)
 @test_points_group()
 @solver_group()
+@rom_group()
 @outputs_group(plot=True, model_out=True, uff=True, report=True)
 def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_points: TestPointsSpec, solver,
-           outputs: Outputs):
+           rom, outputs: Outputs):
     """Update MODEL's parameters iteratively from the test data in DATA: measured modes, FRFs and
     static deflections at any dofs, alone or mixed, as one problem."""
     from ..io.model_file import load_model
@@ -59,7 +61,12 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     ms: MultiStartResult | None = None
     box = _black_box(model_path)
     bb: BlackBoxResult | None = None
-    if box is not None and starts.starts == 1:
+    if rom is not None:
+        if box is not None:
+            raise InputError("--reduced-basis with a [blackbox] model: the black box's fitted model is "
+                             "re-probed near the answer, not reduced; give one of the two")
+        result, res, ms = _reduced(ctx, outputs, model, data, starts, execution, run, values, rom)
+    elif box is not None and starts.starts == 1:
         from ..blackbox import update_black_box
 
         if execution.scheduler:  # the runs of the command go to the cluster
@@ -111,6 +118,10 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
+    rb = payload.get("reduced_basis")
+    if rb is not None and not rb["passed"]:
+        raise NumericalError("the reduced model's answer did not pass its full-model check (reduced_basis.checks "
+                             "in the JSON); raise --rom-rounds or --rom-points")
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
                         outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"), outputs.write_back_dir)
     if outputs.uff_path is not None:
@@ -131,6 +142,19 @@ def _black_box(model_path):
     from ..blackbox import load_black_box
 
     return load_black_box(model_path)
+
+
+def _reduced(ctx: Ctx, outputs: Outputs, model, data, starts, execution, run, values, rom):
+    """``update --reduced-basis``: the reduced route, one start or several."""
+    from ..rom.update import rom_multistart, rom_update
+
+    if starts.starts == 1 and not execution.scheduler:
+        res = rom_update(model, data, rom=rom, params=run.params, values=values, options=run.options)
+        return res, res, None
+    with outputs.progress(ctx, "starts", starts.starts) as tick:
+        ms = rom_multistart(model, data, starts, rom=rom, params=run.params, values=values, execution=execution,
+                            progress=tick, options=run.options)
+    return ms, ms.best, ms
 
 
 def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:

@@ -427,6 +427,10 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
             doc.sections.append(tp)
     if rec is not None:
         doc.notes.extend(rec.notes)
+    if isinstance(res.get("reduced_basis"), Mapping):  # an update on a reduced model (femupdate.rom)
+        from .rom import reduced_basis_section
+
+        doc.sections.append(reduced_basis_section(res["reduced_basis"]))
     from .parts import notes_section
 
     doc.sections.append(notes_section(doc))

@@ -55,6 +55,13 @@ UPDATE_KEYS = (
         "`dynamic`; `eigenvalues` when no mode shape is used; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
     Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
         "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
+    Key("reduced_basis", "object", "with `--reduced-basis`: the reduced model and its control — `size` (Ritz "
+        "vectors), `n_dofs`, `n_modes`, `corrections`, `interpolated_dofs`, `snapshots` `[{parameters, why, added, "
+        "deflated}]`, `greedy` `[{basis, snapshots, largest_estimate, at}]`, `freq_tol`, `shape_tol`, `checks` (one "
+        "per full-model check: `parameters`, `basis`, `round`, `start`, `passed`, `modes` `[{model_mode, "
+        "f_reduced_hz, f_full_hz, frequency_error, bound_linear, bound_quadratic, one_minus_mac, passed}]`), "
+        "`passed` (every start's last check), `seconds` `{basis, update_and_checks}` (docs/reduced-models.md)",
+        (OBJECT,)),
     Key("expanded_shapes", "list of `{dof: value}`", "with `--formulation dynamic`: the full shape of each test mode "
         "at the solution, its measured entries the test shape scaled to unit length over them (with `--test-points`: "
         "at every mesh dof, u = T q, then at the test points' own dofs `T<test node>:<direction>`)", (ARRAY,)),

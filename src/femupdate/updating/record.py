@@ -83,6 +83,8 @@ def update_kind(res, ctx, starts: dict | None = None) -> dict:
         out["expanded_shapes"] = ctx.get("expanded_shapes")
     if hasattr(res, "frac"):
         out.update(frf_fields(res))
+    if ctx.get("reduced_basis") is not None:  # femupdate.rom: the basis and its full-model checks
+        out["reduced_basis"] = ctx.get("reduced_basis")
     return out
 
 
