@@ -71,6 +71,16 @@ class PlanResult(Serialisable):
         Coordinates of the sensors' nodes (for the universal files).
     options : dict
         The target and placement options.
+    prior : dict, optional
+        With the expected information gain: each parameter's prior standard deviation relative
+        to its nominal value; None otherwise.
+    pretest : dict, optional
+        ``tam`` (:func:`~femupdate.planning.pretest.tam`) and ``mass_loading``
+        (:func:`~femupdate.planning.pretest.mass_loading`), each where asked.
+    exciters : dict, optional
+        The exciters of an FRF test (:mod:`femupdate.planning.exciters`): ``dofs``, ``greedy``,
+        ``excites_all_modes``, ``score``, ``swaps``, ``noise_floor``, ``std_frf``,
+        ``damping_ratio``, ``driving_points`` ({dof: {odp, nodp, dpr}}, best ODP first), ``best_odp``.
     """
 
     model: str
@@ -97,6 +107,9 @@ class PlanResult(Serialisable):
     monte_carlo: dict | None = None
     nodes: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
+    prior: dict | None = None
+    pretest: dict | None = None
+    exciters: dict | None = None
     context: RunContext | None = field(default=None, repr=False, compare=False)
 
     kind: ClassVar[str] = "plan"
@@ -141,6 +154,6 @@ class PlanResult(Serialisable):
 
 KEYS = ("model", "criterion", "sensor_kind", "sensors", "dofs", "fixed", "target", "parameters", "nominal", "box",
         "noise", "design", "score", "greedy", "swaps", "predicted_std", "relative_std", "automac", "automac_max",
-        "uniqueness", "comparison", "monte_carlo", "nodes", "options")
+        "uniqueness", "comparison", "monte_carlo", "nodes", "options", "prior", "pretest", "exciters")
 
 __all__ = ["PlanResult"]
