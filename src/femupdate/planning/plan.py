@@ -125,7 +125,7 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
         options={"targets": t_opt.to_dict(), "placement": p_opt.to_dict()},
         prior=None if prior_var is None else dict(zip(names, np.sqrt(prior_var).tolist())),
         pretest=_pretest(model, p_opt, banks[0], [list(cand.sensors[i]) for i in chosen], dofs, target.indices),
-        exciters=_exciters(p_opt, cand, banks, rows, design))
+        exciters=_exciters(p_opt, cand, banks, rows, design), segments=coupled_nodes(model))
 
 
 def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_req, design):
@@ -218,6 +218,26 @@ def _exciters(p_opt, cand: Candidates, banks, rows, design) -> dict | None:
             "driving_points": {cand.dofs[r]: {"odp": float(crit["odp"][r]), "nodp": float(crit["nodp"][r]),
                                               "dpr": float(crit["dpr"][r])} for r in order},
             "best_odp": cand.dofs[int(order[0])]}
+
+
+def coupled_nodes(model) -> list[list[str]]:
+    """Pairs of distinct nodes the stiffness matrices couple (the elements' edges, to draw the
+    layout on the structure), as node ids."""
+    import scipy.sparse as sp
+
+    node_of = [str(parse_dof(d)[0]) for d in model.dofs]
+    pattern = abs(sp.coo_array(model.K0))
+    for A in (*model.dK, *(t.K for t in getattr(model, "terms", ()))):  # non-linear terms too
+        if A is not None:
+            pattern = pattern + abs(sp.coo_array(A))
+    coo = sp.coo_array(pattern)
+    pairs = {tuple(sorted((node_of[r], node_of[c]), key=_node_key)) for r, c in zip(coo.row, coo.col)
+             if node_of[r] != node_of[c]}
+    return [list(p) for p in sorted(pairs, key=lambda p: (_node_key(p[0]), _node_key(p[1])))]
+
+
+def _node_key(n: str):
+    return (0, int(n), "") if n.lstrip("-").isdigit() else (1, 0, n)
 
 
 def _xyz(model, node):

@@ -81,6 +81,8 @@ class PlanResult(Serialisable):
         The exciters of an FRF test (:mod:`femupdate.planning.exciters`): ``dofs``, ``greedy``,
         ``excites_all_modes``, ``score``, ``swaps``, ``noise_floor``, ``std_frf``,
         ``damping_ratio``, ``driving_points`` ({dof: {odp, nodp, dpr}}, best ODP first), ``best_odp``.
+    segments : list of list of str
+        Pairs of nodes the model's stiffness couples (the structure the report draws the layout on).
     """
 
     model: str
@@ -110,6 +112,7 @@ class PlanResult(Serialisable):
     prior: dict | None = None
     pretest: dict | None = None
     exciters: dict | None = None
+    segments: list = field(default_factory=list)
     context: RunContext | None = field(default=None, repr=False, compare=False)
 
     kind: ClassVar[str] = "plan"
@@ -129,6 +132,7 @@ class PlanResult(Serialisable):
         kw: dict[str, Any] = {k: obj.get(k) for k in KEYS}
         for k in ("comparison", "nodes", "options"):
             kw[k] = kw[k] or {}
+        kw["segments"] = kw["segments"] or []
         return cls(**kw)
 
     @property
@@ -154,6 +158,7 @@ class PlanResult(Serialisable):
 
 KEYS = ("model", "criterion", "sensor_kind", "sensors", "dofs", "fixed", "target", "parameters", "nominal", "box",
         "noise", "design", "score", "greedy", "swaps", "predicted_std", "relative_std", "automac", "automac_max",
-        "uniqueness", "comparison", "monte_carlo", "nodes", "options", "prior", "pretest", "exciters")
+        "uniqueness", "comparison", "monte_carlo", "nodes", "options", "prior", "pretest", "exciters",
+        "segments")
 
 __all__ = ["PlanResult"]
