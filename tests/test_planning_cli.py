@@ -129,3 +129,23 @@ def test_plan_command_bad_input(chain_file, capsys):
     assert code == 2 and "--std-shape must be > 0" in err
     code, _, err = run(["plan", str(chain_file), "--std-eigenvalue", "5e-324"], capsys)
     assert code == 2 and "--std-eigenvalue must be a finite number >= 1e-100" in err
+
+
+def test_plan_report_draws_the_layout_with_exciters_and_pretest(chain_file, tmp_path, capsys):
+    out_json, html1, html2 = tmp_path / "p.json", tmp_path / "p.html", tmp_path / "r.html"
+    code, out, err = run(["plan", str(chain_file), "--modes", "2", "--points", "1", "--exciters", "1", "--sensor-mass",
+                          "0.01", "--tam", "serep", "--information-gain", "--json", str(out_json), "--report", str(html1)],
+                         capsys)
+    assert code == 0, err
+    assert "exciter(s):" in out and "pretest: serep TAM" in out and "expected information gain" in out
+    obj = json.loads(out_json.read_text())
+    schema.check(obj, "plan")
+    assert obj["segments"] == [["1", "2"], ["2", "3"]]  # the chain's springs join its nodes
+    code, _, err = run(["report", str(out_json), "-o", str(html2)], capsys)
+    assert code == 0, err
+    for page in (html1.read_text(), html2.read_text()):
+        assert "The layout on the structure" in page and "<svg" in page
+        assert "Pretest correlation" in page and "Exciters (FRF test)" in page and "mass loading" in page
+        assert obj["exciters"]["dofs"][0] in page
+    code, _, err = run(["plan", str(chain_file), "--exciters", "4", "--points", "1"], capsys)
+    assert code == 2 and "exciters: 4 asked, but there are 3 candidate driving points" in err
