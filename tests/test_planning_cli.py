@@ -148,4 +148,4 @@ def test_plan_report_draws_the_layout_with_exciters_and_pretest(chain_file, tmp_
         assert "Pretest correlation" in page and "Exciters (FRF test)" in page and "mass loading" in page
         assert obj["exciters"]["dofs"][0] in page
     code, _, err = run(["plan", str(chain_file), "--exciters", "4", "--points", "1"], capsys)
-    assert code == 2 and "exciters: 4 asked, but there are 3 candidate driving points" in err
+    assert code == 2 and "--exciters: 4 asked, but there are 3 candidate driving points" in err

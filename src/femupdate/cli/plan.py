@@ -183,9 +183,9 @@ def pretest_group():
         click.option("--exciters", "n_exciters", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Exciters of an FRF test to place for the chosen sensors (driving points that excite every "
                           "target mode, FRF Fisher information full rank)."),
-        click.option("--std-frf", type=FiniteFloat(min=0), default=0.01, show_default=True,
+        click.option("--std-frf", type=FiniteFloat(min=0, min_open=True), default=0.01, show_default=True,
                      help="Noise floor of the receptances, relative to the largest (exciter placement)."),
-        click.option("--damping-ratio", type=FiniteFloat(min=0), default=0.01, show_default=True,
+        click.option("--damping-ratio", type=FiniteFloat(min=0, min_open=True), default=0.01, show_default=True,
                      help="Modal damping ratio of the simulated receptances (exciter placement)."),
         click.option("--tam", type=click.Choice(list(TAM_CHOICES)), default="guyan", show_default=True,
                      help="Test-analysis model on the measured dofs for the pretest orthogonality checks."),
@@ -227,7 +227,8 @@ def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: Pla
                         targets=targets, placement=placement)
     except InputError as exc:
         msg = str(exc)
-        for field, opt in (("sensors:", "--sensors:"), ("box:", "--box:"), ("params:", "--params:")):
+        for field, opt in (("sensors:", "--sensors:"), ("box:", "--box:"), ("params:", "--params:"),
+                           ("exciters:", "--exciters:"), ("prior:", "--information-gain:")):
             if msg.startswith(field):
                 msg = opt + msg[len(field):]
         raise InputError(msg) from None

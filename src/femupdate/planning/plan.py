@@ -78,6 +78,8 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
                          f"{p_opt.kind} sensors")
     if n_req is not None and n_req < len(cand.fixed):
         raise InputError(f"sensors: {n_req} asked, fewer than the {len(cand.fixed)} fixed sensors")
+    if p_opt.n_exciters > len(cand.dofs):
+        raise InputError(f"exciters: {p_opt.n_exciters} asked, but there are {len(cand.dofs)} candidate driving points")
     n_lowest = t_opt.n_modes if t_opt.n_modes is not None else (3 if t_opt.method == "lowest" and t_opt.band_hz is None
                                                                 else None)
     n_solve = min(model.n_dofs, max(20, 2 * (n_lowest or 10)))
