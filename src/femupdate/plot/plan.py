@@ -4,6 +4,7 @@ the sensors (red arrows along their measuring directions) and the exciters (blue
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,7 @@ def plan_layout_figure(nodes: Mapping[str, Sequence[float]], segments: Sequence[
     three = bool(np.ptp(pts[:, 2]) > 0)
     span = float(np.max(np.ptp(pts, axis=0))) or 1.0
     fig = _fig(5.6, 4.2)
-    ax = fig.add_subplot(projection="3d") if three else fig.add_subplot()
+    ax: Any = fig.add_subplot(projection="3d") if three else fig.add_subplot()
     dim = 3 if three else 2
 
     def line(a, b, **kw):
@@ -65,18 +66,19 @@ def plan_layout_figure(nodes: Mapping[str, Sequence[float]], segments: Sequence[
         labels.setdefault(node, []).append(f"S{k + 1}")
     for node, lab in labels.items():  # one label per node: "S1,S2" for two uniaxial sensors there
         text = " " + ",".join(lab)
-        ax.annotate(text, xyz[node][:2], fontsize=7, color="tab:red") if not three else ax.text(
+        ax.annotate(text, tuple(xyz[node][:2]), fontsize=7, color="tab:red") if not three else ax.text(
             *xyz[node], text, fontsize=7, color="tab:red")
     for k, d in enumerate(exciters):
-        node, direction = parse_dof(d)
-        x = xyz.get(str(node))
-        if x is None:
+        ex_node, direction = parse_dof(d)
+        at = xyz.get(str(ex_node))
+        if at is None:
             continue
+        x = at
         ax.scatter(*x[:dim], color="tab:blue", s=60, marker="^", zorder=4, facecolors="none")
         if direction in _AXIS:
             e = np.eye(3)[_AXIS[direction]]
             line(x - 1.3 * arrow * e, x, color="tab:blue", lw=2.0)
-        ax.annotate(f" F{k + 1}", x[:2], xytext=(4, -10), textcoords="offset points", fontsize=7,
+        ax.annotate(f" F{k + 1}", tuple(x[:2]), xytext=(4, -10), textcoords="offset points", fontsize=7,
                     color="tab:blue") if not three else ax.text(*x, f" F{k + 1}", fontsize=7, color="tab:blue")
     if three:
         ax.set_box_aspect(np.maximum(np.ptp(pts, axis=0), 0.05 * span))
