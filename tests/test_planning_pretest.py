@@ -194,3 +194,14 @@ def test_plan_with_pretest_exciters_and_information_gain():
     back = type(r).from_json(r.to_json())
     assert back.exciters["dofs"] == ex["dofs"] and back.pretest["tam"]["method"] == "serep"
     assert sla.norm(np.asarray(back.pretest["tam"]["self_orthogonality"]) - np.eye(3)) < 1e-9
+
+
+def test_information_gain_needs_a_prior_or_finite_bounds_and_exciters_a_candidate_each():
+    from femupdate import InputError
+    from femupdate.examples import chain
+
+    model = chain([1000.0, 1500.0, 1200.0], [1.0, 1.0, 1.0])  # bounds (0, inf): no uniform prior
+    with pytest.raises(InputError, match=r"prior: parameter k1 has no normal or lognormal prior and no finite bounds"):
+        plan(model, n_modes=3, points=1, information_gain=True, compare=False)
+    with pytest.raises(InputError, match=r"exciters: 4 asked, but there are 3 candidate driving points"):
+        plan(model, n_modes=3, points=1, n_exciters=4, compare=False)
