@@ -184,7 +184,7 @@ def design_value(F: np.ndarray, design) -> float:
 
 
 def prior_variances(model, params: Sequence[str], nominal=None) -> np.ndarray:
-    """Variances of the relative parameters p/|p₀| under their priors, for :class:`Design`:
+    """Variances of the relative parameters p / abs(p₀) under their priors, for :class:`Design`:
     ``normal(mean, std)``: (std/p₀)²; ``lognormal(median, s)``: s² (the variance of ln p);
     ``uniform`` or no prior: (upper − lower)²/12 within the bounds, /p₀².
 

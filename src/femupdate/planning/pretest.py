@@ -56,7 +56,7 @@ def tam(model, dofs: Sequence[str], target_shapes: np.ndarray, target_eigenvalue
         ``method``, ``dofs``, ``full_frequencies_hz``, ``tam_frequencies_hz`` (paired by the
         largest total MAC with the target modes; NaN for a target left unpaired when the TAM has
         fewer dofs than target modes), ``frequency_error`` (relative), ``mac``, ``paired_targets``,
-        ``self_orthogonality`` (m × m), ``self_max_offdiag``, ``cross_orthogonality`` (|·|, paired
+        ``self_orthogonality`` (m × m), ``self_max_offdiag``, ``cross_orthogonality`` (absolute values, paired
         TAM modes × paired target modes), ``cross_min_diag``, ``cross_max_offdiag``.
 
     Raises
