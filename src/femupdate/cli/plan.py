@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import click
+import numpy as np
 from rich.table import Table
 
 from .._errors import InputError
@@ -232,6 +234,11 @@ def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: Pla
             if msg.startswith(field):
                 msg = opt + msg[len(field):]
         raise InputError(msg) from None
+    from ._common import model_segments
+
+    segs = model_segments(model_path) if Path(model_path).suffix.lower() == ".toml" else None  # supports too
+    if segs is not None:
+        res = dataclasses.replace(res, segments=[[str(a), str(b)] for a, b in np.asarray(segs).tolist()])
     _print(ctx.console, model, res)
     _print_extras(ctx.console, res)
     if outputs.uff_path is not None:

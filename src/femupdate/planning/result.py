@@ -82,7 +82,8 @@ class PlanResult(Serialisable):
         ``excites_all_modes``, ``score``, ``swaps``, ``noise_floor``, ``std_frf``,
         ``damping_ratio``, ``driving_points`` ({dof: {odp, nodp, dpr}}, best ODP first), ``best_odp``.
     segments : list of list of str
-        Pairs of nodes the model's stiffness couples (the structure the report draws the layout on).
+        Pairs of nodes the model's stiffness couples (the structure the report draws the layout on;
+        ``femupdate plan`` stores the model file's elements instead, supported ends included).
     """
 
     model: str
