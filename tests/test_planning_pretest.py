@@ -205,3 +205,30 @@ def test_information_gain_needs_a_prior_or_finite_bounds_and_exciters_a_candidat
         plan(model, n_modes=3, points=1, information_gain=True, compare=False)
     with pytest.raises(InputError, match=r"exciters: 4 asked, but there are 3 candidate driving points"):
         plan(model, n_modes=3, points=1, n_exciters=4, compare=False)
+
+
+def test_information_gain_placement_is_the_best_set_by_the_gain_computed_here():
+    """Exhaustive placement by the gain against every set scored here from S, with priors that
+    make it differ from the plain D-optimal set (k1..k3 known to 1 %, k4..k6 to 50 %)."""
+    import itertools
+
+    from femupdate.planning import Noise, identifiability_placement
+
+    model = six_dof_model()
+    names = list(model.parameter_names)
+    bank = SensitivityBank(model, model.dofs, range(2), names)
+    groups = [[i] for i in range(6)]
+    prior = np.array([0.01] * 3 + [0.5] * 3) ** 2
+    gain = {}
+    for s in itertools.combinations(range(6), 3):
+        S = bank.matrix(list(s), Noise(), normalised=True)
+        gain[s] = 0.5 * np.linalg.slogdet(np.eye(6) + np.sqrt(prior)[:, None] * (S.T @ S) * np.sqrt(prior)[None, :])[1]
+    eig = identifiability_placement([bank], groups, 3, Noise(), design=Design("d", prior), exhaustive_limit=100,
+                                    max_condition=1e12)
+    plain = identifiability_placement([bank], groups, 3, Noise(), design="d", exhaustive_limit=100, max_condition=1e12)
+    ranks = {s: np.linalg.matrix_rank(bank.matrix(list(s), Noise(), normalised=True)) for s in gain}
+    full = [s for s in gain if ranks[s] == 6]
+    assert full and len(full) < len(gain)  # identifiability first: the rank-deficient sets are out
+    assert eig.chosen == max(full, key=gain.get)
+    assert eig.score.design == pytest.approx(gain[eig.chosen], rel=1e-10)
+    assert plain.chosen != eig.chosen  # the prior changes the plan
