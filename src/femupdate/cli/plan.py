@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import click
+import numpy as np
 from rich.table import Table
 
 from .._errors import InputError
 from ..options import (DESIGN_CRITERIA, PLACEMENT_CRITERIA, TARGET_METHODS, PlacementOptions, TargetOptions)
+from ..options.planning import TAM_CHOICES
 from ._common import INPUT_FILE, SEED, Ctx, FiniteFloat, fmt, model_values
 from ._groups import GroupedCommand, option_group
 from .outputs import Outputs, outputs_group
@@ -167,14 +170,42 @@ def placement_group():
     )
 
 
+def pretest_group():
+    """``--information-gain``, ``--exciters``, ``--std-frf``, ``--damping-ratio``, ``--tam``,
+    ``--sensor-mass`` -> ``pretest``: a dict of :class:`~femupdate.options.PlacementOptions` fields."""
+    def build(information_gain, n_exciters, std_frf, damping_ratio, tam, sensor_mass):
+        return {"information_gain": information_gain, "n_exciters": n_exciters, "std_frf": std_frf,
+                "damping_ratio": damping_ratio, "tam": tam, "sensor_mass": sensor_mass}
+
+    return option_group(
+        "Prior, exciters and pretest", "pretest", build,
+        click.option("--information-gain", is_flag=True,
+                     help="Judge sensor sets by the expected information gain with the parameters' priors (Laplace: "
+                          "1/2 log det(I + S_prior F)); uniform within the bounds where no prior is declared."),
+        click.option("--exciters", "n_exciters", type=click.IntRange(min=0), default=0, show_default=True,
+                     help="Exciters of an FRF test to place for the chosen sensors (driving points that excite every "
+                          "target mode, FRF Fisher information full rank)."),
+        click.option("--std-frf", type=FiniteFloat(min=0, min_open=True), default=0.01, show_default=True,
+                     help="Noise floor of the receptances, relative to the largest (exciter placement)."),
+        click.option("--damping-ratio", type=FiniteFloat(min=0, min_open=True), default=0.01, show_default=True,
+                     help="Modal damping ratio of the simulated receptances (exciter placement)."),
+        click.option("--tam", type=click.Choice(list(TAM_CHOICES)), default="guyan", show_default=True,
+                     help="Test-analysis model on the measured dofs for the pretest orthogonality checks."),
+        click.option("--sensor-mass", type=FiniteFloat(min=0), default=0.0, show_default=True,
+                     help="Mass of one accelerometer, kg: the frequency shifts the sensors cause (0: not computed)."),
+    )
+
+
 @click.command(cls=GroupedCommand)
 @click.argument("model_path", metavar="MODEL", type=INPUT_FILE)
 @targets_group()
 @sensors_group()
 @placement_group()
-@outputs_group(uff="Write the sensor layout as a universal file the test lab imports (datasets 164, 2420, 15, 82).",
-               report=False)
-def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: PlacementOptions, outputs: Outputs):
+@pretest_group()
+@outputs_group(uff="Write the sensor layout as a universal file the test lab imports (datasets 164, 2420, 15, 2411, "
+                   "82).")
+def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: PlacementOptions, pretest: dict,
+         outputs: Outputs):
     """Plan the test: sensors that identify MODEL's parameters, with their predicted uncertainty.
 
     Chooses target modes, places the sensors (identifiability of the parameters first, or a
@@ -185,6 +216,7 @@ def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: Pla
     from ..planning import candidates as make_candidates, plan as make_plan
 
     ctx = Ctx(outputs.json_path)
+    placement = dataclasses.replace(placement, **pretest)
     model = load_model(model_path)
     values = model_values(model, outputs.set_text)
     cand, fixed = sensors.candidates(), sensors.fixed()
@@ -197,18 +229,31 @@ def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: Pla
                         targets=targets, placement=placement)
     except InputError as exc:
         msg = str(exc)
-        for field, opt in (("sensors:", "--sensors:"), ("box:", "--box:"), ("params:", "--params:")):
+        for field, opt in (("sensors:", "--sensors:"), ("box:", "--box:"), ("params:", "--params:"),
+                           ("exciters:", "--exciters:"), ("prior:", "--information-gain:")):
             if msg.startswith(field):
                 msg = opt + msg[len(field):]
         raise InputError(msg) from None
+    from ._common import model_segments
+
+    segs = model_segments(model_path) if Path(model_path).suffix.lower() == ".toml" else None  # supports too
+    if segs is not None:
+        res = dataclasses.replace(res, segments=[[str(a), str(b)] for a, b in np.asarray(segs).tolist()])
     _print(ctx.console, model, res)
+    _print_extras(ctx.console, res)
     if outputs.uff_path is not None:
         from ..io.plan_uff import write_plan_uff
 
         info = write_plan_uff(outputs.uff_path, res)
-        ctx.console.print(f"universal file: {outputs.uff_path} ({len(info['nodes'])} node(s); datasets 164, 2420, 15, "
-                          "82)" + ("; nodes placed on the x axis (the model has no coordinates)" if info["placed"] else ""))
-    outputs.emit(ctx, res.to_json())
+        ctx.console.print(f"universal file: {outputs.uff_path} ({len(info['nodes'])} node(s); datasets "
+                          f"{', '.join(map(str, info['datasets']))})"
+                          + ("; nodes placed on the x axis (the model has no coordinates)" if info["placed"] else ""))
+    payload = res.to_json()
+    if outputs.report_path is not None:
+        from ._common import write_report_output
+
+        write_report_output(ctx, outputs.report_path, payload, model=model, model_path=model_path)
+    outputs.emit(ctx, payload)
 
 
 def _print(c, model, res) -> None:
@@ -267,6 +312,51 @@ def _print(c, model, res) -> None:
                 row.append(f"{v['monte_carlo']['rms_relative_error']:.3%}" if "monte_carlo" in v else "not run")
             ct.add_row(*row)
         c.print(ct)
+
+
+def _print_extras(c, res) -> None:
+    """The prior, the exciters and the pretest correlation, where the plan has them."""
+    if res.prior:
+        c.print("expected information gain (Laplace) with prior relative std "
+                + ", ".join(f"{k} {v:.3g}" for k, v in res.prior.items()) + f": {res.score['design']:.4g} nats")
+    ex = res.exciters
+    if ex:
+        sc = ex["score"]
+        c.print(f"{len(ex['dofs'])} exciter(s): {', '.join(ex['dofs'])} (every target mode excited: "
+                f"{'yes' if ex['excites_all_modes'] else 'no'}; FRF Fisher rank {sc['ranks'][0]} of "
+                f"{len(res.parameters)}, smallest {sc['min_rank']} over the points, worst condition "
+                f"{_worst(sc['conditions'])}); best optimum driving point (ODP) {ex['best_odp']}")
+    pre = res.pretest or {}
+    t = pre.get("tam")
+    if t and "error" in t:
+        c.print(f"TAM ({t['method']}): not built - {t['error']}")
+    elif t:
+        tab = Table(title=f"pretest: {t['method']} TAM on the {len(t['dofs'])} measured dof(s)")
+        for col in ("mode", "full Hz", "TAM Hz", "error", "cross-orthogonality"):
+            tab.add_column(col, justify="right")
+        paired = t["paired_targets"]
+        for k, j in enumerate(res.target["modes"]):
+            f_t = t["tam_frequencies_hz"][k]
+            pos = paired.index(k) if k in paired else None
+            tab.add_row(str(j), fmt(t["full_frequencies_hz"][k]), "-" if f_t is None or f_t != f_t else fmt(f_t),
+                        "-" if pos is None else f"{t['frequency_error'][k]:+.3%}",
+                        "-" if pos is None else f"{t['cross_orthogonality'][pos][pos]:.3f}")
+        c.print(tab)
+        c.print(f"self-orthogonality of the target modes with the TAM mass: largest off-diagonal "
+                f"{t['self_max_offdiag']:.3f} (held to 0.1 in practice); cross-orthogonality TAM vs full modes: smallest "
+                f"diagonal {t['cross_min_diag']:.3f}, largest off-diagonal {t['cross_max_offdiag']:.3f}")
+    ml = pre.get("mass_loading")
+    if ml:
+        c.print(f"mass loading ({ml['n_sensors']} sensor(s) of {ml['sensor_mass']:g} kg, {ml['total_mass']:g} kg on the "
+                "translations): " + "; ".join(
+                    f"mode {j} {fmt(f0)} -> {fmt(f1)} Hz ({r:+.3%}, first order {r1:+.3%})" for j, f0, f1, r, r1 in
+                    zip(res.target["modes"], ml["frequencies_hz"], ml["loaded_frequencies_hz"], ml["relative_shift"],
+                        ml["first_order_relative_shift"])))
+
+
+def _worst(conds) -> str:
+    finite = [v for v in conds if v is not None and v != float("inf")]
+    return "inf" if len(finite) < len(conds) else f"{max(finite):.3g}"
 
 
 __all__ = ["plan", "SensorSpec", "sensors_group", "targets_group", "placement_group"]

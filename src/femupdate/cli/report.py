@@ -40,12 +40,12 @@ def _report_model(model_path: Path, result: dict, kind: str):
                    "mode shapes on the model, FRF overlays, residual surface).")
 @click.option("--data", "data_path", type=_path, default=None, help="The test data of the run (needs --model).")
 @click.option("--kind", type=click.Choice(["direct", "update", "frf-update", "update-multi", "damage", "uniqueness",
-                                           "paper", "posterior"]), default=None,
+                                           "paper", "posterior", "plan"]), default=None,
               help="The command that wrote RESULT.json (default: told from its keys).")
 @measured_dofs_option
 def report(result_path, out_path, model_path, data_path, kind, measured_text):
     """Write one self-contained HTML report of RESULT.json (the --json result of direct, update,
-    frf-update, update-multi, damage, uniqueness, paper or posterior)."""
+    frf-update, update-multi, damage, uniqueness, paper, posterior or plan)."""
     from ..report import build_report, paper_images
     from ..report.build import _jsonable, check_kind
     from ..io.results import atomic_write_text
@@ -79,5 +79,5 @@ def report(result_path, out_path, model_path, data_path, kind, measured_text):
             "the samples: --report on the posterior command)" if kind == "posterior" else
             " (from the result alone: give --model and --data for the correlation before the update and the mode "
             "shapes)")
-    ctx.console.print(f"wrote the report {out_path}" + ("" if model is not None or kind in ("paper", "uniqueness")
+    ctx.console.print(f"wrote the report {out_path}" + ("" if model is not None or kind in ("paper", "uniqueness", "plan")
                                                         else hint))

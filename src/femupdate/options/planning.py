@@ -16,6 +16,8 @@ TARGET_METHODS = ("lowest", "mass", "energy")
 PLACEMENT_CRITERIA = ("identifiability", "efi", "efi-dpr", "kinetic", "mac")
 #: the design criterion after identifiability (:class:`PlacementOptions`)
 DESIGN_CRITERIA = ("d", "a")
+#: the test-analysis model of a plan's pretest correlation
+TAM_CHOICES = ("guyan", "irs", "serep", "none")
 #: a sensor measures one dof, or the three translations of a node
 SENSOR_KINDS = ("uniaxial", "triaxial")
 
@@ -106,6 +108,20 @@ class PlacementOptions(Options):
     exhaustive_limit : int, default 0
         ``"identifiability"`` with ``n_sensors``: up to this many candidate sets, score every one
         (the exact optimum) instead of greedy selection and exchange.
+    information_gain : bool, default False
+        Judge sets (after identifiability) by the expected information gain with the parameters'
+        priors (Laplace: ½ log det(I + Σ_prior F) for ``design="d"``); a parameter without a
+        normal or lognormal prior takes the uniform one within its (finite) bounds.
+    n_exciters : int, default 0
+        Exciters of an FRF test placed for the chosen sensors (0: none).
+    std_frf : float, default 0.01
+        Noise floor of the simulated receptances, relative to the largest (> 0).
+    damping_ratio : float, default 0.01
+        Modal damping ratio of the simulated receptances (> 0).
+    tam : {"guyan", "irs", "serep", "none"}, default ``"guyan"``
+        The test-analysis model of the pretest correlation.
+    sensor_mass : float, default 0.0
+        Mass of one accelerometer (kg): the frequency shifts it causes (0: not computed).
     """
 
     criterion: str = "identifiability"
@@ -122,6 +138,12 @@ class PlacementOptions(Options):
     restarts: int = 0
     seed: int = 0
     exhaustive_limit: int = 0
+    information_gain: bool = False
+    n_exciters: int = 0
+    std_frf: float = 0.01
+    damping_ratio: float = 0.01
+    tam: str = "guyan"
+    sensor_mass: float = 0.0
 
     main: ClassVar[str | None] = "criterion"
 
@@ -147,6 +169,15 @@ class PlacementOptions(Options):
         self.set("restarts", count(self.restarts, "restarts", low=0))
         self.set("seed", count(self.seed, "seed", low=0))
         self.set("exhaustive_limit", count(self.exhaustive_limit, "exhaustive_limit", low=0))
+        self.set("information_gain", flag(self.information_gain, "information_gain"))
+        self.set("n_exciters", count(self.n_exciters, "n_exciters", low=0))
+        for name in ("std_frf", "damping_ratio"):
+            v = getattr(self, name)
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0:
+                raise InputError(f"{name} must be > 0")
+            self.set(name, number(v, name, low=1e-100))
+        choice(self.tam, TAM_CHOICES, "TAM method")
+        self.set("sensor_mass", number(self.sensor_mass, "sensor_mass", low=0.0))
 
 
 __all__ = ["TargetOptions", "PlacementOptions", "TARGET_METHODS", "PLACEMENT_CRITERIA", "DESIGN_CRITERIA",

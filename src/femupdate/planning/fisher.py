@@ -138,17 +138,79 @@ def rank_and_condition(S: np.ndarray) -> tuple[int, float, np.ndarray]:
     return rank, cond, s
 
 
-def design_value(F: np.ndarray, design: str) -> float:
-    """D-optimal ``log det F`` or A-optimal ``-trace F^-1`` (larger is better; -inf when singular)."""
+@dataclass(frozen=True, eq=False)
+class Design:
+    r"""A design criterion with a Gaussian prior: ``kind`` ``"d"`` or ``"a"`` and the prior
+    variances of the relative parameters (:func:`prior_variances`).  With a prior, D-optimal is
+    the expected information gain by the Laplace approximation,
+    :math:`\tfrac12\log\det(I + \Sigma_{prior} F)` (the mutual information between the
+    parameters and the data of a linear-Gaussian model), and A-optimal is
+    :math:`-\mathrm{trace}\,(\Sigma_{prior}^{-1} + F)^{-1}` (the posterior variances)."""
+
+    kind: str = "d"
+    prior_var: np.ndarray | None = None
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "prior_relative_std": None if self.prior_var is None
+                else np.sqrt(self.prior_var).tolist()}
+
+
+def design_kind(design) -> str:
+    """``"d"`` or ``"a"`` of a design given as a string or a :class:`Design`."""
+    return design if isinstance(design, str) else design.kind
+
+
+def design_value(F: np.ndarray, design) -> float:
+    """D-optimal ``log det F`` or A-optimal ``-trace F^-1`` (larger is better; -inf when singular);
+    with a :class:`Design` that carries a prior, the expected information gain
+    ``½ log det(I + Σ F)`` or ``-trace (Σ⁻¹ + F)⁻¹`` (finite for every F)."""
+    kind = design_kind(design)
+    prior = None if isinstance(design, str) else design.prior_var
+    if prior is not None:
+        s = np.sqrt(np.asarray(prior, float))
+        A = np.eye(F.shape[0]) + s[:, None] * F * s[None, :]  # I + S F S, similar to I + Σ F
+        if kind == "d":
+            return 0.5 * float(np.linalg.slogdet(A)[1])
+        return -float(np.trace(s[:, None] * np.linalg.inv(A) * s[None, :]))  # Σ^½ (I + S F S)^-1 Σ^½
     sign, ld = np.linalg.slogdet(F)
     if sign <= 0 or not np.isfinite(ld):
         return -math.inf
-    if design == "d":
+    if kind == "d":
         return float(ld)
     try:
         return -float(np.trace(np.linalg.inv(F)))
     except np.linalg.LinAlgError:
         return -math.inf
+
+
+def prior_variances(model, params: Sequence[str], nominal=None) -> np.ndarray:
+    """Variances of the relative parameters p / abs(p₀) under their priors, for :class:`Design`:
+    ``normal(mean, std)``: (std/p₀)²; ``lognormal(median, s)``: s² (the variance of ln p);
+    ``uniform`` or no prior: (upper − lower)²/12 within the bounds, /p₀².
+
+    Raises
+    ------
+    InputError
+        A parameter with neither a normal/lognormal prior nor finite bounds (named).
+    """
+    p0 = model.resolve(nominal)
+    out = []
+    for name in params:
+        j = model.parameter_indices([name])[0]
+        par = model.parameters[j]
+        pr = par.prior
+        v0 = abs(p0[j]) or 1.0
+        if pr is not None and pr.kind == "normal":
+            out.append((pr.b / v0) ** 2)
+        elif pr is not None and pr.kind == "lognormal":
+            out.append(pr.b ** 2)
+        else:
+            lo, hi = par.bounds
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise InputError(f"prior: parameter {name} has no normal or lognormal prior and no finite bounds for a "
+                                 "uniform one; declare its prior (docs/bayes.md) or give finite bounds")
+            out.append((hi - lo) ** 2 / 12 / v0 ** 2)
+    return np.array(out, dtype=float)
 
 
 def parameter_points(model, params: Sequence[str], n_points: int, box=None, seed: int = 0
@@ -196,4 +258,5 @@ def parameter_points(model, params: Sequence[str], n_points: int, box=None, seed
     return points, {n: (a, b) for n, a, b in zip(params, lo, hi)}
 
 
-__all__ = ["Noise", "SensitivityBank", "fisher", "rank_and_condition", "design_value", "parameter_points"]
+__all__ = ["Noise", "SensitivityBank", "fisher", "rank_and_condition", "Design", "design_kind", "design_value",
+           "prior_variances", "parameter_points"]

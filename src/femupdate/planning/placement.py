@@ -34,7 +34,7 @@ import numpy as np
 
 from .._errors import InputError
 from .classical import _better, automac_max, exchange_pass
-from .fisher import Noise, SensitivityBank, design_value, rank_and_condition
+from .fisher import Noise, SensitivityBank, design_kind, design_value, rank_and_condition
 
 DESIGNS = ("d", "a")
 
@@ -107,11 +107,13 @@ class SetScore:
                 "automac_max": self.automac_max, "max_automac": self.max_automac}
 
 
-def score_set(banks: Sequence[SensitivityBank], rows: Sequence[int], noise: Noise, design: str = "d",
+def score_set(banks: Sequence[SensitivityBank], rows: Sequence[int], noise: Noise, design="d",
               max_condition: float = 1e6, max_automac: float = 1.0) -> SetScore:
     """Ranks and conditions at every point, and the design criterion at the first (nominal).
 
-    ``rows``: the measured dofs of the set, as positions among the banks' candidate dofs.
+    ``rows``: the measured dofs of the set, as positions among the banks' candidate dofs;
+    ``design``: ``"d"``, ``"a"`` or a :class:`~.fisher.Design` with a prior (expected information
+    gain).
     """
     ranks, conds = [], []
     value = -math.inf
@@ -122,7 +124,7 @@ def score_set(banks: Sequence[SensitivityBank], rows: Sequence[int], noise: Nois
         conds.append(c)
         if b == 0:
             L = S.shape[1]
-            if r == L:
+            if r == L or not isinstance(design, str) and design.prior_var is not None:
                 value = design_value(S.T @ S, design)
             else:
                 nz = s[s > max(S.shape) * np.finfo(float).eps * s[0]] if s.size and s[0] > 0 else s[:0]
@@ -162,7 +164,7 @@ class IdentifiabilityPlacement:
 
 
 def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence[Sequence[int]],
-                              n_sensors: int | None, noise: Noise, *, fixed: Sequence[int] = (), design: str = "d",
+                              n_sensors: int | None, noise: Noise, *, fixed: Sequence[int] = (), design="d",
                               max_condition: float = 1e6, restarts: int = 0, seed: int = 0,
                               max_passes: int = 50, max_automac: float = 1.0,
                               exhaustive_limit: int = 0) -> IdentifiabilityPlacement:
@@ -179,7 +181,8 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     noise : Noise
     fixed : sequence of int
         Sensors always in the plan.
-    design : {"d", "a"}, default "d"
+    design : {"d", "a"} or Design, default "d"
+        A :class:`~.fisher.Design` with a prior: the expected information gain (Laplace).
     max_condition : float, default 1e6
         The largest condition number of the value-scaled S counted as well conditioned.
     restarts : int, default 0
@@ -203,7 +206,7 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
     InputError
         An unknown design; ``n_sensors`` below the fixed sensors or above the candidates.
     """
-    if design not in DESIGNS:
+    if design_kind(design) not in DESIGNS:
         raise InputError(f"unknown design criterion {design!r}: use d (log det F) or a (trace of F^-1)")
     n_c = len(groups)
     fixed = tuple(sorted(set(int(i) for i in fixed)))
@@ -229,7 +232,7 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
             if _better(k, best_key):
                 best_set, best_key = sel, k
         chosen = tuple(best_set)
-        return IdentifiabilityPlacement(chosen, chosen, score(chosen), 0, count[0], design)
+        return IdentifiabilityPlacement(chosen, chosen, score(chosen), 0, count[0], design_kind(design))
     cur = list(fixed)
     target = n_c if n_sensors is None else n_sensors
     if n_sensors is None and cur and score(cur).identifiable:  # the fixed sensors suffice
@@ -259,7 +262,7 @@ def identifiability_placement(banks: Sequence[SensitivityBank], groups: Sequence
         if _better(k, best_key):
             best, best_key, swaps = cand, k, s
     chosen = tuple(sorted(best))
-    return IdentifiabilityPlacement(chosen, greedy, score(chosen), swaps, count[0], design)
+    return IdentifiabilityPlacement(chosen, greedy, score(chosen), swaps, count[0], design_kind(design))
 
 
 __all__ = ["DESIGNS", "SetScore", "score_set", "IdentifiabilityPlacement", "identifiability_placement"]

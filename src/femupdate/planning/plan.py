@@ -12,7 +12,7 @@ from ..modal import model_modes
 from ..options import PlacementOptions, TargetOptions, gather
 from .candidates import Candidates, candidates as make_candidates
 from .classical import classical_placement
-from .fisher import Noise, SensitivityBank, parameter_points, rank_and_condition
+from .fisher import Design, Noise, SensitivityBank, parameter_points, prior_variances, rank_and_condition
 from .placement import identifiability_placement, score_set
 from .predict import automac, monte_carlo, predicted_std, uniqueness_verdict
 from .result import PlanResult
@@ -78,6 +78,8 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
                          f"{p_opt.kind} sensors")
     if n_req is not None and n_req < len(cand.fixed):
         raise InputError(f"sensors: {n_req} asked, fewer than the {len(cand.fixed)} fixed sensors")
+    if p_opt.n_exciters > len(cand.dofs):
+        raise InputError(f"exciters: {p_opt.n_exciters} asked, but there are {len(cand.dofs)} candidate driving points")
     n_lowest = t_opt.n_modes if t_opt.n_modes is not None else (3 if t_opt.method == "lowest" and t_opt.band_hz is None
                                                                 else None)
     n_solve = min(model.n_dofs, max(20, 2 * (n_lowest or 10)))
@@ -92,12 +94,14 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
     banks += [SensitivityBank(model, cand.dofs, target.indices, names, p, reference=banks[0].shapes_full)
               for p in points[1:]]
     groups = [cand.rows([i]) for i in range(len(cand.sensors))]
+    prior_var = prior_variances(model, names) if p_opt.information_gain else None
+    design = Design(p_opt.design, prior_var) if prior_var is not None else p_opt.design
     if p_opt.criterion == "identifiability":
         _identifiable_at_all(banks[0], names, len(cand.dofs), len(target.indices))
-    chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req)
+    chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req, design)
     rows = cand.rows(chosen)
     dofs = [cand.dofs[r] for r in rows]
-    score = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
+    score = score_set(banks, rows, noise, design, p_opt.max_condition, p_opt.max_automac)
     std = predicted_std(banks[0], rows, noise)
     mac, mac_max = automac(banks[0], rows)
     nominal = dict(zip(names, banks[0].parameter_values.tolist()))
@@ -105,7 +109,7 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
     if compare:
         for crit in COMPARED:
             if crit != p_opt.criterion:
-                comparison[crit] = _compared(crit, p_opt, model, cand, banks, groups, noise, len(chosen))
+                comparison[crit] = _compared(crit, p_opt, model, cand, banks, groups, noise, len(chosen), design)
     mc = None
     if p_opt.monte_carlo >= 2 and score.ranks[0] == len(names):
         mc = monte_carlo(model, names, dofs, banks[0], noise, p_opt.monte_carlo, p_opt.seed)
@@ -120,13 +124,16 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
         relative_std={n: s / abs(v) if v else s for (n, v), s in zip(nominal.items(), std.tolist())},
         automac=mac, automac_max=mac_max, uniqueness=uniqueness_verdict(model, names, dofs, len(target.indices), score),
         comparison=comparison, monte_carlo=mc, nodes={k: v for k, v in nodes.items() if v is not None},
-        options={"targets": t_opt.to_dict(), "placement": p_opt.to_dict()})
+        options={"targets": t_opt.to_dict(), "placement": p_opt.to_dict()},
+        prior=None if prior_var is None else dict(zip(names, np.sqrt(prior_var).tolist())),
+        pretest=_pretest(model, p_opt, banks[0], [list(cand.sensors[i]) for i in chosen], dofs, target.indices),
+        exciters=_exciters(p_opt, cand, banks, rows, design), segments=coupled_nodes(model))
 
 
-def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_req):
+def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_req, design):
     """(chosen, greedy or eliminated set, swaps) of one criterion."""
     if criterion == "identifiability":
-        ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=p_opt.design,
+        ident = identifiability_placement(banks, groups, n_req, noise, fixed=cand.fixed, design=design,
                                           max_condition=p_opt.max_condition, restarts=p_opt.restarts, seed=p_opt.seed,
                                           max_passes=50 if p_opt.exchange else 0, max_automac=p_opt.max_automac,
                                           exhaustive_limit=p_opt.exhaustive_limit)
@@ -160,13 +167,13 @@ def _identifiable_at_all(bank, names, n_rows: int, n_modes: int) -> None:
                      "combinations; add target modes or candidates, or fix some of them")
 
 
-def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
+def _compared(crit, p_opt, model, cand, banks, groups, noise, n, design) -> dict:
     try:
-        chosen, _, _ = _place(crit, p_opt, model, cand, banks, groups, noise, n)
+        chosen, _, _ = _place(crit, p_opt, model, cand, banks, groups, noise, n, design)
     except InputError as exc:
         return {"error": str(exc)}
     rows = cand.rows(chosen)
-    sc = score_set(banks, rows, noise, p_opt.design, p_opt.max_condition, p_opt.max_automac)
+    sc = score_set(banks, rows, noise, design, p_opt.max_condition, p_opt.max_automac)
     std = predicted_std(banks[0], rows, noise)
     rel = std / np.abs(banks[0].parameter_values)
     out = {"sensors": [list(cand.sensors[i]) for i in chosen], "identifiable": sc.identifiable,
@@ -177,6 +184,62 @@ def _compared(crit, p_opt, model, cand, banks, groups, noise, n) -> dict:
         out["monte_carlo"] = {"runs": mc["runs"], "converged": mc["converged"],
                               "rms_relative_error": mc["rms_relative_error"]}
     return out
+
+
+def _pretest(model, p_opt, bank, sensors, dofs, target) -> dict | None:
+    """The TAM on the measured dofs and the mass loading of the sensors (:mod:`.pretest`); a TAM
+    the dofs do not allow is reported, not raised."""
+    from .pretest import mass_loading, tam
+
+    if p_opt.tam == "none" and p_opt.sensor_mass == 0:
+        return None
+    out: dict = {}
+    if p_opt.tam != "none":
+        try:
+            out["tam"] = tam(model, dofs, bank.shapes_full, bank.eigenvalues, p_opt.tam, bank.values)
+        except InputError as exc:
+            out["tam"] = {"method": p_opt.tam, "error": str(exc)}
+    if p_opt.sensor_mass > 0:
+        out["mass_loading"] = mass_loading(model, sensors, p_opt.sensor_mass, target, bank.values)
+    return out
+
+
+def _exciters(p_opt, cand: Candidates, banks, rows, design) -> dict | None:
+    """The exciters of an FRF test for the chosen sensors (:mod:`.exciters`)."""
+    if p_opt.n_exciters == 0:
+        return None
+    from .exciters import driving_point_criteria, exciter_placement
+
+    ex = exciter_placement(banks, rows, p_opt.n_exciters, std_frf=p_opt.std_frf, damping_ratio=p_opt.damping_ratio,
+                           design=design, max_condition=p_opt.max_condition)
+    crit = driving_point_criteria(banks[0])
+    order = np.argsort(-crit["odp"], kind="stable")
+    return {"dofs": [cand.dofs[r] for r in ex.chosen], "greedy": [cand.dofs[r] for r in ex.greedy],
+            "excites_all_modes": ex.excites_all, "score": ex.score.to_dict(), "swaps": ex.swaps,
+            "noise_floor": ex.noise_floor, "std_frf": p_opt.std_frf, "damping_ratio": p_opt.damping_ratio,
+            "driving_points": {cand.dofs[r]: {"odp": float(crit["odp"][r]), "nodp": float(crit["nodp"][r]),
+                                              "dpr": float(crit["dpr"][r])} for r in order},
+            "best_odp": cand.dofs[int(order[0])]}
+
+
+def coupled_nodes(model) -> list[list[str]]:
+    """Pairs of distinct nodes the stiffness matrices couple (the elements' edges, to draw the
+    layout on the structure), as node ids."""
+    import scipy.sparse as sp
+
+    node_of = [str(parse_dof(d)[0]) for d in model.dofs]
+    pattern = abs(sp.coo_array(model.K0))
+    for A in (*model.dK, *(t.K for t in getattr(model, "terms", ()))):  # non-linear terms too
+        if A is not None:
+            pattern = pattern + abs(sp.coo_array(A))
+    coo = sp.coo_array(pattern)
+    pairs = {tuple(sorted((node_of[r], node_of[c]), key=_node_key)) for r, c in zip(coo.row, coo.col)
+             if node_of[r] != node_of[c]}
+    return [list(p) for p in sorted(pairs, key=lambda p: (_node_key(p[0]), _node_key(p[1])))]
+
+
+def _node_key(n: str):
+    return (0, int(n), "") if n.lstrip("-").isdigit() else (1, 0, n)
 
 
 def _xyz(model, node):

@@ -71,6 +71,19 @@ class PlanResult(Serialisable):
         Coordinates of the sensors' nodes (for the universal files).
     options : dict
         The target and placement options.
+    prior : dict, optional
+        With the expected information gain: each parameter's prior standard deviation relative
+        to its nominal value; None otherwise.
+    pretest : dict, optional
+        ``tam`` (:func:`~femupdate.planning.pretest.tam`) and ``mass_loading``
+        (:func:`~femupdate.planning.pretest.mass_loading`), each where asked.
+    exciters : dict, optional
+        The exciters of an FRF test (:mod:`femupdate.planning.exciters`): ``dofs``, ``greedy``,
+        ``excites_all_modes``, ``score``, ``swaps``, ``noise_floor``, ``std_frf``,
+        ``damping_ratio``, ``driving_points`` ({dof: {odp, nodp, dpr}}, best ODP first), ``best_odp``.
+    segments : list of list of str
+        Pairs of nodes the model's stiffness couples (the structure the report draws the layout on;
+        ``femupdate plan`` stores the model file's elements instead, supported ends included).
     """
 
     model: str
@@ -97,6 +110,10 @@ class PlanResult(Serialisable):
     monte_carlo: dict | None = None
     nodes: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
+    prior: dict | None = None
+    pretest: dict | None = None
+    exciters: dict | None = None
+    segments: list = field(default_factory=list)
     context: RunContext | None = field(default=None, repr=False, compare=False)
 
     kind: ClassVar[str] = "plan"
@@ -116,6 +133,7 @@ class PlanResult(Serialisable):
         kw: dict[str, Any] = {k: obj.get(k) for k in KEYS}
         for k in ("comparison", "nodes", "options"):
             kw[k] = kw[k] or {}
+        kw["segments"] = kw["segments"] or []
         return cls(**kw)
 
     @property
@@ -141,6 +159,7 @@ class PlanResult(Serialisable):
 
 KEYS = ("model", "criterion", "sensor_kind", "sensors", "dofs", "fixed", "target", "parameters", "nominal", "box",
         "noise", "design", "score", "greedy", "swaps", "predicted_std", "relative_std", "automac", "automac_max",
-        "uniqueness", "comparison", "monte_carlo", "nodes", "options")
+        "uniqueness", "comparison", "monte_carlo", "nodes", "options", "prior", "pretest", "exciters",
+        "segments")
 
 __all__ = ["PlanResult"]

@@ -399,7 +399,7 @@ def _build(res: dict, kind: str, model, data, segments, before, damping, images,
     if model is not None and kind != "paper":
         _describe_parameters(res, model)
     rec = None
-    if model is not None and kind not in ("paper", "uniqueness", "update-multi", "posterior"):
+    if model is not None and kind not in ("paper", "uniqueness", "update-multi", "posterior", "plan"):
         from .recompute import recompute
 
         after = res.get("parameters") if isinstance(res.get("parameters"), Mapping) else None

@@ -42,6 +42,19 @@ register(Kind(
      Key("monte_carlo", "object or `null`", "noisy updates with the plan: `runs`, `converged`, `seed`, `mean`, `std`, "
          "`bias`, `predicted_std`, `ratio` (each `{name: value}`), `sampling_error`", (OBJECT,)),
      Key("nodes", "`{node: [x, y, z]}`", "coordinates of the candidate nodes (those the model has)", (OBJECT,)),
-     Key("options", "object", "`targets` and `placement` options", (OBJECT,))),
+     Key("options", "object", "`targets` and `placement` options", (OBJECT,)),
+     Key("prior", "`{name: std}` or `null`", "with `--information-gain`: each parameter's prior standard deviation "
+         "relative to its nominal value (the design value is then the expected information gain, nats)", (OBJECT,)),
+     Key("pretest", "object or `null`", "`tam`: the test-analysis model on the measured dofs (`method`, `dofs`, "
+         "`full_frequencies_hz`, `tam_frequencies_hz`, `frequency_error`, `mac`, `paired_targets`, "
+         "`self_orthogonality`, `self_max_offdiag`, `cross_orthogonality`, `cross_min_diag`, `cross_max_offdiag`; or "
+         "`method` and `error`); `mass_loading`: `sensor_mass`, `total_mass`, `n_sensors`, `frequencies_hz`, "
+         "`loaded_frequencies_hz`, `shift_hz`, `relative_shift`, `first_order_relative_shift`, `mac`", (OBJECT,)),
+     Key("exciters", "object or `null`", "with `--exciters N`: `dofs`, `greedy`, `excites_all_modes`, `score`, `swaps`, "
+         "`noise_floor` (m/N), `std_frf`, `damping_ratio`, `driving_points` (`{dof: {odp, nodp, dpr}}`, best ODP "
+         "first), `best_odp`", (OBJECT,)),
+     Key("segments", "list of `[node, node]`", "pairs of nodes the stiffness couples (the structure the report draws "
+         "the layout on)", (ARRAY,))),
     intro="The result of `femupdate plan` and `femupdate.planning.plan` (`result.to_json()`); `--uff` writes the "
-          "sensors as a universal file (datasets 164, 2420, 15, 82: docs/planning.md)."))
+          "sensors as a universal file (datasets 164, 2420, 15, 2411, 82: docs/planning.md); `femupdate report` "
+          "draws the layout on the structure."))
