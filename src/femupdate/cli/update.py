@@ -13,6 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
+from ._damping import print_damped
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
@@ -42,12 +43,13 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     from ..updating import update as _update
 
     ctx = Ctx(outputs.json_path)
-    model = load_model(model_path)
+    damped = _damped_model(model_path)  # a [damping] table: stiffness, mass and damping updated together
+    model = load_model(model_path) if damped is None else damped.model
     if outputs.uff_path is not None:
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
-    values = model_values(model, outputs.set_text)
+    values = model_values(model if damped is None else _view(damped), outputs.set_text)
     base = model  # the structure's own dofs (--uff), whatever the test points add
     model, data, mapped = test_points.load(model_path, model, data_path, problem.measured_text)
     if mapped is not None:
@@ -57,11 +59,13 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
                           f"{max(x.distance for x in lk):.3g})", markup=False)
     run = problem.resolve(model, data, solver)
     data = run.data
+    if damped is not None:
+        model = _damped_run(damped, mapped, run)
     before = None if values is None else dict(zip(model.parameter_names, values))
     result: UpdateResult | MultiStartResult
     res: UpdateResult | None
     ms: MultiStartResult | None = None
-    box = _black_box(model_path)
+    box = _black_box(model_path) if damped is None else None
     bb: BlackBoxResult | None = None
     if box is not None and starts.starts == 1:
         from ..blackbox import update_black_box
@@ -80,10 +84,10 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
                           f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
                           "(paired frequencies)")
     elif starts.starts == 1 and not execution.scheduler:
-        result = res = _update(model, data, params=run.params, values=values, options=run.options)
+        result = res = _update(damped or model, data, params=run.params, values=values, options=run.options)
     else:
         with outputs.progress(ctx, "starts", starts.starts) as tick:
-            result = ms = multistart(model, data, starts, params=run.params, values=values, execution=execution,
+            result = ms = multistart(damped or model, data, starts, params=run.params, values=values, execution=execution,
                                      progress=tick, options=run.options)
         res = ms.best
     result = result.with_context(damping=run.damping, before=before)
@@ -113,6 +117,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
             ctx.console.print("not written: the updated model, tables and modes (the update did not converge)")
         raise NumericalError(f"the update did not converge: {res.message}")
+    if damped is not None:
+        res = _model_part(ctx, damped, res, outputs)
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
                         outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"), outputs.write_back_dir)
     if outputs.uff_path is not None:
@@ -121,6 +127,52 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
 
         write_uff_modes(outputs.uff_path, model_modes(base, res.parameters), nodes=base.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _damped_model(model_path):
+    """The :class:`~femupdate.damping.DampedModel` of a model file with a ``[damping]`` table, else None."""
+    from ..io.model_file import read_toml
+
+    if Path(model_path).suffix.lower() != ".toml" or "damping" not in read_toml(model_path):
+        return None
+    from ..damping import load_damped_model
+
+    return load_damped_model(model_path)
+
+
+def _view(damped):
+    from ..damping.view import DampedView
+
+    return DampedView(damped)
+
+
+def _damped_run(damped, mapped, run):
+    """The engine's view of a damped model; options that do not apply to it refused by name."""
+    if mapped is not None:
+        raise InputError("--test-points with a [damping] table: not taken in this version; give the test data at "
+                         "the model's dofs")
+    if run.damping is not None and not run.damping.undamped:
+        raise InputError("--damping sets the FRF damping of an undamped model; this model's damping is its [damping] "
+                         "table (updated with the other parameters): leave --damping out")
+    return _view(damped)
+
+
+def _model_part(ctx: Ctx, damped, res, outputs):
+    """The result restricted to the model's own parameters for the files written from it (the
+    updated model file, the tables, the modes): the damping parameters' values are in the JSON."""
+    import dataclasses
+
+    own = set(damped.model.parameter_names)
+    if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
+        ctx.console.print("the damping parameters' updated values are in the JSON ('damping'), not written into the "
+                          "model file, the tables or the deck in this version")
+    names = tuple(n for n in res.names if n in own)
+    keep = [j for j, n in enumerate(res.names) if n in own]
+    d = res.diagnostics
+    if d is not None:
+        d = dataclasses.replace(d, std=d.std[keep])
+    return dataclasses.replace(res, names=names, x=res.x[keep],
+                               parameters={n: v for n, v in res.parameters.items() if n in own}, diagnostics=d)
 
 
 def _black_box(model_path):
@@ -146,6 +198,8 @@ def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"
     c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
+    if res.damping:
+        print_damped(c, res)
     if res.pairs:
         c.print(_pairs_table(res))
     if res.blocks:

@@ -76,7 +76,7 @@ def update_kind(res, ctx, starts: dict | None = None) -> dict:
     out = update_fields(res, ctx, starts)
     out["formulation"] = res.formulation or None
     out["solver"] = getattr(res, "solver", "") or None
-    damping = _damping(res, ctx)
+    damping = _damping(res, ctx) if not getattr(res, "damping", None) else None  # a damped model: its own record
     if damping is not None:
         out["damping_ratio"] = damping
     if res.expanded_shapes is not None and ctx.model is not None:  # per test mode {dof: value}
