@@ -13,7 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
-from ._damping import print_damped
+from ._damping import damped_figures, damped_model as _damped_model, model_part as _model_part, print_damped, view as _view
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
@@ -105,7 +105,9 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         write_report_output(ctx, outputs.report_path, result, model_path=model_path)
         raise NumericalError(f"none of the {starts.starts} starts converged")
     _print(ctx, model, data, run.kinds, res, ms, payload)
-    if outputs.plot_dir is not None:
+    if outputs.plot_dir is not None and damped is not None:
+        damped_figures(ctx, damped, data, res, outputs.plot_dir)
+    elif outputs.plot_dir is not None:
         _figures(ctx, model, data, run, res, outputs.plot_dir)
     outputs.emit(ctx, payload)
     if mapped is None:
@@ -129,23 +131,6 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
 
 
-def _damped_model(model_path):
-    """The :class:`~femupdate.damping.DampedModel` of a model file with a ``[damping]`` table, else None."""
-    from ..io.model_file import read_toml
-
-    if Path(model_path).suffix.lower() != ".toml" or "damping" not in read_toml(model_path):
-        return None
-    from ..damping import load_damped_model
-
-    return load_damped_model(model_path)
-
-
-def _view(damped):
-    from ..damping.view import DampedView
-
-    return DampedView(damped)
-
-
 def _damped_run(damped, mapped, run):
     """The engine's view of a damped model; options that do not apply to it refused by name."""
     if mapped is not None:
@@ -155,24 +140,6 @@ def _damped_run(damped, mapped, run):
         raise InputError("--damping sets the FRF damping of an undamped model; this model's damping is its [damping] "
                          "table (updated with the other parameters): leave --damping out")
     return _view(damped)
-
-
-def _model_part(ctx: Ctx, damped, res, outputs):
-    """The result restricted to the model's own parameters for the files written from it (the
-    updated model file, the tables, the modes): the damping parameters' values are in the JSON."""
-    import dataclasses
-
-    own = set(damped.model.parameter_names)
-    if outputs.write_model_path or outputs.csv_dir or outputs.uff_path or outputs.write_back_dir:
-        ctx.console.print("the damping parameters' updated values are in the JSON ('damping'), not written into the "
-                          "model file, the tables or the deck in this version")
-    names = tuple(n for n in res.names if n in own)
-    keep = [j for j, n in enumerate(res.names) if n in own]
-    d = res.diagnostics
-    if d is not None:
-        d = dataclasses.replace(d, std=d.std[keep])
-    return dataclasses.replace(res, names=names, x=res.x[keep],
-                               parameters={n: v for n, v in res.parameters.items() if n in own}, diagnostics=d)
 
 
 def _black_box(model_path):

@@ -22,7 +22,7 @@ from ..options import UpdateOptions
 from ..testdata import TestData
 from .combined import Block, CombinedProblem, data_kinds, frf_label, split_std
 from .damped import DampedFRFProblem, DampedModesProblem
-from .frf import STD_HINT, FRFUpdateResult, frac, unit_scale
+from .frf import ALONE, STD_HINT, FRFUpdateResult, frac, unit_scale
 from .parametrisation import start_vector, updated_names
 from .results import UpdateResult
 from .solve import diagnostics, solve
@@ -108,7 +108,8 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
             w = None if given is None else 1.0 / np.broadcast_to(np.asarray(given, float), fs.response.shape)
             fp = DampedFRFProblem(view, fs, names, p_base, param, residual, w)
             scale, weighting = unit_scale(label, given is not None, fp.kind == "linear", fp.xe,
-                                          "the linear FRF residuals", "response", "", notes, how=STD_HINT)
+                                          "the linear FRF residuals", "response", "", notes, how=STD_HINT,
+                                          **({"why": ALONE} if len(kinds) == 1 else {}))
             fp.weighting = weighting
             n_data += fp.n_residuals
             blocks.append(Block("frf", label, fp, scale, weighting))

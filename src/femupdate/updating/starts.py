@@ -498,7 +498,9 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     TypeError
         A keyword no option object has.
     """
-    problem_args("frf_multistart", model, data, params=params, values=values, frf=True)
+    from .run import damped_doors
+
+    model = damped_doors("frf_multistart", model, data, params=params, values=values, frf=True) or model
     callable_arg(progress, "progress", "frf_multistart")
     st, ex, rest = _starts_options("frf_multistart", shorthand, starts, execution)
     o = frf_run_options("frf_multistart", rest, data)
