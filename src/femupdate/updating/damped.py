@@ -12,14 +12,19 @@ the solver, the diagnostics, multi-start and the result records are those of eve
 
 .. math::  r_f = w_f\,\frac{|\lambda_j|^2 - \omega_k^2}{\omega_k^2}, \qquad
            r_\zeta = w_\zeta\,(\zeta_j - \zeta_k), \qquad
-           r_\psi = w_\psi\,(s\,\varphi_{j,S} - \hat\psi_k), \quad
-           s = \frac{\varphi_{j,S}^H\hat\psi_k}{\varphi_{j,S}^H\varphi_{j,S}}
+           r_\psi = w_\psi\,(g\,\varphi_{j,S} - \hat\psi_k), \quad
+           g = \frac{a}{\|\varphi_{j,S}\|\,|a|}, \quad a = \varphi_{j,S}^H\hat\psi_k
 
 with :math:`|\lambda|` the undamped natural frequency (rad/s) of the complex eigenvalue λ,
 :math:`\zeta = -\operatorname{Re}\lambda/|\lambda|`, :math:`\hat\psi_k` the test shape
-(complex or real) scaled to unit length over its measured dofs S, and s the complex scale that
-phase-aligns and scales the model shape onto it (least squares); :math:`r_\psi` enters as its
-real parts then its imaginary parts.  The frequency residual is the relative eigenvalue error
+(complex or real) scaled to unit length over its measured dofs S, and the model shape scaled to
+unit length and turned by the phase that aligns it best with the test shape (g: the unit
+complex factor of least :math:`\|g\varphi - \hat\psi\|` among those of modulus
+:math:`1/\|\varphi\|`); :math:`r_\psi` enters as its real parts then its imaginary parts.
+For real shapes this is the undamped residual of ``--shape-scaling unit`` (:func:`femupdate.rules.shape_residuals`:
+:math:`\pm\varphi/\|\varphi\| - \hat\psi`), and a proportionally damped model's complex
+shape is a complex multiple of its real one, so the residuals are those of the undamped update
+(their imaginary parts zero).  The frequency residual is the relative eigenvalue error
 of the undamped modal residual (:mod:`femupdate.rules`): for a proportionally damped model
 :math:`|\lambda_j| = \omega_j` and it is the same residual.  Weights: 1 over the stated or
 identified standard deviations (``std_eigenvalue`` relative of ω², ``std_damping_ratio``
@@ -27,9 +32,11 @@ absolute, ``std_shape`` of the unit shape entries), else 1.
 
 The Jacobian is exact: :math:`\partial|\lambda|^2 = 2\operatorname{Re}(\bar\lambda\,
 \partial\lambda)`, :math:`\partial\zeta` from :class:`~femupdate.damping.ComplexSensitivities`,
-and :math:`\partial r_\psi = \partial s\,\varphi + s\,\partial\varphi` with
-:math:`\partial s = (\partial\varphi^H\hat\psi)/(\varphi^H\varphi) - s\,
-2\operatorname{Re}(\varphi^H\partial\varphi)/(\varphi^H\varphi)` from the exact eigenvector
+and :math:`\partial r_\psi = \partial g\,\varphi + g\,\partial\varphi` with
+:math:`\partial g = \partial a/(\|\varphi\||a|) - g\,\partial\|\varphi\|/\|\varphi\|
+- g\,\partial|a|/|a|`, :math:`\partial a = \partial\varphi^H\hat\psi`,
+:math:`\partial\|\varphi\| = \operatorname{Re}(\varphi^H\partial\varphi)/\|\varphi\|`,
+:math:`\partial|a| = \operatorname{Re}(\bar a\,\partial a)/|a|`, from the exact eigenvector
 derivatives (:func:`~femupdate.damping.complex_sensitivities`).
 """
 
@@ -222,7 +229,8 @@ class DampedModesProblem(Parametrisation):
             if self.shaped[k]:
                 sl = slice(self.pptr[k], self.pptr[k + 1])
                 u, v = modes.shapes[self.pos[sl], j], self.psi[sl]
-                e = (np.vdot(u, v) / np.vdot(u, u).real) * u - v
+                a = np.vdot(u, v)
+                e = u * (a / (np.linalg.norm(u) * abs(a))) - v
                 n = v.size
                 r[row:row + n], r[row + n:row + 2 * n] = self.w_s[k] * e.real, self.w_s[k] * e.imag
                 row += 2 * n
@@ -257,10 +265,13 @@ class DampedModesProblem(Parametrisation):
                 assert cs.d_shapes is not None
                 sl = slice(self.pptr[k], self.pptr[k + 1])
                 u, v, du = sub.shapes[self.pos[sl], c], self.psi[sl], cs.d_shapes[self.pos[sl], c, :]
-                uu, uv = np.vdot(u, u).real, np.vdot(u, v)
-                s = uv / uu
-                ds = (np.conj(du).T @ v) / uu - s * 2 * (np.conj(u) @ du).real / uu
-                de = (u[:, None] * ds[None, :] + s * du) * dpdx[None, :]
+                a, nu = np.vdot(u, v), np.linalg.norm(u)
+                g = a / (nu * abs(a))
+                da = np.conj(du).T @ v
+                dn = (np.conj(u) @ du).real / nu
+                dabs = (np.conj(a) * da).real / abs(a)
+                dg = da / (nu * abs(a)) - a * dn / (nu ** 2 * abs(a)) - a * dabs / (nu * abs(a) ** 2)
+                de = (u[:, None] * dg[None, :] + g * du) * dpdx[None, :]
                 n = v.size
                 J[row:row + n], J[row + n:row + 2 * n] = self.w_s[k] * de.real, self.w_s[k] * de.imag
                 row += 2 * n
