@@ -195,7 +195,10 @@ def frf_section(result: dict, rec) -> Section | None:
         sec.add(Figure(figs.frf_figure(f["omega"], f["dofs"], f["measured"], f["model_omega"], f["before"], f["after"],
                                        unit="m"),
                        f"Response magnitude to the measured force ({amp}): test (circles), the model before (dashed) "
-                       "and after (solid) the update; the model undamped unless the run stated damping.",
+                       "and after (solid) the update; "
+                       + ("the damped receptances of the model's [damping] table, its damping parameters updated "
+                          f"({', '.join(result['damping'].get('parameters') or []) or 'none'})."
+                          if result.get("damping") else "the model undamped unless the run stated damping."),
                        wide=len(f["dofs"]) > 1))
     if rec is not None and rec.surface is not None:
         s = rec.surface
