@@ -266,3 +266,26 @@ def test_large_damping_ratios_are_flagged_as_possible_percentages(truss):
     data = TestData(modes=(dataclasses.replace(data.modes[0], damping_ratio=0.5),) + data.modes[1:])
     res = femupdate.update(truss, data, max_nfev=3)
     assert any("test mode(s) 1 have damping ratios above 0.2" in n and "percent" in n for n in res.notes)
+
+
+def test_frf_update_cli_on_a_damped_model_fits_the_peaks_with_report_and_overlay(tmp_path, capsys, truss):
+    model, _ = _write_case(tmp_path, _modes(truss, n=2))
+    dofs = ("3:y", "4:y", "104:y")
+    om = 2 * np.pi * np.linspace(20.0, 300.0, 29)
+    X, _ = damped_response(truss, om, {"4:y": 1.0}, dofs)
+    (tmp_path / "frf.json").write_text(json.dumps({"frf": {
+        "omega_rad_s": om.tolist(), "force": {"4:y": 1.0},
+        "response": {d: [[float(v.real), float(v.imag)] for v in X[:, i]] for i, d in enumerate(dofs)}}}))
+    code, out, err = _cli(["frf-update", model, tmp_path / "frf.json", "--json", tmp_path / "f.json", "--report",
+                           tmp_path / "f.html", "--plot", tmp_path / "figs"], capsys)
+    assert code == 0, out + err
+    r = json.loads((tmp_path / "f.json").read_text())
+    for name, true in TRUTH.items():
+        assert r["parameters"][name] == pytest.approx(true, rel=1e-6), name
+    assert r["kind"] == "frf-update" and r["damping"]["parameters"] == ["b", "c1", "c2"]
+    assert min(r["frac"].values()) > 1 - 1e-10
+    assert (tmp_path / "figs" / "frf.png").exists()
+    assert "the damped receptances of the model&#39;s [damping] table" in (tmp_path / "f.html").read_text()
+    # --damping is for undamped models: refused with a [damping] table
+    code, out, err = _cli(["frf-update", model, tmp_path / "frf.json", "--damping", "alpha=1"], capsys)
+    assert code == 2 and "leave --damping out" in err and err.strip().count("\n") == 0, err
