@@ -285,7 +285,9 @@ def test_frf_update_cli_on_a_damped_model_fits_the_peaks_with_report_and_overlay
     assert r["kind"] == "frf-update" and r["damping"]["parameters"] == ["b", "c1", "c2"]
     assert min(r["frac"].values()) > 1 - 1e-10
     assert (tmp_path / "figs" / "frf.png").exists()
-    assert "the damped receptances of the model&#39;s [damping] table" in (tmp_path / "f.html").read_text()
+    html = (tmp_path / "f.html").read_text()
+    assert "the damped receptances of the model&#39;s [damping] table" in html
+    assert "the damping parameters of the model&#39;s [damping] table: updated (with their standard deviations)" in html
     # --damping is for undamped models: refused with a [damping] table
     code, out, err = _cli(["frf-update", model, tmp_path / "frf.json", "--damping", "alpha=1"], capsys)
     assert code == 2 and "leave --damping out" in err and err.strip().count("\n") == 0, err
