@@ -291,3 +291,12 @@ def test_frf_update_cli_on_a_damped_model_fits_the_peaks_with_report_and_overlay
     # --damping is for undamped models: refused with a [damping] table
     code, out, err = _cli(["frf-update", model, tmp_path / "frf.json", "--damping", "alpha=1"], capsys)
     assert code == 2 and "leave --damping out" in err and err.strip().count("\n") == 0, err
+
+
+def test_a_loss_factor_is_updated_with_the_dampers_and_the_stiffness(truss):
+    dm = DampedModel(truss.model, truss.parameters + (Parameter("eta", 0.02, (0.0, 0.5)),), alpha=truss.alpha,
+                     beta=truss.beta, dampers=truss.dampers, losses=(LossFactor("eta", "E"),))
+    res = femupdate.update(dm.with_values({"eta": 0.05, "c1": 200.0, "E": 6.6e10}), _modes(dm, std=False))
+    assert res.success
+    for name, true in {**TRUTH, "eta": 0.02}.items():
+        assert res.parameters[name] == pytest.approx(true, rel=1e-6), name
