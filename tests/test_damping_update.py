@@ -23,7 +23,7 @@ from femupdate._errors import InputError
 from femupdate.damping import DampedModel, Damper, LossFactor, complex_modes, load_damped_model
 from femupdate.damping.frf import damped_response
 from femupdate.damping.view import DampedView
-from femupdate.examples import TRUSS_DAMPING, truss_damped_model_toml, truss_model_toml
+from femupdate.examples import TRUSS_DAMPING, truss_damped_model_toml
 from femupdate.model import Parameter
 from femupdate.testdata import FRFData, MeasuredMode, TestData
 from femupdate.updating.damped import DampedFRFProblem, DampedModesProblem
@@ -32,19 +32,14 @@ DOFS = ("2:x", "2:y", "3:x", "3:y", "4:x", "4:y", "102:y", "103:y", "104:y")
 TRUTH = {"E": 7.0e10, "b": TRUSS_DAMPING["beta"], "c1": TRUSS_DAMPING["c1"], "c2": TRUSS_DAMPING["c2"]}
 
 
-def _truss(path: Path | None = None) -> DampedModel:
-    import tomllib
-
-    from femupdate.damping.model_file import load_damped_model as load
-
-    if path is not None:
-        return load(path)
+def _truss() -> DampedModel:
+    """The example truss with Rayleigh damping and two dampers (``truss_damped.toml``)."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "t.toml"
         p.write_text(truss_damped_model_toml())
-        return load(p)
+        return load_damped_model(p)
 
 
 def _modes(dm: DampedModel, n=4, std=True, dofs=DOFS) -> TestData:
