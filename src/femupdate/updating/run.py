@@ -242,6 +242,9 @@ def undamped_notes(data, options: UpdateOptions) -> list[str]:
     if not isinstance(data, TestData) or "modes" not in data_kinds(data, options.use):
         return []
     out = []
+    if dict(options.noise.std or {}).get("damping_ratio") is not None:
+        out.append("measurement_std['damping_ratio'] is not used: the model is undamped (its damping ratios are not "
+                   "updated); give the model a [damping] table")
     cplx = [k + 1 for k, m in enumerate(data.modes) if m.has_shape and np.iscomplexobj(m.shape)]
     if cplx and options.modal.use_shapes:
         out.append(f"the test data hold complex shapes (test mode(s) {', '.join(map(str, cplx))}) but the model is "
