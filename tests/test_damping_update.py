@@ -295,3 +295,12 @@ def test_a_loss_factor_is_updated_with_the_dampers_and_the_stiffness(truss):
     assert res.success
     for name, true in {**TRUTH, "eta": 0.02}.items():
         assert res.parameters[name] == pytest.approx(true, rel=1e-6), name
+
+
+def test_deviations_stated_for_some_modes_only_are_said_and_not_used(truss):
+    data = _modes(truss, n=3, std=False)
+    data = TestData(modes=(dataclasses.replace(data.modes[0], std_damping_ratio=1e-3),) + data.modes[1:])
+    res = femupdate.update(truss.with_values({"c1": 300.0}), data)
+    assert res.parameters["c1"] == pytest.approx(400.0, rel=1e-6)
+    assert any("standard deviation of the damping ratio for some modes but not all: not used" in n for n in res.notes)
+    assert res.diagnostics is not None and not res.diagnostics.absolute

@@ -74,7 +74,7 @@ def _weights(values: list, given, what: str, T: int) -> tuple[np.ndarray, str]:
     needed = [v for v in values if v is not False]
     if needed and all(v is not None for v in needed):
         return np.array([1.0 / v if v not in (None, False) else 1.0 for v in values]), "data"
-    return np.ones(T), ""
+    return np.ones(T), "partial" if any(v is not None for v in needed) else ""
 
 
 class DampedModesProblem(Parametrisation):
@@ -150,6 +150,12 @@ class DampedModesProblem(Parametrisation):
                           std.get("damping_ratio"), "damping_ratio", T)
         ws, ss = _weights([m.std_shape if s else False for m, s in zip(modes, self.shaped)], std.get("shape"), "shape", T)
         self.w_f, self.w_z, self.w_s = wf, wz, ws
+        self.notes: list[str] = [f"the test data state a standard deviation of the {what} for some modes but not all: "
+                                 f"not used (the {what} residuals are weighted 1); state it for every mode, or give "
+                                 f"measurement_std[{key!r}]" for key, what, src in
+                                 (("eigenvalue", "frequency", sf), ("damping_ratio", "damping ratio", sz),
+                                  ("shape", "shape", ss)) if src == "partial"]
+        sf, sz, ss = ("" if v == "partial" else v for v in (sf, sz, ss))
         used = {"eigenvalue": sf, "damping_ratio": sz if self.has_zeta.any() else "-",
                 "shape": ss if self.shaped.any() else "-"}
         self.stated = {k: v for k, v in used.items() if v not in ("", "-")}
@@ -158,7 +164,6 @@ class DampedModesProblem(Parametrisation):
         self.n_residuals = int(T + self.has_zeta.sum() + 2 * ns.sum())
         self.n_independent = int(T + self.has_zeta.sum() + 2 * np.maximum(ns - 1, 0).sum())
         self.n_modes = int(min(view.n_dofs, n_modes or buffered_modes(T)))
-        self.notes: list[str] = []
         big = [k + 1 for k in np.flatnonzero(self.zeta_e > 0.2)]
         if big:
             self.notes.append(f"test mode(s) {', '.join(map(str, big))} have damping ratios above 0.2 (20 % of critical): "
