@@ -305,6 +305,7 @@ def model_segments(model_path):
 
     path = Path(model_path)
     raw = read_toml(path)
+    raw.pop("damping", None)  # a [damping] table does not change the drawing
     if {"matrices", "abaqus", "nastran", "ansys"} & set(raw):
         return None
     segs = structure_segments(Structure.from_dict(raw, source=str(path)))

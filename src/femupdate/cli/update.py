@@ -13,6 +13,7 @@ from rich.table import Table
 from .._errors import InputError, NumericalError
 from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
+from ._damping import damped_figures, damped_model as _damped_model, model_part as _model_part, print_damped, view as _view
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
 from .outputs import Outputs, outputs_group
 from .problem import ProblemSpec, problem_group
@@ -44,24 +45,29 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     from ..updating import update as _update
 
     ctx = Ctx(outputs.json_path)
-    model = load_model(model_path)
+    damped = _damped_model(model_path)  # a [damping] table: stiffness, mass and damping updated together
+    model = load_model(model_path) if damped is None else damped.model
     if outputs.uff_path is not None:
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
-    values = model_values(model, outputs.set_text)
+    values = model_values(model if damped is None else _view(damped), outputs.set_text)
     base = model  # the structure's own dofs (--uff), whatever the test points add
     model, data, mapped = test_points.load(model_path, model, data_path, problem.measured_text)
     test_points.announce(ctx, mapped)
     run = problem.resolve(model, data, solver)
     data = run.data
+    if damped is not None:
+        model = _damped_run(damped, mapped, run)
     before = None if values is None else dict(zip(model.parameter_names, values))
     result: UpdateResult | MultiStartResult
     res: UpdateResult | None
     ms: MultiStartResult | None = None
-    box = _black_box(model_path)
+    box = _black_box(model_path) if damped is None else None
     bb: BlackBoxResult | None = None
     if rom is not None:
+        if damped is not None:
+            raise InputError("--reduced-basis with a [damping] table: the reduced route takes undamped models")
         if box is not None:
             raise InputError("--reduced-basis with a [blackbox] model: the black box's fitted model is "
                              "re-probed near the answer, not reduced; give one of the two")
@@ -83,10 +89,10 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
                           f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
                           "(paired frequencies)")
     elif starts.starts == 1 and not execution.scheduler:
-        result = res = _update(model, data, params=run.params, values=values, options=run.options)
+        result = res = _update(damped or model, data, params=run.params, values=values, options=run.options)
     else:
         with outputs.progress(ctx, "starts", starts.starts) as tick:
-            result = ms = multistart(model, data, starts, params=run.params, values=values, execution=execution,
+            result = ms = multistart(damped or model, data, starts, params=run.params, values=values, execution=execution,
                                      progress=tick, options=run.options)
         res = ms.best
     result = result.with_context(damping=run.damping, before=before)
@@ -106,7 +112,9 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         write_report_output(ctx, outputs.report_path, result, model_path=model_path, test_points=mapped)
         raise NumericalError(f"none of the {starts.starts} starts converged")
     _print(ctx, model, data, run.kinds, res, ms, payload)
-    if outputs.plot_dir is not None:
+    if outputs.plot_dir is not None and damped is not None:
+        damped_figures(ctx, damped, data, res, outputs.plot_dir)
+    elif outputs.plot_dir is not None:
         _figures(ctx, model, data, run, res, outputs.plot_dir)
     outputs.emit(ctx, payload)
     if mapped is None:
@@ -122,6 +130,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
     if rb is not None and not rb["passed"]:
         raise NumericalError("the reduced model's answer did not pass its full-model check (reduced_basis.checks "
                              "in the JSON); raise --rom-rounds or --rom-points")
+    if damped is not None:
+        res = _model_part(ctx, damped, res, outputs)
     write_model_outputs(ctx, model_path, data_path, "update", model, res.parameters, res.names, res.cost,
                         outputs.write_model_path, outputs.csv_dir, res, payload.get("damping_ratio"), outputs.write_back_dir)
     if outputs.uff_path is not None:
@@ -130,6 +140,17 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
 
         write_uff_modes(outputs.uff_path, model_modes(base, res.parameters), nodes=base.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _damped_run(damped, mapped, run):
+    """The engine's view of a damped model; options that do not apply to it refused by name."""
+    if mapped is not None:
+        raise InputError("--test-points with a [damping] table: not taken in this version; give the test data at "
+                         "the model's dofs")
+    if run.damping is not None and not run.damping.undamped:
+        raise InputError("--damping sets the FRF damping of an undamped model; this model's damping is its [damping] "
+                         "table (updated with the other parameters): leave --damping out")
+    return _view(damped)
 
 
 def _black_box(model_path):
@@ -168,6 +189,8 @@ def _print(ctx: Ctx, model, data, kinds, res, ms, payload: dict) -> None:
         c.print(fitting_table(ms))
         title = f"the lowest-cost solution in detail — {title}"
     c.print(update_parameter_table(res, title, {p.name: p.unit for p in model.parameters}))
+    if res.damping:
+        print_damped(c, res)
     if res.pairs:
         c.print(_pairs_table(res))
     if res.blocks:

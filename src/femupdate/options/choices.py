@@ -29,7 +29,7 @@ FRF_SOLVERS = ("auto", "dense", "sparse")
 #: the kinds of test data, in the order their residual blocks are stacked
 DATA_KINDS = ("modes", "frf", "static")
 #: the keys of :attr:`NoiseOptions.std`, and the kind of data each belongs to
-STD_KEYS = {"eigenvalue": "modes", "shape": "modes", "frf": "frf", "static": "static"}
+STD_KEYS = {"eigenvalue": "modes", "shape": "modes", "damping_ratio": "modes", "frf": "frf", "static": "static"}
 #: what standard deviations rest on (:class:`NoiseOptions`)
 NOISE_BASES = ("auto", "stated", "estimate")
 #: the posterior's methods (:class:`~femupdate.options.SamplerOptions`)

@@ -83,6 +83,10 @@ def recompute(model, data, before: dict | None, after: dict | None, result: dict
     damping : mapping, optional
         The damping of an FRF run ({alpha, beta, eta}); undamped by default.
     """
+    from ..damping.view import DampedView
+
+    if isinstance(model, DampedView):  # a damped model's update
+        return _damped(model, data, before, after, result, pairing)
     out = Recomputed()
     if before is not None:
         out.before = state(model, data, before, "before", out.notes, pairing)
@@ -95,8 +99,29 @@ def recompute(model, data, before: dict | None, after: dict | None, result: dict
     return out
 
 
-def _frfs(model, data, before, after, result, damping, notes) -> dict | None:
-    from ..frf import frf as model_frf
+def _damped(view, data, before, after, result, pairing) -> Recomputed:
+    """The report of a damped model's update: the correlation of its undamped modes (the model's
+    own parameters) before and after, and its damped FRFs before and after (the peaks)."""
+    out = Recomputed(notes=["the correlation figures use the model's undamped modes (its K and M at the "
+                            "parameters); the damped update's pairs and damping ratios are in the result"])
+    own = set(view.model.parameter_names)
+    for key, values in (("before", before), ("after", after)):
+        if values is not None:
+            setattr(out, key, state(view.model, data, {n: v for n, v in values.items() if n in own}, key, out.notes,
+                                    pairing))
+    if data is not None and data.frf is not None and after is not None:
+        from ..damping.frf import damped_response
+
+        def model_frf(_model, omega, force, dofs, values, _damping):
+            return None, damped_response(view.damped, omega, dict(force), dofs, values)[0]
+
+        out.frf = _frfs(view, data, before, after, result, None, out.notes, model_frf)
+    return out
+
+
+def _frfs(model, data, before, after, result, damping, notes, model_frf=None) -> dict | None:
+    if model_frf is None:
+        from ..frf import frf as model_frf
 
     frf = data.frf
     used = np.isin(frf.omega, np.asarray(result.get("omega_rad_s") or frf.omega, float))

@@ -195,7 +195,10 @@ def frf_section(result: dict, rec) -> Section | None:
         sec.add(Figure(figs.frf_figure(f["omega"], f["dofs"], f["measured"], f["model_omega"], f["before"], f["after"],
                                        unit="m"),
                        f"Response magnitude to the measured force ({amp}): test (circles), the model before (dashed) "
-                       "and after (solid) the update; the model undamped unless the run stated damping.",
+                       "and after (solid) the update; "
+                       + ("the damped receptances of the model's [damping] table, its damping parameters updated "
+                          f"({', '.join(result['damping'].get('parameters') or []) or 'none'})."
+                          if result.get("damping") else "the model undamped unless the run stated damping."),
                        wide=len(f["dofs"]) > 1))
     if rec is not None and rec.surface is not None:
         s = rec.surface
@@ -205,4 +208,38 @@ def frf_section(result: dict, rec) -> Section | None:
                        "the bounds; other parameters at their updated values); circles: grid local minima."))
     elif rec is None:
         sec.add(Text("FRF overlays and the residual surface need the model and the test data.", "note"))
+    return sec
+
+
+def damped_section(result: dict) -> Section | None:
+    """A damped model's update (the result's ``damping``): the damping parameters updated with
+    their standard deviations, those held, and per paired mode the measured and model damping
+    ratios and the model mode's MPC."""
+    d = result.get("damping")
+    if not isinstance(d, dict) or not d:
+        return None
+    sec = Section("damping", "Damping parameters")
+    updated = list(d.get("parameters") or [])
+    values, std = d.get("values") or {}, d.get("std") or {}
+    t = Table("the damping parameters of the model's [damping] table: updated (with their standard deviations) or "
+              "held at their values", ["parameter", "value", "std", "updated"])
+    for n, v in values.items():
+        t.rows.append([Cell(n), numcell(v, f"/damping/values/{n}", 6),
+                       numcell(std.get(n), f"/damping/std/{n}", 3) if n in updated else Cell("–"),
+                       Cell("yes" if n in updated else "held")])
+    sec.add(t)
+    ratios = d.get("damping_ratios")
+    if isinstance(ratios, dict):
+        pairs = result.get("pairs") or []
+        zr = Table("damping ratio ζ of each paired mode (fraction of critical): measured, the damped model's at the "
+                   "solution (ζ = −Re λ/|λ|), the difference, and the model mode's MPC",
+                   ["test mode", "model mode", "ζ test", "ζ model", "model − test", "MPC model"])
+        for i, (zt, zm) in enumerate(zip(ratios.get("test") or [], ratios.get("model") or [])):
+            k, j = (pairs[i][0], pairs[i][1]) if i < len(pairs) else (i, i)
+            mpc = (d.get("mpc") or [None] * (i + 1))[i]
+            zr.rows.append([Cell(str(int(k) + 1)), Cell(str(int(j) + 1)), numcell(zt, f"/damping/damping_ratios/test/{i}", 5),
+                            numcell(zm, f"/damping/damping_ratios/model/{i}", 5),
+                            Cell(num(zm - zt, 3) if zt is not None and zm is not None else "–"),
+                            numcell(mpc, f"/damping/mpc/{i}", 4)])
+        sec.add(zr)
     return sec

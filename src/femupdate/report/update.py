@@ -5,7 +5,7 @@ from __future__ import annotations
 from .document import Cell, Document, Figure, Section, Table, num, numcell
 from .parts import (collect_notes, correlation_section, cost_unit, damping_section, figures, pairs_table,
                     parameter_table, shapes_section, summary_section)
-from .sections import convergence_section, frf_section, identifiability_section, starts_section
+from .sections import convergence_section, damped_section, frf_section, identifiability_section, starts_section
 from .testpoints import test_points_section
 
 # ====================================================================================== per kind
@@ -37,7 +37,7 @@ def build_update(doc: Document, result: dict, model, data, rec, segments, kind: 
         std = (result.get("diagnostics") or {}).get("std")
         doc.sections.append(Section("parameters", "Parameters").add(
             parameter_table(result, names, result.get("start"), std, "start and updated values")))
-    for sec in (correlation_section(result, rec), damping_section(result),
+    for sec in (correlation_section(result, rec), damped_section(result) if result.get("damping") else damping_section(result),
                 shapes_section(model, data, rec, segments, result.get("pairs")),
                 test_points_section(result, model, segments),
                 frf_section(result, rec) if kind == "frf-update" or result.get("omega_rad_s") else None,

@@ -52,7 +52,7 @@ UPDATE_KEYS = (
     Key("sensitivity", "string", "the derivative route used (e.g. `fox-kapoor`, `nelson`; `dynamic residual (exact, no "
         "eigen-solution)` for `--formulation dynamic`)", (STRING,)),
     Key("formulation", "string or `null`", "the residuals of the measured modes: `shapes` (default), `mac` or "
-        "`dynamic`; `eigenvalues` when no mode shape is used; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
+        "`dynamic`; `damped` (complex modes of a model with a `[damping]` table); `eigenvalues` when no mode shape is used; `null` without modes (`update` only, not `frf-update`)", (STRING,)),
     Key("solver", "string or `null`", "how the model's modes were computed at the solution (dense LAPACK, or ARPACK "
         "with the factorisation used); `null` without modes (`update` only)", (STRING,)),
     Key("reduced_basis", "object", "with `--reduced-basis`: the reduced model and its control — `size` (Ritz "
@@ -82,6 +82,10 @@ UPDATE_KEYS = (
         "(docs/numerics.md, \"Model error\")", (OBJECT,)),
     Key("blocks", "list", "with more than one kind of data: per block `{kind, label, n_residuals, scale, weighting, "
         "cost}`", (ARRAY,)),
+    Key("damping", "object", "a model with a `[damping]` table: `parameters` (the damping parameters updated), "
+        "`values` `{name: value}` (every damping parameter), `std` `{name: value}` (of those updated; `null` on a "
+        "bound), with modes `damping_ratios` `{test, model}` and `mpc` (of the paired model modes) "
+        "(docs/file-formats.md, \"Damping\")", (OBJECT,)),
     Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),
     Key("test_points", "object", "with `--test-points`: where each test node was placed on the mesh: `method` "

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -50,6 +51,9 @@ from .parametrisation import Parametrisation, start_vector, updated_names
 from .problem import Problem
 from .targets import mode_uncertainty
 
+if TYPE_CHECKING:
+    from .damped import DampedFRFProblem, DampedModesProblem
+
 #: options of the FRF block (:class:`~femupdate.options.FRFOptions`' fields)
 FRF_OPTIONS = FRFOptions.field_names()
 
@@ -60,11 +64,12 @@ class Block:
 
     Attributes
     ----------
-    kind : {"modes", "frf", "static"}
-        The kind of data.
+    kind : {"modes", "frf", "static", "damped modes"}
+        The kind of data (``"damped modes"``: measured modes against the complex modes of a
+        damped model, :mod:`femupdate.updating.damped`).
     label : str
         How messages name it (``"modes"``, ``"frf"``, ``"static case 2"``).
-    problem : Problem or FRFProblem
+    problem : Problem, FRFProblem, DampedModesProblem or DampedFRFProblem
         Its residuals and Jacobian (a static case: an :class:`FRFProblem` at ω = 0).
     scale : float
         The factor its residuals are multiplied by (1, or 1 / RMS of the measured values: its own
@@ -75,7 +80,7 @@ class Block:
 
     kind: str
     label: str
-    problem: Problem | FRFProblem
+    problem: Problem | FRFProblem | DampedModesProblem | DampedFRFProblem
     scale: float
     weighting: str
 
@@ -185,7 +190,7 @@ class CombinedProblem(Parametrisation):
     @staticmethod
     def _n(block: Block) -> int:
         prob = block.problem
-        if isinstance(prob, Problem):
+        if not isinstance(prob, FRFProblem):  # modal and damped blocks know their count
             return prob.n_residuals
         return int(prob.xe.size * (2 if np.iscomplexobj(prob.xe) and prob.kind != "log" else 1))
 

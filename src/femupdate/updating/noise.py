@@ -117,8 +117,9 @@ def layout(prob, sigma) -> Layout:
             else:
                 n = int(prob.rows[list(prob.blocks).index(b) + 1] - a)
                 out.blocks[b.label], out.kinds[b.label] = np.arange(a, a + n), b.kind
-                if b.weighting == "stated std":
-                    out.stated[b.label] = "given"
+                if b.weighting == "stated std":  # a damped modes block says where its deviations came from
+                    srcs = set(getattr(b.problem, "stated", {}).values())
+                    out.stated[b.label] = "data" if srcs == {"data"} else "given"
         return out
     kind = "frf" if hasattr(prob, "omega") else "residuals"
     out = Layout()

@@ -55,6 +55,8 @@ def update_fields(res, ctx, starts: dict | None = None) -> dict:
         out["model_error"] = d.model_error
     if res.blocks:
         out["blocks"] = res.blocks
+    if getattr(res, "damping", None):  # a damped model's update: its damping parameters
+        out["damping"] = res.damping
     if starts is None:
         starts = ctx.get("starts") or single_start(res)
     out["starts"] = starts
@@ -74,7 +76,7 @@ def update_kind(res, ctx, starts: dict | None = None) -> dict:
     out = update_fields(res, ctx, starts)
     out["formulation"] = res.formulation or None
     out["solver"] = getattr(res, "solver", "") or None
-    damping = _damping(res, ctx)
+    damping = _damping(res, ctx) if not getattr(res, "damping", None) else None  # a damped model: its own record
     if damping is not None:
         out["damping_ratio"] = damping
     if res.expanded_shapes is not None and ctx.model is not None:  # per test mode {dof: value}
@@ -228,6 +230,7 @@ def update_from(obj: Mapping) -> Any:
         sensitivity=str(obj.get("sensitivity") or ""), blocks=list(obj.get("blocks") or []),
         notes=list(obj.get("notes") or []), pairing=dict(obj.get("pairing") or {}),
         formulation=str(obj.get("formulation") or ""), solver=str(obj.get("solver") or ""),
+        damping=dict(obj.get("damping") or {}),
         context=RunContext(kind=str(obj.get("kind") or ""), stored={k: obj[k] for k in STORED if k in obj}))
     if "frac" in obj or "omega_rad_s" in obj:
         return FRFUpdateResult(**common, omega=_floats(obj.get("omega_rad_s")), skipped=list(obj.get("skipped") or []),

@@ -271,6 +271,12 @@ class UpdateResult(RunResult, Serialisable):
     solver : str
         How the model's modes were computed at the solution (:attr:`femupdate.Modes.solver`:
         dense, or sparse with the factorisation used); empty without modes.
+    damping : dict
+        A damped model's update (:mod:`femupdate.updating.damped_run`): ``parameters`` (the
+        damping parameters updated), ``values`` (every damping parameter's value), ``std``
+        {name: standard deviation} of those updated, and with measured modes
+        ``damping_ratios`` {``test``, ``model``} and ``mpc`` of the paired modes; empty for an
+        undamped model.
     context : RunContext, optional
         The model and data the result was computed from (:mod:`femupdate.serialise`): what
         :meth:`to_json` and :meth:`write_report` take from them.
@@ -294,6 +300,7 @@ class UpdateResult(RunResult, Serialisable):
     formulation: str = ""
     expanded_shapes: np.ndarray | None = None
     solver: str = ""  # how the model's modes were computed at the solution (Modes.solver)
+    damping: dict = field(default_factory=dict)
     context: RunContext | None = field(default=None, compare=False, repr=False)
 
     def payload(self) -> dict:

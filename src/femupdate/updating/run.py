@@ -11,6 +11,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from .._checks import frf_fit, problem_args
 from .._errors import FemupdateError, InputError
 from ..frf.residuals import RESIDUALS, check_kind
@@ -183,12 +185,33 @@ def update(model, data: TestData, *, params: Sequence[str] | None = None, x0: Ma
         The model cannot be evaluated (unpaired modes, a singular stiffness for static data,
         ...) or the solver failed.
     """
-    problem_args("update", model, data, params=params, x0=x0, values=values)
+    view = damped_doors("update", model, data, params=params, x0=x0, values=values)
     o = UpdateOptions.of("update", shorthand, options=options, use=use, modal=modal, pairing=pairing, noise=noise,
                          solver=solver, frf=frf)
     frf_fit(o.frf, o.noise, data, "update")
-    res = update_with(model, data, o, params=params, x0=x0, values=values)
+    res = update_with(view or model, data, o, params=params, x0=x0, values=values)
+    if view is not None:
+        return attach(res, view, data, "update")
     return attach(res, model, data, "update", damping=_damping_of(o))
+
+
+def damped_doors(where: str, model, data, *, params=None, x0=None, values=None, frf: bool = False):
+    """The doors of a verb (:func:`~femupdate._checks.problem_args`); for a damped model
+    (:class:`~femupdate.damping.DampedModel`) its engine view
+    (:class:`~femupdate.damping.view.DampedView`), else None."""
+    from ..damping.view import as_view
+
+    view = as_view(model)
+    if view is None:
+        problem_args(where, model, data, params=params, x0=x0, values=values, frf=frf)
+        return None
+    from .._checks import data_arg, params_arg, values_arg, x0_arg
+
+    data_arg(data, "data", where, frf=frf)
+    params_arg(params, "params", where)
+    x0_arg(view, x0, "x0", where)
+    values_arg(view, values, "values", where)
+    return view
 
 
 def _damping_of(o: UpdateOptions):
@@ -202,7 +225,57 @@ def _damping_of(o: UpdateOptions):
 
 def update_with(model, data: TestData, options: UpdateOptions, *, params: Sequence[str] | None = None,
                 x0: Mapping[str, float] | None = None, values=None) -> UpdateResult:
-    """:func:`update` with its options in one :class:`~femupdate.options.UpdateOptions`."""
+    """:func:`update` with its options in one :class:`~femupdate.options.UpdateOptions` (a damped
+    model's view: :func:`~femupdate.updating.damped_run.update_damped`)."""
+    from ..damping.view import DampedView
+
+    if isinstance(model, DampedView):
+        return _damped_with(model, data, options, params=params, x0=x0, values=values)
+    res = _undamped_with(model, data, options, params=params, x0=x0, values=values)
+    said = undamped_notes(data, options)
+    return replace(res, notes=[*res.notes, *said]) if said else res
+
+
+def undamped_notes(data, options: UpdateOptions) -> list[str]:
+    """What an undamped model does with damped test data: complex shapes compared by their real
+    form, damping ratios compared (not updated) — said, with what is used."""
+    if not isinstance(data, TestData) or "modes" not in data_kinds(data, options.use):
+        return []
+    out = []
+    if dict(options.noise.std or {}).get("damping_ratio") is not None:
+        out.append("measurement_std['damping_ratio'] is not used: the model is undamped (its damping ratios are not "
+                   "updated); give the model a [damping] table")
+    cplx = [k + 1 for k, m in enumerate(data.modes) if m.has_shape and np.iscomplexobj(m.shape)]
+    if cplx and options.modal.use_shapes:
+        out.append(f"the test data hold complex shapes (test mode(s) {', '.join(map(str, cplx))}) but the model is "
+                   "undamped: their real form is compared (each rotated to its largest entry, the imaginary part "
+                   "dropped); give the model a [damping] table to compare them as complex modes")
+    zeta = [k + 1 for k, m in enumerate(data.modes) if m.damping_ratio is not None]
+    if zeta:
+        out.append(f"the test data hold damping ratios (test mode(s) {', '.join(map(str, zeta))}) but the model is "
+                   "undamped: the frequencies are used, the damping ratios only compared with the FRF damping "
+                   "(--damping); give the model a [damping] table to update damping parameters from them")
+    return out
+
+
+def _damped_with(view, data, o: UpdateOptions, *, params=None, x0=None, values=None) -> UpdateResult:
+    """A damped model's update, with the FRF residual ``"auto"`` in its two stages."""
+    from .damped_run import update_damped
+
+    kinds = data_kinds(data, o.use)
+    if "frf" in kinds and o.frf.residual == "auto":
+
+        def stage(kind, start, first):
+            std = {k: v for k, v in dict(o.noise.std or {}).items() if not (first and k == "frf")}
+            staged = o.replace(noise=o.noise.replace(std=std or None), frf=o.frf.replace(residual=kind))
+            return update_damped(view, data, staged, params=params, x0=start, values=values)
+
+        return auto_stages(stage, x0, o.solver.regularization is not None)
+    return update_damped(view, data, o, params=params, x0=x0, values=values)
+
+
+def _undamped_with(model, data: TestData, options: UpdateOptions, *, params: Sequence[str] | None = None,
+                   x0: Mapping[str, float] | None = None, values=None) -> UpdateResult:
     o = options
     kinds = data_kinds(data, o.use)
     if o.modal.formulation != "shapes" and "modes" not in kinds:
@@ -222,7 +295,7 @@ def update_with(model, data: TestData, options: UpdateOptions, *, params: Sequen
         def stage(kind, start, first):
             std = {k: v for k, v in dict(o.noise.std or {}).items() if not (first and k == "frf")}
             staged = o.replace(noise=o.noise.replace(std=std or None), frf=o.frf.replace(residual=kind))
-            return update_with(model, data, staged, params=params, x0=start, values=values)
+            return _undamped_with(model, data, staged, params=params, x0=start, values=values)
 
         return auto_stages(stage, x0, regularized)
     if kinds == ("frf",) and data.n_frf_sets == 1:
@@ -369,15 +442,15 @@ def frf_update(model, data, *, params: Sequence[str] | None = None, x0: Mapping[
     NumericalError
         A line on a resonance of the model during the iteration, or the solver failed.
     """
-    problem_args("frf_update", model, data, params=params, x0=x0, values=values, frf=True)
+    view = damped_doors("frf_update", model, data, params=params, x0=x0, values=values, frf=True)
     std_given = shorthand.get("measurement_std")
     if std_given is not None and not isinstance(std_given, Mapping):  # the std of the FRF entries
         shorthand = dict(shorthand, measurement_std={"frf": std_given})
     o = gather("frf_update", shorthand, frf=(FRFOptions, frf), noise=(NoiseOptions, noise),
                solver=(SolverOptions, solver))
     frf_fit(o["frf"], o["noise"], data, "frf_update")
-    res = frf_update_with(model, data, o["frf"], o["noise"], o["solver"], params=params, x0=x0, values=values)
-    return attach(res, model, data, "frf-update")
+    res = frf_update_with(view or model, data, o["frf"], o["noise"], o["solver"], params=params, x0=x0, values=values)
+    return attach(res, view or model, data, "frf-update")
 
 
 def frf_update_with(model, data, frf: FRFOptions, noise: NoiseOptions, solver: SolverOptions, *,
@@ -385,6 +458,15 @@ def frf_update_with(model, data, frf: FRFOptions, noise: NoiseOptions, solver: S
                     values=None) -> FRFUpdateResult:
     """:func:`frf_update` with its options as objects, without the result's context (what each
     start of a multi-start study runs: its result travels back without the model and data)."""
+    from ..damping.view import DampedView
+
+    if isinstance(model, DampedView):  # damping parameters among the unknowns: the damped receptances
+        if not isinstance(data, TestData):
+            data = TestData(frf=data)
+        res = _damped_with(model, data, UpdateOptions(use=("frf",), noise=noise, solver=solver, frf=frf), params=params,
+                           x0=x0, values=values)
+        assert isinstance(res, FRFUpdateResult)
+        return res
     regularized = solver.regularization is not None
     if frf.residual == "auto":
 

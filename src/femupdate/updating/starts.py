@@ -190,11 +190,15 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
     TypeError
         A keyword no option object has.
     """
-    problem_args("multistart", model, data, params=params, values=values)
+    from .run import damped_doors
+
+    view = damped_doors("multistart", model, data, params=params, values=values)
     callable_arg(progress, "progress", "multistart")
     st, ex, rest = _starts_options("multistart", shorthand, starts, execution)
     uo = UpdateOptions.of("multistart", rest, options=options)
     frf_fit(uo.frf, uo.noise, data, "multistart")
+    if view is not None:  # a damped model: the per-start route (the compiled one has no damping)
+        return _damped_multistart(view, data, st, ex, uo, params, values, progress)
     names = tuple(params) if params is not None else tuple(model.parameter_names[j] for j in model.free)
     kinds = data_kinds(data, uo.use)
     batched = st.batched
@@ -233,6 +237,27 @@ def multistart(model, data, starts: StartsOptions | int | None = None, *, params
 
     refused_alike(ms)
     return attach(ms, model, data, "update", damping=_damping_of(uo))
+
+
+def _damped_multistart(view, data, st: StartsOptions, ex: ExecutionOptions, uo: UpdateOptions, params, values,
+                       progress) -> MultiStartResult:
+    """Multi-start of a damped model (:class:`~femupdate.damping.view.DampedView`): one
+    :func:`update` per start (``batched=True`` refused: the compiled route has no damping)."""
+    if st.batched:
+        raise InputError("batched=True: the compiled route does not take damped models (a [damping] table, "
+                         "DampedModel); use batched=False (each start then runs the damped update)")
+    from .damped_run import damped_problem
+
+    names = tuple(params) if params is not None else None
+    if names is None:  # the parameters the damped update moves (the damping ones only with damping data)
+        names = tuple(damped_problem(view, data, uo, None, values=values).names)
+    n_res = residual_count(data)
+    check_count("starts", st.starts, start_bytes(n_res, len(names), False, block_count(data)), "the starts' records")
+    X0 = draw_starts(view, names, st.starts, st.seed, st.log_uniform)
+    ms = run_starts(view, data, names, X0, {"options": uo, "values": values}, starts=st, execution=ex,
+                    progress=Pace("starts", progress))
+    refused_alike(ms)
+    return attach(ms, view, data, "update")
 
 
 def refused_alike(ms: MultiStartResult) -> None:
@@ -473,7 +498,9 @@ def frf_multistart(model, data, starts: StartsOptions | int | None = None, *, pa
     TypeError
         A keyword no option object has.
     """
-    problem_args("frf_multistart", model, data, params=params, values=values, frf=True)
+    from .run import damped_doors
+
+    model = damped_doors("frf_multistart", model, data, params=params, values=values, frf=True) or model
     callable_arg(progress, "progress", "frf_multistart")
     st, ex, rest = _starts_options("frf_multistart", shorthand, starts, execution)
     o = frf_run_options("frf_multistart", rest, data)
