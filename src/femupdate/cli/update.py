@@ -73,21 +73,9 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
                              "re-probed near the answer, not reduced; give one of the two")
         result, res, ms = _reduced(ctx, outputs, model, data, starts, execution, run, values, rom)
     elif box is not None and starts.starts == 1:
-        from ..blackbox import update_black_box
-
-        if execution.scheduler:  # the runs of the command go to the cluster
-            box.scheduler, box.connect_timeout = execution.scheduler, execution.connect_timeout
-        if execution.jobs:
-            box.jobs = execution.jobs
-
-        bb = update_black_box(box, data, params=run.params, values=values, options=run.options)
+        bb = _black_box_update(ctx, box, execution, data, run, values)
         result = res = bb.result
         model = bb.model
-        last = bb.rounds[-1]
-        ctx.console.print(f"black box: {len(bb.rounds)} round(s), {bb.runs} run(s) of the command "
-                          f"({bb.cache_hits} from the cache); at the answer the command's own run and the fitted model "
-                          f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
-                          "(paired frequencies)")
     elif starts.starts == 1 and not execution.scheduler:
         result = res = _update(damped or model, data, params=run.params, values=values, options=run.options)
     else:
@@ -96,15 +84,7 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
                                      progress=tick, options=run.options)
         res = ms.best
     result = result.with_context(damping=run.damping, before=before)
-    payload = result.to_json()
-    report_of: object = result
-    if mapped is not None:  # the map into the result, and the report drawn from it
-        payload["test_points"] = mapped.to_json()
-        if payload.get("expanded_shapes"):  # on the mesh's own dofs, u = T q
-            payload["expanded_shapes"] = [mapped.mesh_shape_json(sh) for sh in payload["expanded_shapes"]]
-        report_of = payload
-    if bb is not None:
-        payload["black_box"] = {"rounds": bb.rounds, "runs": bb.runs, "cache_hits": bb.cache_hits}
+    payload, report_of = _payload(result, mapped, bb)
     if res is None:
         assert ms is not None
         outputs.emit(ctx, payload)
@@ -140,6 +120,38 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
 
         write_uff_modes(outputs.uff_path, model_modes(base, res.parameters), nodes=base.nodes, model_name=model.name)
         ctx.console.print(f"wrote the updated model's modes {outputs.uff_path}")
+
+
+def _black_box_update(ctx: Ctx, box, execution, data, run, values) -> BlackBoxResult:
+    """One start on a ``[blackbox]`` model: updated, its code re-run near the answer (said)."""
+    from ..blackbox import update_black_box
+
+    if execution.scheduler:  # the runs of the command go to the cluster
+        box.scheduler, box.connect_timeout = execution.scheduler, execution.connect_timeout
+    if execution.jobs:
+        box.jobs = execution.jobs
+    bb = update_black_box(box, data, params=run.params, values=values, options=run.options)
+    last = bb.rounds[-1]
+    ctx.console.print(f"black box: {len(bb.rounds)} round(s), {bb.runs} run(s) of the command "
+                      f"({bb.cache_hits} from the cache); at the answer the command's own run and the fitted model "
+                      f"agree to {last['matrix_deviation']:.2g} (matrices) and {last['frequency_deviation']:.2g} "
+                      "(paired frequencies)")
+    return bb
+
+
+def _payload(result, mapped, bb) -> tuple[dict, object]:
+    """The result's JSON with the test points' map and the black box's rounds, and what the
+    report is drawn from (the JSON when there is a map, else the result)."""
+    payload = result.to_json()
+    report_of: object = result
+    if mapped is not None:  # the map into the result, and the report drawn from it
+        payload["test_points"] = mapped.to_json()
+        if payload.get("expanded_shapes"):  # on the mesh's own dofs, u = T q
+            payload["expanded_shapes"] = [mapped.mesh_shape_json(sh) for sh in payload["expanded_shapes"]]
+        report_of = payload
+    if bb is not None:
+        payload["black_box"] = {"rounds": bb.rounds, "runs": bb.runs, "cache_hits": bb.cache_hits}
+    return payload, report_of
 
 
 def _damped_run(damped, mapped, run):
