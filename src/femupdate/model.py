@@ -107,6 +107,21 @@ class Parameter:
             object.__setattr__(self, "prior", prior)
 
 
+def _largest(x: np.ndarray) -> float:
+    """Largest magnitude of ``x`` (0 when empty), without a copy of its absolute values."""
+    return float(max(x.max(), -x.min())) if x.size else 0.0
+
+
+def _symmetric_pattern_close(A: sp.csr_array, tol: float) -> bool:
+    """Whether canonical ``A`` has a symmetric pattern and ``|A - A^T| <= tol`` entry by entry:
+    one transposed copy of the arrays and no difference matrix (False: check the long way)."""
+    T = A.T.tocsr()  # canonical: sorted indices
+    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)):
+        return False
+    step = 1 << 22
+    return all(_largest(A.data[i:i + step] - T.data[i:i + step]) <= tol for i in range(0, A.nnz, step))
+
+
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     if A is None:
         return None
@@ -124,12 +139,14 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
         raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
     if not np.all(np.isfinite(A.data)):
         raise InputError(f"{what} contains NaN or infinite entries")
-    if A.nnz and np.max(np.abs(A.data)) > MAX_MAGNITUDE:
-        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {np.max(np.abs(A.data)):.3g})")
+    scale = _largest(A.data)
+    if scale > MAX_MAGNITUDE:
+        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {scale:.3g})")
     A.sum_duplicates()
     A.eliminate_zeros()
+    if _symmetric_pattern_close(A, 1e-10 * max(scale, 1e-300)):
+        return A
     asym = A - A.T
-    scale = np.max(np.abs(A.data)) if A.nnz else 0.0
     if asym.nnz and np.max(np.abs(asym.data)) > 1e-10 * max(scale, 1e-300):
         rows, cols = asym.nonzero()
         k = int(np.argmax(np.abs(asym.data)))

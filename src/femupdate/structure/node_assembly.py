@@ -22,7 +22,7 @@ from .groups import ElementGroup, NodeDofs
 DIR_CODE = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5, "s": 6}
 _CODE_DIR = {v: k for k, v in DIR_CODE.items()}
 #: elements whose matrices are computed at once (a hexahedron needs ~30 kB while its stack is made)
-CHUNK = 8192
+CHUNK = 2048
 
 
 class DofTable:
@@ -150,7 +150,8 @@ def scatter(B: list, inverse: np.ndarray, unit: np.ndarray, coef: np.ndarray, k:
 
 
 def _direction_entries(B: list, i: int, k: int, r_i: np.ndarray, c_ij: np.ndarray, with_values: bool):
-    """Rows, columns (and values) of the kept entries of direction ``i``'s dof rows, in (block, j) order."""
+    """Rows, columns (and values) of the kept entries of direction ``i``'s dof rows, in (block, j)
+    order, for the blocks ``B`` (component arrays, already restricted to a range of blocks)."""
     comps = [j for j in range(k) if B[k * i + j] is not None]
     if not comps:
         return r_i[:0], r_i[:0], np.empty(0)
@@ -163,34 +164,65 @@ def _direction_entries(B: list, i: int, k: int, r_i: np.ndarray, c_ij: np.ndarra
     return rows, C[keep], V[keep]
 
 
+#: node blocks turned into CSR entries at once (bounds the transient memory of :func:`blocks_to_csr`)
+BLOCK_CHUNK = 1 << 20
+
+
+def _row_chunks(indptr: np.ndarray):
+    """Ranges of node rows ``(u0, u1)`` holding about :data:`BLOCK_CHUNK` blocks each."""
+    n_nodes = len(indptr) - 1
+    u0 = 0
+    while u0 < n_nodes:
+        u1 = int(np.searchsorted(indptr, indptr[u0] + BLOCK_CHUNK, side="right")) - 1
+        u1 = min(max(u1, u0 + 1), n_nodes)
+        yield u0, u1
+        u0 = u1
+
+
 def blocks_to_csr(indptr: np.ndarray, cols: np.ndarray, B: list, D: np.ndarray, n: int) -> sp.csr_array:
     """The ``n x n`` CSR matrix of node blocks ``B`` (per block component, as :func:`scatter`;
     node-pair pattern ``indptr``, ``cols``), node ``u``'s direction ``i`` at model dof ``D[u, i]``
     (-1: dropped).  ``D`` must increase along its rows and then its columns where it is not -1 (dofs
-    sorted by node, then direction), so that the entries come out sorted; exact zeros are left out."""
-    n_nodes, k = D.shape
-    row_node = np.repeat(np.arange(n_nodes), np.diff(indptr))
-    c_ij = D[cols]  # (n_blocks, k)
+    sorted by node, then direction), so that the entries come out sorted; exact zeros are left out.
+    Node rows are taken a range at a time (each dof row lies in one range); ``B`` is consumed (its
+    components set to None as they are written)."""
+    k = D.shape[1]
+    idx_t = np.int32 if n < 2**31 - 1 else np.int64
+    D = D.astype(idx_t)
+
+    def entries(u0, u1, i, with_values):
+        b0, b1 = int(indptr[u0]), int(indptr[u1])
+        row_node = np.repeat(np.arange(u0, u1), np.diff(indptr[u0:u1 + 1]))
+        Bc = [None if x is None else x[b0:b1] for x in B]
+        return _direction_entries(Bc, i, k, D[row_node, i], D[cols[b0:b1]], with_values)
+
     counts = np.zeros(n, np.int64)
-    for i in range(k):  # first pass: the entries of each row
-        rows = _direction_entries(B, i, k, D[row_node, i], c_ij, False)[0]
-        counts += np.bincount(rows, minlength=n)
+    for u0, u1 in _row_chunks(indptr):  # first pass: the entries of each row
+        for i in range(k):
+            rows = entries(u0, u1, i, False)[0]
+            if len(rows):
+                counts[int(rows.min()):int(rows.max()) + 1] += np.bincount(rows - rows.min())
     out_ptr = np.zeros(n + 1, np.int64)
     np.cumsum(counts, out=out_ptr[1:])
+    del counts
     nnz = int(out_ptr[-1])
-    idx_t = np.int32 if max(n, nnz) < 2**31 - 1 else np.int64
+    if nnz >= 2**31 - 1:
+        idx_t = np.int64
     data = np.empty(nnz)
     indices = np.empty(nnz, idx_t)
     for i in range(k):  # each dof row comes from one direction i, its entries contiguous and in order
-        rows, cc, vv = _direction_entries(B, i, k, D[row_node, i], c_ij, True)
-        if not len(rows):
-            continue
-        cnt = np.bincount(rows, minlength=n)
-        first = np.cumsum(cnt) - cnt
-        pos = out_ptr[rows] + (np.arange(len(rows)) - first[rows])
-        data[pos] = vv
-        indices[pos] = cc
-        del pos, first, cnt, rows, cc, vv
+        for u0, u1 in _row_chunks(indptr):
+            rows, cc, vv = entries(u0, u1, i, True)
+            if not len(rows):
+                continue
+            start = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])  # rows are non-decreasing
+            run = np.repeat(start, np.diff(np.r_[start, len(rows)]))
+            pos = out_ptr[rows] + (np.arange(len(rows)) - run)
+            data[pos] = vv
+            indices[pos] = cc
+            del pos, run, start, rows, cc, vv
+        for j in range(k):  # direction i's components are written: free them
+            B[k * i + j] = None
     A = sp.csr_array((data, indices, out_ptr.astype(idx_t)), shape=(n, n))
     A.has_sorted_indices = True
     A.has_canonical_format = True
