@@ -26,6 +26,10 @@ _REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")  # Nastran's 1.-3 f
 
 def real(text: str, what: str) -> float:
     """A Nastran real field (``1.5e3``, ``1.5+3``, ``1.5D3``), refused naming the field."""
+    try:
+        return float(text)  # the common case, first
+    except ValueError:
+        pass
     s = text.strip().upper().replace("D", "E")
     try:
         return float(s)
@@ -65,10 +69,12 @@ def _lines(path: Path, seen: set):
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text bulk-data file") from None
     for no, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("$", 1)[0].rstrip().expandtabs(8)
+        line = (raw.split("$", 1)[0] if "$" in raw else raw).rstrip()
+        if "\t" in line:
+            line = line.expandtabs(8)
         if not line.strip():
             continue
-        if line.upper().startswith("INCLUDE"):
+        if line[:1] in "Ii" and line.upper().startswith("INCLUDE"):
             name = line[7:].strip().strip("'\"")
             yield from _lines(path.parent / name, seen)
             continue
@@ -269,7 +275,10 @@ def _element(name, d, where, elems) -> None:
     ids, pids, conn, _ = elems.setdefault(key, ([], [], [], name))
     ids.append(eid)
     pids.append(pid)
-    conn.append([int_id(x, where) for x in g])
+    try:
+        conn.append([int(x) for x in g])  # the common case, first
+    except ValueError:
+        conn.append([int_id(x, where) for x in g])
 
 
 def _spc1(d, where, mesh) -> None:
