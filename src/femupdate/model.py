@@ -20,7 +20,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ._checks import flag_arg, input_errors, shown, str_arg, strings_arg
+from ._checks import flag_arg, input_errors, largest, shown, str_arg, strings_arg, symmetric_pattern_close
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
@@ -107,21 +107,6 @@ class Parameter:
             object.__setattr__(self, "prior", prior)
 
 
-def _largest(x: np.ndarray) -> float:
-    """Largest magnitude of ``x`` (0 when empty), without a copy of its absolute values."""
-    return float(max(x.max(), -x.min())) if x.size else 0.0
-
-
-def _symmetric_pattern_close(A: sp.csr_array, tol: float) -> bool:
-    """Whether canonical ``A`` has a symmetric pattern and ``|A - A^T| <= tol`` entry by entry:
-    one transposed copy of the arrays and no difference matrix (False: check the long way)."""
-    T = A.T.tocsr()  # canonical: sorted indices
-    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)):
-        return False
-    step = 1 << 22
-    return all(_largest(A.data[i:i + step] - T.data[i:i + step]) <= tol for i in range(0, A.nnz, step))
-
-
 def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
     if A is None:
         return None
@@ -139,12 +124,12 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
         raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
     if not np.all(np.isfinite(A.data)):
         raise InputError(f"{what} contains NaN or infinite entries")
-    scale = _largest(A.data)
+    scale = largest(A.data)
     if scale > MAX_MAGNITUDE:
         raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {scale:.3g})")
     A.sum_duplicates()
     A.eliminate_zeros()
-    if _symmetric_pattern_close(A, 1e-10 * max(scale, 1e-300)):
+    if symmetric_pattern_close(A, 1e-10 * max(scale, 1e-300)):
         return A
     asym = A - A.T
     if asym.nnz and np.max(np.abs(asym.data)) > 1e-10 * max(scale, 1e-300):

@@ -232,7 +232,7 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
         g0 = gs[0]
         props = {k: [v for g in gs for v in g.props[k]] for k in g0.props}
         lazy = all(isinstance(g.labels, NodeDofs) and g.labels.dirs == g0.labels.dirs for g in gs)
-        labels = (NodeDofs(np.concatenate([g.labels.nodes for g in gs]), g0.labels.dirs) if lazy  # type: ignore[union-attr]
+        labels = (NodeDofs(np.concatenate([g.labels.nodes for g in gs]), g0.labels.dirs) if lazy
                   else [row for g in gs for row in g.labels])
         out.append(ElementGroup(
             type=g0.type, props=props, labels=labels,
