@@ -149,3 +149,20 @@ def test_canonical_label_fast_check():
     assert canonical_all(["1:X", " 2 : 3"]) == ("1:x", "2:z")
     with pytest.raises(Exception, match="listed twice"):
         canonical_all(["1:x", "1:x"])
+
+
+def test_symmetry_check_of_a_symmetric_pattern():
+    """The quick check (one transposed copy) passes symmetric matrices and hands an asymmetric
+    one with a symmetric pattern to the full check, which refuses it naming the matrix."""
+    import scipy.sparse as sp
+
+    from femupdate import InputError, Model
+    from femupdate._checks import symmetric_pattern_close
+
+    K = sp.csr_array(np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 2.0]]))
+    assert symmetric_pattern_close(K, 0.0)
+    bad = K.copy()
+    bad.data[1] = -1.001  # the (0, 1) entry: same pattern, values no longer symmetric
+    assert not symmetric_pattern_close(bad, 1e-10 * 2)
+    with pytest.raises(InputError, match="K0 is not symmetric"):
+        Model(dofs=("1:x", "2:x", "3:x"), K0=bad, M0=sp.identity(3, format="csr"))
