@@ -138,11 +138,12 @@ def scatter(B: list, inverse: np.ndarray, unit: np.ndarray, coef: np.ndarray, k:
     if c == 0:
         return
     nn = ne // k
-    vals = (unit * coef[:, None, None]).reshape(c, nn, k, nn, k).transpose(0, 1, 3, 2, 4).reshape(-1, k * k)
+    scaled = unit if np.all(coef == 1.0) else unit * coef[:, None, None]
+    vals = scaled.reshape(c, nn, k, nn, k).transpose(2, 4, 0, 1, 3).reshape(k * k, -1)  # one row per component
     lo, hi = int(inverse.min()), int(inverse.max()) + 1
     loc = inverse - lo
     for j in range(k * k):
-        col = vals[:, j]
+        col = vals[j]
         if np.any(col):
             if B[j] is None:
                 B[j] = np.zeros(n_blocks)
