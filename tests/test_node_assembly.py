@@ -166,3 +166,31 @@ def test_symmetry_check_of_a_symmetric_pattern():
     assert not symmetric_pattern_close(bad, 1e-10 * 2)
     with pytest.raises(InputError, match="K0 is not symmetric"):
         Model(dofs=("1:x", "2:x", "3:x"), K0=bad, M0=sp.identity(3, format="csr"))
+
+
+def test_nastran_grid_and_chexa_common_and_other_forms(tmp_path):
+    """GRID and CHEXA cards read the quick way (plain numbers) and the long way (Nastran reals
+    such as 1.-3, an explicit CP of 0, a blank property id) give the same mesh, in deck order."""
+    from femupdate.mesh import read_mesh
+
+    deck = tmp_path / "two.bdf"
+    deck.write_text(
+        "BEGIN BULK\nMAT1    1       2.1+11          0.3     7850.\nPSOLID  1       1\n"
+        "GRID    1               0.      0.      0.\n"
+        "GRID    2       0       1.-0    0.      \n"  # Nastran real, explicit CP, blank z
+        "GRID    3               1.      1.      0.\n"
+        "GRID,4,,0.,1.,0.\n"
+        "GRID    5               0.      0.      1.\nGRID    6               1.      0.      1.\n"
+        "GRID    7               1.      1.      1.\nGRID    8               0.      1.      1.\n"
+        "GRID    9               2.      0.      0.\nGRID    10              2.      1.      0.\n"
+        "GRID    11              2.      0.      1.\nGRID    12              2.      1.      1.\n"
+        "CHEXA   1       1       1       2       3       4       5       6       +\n+       7       8\n"
+        "CHEXA   2               2       9       10      3       6       11      +\n+       12      7\n"
+        "ENDDATA\n")
+    mesh = read_mesh(deck, "nastran")
+    assert mesh.node_ids.tolist() == list(range(1, 13))
+    np.testing.assert_array_equal(mesh.xyz[:4], [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    (block,) = mesh.blocks
+    assert block.type == "hex8" and block.ids.tolist() == [1, 2]
+    assert block.conn.tolist() == [[1, 2, 3, 4, 5, 6, 7, 8], [2, 9, 10, 3, 6, 11, 12, 7]]
+    assert sorted(mesh.elsets) == ["1", "2"] and mesh.elsets["2"].tolist() == [2]  # blank PID: the element id

@@ -90,8 +90,9 @@ def cards(path) -> list[tuple[str, list[str], str]]:
         lines = lines[begin + 1:]
     out: list[tuple[str, list[str], str]] = []
     width = 8
+    last, fname = None, ""
     for f, no, line in lines:
-        if line.strip().upper().startswith("ENDDATA"):
+        if line[:1] in "Ee " and line.strip().upper().startswith("ENDDATA"):
             break
         head, data, large = _fields(line)
         if head[:1] in ("+", "*") or (head == "" and out):
@@ -103,7 +104,9 @@ def cards(path) -> list[tuple[str, list[str], str]]:
             width = 4 if large else 8
             continue
         width = 4 if large else 8
-        out.append((head.rstrip("*").upper(), data, f"{f.name}:{no}"))
+        if f is not last:
+            last, fname = f, f.name
+        out.append((head.rstrip("*").upper(), data, f"{fname}:{no}"))
     for _, data, _ in out:
         while data and data[-1] == "":
             data.pop()
@@ -127,7 +130,30 @@ def read_nastran(path) -> Mesh:
     frames: dict[str, dict] = {}
     pelas: dict[int, float] = {}
     coupled = False
+    hexes = None
     for name, d, at in cards(path):
+        if name == "GRID" and 3 <= len(d) <= 5 and d[1] in ("", "0"):  # the common GRID, the common way
+            try:
+                xyz = [float(d[k]) if k < len(d) and d[k] else 0.0 for k in (2, 3, 4)]
+                nodes.append(int(d[0]))
+            except ValueError:
+                pass
+            else:
+                coords.append(xyz)
+                cps.append((0, ""))
+                continue
+        elif name == "CHEXA" and len(d) == 10 and d[1]:  # the 8-node CHEXA with its property id
+            try:
+                row = [int(x) for x in d]
+            except ValueError:
+                pass
+            else:
+                if hexes is None:
+                    hexes = elems.setdefault(("hex8", "CHEXA"), ([], [], [], "CHEXA"))
+                hexes[0].append(row[0])
+                hexes[1].append(row[1])
+                hexes[2].append(row[2:])
+                continue
         where = f"{path}: {name} at {at}"
         if name == "GRID":
             gid = int_id(_field(d, 0), where)
