@@ -71,10 +71,12 @@ def assemble(structure) -> Model:
     signatures: dict[tuple, int] = {}  # a product of parameter powers -> its owner id (L, L + 1, ...)
     nodes = node_table(self)
 
-    def D_of(U, dirs):
+    def D_of(U, dirs):  # model dof index of each (node, direction) of a shell or solid group, -1: supported
         c = U[:, None] * 8 + np.array([DIR_CODE[d] for d in dirs])[None]
-        pos = np.minimum(np.searchsorted(codes, c), max(len(codes) - 1, 0))
-        return np.where(len(codes) > 0 and codes[pos] == c, pos, -1) if len(codes) else np.full(c.shape, -1)
+        if not len(codes):
+            return np.full(c.shape, -1, np.int64)
+        pos = np.minimum(np.searchsorted(codes, c), len(codes) - 1)
+        return np.where(codes[pos] == c, pos, -1)
 
     for g in groups:
         resolved = {k: resolve_property(self, g, k, pindex) for k in g.props}
