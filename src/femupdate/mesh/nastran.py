@@ -130,30 +130,9 @@ def read_nastran(path) -> Mesh:
     frames: dict[str, dict] = {}
     pelas: dict[int, float] = {}
     coupled = False
-    hexes = None
     for name, d, at in cards(path):
-        if name == "GRID" and 3 <= len(d) <= 5 and d[1] in ("", "0"):  # the common GRID, the common way
-            try:
-                xyz = [float(d[k]) if k < len(d) and d[k] else 0.0 for k in (2, 3, 4)]
-                nodes.append(int(d[0]))
-            except ValueError:
-                pass
-            else:
-                coords.append(xyz)
-                cps.append((0, ""))
-                continue
-        elif name == "CHEXA" and len(d) == 10 and d[1]:  # the 8-node CHEXA with its property id
-            try:
-                row = [int(x) for x in d]
-            except ValueError:
-                pass
-            else:
-                if hexes is None:
-                    hexes = elems.setdefault(("hex8", "CHEXA"), ([], [], [], "CHEXA"))
-                hexes[0].append(row[0])
-                hexes[1].append(row[1])
-                hexes[2].append(row[2:])
-                continue
+        if _quick(name, d, nodes, coords, cps, elems):
+            continue
         where = f"{path}: {name} at {at}"
         if name == "GRID":
             gid = int_id(_field(d, 0), where)
@@ -223,6 +202,31 @@ def read_nastran(path) -> Mesh:
             prev = mesh.elsets.get(str(p), np.empty(0, np.int64))
             mesh.elsets[str(p)] = np.concatenate([prev, ids_a[pids_a == p]])
     return mesh.check()
+
+
+def _quick(name: str, d: list, nodes: list, coords: list, cps: list, elems: dict) -> bool:
+    """Read a plain GRID (no CP, CD or PS; plain numbers) or an 8-node CHEXA with its property id
+    the quick way; False for any other card or form (the full reading then names any problem)."""
+    if name == "GRID" and 3 <= len(d) <= 5 and d[1] in ("", "0"):
+        try:
+            xyz = [float(d[k]) if k < len(d) and d[k] else 0.0 for k in (2, 3, 4)]
+            nodes.append(int(d[0]))
+        except ValueError:
+            return False
+        coords.append(xyz)
+        cps.append((0, ""))
+        return True
+    if name == "CHEXA" and len(d) == 10 and d[1]:
+        try:
+            row = [int(x) for x in d]
+        except ValueError:
+            return False
+        ids, pids, conn, _ = elems.setdefault(("hex8", "CHEXA"), ([], [], [], "CHEXA"))
+        ids.append(row[0])
+        pids.append(row[1])
+        conn.append(row[2:])
+        return True
+    return False
 
 
 def _frames_and_masses(mesh: Mesh, frames: dict, pelas: dict) -> None:
