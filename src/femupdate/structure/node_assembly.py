@@ -49,6 +49,7 @@ class DofTable:
                 named.add(lab)
         self.codes = np.unique(np.concatenate(code_parts)) if code_parts else np.empty(0, np.int64)
         self.named = sorted(named, key=sort_key)
+        self._named = set(named)
 
     def labels(self) -> list[str]:
         """Every label, in order."""
@@ -65,7 +66,7 @@ class DofTable:
         """Whether ``label`` (canonical) is a dof of the table."""
         node, d = parse_dof(label)
         if not isinstance(node, int):
-            return label in set(self.named)
+            return label in self._named
         c = node * 8 + DIR_CODE[d]
         i = int(np.searchsorted(self.codes, c))
         return i < len(self.codes) and int(self.codes[i]) == c
