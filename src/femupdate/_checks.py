@@ -17,9 +17,12 @@ import os
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 from ._errors import InputError
 
@@ -472,6 +475,21 @@ def options_arg(value: Any, cls: type, name: str, where: str = ""):
     raise TypeError(f"{_at(where)}{name} must be a {cls.__name__} (or a mapping of its fields), got {shown(value)}")
 
 
-__all__ = ["shown", "swapped", "model_arg", "data_arg", "modes_arg", "path_arg", "flag_arg", "count_arg", "real_arg",
+__all__ = ["largest", "symmetric_pattern_close", "shown", "swapped", "model_arg", "data_arg", "modes_arg", "path_arg", "flag_arg", "count_arg", "real_arg",
            "number_arg", "str_arg", "choice_arg", "callable_arg", "mapping_arg", "strings_arg", "params_arg", "x0_arg", "values_arg",
            "as_array", "array_arg", "indices_arg", "bools_arg", "result_arg", "frf_fit", "input_errors", "options_arg", "problem_args", "modes_count"]
+
+
+def largest(x: np.ndarray) -> float:
+    """Largest magnitude of ``x`` (0 when empty), without a copy of its absolute values."""
+    return float(max(x.max(), -x.min())) if x.size else 0.0
+
+
+def symmetric_pattern_close(A: sp.csr_array, tol: float) -> bool:
+    """Whether canonical ``A`` has a symmetric pattern and ``|A - A^T| <= tol`` entry by entry:
+    one transposed copy of the arrays and no difference matrix (False: check the long way)."""
+    T = A.T.tocsr()  # canonical: sorted indices
+    if not (np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices)):
+        return False
+    step = 1 << 22
+    return all(largest(A.data[i:i + step] - T.data[i:i + step]) <= tol for i in range(0, A.nnz, step))

@@ -234,9 +234,23 @@ def canonical_all(labels: Iterable[str], what: str = "dofs") -> tuple[str, ...]:
         A label is malformed, or two labels are the same dof once canonical.
     """
     labels = list(labels)
-    out = tuple(canonical(lab) for lab in labels)
+    if _all_canonical_integer(labels):  # a million-dof mesh's labels: checked at once, already canonical
+        out = tuple(labels)
+    else:
+        out = tuple(canonical(lab) for lab in labels)
     _listed_twice(out, labels, what)
     return out
+
+
+_CANONICAL_INTEGER = re.compile(r"(?:(?:0|-?[1-9][0-9]*):(?:x|y|z|rx|ry|rz|s)\n)*+")  # possessive: one linear pass
+
+
+def _all_canonical_integer(labels: list) -> bool:
+    """Whether every label is a str already in canonical form with an integer node (one regex pass)."""
+    if not all(isinstance(lab, str) for lab in labels):
+        return False
+    text = "\n".join(labels) + "\n"
+    return len(text) > 1 and _CANONICAL_INTEGER.fullmatch(text) is not None and text.count("\n") == len(labels)
 
 
 def is_index(text) -> bool:

@@ -20,7 +20,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ._checks import flag_arg, input_errors, shown, str_arg, strings_arg
+from ._checks import flag_arg, input_errors, largest, shown, str_arg, strings_arg, symmetric_pattern_close
 from ._errors import InputError
 from ._limits import MAX_MAGNITUDE
 from .dofs import canonical_all, describe, index_of
@@ -124,12 +124,14 @@ def _as_csr(A, what: str, n: int | None = None) -> sp.csr_array:
         raise InputError(f"{what} has shape {A.shape}, but the model has {n} dofs")
     if not np.all(np.isfinite(A.data)):
         raise InputError(f"{what} contains NaN or infinite entries")
-    if A.nnz and np.max(np.abs(A.data)) > MAX_MAGNITUDE:
-        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {np.max(np.abs(A.data)):.3g})")
+    scale = largest(A.data)
+    if scale > MAX_MAGNITUDE:
+        raise InputError(f"{what} has entries above {MAX_MAGNITUDE:g} in magnitude (largest {scale:.3g})")
     A.sum_duplicates()
     A.eliminate_zeros()
+    if symmetric_pattern_close(A, 1e-10 * max(scale, 1e-300)):
+        return A
     asym = A - A.T
-    scale = np.max(np.abs(A.data)) if A.nnz else 0.0
     if asym.nnz and np.max(np.abs(asym.data)) > 1e-10 * max(scale, 1e-300):
         rows, cols = asym.nonzero()
         k = int(np.argmax(np.abs(asym.data)))

@@ -107,6 +107,27 @@ def btdb(wd: np.ndarray, B: np.ndarray, D: np.ndarray) -> np.ndarray:
     return np.matmul(B.reshape(n, g * s_, m).transpose(0, 2, 1), DB.reshape(n, g * s_, m))
 
 
+def lame(nu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lamé's lambda and mu for E = 1, per element (the entries of :func:`isotropic_3d`)."""
+    return nu / ((1 + nu) * (1 - 2 * nu)), 1.0 / (2 * (1 + nu))
+
+
+def btdb_isotropic(wd: np.ndarray, G1: np.ndarray, G2: np.ndarray, lam: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """:func:`btdb` for the isotropic D of :func:`isotropic_3d` and B the strain matrices of
+    gradients ``G1`` ``(n, g, n1, 3)`` and ``G2`` ``(n, g, n2, 3)``: ``(n, 3 n1, 3 n2)``, without
+    forming B.  Block (a, b), entry (i, j): sum_g wd (lam G1_ai G2_bj + mu G1_aj G2_bi + mu delta_ij
+    G1_a . G2_b) — a product over the g points instead of the 6 g strain components."""
+    n, g, n1, _ = G1.shape
+    n2 = G2.shape[2]
+    P = np.matmul((G1 * wd[:, :, None, None]).reshape(n, g, 3 * n1).transpose(0, 2, 1),
+                  G2.reshape(n, g, 3 * n2)).reshape(n, n1, 3, n2, 3)
+    muS = mu[:, None, None] * np.einsum("naibi->nab", P)
+    K = lam[:, None, None, None, None] * P + mu[:, None, None, None, None] * P.transpose(0, 1, 4, 3, 2)
+    for i in range(3):
+        K[:, :, i, :, i] += muS
+    return K.reshape(n, 3 * n1, 3 * n2)
+
+
 def hrz_lump(M: np.ndarray, blocks: list[list[int]]) -> np.ndarray:
     """HRZ (Hinton-Rock-Zienkiewicz 1976) diagonal lumping of consistent mass stacks.
 

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import ElementTerms
-from ._common import (bad_jacobian, btdb, check_mass_kind, coords, duffy_tet, expand_scalar, gauss_hex, hrz_lump,
-                      isotropic_3d, poisson)
+from ._common import (bad_jacobian, btdb_isotropic, check_mass_kind, coords, duffy_tet, expand_scalar, gauss_hex,
+                      hrz_lump, lame, poisson)
 
 HEX8_CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                          [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
@@ -95,19 +95,22 @@ def strain_matrix(dNdx: np.ndarray) -> np.ndarray:
 
 
 def _jacobian(X: np.ndarray, dN: np.ndarray, what: str):
-    J = np.einsum("gai,naj->ngij", dN, X)
+    J = np.matmul(dN.transpose(0, 2, 1)[None], X[:, None])  # J[n, g, i, j] = sum_a dN[g, a, i] X[n, a, j]
     detJ = np.linalg.det(J)
     bad_jacobian(detJ, what)
     return J, detJ
 
 
-def _stiffness(X, dN, W, D, what):
-    """sum_g w det J B^T D B for E = 1, and the parts needed by the incompatible modes."""
+def _stiffness(X, dN, W, nu, what):
+    """sum_g w det J B^T D B for E = 1 (isotropic D), and the parts needed by the incompatible modes."""
     J, detJ = _jacobian(X, dN, what)
-    dNdx = np.einsum("ngij,gaj->ngai", np.linalg.inv(J), dN)
-    B = strain_matrix(dNdx)
-    K = btdb(W[None] * detJ, B, D)
-    return K, B, J, detJ
+    # the gradients dN_a/dx = J^-1 dN_a/dxi (J[i, j] = dx_j/dxi_i)
+    dNt = dN.transpose(0, 2, 1)  # (g, 3, a)
+    G = np.linalg.solve(J, np.broadcast_to(dNt[None], (len(X), *dNt.shape)))
+    G = G.transpose(0, 1, 3, 2)  # (n, g, a, 3)
+    lam, mu = lame(nu)
+    K = btdb_isotropic(W[None] * detJ, G, G, lam, mu)
+    return K, G, J, detJ
 
 
 def _scalar_mass(X, N, dN, W, what):
@@ -157,10 +160,10 @@ def hex8_terms(xyz, nu, mass: str = "consistent", incompatible: bool = True) -> 
     """
     check_mass_kind(mass)
     X = coords(xyz, (8,), "hex8")
-    D = isotropic_3d(poisson(nu, len(X)))
+    nu = poisson(nu, len(X))
     P, W = gauss_hex(2)
     N, dN = hex8_shape(P)
-    K, Bu, J, detJ = _stiffness(X, dN, W, D, "hex8")
+    K, G, J, detJ = _stiffness(X, dN, W, nu, "hex8")
     if incompatible:
         _, dN0 = hex8_shape(np.zeros((1, 3)))
         J0 = np.einsum("ai,naj->nij", dN0[0], X)
@@ -168,11 +171,10 @@ def hex8_terms(xyz, nu, mass: str = "consistent", incompatible: bool = True) -> 
         # dP_k/dxi_i = -2 xi_k delta_ik at each Gauss point: (g, 3 modes, 3 natural directions)
         dPdxi = np.einsum("gk,ki->gki", -2 * P, np.eye(3))
         dPdx = np.einsum("nij,gkj->ngki", np.linalg.inv(J0), dPdxi) * (det0[:, None] / detJ)[:, :, None, None]
-        Ba = strain_matrix(dPdx)
         wd = W[None] * detJ
-        DBa = np.matmul(D[:, None], Ba) * wd[:, :, None, None]
-        Kua = np.matmul(Bu.reshape(len(X), -1, 24).transpose(0, 2, 1), DBa.reshape(len(X), -1, 9))
-        Kaa = btdb(wd, Ba, D)
+        lam, mu = lame(nu)
+        Kua = btdb_isotropic(wd, G, dPdx, lam, mu)
+        Kaa = btdb_isotropic(wd, dPdx, dPdx, lam, mu)
         K = K - Kua @ np.linalg.solve(Kaa, Kua.transpose(0, 2, 1))
         K = 0.5 * (K + K.transpose(0, 2, 1))
     m = _scalar_mass(X, N, dN, W, "hex8")
@@ -204,10 +206,9 @@ def tet4_terms(xyz, nu, mass: str = "consistent") -> ElementTerms:
     """
     check_mass_kind(mass)
     X = coords(xyz, (4,), "tet4")
-    D = isotropic_3d(poisson(nu, len(X)))
     P, W = np.full((1, 3), 0.25), np.array([1.0 / 6.0])
     N, dN = tet_shape(P, quadratic=False)
-    K = _stiffness(X, dN, W, D, "tet4")[0]
+    K = _stiffness(X, dN, W, poisson(nu, len(X)), "tet4")[0]
     Pm, Wm = duffy_tet(3)
     Nm, dNm = tet_shape(Pm, quadratic=False)
     m = _scalar_mass(X, Nm, dNm, Wm, "tet4")
@@ -242,9 +243,8 @@ def tet10_terms(xyz, nu, mass: str = "consistent") -> ElementTerms:
     """
     check_mass_kind(mass)
     X = coords(xyz, (10,), "tet10")
-    D = isotropic_3d(poisson(nu, len(X)))
     N, dN = tet_shape(TET4_POINTS, quadratic=True)
-    K = _stiffness(X, dN, TET4_WEIGHTS, D, "tet10")[0]
+    K = _stiffness(X, dN, TET4_WEIGHTS, poisson(nu, len(X)), "tet10")[0]
     Pm, Wm = duffy_tet(4)
     Nm, dNm = tet_shape(Pm, quadratic=True)
     m = _scalar_mass(X, Nm, dNm, Wm, "tet10")

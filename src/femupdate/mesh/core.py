@@ -149,6 +149,10 @@ class Mesh:
 def int_id(text: str, what: str) -> int:
     """An id field as an int, refused naming the field as written."""
     try:
+        return int(text)  # the common case, first
+    except ValueError:
+        pass
+    try:
         v = float(text) if "." in text or "e" in text.lower() else int(text)
     except ValueError:
         raise InputError(f"{what}: {text!r} is not an id") from None

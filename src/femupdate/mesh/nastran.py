@@ -26,6 +26,10 @@ _REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")  # Nastran's 1.-3 f
 
 def real(text: str, what: str) -> float:
     """A Nastran real field (``1.5e3``, ``1.5+3``, ``1.5D3``), refused naming the field."""
+    try:
+        return float(text)  # the common case, first
+    except ValueError:
+        pass
     s = text.strip().upper().replace("D", "E")
     try:
         return float(s)
@@ -65,10 +69,12 @@ def _lines(path: Path, seen: set):
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text bulk-data file") from None
     for no, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("$", 1)[0].rstrip().expandtabs(8)
+        line = (raw.split("$", 1)[0] if "$" in raw else raw).rstrip()
+        if "\t" in line:
+            line = line.expandtabs(8)
         if not line.strip():
             continue
-        if line.upper().startswith("INCLUDE"):
+        if line[:1] in "Ii" and line.upper().startswith("INCLUDE"):
             name = line[7:].strip().strip("'\"")
             yield from _lines(path.parent / name, seen)
             continue
@@ -84,8 +90,9 @@ def cards(path) -> list[tuple[str, list[str], str]]:
         lines = lines[begin + 1:]
     out: list[tuple[str, list[str], str]] = []
     width = 8
+    last, fname = None, ""
     for f, no, line in lines:
-        if line.strip().upper().startswith("ENDDATA"):
+        if line[:1] in "Ee " and line.strip().upper().startswith("ENDDATA"):
             break
         head, data, large = _fields(line)
         if head[:1] in ("+", "*") or (head == "" and out):
@@ -97,7 +104,9 @@ def cards(path) -> list[tuple[str, list[str], str]]:
             width = 4 if large else 8
             continue
         width = 4 if large else 8
-        out.append((head.rstrip("*").upper(), data, f"{f.name}:{no}"))
+        if f is not last:
+            last, fname = f, f.name
+        out.append((head.rstrip("*").upper(), data, f"{fname}:{no}"))
     for _, data, _ in out:
         while data and data[-1] == "":
             data.pop()
@@ -122,6 +131,8 @@ def read_nastran(path) -> Mesh:
     pelas: dict[int, float] = {}
     coupled = False
     for name, d, at in cards(path):
+        if _quick(name, d, nodes, coords, cps, elems):
+            continue
         where = f"{path}: {name} at {at}"
         if name == "GRID":
             gid = int_id(_field(d, 0), where)
@@ -191,6 +202,31 @@ def read_nastran(path) -> Mesh:
             prev = mesh.elsets.get(str(p), np.empty(0, np.int64))
             mesh.elsets[str(p)] = np.concatenate([prev, ids_a[pids_a == p]])
     return mesh.check()
+
+
+def _quick(name: str, d: list, nodes: list, coords: list, cps: list, elems: dict) -> bool:
+    """Read a plain GRID (no CP, CD or PS; plain numbers) or an 8-node CHEXA with its property id
+    the quick way; False for any other card or form (the full reading then names any problem)."""
+    if name == "GRID" and 3 <= len(d) <= 5 and d[1] in ("", "0"):
+        try:
+            xyz = [float(d[k]) if k < len(d) and d[k] else 0.0 for k in (2, 3, 4)]
+            nodes.append(int(d[0]))
+        except ValueError:
+            return False
+        coords.append(xyz)
+        cps.append((0, ""))
+        return True
+    if name == "CHEXA" and len(d) == 10 and d[1]:
+        try:
+            row = [int(x) for x in d]
+        except ValueError:
+            return False
+        ids, pids, conn, _ = elems.setdefault(("hex8", "CHEXA"), ([], [], [], "CHEXA"))
+        ids.append(row[0])
+        pids.append(row[1])
+        conn.append(row[2:])
+        return True
+    return False
 
 
 def _frames_and_masses(mesh: Mesh, frames: dict, pelas: dict) -> None:
@@ -269,7 +305,10 @@ def _element(name, d, where, elems) -> None:
     ids, pids, conn, _ = elems.setdefault(key, ([], [], [], name))
     ids.append(eid)
     pids.append(pid)
-    conn.append([int_id(x, where) for x in g])
+    try:
+        conn.append([int(x) for x in g])  # the common case, first
+    except ValueError:
+        conn.append([int_id(x, where) for x in g])
 
 
 def _spc1(d, where, mesh) -> None:

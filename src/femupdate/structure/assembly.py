@@ -16,13 +16,40 @@ from .. import elements as el
 from .. import elements_3d as e3
 from .._errors import InputError
 from .._limits import MAX_MAGNITUDE
-from ..dofs import describe, parse_dof, sort_key
+from ..dofs import describe
 from ..coefficients import Power, Term
 from ..model import Model
 from ..constraints import reduce_model, transformation
-from .groups import SHELLS, SOLIDS, ElementGroup, merge_groups, triplets
+from .groups import SHELLS, SOLIDS, ElementGroup, NodeDofs, merge_groups, triplets
+from .node_assembly import DIR_CODE, DofTable, assemble_node_group
 from .links import constraint_rows, offset_terms, point_mass_terms, supported_rows
 from .units import parameter_units
+
+
+def _free_dofs(self, groups):
+    """The dof table, the constraint rows (and their sources), the free codes and named labels."""
+    table = DofTable(groups)
+    rows: dict = {}
+    source: dict = {}
+    if self.constraints:  # rigid links and ties: the independent dofs no element uses join the model
+        rows, source, extra = constraint_rows(self, set(table.labels()))
+        table = DofTable(groups, extra)
+    unknown_sup = [d for d in self.supports if not table.contains(d)]
+    if unknown_sup:
+        raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
+    used_nodes = table.nodes()
+    missing_nodes = [n for n in self.support_nodes if n not in used_nodes]
+    if missing_nodes:
+        raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
+    fixed_codes, fixed_named = table.fixed(self.supports, self.support_nodes)
+    if rows:
+        fixed = set(table.labels_of(table.codes[fixed_codes])) | fixed_named
+        supported_rows(rows, source, fixed)
+    codes = table.codes[~fixed_codes]
+    named = [lab for lab in table.named if lab not in fixed_named]
+    if not len(codes) and not named:
+        raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
+    return table, rows, source, codes, named, used_nodes
 
 
 def assemble(structure) -> Model:
@@ -32,38 +59,33 @@ def assemble(structure) -> Model:
     if not self.groups:
         raise InputError(f"structure {self.name!r} has no elements")
     groups = merge_groups(self.groups)
-    all_labels = sorted({lab for g in groups for row in g.labels for lab in row}, key=sort_key)
-    rows: dict = {}
-    if self.constraints:  # rigid links and ties: the independent dofs no element uses join the model
-        rows, source, extra = constraint_rows(self, set(all_labels))
-        all_labels = sorted(set(all_labels) | extra, key=sort_key)
-    present = set(all_labels)
-    unknown_sup = [d for d in self.supports if d not in present]
-    if unknown_sup:
-        raise InputError(f"support dof(s) not used by any element: {describe(unknown_sup)}")
-    node_of = {lab: parse_dof(lab)[0] for lab in all_labels}
-    used_nodes = set(node_of.values())
-    missing_nodes = [n for n in self.support_nodes if n not in used_nodes]
-    if missing_nodes:
-        raise InputError(f"support node(s) not used by any element: {missing_nodes[:8]}")
-    sup_nodes = set(self.support_nodes)
-    fixed = set(self.supports) | {lab for lab, nd in node_of.items() if nd in sup_nodes}
-    if rows:
-        supported_rows(rows, source, fixed)
-    dofs = [lab for lab in all_labels if lab not in fixed]
-    if not dofs:
-        raise InputError(f"structure {self.name!r}: every dof is supported; nothing is free")
-    index = {lab: i for i, lab in enumerate(dofs)}
+    table, rows, source, codes, named, used_nodes = _free_dofs(self, groups)
+    dofs = table.labels_of(codes) + named
+    named_index = {lab: len(codes) + i for i, lab in enumerate(named)}
     pnames = list(self.parameters)
     pindex = {n: j for j, n in enumerate(pnames)}
     L, n = len(pnames), len(dofs)
     trip: dict[tuple[str, int], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
         (target, t): [] for target in ("K", "M") for t in range(-1, L)}  # every K key, then every M key
+    blocks: dict[tuple[str, int], list] = {}  # CSR parts of the shell and solid groups
     signatures: dict[tuple, int] = {}  # a product of parameter powers -> its owner id (L, L + 1, ...)
+    nodes = node_table(self)
+
+    def D_of(U, dirs):  # model dof index of each (node, direction) of a shell or solid group, -1: supported
+        c = U[:, None] * 8 + np.array([DIR_CODE[d] for d in dirs])[None]
+        if not len(codes):
+            return np.full(c.shape, -1, np.int64)
+        pos = np.minimum(np.searchsorted(codes, c), len(codes) - 1)
+        return np.where(codes[pos] == c, pos, -1)
+
     for g in groups:
-        terms = element_terms(self, g)
-        idx = np.array([[index.get(lab, -1) for lab in row] for row in g.labels], dtype=np.int64)
         resolved = {k: resolve_property(self, g, k, pindex) for k in g.props}
+        if isinstance(g.labels, NodeDofs):
+            assemble_node_group(g, lambda h: element_terms(self, h, nodes=nodes),
+                                lambda f, g=g, r=resolved: combine_factors(self, g, f, r, signatures, L), D_of, n, blocks)
+            continue
+        terms = element_terms(self, g, nodes=nodes)
+        idx = table.index_rows(g.labels, codes, named_index)
         for target, tlist in (("K", terms.K), ("M", terms.M)):
             for factors, unit in tlist:
                 coef, pid = combine_factors(self, g, factors, resolved, signatures, L)
@@ -72,16 +94,8 @@ def assemble(structure) -> Model:
     for target in ("K", "M"):
         for t in range(L, L + len(signatures)):
             trip.setdefault((target, t), [])
-    for (target, t), parts in trip.items():
-        if not parts:
-            mats[(target, t)] = None
-            continue
-        r = np.concatenate([p[0] for p in parts])
-        c = np.concatenate([p[1] for p in parts])
-        v = np.concatenate([p[2] for p in parts])
-        A = sp.coo_array((v, (r, c)), shape=(n, n)).tocsr()
-        A.sum_duplicates()
-        mats[(target, t)] = A
+    for key, parts in trip.items():
+        mats[key] = _sum(parts, blocks.pop(key, []), n)
     zero = sp.csr_array((n, n))
     K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
     M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
@@ -94,7 +108,7 @@ def assemble(structure) -> Model:
         name=self.name, nodes={k: v for k, v in self.nodes.items() if k in used_nodes},
         terms=tuple(Term(factors=tuple(Power(pnames[j], a) for j, a in sig), K=mats[("K", t)], M=mats[("M", t)])
                     for sig, t in signatures.items()),
-        positive=frozenset(v for g in groups for vals in g.props.values() for v in vals if isinstance(v, str)),
+        positive=frozenset(v for g in groups for vals in g.props.values() for v in set(vals) if isinstance(v, str)),
     )
     if not rows:
         return model
@@ -104,10 +118,36 @@ def assemble(structure) -> Model:
     return reduce_model(model, T, kept, dep, [source[dofs[i]] for i in dep])
 
 
-def _coords(self, g: ElementGroup) -> np.ndarray:
-    """Node coordinates of a group's elements, ``(n_el, n_nodes, 3)``."""
+def _sum(parts, csr_parts, n):
+    """One CSR matrix of COO triplet parts and CSR parts (None when both are empty)."""
+    A = None
+    if parts:
+        r = np.concatenate([p[0] for p in parts])
+        c = np.concatenate([p[1] for p in parts])
+        v = np.concatenate([p[2] for p in parts])
+        A = sp.coo_array((v, (r, c)), shape=(n, n)).tocsr()
+        A.sum_duplicates()
+    for B in csr_parts:
+        A = B if A is None else A + B
+    return A
+
+
+def node_table(self) -> tuple[np.ndarray, np.ndarray]:
+    """Node ids (sorted) and their coordinates ``(n, 3)``."""
+    ids = np.fromiter(self.nodes.keys(), np.int64, len(self.nodes))
+    xyz = np.array(list(self.nodes.values()), dtype=float).reshape(-1, 3)
+    o = np.argsort(ids)
+    return ids[o], xyz[o]
+
+
+def _coords(self, g: ElementGroup, nodes=None) -> np.ndarray:
+    """Node coordinates of a group's elements, ``(n_el, n_nodes, 3)``; ``nodes``: :func:`node_table`."""
     if g.nodes is None:  # spring and mass groups have no end nodes; _terms does not ask for theirs
         raise TypeError(f"{g.where[0]}: a {g.type} group has no end nodes")
+    if nodes is not None and len(nodes[0]):
+        pos = np.minimum(np.searchsorted(nodes[0], g.nodes), len(nodes[0]) - 1)
+        if np.all(nodes[0][pos] == g.nodes):
+            return nodes[1][pos]
     ids = np.unique(g.nodes)
     missing = [int(i) for i in ids if int(i) not in self.nodes]
     if missing:
@@ -115,9 +155,10 @@ def _coords(self, g: ElementGroup) -> np.ndarray:
         raise InputError(f"{g.where[k]}: node(s) {missing[:8]} are not defined in the node table")
     return np.array([self.nodes[int(a)] for a in g.nodes.ravel()]).reshape(*g.nodes.shape, 3)
 
-def element_terms(self, g: ElementGroup, xa=None, xb=None) -> el.ElementTerms:
+def element_terms(self, g: ElementGroup, xa=None, xb=None, nodes=None) -> el.ElementTerms:
     """The element terms of a group (its element type's stacks); ``xa``, ``xb``: a line group's
-    end points when they are not its nodes (offset ends)."""
+    end points when they are not its nodes (offset ends); ``nodes``: :func:`node_table`, to look
+    the coordinates up in."""
     n_el = len(g.labels)
     if g.type == "spring":
         return el.spring_terms(n_el, grounded=len(g.labels[0]) == 1)
@@ -127,7 +168,7 @@ def element_terms(self, g: ElementGroup, xa=None, xb=None) -> el.ElementTerms:
         assert g.data is not None  # the offset and inertia of each point mass
         return point_mass_terms(g.data, len(g.labels[0]))
     if xa is None:
-        xyz = _coords(self, g)
+        xyz = _coords(self, g, nodes)
         xa, xb = xyz[:, 0], xyz[:, -1]
     if g.data is not None and g.type in ("frame3d", "frame3d_terms"):  # rigid end offsets
         oa, ob = g.data[:, :3], g.data[:, 3:]

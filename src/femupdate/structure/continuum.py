@@ -9,9 +9,8 @@ import math
 import numpy as np
 
 from .._errors import InputError
-from ..dofs import dof
 from ..elements_3d.shells import DRILL
-from .groups import NODE_DIRS, SHELLS, SOLIDS, mass_kind
+from .groups import NODE_DIRS, SHELLS, SOLIDS, NodeDofs, mass_kind
 
 def element_nodes(nodes, counts: dict[str, int], kind: str, where: str) -> tuple[str, np.ndarray]:
     """Element type (by node count) and the ``(n_el, n_nodes)`` integer node array."""
@@ -71,7 +70,7 @@ def add_solid(s, nodes, E, nu, rho, mass, where) -> None:
 
 def _add(s, type_, arr, props, nu, mass, where, drill) -> None:
     dirs = NODE_DIRS[type_]
-    labels = [[dof(int(a), d) for a in row for d in dirs] for row in arr]
+    labels = NodeDofs(arr, dirs)
     nu_arr = poisson_ratio(nu, len(arr), where)
     s._add(type_, labels, props, where, nodes=arr, mass=mass_kind(mass, where), nu=nu_arr, drill=drill)
 

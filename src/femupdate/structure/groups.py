@@ -63,6 +63,38 @@ NODE_DIRS = {
 ELEMENT_TYPES = tuple(PROPS)
 
 
+class NodeDofs:
+    """The dof labels of like elements, made when asked: element ``i``'s labels are
+    ``"<node>:<dir>"`` for each of its nodes ``nodes[i]`` and each direction of ``dirs``, node by
+    node.  A sequence of lists of str, as :attr:`ElementGroup.labels` (shells and solids keep
+    their labels this way: a million-dof mesh has no ten million label strings to make)."""
+
+    def __init__(self, nodes: np.ndarray, dirs: tuple[str, ...]):
+        self.nodes = np.asarray(nodes, dtype=np.int64)
+        self.dirs = tuple(dirs)
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    def _row(self, i) -> list[str]:
+        return [f"{a}:{d}" for a in self.nodes[i].tolist() for d in self.dirs]
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._row(k) for k in range(*i.indices(len(self)))]
+        return self._row(i)
+
+    def __iter__(self):
+        for row in self.nodes.tolist():
+            yield [f"{a}:{d}" for a in row for d in self.dirs]
+
+    def __eq__(self, other):
+        return list(self) == list(other)
+
+    def __repr__(self) -> str:
+        return f"NodeDofs({len(self)} elements, dirs {self.dirs})"
+
+
 @dataclass
 class ElementGroup:
     """Like elements added together: one type, mass kind and number of dofs per element.
@@ -98,7 +130,7 @@ class ElementGroup:
 
     type: str
     props: dict[str, list]  # property -> per-element list of float | str
-    labels: list[list[str]]  # per-element dof labels
+    labels: list[list[str]] | NodeDofs  # per-element dof labels
     nodes: np.ndarray | None = None  # (n_el, 2) node ids
     mass: str = "consistent"
     dim: int = 3
@@ -199,8 +231,11 @@ def merge_groups(groups: list[ElementGroup]) -> list[ElementGroup]:
             continue
         g0 = gs[0]
         props = {k: [v for g in gs for v in g.props[k]] for k in g0.props}
+        lazy = all(isinstance(g.labels, NodeDofs) and g.labels.dirs == g0.labels.dirs for g in gs)
+        labels = (NodeDofs(np.concatenate([g.labels.nodes for g in gs]), g0.labels.dirs) if lazy
+                  else [row for g in gs for row in g.labels])
         out.append(ElementGroup(
-            type=g0.type, props=props, labels=[row for g in gs for row in g.labels],
+            type=g0.type, props=props, labels=labels,
             nodes=None if g0.nodes is None else np.concatenate([g.nodes for g in gs]),
             mass=g0.mass, dim=g0.dim,
             orientation=None if g0.orientation is None else np.concatenate([g.orientation for g in gs]),
@@ -244,5 +279,5 @@ def triplets(trip, target, unit, idx, coef, pid) -> None:
         trip.setdefault((target, int(t)), []).append((r[sel], c[sel], v[sel]))
 
 
-__all__ = ["MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "EDGES", "node_pairs", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
+__all__ = ["NodeDofs", "MASS_KINDS", "PROPS", "SHELLS", "SOLIDS", "EDGES", "node_pairs", "BENDING", "NODE_DIRS", "ELEMENT_TYPES", "ElementGroup", "per_element", "mass_kind",
            "merge_groups", "triplets"]

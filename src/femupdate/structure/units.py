@@ -75,6 +75,11 @@ def parameter_units(groups, names: Iterable[str]) -> dict[str, str]:
     seen: dict[str, set[str]] = {n: set() for n in names}
     for g in groups:
         for prop, values in g.props.items():
+            if g.type not in ("spring", "mass"):  # the unit does not depend on the element's dofs
+                for v in set(values):
+                    if isinstance(v, str) and v in seen:
+                        seen[v].add(property_unit(g.type, prop))
+                continue
             for i, v in enumerate(values):
                 if isinstance(v, str) and v in seen:
                     seen[v].add(property_unit(g.type, prop, g.labels[i]))
