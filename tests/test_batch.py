@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import heavy
 from scipy.optimize import least_squares
 
 from femupdate import InputError, MeasuredMode, NumericalError, Structure, TestData, model_modes
@@ -396,6 +397,7 @@ print(json.dumps({"converged": ms.converged,
 """
 
 
+@heavy  # a second full compilation on an empty cache (about a minute); every other test here runs the compiled code
 def test_first_solve_compiles_every_function_once(tmp_path):
     """On an empty cache, the functions compiled ahead of solve_rows (kernel.build; trf's in a
     second process) have the very types solve_rows calls them with: solve_rows loads trf's from

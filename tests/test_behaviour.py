@@ -27,6 +27,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import heavy
 from femupdate.cli import main
 
 HERE = Path(__file__).resolve().parent / "behaviour"
@@ -117,7 +118,13 @@ def compare(expected, actual, path: str, out: list[str], portable: bool = False)
         out.append(f"{path}: {_fmt(expected)} vs {_fmt(actual)}")
 
 
-@pytest.mark.parametrize("fname", sorted(MANIFEST["entries"]))
+#: entries run only with FEMUPDATE_HEAVY=1: `femupdate paper` whole (about 90 s; tests/test_paper.py
+#: checks every section's answers against the paper in every run)
+HEAVY_ENTRIES = frozenset({"paper.json"})
+
+
+@pytest.mark.parametrize("fname", [pytest.param(n, marks=heavy) if n in HEAVY_ENTRIES else n
+                                   for n in sorted(MANIFEST["entries"])])
 def test_command_reproduces_recorded_json(fname, ex, tmp_path, capsys, monkeypatch):
     entry = MANIFEST["entries"][fname]
     assert entry["command"][:3] == ["python", "-m", "femupdate"]

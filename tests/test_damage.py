@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicHermiteSpline
 
+from conftest import heavy
 from femupdate import InputError, Structure, model_modes
 from femupdate.cli import main
 from femupdate.damage import check_baseline, detect_damage, element_parameters, l1_solve
@@ -532,6 +533,7 @@ def test_cli_fullfield(tmp_path, capsys, beam):
 
 
 # ============================================================================== benchmark smoke test
+@heavy  # 40 s: six scenarios of three families in a subprocess; the method itself is tested above
 def test_bench_damage_quick_runs(tmp_path):
     out = tmp_path / "bench.json"
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_damage.py"), "--quick", "--jobs", "1",
