@@ -111,13 +111,20 @@ class DamageUnknowns:
     notes: list[str] = field(default_factory=list)
 
 
+def enters_mass(model: Model, j: int) -> bool:
+    """Whether parameter ``j`` enters the mass matrix: linearly, or through a non-linear term (a shell
+    thickness: ρ t)."""
+    name = model.parameter_names[j]
+    return model.dM[j] is not None or any(t.M is not None and name in t.parameters for t in model.terms)
+
+
 def stiffness_unknowns(model: Model) -> tuple[list[str], list[str]]:
     """(free parameters entering K only, free parameters entering M) of ``model``."""
     k_only: list[str] = []
     in_m: list[str] = []
     for j in model.free:
         name = model.parameter_names[j]
-        (in_m if model.dM[j] is not None else k_only).append(name)
+        (in_m if enters_mass(model, int(j)) else k_only).append(name)
     return k_only, in_m
 
 
