@@ -34,6 +34,8 @@ TRUTH = {"plate": {"t_left": 3.3e-3, "E_middle": 66e9, "E_right": 74e9},
          "bracket": {"E_root": 190e9, "E_corner": 212e9, "E_upright": 205e9}}
 #: the damaged structure: these moduli times these factors (on top of TRUTH)
 DAMAGE = {"plate": {"E_right": 0.85}, "box": {"E_walls_y": 0.85}, "bracket": {"E_upright": 0.85}}
+#: the noise the test data state (the values themselves are noise-free): relative frequency std, shape std
+STD_FREQUENCY, STD_SHAPE = 0.002, 0.01
 N_MODES = {"plate": 6, "box": 6, "bracket": 6}
 
 
@@ -245,13 +247,14 @@ def sensors(name: str, model) -> list[str]:
 
 
 def simulate(model, values, dofs, n_modes: int) -> dict:
-    """Noise-free test data (JSON object) of ``model`` at ``values``: frequencies, shapes at ``dofs``."""
+    """Noise-free test data (JSON object) of ``model`` at ``values``: frequencies, shapes at ``dofs``
+    (mass-normalised), each mode stating :data:`STD_FREQUENCY` and :data:`STD_SHAPE`."""
     from ..modal import model_modes
 
     m = model_modes(model, values, n_modes=n_modes)
     pos = model.dof_index(dofs)
-    modes = [{"frequency_hz": float(f), "shape": {d: float(v) for d, v in zip(dofs, m.shapes[pos, i])}}
-             for i, f in enumerate(m.frequencies_hz)]
+    modes = [{"frequency_hz": float(f), "shape": {d: float(v) for d, v in zip(dofs, m.shapes[pos, i])},
+              "std_frequency": STD_FREQUENCY, "std_shape": STD_SHAPE} for i, f in enumerate(m.frequencies_hz)]
     return {"modes": modes, "sensors": list(dofs)}
 
 
