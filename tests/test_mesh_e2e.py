@@ -144,4 +144,44 @@ def test_thickness_of_a_mesh_set_is_a_parameter(tmp_path):
         load_model(path)
 
 
+def _figure_faces(name, tmp_path):
+    """The shaded polygons of the first mode's figure of example ``name`` (as the report draws it)."""
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from femupdate.cli._common import model_segments
+    from femupdate.modal import model_modes
+    from femupdate.plot.shapes import mode_shape_axes
+
+    path = write_example(name, tmp_path, data=False)
+    model = load_model(path)
+    ax = mode_shape_axes(model, model_modes(model, n_modes=1).shapes[:, 0], segments=model_segments(path))
+    ax.figure.canvas.draw()  # a 3-D collection projects its polygons when drawn
+    polys = [c for c in ax.collections if isinstance(c, Poly3DCollection)]
+    plt.close(ax.figure)
+    assert len(polys) == 1
+    return polys[0]
+
+
+def test_shapes_drawn_as_surfaces_on_the_mesh(tmp_path):
+    """The box: one shaded polygon per shell (96 triangles, 112 quadrilaterals); the bracket: its outer
+    surface, whose area is the L-section's two faces and its perimeter times the depth."""
+    box = _figure_faces("box", tmp_path / "box")
+    assert len(box.get_paths()) == 96 + 112
+    from femupdate.fullfield import structure_segments
+    from femupdate.io.model_file import read_toml
+    from femupdate.structure import Structure
+
+    path = write_example("bracket", tmp_path / "bracket", data=False)
+    faces = structure_segments(Structure.from_dict(read_toml(path), source=str(path))).faces
+    model = load_model(path)
+    area = 0.0
+    for f in faces:
+        x = np.array([model.nodes[n] for n in f])
+        area += 0.5 * np.linalg.norm(sum(np.cross(x[i], x[(i + 1) % len(x)]) for i in range(len(x))))
+    section = 0.12 * 0.0125 + 0.012 * (0.10 - 0.0125)  # the L: base 120 x 12.5 mm, upright 12 x 87.5 mm
+    assert abs(area - (2 * section + 2 * (0.12 + 0.10) * 0.04)) < 1e-12
+    assert len(_figure_faces("bracket", tmp_path / "b2").get_paths()) == len(faces)
+
+
 assert HEAVY in (True, False)
