@@ -141,8 +141,8 @@ def structure_segments(structure) -> np.ndarray:
              if isinstance(c.independent, int) and isinstance(d, int)]  # rigid links and ties, drawn as members
     if links:
         pairs.append(np.array(links, np.int64))
-    out = np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
-    out = out.view(Segments)
+    arr = np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
+    out: Segments = arr.view(Segments)
     out.faces = structure_faces(structure)
     return out
 
