@@ -187,4 +187,32 @@ def test_shapes_drawn_as_surfaces_on_the_mesh(tmp_path):
     assert len(_figure_faces("bracket", tmp_path / "b2").get_paths()) == len(faces)
 
 
+def test_damage_equations_of_a_thickness_model_are_exact_in_the_moduli(tmp_path):
+    """The box (t_lid enters as t and t³): the localisation's equations, formed with the tangent
+    stiffness at the baseline, hold exactly for the damaged box's complete noise-free modes with the
+    true loss (K is affine in the moduli with the thickness held); the thickness itself, entering M,
+    is refused as an unknown by name with what to do."""
+    from femupdate._errors import InputError
+    from femupdate.damage.examples import noisy_modes
+    from femupdate.damage.localise import Equations, measured_shapes
+
+    path = write_example("box", tmp_path, data=False)  # the lid's modulus a parameter too: E_lid t_lid³ a term
+    path.write_text(path.read_text().replace('t = "t_lid"', 't = "t_lid"\nE = "E_lid"')
+                    + '\n[parameters.E_lid]\nvalue = 200.0e9\n')
+    truth = {**TRUTH["box"], "E_lid": 205e9}
+    model = load_model(path)  # nominal t_lid 2 mm; the baseline 2.2 mm: the tangent must be taken there
+    theta0 = model.resolve(truth)
+    assert any("E_lid" in t.parameters and "t_lid" in t.parameters for t in model.terms)
+    names = ["E_lid", "E_walls_x", "E_walls_y"]
+    for hit in ("E_lid", "E_walls_y"):
+        meas = measured_shapes(noisy_modes(model, list(model.dofs), 4, {**truth, hit: truth[hit] * 0.85}))
+        eq = Equations(model, names, theta0)
+        A, r = eq.build(meas.eigenvalues, meas.shapes)
+        assert np.linalg.norm(r) > 1e-3
+        delta = np.array([-0.15 if n == hit else 0.0 for n in names])
+        assert np.linalg.norm(A @ delta - r) < 1e-8 * np.linalg.norm(r), hit
+    with pytest.raises(InputError, match="t_lid enters the mass matrix too .*leave them out of the unknowns"):
+        Equations(model, ["t_lid", "E_walls_y"], theta0)
+
+
 assert HEAVY in (True, False)

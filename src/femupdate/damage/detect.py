@@ -366,6 +366,8 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
     assert isinstance(model, Model)
     # the unknowns the caller chose (DamageUnknowns: the stiffness parameters; one entering M stays known)
     names = _unknowns(model, du.names if du is not None and elements is None else elements)
+    from .parameters import mass_refusal
+    mass_refusal(model, names)
     chk = None if undamaged is None else check_baseline(
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
     meas = measured_shapes(data)

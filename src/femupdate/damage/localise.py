@@ -298,13 +298,11 @@ class Equations:
     """Projected damage equations A δ = r of expanded modes (module docstring of :mod:`.detect`, step 4)."""
 
     def __init__(self, model: Model, names: Sequence[str], theta0: np.ndarray):
-        from .parameters import enters_mass
+        from .parameters import mass_refusal
 
         self.model = model
         self.idx = indices(model, names)
-        bad = [names[c] for c, j in enumerate(self.idx) if enters_mass(model, j)]
-        if bad:
-            raise InputError(f"damage detection parameters must be stiffness parameters; {', '.join(bad[:5])} enter M")
+        mass_refusal(model, names)
         self.theta0 = theta0
         rows, cols, vals, owner = [], [], [], []
         for c, j in enumerate(self.idx):
