@@ -169,7 +169,7 @@ def test_projected_equations_hold_exactly_for_complete_noise_free_data(truss):
     assert np.linalg.norm(A @ _truth(names) - r) < 1e-9 * np.linalg.norm(r)
     np.testing.assert_array_equal(eq.theta(_truth(names)), theta)
     heavy = _with_mass_parameter(base)
-    with pytest.raises(InputError, match="must be stiffness parameters; rho enter M"):
+    with pytest.raises(InputError, match="must be stiffness parameters; rho enters the mass matrix too"):
         Equations(heavy, names[:1] + ["rho"], heavy.values)
 
 

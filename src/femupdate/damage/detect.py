@@ -364,7 +364,10 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         model = du.model
         descriptions = du.descriptions if descriptions is None else descriptions
     assert isinstance(model, Model)
-    names = _unknowns(model, elements)
+    # the unknowns the caller chose (DamageUnknowns: the stiffness parameters; one entering M stays known)
+    names = _unknowns(model, du.names if du is not None and elements is None else elements)
+    from .parameters import mass_refusal
+    mass_refusal(model, names)
     chk = None if undamaged is None else check_baseline(
         model, undamaged, max_frequency_error=opts.max_frequency_error, min_mac=opts.min_mac).as_dict()
     meas = measured_shapes(data)

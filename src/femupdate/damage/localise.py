@@ -298,17 +298,18 @@ class Equations:
     """Projected damage equations A δ = r of expanded modes (module docstring of :mod:`.detect`, step 4)."""
 
     def __init__(self, model: Model, names: Sequence[str], theta0: np.ndarray):
-        from ..coefficients import route_refusal
-        route_refusal(model, 'the damage localisation')
+        from .parameters import mass_refusal
+
         self.model = model
         self.idx = indices(model, names)
-        if any(model.dM[j] is not None for j in self.idx):
-            bad = [names[c] for c, j in enumerate(self.idx) if model.dM[j] is not None]
-            raise InputError(f"damage detection parameters must be stiffness parameters; {', '.join(bad[:5])} enter M")
+        mass_refusal(model, names)
         self.theta0 = theta0
         rows, cols, vals, owner = [], [], [], []
         for c, j in enumerate(self.idx):
-            d = model.dK_dp(j).tocoo()
+            # the tangent stiffness of each unknown at the baseline: K(θ0 (1 + δ)) = K(θ0) + Σ θ0_j ∂K/∂p_j δ_j
+            # to first order in δ, exactly where K is affine in the unknowns (a modulus, other parameters held,
+            # as a shell thickness is); the refinement fits the true non-linear model
+            d = model.dK_dp(j, theta0).tocoo()
             rows.append(d.row)
             cols.append(d.col)
             vals.append(d.data * theta0[j])

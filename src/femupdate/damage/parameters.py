@@ -111,13 +111,31 @@ class DamageUnknowns:
     notes: list[str] = field(default_factory=list)
 
 
+def enters_mass(model: Model, j: int) -> bool:
+    """Whether parameter ``j`` enters the mass matrix: linearly, or through a non-linear term (a shell
+    thickness: ρ t)."""
+    name = model.parameter_names[j]
+    return model.dM[j] is not None or any(t.M is not None and name in t.parameters for t in model.terms)
+
+
+def mass_refusal(model: Model, names) -> None:
+    """Refuse unknowns that enter the mass matrix, naming them and what to do."""
+    pos = {n: j for j, n in enumerate(model.parameter_names)}
+    bad = [n for n in names if n in pos and enters_mass(model, pos[n])]
+    if bad:
+        raise InputError(f"damage detection parameters must be stiffness parameters; {', '.join(bad[:5])} "
+                         f"enter{'s' if len(bad) == 1 else ''} the mass matrix too (a density, or a shell thickness: "
+                         "rho t): leave them out of the unknowns (--elements; they stay known at their baseline "
+                         "values), or make the set's modulus E a parameter and locate the loss of stiffness")
+
+
 def stiffness_unknowns(model: Model) -> tuple[list[str], list[str]]:
     """(free parameters entering K only, free parameters entering M) of ``model``."""
     k_only: list[str] = []
     in_m: list[str] = []
     for j in model.free:
         name = model.parameter_names[j]
-        (in_m if model.dM[j] is not None else k_only).append(name)
+        (in_m if enters_mass(model, int(j)) else k_only).append(name)
     return k_only, in_m
 
 

@@ -123,8 +123,6 @@ class SetSearch:
                  allow_increase: bool, min_change: float, level: float, max_located: int, n_try: int = 4,
                  score: Callable[[np.ndarray], np.ndarray] | None = None, path_order: Sequence[int] = (),
                  pairing: str = "auto"):
-        from ..coefficients import route_refusal
-        route_refusal(model, 'the damage refinement')
         self.names = list(names)
         self.L = len(self.names)
         pos = {n: j for j, n in enumerate(model.parameter_names)}
@@ -153,7 +151,7 @@ class SetSearch:
         self.path_order = [int(i) for i in path_order]
         self.pairing = pairing
         # the dofs each unknown's stiffness touches, and the unknowns at each dof (neighbours)
-        self.touched = [np.unique(model.dK[j].indices) if model.dK[j] is not None else np.zeros(0, int) for j in self.idx]
+        self.touched = [np.unique(model.dK_dp(int(j), self.theta0).indices) for j in self.idx]  # tangent (non-linear models)
         self.by_dof: dict[int, list[int]] = {}
         for i, ds in enumerate(self.touched):
             for d in ds.tolist():

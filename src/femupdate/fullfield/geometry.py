@@ -79,6 +79,46 @@ class Geometry:
         return float(np.max(np.linalg.norm(b - a, axis=1)))
 
 
+class Segments(np.ndarray):
+    """Node-id pairs ``(s, 2)`` of a structure's element edges (:func:`structure_segments`), carrying
+    ``faces``: the node-id polygons of its shells and the outer faces of its solids, which mode-shape
+    figures draw as surfaces (a plain array of pairs draws edges only)."""
+
+    faces: list
+
+    def __array_finalize__(self, obj) -> None:
+        self.faces = getattr(obj, "faces", [])
+
+
+#: the faces of each solid element type, as positions in its node list (corner nodes)
+SOLID_FACES = {"hex8": ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)),
+               "tet4": ((0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2))}
+SOLID_FACES["tet10"] = SOLID_FACES["tet4"]
+
+
+def structure_faces(structure) -> list:
+    """The node-id polygons of a structure's shells (each element) and solids (the faces that
+    belong to one element only: the outer surface)."""
+    faces: list = []
+    solid: dict[tuple, tuple] = {}
+    for g in structure.groups:
+        if g.nodes is None:
+            continue
+        nodes = np.asarray(g.nodes, dtype=np.int64)
+        if g.type in ("mitc4", "mitc3"):
+            faces.extend(tuple(map(int, row)) for row in nodes)
+        elif g.type in SOLID_FACES:
+            for row in nodes:
+                for f in SOLID_FACES[g.type]:
+                    poly = tuple(int(row[i]) for i in f)
+                    key = tuple(sorted(poly))
+                    if key in solid:
+                        solid[key] = ()  # shared by two elements: inside
+                    else:
+                        solid[key] = poly
+    return faces + [p for p in solid.values() if p]
+
+
 def structure_segments(structure) -> np.ndarray:
     """Node pairs of every line element (and the edges of shells and solids, and the rigid links and
     ties) of a :class:`~femupdate.Structure`, supported ends included.
@@ -90,8 +130,9 @@ def structure_segments(structure) -> np.ndarray:
 
     Returns
     -------
-    ndarray of int, shape ``(s, 2)``
-        Unique pairs, each sorted (smaller id first).
+    Segments (an ndarray of int, shape ``(s, 2)``)
+        Unique pairs, each sorted (smaller id first); its ``faces`` are the shells' and the solids'
+        outer faces (:func:`structure_faces`), drawn as surfaces by the mode-shape figures.
     """
     from ..structure.groups import node_pairs
 
@@ -100,7 +141,10 @@ def structure_segments(structure) -> np.ndarray:
              if isinstance(c.independent, int) and isinstance(d, int)]  # rigid links and ties, drawn as members
     if links:
         pairs.append(np.array(links, np.int64))
-    return np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
+    arr = np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0) if pairs else np.zeros((0, 2), np.int64)
+    out: Segments = arr.view(Segments)
+    out.faces = structure_faces(structure)
+    return out
 
 
 def model_geometry(model, segments=None) -> Geometry:

@@ -63,8 +63,8 @@ def _property_sets(mesh: Mesh, sets: Mapping, where: str) -> dict[str, dict]:
             raise InputError(f"{w}: unknown key(s) {', '.join(unknown)} (allowed: {', '.join(sorted(SET_KEYS))})")
         for k, v in spec.items():
             ok = isinstance(v, str) if k == "mass" else (
-                not isinstance(v, bool) and isinstance(v, (int, float) if k in ("nu", "t", "drill") else (int, float, str)))
-            kind = {"mass": "\"consistent\" or \"lumped\"", "nu": "a number", "t": "a number", "drill": "a number"}.get(
+                not isinstance(v, bool) and isinstance(v, (int, float) if k in ("nu", "drill") else (int, float, str)))
+            kind = {"mass": "\"consistent\" or \"lumped\"", "nu": "a number", "drill": "a number"}.get(
                 k, "a number or a parameter name")
             if not ok:
                 raise InputError(f"{w}: {k} must be {kind}, got {v!r}")

@@ -333,6 +333,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     ax.plot(*geom.xyz[:, cols].T, ".", color="0.55", ms=3, label=None if straight else "undeformed")
     if mshape:
         deformed = geom.xyz + s * um
+        shaded = three and _surfaces(ax, geom, getattr(segments, "faces", None), deformed, np.linalg.norm(um, axis=1))
         th = _rotations(geom, mshape)
         rot = _rotation_nodes(model, geom)
         members = []
@@ -341,7 +342,7 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
             members.append(member_points(geom.xyz[a], geom.xyz[b], um[a], um[b], th[a] if bends else None, th[b],
                                          s)[:, cols])
         if members:
-            draw(members, labels[0], colors="C0", linewidths=1.6)
+            draw(members, labels[0], colors="C0", linewidths=0.7 if shaded else 1.6)
         ax.plot(*deformed[:, cols].T, "o", color="C0", ms=3, label=None if members else labels[0])
     if tshape:
         pts = geom.xyz + s * ut
@@ -355,8 +356,11 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     ax.set_ylabel("y [m]")
     if three:
         ax.set_zlabel("z [m]")
-        span = np.maximum(np.ptp(np.vstack([geom.xyz, geom.xyz + s * um, geom.xyz + s * ut]), axis=0),
-                          0.15 * geom.extent)
+        every = np.vstack([geom.xyz, geom.xyz + s * um, geom.xyz + s * ut])
+        span = np.maximum(np.ptp(every, axis=0), 0.15 * geom.extent)
+        mid = 0.5 * (every.min(axis=0) + every.max(axis=0))
+        for setter, c, w in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid, span):
+            setter(c - 0.52 * w, c + 0.52 * w)  # the limits of what is drawn (a collection may not update them)
         ax.set_box_aspect(tuple(span))
     else:
         ax.set_aspect("equal", adjustable="datalim")
@@ -364,6 +368,25 @@ def mode_shape_axes(model, shape=None, test=None, *, segments=None, scale=None, 
     note = f"displacements × {s:.3g}"
     ax.set_title(f"{title}\n{note}" if title else note, fontsize=9)
     return ax
+
+
+def _surfaces(ax, geom: ShapeGeometry, faces, deformed: np.ndarray, size: np.ndarray) -> bool:
+    """The shells and the solids' outer faces (``faces``: node-id polygons, as
+    :func:`femupdate.fullfield.structure_segments` carries them) deformed, shaded by the motion's
+    size; whether any was drawn."""
+    if not faces:
+        return False
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    pos = {n: i for i, n in enumerate(geom.node_ids)}
+    rows = [[pos[n] for n in f] for f in faces if all(n in pos for n in f)]
+    if not rows:
+        return False
+    peak = float(size.max()) or 1.0
+    colours = plt.get_cmap("viridis")([float(np.mean(size[r])) / peak for r in rows])
+    ax.add_collection3d(Poly3DCollection([deformed[r] for r in rows], facecolors=colours, edgecolors="none",
+                                         alpha=0.85, label=None))
+    return True
 
 
 def _chain_axes(model, mshape: dict, tshape: dict, ax, title, labels):

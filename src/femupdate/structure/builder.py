@@ -449,9 +449,10 @@ class Structure(LinkMethods):
             Young's modulus (Pa) and density (kg/m³): a number, a parameter name, or one per element.
         nu : float or sequence of float
             Poisson's ratio, -1 < nu < 0.5 (a number: it enters non-linearly).
-        t : float or sequence of float
-            Thickness (m).  A number: the bending stiffness goes as t³, so a thickness parameter is
-            refused until the non-linear parametrisation exists.
+        t : float, str or sequence
+            Thickness (m): a number, a parameter name (the model then holds the non-linear terms
+            E t³ of bending and ρ t³ of rotary inertia: :mod:`femupdate.coefficients`), or one per
+            element.
         mass : {"consistent", "lumped"}, default "consistent"
             Mass matrix.
         drill : float, default 0.1
@@ -463,7 +464,7 @@ class Structure(LinkMethods):
         ------
         InputError
             Not 3 or 4 integer node ids per element, a node listed twice, nu outside (-1, 0.5) or a
-            parameter, t a parameter, a bad ``drill`` or ``mass``; degenerate or inverted elements
+            parameter, a bad ``drill`` or ``mass``; degenerate or inverted elements
             are refused by :meth:`build`.
         """
         from .continuum import add_shell
@@ -540,7 +541,7 @@ class Structure(LinkMethods):
         sets : mapping, optional
             Element set name -> properties ``E``, ``nu``, ``rho``, ``t`` (shells), ``mass``,
             ``drill``, and for beams ``G``, ``A``, ``Iy``, ``Iz``, ``J``; each a number or (``E``,
-            ``rho`` and the beam properties) a parameter name; overrides the deck's.
+            ``rho``, ``t`` and the beam properties) a parameter name; overrides the deck's.
         support : sequence of mapping, optional
             Each ``{"set": NODE_SET}`` or ``{"nodes": [ids]}``, optionally ``"dofs": ["x", ...]``
             (directions; default every dof of the nodes).
