@@ -401,6 +401,6 @@ def test_a_frequency_only_update_does_not_claim_the_shape_formulation(files, cap
     """With no mode shape used (--eigenvalues-only) the result says "eigenvalues", not "shapes"."""
     out = files / "freq.json"
     code, text = cli(["update", str(files / "chain.toml"), str(files / "test.json"), "--eigenvalues-only",
-                      "--json", str(out)], capsys)[:2]
+                      "--params", "k1,k2", "--json", str(out)], capsys)[:2]
     assert code == 0 and json.loads(out.read_text())["formulation"] == "eigenvalues"
     assert "formulation: eigenvalues" in text and "formulation: shapes" not in text

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from .._errors import InputError
+from .._errors import InputError, NumericalError
 
 #: what a run's output is cut to in a message (its last lines)
 OUTPUT_TAIL = 2000
@@ -391,10 +391,17 @@ def run_all(runner, batch: Sequence[Mapping[str, float]], cache: Cache, jobs: in
         except Exception as exc:  # noqa: BLE001 - lambdas, closures, local functions
             raise InputError(f"black box: runs on {jobs} processes need a picklable runner (a module-level "
                              f"function), not {getattr(runner, 'fn', runner)!r} ({exc})") from None
-        with process_pool(min(jobs, len(todo))) as pool:
-            futures = {pool.submit(_execute, runner, v): k for k, v in todo.items()}
-            for fut, k in futures.items():
-                cache.put(k, fut.result())
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            with process_pool(min(jobs, len(todo))) as pool:
+                futures = {pool.submit(_execute, runner, v): k for k, v in todo.items()}
+                for fut, k in futures.items():
+                    cache.put(k, fut.result())
+        except BrokenProcessPool:
+            raise NumericalError(f"black box: a worker process running the code died ({len(todo)} run(s) on {jobs} "
+                                 "processes: out of memory, or the code crashed); the runs finished so far are "
+                                 "cached: run again with fewer jobs") from None
     else:
         for k, v in todo.items():
             cache.put(k, runner(v))

@@ -253,6 +253,13 @@ def emit(ctx: Ctx, payload: dict) -> None:
         write_json(ctx.json_path, with_output_notes(payload))
 
 
+def percent(x: float, decimals: int = 2) -> str:
+    """``x`` (a fraction) in per cent with its sign and ``decimals`` decimals; one that rounds to
+    zero is printed without a sign (its sign is rounding noise, which differs between machines)."""
+    text = f"{x * 100:+.{decimals}f}"
+    return f"{text.lstrip('+-') if float(text) == 0 else text} %"
+
+
 def fmt(v: float) -> str:
     return f"{v:.6g}"
 
@@ -360,7 +367,7 @@ def correlation_table(corr, title):
         t.add_column(col, justify="right")
     for (i, j, m), e in zip(corr.pairs, corr.frequency_error):
         t.add_row(str(i + 1), str(j + 1), fmt(corr.test_frequencies_hz[i]), fmt(corr.model_frequencies_hz[j]),
-                  f"{e * 100:+.2f} %" if np.isfinite(e) else "-", "-" if not np.isfinite(m) else f"{m:.4f}")
+                  percent(e) if np.isfinite(e) else "-", "-" if not np.isfinite(m) else f"{m:.4f}")
     for i in corr.unpaired_test:
         t.add_row(str(i + 1), "-", fmt(corr.test_frequencies_hz[i]), "-", "-", "unpaired")
     if getattr(corr, "unconfirmed", None):
@@ -505,5 +512,5 @@ def update_parameter_table(res, title: str, units: dict | None = None) -> Table:
     for n in res.names:
         p0, p1 = res.start[n], res.parameters[n]
         sd = f"{at[n]} bound" if n in at else "-" if not np.isfinite(std_p[n]) else fmt(std_p[n])
-        t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, f"{(p1 - p0) / p0 * 100:+.1f} %" if p0 else "")
+        t.add_row(n, units.get(n) or "-", fmt(p0), fmt(p1), sd, percent((p1 - p0) / p0, 1) if p0 else "")
     return t

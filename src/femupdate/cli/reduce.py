@@ -11,7 +11,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError
-from ._common import INPUT_FILE, Ctx, fmt, model_values, option_dofs
+from ._common import INPUT_FILE, Ctx, fmt, model_values, option_dofs, percent
 from ._groups import GroupedCommand, option_group
 from .outputs import Outputs, outputs_group
 
@@ -98,7 +98,5 @@ def _print(c, model, res) -> None:
 
 
 def _percent(x: float) -> str:
-    """A relative error in per cent with its sign, four decimals; one that rounds to zero without a
-    sign (its sign is rounding noise, which differs between machines)."""
-    text = f"{x * 100:+.4f}"
-    return f"{'0.0000' if float(text) == 0 else text} %"
+    """A relative error in per cent with its sign, four decimals (:func:`percent`)."""
+    return percent(x, 4)

@@ -11,7 +11,7 @@ import numpy as np
 from rich.table import Table
 
 from .._errors import InputError, NumericalError
-from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, model_values, print_diagnostics, print_damping, print_flags,
+from ._common import (INPUT_FILE, Ctx, fitting_table, fmt, percent, model_values, print_diagnostics, print_damping, print_flags,
                       print_starts, update_parameter_table, write_model_outputs, write_report_output)
 from ._damping import damped_figures, damped_model as _damped_model, model_part as _model_part, print_damped, view as _view
 from ._groups import GroupedCommand, execution_group, solver_group, starts_group
@@ -235,7 +235,7 @@ def _pairs_table(res) -> Table:
     for col in ("test", "model", "f test [Hz]", "f model [Hz]", "error", "MAC"):
         t.add_column(col, justify="right")
     for (k, j, m), ft, fm in zip(res.pairs, res.test_frequencies_hz, res.model_frequencies_hz):
-        t.add_row(str(k + 1), str(j + 1), fmt(ft), fmt(fm), f"{(fm - ft) / ft * 100:+.3f} %",
+        t.add_row(str(k + 1), str(j + 1), fmt(ft), fmt(fm), percent((fm - ft) / ft, 3),
                   "-" if not np.isfinite(m) else f"{m:.4f}")
     return t
 
