@@ -79,6 +79,7 @@ method's knobs are one :class:`~.options.DamageOptions`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -96,8 +97,8 @@ from .baseline import check_baseline
 from .bootstrap import Replicates, bootstrap, bootstrap_healthy
 from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
-from .judge import Judgement, judge
-from .noise import estimated_noise
+from .judge import Judgement, conditional, judge
+from .noise import BASIS_NOT_ESTIMABLE, estimated_noise, frequency_unknown
 from .options import DamageOptions
 from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
@@ -389,6 +390,44 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                      "sparse localisation is unreliable; the refinement, which compares the measured shapes directly, "
                      "chose the set")
     rng = np.random.default_rng(opts.seed)
+    localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
+        model, names, meas, pairing, stated, opts, rng, data, progress)
+    unknown_frequency = frequency_unknown(stated)
+    if unknown_frequency and refined is not None:  # the fit of every unknown could not tell it: the located set's fit
+        again, _, again_notes = estimated_noise(model, names, data, stated_noise(noise, data),
+                                                fitted=[names[i] for i in refined.final.members])
+        notes += again_notes
+        if again is not None and not frequency_unknown(again):
+            notes.append("the localisation, refinement and verification were run again with the noise estimated from "
+                         "the located set's fit (a first pass had assumed the frequency noise); its frequency test is "
+                         "then not independent of the fit, and an estimate from a selected set may be low")
+            stated, unknown_frequency = again, False
+            localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
+                model, names, meas, pairing, stated, opts, rng, data, progress)
+    if unknown_frequency:
+        levels = dataclasses.replace(levels, basis=tuple((k, BASIS_NOT_ESTIMABLE if k == "frequency" else v)
+                                                         for k, v in levels.basis))
+    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
+                     progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
+    healthy = Replicates.none()
+    if refined is not None and reps.sets and not np.any(refined.delta):
+        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
+    elif refiner is not None and refined is not None and realised is not None:
+        healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
+                                    progress=None if progress is None else lambda done, total: progress("healthy", done,
+                                                                                                        total))
+    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
+                    baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
+    if unknown_frequency:
+        verdict = conditional(verdict, levels.frequency)
+    return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
+                  data, undamaged, du)
+
+
+def _locate(model: Model, names: Sequence[str], meas, pairing: Pairing, stated, opts: DamageOptions,
+            rng: np.random.Generator, data: TestData, progress):
+    """Localise, refine and verify under the noise ``stated``: (localiser, levels, notes, localisation,
+    refiner, refined, realised data, verification); the last four empty without ``opts.refine``."""
     localiser, levels, more = make_localiser(model, names, meas, pairing, stated, opts, rng)
     loc = localise(localiser, names, meas, opts.alpha)
     refiner: Refiner | None = None
@@ -402,19 +441,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         refined = refiner.refine(realised, meas.eigenvalues, meas.shapes, loc.fit)
         verification = verify(refined)
         _tell(progress, "refine", 1, 1)
-    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
-                     progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
-    healthy = Replicates.none()
-    if refined is not None and reps.sets and not np.any(refined.delta):
-        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
-    elif refiner is not None and refined is not None and realised is not None:
-        healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
-                                    progress=None if progress is None else lambda done, total: progress("healthy", done,
-                                                                                                        total))
-    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
-                    baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
-    return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
-                  data, undamaged, du)
+    return localiser, levels, more, loc, refiner, refined, realised, verification
 
 
 def _tell(progress, phase: str, done: int, total: int) -> None:

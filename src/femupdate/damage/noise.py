@@ -205,11 +205,57 @@ __all__ = ["BASIS_CALLER", "BASIS_DATA", "BASIS_ASSUMED", "BASIS_EXPANSION", "St
 
 #: the basis of a level estimated from the fit of every unknown
 BASIS_ESTIMATED = "estimated from the fit of every unknown (REML variance components)"
+#: the basis of a level estimated from the fit of the located unknowns (when every unknown's fit cannot tell it)
+BASIS_LOCATED = ("estimated from the fit of the located unknowns (REML variance components; conditional on the "
+                 "located set)")
+#: the basis of a frequency level that neither fit can estimate: the figures resting on it are conditional
+BASIS_NOT_ESTIMABLE = ("not estimable from these data (too few modes for the unknowns): assumed, and the standard "
+                       "errors and rates resting on it are conditional on it")
 
 
-def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[StatedNoise | None, dict | None, list[str]]:
+def _fit_components(model, names, fitted, data: TestData):
+    """The REML variance components (:func:`femupdate.variance.variance_components`) of the fit of
+    the unknowns ``fitted`` (a subset of ``names``; empty: the baseline's residuals, nothing
+    fitted), the fit's test (:func:`femupdate.variance.fit_test`) and the data realised; or
+    (None, None, note) when the data are too few or the components not available."""
+    import importlib
+
+    try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
+        layout = importlib.import_module("femupdate.updating.noise").layout
+        variance = importlib.import_module("femupdate.variance")
+    except ImportError:  # the variance components are not in this version: the levels stay assumed
+        return None, None, None
+    from ..updating import Problem
+    from ..updating.solve import solve
+
+    prob = Problem(model, data, list(fitted) if len(fitted) else list(names), shape_scaling="unit")
+    L = len(fitted)
+    if prob.n_residuals <= L + 1:
+        return None, None, (f"the noise cannot be estimated: {prob.n_residuals} residuals for {L} unknowns (state it: "
+                            "--noise-frequency, --noise-shape, or std_frequency / std_shape in the test data)")
+    if L:
+        sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                          max_nfev=200 + 20 * L)
+        x = sol.x
+        J = prob.jacobian(x)
+    else:  # nothing located: the baseline itself is the fit
+        x = prob.x_start
+        J = np.zeros((prob.n_residuals, 0))
+    r = prob.residuals(x)
+    lay = layout(prob, None)
+    vc = variance.variance_components(J, r, lay.blocks, kinds=lay.kinds, lost=lay.lost)
+    plausible = dict(lay.plausible)
+    if plausible:  # a pool across kinds is held to the largest of their bounds
+        plausible["all"] = max(plausible.values())
+    return vc, variance.fit_test(vc, plausible=plausible), None
+
+
+def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=None) -> tuple[StatedNoise | None, dict | None,
+                                                                                         list[str]]:
     """The noise the data do not state, estimated from the fit of every unknown (plain updating
-    from the baseline, as ``update`` fits them) by REML variance components per block
+    from the baseline, as ``update`` fits them) — or, given ``fitted``, of those unknowns only (the
+    located set, the others at the baseline; empty: the baseline's own residuals) — by REML
+    variance components per block
     (:func:`femupdate.variance.variance_components` on the blocks of
     :func:`femupdate.updating.noise.layout`: each mode's eigenvalue and shape, pooled where they
     lack the redundancy), and that fit's test (:func:`femupdate.variance.fit_test`: a plausibility
@@ -220,8 +266,11 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     -------
     noise : StatedNoise or None
         ``stated`` with the kinds it did not state estimated (per mode; ``basis``
-        ``BASIS_ESTIMATED``); None when nothing is to be estimated, the variance components are not
-        available, or the data are too few (a note says why).
+        ``BASIS_ESTIMATED``, or ``BASIS_LOCATED`` given ``fitted``); None when nothing is to be
+        estimated, the variance components are not available, or the data are too few (a note
+        says why).  The frequency level is estimated only where the eigenvalues have redundancy
+        of their own; where they are pooled with the shapes (fewer modes than unknowns), it is
+        left as stated (:func:`frequency_unknown` then says so).
     model_error : dict or None
         The fit's test (``test``, ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict``); when it
         flags the fit, no level is estimated (None, None and a note: a fit from the baseline that
@@ -233,40 +282,20 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     want_f, want_s = basis.get("frequency") == BASIS_ASSUMED, basis.get("shape") is None
     if not (want_f or want_s):
         return None, None, []
-    import importlib
-
-    try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
-        layout = importlib.import_module("femupdate.updating.noise").layout
-        variance = importlib.import_module("femupdate.variance")
-    except ImportError:  # the variance components are not in this version: the levels stay assumed
-        return None, None, []
-    fit_test, variance_components = variance.fit_test, variance.variance_components
     from .._errors import InputError, NumericalError
-    from ..updating import Problem
-    from ..updating.solve import solve
     from .localise import realised_data
 
+    which = "every unknown" if fitted is None else "the located unknowns"
     data = realised_data(data)
     try:
-        prob = Problem(model, data, list(names), shape_scaling="unit")
-        if prob.n_residuals <= len(names) + 1:
-            return None, None, [f"the noise cannot be estimated: {prob.n_residuals} residuals for {len(names)} "
-                                "unknowns (state it: --noise-frequency, --noise-shape, or std_frequency / std_shape "
-                                "in the test data)"]
-        sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
-                          max_nfev=200 + 20 * len(names))
-        J, r = prob.jacobian(sol.x), prob.residuals(sol.x)
-        lay = layout(prob, None)
-        vc = variance_components(J, r, lay.blocks, kinds=lay.kinds, lost=lay.lost)
-        plausible = dict(lay.plausible)
-        if plausible:  # a pool across kinds is held to the largest of their bounds
-            plausible["all"] = max(plausible.values())
-        test = fit_test(vc, plausible=plausible)
+        vc, test, why = _fit_components(model, names, list(names) if fitted is None else list(fitted), data)
     except (InputError, NumericalError, ValueError) as exc:
-        return None, None, [f"the noise could not be estimated from the fit of every unknown: {exc}"]
+        return None, None, [f"the noise could not be estimated from the fit of {which}: {exc}"]
+    if vc is None or test is None:
+        return None, None, [why] if why else []
     if test.flagged:  # a model error, or a fit from the baseline that ended in a local minimum: no estimate
         return None, None, list(vc.notes) + [
-            "the noise was not estimated: the fit of every unknown from the baseline leaves more than a vibration "
+            f"the noise was not estimated: the fit of {which} from the baseline leaves more than a vibration "
             f"test's noise ({test.headline()}); a model error or a local minimum of that fit — the levels stay "
             "assumed and the verification tests the located set against them"]
     by_label = {mb: c for c in vc.components for mb in c.members}
@@ -277,7 +306,7 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     if want_f and any(c is None or c.kind != "eigenvalue" or not math.isfinite(c.std) for c in eig):
         # too few eigenvalues for the unknowns: pooled with the shapes, their level is not the frequencies' own
         want_f = False
-        notes.append("the frequency noise cannot be estimated on its own from the fit of every unknown (too few "
+        notes.append(f"the frequency noise cannot be estimated on its own from the fit of {which} (too few "
                      "modes for the unknowns: their block is pooled with the shapes)")
     for k, m in enumerate(data.modes):
         if want_f:
@@ -287,26 +316,34 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
         if want_s and m.has_shape and len(m.dofs) >= 2:
             c = by_label.get(f"shape mode {k + 1}")
             if c is None or not math.isfinite(c.std):
-                return None, None, notes + ["the shape noise cannot be estimated from the fit of every unknown"]
+                return None, None, notes + [f"the shape noise cannot be estimated from the fit of {which}"]
             phi = np.abs(np.asarray(m.shape, float))
             s_modes[k] = c.std * float(np.linalg.norm(phi) / np.max(phi))  # unit-length scaling -> largest value
     shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
     if not (want_f or want_s):
         return None, None, notes
+    label = BASIS_ESTIMATED if fitted is None else BASIS_LOCATED
     if want_f:
-        basis["frequency"] = BASIS_ESTIMATED
+        basis["frequency"] = label
     if want_s:
-        basis["shape"] = BASIS_ESTIMATED
+        basis["shape"] = label
     out = StatedNoise(float(np.median(f_modes)) if want_f else stated.frequency,
                       float(np.median([s_modes[k] for k in shaped])) if want_s and shaped else stated.shape,
                       tuple(map(float, f_modes)) if (want_f or stated.frequency_modes is not None) else None,
                       tuple(map(float, s_modes)) if (want_s or stated.shape_modes is not None) else None,
                       tuple(basis.items()))
     said = ", ".join(f"{k} {v:.3g}" for k, v in (("frequency", out.frequency), ("shape", out.shape))
-                     if v is not None and basis.get(k) == BASIS_ESTIMATED)
-    notes.append(f"noise not stated: estimated from the fit of every unknown (REML variance components per block; "
-                 f"median {said}); its test: {test.headline()}")
+                     if v is not None and basis.get(k) == label)
+    dof = [c for c in vc.components if c.kind == "eigenvalue" and want_f]
+    notes.append(f"noise not stated: estimated from the fit of {which} (REML variance components per block; "
+                 f"median {said}" + (f"; the frequencies' with {dof[0].dof:.1f} degrees of freedom" if dof else "")
+                 + f"); its test: {test.headline()}")
     return out, test.record(), notes
 
 
-__all__ += ["BASIS_ESTIMATED", "estimated_noise"]
+def frequency_unknown(stated: StatedNoise) -> bool:
+    """True when the frequency level rests on nothing but the default assumption."""
+    return dict(stated.basis).get("frequency") == BASIS_ASSUMED
+
+
+__all__ += ["BASIS_ESTIMATED", "BASIS_LOCATED", "BASIS_NOT_ESTIMABLE", "estimated_noise", "frequency_unknown"]
