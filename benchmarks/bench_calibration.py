@@ -275,6 +275,8 @@ def run_damage(stated: bool, seeds: range, bootstrap: int) -> dict:
             not_estimable += 1
         elif names[2] in res.located:
             z.append((res.changes[names[2]] + 0.4) / res.confidence["standard_error"][names[2]])
+            log_seed = {"seed": seed, "z": z[-1], "frequency": res.confidence["noise"]["frequency"]}
+            print(f"damage seed: {json.dumps(log_seed)}", file=sys.stderr, flush=True)
         quoted.append(healthy.confidence["false_positive_rate"]["rate"])
         hits += bool(healthy.located)
     n = len(quoted)
@@ -330,7 +332,7 @@ def markdown(results: dict) -> str:
 
 
 def run(families, seeds: int, damage_seeds: int, distinct_seeds: int = 3, starts: int = 4, bootstrap: int = 20,
-        settings=SETTINGS, log=print) -> dict:
+        settings=SETTINGS, log=print, damage_first_seed: int = 0) -> dict:
     """Every family and setting at the sizes given; the results as one JSON-ready dict."""
     out: dict = {"sizes": {"seeds": seeds, "damage_seeds": damage_seeds, "distinct_seeds": distinct_seeds,
                            "starts": starts, "bootstrap": bootstrap}, "families": {}, "damage": {}}
@@ -346,7 +348,8 @@ def run(families, seeds: int, damage_seeds: int, distinct_seeds: int = 3, starts
             log(f"{name}/{setting}: update RMS z {r['update']['rms_z']:.2f}, posterior {r['posterior']['rms_z']:.2f}")
     if damage_seeds:
         for setting in settings:
-            out["damage"][setting] = run_damage(setting == "stated", range(damage_seeds), bootstrap)
+            out["damage"][setting] = run_damage(setting == "stated", range(damage_first_seed,
+                                                                         damage_first_seed + damage_seeds), bootstrap)
             log(f"damage/{setting}: {out['damage'][setting]}")
     return out
 
@@ -355,6 +358,7 @@ def _parse(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=200, help="seeds per family and setting for update and posterior")
     ap.add_argument("--damage-seeds", type=int, default=50, help="seeds per setting for damage (0: none)")
+    ap.add_argument("--damage-first-seed", type=int, default=0, help="first damage seed (to split a run over processes)")
     ap.add_argument("--distinct-seeds", type=int, default=5, help="seeds per family and setting for multistart")
     ap.add_argument("--starts", type=int, default=4, help="starts of each multistart")
     ap.add_argument("--bootstrap", type=int, default=20, help="damage's own bootstrap replicates")
@@ -373,7 +377,7 @@ def _parse(argv=None):
 def main(argv=None) -> int:
     a = _parse(argv)
     res = run(a.families, a.seeds, a.damage_seeds, a.distinct_seeds, a.starts, a.bootstrap, settings=a.settings,
-              log=lambda s: print(s, file=sys.stderr, flush=True))
+              damage_first_seed=a.damage_first_seed, log=lambda s: print(s, file=sys.stderr, flush=True))
     res["command"] = "python benchmarks/bench_calibration.py " + " ".join(sys.argv[1:] if argv is None else argv)
     print(markdown(res))
     path = Path(a.output) if a.output else HERE / "results" / "bench_calibration.json"
