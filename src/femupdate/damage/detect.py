@@ -394,8 +394,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         model, names, meas, pairing, stated, opts, rng, data, progress)
     unknown_frequency = frequency_unknown(stated)
     if unknown_frequency and refined is not None:  # the fit of every unknown could not tell it: the located set's fit
-        again, _, again_notes = estimated_noise(model, names, data, stated_noise(noise, data),
-                                                fitted=[names[i] for i in refined.final.members])
+        again, again_notes = _located_noise(model, names, data, stated_noise(noise, data), refined)
         notes += again_notes
         if again is not None and not frequency_unknown(again):
             notes.append("the localisation, refinement and verification were run again with the noise estimated from "
@@ -422,6 +421,21 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         verdict = conditional(verdict, levels.frequency)
     return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
                   data, undamaged, du)
+
+
+def _located_noise(model: Model, names: Sequence[str], data: TestData, stated, refined: Refined):
+    """The noise estimated from the fit of the set the refinement ended with, or, when its eigenvalues
+    lack the redundancy there, of its members changed by ``min_change`` or more (``support``): the
+    noise (None when neither tells the frequencies') and the notes of the fit used."""
+    sets = [tuple(refined.final.members)]
+    if refined.support.size and tuple(sorted(refined.support.tolist())) != sets[0]:
+        sets.append(tuple(sorted(refined.support.tolist())))
+    got, notes = None, []
+    for members in sets:
+        got, _, notes = estimated_noise(model, names, data, stated, fitted=[names[i] for i in members])
+        if got is not None and not frequency_unknown(got):
+            break
+    return got, notes
 
 
 def _locate(model: Model, names: Sequence[str], meas, pairing: Pairing, stated, opts: DamageOptions,
