@@ -98,7 +98,7 @@ from .bootstrap import Replicates, bootstrap, bootstrap_healthy
 from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
 from .judge import Judgement, conditional, judge
-from .noise import BASIS_NOT_ESTIMABLE, estimated_noise, frequency_unknown
+from .noise import BASIS_NOT_ESTIMABLE, StatedNoise, estimated_noise, frequency_unknown
 from .options import DamageOptions
 from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
@@ -430,7 +430,8 @@ def _located_noise(model: Model, names: Sequence[str], data: TestData, stated, r
     sets = [tuple(refined.final.members)]
     if refined.support.size and tuple(sorted(refined.support.tolist())) != sets[0]:
         sets.append(tuple(sorted(refined.support.tolist())))
-    got, notes = None, []
+    got: StatedNoise | None = None
+    notes: list[str] = []
     for members in sets:
         got, _, notes = estimated_noise(model, names, data, stated, fitted=[names[i] for i in members])
         if got is not None and not frequency_unknown(got):
