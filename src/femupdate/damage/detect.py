@@ -390,9 +390,10 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                      "sparse localisation is unreliable; the refinement, which compares the measured shapes directly, "
                      "chose the set")
     rng = np.random.default_rng(opts.seed)
+    unknown_frequency = silent = frequency_unknown(stated)  # a second pass may follow: the first runs silent
     localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
-        model, names, meas, pairing, stated, opts, rng, data, progress)
-    unknown_frequency = frequency_unknown(stated)
+        model, names, meas, pairing, stated, opts, rng, data, None if silent else progress)
+    again_run = False
     if unknown_frequency and refined is not None:  # the fit of every unknown could not tell it: the located set's fit
         again, again_notes = _located_noise(model, names, data, stated_noise(noise, data), refined)
         notes += again_notes
@@ -400,9 +401,12 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
             notes.append("the localisation, refinement and verification were run again with the noise estimated from "
                          "the located set's fit (a first pass had assumed the frequency noise); its frequency test is "
                          "then not independent of the fit, and an estimate from a selected set may be low")
-            stated, unknown_frequency = again, False
+            stated, unknown_frequency, again_run = again, False, True
             localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
                 model, names, meas, pairing, stated, opts, rng, data, progress)
+    if silent and not again_run and opts.refine:  # the first pass ran silent and no second followed: said now
+        _tell(progress, "refine", 0, 1)
+        _tell(progress, "refine", 1, 1)
     if unknown_frequency:
         levels = dataclasses.replace(levels, basis=tuple((k, BASIS_NOT_ESTIMABLE if k == "frequency" else v)
                                                          for k, v in levels.basis))
