@@ -395,7 +395,8 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         model, names, meas, pairing, stated, opts, rng, data, None if silent else progress)
     again_run = False
     if unknown_frequency and refined is not None:  # the fit of every unknown could not tell it: the located set's fit
-        again, again_notes = _located_noise(model, names, data, stated_noise(noise, data), refined)
+        again, again_notes = _located_noise(model, names, data, stated_noise(noise, data), refined,
+                                            "frequency" if pairing.n_rigid else "auto")
         notes += again_notes
         if again is not None and not frequency_unknown(again):
             notes.append("the localisation, refinement and verification were run again with the noise estimated from "
@@ -427,17 +428,22 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                   data, undamaged, du)
 
 
-def _located_noise(model: Model, names: Sequence[str], data: TestData, stated, refined: Refined):
+def _located_noise(model: Model, names: Sequence[str], data: TestData, stated, refined: Refined, pairing: str):
     """The noise estimated from the fit of the set the refinement ended with, or, when its eigenvalues
     lack the redundancy there, of its members changed by ``min_change`` or more (``support``): the
-    noise (None when neither tells the frequencies') and the notes of the fit used."""
+    noise (None when neither tells the frequencies') and the notes of the fit used.  Each fit starts
+    from the refinement's solution and pairs the modes as the refinement did (``pairing``): refitted
+    from the baseline, a large change may be paired wrongly, and that fit then reads as a model error."""
+    theta0 = dict(zip(model.parameter_names, np.asarray(model.values, float)))
     sets = [tuple(refined.final.members)]
     if refined.support.size and tuple(sorted(refined.support.tolist())) != sets[0]:
         sets.append(tuple(sorted(refined.support.tolist())))
     got: StatedNoise | None = None
     notes: list[str] = []
     for members in sets:
-        got, _, notes = estimated_noise(model, names, data, stated, fitted=[names[i] for i in members])
+        got, _, notes = estimated_noise(model, names, data, stated, fitted=[names[i] for i in members],
+                                        start={names[i]: theta0[names[i]] * (1 + float(refined.delta[i])) for i in members},
+                                        pairing=pairing)
         if got is not None and not frequency_unknown(got):
             break
     return got, notes

@@ -213,11 +213,13 @@ BASIS_NOT_ESTIMABLE = ("not estimable from these data (too few modes for the unk
                        "errors and rates resting on it are conditional on it")
 
 
-def _fit_components(model, names, fitted, data: TestData):
+def _fit_components(model, names, fitted, data: TestData, start=None, pairing: str | None = None):
     """The REML variance components (:func:`femupdate.variance.variance_components`) of the fit of
     the unknowns ``fitted`` (a subset of ``names``; empty: the baseline's residuals, nothing
-    fitted), the fit's test (:func:`femupdate.variance.fit_test`) and the data realised; or
-    (None, None, note) when the data are too few or the components not available."""
+    fitted) from ``start`` ({name: value}; default the baseline) with the test and model modes
+    paired by ``pairing`` (default the problem's), the fit's test
+    (:func:`femupdate.variance.fit_test`) and the data realised; or (None, None, note) when the
+    data are too few or the components not available."""
     import importlib
 
     try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
@@ -228,7 +230,8 @@ def _fit_components(model, names, fitted, data: TestData):
     from ..updating import Problem
     from ..updating.solve import solve
 
-    prob = Problem(model, data, list(fitted) if len(fitted) else list(names), shape_scaling="unit")
+    prob = Problem(model, data, list(fitted) if len(fitted) else list(names), shape_scaling="unit",
+                   x0=dict(start) if start else None, pairing=pairing)
     L = len(fitted)
     if prob.n_residuals <= L + 1:
         return None, None, (f"the noise cannot be estimated: {prob.n_residuals} residuals for {L} unknowns (state it: "
@@ -250,8 +253,8 @@ def _fit_components(model, names, fitted, data: TestData):
     return vc, variance.fit_test(vc, plausible=plausible), None
 
 
-def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=None) -> tuple[StatedNoise | None, dict | None,
-                                                                                         list[str]]:
+def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=None, *, start=None,
+                    pairing: str | None = None) -> tuple[StatedNoise | None, dict | None, list[str]]:
     """The noise the data do not state, estimated from the fit of every unknown (plain updating
     from the baseline, as ``update`` fits them) — or, given ``fitted``, of those unknowns only (the
     located set, the others at the baseline; empty: the baseline's own residuals) — by REML
@@ -288,7 +291,8 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=No
     which = "every unknown" if fitted is None else "the located unknowns"
     data = realised_data(data)
     try:
-        vc, test, why = _fit_components(model, names, list(names) if fitted is None else list(fitted), data)
+        vc, test, why = _fit_components(model, names, list(names) if fitted is None else list(fitted), data, start,
+                                        pairing)
     except (InputError, NumericalError, ValueError) as exc:
         return None, None, [f"the noise could not be estimated from the fit of {which}: {exc}"]
     if vc is None or test is None:
