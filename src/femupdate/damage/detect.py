@@ -98,7 +98,7 @@ from .bootstrap import Replicates, bootstrap, bootstrap_healthy
 from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
 from .judge import Judgement, conditional, judge
-from .noise import BASIS_NOT_ESTIMABLE, StatedNoise, estimated_noise, frequency_unknown
+from .noise import BASIS_BELOW_ASSUMED, BASIS_NOT_ESTIMABLE, StatedNoise, estimated_noise, frequency_unknown
 from .options import DamageOptions
 from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
@@ -399,9 +399,14 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                                             "frequency" if pairing.n_rigid else "auto")
         notes += again_notes
         if again is not None and not frequency_unknown(again):
-            notes.append("the localisation, refinement and verification were run again with the noise estimated from "
-                         "the located set's fit (a first pass had assumed the frequency noise); its frequency test is "
-                         "then not independent of the fit, and an estimate from a selected set may be low")
+            if dict(again.basis).get("frequency") == BASIS_BELOW_ASSUMED:
+                notes.append("the localisation, refinement and verification were run again with the shape noise "
+                             "estimated from the located set's fit and the assumed frequency noise, which that fit "
+                             "shows to be larger than the frequencies' own")
+            else:
+                notes.append("the localisation, refinement and verification were run again with the noise estimated "
+                             "from the located set's fit (a first pass had assumed the frequency noise); its frequency "
+                             "test is then not independent of the fit, and an estimate from a selected set may be low")
             stated, unknown_frequency, again_run = again, False, True
             localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
                 model, names, meas, pairing, stated, opts, rng, data, progress)
