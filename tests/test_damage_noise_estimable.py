@@ -14,8 +14,8 @@ import numpy as np
 
 from femupdate.damage import detect_damage
 from femupdate.damage.examples import noisy_modes
-from femupdate.damage.noise import (BASIS_ASSUMED, BASIS_LOCATED, BASIS_NOT_ESTIMABLE, estimated_noise,
-                                    frequency_unknown, stated_noise)
+from femupdate.damage.noise import (BASIS_ASSUMED, BASIS_BELOW_ASSUMED, BASIS_LOCATED, BASIS_NOT_ESTIMABLE,
+                                    estimated_noise, frequency_unknown, stated_noise)
 from femupdate.examples import chain
 
 from conftest import HEAVY  # noqa: E402
@@ -64,3 +64,25 @@ def test_frequency_noise_estimable_nowhere_leaves_conditional_figures_and_no_con
     assert any(s.startswith("not confirmed: the frequency noise is not estimable") for s in said)
     payload = res.to_json()
     assert payload["confidence"]["conditional_on"] == res.confidence["conditional_on"]
+
+
+def test_a_located_fit_that_reproduces_the_data_shows_the_noise_below_the_assumed_level():
+    # noise-free data, 3 modes, 1 located unknown: the eigenvalues have redundancy (about 2, pooled with the
+    # shapes) and fit to round-off, so the frequency noise is shown below the assumed 0.001, which is then used
+    model, theta = _damaged()
+    names = list(model.parameter_names)
+    data = noisy_modes(model, SENSORS, 3, theta)
+    stated = stated_noise(None, data)
+    every, _, _ = estimated_noise(model, names, data, stated)
+    assert every is None or frequency_unknown(every)  # 3 eigenvalues for 5 unknowns: no redundancy
+    got, test, notes = estimated_noise(model, names, data, stated, fitted=["k3"])
+    assert got is not None and dict(got.basis)["frequency"] == BASIS_BELOW_ASSUMED, notes
+    assert got.frequency == stated.frequency and not frequency_unknown(got)
+    assert any("below the assumed level" in n and "99 % upper bound" in n for n in notes)
+    res = detect_damage(model, data, bootstrap=0, baseline_checked=True)
+    assert res.located == ["k3"] and res.status == "confirmed" and "conditional_on" not in res.confidence
+    assert res.confidence["noise"]["basis"]["frequency"] == BASIS_BELOW_ASSUMED
+    # the same set with noise of 0.5 % on the frequencies: not shown below 0.001, so not taken as estimated
+    noisy = noisy_modes(model, SENSORS, 3, theta, SIGMA_F, SIGMA_S, seed=3)
+    got, _, notes = estimated_noise(model, names, noisy, stated_noise(None, noisy), fitted=["k3"])
+    assert got is None or dict(got.basis)["frequency"] != BASIS_BELOW_ASSUMED, notes
