@@ -79,6 +79,7 @@ method's knobs are one :class:`~.options.DamageOptions`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -96,8 +97,8 @@ from .baseline import check_baseline
 from .bootstrap import Replicates, bootstrap, bootstrap_healthy
 from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
-from .judge import Judgement, judge
-from .noise import estimated_noise
+from .judge import Judgement, conditional, judge
+from .noise import BASIS_BELOW_ASSUMED, BASIS_NOT_ESTIMABLE, StatedNoise, estimated_noise, frequency_unknown
 from .options import DamageOptions
 from .parameters import DamageUnknowns
 from .verify import Refined, Refiner, Verification, verify
@@ -392,6 +393,74 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                      "sparse localisation is unreliable; the refinement, which compares the measured shapes directly, "
                      "chose the set")
     rng = np.random.default_rng(opts.seed)
+    unknown_frequency = silent = frequency_unknown(stated)  # a second pass may follow: the first runs silent
+    localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
+        model, names, meas, pairing, stated, opts, rng, data, None if silent else progress)
+    again_run = False
+    if unknown_frequency and refined is not None:  # the fit of every unknown could not tell it: the located set's fit
+        again, again_notes = _located_noise(model, names, data, stated_noise(noise, data), refined,
+                                            "frequency" if pairing.n_rigid else "auto")
+        notes += again_notes
+        if again is not None and not frequency_unknown(again):
+            if dict(again.basis).get("frequency") == BASIS_BELOW_ASSUMED:
+                notes.append("the localisation, refinement and verification were run again with the shape noise "
+                             "estimated from the located set's fit and the assumed frequency noise, which that fit "
+                             "shows to be larger than the frequencies' own")
+            else:
+                notes.append("the localisation, refinement and verification were run again with the noise estimated "
+                             "from the located set's fit (a first pass had assumed the frequency noise); its frequency "
+                             "test is then not independent of the fit, and an estimate from a selected set may be low")
+            stated, unknown_frequency, again_run = again, False, True
+            localiser, levels, more, loc, refiner, refined, realised, verification = _locate(
+                model, names, meas, pairing, stated, opts, rng, data, progress)
+    if silent and not again_run and opts.refine:  # the first pass ran silent and no second followed: said now
+        _tell(progress, "refine", 0, 1)
+        _tell(progress, "refine", 1, 1)
+    if unknown_frequency:
+        levels = dataclasses.replace(levels, basis=tuple((k, BASIS_NOT_ESTIMABLE if k == "frequency" else v)
+                                                         for k, v in levels.basis))
+    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
+                     progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
+    healthy = Replicates.none()
+    if refined is not None and reps.sets and not np.any(refined.delta):
+        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
+    elif refiner is not None and refined is not None and realised is not None:
+        healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
+                                    progress=None if progress is None else lambda done, total: progress("healthy", done,
+                                                                                                        total))
+    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
+                    baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
+    if unknown_frequency:
+        verdict = conditional(verdict, levels.frequency)
+    return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
+                  data, undamaged, du)
+
+
+def _located_noise(model: Model, names: Sequence[str], data: TestData, stated, refined: Refined, pairing: str):
+    """The noise estimated from the fit of the set the refinement ended with, or, when its eigenvalues
+    lack the redundancy there, of its members changed by ``min_change`` or more (``support``): the
+    noise (None when neither tells the frequencies') and the notes of the fit used.  Each fit starts
+    from the refinement's solution and pairs the modes as the refinement did (``pairing``): refitted
+    from the baseline, a large change may be paired wrongly, and that fit then reads as a model error."""
+    theta0 = dict(zip(model.parameter_names, np.asarray(model.values, float)))
+    sets = [tuple(refined.final.members)]
+    if refined.support.size and tuple(sorted(refined.support.tolist())) != sets[0]:
+        sets.append(tuple(sorted(refined.support.tolist())))
+    got: StatedNoise | None = None
+    notes: list[str] = []
+    for members in sets:
+        got, _, notes = estimated_noise(model, names, data, stated, fitted=[names[i] for i in members],
+                                        start={names[i]: theta0[names[i]] * (1 + float(refined.delta[i])) for i in members},
+                                        pairing=pairing)
+        if got is not None and not frequency_unknown(got):
+            break
+    return got, notes
+
+
+def _locate(model: Model, names: Sequence[str], meas, pairing: Pairing, stated, opts: DamageOptions,
+            rng: np.random.Generator, data: TestData, progress):
+    """Localise, refine and verify under the noise ``stated``: (localiser, levels, notes, localisation,
+    refiner, refined, realised data, verification); the last four empty without ``opts.refine``."""
     localiser, levels, more = make_localiser(model, names, meas, pairing, stated, opts, rng)
     loc = localise(localiser, names, meas, opts.alpha)
     refiner: Refiner | None = None
@@ -405,19 +474,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
         refined = refiner.refine(realised, meas.eigenvalues, meas.shapes, loc.fit)
         verification = verify(refined)
         _tell(progress, "refine", 1, 1)
-    reps = bootstrap(opts.bootstrap, localiser, meas, levels, opts.alpha, rng, refiner, refined, realised,
-                     progress=None if progress is None else lambda done, total: progress("bootstrap", done, total))
-    healthy = Replicates.none()
-    if refined is not None and reps.sets and not np.any(refined.delta):
-        healthy = reps  # nothing located: the located model is the healthy baseline, its replicates the same draws
-    elif refiner is not None and refined is not None and realised is not None:
-        healthy = bootstrap_healthy(opts.bootstrap, refiner, refined, realised, pairing.pairs, opts.alpha, rng,
-                                    progress=None if progress is None else lambda done, total: progress("healthy", done,
-                                                                                                        total))
-    verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
-                    baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
-    return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,
-                  data, undamaged, du)
+    return localiser, levels, more, loc, refiner, refined, realised, verification
 
 
 def _tell(progress, phase: str, done: int, total: int) -> None:

@@ -154,4 +154,25 @@ def judge(names: Sequence[str], localisation: Localisation, verification: Verifi
     return Judgement(status, doubts, verification.reason, notes, confidence, delta, order)
 
 
-__all__ = ["judge", "Judgement", "binomial_rate", "simulated_rates", "uniform_change", "UNCHECKED", "UNIFORM_SPREAD"]
+def conditional(verdict: Judgement, frequency: float) -> Judgement:
+    """The judgement when the frequency noise could be estimated from neither the fit of every
+    unknown nor that of the located set: its standard errors and simulated rates rest on an assumed
+    level, so they are marked conditional (``confidence["conditional_on"]``) and the location is
+    not confirmed (``confirmed`` becomes ``doubtful``, with the reason)."""
+    import dataclasses
+
+    why = (f"not confirmed: the frequency noise is not estimable from these data (too few modes for the unknowns); the "
+           f"standard errors and rates assume {frequency:g} — state it (--noise-frequency, or std_frequency in the "
+           "test data)")
+    confidence = dict(verdict.confidence, conditional_on=f"an assumed relative frequency noise of {frequency:g} "
+                      "(not estimable from these data)")
+    status, doubts = verdict.status, list(verdict.doubts)
+    if status == "confirmed":
+        status = "doubtful"
+    if status in ("confirmed", "doubtful"):
+        doubts.append(why)
+    return dataclasses.replace(verdict, status=status, doubts=doubts, confidence=confidence,
+                               notes=verdict.notes + ([] if why in doubts else [why]))
+
+
+__all__ = ["conditional", "judge", "Judgement", "binomial_rate", "simulated_rates", "uniform_change", "UNCHECKED", "UNIFORM_SPREAD"]

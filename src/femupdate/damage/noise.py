@@ -205,11 +205,102 @@ __all__ = ["BASIS_CALLER", "BASIS_DATA", "BASIS_ASSUMED", "BASIS_EXPANSION", "St
 
 #: the basis of a level estimated from the fit of every unknown
 BASIS_ESTIMATED = "estimated from the fit of every unknown (REML variance components)"
+#: the basis of a level estimated from the fit of the located unknowns (when every unknown's fit cannot tell it)
+BASIS_LOCATED = ("estimated from the fit of the located unknowns (REML variance components; conditional on the "
+                 "located set)")
+#: the basis of a frequency level the located fit shows below the assumed one: the assumed, larger, level is used
+BASIS_BELOW_ASSUMED = ("estimated from the fit of the located unknowns below the assumed level: the assumed, larger, "
+                       "level is used (conservative)")
+#: the basis of a frequency level that neither fit can estimate: the figures resting on it are conditional
+BASIS_NOT_ESTIMABLE = ("not estimable from these data (too few modes for the unknowns): assumed, and the standard "
+                       "errors and rates resting on it are conditional on it")
 
 
-def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[StatedNoise | None, dict | None, list[str]]:
+def _fit_components(model, names, fitted, data: TestData, start=None, pairing: str | None = None):
+    """The REML variance components (:func:`femupdate.variance.variance_components`) of the fit of
+    the unknowns ``fitted`` (a subset of ``names``; empty: the baseline's residuals, nothing
+    fitted) from ``start`` ({name: value}; default the baseline) with the test and model modes
+    paired by ``pairing`` (default the problem's), the fit's test
+    (:func:`femupdate.variance.fit_test`) and the data realised; or (None, None, note) when the
+    data are too few or the components not available; last, the eigenvalue residuals' own sum of
+    squares and redundancy at that fit (:func:`_eigen_share`; None without eigenvalues)."""
+    import importlib
+
+    try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
+        layout = importlib.import_module("femupdate.updating.noise").layout
+        variance = importlib.import_module("femupdate.variance")
+    except ImportError:  # the variance components are not in this version: the levels stay assumed
+        return None, None, None, None
+    from ..updating import Problem
+    from ..updating.solve import solve
+
+    prob = Problem(model, data, list(fitted) if len(fitted) else list(names), shape_scaling="unit",
+                   x0=dict(start) if start else None, pairing=pairing)
+    L = len(fitted)
+    if prob.n_residuals <= L + 1:
+        return None, None, (f"the noise cannot be estimated: {prob.n_residuals} residuals for {L} unknowns (state it: "
+                            "--noise-frequency, --noise-shape, or std_frequency / std_shape in the test data)"), None
+    if L:
+        sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                          max_nfev=200 + 20 * L)
+        x = sol.x
+        J = prob.jacobian(x)
+    else:  # nothing located: the baseline itself is the fit
+        x = prob.x_start
+        J = np.zeros((prob.n_residuals, 0))
+    r = prob.residuals(x)
+    lay = layout(prob, None)
+    vc = variance.variance_components(J, r, lay.blocks, kinds=lay.kinds, lost=lay.lost)
+    plausible = dict(lay.plausible)
+    if plausible:  # a pool across kinds is held to the largest of their bounds
+        plausible["all"] = max(plausible.values())
+    eig_rows = [np.asarray(rows, np.intp).ravel() for lb, rows in lay.blocks.items() if lay.kinds.get(lb) == "eigenvalue"]
+    own = _eigen_share(J, r, vc, np.concatenate(eig_rows)) if eig_rows else None
+    return vc, variance.fit_test(vc, plausible=plausible), None, own
+
+
+def _eigen_share(J, r, vc, rows: np.ndarray) -> tuple[float, float]:
+    """The eigenvalue residuals' own sum of squares e_bᵀe_b and redundancy r_b = n_b − tr H_bb at
+    the fit, weighted by the components ``vc`` estimated (Förstner's step, as
+    :func:`femupdate.variance.variance_components` takes it): what the eigenvalues tell of their
+    noise on their own, also where their redundancy is too small for a component of their own and
+    they were pooled with the shapes."""
+    m = r.size
+    var = np.ones(m)
+    for c in vc.components:
+        var[c.rows] = c.variance if math.isfinite(c.variance) else 0.0
+    top = float(np.max(var)) if m else 0.0
+    var = np.where(var > 0, var, 1e-24 * top) if top > 0 else np.ones(m)
+    w = 1.0 / var
+    if J.shape[1]:
+        Jw = J * w[:, None]
+        Ninv = np.linalg.pinv(J.T @ Jw, rcond=1e-12, hermitian=True)
+        e = r - J @ (Ninv @ (Jw.T @ r))
+        lev = np.einsum("ij,jk,ik->i", J, Ninv, Jw)
+    else:
+        e, lev = r, np.zeros(m)
+    return float(e[rows] @ e[rows]), float(rows.size - lev[rows].sum())
+
+
+def _upper_frequency(own: tuple[float, float] | None) -> float | None:
+    """The upper end of the one-sided 99 % confidence interval of the relative frequency std the
+    eigenvalues tell on their own (σ_f = σ_λ / 2, r_b σ̂² / σ² ~ χ²(r_b)); None with less redundancy
+    than ``MIN_TEST_DOF`` (none for the frequencies: round-off would decide)."""
+    from scipy.special import chdtri
+
+    from ..variance import MIN_TEST_DOF
+
+    if own is None or not own[1] >= MIN_TEST_DOF:
+        return None
+    return 0.5 * math.sqrt(max(own[0], 0.0) / float(chdtri(own[1], 0.99)))
+
+
+def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=None, *, start=None,
+                    pairing: str | None = None) -> tuple[StatedNoise | None, dict | None, list[str]]:
     """The noise the data do not state, estimated from the fit of every unknown (plain updating
-    from the baseline, as ``update`` fits them) by REML variance components per block
+    from the baseline, as ``update`` fits them) — or, given ``fitted``, of those unknowns only (the
+    located set, the others at the baseline; empty: the baseline's own residuals) — by REML
+    variance components per block
     (:func:`femupdate.variance.variance_components` on the blocks of
     :func:`femupdate.updating.noise.layout`: each mode's eigenvalue and shape, pooled where they
     lack the redundancy), and that fit's test (:func:`femupdate.variance.fit_test`: a plausibility
@@ -220,8 +311,11 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     -------
     noise : StatedNoise or None
         ``stated`` with the kinds it did not state estimated (per mode; ``basis``
-        ``BASIS_ESTIMATED``); None when nothing is to be estimated, the variance components are not
-        available, or the data are too few (a note says why).
+        ``BASIS_ESTIMATED``, or ``BASIS_LOCATED`` given ``fitted``); None when nothing is to be
+        estimated, the variance components are not available, or the data are too few (a note
+        says why).  The frequency level is estimated only where the eigenvalues have redundancy
+        of their own; where they are pooled with the shapes (fewer modes than unknowns), it is
+        left as stated (:func:`frequency_unknown` then says so).
     model_error : dict or None
         The fit's test (``test``, ``statistic``, ``dof``, ``p_value``, ``alpha``, ``verdict``); when it
         flags the fit, no level is estimated (None, None and a note: a fit from the baseline that
@@ -233,40 +327,21 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     want_f, want_s = basis.get("frequency") == BASIS_ASSUMED, basis.get("shape") is None
     if not (want_f or want_s):
         return None, None, []
-    import importlib
-
-    try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
-        layout = importlib.import_module("femupdate.updating.noise").layout
-        variance = importlib.import_module("femupdate.variance")
-    except ImportError:  # the variance components are not in this version: the levels stay assumed
-        return None, None, []
-    fit_test, variance_components = variance.fit_test, variance.variance_components
     from .._errors import InputError, NumericalError
-    from ..updating import Problem
-    from ..updating.solve import solve
     from .localise import realised_data
 
+    which = "every unknown" if fitted is None else "the located unknowns"
     data = realised_data(data)
     try:
-        prob = Problem(model, data, list(names), shape_scaling="unit")
-        if prob.n_residuals <= len(names) + 1:
-            return None, None, [f"the noise cannot be estimated: {prob.n_residuals} residuals for {len(names)} "
-                                "unknowns (state it: --noise-frequency, --noise-shape, or std_frequency / std_shape "
-                                "in the test data)"]
-        sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
-                          max_nfev=200 + 20 * len(names))
-        J, r = prob.jacobian(sol.x), prob.residuals(sol.x)
-        lay = layout(prob, None)
-        vc = variance_components(J, r, lay.blocks, kinds=lay.kinds, lost=lay.lost)
-        plausible = dict(lay.plausible)
-        if plausible:  # a pool across kinds is held to the largest of their bounds
-            plausible["all"] = max(plausible.values())
-        test = fit_test(vc, plausible=plausible)
+        vc, test, why, own = _fit_components(model, names, list(names) if fitted is None else list(fitted), data,
+                                             start, pairing)
     except (InputError, NumericalError, ValueError) as exc:
-        return None, None, [f"the noise could not be estimated from the fit of every unknown: {exc}"]
+        return None, None, [f"the noise could not be estimated from the fit of {which}: {exc}"]
+    if vc is None or test is None:
+        return None, None, [why] if why else []
     if test.flagged:  # a model error, or a fit from the baseline that ended in a local minimum: no estimate
         return None, None, list(vc.notes) + [
-            "the noise was not estimated: the fit of every unknown from the baseline leaves more than a vibration "
+            f"the noise was not estimated: the fit of {which} from the baseline leaves more than a vibration "
             f"test's noise ({test.headline()}); a model error or a local minimum of that fit — the levels stay "
             "assumed and the verification tests the located set against them"]
     by_label = {mb: c for c in vc.components for mb in c.members}
@@ -274,39 +349,72 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise) -> tuple[
     f_modes, s_modes = list(stated.frequency_modes or [stated.frequency] * T), list(stated.shape_modes or [1.0] * T)
     notes = list(vc.notes)
     eig = [by_label.get(f"eigenvalue mode {k + 1}") for k in range(T)]
-    if want_f and any(c is None or c.kind != "eigenvalue" or not math.isfinite(c.std) for c in eig):
+    alone = all(c is not None and c.kind == "eigenvalue" and math.isfinite(c.std) for c in eig)
+    assumed, up = stated.frequency, _upper_frequency(own)
+    # the located fit: the eigenvalues pooled with the shapes (too little redundancy for a component of their own)
+    # still tell their noise is below the assumed level when the upper end of its 99 % interval is below it
+    shown_below = want_f and fitted is not None and not alone and up is not None and up < assumed
+    if want_f and not alone and not shown_below:
         # too few eigenvalues for the unknowns: pooled with the shapes, their level is not the frequencies' own
         want_f = False
-        notes.append("the frequency noise cannot be estimated on its own from the fit of every unknown (too few "
-                     "modes for the unknowns: their block is pooled with the shapes)")
+        notes.append(f"the frequency noise cannot be estimated on its own from the fit of {which} (too few "
+                     "modes for the unknowns: their block is pooled with the shapes" + (
+                         f", and they do not show it below the assumed {assumed:g}: 99 % upper bound {up:.3g}"
+                         if fitted is not None and up is not None else "") + ")")
     for k, m in enumerate(data.modes):
         if want_f:
             c = eig[k]
-            assert c is not None  # checked above
-            f_modes[k] = c.std / 2  # the residual is the relative eigenvalue error: 2 sigma_f
+            # the residual is the relative eigenvalue error: 2 sigma_f
+            if alone and c is not None:
+                f_modes[k] = c.std / 2
+            else:  # shown below the assumed level: the eigenvalues' own estimate (floored below)
+                assert own is not None and own[1] > 0
+                f_modes[k] = 0.5 * math.sqrt(max(own[0], 0.0) / own[1])
         if want_s and m.has_shape and len(m.dofs) >= 2:
             c = by_label.get(f"shape mode {k + 1}")
             if c is None or not math.isfinite(c.std):
-                return None, None, notes + ["the shape noise cannot be estimated from the fit of every unknown"]
+                return None, None, notes + [f"the shape noise cannot be estimated from the fit of {which}"]
             phi = np.abs(np.asarray(m.shape, float))
             s_modes[k] = c.std * float(np.linalg.norm(phi) / np.max(phi))  # unit-length scaling -> largest value
     shaped = [k for k, m in enumerate(data.modes) if m.has_shape and len(m.dofs) >= 2]
     if not (want_f or want_s):
         return None, None, notes
+    label = BASIS_ESTIMATED if fitted is None else BASIS_LOCATED
+    label_f = label
+    if want_f and fitted is not None:  # a located set's estimate is never taken below the assumed level
+        below = [k for k in range(T) if f_modes[k] < assumed]
+        if below:
+            estimate = float(np.median(f_modes))
+            f_modes = [max(f, assumed) for f in f_modes]
+            label_f = BASIS_BELOW_ASSUMED if len(below) == T else label
+            notes.append(f"the frequency noise estimated from the fit of {which} is below the assumed level "
+                         + (f"(median {estimate:.3g}" if len(below) == T else
+                            f"in mode(s) {', '.join(str(k + 1) for k in below)} (median {estimate:.3g}")
+                         + (f", 99 % upper bound {up:.3g}" if up is not None else "")
+                         + f"): the assumed {assumed:g}, larger, is used there — conservative for the verification, "
+                         "the standard errors and the rates (--noise-frequency to state it)")
     if want_f:
-        basis["frequency"] = BASIS_ESTIMATED
+        basis["frequency"] = label_f
     if want_s:
-        basis["shape"] = BASIS_ESTIMATED
+        basis["shape"] = label
     out = StatedNoise(float(np.median(f_modes)) if want_f else stated.frequency,
                       float(np.median([s_modes[k] for k in shaped])) if want_s and shaped else stated.shape,
                       tuple(map(float, f_modes)) if (want_f or stated.frequency_modes is not None) else None,
                       tuple(map(float, s_modes)) if (want_s or stated.shape_modes is not None) else None,
                       tuple(basis.items()))
     said = ", ".join(f"{k} {v:.3g}" for k, v in (("frequency", out.frequency), ("shape", out.shape))
-                     if v is not None and basis.get(k) == BASIS_ESTIMATED)
-    notes.append(f"noise not stated: estimated from the fit of every unknown (REML variance components per block; "
-                 f"median {said}); its test: {test.headline()}")
+                     if v is not None and basis.get(k) in (label, BASIS_BELOW_ASSUMED))
+    dof = [c.dof for c in vc.components if c.kind == "eigenvalue" and want_f and alone] or (
+        [own[1]] if want_f and own is not None else [])
+    notes.append(f"noise not stated: estimated from the fit of {which} (REML variance components per block; "
+                 f"median {said}" + (f"; the frequencies' with {dof[0]:.1f} degrees of freedom" if dof else "")
+                 + f"); its test: {test.headline()}")
     return out, test.record(), notes
 
 
-__all__ += ["BASIS_ESTIMATED", "estimated_noise"]
+def frequency_unknown(stated: StatedNoise) -> bool:
+    """True when the frequency level rests on nothing but the default assumption."""
+    return dict(stated.basis).get("frequency") == BASIS_ASSUMED
+
+
+__all__ += ["BASIS_ESTIMATED", "BASIS_LOCATED", "BASIS_BELOW_ASSUMED", "BASIS_NOT_ESTIMABLE", "estimated_noise", "frequency_unknown"]

@@ -37,7 +37,10 @@ DAMAGE_KEYS = (
         "located change over the largest elsewhere; `null` when nothing else changed), `bootstrap`, `noise` "
         "(`frequency`, `shape`, `shape_verify`, per-mode `frequency_modes` and `shape_modes` when the test data state "
         "them, and `basis`: what each level rests on — stated by the caller, stated in the test data, estimated from the "
-        "expansion misfit, or assumed), `false_positive_rate` and `detection_rate` (simulated for this run: the whole "
+        "expansion misfit, from the fit of every unknown or, when that fit cannot tell the frequencies' (fewer modes than "
+        "unknowns), from the fit of the located unknowns, or assumed; \"not estimable ...\" when neither fit can tell "
+        "it), `conditional_on` (present only then: the assumed frequency noise the standard errors and rates rest on; "
+        "the location is then not `confirmed`), `false_positive_rate` and `detection_rate` (simulated for this run: the whole "
         "chain on replicates of the healthy baseline and of the located model with this run's sensors, modes and noise; "
         "each `rate`, `count`, `n`, `standard_error` (binomial), `interval` (Clopper-Pearson), `level`, `basis`; `null` "
         "without replicates)", (OBJECT,)),
