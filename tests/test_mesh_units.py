@@ -81,7 +81,7 @@ def test_values_contradicting_the_system_refused_by_name(tmp_path):
     mm_deck = _deck(tmp_path / "mm.inp", MM)
     with pytest.raises(InputError, match=r"material 'AL'.*rho = 2\.7e-09 is not a plausible density in kg/m³ "
                                          r"\(the declared units m-kg-s\); read as t/mm³ \(mm-t-s\) it would be 2700 kg/m³"):
-        Structure.from_mesh(mm_deck)  # an mm-t-s deck read as SI (the default)
+        Structure.from_mesh(mm_deck, units="m-kg-s")  # an mm-t-s deck declared SI
     bdf = tmp_path / "steel.bdf"
     bdf.write_text("GRID,1,,0.,0.,0.\nGRID,2,,1000.,0.,0.\nGRID,3,,1000.,1000.,0.\nGRID,4,,0.,1000.,0.\n"
                    "CQUAD4,1,1,1,2,3,4\nPSHELL,1,7,2.0,7\nMAT1,7,2.1+11,,0.3,7850.\n")
@@ -97,8 +97,12 @@ def test_values_contradicting_the_system_refused_by_name(tmp_path):
         s.build()
     with pytest.raises(InputError, match=r"units = 'mm-kg-s' is not a consistent unit system.*'m-kg-s', 'mm-t-s'"):
         Structure.from_mesh(mm_deck, units="mm-kg-s")
-    # the escape: unchecked, the mismatched deck builds (its frequencies are then the user's business)
-    assert Structure.from_mesh(mm_deck, check_units=False).build().dofs
+    # the escape: unchecked, the mismatched deck builds; undeclared units are not checked (a deck in another
+    # consistent system, such as inch-lbf-s, is taken as it is) and the units read SI
+    assert Structure.from_mesh(mm_deck, units="m-kg-s", check_units=False).build().dofs
+    s = Structure.from_mesh(mm_deck, {"PLATE": {"E": "E_plate"}})
+    s.parameter("E_plate", 7.0e4)
+    assert s.build().parameters[0].unit == "Pa"
 
 
 def test_model_file_units_cli(tmp_path):
@@ -116,7 +120,7 @@ def test_model_file_units_cli(tmp_path):
                        text=True, env=ENV)
     assert r.returncode == 2 and "material 'AL'" in r.stderr and "rho = 2.7e-09" in r.stderr, r.stderr
     assert "Traceback" not in r.stderr
-    (tmp_path / "escape.toml").write_text('[mesh]\nfile = "mm.inp"\ncheck_units = false\n')
+    (tmp_path / "escape.toml").write_text('[mesh]\nfile = "mm.inp"\nunits = "m-kg-s"\ncheck_units = false\n')
     r = subprocess.run([sys.executable, "-m", "femupdate", "modes", "escape.toml", "--n-modes", "2"], cwd=tmp_path,
                        capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr

@@ -117,16 +117,18 @@ def _assign(mesh: Mesh, props: dict[str, dict], where: str):
 
 
 def add_mesh(s, mesh: Mesh, sets: Mapping | None = None, support: Sequence | None = None, where: str = "mesh",
-             units: str = "m-kg-s", check_units: bool = True) -> None:
+             units: str | None = None, check_units: bool = True) -> None:
     """Add a mesh's nodes, elements (by property set) and supports to the structure ``s``, in the
-    consistent unit system ``units`` (:mod:`femupdate.mesh.units`): moduli and densities that
-    contradict it are refused unless ``check_units`` is false."""
-    system = system_of(units, where)
+    declared consistent unit system ``units`` (:mod:`femupdate.mesh.units`): moduli and densities that
+    contradict it are refused unless ``check_units`` is false.  Undeclared (None): SI unit names, and
+    nothing checked (a deck in another consistent system, inch-lbf-s, is taken as it is)."""
+    system = None if units is None else system_of(units, where)
     if not isinstance(check_units, bool):
         raise InputError(f"{where}: check_units must be true or false, got {check_units!r}")
-    s.units = system
-    props = _property_sets(mesh, sets or {}, where, system if check_units else None)
-    if check_units:  # parameters standing for E, G or rho: checked when the structure is built
+    s.units = system or "m-kg-s"
+    check = system is not None and check_units
+    props = _property_sets(mesh, sets or {}, where, system if check else None)
+    if check:  # parameters standing for E, G or rho: checked when the structure is built
         s.unit_checks = [(v, k, f"{where}: set {n!r}") for n, p in props.items() for k, v in p.items()
                          if k in ("E", "G", "rho") and isinstance(v, str)]
     names, owner = _assign(mesh, props, where)
@@ -254,7 +256,7 @@ def mesh_from_table(s, table: Mapping, source: str) -> None:
     base = Path(source).parent if Path(source).suffix else Path(".")
     f = Path(table["file"])
     mesh = read_mesh(f if f.is_absolute() else base / f, table.get("format"))
-    add_mesh(s, mesh, table.get("sets", {}), table.get("support", []), where, table.get("units", "m-kg-s"),
+    add_mesh(s, mesh, table.get("sets", {}), table.get("support", []), where, table.get("units"),
              table.get("check_units", True))
 
 

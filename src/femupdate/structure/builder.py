@@ -526,7 +526,7 @@ class Structure(LinkMethods):
 
     @classmethod
     def from_mesh(cls, file, sets: Mapping | None = None, support=None, *, format: str | None = None,
-                  name: str | None = None, units: str = "m-kg-s", check_units: bool = True) -> Structure:
+                  name: str | None = None, units: str | None = None, check_units: bool = True) -> Structure:
         """Structure from a mesh file: Gmsh ``.msh`` (through meshio), Abaqus ``.inp``, Nastran bulk data.
 
         Nodes keep the file's ids (dof labels ``"id:dir"``) and coordinates; each element set with a
@@ -550,11 +550,12 @@ class Structure(LinkMethods):
             Default by suffix.
         name : str, optional
             Name of the structure (default: the file's stem).
-        units : {"m-kg-s", "mm-t-s"}
+        units : {"m-kg-s", "mm-t-s"}, optional
             The mesh's consistent unit system (parameter units; frequencies in Hz with either).
+            Undeclared: SI unit names, values not checked.
         check_units : bool
             Refuse moduli and densities (numbers, and parameter values at :meth:`build`) that
-            contradict ``units``; ``False`` skips the check.
+            contradict the declared ``units``; ``False`` skips the check.
 
         Raises
         ------
