@@ -24,15 +24,17 @@ from ..dofs import dof
 from ..structure.groups import NODE_DIRS, SHELLS
 from . import read_mesh
 from .core import Mesh
+from .units import check_value, system_of
 
 log = logging.getLogger(__name__)
 SET_KEYS = {"E", "nu", "rho", "t", "mass", "drill", "G", "A", "Iy", "Iz", "J"}
-TABLE_KEYS = {"file", "format", "sets", "support"}
+TABLE_KEYS = {"file", "format", "sets", "support", "units", "check_units"}
 _DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 
-def _deck_sets(mesh: Mesh) -> dict[str, dict]:
-    """Properties of each sectioned element set of a deck: E, nu, rho from its material, t."""
+def _deck_sets(mesh: Mesh, system: str | None) -> dict[str, dict]:
+    """Properties of each sectioned element set of a deck: E, nu, rho from its material, t; E and rho
+    checked against the declared unit ``system`` (None: not checked)."""
     out: dict[str, dict] = {}
     for sec in mesh.sections:
         try:
@@ -46,14 +48,17 @@ def _deck_sets(mesh: Mesh) -> dict[str, dict]:
             raise InputError(f"{sec.where}: element set {name!r} has a second section")
         props = {k: v for k, v in (("E", mat.E), ("nu", mat.nu), ("rho", mat.rho), ("t", sec.thickness)) if v is not None}
         props.update(sec.beam or {})
+        if system is not None:
+            for k in ("E", "rho"):
+                check_value(k, props.get(k), system, f"{sec.where}: material {sec.material!r}")
         out[name] = props
     return out
 
 
-def _property_sets(mesh: Mesh, sets: Mapping, where: str) -> dict[str, dict]:
+def _property_sets(mesh: Mesh, sets: Mapping, where: str, system: str | None) -> dict[str, dict]:
     if not isinstance(sets, Mapping):
         raise InputError(f"{where}: sets must be a table of tables ([mesh.sets.NAME])")
-    props = _deck_sets(mesh)
+    props = _deck_sets(mesh, system)
     for name, spec in sets.items():
         w = f"{where}: [mesh.sets.{name}]"
         if not isinstance(spec, Mapping):
@@ -68,6 +73,8 @@ def _property_sets(mesh: Mesh, sets: Mapping, where: str) -> dict[str, dict]:
                 k, "a number or a parameter name")
             if not ok:
                 raise InputError(f"{w}: {k} must be {kind}, got {v!r}")
+            if system is not None:
+                check_value(k, v, system, w)
         try:
             written, _ = mesh.set_of(str(name), "element")
         except InputError as exc:
@@ -109,9 +116,21 @@ def _assign(mesh: Mesh, props: dict[str, dict], where: str):
     return names, owner
 
 
-def add_mesh(s, mesh: Mesh, sets: Mapping | None = None, support: Sequence | None = None, where: str = "mesh") -> None:
-    """Add a mesh's nodes, elements (by property set) and supports to the structure ``s``."""
-    props = _property_sets(mesh, sets or {}, where)
+def add_mesh(s, mesh: Mesh, sets: Mapping | None = None, support: Sequence | None = None, where: str = "mesh",
+             units: str | None = None, check_units: bool = True) -> None:
+    """Add a mesh's nodes, elements (by property set) and supports to the structure ``s``, in the
+    declared consistent unit system ``units`` (:mod:`femupdate.mesh.units`): moduli and densities that
+    contradict it are refused unless ``check_units`` is false.  Undeclared (None): SI unit names, and
+    nothing checked (a deck in another consistent system, inch-lbf-s, is taken as it is)."""
+    system = None if units is None else system_of(units, where)
+    if not isinstance(check_units, bool):
+        raise InputError(f"{where}: check_units must be true or false, got {check_units!r}")
+    s.units = system or "m-kg-s"
+    check = system is not None and check_units
+    props = _property_sets(mesh, sets or {}, where, system if check else None)
+    if check:  # parameters standing for E, G or rho: checked when the structure is built
+        s.unit_checks = [(v, k, f"{where}: set {n!r}") for n, p in props.items() for k, v in p.items()
+                         if k in ("E", "G", "rho") and isinstance(v, str)]
     names, owner = _assign(mesh, props, where)
     s.add_nodes(mesh.node_ids.tolist(), mesh.xyz)
     for k, name in enumerate(names):
@@ -237,7 +256,8 @@ def mesh_from_table(s, table: Mapping, source: str) -> None:
     base = Path(source).parent if Path(source).suffix else Path(".")
     f = Path(table["file"])
     mesh = read_mesh(f if f.is_absolute() else base / f, table.get("format"))
-    add_mesh(s, mesh, table.get("sets", {}), table.get("support", []), where)
+    add_mesh(s, mesh, table.get("sets", {}), table.get("support", []), where, table.get("units"),
+             table.get("check_units", True))
 
 
 __all__ = ["add_mesh", "mesh_from_table", "SET_KEYS"]

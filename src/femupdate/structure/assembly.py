@@ -23,6 +23,7 @@ from ..constraints import reduce_model, transformation
 from .groups import SHELLS, SOLIDS, ElementGroup, NodeDofs, merge_groups, triplets
 from .node_assembly import DIR_CODE, DofTable, assemble_node_group
 from .links import constraint_rows, offset_terms, point_mass_terms, supported_rows
+from ..mesh.units import check_parameters
 from .units import parameter_units
 
 
@@ -99,7 +100,8 @@ def assemble(structure) -> Model:
     zero = sp.csr_array((n, n))
     K0 = mats[("K", -1)] if mats[("K", -1)] is not None else zero
     M0 = mats[("M", -1)] if mats[("M", -1)] is not None else zero
-    units = parameter_units(groups, pnames)
+    check_parameters(self)  # a mesh's E, G and rho parameters against its declared units
+    units = parameter_units(groups, pnames, self.units)
     model = Model(
         dofs=tuple(dofs), K0=K0, M0=M0,
         parameters=tuple(par if par.unit else replace(par, unit=units[par.name])

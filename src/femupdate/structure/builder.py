@@ -47,6 +47,7 @@ class Structure(LinkMethods):
         self.supports: list[str] = []
         self.support_nodes: list[Node] = []
         self.constraints: list = []  # rigid links and ties (femupdate.structure.links.Link)
+        self.units = "m-kg-s"  # the consistent unit system (a mesh declares it: femupdate.mesh.units)
 
     # ------------------------------------------------------------------ declarations
     def parameter(self, name: str, value: float, bounds=None, fixed: bool = False, prior=None) -> None:
@@ -525,7 +526,7 @@ class Structure(LinkMethods):
 
     @classmethod
     def from_mesh(cls, file, sets: Mapping | None = None, support=None, *, format: str | None = None,
-                  name: str | None = None) -> Structure:
+                  name: str | None = None, units: str | None = None, check_units: bool = True) -> Structure:
         """Structure from a mesh file: Gmsh ``.msh`` (through meshio), Abaqus ``.inp``, Nastran bulk data.
 
         Nodes keep the file's ids (dof labels ``"id:dir"``) and coordinates; each element set with a
@@ -549,6 +550,12 @@ class Structure(LinkMethods):
             Default by suffix.
         name : str, optional
             Name of the structure (default: the file's stem).
+        units : {"m-kg-s", "mm-t-s"}, optional
+            The mesh's consistent unit system (parameter units; frequencies in Hz with either).
+            Undeclared: SI unit names, values not checked.
+        check_units : bool
+            Refuse moduli and densities (numbers, and parameter values at :meth:`build`) that
+            contradict the declared ``units``; ``False`` skips the check.
 
         Raises
         ------
@@ -561,7 +568,7 @@ class Structure(LinkMethods):
         from ..mesh.model import add_mesh
 
         s = cls(name if name is not None else Path(file).stem)
-        add_mesh(s, read_mesh(file, format), sets, support, where=str(file))
+        add_mesh(s, read_mesh(file, format), sets, support, str(file), units, check_units)
         return s
 
     # ------------------------------------------------------------------ assembly
