@@ -214,6 +214,24 @@ def test_bad_input_is_named():
         plan(portal_frame(), kind="triaxial", candidates=["99"])
 
 
+def test_too_few_candidates_for_the_rank_bound_are_refused_with_the_bound():
+    """Issue 32 item 7: the bound is said.  m eigenvalues and unit-scaled shapes at n dofs give at
+    most mn rows (mn = 3 < 6: at least ceil(6/3) = 2 dofs); on the chain the layout rank bound with
+    every candidate measured, checked against the rank of S itself (a second route)."""
+    model = six_dof_model()
+    with pytest.raises(fu.InputError, match=r"candidates: 1 candidate dof\(s\) \(1:x\) with 3 target mode\(s\) bound "
+                                            r"the rank by mn = 3 < 6 parameters.*at least 2 candidate dofs"):
+        plan(model, n_modes=3, candidates=["1:x"], points=1, compare=False, tam="none")
+    for cands, bound in ((["1:x", "2:x"], chain_rank_bound(6, [1, 2], 3)), (["5:x", "6:x"], chain_rank_bound(6, [5, 6], 3))):
+        bank = SensitivityBank(model, cands, [0, 1, 2], list(model.parameter_names), model.values)
+        rank = int(np.linalg.matrix_rank(bank.matrix([0, 1], normalised=True)))
+        assert rank == bound < 6, (cands, rank, bound)
+        with pytest.raises(fu.InputError, match=rf"layout rank bound of this grounded chain is {bound} < 6 parameters"):
+            plan(model, n_modes=3, candidates=cands, points=1, compare=False, tam="none")
+    res = plan(model, n_modes=3, candidates=["1:x", "6:x"], points=1, compare=False, tam="none")  # bound 6: accepted
+    assert res.verdict == "unique"
+
+
 def test_parameters_no_sensor_set_identifies_are_named():
     s = fu.Structure("two springs side by side")  # ka and kb act only through ka + kb
     for name, v in (("ka", 100.0), ("kb", 200.0), ("kc", 300.0)):

@@ -129,6 +129,10 @@ def test_plan_command_bad_input(chain_file, capsys):
     assert code == 2 and "--std-shape must be > 0" in err
     code, _, err = run(["plan", str(chain_file), "--std-eigenvalue", "5e-324"], capsys)
     assert code == 2 and "--std-eigenvalue must be a finite number >= 1e-100" in err
+    code, _, err = run(["plan", str(chain_file), "--modes", "1", "--candidates", "1:x,2:x"], capsys)
+    assert code == 2 and "--candidates: 2 candidate dof(s) (1:x, 2:x)" in err and "mn = 2 < 3 parameters" in err
+    assert "at least 3 candidate dofs" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
 
 
 def test_plan_report_draws_the_layout_with_exciters_and_pretest(chain_file, tmp_path, capsys):

@@ -230,7 +230,9 @@ def plan(model_path, targets: TargetOptions, sensors: SensorSpec, placement: Pla
     except InputError as exc:
         msg = str(exc)
         for field, opt in (("sensors:", "--sensors:"), ("box:", "--box:"), ("params:", "--params:"),
-                           ("exciters:", "--exciters:"), ("prior:", "--information-gain:")):
+                           ("exciters:", "--exciters:"), ("prior:", "--information-gain:"),
+                           ("candidates:", ("--candidates-file:" if sensors.candidates_file else "--candidates:")
+                            if cand is not None else "candidates:")):
             if msg.startswith(field):
                 msg = opt + msg[len(field):]
         raise InputError(msg) from None

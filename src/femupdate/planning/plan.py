@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -14,7 +15,7 @@ from .candidates import Candidates, candidates as make_candidates
 from .classical import classical_placement
 from .fisher import Design, Noise, SensitivityBank, parameter_points, prior_variances, rank_and_condition
 from .placement import identifiability_placement, score_set
-from .predict import automac, monte_carlo, predicted_std, uniqueness_verdict
+from .predict import automac, chain_positions, monte_carlo, predicted_std, uniqueness_verdict
 from .result import PlanResult
 from .targets import target_modes
 
@@ -97,6 +98,7 @@ def plan(model, *, params: Sequence[str] | None = None, candidates: Sequence[str
     prior_var = prior_variances(model, names) if p_opt.information_gain else None
     design = Design(p_opt.design, prior_var) if prior_var is not None else p_opt.design
     if p_opt.criterion == "identifiability":
+        _rank_bound_met(model, names, cand.dofs, len(target.indices))
         _identifiable_at_all(banks[0], names, len(cand.dofs), len(target.indices))
     chosen, greedy, swaps = _place(p_opt.criterion, p_opt, model, cand, banks, groups, noise, n_req, design)
     rows = cand.rows(chosen)
@@ -149,6 +151,28 @@ def _place(criterion, p_opt, model, cand: Candidates, banks, groups, noise, n_re
     res = classical_placement(b.phi, groups, n, criterion, fixed=cand.fixed, eigenvalues=b.eigenvalues,
                               energy=energy, exchange=p_opt.exchange)
     return res.chosen, res.eliminated, res.swaps
+
+
+def _rank_bound_met(model, names, dofs: Sequence[str], n_modes: int) -> None:
+    """Refuse candidates too few for the rank bound, said with the bound: the m eigenvalues and the
+    unit-scaled shapes at n dofs give at most m n independent rows (the counting criterion
+    mn >= L), and on a grounded chain whose springs are the parameters the layout rank bound
+    with every candidate measured (:func:`femupdate.uniqueness.chain.chain_rank_bound`) is exact."""
+    from ..uniqueness.chain import chain_rank_bound
+
+    n, m, L = len(dofs), n_modes, len(names)
+    shown = ", ".join(dofs) if n <= 8 else ", ".join(dofs[:8]) + ", ..."
+    if m * n < L:
+        raise InputError(f"candidates: {n} candidate dof(s) ({shown}) with {m} target mode(s) bound the rank by "
+                         f"mn = {m * n} < {L} parameters; the rank bound mn >= L needs at least {math.ceil(L / m)} "
+                         "candidate dofs: add candidates or target modes, or fix some parameters")
+    pos = chain_positions(model, names)
+    if pos is not None:
+        bound = chain_rank_bound(model.n_dofs, [pos[d] for d in dofs], m)
+        if bound < L:
+            raise InputError(f"candidates: with every candidate ({shown}) measured, the layout rank bound of this "
+                             f"grounded chain is {bound} < {L} parameters from {m} target mode(s): add candidate "
+                             "dofs (spread along the chain) or target modes, or fix some parameters")
 
 
 def _identifiable_at_all(bank, names, n_rows: int, n_modes: int) -> None:
