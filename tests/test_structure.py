@@ -601,3 +601,14 @@ def test_every_corrupted_value_gives_input_error_or_a_model():
 @given(path=st.sampled_from(BASE_PATHS), junk=JUNK)
 def test_random_corruption_gives_input_error_or_a_model(path, junk):
     assert _escapes([(path, junk)]) == []
+
+
+def test_a_node_id_beyond_64_bits_is_refused_by_name():
+    """Node ids are tabled as 64-bit integers (the node-block assembly): one beyond is refused when
+    the node is added, not met as an OverflowError while building (found by tests/test_fuzz.py)."""
+    from femupdate import InputError, Structure
+
+    s = Structure("big ids")
+    s.node(2**63 - 1, [0.0, 0.0])  # the largest that fits
+    with pytest.raises(InputError, match=r"node id 9223372036854775808: out of range"):
+        s.node(2**63, [1.0, 0.0])

@@ -127,8 +127,8 @@ class Structure(LinkMethods):
             xyz = np.column_stack([xyz, np.zeros(len(xyz))])
         for i, x in zip(ids, xyz):
             i = int(i)
-            if i in self.nodes:
-                raise InputError(f"node {i} defined twice")
+            if i in self.nodes or not -2**63 <= i < 2**63:  # ids are 64-bit integers where nodes are tabled
+                raise InputError(f"node {i} defined twice" if i in self.nodes else f"node id {i}: out of range (|id| < 2**63)")
             self.nodes[i] = (float(x[0]), float(x[1]), float(x[2]))
 
     def support(self, dofs: Sequence[str]) -> None:
