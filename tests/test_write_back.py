@@ -171,6 +171,29 @@ def test_cli_write_back(tmp_path, capsys, monkeypatch):
         assert info.value.code == 2 and needle in err and "Traceback" not in err, err
 
 
+def test_a_written_deck_never_replaces_the_deck_it_edits(tmp_path, capsys, monkeypatch):
+    """``--out`` holding a link named like the output that leads back to the input deck: refused
+    (exit 2, the deck named), and the deck is left as it was."""
+    import os
+
+    from femupdate.cli import main
+
+    deck = tmp_path / "plate.bdf"
+    deck.write_text(nastran_deck(), encoding="utf-8")
+    before = deck.read_bytes()
+    p = _model_file(tmp_path, "plate.bdf", "[mesh.sets.1]\nE = \"E\"\n", "[parameters.E]\nvalue = 7e10\n")
+    (tmp_path / "u.json").write_text(json.dumps({"kind": "update", "schema_version": 1, "parameters": {"E": 6.9e10},
+                                                 "updated": ["E"], "success": True}))
+    (tmp_path / "out").mkdir()
+    os.symlink(deck, tmp_path / "out" / "plate_updated.bdf")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        main(["write-back", str(p), "u.json", "--out", "out"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and "plate.bdf" in err and "Traceback" not in err, err
+    assert deck.read_bytes() == before
+
+
 def test_pbar_fields_and_a_mat1_with_g_and_nu(tmp_path):
     """PBAR A and I1 land in their fields (re-read by femupdate's card reader), the card's other
     fields kept; a MAT1 that gives E, G and NU gets G = E / 2(1 + NU), so the deck stays

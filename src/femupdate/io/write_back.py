@@ -36,6 +36,7 @@ import numpy as np
 
 from .._errors import InputError
 from .model_file import read_toml
+from .outputs import note_input
 from .results import atomic_write_text
 
 #: the fields of the Nastran cards a value can be written into (their positions after the id)
@@ -363,6 +364,7 @@ def write_back(model_path, values: Mapping[str, float], out_dir) -> list[Path]:
     written = []
     deck_edits = [e for e in edits if e.code != "ansys"]
     if deck_edits and deck is not None:
+        note_input(deck, "the deck")  # a link named like the output must not lead back to it
         target = out_dir / f"{deck.stem}_updated{deck.suffix}"
         text = _nastran_deck(deck, deck_edits) if deck_edits[0].code == "nastran" else _abaqus_deck(deck, deck_edits)
         atomic_write_text(target, text)

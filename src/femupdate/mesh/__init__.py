@@ -37,7 +37,10 @@ def read_mesh(path, format: str | None = None) -> Mesh:
         An unreadable file, unsupported cards or element types, duplicate ids, elements on
         undefined nodes (named as the file writes them).
     """
+    from ..io.outputs import note_input
+
     path = Path(path)
+    note_input(path, "the mesh file")  # no output of the run may be written over it
     if format is None:
         suffix = path.suffix.lower()
         format = "abaqus" if suffix == ".inp" else "nastran" if suffix in NASTRAN_SUFFIXES else "gmsh"
