@@ -28,10 +28,19 @@ E, NU, RHO, T = 1.0, 0.3, 1.0, 0.01
 SUPPORT_NAMES = ("plate", "edges_x", "edges_y")
 
 
+def _initialize(gmsh) -> None:
+    """``gmsh.initialize()``, then SIGPIPE ignored again: the SDK resets it to the default action, and a
+    later write to a closed pipe (a process pool's worker that ended) would kill the whole test run."""
+    import signal
+
+    gmsh.initialize()
+    signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+
+
 def _gmsh_plate(path, n):
     """A unit square plate of n x n quadrilaterals meshed by Gmsh; physical groups plate, edges_x, edges_y."""
     gmsh = pytest.importorskip("gmsh")
-    gmsh.initialize()
+    _initialize(gmsh)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("plate")
@@ -325,7 +334,7 @@ def test_gmsh_tet10_cantilever_against_beam_theory(tmp_path):
     lies a little under that and near the structured tet10 mesh of test_elements_3d (0.992)."""
     gmsh = pytest.importorskip("gmsh")
     path, L = tmp_path / "cantilever.msh", 10.0
-    gmsh.initialize()
+    _initialize(gmsh)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         v = gmsh.model.occ.addBox(0, 0, 0, L, 1, 1)
