@@ -147,11 +147,16 @@ class Posterior:
         noise = o.noise.basis
         if route not in ROUTES:
             raise InputError(f"unknown route {route!r}: use {', '.join(ROUTES)}")
+        from ..damping.view import as_view
+
+        #: a damped model's engine view (:class:`~femupdate.damping.view.DampedView`), else None
+        self.damped = as_view(model)
+        model = self.damped or model
         self.model = model
         self.sets = data_sets(data)
         #: the keyword arguments that rebuild this posterior from (model, data) — on a Dask worker
         self.definition = dict(params=params, priors=priors, values=values, x0=x0, route=route, options=o)
-        names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+        names = list(params) if params is not None else self._default_names(o, values, x0)
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
         idx = model.parameter_indices(names, "updated parameters (--params)")
@@ -179,8 +184,7 @@ class Posterior:
         self.problems: list[CombinedProblem] = []
         for k, d in enumerate(self.sets, start=1):
             try:
-                self.problems.append(combined_problem(model, d, names, x0=x0, values=values,
-                                                      options=o.replace(use=self.kinds), regularized=informative))
+                self.problems.append(self._problem(d, names, x0, values, o.replace(use=self.kinds), informative))
             except InputError as exc:
                 raise InputError(f"test data set {k}: {exc}" if len(self.sets) > 1 else str(exc)) from None
         first = self.problems[0]
@@ -188,7 +192,7 @@ class Posterior:
         self.names = tuple(first.names)
         self.L = len(self.names)
         self.n_residuals = int(sum(p.n_residuals for p in self.problems))
-        self.notes: list[str] = []
+        self.notes: list[str] = list(getattr(self, "_held", []))
         for p in self.problems:
             for n in [*p.notes, *(p.modal.notes if p.modal is not None else [])]:
                 if n not in self.notes:
@@ -238,11 +242,34 @@ class Posterior:
                                     if math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])))
 
     # ------------------------------------------------------------------ setup
+    def _default_names(self, o: UpdateOptions, values, x0) -> list[str]:
+        """The parameters not ``fixed``; of a damped model those its update moves (the damping
+        parameters only when the data hold damping ratios, complex shapes or FRFs, with a note)."""
+        if self.damped is None:
+            return [self.model.parameter_names[j] for j in self.model.free]
+        from ..updating.damped_run import damped_problem
+
+        prob = damped_problem(self.damped, self.sets[0], o, None, x0=x0, values=values)
+        self._held = [n for n in prob.notes if "are not updated" in n]
+        return list(prob.names)
+
+    def _problem(self, d: TestData, names, x0, values, o: UpdateOptions, informative: bool) -> CombinedProblem:
+        """The updating problem of one data set: :func:`~femupdate.updating.combined.combined_problem`,
+        or for a damped model :func:`~femupdate.updating.damped_run.damped_problem` (its damped
+        modes and damped FRF blocks, the residuals its update minimises)."""
+        if self.damped is None:
+            return combined_problem(self.model, d, names, x0=x0, values=values, options=o, regularized=informative)
+        from ..updating.damped_run import damped_problem
+
+        return damped_problem(self.damped, d, o, names, x0=x0, values=values)
+
     def _choose_route(self, route: str, o: UpdateOptions) -> str:
         from ..updating.batched import unsupported
 
         reason = None
-        if self.kinds != ("modes",):
+        if self.damped is not None:
+            reason = "the model is damped (a [damping] table: its complex modes are evaluated point by point)"
+        elif self.kinds != ("modes",):
             reason = f"the data used are {', '.join(self.kinds)} (the compiled route takes modal data only)"
         else:
             reason = unsupported(self.model, o.replace(frf=FRFOptions()), explicit=route == "compiled")
@@ -495,6 +522,8 @@ class Posterior:
         the model cannot be evaluated; ``eigenvalue_std`` the relative standard deviation of a new
         measurement of each eigenvalue in the likelihood's units, before the noise scale);
         None without measured modes."""
+        if self.damped is not None:
+            return self._predict_damped(X)
         modal = self.modal_problem()
         if modal is None:
             return None
@@ -522,6 +551,29 @@ class Posterior:
         with np.errstate(divide="ignore"):
             std = np.where(tg.w_lam > 0, 1.0 / tg.w_lam, np.inf)
         return {"frequencies_hz": freq, "mac": macs, "eigenvalue_std": std}
+
+    def _predict_damped(self, X) -> dict | None:
+        """:meth:`predict` of a damped model: the paired complex modes' natural frequencies |λ|/2π,
+        MACs (of complex shapes; NaN without a shape) and damping ratios −Re λ/|λ|
+        (``"damping_ratio"``, (S, T))."""
+        from ..updating.damped import DampedModesProblem
+
+        modal = next((b.problem for b in self.problems[0].blocks if isinstance(b.problem, DampedModesProblem)), None)
+        if modal is None:
+            return None
+        X = np.atleast_2d(np.asarray(X, float))
+        S, T = X.shape[0], modal.lam_e.size
+        freq, macs, zeta = (np.full((S, T), np.nan) for _ in range(3))
+        for i, x in enumerate(X):
+            try:
+                _, modes, pairs = modal.evaluate(x)
+            except FemupdateError:
+                continue
+            for k, j, mac in pairs:
+                freq[i, k] = modes.natural_frequencies_hz[j]
+                macs[i, k] = mac
+                zeta[i, k] = modes.damping_ratios[j]
+        return {"frequencies_hz": freq, "mac": macs, "eigenvalue_std": 1.0 / modal.w_f, "damping_ratio": zeta}
 
 
 def _stated(prob: CombinedProblem) -> bool:
