@@ -115,7 +115,7 @@ def test_mcmc_of_two_dampers_agrees_with_laplace_short(truss):
 @heavy
 def test_mcmc_of_two_dampers_agrees_with_laplace(truss):
     """About 550 effective samples a parameter (seen: means within 0.04 std, stds within 2.5 %)."""
-    _mcmc_against_laplace(truss, 600, 0.2, 0.12)
+    _mcmc_against_laplace(truss, 400, 0.2, 0.12)
 
 
 def test_posterior_cli_on_a_model_with_a_damping_table(tmp_path, capsys, truss):
