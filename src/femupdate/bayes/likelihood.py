@@ -192,7 +192,9 @@ class Posterior:
         self.names = tuple(first.names)
         self.L = len(self.names)
         self.n_residuals = int(sum(p.n_residuals for p in self.problems))
-        self.notes: list[str] = list(getattr(self, "_held", []))
+        from ..updating.run import undamped_notes
+
+        self.notes: list[str] = list(getattr(self, "_held", [])) + ([] if self.damped else undamped_notes(self.sets[0], o))
         for p in self.problems:
             for n in [*p.notes, *(p.modal.notes if p.modal is not None else [])]:
                 if n not in self.notes:
@@ -523,7 +525,9 @@ class Posterior:
         measurement of each eigenvalue in the likelihood's units, before the noise scale);
         None without measured modes."""
         if self.damped is not None:
-            return self._predict_damped(X)
+            from .damped import predict_damped
+
+            return predict_damped(self, X)
         modal = self.modal_problem()
         if modal is None:
             return None
@@ -551,29 +555,6 @@ class Posterior:
         with np.errstate(divide="ignore"):
             std = np.where(tg.w_lam > 0, 1.0 / tg.w_lam, np.inf)
         return {"frequencies_hz": freq, "mac": macs, "eigenvalue_std": std}
-
-    def _predict_damped(self, X) -> dict | None:
-        """:meth:`predict` of a damped model: the paired complex modes' natural frequencies |λ|/2π,
-        MACs (of complex shapes; NaN without a shape) and damping ratios −Re λ/|λ|
-        (``"damping_ratio"``, (S, T))."""
-        from ..updating.damped import DampedModesProblem
-
-        modal = next((b.problem for b in self.problems[0].blocks if isinstance(b.problem, DampedModesProblem)), None)
-        if modal is None:
-            return None
-        X = np.atleast_2d(np.asarray(X, float))
-        S, T = X.shape[0], modal.lam_e.size
-        freq, macs, zeta = (np.full((S, T), np.nan) for _ in range(3))
-        for i, x in enumerate(X):
-            try:
-                _, modes, pairs = modal.evaluate(x)
-            except FemupdateError:
-                continue
-            for k, j, mac in pairs:
-                freq[i, k] = modes.natural_frequencies_hz[j]
-                macs[i, k] = mac
-                zeta[i, k] = modes.damping_ratios[j]
-        return {"frequencies_hz": freq, "mac": macs, "eigenvalue_std": 1.0 / modal.w_f, "damping_ratio": zeta}
 
 
 def _stated(prob: CombinedProblem) -> bool:
