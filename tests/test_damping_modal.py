@@ -19,7 +19,8 @@ import scipy.linalg as la
 
 import femupdate
 from femupdate._errors import InputError
-from femupdate.damping import DampedModel, Damper, LossFactor, complex_modes, complex_sensitivities, load_damped_model
+from femupdate.damping import (DampedModel, Damper, LossFactor, complex_modes, complex_sensitivities, fit_damping,
+                               load_damped_model)
 from femupdate.damping.frf import damped_response
 from femupdate.examples import truss_model_toml
 from femupdate.model import Parameter
@@ -116,6 +117,11 @@ def test_update_recovers_modal_ratios_and_stiffness_from_complex_modes_and_from_
     assert fr.success and min(fr.frac.values()) > 1 - 1e-10
     for name in ("z1", "z23", "c1"):
         assert fr.parameters[name] == pytest.approx(truth[name], rel=1e-6), name
+    # fit_damping (complex eigenvalues paired in order) takes the ratio parameters too
+    fit = fit_damping(dm.with_values({"z1": 0.05, "z23": 0.01, "c1": 100.0}), complex_modes(dm).eigenvalues[:4],
+                      ["z1", "z23", "c1"])
+    for name in ("z1", "z23", "c1"):
+        assert fit.values[name] == pytest.approx(truth[name], rel=1e-9), name
 
 
 def _model_file(tmp_path, modal: str, params: str = "") -> object:

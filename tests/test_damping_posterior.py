@@ -157,3 +157,23 @@ def test_damping_parameters_held_without_damping_data(truss):
     assert any("damping parameters b, c1, c2 are not updated" in n for n in res.notes)
     with pytest.raises(InputError, match="route 'compiled': the model is damped"):
         femupdate.posterior(truss, freq_only, starts=1, route="compiled")
+
+
+def test_posterior_of_modal_ratio_parameters_is_the_update_s_covariance(truss):
+    """Modal damping ratios that are damping parameters (one per mode, one on a group) beside a
+    damper: the Laplace Gaussian at the update's answer is the update's covariance."""
+    from test_damping_modal import _modal
+
+    dm = _modal(truss)
+    clean = _modes(dm, n=4)
+    data = _noisy(clean, 5)
+    start = dm.with_values({"z1": 0.05, "z23": 0.01, "c1": 250.0})
+    names = ["z1", "z23", "c1"]
+    up = femupdate.update(start, data, params=names)
+    res = femupdate.posterior(start, data, params=names, starts=1, seed=2, predictive=0)
+    mode = res.modes[0]
+    for n in names:
+        assert mode.parameters[n] == pytest.approx(up.parameters[n], rel=1e-7), n
+    C_up, C = np.asarray(up.diagnostics.covariance), np.asarray(mode.covariance)
+    assert np.max(np.abs(C - C_up) / np.sqrt(np.outer(np.diag(C_up), np.diag(C_up)))) < 1e-6
+    assert res.damping == {"parameters": names, "held": {"eta": 0.01}}
