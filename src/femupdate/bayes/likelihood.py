@@ -82,8 +82,11 @@ class Posterior:
 
     Parameters
     ----------
-    model : Model
+    model : Model or DampedModel
         The model; its parameters' ``prior`` (and bounds) give the priors not given in ``priors``.
+        A :class:`~femupdate.damping.DampedModel` (or its view): the damping parameters are
+        parameters too, the residuals those of :func:`~femupdate.updating.damped_run.damped_problem`,
+        the route local.
     data : TestData or sequence of TestData
         The test data (several sets: repeated tests, likelihoods multiplied).
     params : sequence of str, optional
@@ -154,6 +157,7 @@ class Posterior:
         model = self.damped or model
         self.model = model
         self.sets = data_sets(data)
+        self._held: list[str] = []  # a damped model's note on the damping parameters held (no damping data)
         #: the keyword arguments that rebuild this posterior from (model, data) — on a Dask worker
         self.definition = dict(params=params, priors=priors, values=values, x0=x0, route=route, options=o)
         names = list(params) if params is not None else self._default_names(o, values, x0)
@@ -194,7 +198,7 @@ class Posterior:
         self.n_residuals = int(sum(p.n_residuals for p in self.problems))
         from ..updating.run import undamped_notes
 
-        self.notes: list[str] = list(getattr(self, "_held", [])) + ([] if self.damped else undamped_notes(self.sets[0], o))
+        self.notes: list[str] = self._held + ([] if self.damped else undamped_notes(self.sets[0], o))
         for p in self.problems:
             for n in [*p.notes, *(p.modal.notes if p.modal is not None else [])]:
                 if n not in self.notes:
