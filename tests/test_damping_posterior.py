@@ -133,11 +133,22 @@ def test_posterior_cli_on_a_model_with_a_damping_table(tmp_path, capsys, truss):
     for n in NAMES:  # the CLI's Laplace mode is the update's answer
         assert r["solutions"][0]["parameters"][n] == pytest.approx(up.parameters[n], rel=1e-6), n
         assert r["solutions"][0]["std"][n] == pytest.approx(up.diagnostics.std[list(up.names).index(n)], rel=1e-5), n
+    code, out, err = _cli(["posterior", load_truth(tmp_path), test, "--starts", "1", "--params", "E,c1"], capsys)
+    assert code == 0 and "damping parameters held: b = 2e-05, c2 = 250" in out, out + err
     # options that do not apply to a damped model: one message each, exit 2
     for args, message in ((["--damping", "alpha=1"], "leave --damping out"),
                           (["--test-points", "0.01"], "--test-points with a [damping] table")):
         code, out, err = _cli(["posterior", model, test, "--starts", "1", *args], capsys)
         assert code == 2 and message in err and err.strip().count("\n") == 0, err
+
+
+def load_truth(tmp_path):
+    """The model file with the true damping values (E, b, c1, c2 as simulated)."""
+    from femupdate.examples import truss_damped_model_toml
+
+    p = tmp_path / "truth.toml"
+    p.write_text(truss_damped_model_toml())
+    return p
 
 
 def load_start(path):

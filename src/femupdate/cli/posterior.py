@@ -149,6 +149,9 @@ def _print(c, model, res, data, checkpoint) -> None:
         t.add_row(f"{n} [{units[n]}]" if units.get(n) else n, res.prior.get(n, ""), fmt(res.median[n]), fmt(res.mean[n]), fmt(res.std[n]),
                   f"[{fmt(lo)}, {fmt(hi)}]")
     c.print(t)
+    held = (res.damping or {}).get("held") or {}
+    if held:
+        c.print("damping parameters held: " + ", ".join(f"{n} = {fmt(v)}" for n, v in held.items()), markup=False)
     if len(names) > 1:
         corr = res.correlation
         pairs = [(abs(corr[i, j]), i, j) for i in range(len(names)) for j in range(i) if np.isfinite(corr[i, j])]
