@@ -115,6 +115,7 @@ def test_update_recovers_modal_ratios_and_stiffness_from_complex_modes_and_from_
     fr = femupdate.updating.frf_update(dm.with_values({"z1": 0.05, "z23": 0.01, "c1": 250.0}), TestData(frf=FRFData(om, {"4:y": 1.0}, DOFS[4:], X)),
                                        params=["z1", "z23", "c1"])
     assert fr.success and min(fr.frac.values()) > 1 - 1e-10
+    assert not any("FRF lines reach" in n for n in fr.notes)  # 300 Hz: below the fifth mode (335 Hz)
     for name in ("z1", "z23", "c1"):
         assert fr.parameters[name] == pytest.approx(truth[name], rel=1e-6), name
     # fit_damping (complex eigenvalues paired in order) takes the ratio parameters too
@@ -192,3 +193,13 @@ def test_update_cli_with_modal_ratio_parameters_from_a_data_file(tmp_path, capsy
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["parameters"]["z1"] == pytest.approx(0.02, rel=1e-6) and r["parameters"]["z23"] == pytest.approx(0.03, rel=1e-6)
     assert "damping parameters updated: z1 = 0.02" in out
+
+
+def test_frf_lines_above_the_modes_with_ratios_are_said(truss):
+    dm = _modal(truss)
+    om = 2 * np.pi * np.linspace(20.0, 400.0, 21)
+    X, _ = damped_response(dm, om, {"4:y": 1.0}, DOFS[4:])
+    res = femupdate.updating.frf_update(dm, TestData(frf=FRFData(om, {"4:y": 1.0}, DOFS[4:], X)), params=["z1"],
+                                        max_nfev=2)
+    assert any("the FRF lines reach 400 Hz, above the highest of the 5 modes with modal damping ratios (334.7 Hz"
+               in n for n in res.notes), res.notes
