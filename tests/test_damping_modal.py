@@ -151,6 +151,7 @@ BAD = {
     "unknown mode": ('{ "0" = 0.02 }', "", "modal: modes '0' are not modes of the model (modes 1 to 12"),
     "mode beyond the dofs": ('{ "1-99" = 0.02 }', "", "modal: modes '1-99' are not modes of the model"),
     "not a mode": ('{ "first" = 0.02 }', "", "modal: 'first' is not a mode or a range of modes"),
+    "half a range": ('{ "1-" = 0.02 }', "", "modal: '1-' is not a mode or a range of modes"),
     "a gap": ('{ "1" = 0.02, "3" = 0.02 }', "", "modal: mode(s) 2 have no ratio"),
     "mode twice": ('{ "1-2" = 0.02, "2" = 0.03 }', "", "modal: mode 2 is given twice ('1-2' and '2')"),
     "unknown group": ('{ "1-2" = "zz" }', "", "modal: modes 1-2 = 'zz' is not a damping parameter"),

@@ -98,8 +98,8 @@ def modal_ratios(raw, n_dofs: int, names) -> list:
                          f"{{\"1\" = 0.02, \"2-4\" = \"z\"}}, got {raw!r}")
     given: dict[int, tuple[str, object]] = {}
     for key, ratio in raw.items():
-        first, _, last = str(key).partition("-")
-        if not (first.strip().isdigit() and (not last or last.strip().isdigit())):
+        first, dash, last = str(key).partition("-")
+        if not (first.strip().isdigit() and (not dash or last.strip().isdigit())):
             raise InputError(f"modal: {key!r} is not a mode or a range of modes (write \"3\" or \"2-4\"; modes "
                              "counted from 1)")
         a, b = int(first), int(last or first)
