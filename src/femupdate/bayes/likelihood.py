@@ -82,8 +82,11 @@ class Posterior:
 
     Parameters
     ----------
-    model : Model
+    model : Model or DampedModel
         The model; its parameters' ``prior`` (and bounds) give the priors not given in ``priors``.
+        A :class:`~femupdate.damping.DampedModel` (or its view): the damping parameters are
+        parameters too, the residuals those of :func:`~femupdate.updating.damped_run.damped_problem`,
+        the route local.
     data : TestData or sequence of TestData
         The test data (several sets: repeated tests, likelihoods multiplied).
     params : sequence of str, optional
@@ -147,11 +150,17 @@ class Posterior:
         noise = o.noise.basis
         if route not in ROUTES:
             raise InputError(f"unknown route {route!r}: use {', '.join(ROUTES)}")
+        from ..damping.view import as_view
+
+        #: a damped model's engine view (:class:`~femupdate.damping.view.DampedView`), else None
+        self.damped = as_view(model)
+        model = self.damped or model
         self.model = model
         self.sets = data_sets(data)
+        self._held: list[str] = []  # a damped model's note on the damping parameters held (no damping data)
         #: the keyword arguments that rebuild this posterior from (model, data) — on a Dask worker
         self.definition = dict(params=params, priors=priors, values=values, x0=x0, route=route, options=o)
-        names = list(params) if params is not None else [model.parameter_names[j] for j in model.free]
+        names = list(params) if params is not None else self._default_names(o, values, x0)
         if not names:
             raise InputError("no parameters to update: every parameter is fixed")
         idx = model.parameter_indices(names, "updated parameters (--params)")
@@ -179,8 +188,7 @@ class Posterior:
         self.problems: list[CombinedProblem] = []
         for k, d in enumerate(self.sets, start=1):
             try:
-                self.problems.append(combined_problem(model, d, names, x0=x0, values=values,
-                                                      options=o.replace(use=self.kinds), regularized=informative))
+                self.problems.append(self._problem(d, names, x0, values, o.replace(use=self.kinds), informative))
             except InputError as exc:
                 raise InputError(f"test data set {k}: {exc}" if len(self.sets) > 1 else str(exc)) from None
         first = self.problems[0]
@@ -188,7 +196,9 @@ class Posterior:
         self.names = tuple(first.names)
         self.L = len(self.names)
         self.n_residuals = int(sum(p.n_residuals for p in self.problems))
-        self.notes: list[str] = []
+        from ..updating.run import undamped_notes
+
+        self.notes: list[str] = self._held + ([] if self.damped else undamped_notes(self.sets[0], o))
         for p in self.problems:
             for n in [*p.notes, *(p.modal.notes if p.modal is not None else [])]:
                 if n not in self.notes:
@@ -238,11 +248,34 @@ class Posterior:
                                     if math.isfinite(self.lo[j]) and math.isfinite(self.hi[j])))
 
     # ------------------------------------------------------------------ setup
+    def _default_names(self, o: UpdateOptions, values, x0) -> list[str]:
+        """The parameters not ``fixed``; of a damped model those its update moves (the damping
+        parameters only when the data hold damping ratios, complex shapes or FRFs, with a note)."""
+        if self.damped is None:
+            return [self.model.parameter_names[j] for j in self.model.free]
+        from ..updating.damped_run import damped_problem
+
+        prob = damped_problem(self.damped, self.sets[0], o, None, x0=x0, values=values)
+        self._held = [n for n in prob.notes if "are not updated" in n]
+        return list(prob.names)
+
+    def _problem(self, d: TestData, names, x0, values, o: UpdateOptions, informative: bool) -> CombinedProblem:
+        """The updating problem of one data set: :func:`~femupdate.updating.combined.combined_problem`,
+        or for a damped model :func:`~femupdate.updating.damped_run.damped_problem` (its damped
+        modes and damped FRF blocks, the residuals its update minimises)."""
+        if self.damped is None:
+            return combined_problem(self.model, d, names, x0=x0, values=values, options=o, regularized=informative)
+        from ..updating.damped_run import damped_problem
+
+        return damped_problem(self.damped, d, o, names, x0=x0, values=values)
+
     def _choose_route(self, route: str, o: UpdateOptions) -> str:
         from ..updating.batched import unsupported
 
         reason = None
-        if self.kinds != ("modes",):
+        if self.damped is not None:
+            reason = "the model is damped (a [damping] table: its complex modes are evaluated point by point)"
+        elif self.kinds != ("modes",):
             reason = f"the data used are {', '.join(self.kinds)} (the compiled route takes modal data only)"
         else:
             reason = unsupported(self.model, o.replace(frf=FRFOptions()), explicit=route == "compiled")
@@ -495,6 +528,10 @@ class Posterior:
         the model cannot be evaluated; ``eigenvalue_std`` the relative standard deviation of a new
         measurement of each eigenvalue in the likelihood's units, before the noise scale);
         None without measured modes."""
+        if self.damped is not None:
+            from .damped import predict_damped
+
+            return predict_damped(self, X)
         modal = self.modal_problem()
         if modal is None:
             return None

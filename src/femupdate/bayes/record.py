@@ -50,6 +50,7 @@ def posterior_kind(res, ctx: RunContext) -> dict:
         "noise": res.noise,
         "model_error": (res.noise or {}).get("model_error"),
         "prior": res.prior,
+        "damping": res.damping,
         "predictive": res.predictive,
         "diagnostics": res.diagnostics,
         "n_samples": int(res.samples.shape[0]) if res.samples.size or "n_samples" not in ctx.stored
@@ -111,6 +112,7 @@ def posterior_from(obj: Mapping) -> Any:
         success=bool(obj.get("success", False)), warnings=list(obj.get("warnings") or []),
         notes=list(obj.get("notes") or []), route=str(obj.get("route") or ""), seed=obj.get("seed"),
         seconds=_float(obj.get("seconds")), prior=dict(obj.get("prior") or {}), data_sets=int(obj.get("data_sets") or 1),
+        damping=obj.get("damping"),
         context=RunContext(kind="posterior", stored={k: obj[k] for k in STORED if k in obj}))
 
 

@@ -29,7 +29,8 @@ def predictive_summary(pred: dict | None, scale: np.ndarray | None, level: float
     """The posterior predictive of the paired modes: per test mode the model's frequency (mean,
     std, interval) and MAC (mean, interval), and the interval of a new measurement of the
     frequency (the model's, with the measurement noise: relative eigenvalue std times the noise
-    scale where it is estimated)."""
+    scale where it is estimated); of a damped model also the damping ratio (mean, std,
+    interval)."""
     if pred is None:
         return None
     F, M, sd = pred["frequencies_hz"], pred["mac"], pred["eigenvalue_std"]
@@ -47,6 +48,11 @@ def predictive_summary(pred: dict | None, scale: np.ndarray | None, level: float
                          measured_frequency_hz={"interval": np.quantile(f_new, [a, 1 - a]).tolist()})
         m = M[:, k][np.isfinite(M[:, k])]
         entry["mac"] = {"mean": float(m.mean()), "interval": np.quantile(m, [a, 1 - a]).tolist()} if m.size else None
+        if "damping_ratio" in pred:  # a damped model: the paired complex modes' damping ratios
+            z = pred["damping_ratio"][:, k]
+            z = z[np.isfinite(z)]
+            entry["damping_ratio"] = ({"mean": float(z.mean()), "std": float(z.std()),
+                                       "interval": np.quantile(z, [a, 1 - a]).tolist()} if z.size else None)
         out.append(entry)
     return {"modes": out, "draws": int(F.shape[0])}
 
@@ -110,6 +116,9 @@ class PosteriorResult(Serialisable):
         {name: description} of the priors used.
     data_sets : int
         The test-data sets (repeated tests) whose likelihoods were multiplied.
+    damping : dict or None
+        A damped model's (:class:`~femupdate.damping.DampedModel`): ``parameters``, the damping
+        parameters among the updated ones; ``held``, {name: value} of those held at their values.
     context : RunContext, optional
         The model and the first test data set (:mod:`femupdate.serialise`): the JSON's model
         name, notes and units; the report's measured frequencies.
@@ -144,6 +153,7 @@ class PosteriorResult(Serialisable):
     chain: np.ndarray | None = None
     prior: dict = field(default_factory=dict)
     data_sets: int = 1
+    damping: dict | None = None
     context: RunContext | None = field(default=None, compare=False, repr=False)
 
     def payload(self) -> dict:

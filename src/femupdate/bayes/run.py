@@ -60,8 +60,12 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
 
     Parameters
     ----------
-    model : Model
-        The model (its parameters' bounds and priors).
+    model : Model or DampedModel
+        The model (its parameters' bounds and priors).  A
+        :class:`~femupdate.damping.DampedModel` (a model file's ``[damping]`` table) puts its
+        damping parameters among the unknowns: the likelihood is built on the damped residuals
+        its update minimises (complex modes: frequencies, damping ratios, complex shapes; damped
+        receptances), evaluated point by point (the local route).
     data : TestData or sequence of TestData
         The test data; several sets are repeated tests whose likelihoods multiply.
     params : sequence of str, optional
@@ -198,8 +202,7 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
         from .noise import fit_check
 
         noise_info["model_error"] = fit_check(post, modes[0].x) or None  # at the most probable mode
-        diag["evaluations"] = post.evaluations
-        diag["failures"] = dict(post.failures)
+        diag.update(evaluations=post.evaluations, failures=dict(post.failures))
         notes += _failure_notes(post)
         names = post.names
         prior = {n: _describe(post, j) for j, n in enumerate(names)}
@@ -211,11 +214,22 @@ def posterior(model, data, *, params: Sequence[str] | None = None, values=None, 
             covariance=stats["covariance"], correlation=stats["correlation"], modes=modes, mode_fractions=fractions,
             log_evidence=float(logz), log_evidence_error=float(logz_err), noise=noise_info, predictive=pred,
             diagnostics=diag, success=bool(success), warnings=warnings, notes=notes, route=post.route, seed=entropy,
-            seconds=time.perf_counter() - t0, chain=chain_p, prior=prior, data_sets=len(post.sets)), model, data)
+            seconds=time.perf_counter() - t0, chain=chain_p, prior=prior, data_sets=len(post.sets),
+            damping=_damping_record(post)), post.damped or model, data)
     finally:
         if runner is not None:
             runner.close()
         post.close()
+
+
+def _damping_record(post: Posterior) -> dict | None:
+    """A damped model's ``damping``: the damping parameters updated, and those held with their values."""
+    view = post.damped
+    if view is None:
+        return None
+    p = view.resolve(post.options["values"])
+    return {"parameters": [n for n in post.names if view.is_damping(n)],
+            "held": {n: float(p[view.parameter_index(n)]) for n in view.damping_names if n not in post.names}}
 
 
 def _entropy(seed: int | None) -> int:
@@ -235,8 +249,20 @@ def _failure_notes(post: Posterior) -> list[str]:
 
 
 def _door(model, data, params, x0, values, priors, progress, checkpoint) -> None:
-    """:func:`posterior`'s arguments by type (:mod:`femupdate._checks`)."""
-    problem_args("posterior", model, data, params=params, x0=x0, values=values, sets=True)
+    """:func:`posterior`'s arguments by type (:mod:`femupdate._checks`); a damped model
+    (:class:`~femupdate.damping.DampedModel`) by its engine view."""
+    from ..damping.view import as_view
+
+    view = as_view(model)
+    if view is None:
+        problem_args("posterior", model, data, params=params, x0=x0, values=values, sets=True)
+    else:
+        from .._checks import data_arg, params_arg, values_arg, x0_arg
+
+        data_arg(data, "data", "posterior", sets=True)
+        params_arg(params, "params", "posterior")
+        x0_arg(view, x0, "x0", "posterior")
+        values_arg(view, values, "values", "posterior")
     mapping_arg(priors, "priors", "posterior")
     callable_arg(progress, "progress", "posterior")
     if checkpoint is not None:

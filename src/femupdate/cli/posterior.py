@@ -13,6 +13,7 @@ from rich.table import Table
 
 from .._errors import InputError, NumericalError
 from ..bayes.noise import noise_lines
+from ..damping.view import DampedView
 from ._common import CHECKPOINT_FILE, INPUT_FILE, OUTPUT_FILE, Ctx, OutputPath, fmt, load_data, model_values, write_report_output
 from ._groups import GroupedCommand, execution_group, sampler_group, starts_group
 from .outputs import Outputs, outputs_group, phased_progress
@@ -73,9 +74,15 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
     from ..bayes import posterior as _posterior
     from ..io.model_file import load_model
 
+    from ._damping import damped_model
+
     ctx = Ctx(outputs.json_path)
-    model = load_model(model_path)
-    values = model_values(model, outputs.set_text)
+    damped = damped_model(model_path)  # a [damping] table: damping parameters among the unknowns
+    model = load_model(model_path) if damped is None else damped.model
+    if damped is not None and test_points.tolerance is not None:
+        raise InputError("--test-points with a [damping] table: not taken in this version; give the test data at "
+                         "the model's dofs")
+    values = model_values(model if damped is None else DampedView(damped), outputs.set_text)
     priors = parse_priors(prior_items)
     sets, run, mapped = [], None, None
     for path in data_paths:
@@ -89,6 +96,9 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
         run = problem.resolve(model, data)
         sets.append(run.data)
     assert run is not None
+    if damped is not None and run.damping is not None and not getattr(run.damping, "undamped", True):
+        raise InputError("--damping sets the FRF damping of an undamped model; this model's damping is its [damping] "
+                         "table (its parameters in the posterior): leave --damping out")
     options = run.options.replace(noise=run.options.noise.replace(basis=noise))
     checkpoint = checkpoint_path if checkpoint_path is not None else _default_checkpoint(outputs.json_path,
                                                                                          sampler.method)
@@ -96,7 +106,7 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
     labels = {"solutions": "searching solutions", "mcmc": "MCMC steps", "tmcmc": "TMCMC (tempering)"}
     with phased_progress(labels, console=c, quiet=outputs.json_path == "-") as tick:
         try:
-            res = _posterior(model, sets if len(sets) > 1 else sets[0], params=run.params, values=values,
+            res = _posterior(damped or model, sets if len(sets) > 1 else sets[0], params=run.params, values=values,
                              priors=priors, sampler=sampler, starts=starts, execution=execution, checkpoint=checkpoint,
                              progress=tick, options=options)
         except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the checkpoint holds the finished steps
@@ -104,7 +114,7 @@ def posterior(model_path, data_paths, sampler, prior_items, noise, starts, execu
                 c.print(f"interrupted: the finished steps are in {checkpoint}; run the same command again to resume",
                         markup=False)
             raise
-    _print(c, model, res, sets[0], checkpoint)
+    _print(c, DampedView(damped) if damped is not None else model, res, sets[0], checkpoint)
     payload = res.to_json()
     if mapped is not None:
         payload["test_points"] = mapped.to_json()
@@ -139,6 +149,9 @@ def _print(c, model, res, data, checkpoint) -> None:
         t.add_row(f"{n} [{units[n]}]" if units.get(n) else n, res.prior.get(n, ""), fmt(res.median[n]), fmt(res.mean[n]), fmt(res.std[n]),
                   f"[{fmt(lo)}, {fmt(hi)}]")
     c.print(t)
+    held = (res.damping or {}).get("held") or {}
+    if held:
+        c.print("damping parameters held: " + ", ".join(f"{n} = {fmt(v)}" for n, v in held.items()), markup=False)
     if len(names) > 1:
         corr = res.correlation
         pairs = [(abs(corr[i, j]), i, j) for i in range(len(names)) for j in range(i) if np.isfinite(corr[i, j])]
@@ -189,12 +202,29 @@ def _print(c, model, res, data, checkpoint) -> None:
                        f"[{fmt(meas[0])}, {fmt(meas[1])}]" if meas and all(map(math.isfinite, meas)) else "-",
                        f"{mac['mean']:.4f}" if mac else "-")
         c.print(tp)
+        _print_damping_ratios(c, res, data)
     if checkpoint is not None and res.method != "laplace":
         c.print(f"checkpoint: {checkpoint}")
     for w in res.warnings:
         c.print(f"warning: {w}", markup=False)
     for n in [*data.notes, *res.notes]:
         c.print(f"note: {n}", markup=False)
+
+
+def _print_damping_ratios(c, res, data) -> None:
+    """A damped model's posterior predictive of the paired modes' damping ratios."""
+    rows = [e for e in res.predictive["modes"] if e.get("damping_ratio")]
+    if not rows:
+        return
+    t = Table(title="posterior predictive of the paired modes' damping ratios")
+    for col in ("test", "ζ test", "ζ model", "std", f"{res.level:.0%} interval"):
+        t.add_column(col, justify="right")
+    for e in rows:
+        k, z = e["test_mode"], e["damping_ratio"]
+        zt = data.modes[k].damping_ratio
+        t.add_row(str(k + 1), "-" if zt is None else f"{zt:.5g}", f"{z['mean']:.5g}", f"{z['std']:.2g}",
+                  f"[{z['interval'][0]:.5g}, {z['interval'][1]:.5g}]")
+    c.print(t)
 
 
 __all__ = ["posterior", "parse_priors"]

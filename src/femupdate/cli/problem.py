@@ -50,6 +50,7 @@ class ProblemSpec:
     use_text: str | None
     std_eigenvalue: str | None
     std_shape: str | None
+    std_damping_ratio: str | None
     std_frf: float | None
     std_static: float | None
     residual: str
@@ -78,8 +79,9 @@ class ProblemSpec:
         params = [p.strip() for p in self.params_text.split(",") if p.strip()] if self.params_text else None
         std_eigenvalue = parse_std(self.std_eigenvalue, "--std-eigenvalue", len(data.modes))
         std_shape = parse_std(self.std_shape, "--std-shape", len(data.modes))
-        std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("frf", self.std_frf),
-                                 ("static", self.std_static)) if v is not None} or None
+        std_zeta = parse_std(self.std_damping_ratio, "--std-damping-ratio", len(data.modes))
+        std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("damping_ratio", std_zeta),
+                                 ("frf", self.std_frf), ("static", self.std_static)) if v is not None} or None
         use = (tuple(u.strip() for u in self.use_text.split(",") if u.strip()) if self.use_text
                else ("modes", "frf", "static"))
         from ..updating import data_kinds
@@ -154,6 +156,9 @@ _OPTIONS = (
     click.option("--std-shape", "std_shape", default=None, metavar="S|S1,S2,...",
                  help="Std of the scaled shape entries (for the covariance): one value, or one per test mode; "
                       "replaces the test data's std_shape."),
+    click.option("--std-damping-ratio", "std_damping_ratio", default=None, metavar="S|S1,S2,...",
+                 help="Std of the measured damping ratios (absolute, fractions of critical): one value, or one per "
+                      "test mode; replaces the test data's std_damping_ratio (a model with a [damping] table)."),
     click.option("--std-frf", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None,
                  help="Std of the FRF residual entries (weights FRFs against other data)."),
     click.option("--std-static", type=FiniteFloat(min=1 / MAX_MAGNITUDE), default=None,

@@ -28,7 +28,8 @@ A model whose damping makes it unstable (an eigenvalue with a positive real part
 Modal damping ratios (:class:`DampedModel` ``modal``) act in the real modal coordinates of the
 first undamped modes: :math:`\tilde M = I`, :math:`\tilde K = \operatorname{diag}(\omega_r^2) +
 i\Phi^T D\Phi`, :math:`\tilde C = \Phi^T C \Phi + \operatorname{diag}(2\zeta_r\omega_r)`; the
-complex modes are :math:`\Phi q` with :math:`q^T(2\lambda I + \tilde C) q = 1`.
+complex modes are :math:`\Phi q` with :math:`q^T(2\lambda I + \tilde C) q = 1`
+(:mod:`femupdate.damping.modal_ratios`).
 """
 
 from __future__ import annotations
@@ -172,7 +173,10 @@ def complex_modes(dm: DampedModel, n_modes: int | None = None, values=None, meth
     K, M, C = dm.K(p), dm.M(p), dm.C(p)
     Kc = (K + 1j * dm.D(p)) if dm.hysteretic else K
     if dm.modal:
-        return _modal_coordinates(dm, K, M, C, dm.D(p) if dm.hysteretic else None, n_modes)
+        from .modal_ratios import modal_modes
+
+        lam, Phi, n_rigid, n_over, m = modal_modes(dm, p, n_modes, _select, normalise)
+        return ComplexModes(lam, Phi, dm.dofs, f"modal coordinates ({m} modes)", n_rigid, n_over, modal=True)
     n = dm.n_dofs
     dense = method == "dense" or (method == "auto" and n <= DENSE_LIMIT)
     scale = _scale(K, M)
@@ -298,27 +302,6 @@ def normalise(Phi: np.ndarray, lam: np.ndarray, M, C) -> np.ndarray:
         k = int(np.argmax(np.abs(phi)))
         out[:, r] = -phi if phi[k].real < 0 else phi
     return out
-
-
-def _modal_coordinates(dm, K, M, C, D, n_modes):
-    from ..modal import solve_modes
-
-    m = len(dm.modal)
-    if m > dm.n_dofs:
-        raise InputError(f"damped model {dm.name!r}: {m} modal damping ratios but only {dm.n_dofs} dofs")
-    real = solve_modes(K, M, n_modes=m, dofs=dm.dofs)
-    Phi = real.shapes
-    w = np.sqrt(np.maximum(real.eigenvalues, 0.0))
-    Cr = Phi.T @ (C @ Phi) + np.diag(2 * np.asarray(dm.modal) * w)
-    Kr = np.diag(w ** 2).astype(complex if D is not None else float)
-    if D is not None:
-        Kr = Kr + 1j * (Phi.T @ (D @ Phi))
-    scale = float(np.max(w)) if np.any(w > 0) else 1.0
-    A = np.block([[np.zeros((m, m)), scale * np.eye(m)], [-Kr / scale, -Cr]])
-    lam, Z = la.eig(A)
-    lam, Q, n_rigid, n_over = _select(dm, lam, Z[:m], scale, n_modes)
-    Q = normalise(Q, lam, np.eye(m), Cr)
-    return ComplexModes(lam, Phi @ Q, dm.dofs, f"modal coordinates ({m} modes)", n_rigid, n_over, modal=True)
 
 
 __all__ = ["ComplexModes", "complex_modes", "normalise", "DENSE_LIMIT"]

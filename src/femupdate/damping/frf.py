@@ -15,6 +15,10 @@ For the response to a force f at the measured dofs S (Z is complex symmetric, so
 damping terms; one sparse LU of Z per line serves every parameter.  The derivatives of K, M, C
 and D are exact (:meth:`~femupdate.damping.DampedModel.derivatives`), so are these; the tests
 check them against finite differences.
+
+A model with modal damping ratios (:class:`DampedModel` ``modal``) has its receptances by modal
+superposition of its first ``len(modal)`` real modes, where those ratios act
+(:func:`femupdate.damping.modal_ratios.modal_response`): the modes above are left out.
 """
 
 from __future__ import annotations
@@ -85,6 +89,10 @@ def damped_response(dm: DampedModel, omega, force, dofs: Sequence[str], values=N
     B = np.zeros((n, 1 + S.size), dtype=complex)
     B[:, 0] = f
     B[S, 1 + np.arange(S.size)] = 1.0
+    if dm.modal:  # modal damping ratios: modal superposition of the first len(modal) modes
+        from .modal_ratios import modal_response
+
+        return modal_response(dm, w, f, S, p, None if parameters is None else list(parameters))
     ders = [dm.derivatives(name, p) for name in parameters] if parameters is not None else None
     x = np.zeros((w.size, S.size), dtype=complex)
     dx = np.zeros((w.size, S.size, len(ders)), dtype=complex) if ders is not None else None

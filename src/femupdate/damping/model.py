@@ -21,7 +21,10 @@ exact by the product rule, whichever parameters enter it:
 * **Matrices** (models exported from an FE code): a constant ``C0`` and one ``dC`` matrix per
   damping parameter, :math:`C = C_0 + \sum_q q\, C_q`.
 * **Modal damping ratios** :math:`\zeta_r` of the first undamped modes act in their real modal
-  coordinates (:func:`femupdate.damping.complex_modes`): they form no physical C.
+  coordinates (:func:`femupdate.damping.complex_modes`): they form no physical C.  Each is a
+  number or a damping parameter (one parameter on several modes: a group sharing one ratio);
+  :mod:`femupdate.damping.modal_ratios` differentiates the modes and receptances with respect to
+  them and to every other parameter.
 
 Damping parameters are declared beside the model's own (their names distinct), bounded below by
 0: a negative damping coefficient is refused.  A :class:`DampedModel` is a frozen value object,
@@ -176,8 +179,10 @@ class DampedModel:
         A constant viscous damping matrix (N s/m), symmetric.
     dC : sequence of (matrix or None), optional
         One matrix per damping parameter: :math:`\partial C/\partial q` (matrix models).
-    modal : sequence of float, default ``()``
-        Modal damping ratios (fractions, in [0, 1)) of the first ``len(modal)`` undamped modes.
+    modal : sequence of (float or str), default ``()``
+        Modal damping ratios of the first ``len(modal)`` undamped modes: fractions in [0, 1), or
+        names of damping parameters (one name on several modes: a group sharing one ratio); a
+        ratio parameter's value must be in [0, 1) and its upper bound is taken as at most 1.
 
     Raises
     ------
@@ -218,10 +223,14 @@ class DampedModel:
             if any(not isinstance(x, cls) for x in items):
                 raise InputError(f"{key} must be {cls.__name__} objects")
             object.__setattr__(self, key, items)
-        object.__setattr__(self, "modal", tuple(check_ratio(z, f"modal damping ratio of mode {r + 1}")
-                                                for r, z in enumerate(self.modal)))
+        if len(self.modal) > self.model.n_dofs:
+            raise InputError(f"{len(self.modal)} modal damping ratios but model {self.model.name!r} has "
+                             f"{self.model.n_dofs} dofs (one ratio per mode, from mode 1)")
+        modal = tuple(_modal_entry(z, r, names) for r, z in enumerate(self.modal))
+        object.__setattr__(self, "modal", modal)
+        object.__setattr__(self, "parameters", tuple(_ratio_parameter(p) if p.name in modal else p for p in params))
         pieces = _pieces(self)
-        used = {f.parameter for pc in pieces for f in pc.factors}
+        used = {f.parameter for pc in pieces for f in pc.factors} | {z for z in modal if isinstance(z, str)}
         unused = [n for n in names if n not in used]
         if unused:
             raise InputError(f"damping parameter(s) declared but used by no damping: {', '.join(unused)}")
@@ -351,6 +360,16 @@ class DampedModel:
                 out[pc.kind] = out[pc.kind] + pc.derivative(named, name) * pc.A
         return dK, dM, sp.csr_array(out["C"]), sp.csr_array(out["D"])
 
+    def modal_ratios(self, values=None) -> np.ndarray:
+        """The modal damping ratios ζ_r of the first ``len(modal)`` undamped modes at ``values``
+        (a ratio given by a damping parameter takes its value)."""
+        _, named = self._split(values)
+        return np.array([named[z] if isinstance(z, str) else z for z in self.modal], dtype=float)
+
+    def ratio_indicator(self, name: str) -> np.ndarray:
+        """∂ζ_r/∂name for each modal ratio: 1 for the modes whose ratio is the parameter ``name``, else 0."""
+        return np.array([1.0 if z == name else 0.0 for z in self.modal])
+
     def with_values(self, values) -> DampedModel:
         """Copy whose nominal values (model's and damping's) are ``values`` (mapping or array)."""
         p = self.resolve(values)
@@ -361,6 +380,24 @@ class DampedModel:
 
     def __repr__(self) -> str:
         return f"DampedModel(name={self.name!r}, n_dofs={self.n_dofs}, parameters=[{', '.join(self.parameter_names)}])"
+
+
+def _modal_entry(z, r: int, names: Sequence[str]) -> float | str:
+    """One modal damping ratio: a fraction in [0, 1) or the name of a damping parameter."""
+    if isinstance(z, str):
+        if z not in names:
+            raise InputError(f"modal damping ratio of mode {r + 1} = {z!r} is not a damping parameter (declared: "
+                             f"{', '.join(names) or 'none'})")
+        return z
+    return check_ratio(z, f"modal damping ratio of mode {r + 1}")
+
+
+def _ratio_parameter(p: Parameter) -> Parameter:
+    """A damping parameter that is a modal damping ratio: its value a fraction in [0, 1) (a value
+    above 1 said to look like a percentage), its upper bound at most 1."""
+    check_ratio(p.value, f"damping parameter {p.name!r} (a modal damping ratio)")
+    lo, hi = p.bounds
+    return replace(p, bounds=(lo, min(hi, 1.0)))
 
 
 def _factor(coef, names: Sequence[str], what: str) -> tuple[float, tuple]:

@@ -3,7 +3,8 @@
     [damping]
     alpha = 0.8                  # Rayleigh C = alpha M + beta K: numbers >= 0 or damping parameter names
     beta = "b"
-    modal = [0.02, 0.015]        # modal damping ratios of the first modes (fractions, not percent)
+    modal = [0.02, 0.015]        # modal damping ratios of the first modes (fractions, not percent),
+                                 # numbers or damping parameters; or a table {"1" = 0.02, "2-4" = "z"}
     C0 = "C0.mtx"                # a constant C matrix (file relative to the TOML), optional
 
     [damping.parameters.b]       # damping parameters: value, bounds (lower >= 0), fixed, C (dC/db)
@@ -78,15 +79,45 @@ def load_damped_model(path) -> DampedModel:
                         for i, s in _tables(raw.get("damper", []), f"{where} damper", {"dofs", "c"}))
         losses = tuple(LossFactor(s.get("eta", 0.0), s.get("on", "K"))
                        for _, s in _tables(raw.get("loss", []), f"{where} loss", {"eta", "on"}))
-        modal = raw.get("modal", [])
-        if not isinstance(modal, list):
-            raise InputError(f"modal must be a list of damping ratios, got {modal!r}")
+        modal = modal_ratios(raw.get("modal", []), model.n_dofs, [p.name for p in params])
         C0 = load_matrix(raw["C0"], base, f"{where} C0") if "C0" in raw else None
         return DampedModel(model, params, raw.get("alpha", 0.0), raw.get("beta", 0.0), dampers, losses, C0,
                            dC if any(A is not None for A in dC) else (), tuple(modal))
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(str(path)) else f"{where}: {msg}") from None
+
+
+def modal_ratios(raw, n_dofs: int, names) -> list:
+    """The ``modal`` entry as one ratio per mode: a list (a number or a damping parameter's name
+    per mode, from mode 1), or a table {"mode" or "first-last": ratio} covering modes 1 to N."""
+    if isinstance(raw, list):
+        return raw
+    if not isinstance(raw, Mapping):
+        raise InputError(f"modal must be a list of damping ratios (one per mode from mode 1) or a table "
+                         f"{{\"1\" = 0.02, \"2-4\" = \"z\"}}, got {raw!r}")
+    given: dict[int, tuple[str, object]] = {}
+    for key, ratio in raw.items():
+        first, dash, last = str(key).partition("-")
+        if not (first.strip().isdigit() and (not dash or last.strip().isdigit())):
+            raise InputError(f"modal: {key!r} is not a mode or a range of modes (write \"3\" or \"2-4\"; modes "
+                             "counted from 1)")
+        a, b = int(first), int(last or first)
+        if a < 1 or b < a or b > n_dofs:
+            raise InputError(f"modal: modes {key!r} are not modes of the model (modes 1 to {n_dofs}, a range "
+                             "first-last with first <= last)")
+        if isinstance(ratio, str) and ratio not in names:
+            raise InputError(f"modal: modes {key} = {ratio!r} is not a damping parameter (declared: "
+                             f"{', '.join(names) or 'none'})")
+        for k in range(a, b + 1):
+            if k in given:
+                raise InputError(f"modal: mode {k} is given twice ({given[k][0]!r} and {key!r})")
+            given[k] = (str(key), ratio)
+    missing = [k for k in range(1, max(given, default=0) + 1) if k not in given]
+    if missing:
+        raise InputError(f"modal: mode(s) {', '.join(map(str, missing))} have no ratio: modal damping acts on the "
+                         f"first {max(given)} modes, each with a ratio (0 for none)")
+    return [given[k][1] for k in sorted(given)]
 
 
 def _tables(raw, where: str, keys: set):

@@ -98,17 +98,27 @@ def complex_sensitivities(dm: DampedModel, modes: ComplexModes, values=None, par
     Raises
     ------
     InputError
-        Modes solved in modal coordinates (modal damping ratios: not differentiated in this
-        version); an unknown parameter; modes of another model (sizes differ).
+        An unknown parameter; modes of another model (sizes differ).
+
+    Notes
+    -----
+    Modes solved in modal coordinates (modal damping ratios) are differentiated there
+    (:func:`femupdate.damping.modal_ratios.modal_sensitivities`, exact for the truncated modal
+    model, the real modes' derivatives by Nelson's method).
     """
-    if modes.modal:
-        raise InputError(f"damped model {dm.name!r}: the sensitivities of complex modes are exact for physical "
-                         "damping (Rayleigh, dampers, loss factors, C matrices); modal damping ratios act in "
-                         "modal coordinates and are not differentiated in this version")
     if modes.shapes.shape[0] != dm.n_dofs:
         raise InputError(f"complex sensitivities: the modes have {modes.shapes.shape[0]} dofs, the model {dm.n_dofs}")
     names = tuple(dm.parameter_names if parameters is None else parameters)
     p = dm.resolve(values)
+    unknown = [nm for nm in names if nm not in dm.parameter_names]
+    if unknown:
+        raise InputError(f"parameter {unknown[0]!r} is not in damped model {dm.name!r} "
+                         f"(its parameters: {', '.join(dm.parameter_names)})")
+    if modes.modal:  # modal damping ratios: in the real modal coordinates (femupdate.damping.modal_ratios)
+        from .modal_ratios import modal_sensitivities
+
+        dl, dp = modal_sensitivities(dm, modes.eigenvalues, modes.shapes, p, names, vectors)
+        return ComplexSensitivities(names, modes.eigenvalues.copy(), dl, dp)
     K, M, C = dm.K(p), dm.M(p), dm.C(p)
     Kc = (K + 1j * dm.D(p)) if dm.hysteretic else K
     ders = [dm.derivatives(name, p) for name in names]

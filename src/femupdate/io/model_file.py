@@ -119,8 +119,8 @@ def load_model(path) -> Model:
         raise InputError(f"{path}: model files are TOML (.toml); for plain matrices write a small TOML with a [matrices] table")
     data = read_toml(path)
     if "damping" in data:
-        log.warning("%s: the [damping] table is read by complex modes, update and frf-update (femupdate "
-                    "complex-modes, update, frf-update, femupdate.damping.load_damped_model); here the model's "
+        log.warning("%s: the [damping] table is read by complex modes, update, frf-update and posterior (femupdate "
+                    "complex-modes, update, frf-update, posterior, femupdate.damping.load_damped_model); here the model's "
                     "undamped K and M are used", path)
         data.pop("damping")
     return build_model(data, path)

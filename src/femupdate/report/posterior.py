@@ -210,6 +210,9 @@ def _predictive(result: dict, data) -> Section | None:
                        Cell(f"[{num(meas[0])}, {num(meas[1])}]" if meas and all(fin(v) for v in meas) else "–"),
                        maccell(mac.get("mean"), f"/predictive/modes/{i}/mac/mean")])
     sec = Section("predictive", "Posterior predictive").add(t)
+    zeta = _damping_ratios(pred, level, data)
+    if zeta is not None:
+        sec.add(zeta)
     if ft is not None:
         from matplotlib.figure import Figure as MplFigure
 
@@ -224,6 +227,25 @@ def _predictive(result: dict, data) -> Section | None:
         sec.add(Text("The predictive figure needs the test data (femupdate report RESULT.json --model MODEL --data "
                      "DATA).", "note"))
     return sec
+
+
+def _damping_ratios(pred: list, level, data) -> Table | None:
+    """A damped model's paired modes' damping ratios over the posterior (None otherwise)."""
+    if not any(e.get("damping_ratio") for e in pred):
+        return None
+    t = Table(f"the damping ratios of the paired complex modes over the posterior ({num(level, 3)} intervals)",
+              ["test mode", f"ζ test [{NONE}]", f"ζ model mean [{NONE}]", f"ζ model std [{NONE}]", f"lower [{NONE}]",
+               f"upper [{NONE}]"])
+    for i, e in enumerate(pred):
+        z = e.get("damping_ratio") or {}
+        k = int(e.get("test_mode", i))
+        zt = data.modes[k].damping_ratio if data is not None and k < len(data.modes) else None
+        lo, hi = (z.get("interval") or [None, None])
+        t.rows.append([Cell(str(k + 1)), numcell(zt), numcell(z.get("mean"), f"/predictive/modes/{i}/damping_ratio/mean"),
+                       numcell(z.get("std"), f"/predictive/modes/{i}/damping_ratio/std", 3),
+                       numcell(lo, f"/predictive/modes/{i}/damping_ratio/interval/0"),
+                       numcell(hi, f"/predictive/modes/{i}/damping_ratio/interval/1")])
+    return t
 
 
 def build_posterior(doc: Document, result: dict, model, data, rec, segments, kind: str,

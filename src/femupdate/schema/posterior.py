@@ -42,8 +42,11 @@ register(Kind(
          (OBJECT,)),
      Key("predictive", "object or `null`", "with measured modes: `modes` [{`test_mode` (0-based), `frequency_hz` "
          "{`mean`, `std`, `interval`}, `measured_frequency_hz` {`interval`} (a new measurement: the model's frequency "
-         "with the measurement noise), `mac` {`mean`, `interval`} or `null`}], `draws` (posterior samples predicted)",
+         "with the measurement noise), `mac` {`mean`, `interval`} or `null`, and for a damped model `damping_ratio` "
+         "{`mean`, `std`, `interval`} or `null` (the paired complex mode's)}], `draws` (posterior samples predicted)",
          (OBJECT,)),
+     Key("damping", "object or `null`", "a model with a `[damping]` table: `parameters` (the damping parameters among "
+         "the updated ones), `held` {name: value} (those held at their values); `null` otherwise", (OBJECT,)),
      Key("diagnostics", "object", "all: `evaluations`, `failures` {message: count}; MCMC: `ess`, `tau` (integrated "
          "autocorrelation time, steps), `tau_reliable`, `rhat` (each `{name: value}`), `acceptance`, `walkers`, "
          "`ensembles`, `steps`, `burn`, `kept_steps`, `stopped` (`steps` or `target_ess`), `resumed_steps`, "

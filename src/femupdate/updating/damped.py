@@ -253,7 +253,8 @@ class DampedModesProblem(Parametrisation):
         x = np.asarray(x, float)
         p, modes, pairs = self.evaluate(x)
         which = [j for _, j, _ in pairs]
-        sub = ComplexModes(modes.eigenvalues[which], modes.shapes[:, which], modes.dofs, modes.solver)
+        sub = ComplexModes(modes.eigenvalues[which], modes.shapes[:, which], modes.dofs, modes.solver,
+                           modal=modes.modal)
         cs = complex_sensitivities(self.dm, sub, p, self.names, vectors=bool(self.shaped.any()))
         dzeta = cs.d_damping_ratios
         dpdx = self.dp_dx(x)

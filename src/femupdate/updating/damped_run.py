@@ -100,6 +100,7 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
                             "stated std" if prob.sigma else "dimensionless (relative eigenvalues, damping ratios, "
                             "unit shapes)"))
     if "frf" in kinds:
+        notes += _truncation_note(view, data, p_base)
         given = std.get("frf", {}).get("frf")
         residual = "linear" if o.frf.residual == "auto" else o.frf.residual
         several = data.n_frf_sets > 1
@@ -118,6 +119,24 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
                          "problem is underdetermined; add data, fix parameters, or use regularization")
     sigma = True if all(b.weighting == "stated std" for b in blocks) else None
     return CombinedProblem(view, blocks, sigma, notes)
+
+
+def _truncation_note(view: DampedView, data: TestData, p_base) -> list[str]:
+    """With modal damping ratios the receptances are the modal superposition of their N modes:
+    said when the FRF lines reach above the N-th mode's frequency."""
+    dm = view.damped
+    if not dm.modal:
+        return []
+    from ..modal import solve_modes
+
+    p = dm.resolve(p_base)
+    top = math.sqrt(max(float(solve_modes(dm.K(p), dm.M(p), n_modes=len(dm.modal)).eigenvalues[-1]), 0.0))
+    high = max(float(np.max(fs.omega)) for fs in data.frf_sets)
+    if high <= top:
+        return []
+    return [f"the FRF lines reach {high / (2 * math.pi):.4g} Hz, above the highest of the {len(dm.modal)} modes with "
+            f"modal damping ratios ({top / (2 * math.pi):.4g} Hz at the start): the model's receptances are the modal "
+            "superposition of those modes, the modes above left out; give ratios for the modes of the band"]
 
 
 def update_damped(view: DampedView, data: TestData, options: UpdateOptions, *, params: Sequence[str] | None = None,
