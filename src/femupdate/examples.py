@@ -355,7 +355,7 @@ c = "c2"
 #: the starting values of the damped truss's update in docs/damping.md (``--set``), away from the truth
 TRUSS_DAMPED_START = {"E": 6.0e10, "b": 5.0e-5, "c1": 100.0, "c2": 600.0}
 #: the FRFs of ``truss_damped_frf.json``: a unit force at 4:y, responses at these dofs, 20-300 Hz every 2 Hz
-TRUSS_DAMPED_FRF = {"force": "4:y", "dofs": ("3:y", "4:y", "104:y"), "hz": (20.0, 300.0, 141)}
+TRUSS_DAMPED_FRF: dict[str, Any] = {"force": "4:y", "dofs": ("3:y", "4:y", "104:y"), "hz": (20.0, 300.0, 141)}
 
 
 def truss_damped_test_files() -> dict[str, str]:
