@@ -361,7 +361,7 @@ TRUSS_DAMPED_FRF: dict[str, Any] = {"force": "4:y", "dofs": ("3:y", "4:y", "104:
 def truss_damped_test_files() -> dict[str, str]:
     """Noise-free test data of the damped truss (``truss_damped.toml`` at its own values), as
     {name: JSON text}: ``truss_damped_modes.json`` (its 4 lowest complex modes at every joint
-    dof: natural frequency |λ|/2π, damping ratio, complex shape scaled to 1 at its largest entry)
+    dof: natural frequency :math:`|\\lambda|/2\\pi`, damping ratio, complex shape scaled to 1 at its largest entry)
     and ``truss_damped_frf.json`` (the damped receptances of :data:`TRUSS_DAMPED_FRF`)."""
     import json
     import tempfile
