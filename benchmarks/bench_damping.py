@@ -6,6 +6,7 @@ Usage::
     python benchmarks/bench_damping.py                       # 1 % and 5 % noise, 20 seeds each
     python benchmarks/bench_damping.py --seeds 5 --levels 0.01
     python benchmarks/bench_damping.py --quick               # 2 seeds, no FRF route
+    python benchmarks/bench_damping.py --families rayleigh
 
 The structure is the damped truss of the example files (``truss_damped.toml``: 3-bay plane truss,
 E = 70 GPa, Rayleigh α = 0.5 1/s fixed, β = ``b`` = 2e-5 s, dampers ``c1`` = 400 N s/m across the
@@ -16,6 +17,10 @@ dofs, 10 to 320 Hz every 0.5 Hz (four modes: 46.5, 146.5, 201.5, 263.3 Hz, ζ 6.
 1.9 %). Noise: complex Gaussian, per response dof ``level`` times the RMS of that response over
 the band (real and imaginary parts each of std level·rms/√2), for each seed.
 
+Two families of unknowns, updated from the same data: ``dampers`` — E, β (``b``) and both
+dampers' coefficients (α fixed); ``rayleigh`` — E and both Rayleigh coefficients, α (``a``, a
+damping parameter here) and β, with the dampers held at their true values.
+
 Per noise level and seed:
 
 * **identification** by sdypy-EMA: LSCF poles up to order ``--order`` (30) over the band,
@@ -23,18 +28,18 @@ Per noise level and seed:
   with the driving point (102:x) scaling them to shapes; read by
   :func:`femupdate.io.adapters.from_sdypy_ema`. Recorded: the identified frequencies and damping
   ratios against the true complex modes', and the unit-length shapes' error (phase-aligned).
-* ``ema``: :func:`femupdate.update` of E, b, c1, c2 from the identified modes (frequencies,
+* ``ema``: :func:`femupdate.update` of the family's unknowns from the identified modes (frequencies,
   damping ratios, complex shapes) as read — sdypy-EMA states no standard deviations, so every
   residual has weight 1 and femupdate estimates the noise from the fit (its default);
 * ``ema+std``: the same modes with standard deviations stated per mode (``std_frequency``,
   ``std_damping_ratio``, ``std_shape``): the RMS identification errors of that mode over all the
   level's seeds (a calibration of the identification by simulating the test, as a test engineer
   can; it uses the truth, so it is the best statement available, bias included);
-* ``frf-update``: :func:`femupdate.updating.frf_update` of the same four parameters directly on
+* ``frf-update``: :func:`femupdate.updating.frf_update` of the same parameters directly on
   the noisy FRFs, with their noise standard deviation stated (the level's σ per dof).
 
-Every update starts at E, b, c1, c2 = 6e10, 5e-5, 100, 600 (the start of docs/damping.md). The
-table gives, per route and parameter, the mean estimate, the bias (mean − true, % of true), the
+Every update starts at E, b, c1, c2 = 6e10, 5e-5, 100, 600 (the start of docs/damping.md; α at
+2.0 in the ``rayleigh`` family). The table gives, per family, route and parameter, the mean estimate, the bias (mean − true, % of true), the
 scatter (standard deviation over seeds, % of true), the RMS z-score (estimate − true) / std with
 femupdate's standard deviation (seeds with the parameter on a bound, whose std is not given,
 left out; their number is given), and failures.
@@ -61,8 +66,15 @@ sys.path.insert(0, str(HERE.parent / "src"))
 
 from femupdate.examples import TRUSS_DAMPED_START, TRUSS_DAMPING, truss_damped_model_toml  # noqa: E402
 
-#: the updated parameters and their true values
-TRUTH = {"E": 7.0e10, "b": TRUSS_DAMPING["beta"], "c1": TRUSS_DAMPING["c1"], "c2": TRUSS_DAMPING["c2"]}
+#: per family, the updated parameters' true values and starting values: ``dampers`` (β and both
+#: dampers, α fixed), ``rayleigh`` (α and β, the dampers held at their true values)
+FAMILIES = {
+    "dampers": ({"E": 7.0e10, "b": TRUSS_DAMPING["beta"], "c1": TRUSS_DAMPING["c1"], "c2": TRUSS_DAMPING["c2"]},
+                dict(TRUSS_DAMPED_START)),
+    "rayleigh": ({"E": 7.0e10, "a": TRUSS_DAMPING["alpha"], "b": TRUSS_DAMPING["beta"]},
+                 {"E": 6.0e10, "a": 2.0, "b": 5.0e-5}),
+}
+TRUTH = FAMILIES["dampers"][0]
 DRIVE = "102:x"
 BAND_HZ = (10.0, 400.0, 0.5)
 N_MODES = 5
@@ -77,6 +89,18 @@ def truss():
         path = Path(d) / "truss_damped.toml"
         path.write_text(truss_damped_model_toml(), encoding="utf-8")
         return load_damped_model(path)
+
+
+def family_model(dm, family: str):
+    """The model a family updates: the truss itself (``dampers``), or with α a damping parameter
+    ``a`` (``rayleigh``; the same structure at the truth)."""
+    if family == "dampers":
+        return dm
+    from femupdate.damping import DampedModel
+    from femupdate.model import Parameter
+
+    return DampedModel(dm.model, dm.parameters + (Parameter("a", TRUSS_DAMPING["alpha"], (0.0, 10.0)),), alpha="a",
+                       beta=dm.beta, dampers=dm.dampers)
 
 
 def band() -> np.ndarray:
@@ -136,29 +160,31 @@ def identify(Hn: np.ndarray, f_hz: np.ndarray, dofs, f_true, order: int = 30):
     return from_sdypy_ema(ema, channels=list(dofs))
 
 
-def _estimates(res) -> dict:
+def _estimates(res, truth) -> dict:
     std = dict(zip(res.names, map(float, res.diagnostics.std)))
-    return {"success": bool(res.success), "values": {n: float(res.parameters[n]) for n in TRUTH},
-            "std": {n: (std[n] if np.isfinite(std.get(n, np.nan)) else None) for n in TRUTH}}
+    return {"success": bool(res.success), "values": {n: float(res.parameters[n]) for n in truth},
+            "std": {n: (std[n] if np.isfinite(std.get(n, np.nan)) else None) for n in truth}}
 
 
-def update_modes(dm, data) -> dict:
+def update_modes(dm, data, family: str = "dampers") -> dict:
     import femupdate
 
+    truth, start = FAMILIES[family]
     try:
-        return _estimates(femupdate.update(dm.with_values(TRUSS_DAMPED_START), data, params=list(TRUTH)))
+        return _estimates(femupdate.update(family_model(dm, family).with_values(start), data, params=list(truth)), truth)
     except Exception as exc:  # a failed update is counted, not fatal
         return {"success": False, "error": f"{type(exc).__name__}: {exc}"}
 
 
-def update_frf(dm, f_hz, Hn, sigma) -> dict:
+def update_frf(dm, f_hz, Hn, sigma, family: str = "dampers") -> dict:
     from femupdate.testdata import FRFData, TestData
     from femupdate.updating import frf_update
 
+    truth, start = FAMILIES[family]
     data = TestData(frf=FRFData(2 * np.pi * f_hz, {DRIVE: 1.0}, tuple(dm.model.dofs), Hn))
     try:
-        return _estimates(frf_update(dm.with_values(TRUSS_DAMPED_START), data, params=list(TRUTH),
-                                     measurement_std=sigma))
+        return _estimates(frf_update(family_model(dm, family).with_values(start), data, params=list(truth),
+                                     measurement_std=sigma), truth)
     except Exception as exc:
         return {"success": False, "error": f"{type(exc).__name__}: {exc}"}
 
@@ -172,8 +198,9 @@ def with_std(data, f_std, z_std, s_std):
                                 for m, a, b, c in zip(data.modes, f_std, z_std, s_std)), notes=data.notes)
 
 
-def run_level(dm, H, level: float, seeds, frf: bool = True, order: int = 30, log=print) -> dict:
-    """Identification and the three routes at one noise level over ``seeds``."""
+def run_level(dm, H, level: float, seeds, frf: bool = True, order: int = 30, log=print,
+              families=("dampers",)) -> dict:
+    """Identification and the three routes of each family at one noise level over ``seeds``."""
     f_hz = band()
     dofs = list(dm.model.dofs)
     f0, z0, phi0 = true_modes(dm)
@@ -186,27 +213,32 @@ def run_level(dm, H, level: float, seeds, frf: bool = True, order: int = 30, log
                  "zeta": [m.damping_ratio for m in data.modes],
                  "shape_rms": [float(np.sqrt(np.mean(shape_error(np.asarray(m.shape, complex), phi0[idx, r]) ** 2)))
                                for r, m in enumerate(data.modes)]}
-        run = {"seed": int(seed), "identified": ident, "ema": update_modes(dm, data), "_data": data, "_H": (Hn, sigma)}
+        run = {"seed": int(seed), "identified": ident, "_data": data, "_H": (Hn, sigma)}
+        for fam in families:
+            run[fam] = {"ema": update_modes(dm, data, fam)}
         runs.append(run)
-        log(f"level {level:g} seed {seed}: zeta {np.round(ident['zeta'], 4).tolist()}, ema {run['ema'].get('values')}")
+        log(f"level {level:g} seed {seed}: zeta {np.round(ident['zeta'], 4).tolist()}, "
+            + "; ".join(f"{fam} ema {run[fam]['ema'].get('values')}" for fam in families))
     # the identification's RMS errors over the level's seeds, stated as the modes' deviations
     fe = np.array([r["identified"]["f_rel_error"] for r in runs])
     ze = np.array([[np.nan if z is None else z for z in r["identified"]["zeta"]] for r in runs]) - z0
     se = np.array([r["identified"]["shape_rms"] for r in runs])
     f_std, z_std, s_std = (np.sqrt(np.nanmean(a ** 2, axis=0)) for a in (fe, ze, se))
     for run in runs:
-        run["ema+std"] = update_modes(dm, with_std(run.pop("_data"), f_std, z_std, s_std))
+        stated = with_std(run.pop("_data"), f_std, z_std, s_std)
         Hn, sigma = run.pop("_H")
-        if frf:
-            run["frf-update"] = update_frf(dm, f_hz, Hn, sigma)
-            log(f"level {level:g} seed {run['seed']}: frf-update {run['frf-update'].get('values')}")
-    return {"level": level, "runs": runs, "true_modes": {"frequency_hz": f0.tolist(), "damping_ratio": z0.tolist()},
+        for fam in families:
+            run[fam]["ema+std"] = update_modes(dm, stated, fam)
+            if frf:
+                run[fam]["frf-update"] = update_frf(dm, f_hz, Hn, sigma, fam)
+                log(f"level {level:g} seed {run['seed']}: {fam} frf-update {run[fam]['frf-update'].get('values')}")
+    return {"level": level, "runs": runs, "families": list(families), "true_modes": {"frequency_hz": f0.tolist(), "damping_ratio": z0.tolist()},
             "stated": {"std_frequency": f_std.tolist(), "std_damping_ratio": z_std.tolist(), "std_shape": s_std.tolist()}}
 
 
 def summarise(level: dict) -> dict:
-    """Per route and parameter: n, failures, mean, bias %, scatter %, RMS z, seeds on a bound;
-    per mode: the identified damping ratio's bias and scatter (% of true)."""
+    """Per family, route and parameter: n, failures, mean, bias %, scatter %, RMS z, seeds on a
+    bound; per mode: the identified damping ratio's bias and scatter (% of true)."""
     out: dict = {"routes": {}, "modes": []}
     z0 = np.array(level["true_modes"]["damping_ratio"])
     zeta = np.array([[np.nan if z is None else z for z in r["identified"]["zeta"]] for r in level["runs"]])
@@ -216,13 +248,14 @@ def summarise(level: dict) -> dict:
                              "zeta_bias_pct": float(100 * (np.nanmean(zeta[:, k]) / z0[k] - 1)),
                              "zeta_scatter_pct": float(100 * np.nanstd(zeta[:, k], ddof=1) / z0[k]) if len(zeta) > 1 else None,
                              "f_rms_error_pct": float(100 * np.sqrt(np.mean(fe[:, k] ** 2)))})
-    for route in ROUTES:
-        rows = [r[route] for r in level["runs"] if route in r]
+    for fam, route in ((f, r) for f in level.get("families", ["dampers"]) for r in ROUTES):
+        truth = FAMILIES[fam][0]
+        rows = [r[fam][route] for r in level["runs"] if route in r.get(fam, {})]
         if not rows:
             continue
         ok = [r for r in rows if r.get("success")]
         per = {}
-        for name, true in TRUTH.items():
+        for name, true in truth.items():
             v = np.array([r["values"][name] for r in ok])
             s = [r["std"][name] for r in ok]
             z = np.array([(vi - true) / si for vi, si in zip(v, s) if si])
@@ -231,7 +264,7 @@ def summarise(level: dict) -> dict:
                          "scatter_pct": float(100 * v.std(ddof=1) / true) if v.size > 1 else None,
                          "rms_z": float(np.sqrt(np.mean(z ** 2))) if z.size else None,
                          "no_std": int(sum(si is None for si in s))}
-        out["routes"][route] = {"n": len(rows), "failed": len(rows) - len(ok), "parameters": per}
+        out["routes"][f"{fam}/{route}"] = {"n": len(rows), "failed": len(rows) - len(ok), "parameters": per}
     return out
 
 
@@ -247,7 +280,7 @@ def markdown(results: dict) -> str:
             lines.append(f"| {100 * lv['level']:g} % | {m['mode']} | {m['f_hz']:.1f} | {m['zeta_true']:.4f} | "
                          f"{_f(m['zeta_bias_pct'], '+.1f', ' %')} | {_f(m['zeta_scatter_pct'], '.1f', ' %')} | "
                          f"{_f(m['f_rms_error_pct'], '.3f', ' %')} |")
-    lines += ["", "| noise | route | seeds (failed) | parameter | mean | bias | scatter | RMS z | no std |",
+    lines += ["", "| noise | family/route | seeds (failed) | parameter | mean | bias | scatter | RMS z | no std |",
               "|---|---|---|---|---|---|---|---|---|"]
     for lv in results["levels"]:
         for route, r in lv["summary"]["routes"].items():
@@ -259,13 +292,13 @@ def markdown(results: dict) -> str:
 
 
 def run(levels=(0.01, 0.05), seeds: int = 20, first_seed: int = 0, frf: bool = True, order: int = 30,
-        log=print) -> dict:
+        log=print, families=tuple(FAMILIES)) -> dict:
     """Every level at ``seeds`` seeds; the results as one JSON-ready dict."""
     dm = truss()
     H = exact_receptances(dm, band())
-    out = {"truth": TRUTH, "start": TRUSS_DAMPED_START, "band_hz": BAND_HZ, "drive": DRIVE, "order": order, "levels": []}
+    out = {"families": {f: {"truth": FAMILIES[f][0], "start": FAMILIES[f][1]} for f in families}, "band_hz": BAND_HZ, "drive": DRIVE, "order": order, "levels": []}
     for level in levels:
-        lv = run_level(dm, H, level, range(first_seed, first_seed + seeds), frf, order, log)
+        lv = run_level(dm, H, level, range(first_seed, first_seed + seeds), frf, order, log, families)
         lv["summary"] = summarise(lv)
         out["levels"].append(lv)
     return out
@@ -278,6 +311,7 @@ def _parse(argv):
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--order", type=int, default=30, help="highest LSCF polynomial order")
     ap.add_argument("--no-frf", action="store_true", help="leave out the frf-update route")
+    ap.add_argument("--families", nargs="*", default=list(FAMILIES), choices=list(FAMILIES))
     ap.add_argument("--quick", action="store_true", help="2 seeds, no frf-update")
     ap.add_argument("--output", default=None)
     a = ap.parse_args(argv)
@@ -288,7 +322,8 @@ def _parse(argv):
 
 def main(argv=None) -> int:
     a = _parse(argv)
-    res = run(a.levels, a.seeds, a.first_seed, not a.no_frf, a.order, log=lambda s: print(s, file=sys.stderr, flush=True))
+    res = run(a.levels, a.seeds, a.first_seed, not a.no_frf, a.order, log=lambda s: print(s, file=sys.stderr, flush=True),
+              families=tuple(a.families))
     res["command"] = "python benchmarks/bench_damping.py " + " ".join(sys.argv[1:] if argv is None else argv)
     print(markdown(res))
     path = Path(a.output) if a.output else HERE / "results" / "bench_damping.json"

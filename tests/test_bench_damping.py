@@ -62,17 +62,29 @@ def test_one_seed_identifies_the_modes_and_the_stated_route_recovers_the_dampers
     f0, z0, _ = bench.true_modes(truss)
     assert np.all(np.abs(run["identified"]["f_rel_error"]) < 5e-3)
     assert np.all(np.abs(np.array(run["identified"]["zeta"]) / z0 - 1) < 0.05)
-    est = run["ema+std"]
+    est = run["dampers"]["ema+std"]
     assert est["success"], est
     for name, true in bench.TRUTH.items():
         assert est["values"][name] == pytest.approx(true, rel=0.03), name
         assert est["std"][name] is not None and est["std"][name] > 0
     lv["summary"] = bench.summarise(lv)
-    s = lv["summary"]["routes"]["ema+std"]
+    s = lv["summary"]["routes"]["dampers/ema+std"]
     assert s["n"] == 1 and s["failed"] == 0 and set(s["parameters"]) == set(bench.TRUTH)
     table = bench.markdown({"levels": [lv]}).splitlines()
     assert len(table) == 2 + bench.N_MODES + 1 + 2 + 2 * len(bench.TRUTH)
     assert all(line.count("|") in (8, 10) for line in table if line)
+
+
+def test_the_rayleigh_family_is_the_same_structure_with_alpha_a_parameter(bench, truss):
+    from femupdate.damping import complex_modes
+
+    fam = bench.family_model(truss, "rayleigh")
+    assert fam.parameter_names[-1] == "a" and set(bench.FAMILIES["rayleigh"][0]) <= set(fam.parameter_names)
+    base = complex_modes(truss, n_modes=5)
+    np.testing.assert_allclose(complex_modes(fam, n_modes=5).eigenvalues, base.eigenvalues, rtol=1e-12)
+    # alpha adds alpha M to C: to first order each mode's damping ratio grows by d_alpha / (2 omega)
+    up = complex_modes(fam.with_values({"a": 0.6}), n_modes=5)
+    np.testing.assert_allclose(up.damping_ratios - base.damping_ratios, 0.1 / (2 * np.abs(base.eigenvalues)), rtol=0.02)
 
 
 @heavy
