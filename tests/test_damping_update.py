@@ -134,7 +134,7 @@ def _cli(args, capsys):
 
 def test_update_cli_recovers_dampers_and_stiffness_from_noise_free_complex_modes(tmp_path, capsys, truss):
     model, test = _write_case(tmp_path, _modes(truss))
-    code, out, err = _cli(["update", model, test, "--json", tmp_path / "r.json"], capsys)
+    code, out, err = _cli(["update", model, test, "--json", tmp_path / "r.json", "--report", tmp_path / "r.html"], capsys)
     assert code == 0, out + err
     r = json.loads((tmp_path / "r.json").read_text())
     for name, true in TRUTH.items():
@@ -145,6 +145,20 @@ def test_update_cli_recovers_dampers_and_stiffness_from_noise_free_complex_modes
                                atol=1e-9)
     assert r["diagnostics"]["absolute"] is True  # every residual divided by the data file's deviations
     assert "damping parameters updated: b = 2e-05 ±" in out and "damping ratios of the paired modes" in out
+    # the complexity table: the test shapes' MPC and MPD are data_complexity's, the model's those of
+    # complex_modes' shapes at the measured dofs (the truth's, where the data were made)
+    from femupdate.damping import data_complexity, mean_phase_deviation, modal_phase_collinearity
+
+    cx = r["damping"]["complexity"]
+    data = _modes(truss)
+    assert cx["test"]["mpc"] == pytest.approx([c["mpc"] for c in data_complexity(data)], abs=1e-12)
+    assert cx["test"]["mpd_deg"] == pytest.approx([c["mpd_deg"] for c in data_complexity(data)], abs=1e-9)
+    U = complex_modes(truss, n_modes=4).shapes[truss.model.dof_index(list(DOFS)), :]
+    assert cx["model"]["mpc"] == pytest.approx(modal_phase_collinearity(U).tolist(), abs=1e-9)
+    assert cx["model"]["mpd_deg"] == pytest.approx(mean_phase_deviation(U).tolist(), abs=1e-6)
+    assert min(cx["model"]["mpc"]) < 0.999  # the dampers make the shapes measurably complex
+    assert "complexity of the paired shapes at the measured dofs" in out
+    assert "complexity of each paired shape at the measured dofs" in (tmp_path / "r.html").read_text()
     assert "[damping] table is read by" not in err + out  # used, not ignored
     # the result reads back with its damping record
     back = femupdate.load_result(tmp_path / "r.json")

@@ -352,6 +352,46 @@ c = "c2"
 """
 
 
+#: the starting values of the damped truss's update in docs/damping.md (``--set``), away from the truth
+TRUSS_DAMPED_START = {"E": 6.0e10, "b": 5.0e-5, "c1": 100.0, "c2": 600.0}
+#: the FRFs of ``truss_damped_frf.json``: a unit force at 4:y, responses at these dofs, 20-300 Hz every 2 Hz
+TRUSS_DAMPED_FRF: dict[str, Any] = {"force": "4:y", "dofs": ("3:y", "4:y", "104:y"), "hz": (20.0, 300.0, 141)}
+
+
+def truss_damped_test_files() -> dict[str, str]:
+    """Noise-free test data of the damped truss (``truss_damped.toml`` at its own values), as
+    {name: JSON text}: ``truss_damped_modes.json`` (its 4 lowest complex modes at every joint
+    dof: natural frequency :math:`|\\lambda|/2\\pi`, damping ratio, complex shape scaled to 1 at its largest entry)
+    and ``truss_damped_frf.json`` (the damped receptances of :data:`TRUSS_DAMPED_FRF`)."""
+    import json
+    import tempfile
+    from pathlib import Path
+
+    import numpy as np
+
+    from .damping import complex_modes, load_damped_model
+    from .damping.frf import damped_response
+
+    with tempfile.TemporaryDirectory() as d:
+        (Path(d) / "truss_damped.toml").write_text(truss_damped_model_toml(), encoding="utf-8")
+        dm = load_damped_model(Path(d) / "truss_damped.toml")
+    cm = complex_modes(dm, n_modes=4)
+    dofs = list(dm.model.dofs)
+    modes = []
+    for r in range(cm.n_modes):
+        v = cm.shapes[:, r] / cm.shapes[np.argmax(np.abs(cm.shapes[:, r])), r]
+        modes.append({"frequency_hz": float(cm.natural_frequencies_hz[r]), "damping_ratio": float(cm.damping_ratios[r]),
+                      "shape": {d: [float(x.real), float(x.imag)] for d, x in zip(dofs, v)}})
+    lo, hi, n = TRUSS_DAMPED_FRF["hz"]
+    omega = 2 * np.pi * np.linspace(lo, hi, int(n))
+    force = {str(TRUSS_DAMPED_FRF["force"]): 1.0}
+    X, _ = damped_response(dm, omega, force, list(TRUSS_DAMPED_FRF["dofs"]))
+    frf = {"omega_rad_s": omega.tolist(), "force": force,
+           "response": {d: [[float(x.real), float(x.imag)] for x in X[:, k]] for k, d in enumerate(TRUSS_DAMPED_FRF["dofs"])}}
+    return {"truss_damped_modes.json": json.dumps({"modes": modes}, indent=1) + "\n",
+            "truss_damped_frf.json": json.dumps({"frf": frf}) + "\n"}
+
+
 def _modes_object(data) -> dict:
     return {"modes": [{"eigenvalue": float(m.eigenvalue), "shape": {d: float(v) for d, v in zip(m.dofs, m.shape)}}
                       for m in data.modes]}
@@ -369,7 +409,8 @@ def example_files() -> dict[str, str]:
     * ``truss.toml`` (3-bay truss, baseline), ``truss_undamaged.json``, ``truss_damaged.json`` (member
       ``E.102-103`` has lost 40 % of its stiffness; 4 modes at every joint, 0.1 % noise),
       ``truss_damped.toml`` (the truss with Rayleigh damping and two viscous dampers,
-      :data:`TRUSS_DAMPING`).
+      :data:`TRUSS_DAMPING`), ``truss_damped_modes.json`` and ``truss_damped_frf.json`` (its
+      noise-free complex modes and FRFs, :func:`truss_damped_test_files`).
     """
     import json
     import tomllib
@@ -405,6 +446,7 @@ def example_files() -> dict[str, str]:
                                 '[[candidate]]\nname = "2 kg at dof 2"\n[[candidate.mass]]\ndofs = ["2:x"]\nm = 2.0\n')
     files["truss.toml"] = truss_model_toml()
     files["truss_damped.toml"] = truss_damped_model_toml()
+    files.update(truss_damped_test_files())
     em = element_parameters(Structure.from_dict(tomllib.loads(files["truss.toml"])))[0].build()
     joints = list(em.dofs)
     base = {TRUSS_DAMAGED: em.values[em.parameter_index(TRUSS_DAMAGED)] * (1 - TRUSS_LOSS)}

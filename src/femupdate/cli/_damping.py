@@ -31,8 +31,8 @@ def print_damping(console, data, fields: dict | None) -> None:
 
 
 def print_damped(console, res) -> None:
-    """A damped model's update: the damping parameters updated (± std) or held, and per paired
-    mode the measured and model damping ratios and the model mode's MPC."""
+    """A damped model's update: the damping parameters updated (± std) or held, per paired mode
+    the measured and model damping ratios and the model mode's MPC, and the complexity table."""
     from ._common import fmt
 
     d = res.damping
@@ -53,6 +53,24 @@ def print_damped(console, res) -> None:
     for (k, j, _), zt, zm, mpc in zip(res.pairs, ratios["test"], ratios["model"], d.get("mpc", [])):
         t.add_row(str(k + 1), str(j + 1), "-" if zt is None else f"{zt:.5g}", f"{zm:.5g}",
                   "-" if zt is None else f"{zm - zt:+.3g}", f"{mpc:.4f}")
+    console.print(t)
+    print_complexity(console, res.pairs, d.get("complexity"))
+
+
+def print_complexity(console, pairs, cx: dict | None) -> None:
+    """Per paired mode the MPC and MPD of the test shape and of the model's at the same dofs."""
+    if not cx or not any(v is not None for v in cx["test"]["mpc"]):
+        return
+
+    def f(v, spec):
+        return "-" if v is None else format(v, spec)
+
+    t = Table(title="complexity of the paired shapes at the measured dofs (MPC 1 and MPD 0° for a real mode)")
+    for col in ("test", "model", "MPC test", "MPC model", "MPD test [°]", "MPD model [°]"):
+        t.add_column(col, justify="right")
+    for i, (k, j, _) in enumerate(pairs):
+        t.add_row(str(k + 1), str(j + 1), f(cx["test"]["mpc"][i], ".4f"), f(cx["model"]["mpc"][i], ".4f"),
+                  f(cx["test"]["mpd_deg"][i], ".2f"), f(cx["model"]["mpd_deg"][i], ".2f"))
     console.print(t)
 
 

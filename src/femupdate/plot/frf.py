@@ -294,7 +294,7 @@ def save_starts_figure(path, panels) -> str:
 
 
 @shared_docs(**PLOT_DOCS)
-def frf_axes(omega, dofs, measured, model, ax=None):
+def frf_axes(omega, dofs, measured, model, ax=None, start=None, hz: bool = False):
     """Magnitude of measured (dots) and model (lines) FRFs, log scale.
 
     Parameters
@@ -306,17 +306,24 @@ def frf_axes(omega, dofs, measured, model, ax=None):
     measured, model : numpy.ndarray, shape ``(n_lines, len(dofs))``
         Measured and model receptances, m/N (real or complex).
     {{AX}}
+    start : numpy.ndarray, shape ``(n_lines, len(dofs))``, optional
+        The model's receptances before updating, drawn dashed.
+    hz : bool, default False
+        Frequency axis in Hz (ω/2π) instead of rad/s.
 
     {{AX_RETURNED}}
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    x = np.asarray(omega, float) / (2 * np.pi) if hz else omega
     for k, d in enumerate(dofs):
         c = colours[k % len(colours)]
-        ax.semilogy(omega, np.abs(measured[:, k]), "o", color=c, ms=3, label=f"{d} test")
-        ax.semilogy(omega, np.abs(model[:, k]), "-", color=c, lw=1, label=f"{d} model")
-    ax.set(xlabel="omega [rad/s]", ylabel="|receptance|", title="FRF: test vs updated model")
+        if start is not None:
+            ax.semilogy(x, np.abs(start[:, k]), "--", color=c, lw=0.8, alpha=0.6, label=f"{d} model, start")
+        ax.semilogy(x, np.abs(measured[:, k]), "o", color=c, ms=3, label=f"{d} test")
+        ax.semilogy(x, np.abs(model[:, k]), "-", color=c, lw=1, label=f"{d} model" + (", updated" if start is not None else ""))
+    ax.set(xlabel="frequency [Hz]" if hz else "omega [rad/s]", ylabel="|receptance|", title="FRF: test vs updated model")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return ax

@@ -213,8 +213,8 @@ def frf_section(result: dict, rec) -> Section | None:
 
 def damped_section(result: dict) -> Section | None:
     """A damped model's update (the result's ``damping``): the damping parameters updated with
-    their standard deviations, those held, and per paired mode the measured and model damping
-    ratios and the model mode's MPC."""
+    their standard deviations, those held, per paired mode the measured and model damping
+    ratios and the model mode's MPC, and the complexity (MPC, MPD) of the paired shapes."""
     d = result.get("damping")
     if not isinstance(d, dict) or not d:
         return None
@@ -242,4 +242,16 @@ def damped_section(result: dict) -> Section | None:
                             Cell(num(zm - zt, 3) if zt is not None and zm is not None else "–"),
                             numcell(mpc, f"/damping/mpc/{i}", 4)])
         sec.add(zr)
+    cx = d.get("complexity")
+    if isinstance(cx, dict) and any(v is not None for v in (cx.get("test") or {}).get("mpc") or []):
+        pairs = result.get("pairs") or []
+        ct = Table("complexity of each paired shape at the measured dofs: MPC (modal phase collinearity, 1 for a real "
+                   "mode) and MPD (mean phase deviation, 0° for a real mode) of the test shape and of the model's",
+                   ["test mode", "model mode", "MPC test", "MPC model", "MPD test [°]", "MPD model [°]"])
+        for i in range(len(cx["test"]["mpc"])):
+            k, j = (pairs[i][0], pairs[i][1]) if i < len(pairs) else (i, i)
+            ct.rows.append([Cell(str(int(k) + 1)), Cell(str(int(j) + 1))]
+                           + [numcell(cx[side][key][i], f"/damping/complexity/{side}/{key}/{i}", 4 if key == "mpc" else 3)
+                              for key in ("mpc", "mpd_deg") for side in ("test", "model")])
+        sec.add(ct)
     return sec

@@ -84,7 +84,9 @@ UPDATE_KEYS = (
         "cost}`", (ARRAY,)),
     Key("damping", "object", "a model with a `[damping]` table: `parameters` (the damping parameters updated), "
         "`values` `{name: value}` (every damping parameter), `std` `{name: value}` (of those updated; `null` on a "
-        "bound), with modes `damping_ratios` `{test, model}` and `mpc` (of the paired model modes) "
+        "bound), with modes `damping_ratios` `{test, model}`, `mpc` (of the paired model modes) and `complexity` "
+        "`{test, model}` (each `{mpc, mpd_deg}` per paired mode, the model's shape at the test's measured dofs; "
+        "`null` for a mode without a shape) "
         "(docs/file-formats.md, \"Damping\")", (OBJECT,)),
     Key("damping_ratio", "object", "with damping (measured ratios or `--damping`): as `correlate`", (OBJECT,)),
     Key("units", "object", "the test data's units, when they state them", (OBJECT,)),

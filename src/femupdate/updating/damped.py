@@ -295,7 +295,21 @@ class DampedModesProblem(Parametrisation):
                     model_frequencies_hz=np.array([modes.natural_frequencies_hz[j] for j in js]),
                     pairing={"policy": self.rule, "used": self.pairing_used, "min_mac": self.min_mac, "low_mac": low},
                     model_damping_ratios=[float(modes.damping_ratios[j]) for j in js],
-                    model_mpc=[float(modes.mpc[j]) for j in js])
+                    model_mpc=[float(modes.mpc[j]) for j in js], complexity=self.complexity(modes, pairs))
+
+    def complexity(self, modes: ComplexModes, pairs) -> dict:
+        """MPC and MPD (degrees) of each paired test shape and of its model mode's shape at the
+        same measured dofs (:mod:`femupdate.damping.complexity`); None for a mode without a shape."""
+        from ..damping.complexity import mean_phase_deviation, modal_phase_collinearity
+
+        out: dict = {"test": {"mpc": [], "mpd_deg": []}, "model": {"mpc": [], "mpd_deg": []}}
+        for k, j, _ in pairs:
+            sl = slice(self.pptr[k], self.pptr[k + 1])
+            for side, v in (("test", self.psi[sl]), ("model", modes.shapes[self.pos[sl], j])):
+                shaped = self.shaped[k]
+                out[side]["mpc"].append(float(modal_phase_collinearity(v)) if shaped else None)
+                out[side]["mpd_deg"].append(float(mean_phase_deviation(v)) if shaped else None)
+        return out
 
 
 class DampedFRFProblem(Parametrisation):

@@ -172,7 +172,7 @@ def damped_result(prob: CombinedProblem, data: TestData, x, sol=None, history=No
         paired = modal.paired(x)
         extra = {"damping_ratios": {"test": [None if math.isnan(z) else float(z) for z in modal.zeta_e[[k for k, _, _ in paired["pairs"]]]],
                                     "model": paired.pop("model_damping_ratios")},
-                 "mpc": paired.pop("model_mpc")}
+                 "mpc": paired.pop("model_mpc"), "complexity": paired.pop("complexity")}
         _, modes, _ = modal.evaluate(x)
         natural = modes.natural_frequencies_hz[:10]
         solver_used = modes.solver

@@ -275,8 +275,9 @@ class UpdateResult(RunResult, Serialisable):
         A damped model's update (:mod:`femupdate.updating.damped_run`): ``parameters`` (the
         damping parameters updated), ``values`` (every damping parameter's value), ``std``
         {name: standard deviation} of those updated, and with measured modes
-        ``damping_ratios`` {``test``, ``model``} and ``mpc`` of the paired modes; empty for an
-        undamped model.
+        ``damping_ratios`` {``test``, ``model``} and ``mpc`` of the paired modes, and
+        ``complexity`` {``test``, ``model``: {``mpc``, ``mpd_deg``}} of the paired shapes at the
+        measured dofs; empty for an undamped model.
     context : RunContext, optional
         The model and data the result was computed from (:mod:`femupdate.serialise`): what
         :meth:`to_json` and :meth:`write_report` take from them.

@@ -43,10 +43,14 @@ POOR_RELATIVE_STD = 1.0
 
 
 def _svd(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values (descending) and right singular vectors (rows, all of them) of S."""
+    """Singular values (descending) and right singular vectors (rows, all of them) of S.
+
+    A tall S (rows >= columns) has all n right singular vectors in the economy SVD, without the
+    m x m left factor that the full SVD forms (45 s and gigabytes for the 30 000 FRF residuals of
+    12 dofs at 1241 lines; the same values and vectors, bit for bit, by LAPACK's gesdd)."""
     if not S.size:
         return np.zeros(0), np.eye(S.shape[1])
-    _, sv, Vt = np.linalg.svd(S, full_matrices=True)
+    _, sv, Vt = np.linalg.svd(S, full_matrices=S.shape[0] < S.shape[1])
     return sv, Vt
 
 
