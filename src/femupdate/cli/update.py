@@ -51,6 +51,8 @@ def update(model_path, data_path, starts, execution, problem: ProblemSpec, test_
         from ..io.uff.write import uff_dofs
 
         uff_dofs(model.dofs, "update --uff")  # before the solution: named nodes cannot be written
+    if damped is not None and test_points.tolerance is not None:  # before the test points read the model file
+        _damped_run(damped, True, None)
     values = model_values(model if damped is None else _view(damped), outputs.set_text)
     base = model  # the structure's own dofs (--uff), whatever the test points add
     model, data, mapped = test_points.load(model_path, model, data_path, problem.measured_text)

@@ -18,6 +18,7 @@ import numpy as np
 
 from .._errors import InputError
 from ..damping.view import DampedView
+from ..frf.residuals import zero_channels
 from ..options import UpdateOptions
 from ..testdata import TestData
 from .combined import Block, CombinedProblem, data_kinds, frf_label, split_std
@@ -106,6 +107,12 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
         several = data.n_frf_sets > 1
         for fs in data.frf_sets:
             label = frf_label(fs) if several else "frf"
+            dead = zero_channels(fs.response)
+            if dead.all():
+                raise InputError(f"{label}: every FRF channel is zero at every line: no response to update with")
+            if dead.any():
+                notes.append(f"{label}: FRF response(s) at {', '.join(d for d, z in zip(fs.dofs, dead) if z)} zero at "
+                             "every line (a dead channel?): left out of the residual")
             w = None if given is None else 1.0 / np.broadcast_to(np.asarray(given, float), fs.response.shape)
             fp = DampedFRFProblem(view, fs, names, p_base, param, residual, w)
             scale, weighting = unit_scale(label, given is not None, fp.kind == "linear", fp.xe,

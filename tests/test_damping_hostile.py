@@ -1,0 +1,47 @@
+"""Bad input to the damping features (issue 31, item 6), found by a hostile test pass: each is one
+message naming the culprit as the user wrote it, exit 2, no traceback."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from femupdate.examples import truss_damped_model_toml, truss_damped_test_files
+
+
+def _run(args, capsys):
+    from femupdate.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main([*map(str, args)])
+    out, err = capsys.readouterr()
+    return info.value.code, out, err
+
+
+def _files(tmp_path):
+    (tmp_path / "m.toml").write_text(truss_damped_model_toml())
+    for name, text in truss_damped_test_files().items():
+        (tmp_path / name).write_text(text)
+    return tmp_path / "m.toml", tmp_path / "truss_damped_modes.json", tmp_path / "truss_damped_frf.json"
+
+
+def _refused(code, out, err, message):
+    assert code == 2, out + err
+    assert message in err and "Traceback" not in err, err
+    assert err.strip().count("\n") == 0, err  # one message
+
+
+def test_update_test_points_refused_by_name(tmp_path, capsys):
+    # was: "unknown top-level key(s) damping", the test points' reader blaming the model file
+    model, modes, _ = _files(tmp_path)
+    _refused(*_run(["update", model, modes, "--test-points", "0.01"], capsys), "--test-points with a [damping] table")
+
+
+def test_frf_data_zero_everywhere_refused(tmp_path, capsys):
+    # was: exit 0, "converged" at the start values with FRAC nan and cost 0
+    model, _, frf = _files(tmp_path)
+    obj = json.loads(frf.read_text())
+    obj["frf"]["response"] = {d: [[0.0, 0.0]] * len(obj["frf"]["omega_rad_s"]) for d in obj["frf"]["response"]}
+    frf.write_text(json.dumps(obj))
+    _refused(*_run(["frf-update", model, frf], capsys), "frf: every FRF channel is zero at every line")
