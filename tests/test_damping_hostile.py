@@ -45,3 +45,42 @@ def test_frf_data_zero_everywhere_refused(tmp_path, capsys):
     obj["frf"]["response"] = {d: [[0.0, 0.0]] * len(obj["frf"]["omega_rad_s"]) for d in obj["frf"]["response"]}
     frf.write_text(json.dumps(obj))
     _refused(*_run(["frf-update", model, frf], capsys), "frf: every FRF channel is zero at every line")
+
+
+@pytest.mark.parametrize("key", ["c", "eta"])
+def test_damper_without_c_or_loss_without_eta_refused(tmp_path, capsys, key):
+    # was: exit 0, the damper or loss factor taken as 0 without a word
+    text = truss_damped_model_toml()
+    if key == "c":
+        text = text.replace('dofs = ["103:y"]\nc = "c2"\n', 'dofs = ["103:y"]\n').replace(
+            "[damping.parameters.c2]\nvalue = 250.0\nbounds = [0.0, 1.0e4]\n", "")
+        assert 'c = "c2"' not in text and "parameters.c2" not in text
+        where = "[damping] damper #2: needs c"
+    else:
+        text += '\n[[damping.loss]]\non = "K"\n'
+        where = "[damping] loss #1: needs eta"
+    (tmp_path / "m.toml").write_text(text)
+    _refused(*_run(["complex-modes", tmp_path / "m.toml"], capsys), where)
+
+
+def test_std_damping_ratio_in_percent_refused(tmp_path, capsys):
+    # was: exit 0, the damping ratios weighted by 1/5 (a std of 5 on fractions below 1)
+    model, modes, _ = _files(tmp_path)
+    _refused(*_run(["update", model, modes, "--std-damping-ratio", "1"], capsys),
+             "--std-damping-ratio: 1 is not below 1")
+    obj = json.loads(modes.read_text())
+    for m in obj["modes"]:
+        m["std_damping_ratio"] = 5.0
+    modes.write_text(json.dumps(obj))
+    _refused(*_run(["update", model, modes], capsys),
+             "modes[1] std_damping_ratio: 5 is not below 1: the standard deviation of a damping ratio is a fraction")
+
+
+def test_std_damping_ratio_in_percent_refused_in_python(tmp_path):
+    import femupdate
+    from femupdate._errors import InputError
+    from femupdate.damping import load_damped_model
+
+    model, modes, _ = _files(tmp_path)
+    with pytest.raises(InputError, match=r"measurement_std\['damping_ratio'\]: 2 is not below 1"):
+        femupdate.update(load_damped_model(model), femupdate.load_test_data(modes), measurement_std={"damping_ratio": 2.0})

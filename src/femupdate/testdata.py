@@ -94,6 +94,18 @@ def check_damping_ratio(v, what: str) -> float:
     return x
 
 
+
+def check_std_damping_ratio(v, what: str) -> float:
+    """``v`` as a float if it is a standard deviation of a damping ratio: finite, > 0 and below 1
+    (a fraction of critical damping, like the ratio), else an :class:`InputError` naming ``what``;
+    1 or more is flagged as a percentage."""
+    x = positive(v, what)
+    if x >= 1:
+        raise InputError(f"{what}: {x:g} is not below 1: the standard deviation of a damping ratio is a fraction of "
+                         f"critical damping like the ratio (0.5 % is 0.005); it looks like a percentage, write "
+                         f"{x / 100:g}")
+    return x
+
 @dataclass(frozen=True)
 class MeasuredMode:
     """One measured mode: eigenvalue (rad^2/s^2) and an optional partial shape.
@@ -192,7 +204,8 @@ class MeasuredMode:
         for name in ("std_eigenvalue", "std_shape", "weight", "std_damping_ratio"):
             v = getattr(self, name)
             if v is not None:
-                object.__setattr__(self, name, positive(v, f"mode {self.label}: {name}"))
+                check = check_std_damping_ratio if name == "std_damping_ratio" else positive
+                object.__setattr__(self, name, check(v, f"mode {self.label}: {name}"))
         if self.damping_ratio is not None:
             object.__setattr__(self, "damping_ratio",
                                check_damping_ratio(self.damping_ratio, f"mode {self.label}: damping_ratio"))

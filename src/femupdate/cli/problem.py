@@ -80,6 +80,11 @@ class ProblemSpec:
         std_eigenvalue = parse_std(self.std_eigenvalue, "--std-eigenvalue", len(data.modes))
         std_shape = parse_std(self.std_shape, "--std-shape", len(data.modes))
         std_zeta = parse_std(self.std_damping_ratio, "--std-damping-ratio", len(data.modes))
+        if std_zeta is not None:
+            from ..testdata import check_std_damping_ratio
+
+            for v in (std_zeta if isinstance(std_zeta, list) else [std_zeta]):
+                check_std_damping_ratio(v, "--std-damping-ratio")
         std = {k: v for k, v in (("eigenvalue", std_eigenvalue), ("shape", std_shape), ("damping_ratio", std_zeta),
                                  ("frf", self.std_frf), ("static", self.std_static)) if v is not None} or None
         use = (tuple(u.strip() for u in self.use_text.split(",") if u.strip()) if self.use_text

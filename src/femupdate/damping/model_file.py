@@ -75,10 +75,10 @@ def load_damped_model(path) -> DampedModel:
     base = Path(path).parent
     params, dC = _parameters(raw.get("parameters", {}), where, base, load_matrix)
     try:
-        dampers = tuple(Damper(_list(s, "dofs", f"{where} damper #{i}"), s.get("c", 0.0))
+        dampers = tuple(Damper(_list(s, "dofs", f"{where} damper #{i}"), _needed(s, "c", f"{where} damper #{i}"))
                         for i, s in _tables(raw.get("damper", []), f"{where} damper", {"dofs", "c"}))
-        losses = tuple(LossFactor(s.get("eta", 0.0), s.get("on", "K"))
-                       for _, s in _tables(raw.get("loss", []), f"{where} loss", {"eta", "on"}))
+        losses = tuple(LossFactor(_needed(s, "eta", f"{where} loss #{i}"), s.get("on", "K"))
+                       for i, s in _tables(raw.get("loss", []), f"{where} loss", {"eta", "on"}))
         modal = modal_ratios(raw.get("modal", []), model.n_dofs, [p.name for p in params])
         C0 = load_matrix(raw["C0"], base, f"{where} C0") if "C0" in raw else None
         return DampedModel(model, params, raw.get("alpha", 0.0), raw.get("beta", 0.0), dampers, losses, C0,
@@ -86,6 +86,14 @@ def load_damped_model(path) -> DampedModel:
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(str(path)) else f"{where}: {msg}") from None
+
+
+def _needed(table: Mapping, key: str, where: str):
+    """``table[key]``, refused by name when missing (a damper without ``c``, a loss without ``eta``
+    would otherwise damp nothing without a word)."""
+    if key not in table:
+        raise InputError(f"{where}: needs {key} (a number >= 0 or the name of a damping parameter)")
+    return table[key]
 
 
 def modal_ratios(raw, n_dofs: int, names) -> list:

@@ -14,7 +14,8 @@ from .._errors import InputError
 from ..dofs import resolve_all, resolve_dof
 from .numbers import load_json_file
 from .outputs import note_input
-from ..testdata import FRFData, MeasuredMode, StaticData, TestData, check_damping_ratio, positive
+from ..testdata import (FRFData, MeasuredMode, StaticData, TestData, check_damping_ratio, check_std_damping_ratio,
+                        positive)
 
 UFF_SUFFIXES = (".uff", ".unv")
 #: other spellings of a mode's keys, accepted as the key itself (the issue tracker's and other
@@ -253,8 +254,9 @@ def parse_testdata(raw, dofs=None, sensors=None) -> TestData:
         written = {MODE_ALIASES.get(k, k): k for k in m}  # each key as the file spells it, for the messages
         m = {MODE_ALIASES.get(k, k): v for k, v in m.items()}
         # per-mode uncertainty, weight and damping (null: not given), named as the file names them
-        extra = {k: positive(m[k], f"{where} {written[k]}") for k in ("std_frequency", "std_eigenvalue", "std_shape", "weight",
-                                                              "std_damping_ratio") if m.get(k) is not None}
+        extra = {k: (check_std_damping_ratio if k == "std_damping_ratio" else positive)(m[k], f"{where} {written[k]}")
+                 for k in ("std_frequency", "std_eigenvalue", "std_shape", "weight", "std_damping_ratio")
+                 if m.get(k) is not None}
         if m.get("damping_ratio") is not None:
             extra["damping_ratio"] = check_damping_ratio(m["damping_ratio"], f"{where} damping_ratio")
         elif "std_damping_ratio" in extra:

@@ -56,7 +56,7 @@ from ..damping.sensitivity import complex_sensitivities
 from ..damping.view import DampedView
 from ..frf import residuals as R
 from ..sensitivity.subspace import buffered_modes
-from ..testdata import FRFData, TestData
+from ..testdata import FRFData, TestData, check_std_damping_ratio
 from .parametrisation import Parametrisation
 
 #: the keys of ``measurement_std`` a damped modes block reads
@@ -148,6 +148,8 @@ class DampedModesProblem(Parametrisation):
         wf, sf = _weights([m.std_eigenvalue for m in modes], std.get("eigenvalue"), "eigenvalue", T)
         wz, sz = _weights([m.std_damping_ratio if h else False for m, h in zip(modes, self.has_zeta)],
                           std.get("damping_ratio"), "damping_ratio", T)
+        if sz == "given":
+            check_std_damping_ratio(float(np.max(1.0 / wz)), "measurement_std['damping_ratio']")
         ws, ss = _weights([m.std_shape if s else False for m, s in zip(modes, self.shaped)], std.get("shape"), "shape", T)
         self.w_f, self.w_z, self.w_s = wf, wz, ws
         self.notes: list[str] = [f"the test data state a standard deviation of the {what} for some modes but not all: "
