@@ -219,7 +219,8 @@ BAD = {
     "negative damper": ('[[damping.damper]]\ndofs = ["4:x"]\nc = -3.0\n', "[damping]: damper ['4:x'] c = -3.0 is negative"),
     "negative parameter": ('[damping]\nalpha = "a"\n[damping.parameters.a]\nvalue = -0.1\n',
                            "damping parameter 'a' = -0.1 (value) is negative"),
-    "unstable": ('[damping]\nC0 = "C0.npy"\n', "is unstable: eigenvalue"),
+    "indefinite C0": ('[damping]\nC0 = "C0.npy"\n', "C0 is not positive semi-definite (smallest diagonal entry, at 2:x, "
+                      "-50 against entries of size 50)"),
     "percent": ("[damping]\nmodal = [2.0, 3.0]\n", "mode 1 = 2.0 is above 1: damping ratios are fractions of critical "
                 "damping (2 % is 0.02); it looks like a percentage, write 0.02"),
 }
@@ -228,7 +229,7 @@ BAD = {
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_bad_damping_input_one_message_exit_2(tmp_path, capsys, case):
     extra, message = BAD[case]
-    if case == "unstable":  # a C with a negative entry at a dof: a damper that feeds energy in
+    if case == "indefinite C0":  # a C with a negative entry at a dof: a damper that feeds energy in
         n = _truss().n_dofs
         C = np.zeros((n, n))
         C[0, 0] = -50.0
@@ -239,6 +240,27 @@ def test_bad_damping_input_one_message_exit_2(tmp_path, capsys, case):
     assert message in err and "Traceback" not in err
     assert str(tmp_path / "m.toml") in err  # the file named
     assert err.strip().count("\n") == 0, err  # one message
+
+
+def test_unstable_model_refused():
+    # a stiffness that is not positive semi-definite (k1 < 0): a real eigenvalue > 0, refused by name
+    k1 = np.array([[1.0, 0.0], [0.0, 0.0]])
+    k2 = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    m = Model(DOFS, np.zeros((2, 2)), np.diag([1.0, 2.0]), (Parameter("k1", -300.0), Parameter("k2", 500.0)),
+              (k1, k2), (None, None))
+    dm = DampedModel(m, [Parameter("c", 3.0)], dampers=(Damper(("1:x",), "c"),))
+    with pytest.raises(InputError, match=r"damped model 'model' is unstable: eigenvalue 10.6\d*\+0i"):
+        complex_modes(dm, n_modes=1)
+
+
+def test_indefinite_damping_matrix_refused_though_the_model_is_stable():
+    # a 2x2 block [[1, 3], [3, 1]] at 2:x, 2:y (eigenvalues 4 and -2; its diagonal >= 0): small against the
+    # truss's damping, but a C that feeds energy in along (1, -1), as a negative damper does, was taken
+    m = _truss()
+    C = np.zeros((m.n_dofs, m.n_dofs))
+    C[0, 0], C[1, 1], C[0, 1], C[1, 0] = 1.0, 1.0, 3.0, 3.0  # diagonal >= 0, eigenvalues 4 and -2
+    with pytest.raises(InputError, match=r"C0 is not positive semi-definite \(smallest eigenvalue -2 against"):
+        DampedModel(m.model, m.parameters, m.alpha, m.beta, m.dampers, C0=C)
 
 
 def test_negative_damping_parameter_and_unknown_names_refused():

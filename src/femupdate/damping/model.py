@@ -455,14 +455,32 @@ def _pieces(dm: DampedModel) -> tuple[Piece, ...]:
                              f"{'does not enter K' if model.dK[j] is None else 'enters through a non-linear term'}")
         out.append(Piece("D", s, f + (Power(lf.on, 1),), model.dK[j], f"loss factor on {lf.on}"))
     if dm.C0 is not None:
-        out.append(Piece("C", 1.0, (), _as_csr(dm.C0, "C0", n), "C0"))
+        out.append(Piece("C", 1.0, (), _semi_definite(_as_csr(dm.C0, "C0", n), "C0", model.dofs), "C0"))
     dC = tuple(dm.dC)
     if dC and len(dC) != len(names):
         raise InputError(f"{len(names)} damping parameters but {len(dC)} dC matrices")
     for q, A in zip(names, dC):
         if A is not None:
-            out.append(Piece("C", 1.0, (Power(q, 1),), _as_csr(A, f"dC/d{q}", n), f"dC/d{q}"))
+            out.append(Piece("C", 1.0, (Power(q, 1),), _semi_definite(_as_csr(A, f"dC/d{q}", n), f"dC/d{q}", model.dofs),
+                             f"dC/d{q}"))
     return tuple(pc for pc in out if pc.A.nnz)
+
+
+def _semi_definite(A: sp.csr_array, what: str, dofs: Sequence[str]) -> sp.csr_array:
+    """``A`` if it is positive semi-definite (to round-off), else an :class:`InputError`: a damping
+    matrix with a negative direction feeds energy into the structure, as a negative damper does.
+    A negative diagonal entry is caught at any size; the smallest eigenvalue up to 3000 dofs."""
+    scale = float(np.max(np.abs(A.data))) if A.nnz else 0.0
+    tol = 1e-10 * scale * max(A.shape[0], 1)
+    d = A.diagonal()
+    low, where = (float(d.min()), f"diagonal entry, at {dofs[int(np.argmin(d))]},") if d.size else (0.0, "")
+    if low >= -tol and A.shape[0] <= 3000:
+        low, where = float(np.linalg.eigvalsh(A.toarray())[0]), "eigenvalue"
+    if low < -tol:
+        raise InputError(f"{what} is not positive semi-definite (smallest {where} {low:.6g} against entries of size "
+                         f"{scale:.3g}): a damping matrix with a negative direction feeds energy into the structure "
+                         "(damping matrices must be positive semi-definite)")
+    return A
 
 
 def _outer(e: np.ndarray) -> sp.csr_array:
