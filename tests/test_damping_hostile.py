@@ -84,3 +84,13 @@ def test_std_damping_ratio_in_percent_refused_in_python(tmp_path):
     model, modes, _ = _files(tmp_path)
     with pytest.raises(InputError, match=r"measurement_std\['damping_ratio'\]: 2 is not below 1"):
         femupdate.update(load_damped_model(model), femupdate.load_test_data(modes), measurement_std={"damping_ratio": 2.0})
+
+
+def test_bad_prior_of_a_damping_parameter_names_the_file_once(tmp_path, capsys):
+    # was: "m.toml: [damping] parameters.b: m.toml: [damping] parameters.b prior: ..." (the file named twice)
+    text = truss_damped_model_toml().replace("[damping.parameters.b]\n", "[damping.parameters.b]\nprior = {mean = 1.0}\n")
+    assert "prior = {mean" in text
+    (tmp_path / "m.toml").write_text(text)
+    code, out, err = _run(["complex-modes", tmp_path / "m.toml"], capsys)
+    _refused(code, out, err, "[damping] parameters.b prior: an inline table needs type")
+    assert err.count("m.toml") == 1, err

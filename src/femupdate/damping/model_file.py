@@ -166,8 +166,8 @@ def _parameters(raw, where: str, base: Path, load_matrix) -> tuple[tuple, tuple]
         try:
             prior = parse_prior(spec["prior"], f"{w} prior") if "prior" in spec else None
             params.append(Parameter(name, spec["value"], tuple(bounds), spec.get("fixed", False), prior=prior))
-        except InputError as exc:
-            raise InputError(f"{w}: {exc}") from None
+        except InputError as exc:  # the prior's own messages name w already
+            raise InputError(str(exc) if str(exc).startswith(w) else f"{w}: {exc}") from None
         dC.append(load_matrix(spec["C"], base, f"{w} C") if "C" in spec else None)
     return tuple(params), tuple(dC)
 
