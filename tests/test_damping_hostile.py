@@ -94,3 +94,15 @@ def test_bad_prior_of_a_damping_parameter_names_the_file_once(tmp_path, capsys):
     code, out, err = _run(["complex-modes", tmp_path / "m.toml"], capsys)
     _refused(code, out, err, "[damping] parameters.b prior: an inline table needs type")
     assert err.count("m.toml") == 1, err
+
+
+def test_loss_factor_of_one_or_more_is_said_to_look_like_a_percentage(tmp_path, caplog):
+    # was: eta = 2.0 (2 % meant) taken without a word: the truss's first mode at zeta 0.56 instead of ~0.08
+    from femupdate.damping import load_damped_model
+
+    (tmp_path / "m.toml").write_text(truss_damped_model_toml() + '\n[[damping.loss]]\neta = 2.0\non = "K"\n')
+    with caplog.at_level("WARNING"):
+        dm = load_damped_model(tmp_path / "m.toml")
+    assert dm.losses[0].eta == 2.0  # taken (some viscoelastic layers reach 1), but said
+    assert "loss #1 eta = 2 is 1 or more: loss factors are fractions" in caplog.text
+    assert "write 0.02" in caplog.text

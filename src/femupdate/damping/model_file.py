@@ -27,6 +27,7 @@ The rest of the file is any model :func:`femupdate.io.load_model` reads.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -35,6 +36,8 @@ from .._errors import InputError
 from ..model import Parameter
 from ..priors import parse_prior
 from .model import DampedModel, Damper, LossFactor
+
+log = logging.getLogger(__name__)
 
 _TOP = {"alpha", "beta", "modal", "C0", "parameters", "damper", "loss"}
 
@@ -81,11 +84,26 @@ def load_damped_model(path) -> DampedModel:
                        for i, s in _tables(raw.get("loss", []), f"{where} loss", {"eta", "on"}))
         modal = modal_ratios(raw.get("modal", []), model.n_dofs, [p.name for p in params])
         C0 = load_matrix(raw["C0"], base, f"{where} C0") if "C0" in raw else None
-        return DampedModel(model, params, raw.get("alpha", 0.0), raw.get("beta", 0.0), dampers, losses, C0,
-                           dC if any(A is not None for A in dC) else (), tuple(modal))
+        dm = DampedModel(model, params, raw.get("alpha", 0.0), raw.get("beta", 0.0), dampers, losses, C0,
+                         dC if any(A is not None for A in dC) else (), tuple(modal))
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(str(path)) else f"{where}: {msg}") from None
+    _large_loss_factors(dm, where)
+    return dm
+
+
+def _large_loss_factors(dm: DampedModel, where: str) -> None:
+    """Say (a warning: some viscoelastic layers reach η ≈ 1) a loss factor of 1 or more, which looks
+    like a percentage: η is a fraction, about 2ζ at resonance."""
+    values = {p.name: p.value for p in dm.parameters}
+    for i, lf in enumerate(dm.losses):
+        eta = float(values[lf.eta] if isinstance(lf.eta, str) else lf.eta)
+        if eta >= 1:
+            name = f" ({lf.eta!r})" if isinstance(lf.eta, str) else ""
+            log.warning("%s: loss #%d eta%s = %g is 1 or more: loss factors are fractions (about twice the damping "
+                        "ratio at resonance; 2 %% is 0.02); if it was meant as a percentage, write %g", where, i + 1,
+                        name, eta, eta / 100)
 
 
 def _needed(table: Mapping, key: str, where: str):
