@@ -106,3 +106,13 @@ def test_loss_factor_of_one_or_more_is_said_to_look_like_a_percentage(tmp_path, 
     assert dm.losses[0].eta == 2.0  # taken (some viscoelastic layers reach 1), but said
     assert "loss #1 eta = 2 is 1 or more: loss factors are fractions" in caplog.text
     assert "write 0.02" in caplog.text
+
+
+def test_start_at_critical_modal_ratio_refused_by_name(tmp_path, capsys):
+    # was: exit 1, "damped modes: test mode 2: no model mode left to pair with" (z = 1 within its bounds [0, 1])
+    model, modes, _ = _files(tmp_path)
+    text = truss_damped_model_toml()
+    text = text[:text.index("[damping]")] + '[damping]\nmodal = ["z", "z", "z", "z"]\n[damping.parameters.z]\nvalue = 0.02\n'
+    model.write_text(text)
+    _refused(*_run(["update", model, modes, "--set", "z=1"], capsys),
+             "the start value of damping parameter 'z' (a modal damping ratio) = 1 is critical damping")

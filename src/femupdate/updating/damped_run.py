@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .._errors import InputError
+from ..damping.model import check_ratio
 from ..damping.view import DampedView
 from ..frf.residuals import zero_channels
 from ..options import UpdateOptions
@@ -85,6 +86,7 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
             raise InputError("no parameters to update: the model's are fixed and the data hold nothing that moves "
                              "the damping parameters (damping ratios, complex shapes, FRFs)")
     p_base = start_vector(view, values, x0)
+    _start_ratios(view, p_base)
     std = split_std({k: v for k, v in dict(o.noise.std or {}).items() if k != "damping_ratio"})
     mode_std = dict(std.get("modes") or {})
     if dict(o.noise.std or {}).get("damping_ratio") is not None:
@@ -126,6 +128,15 @@ def damped_problem(view: DampedView, data: TestData, options: UpdateOptions, par
                          "problem is underdetermined; add data, fix parameters, or use regularization")
     sigma = True if all(b.weighting == "stated std" for b in blocks) else None
     return CombinedProblem(view, blocks, sigma, notes)
+
+
+def _start_ratios(view: DampedView, p_base) -> None:
+    """Refuse, by the parameter's name, a start (``--set``, ``values``, ``x0``) at which a modal damping
+    ratio is 1 or more: its mode would not oscillate, and the update could not pair it."""
+    dm = view.damped
+    for name, z in zip(dm.modal, dm.modal_ratios(p_base)):
+        if isinstance(name, str) and z >= 1:
+            check_ratio(float(z), f"the start value of damping parameter {name!r} (a modal damping ratio)")
 
 
 def _truncation_note(view: DampedView, data: TestData, p_base) -> list[str]:
