@@ -345,3 +345,15 @@ def test_estimated_noise_of_damped_modes_counts_the_shapes_norm_and_phase(truss)
         assert comp["n_residuals"] == 32 and comp["dof"] == pytest.approx(32 - 2 * 4 - 4, abs=1e-6)
         ratios.append(comp["std"] ** 2 / sigma ** 2)
     assert 0.85 < np.mean(ratios) < 1.15, np.mean(ratios)
+
+
+def test_a_damper_driven_to_its_lower_bound_is_not_called_unseen(truss):
+    """Data made without the damper c2 (c2 = 0, its lower bound): the update drives c2 to ~1e-30
+    on the bound. The data do depend on c2 (its column at the start's scale is far from zero), so
+    it is reported on its bound, not as "the data do not depend on it (zero sensitivity)", which
+    the normalised column |p| dr/dp at |p| ~ 1e-30 used to say."""
+    data = _modes(truss.with_values({"c2": 0.0}))
+    res = femupdate.update(_start(truss), data)
+    assert res.parameters["c2"] < 1e-6 and res.parameters["c1"] == pytest.approx(TRUTH["c1"], rel=1e-4)
+    assert "c2" in res.diagnostics.at_bounds
+    assert "c2" not in res.diagnostics.poorly_determined_reasons, res.diagnostics.poorly_determined_reasons
