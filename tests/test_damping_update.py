@@ -357,3 +357,18 @@ def test_a_damper_driven_to_its_lower_bound_is_not_called_unseen(truss):
     assert res.parameters["c2"] < 1e-6 and res.parameters["c1"] == pytest.approx(TRUTH["c1"], rel=1e-4)
     assert "c2" in res.diagnostics.at_bounds
     assert "c2" not in res.diagnostics.poorly_determined_reasons, res.diagnostics.poorly_determined_reasons
+
+
+def test_deviations_stated_for_some_kinds_only_are_said(truss):
+    """--std-damping-ratio alone (sdypy-EMA's modes state none): the damped modes block's noise is
+    still one estimated scale on all its residuals, which then multiplies the stated damping-ratio
+    deviations too; a note says so and names the options that complete the statement."""
+    data = _modes(truss, std=False)
+    start = _start(truss)
+    partial = femupdate.update(start, data, measurement_std={"damping_ratio": 1e-4})
+    msg = ("standard deviations stated for the damping ratios of the damped modes but not for the frequencies and "
+           "shapes")
+    assert any(msg in n and "--std-eigenvalue, --std-shape" in n for n in partial.notes), partial.notes
+    for std in (None, {"damping_ratio": 1e-4, "eigenvalue": 2e-4, "shape": 1e-3}):
+        res = femupdate.update(start, data, measurement_std=std)
+        assert not any("standard deviations stated for the" in n for n in res.notes), res.notes
