@@ -13,8 +13,8 @@ E = 70 GPa, Rayleigh α = 0.5 1/s fixed, β = ``b`` = 2e-5 s, dampers ``c1`` = 4
 right bay's diagonal and ``c2`` = 250 N s/m from joint 103 to the ground). Its FRFs are simulated
 here by a second route (the dense solve of (K − ω²M + iωC) x = f per line with the model's
 matrices, not femupdate's damped receptances): a unit force at 102:x, the responses at the 12 joint
-dofs, 10 to 320 Hz every 0.5 Hz (four modes: 46.5, 146.5, 201.5, 263.3 Hz, ζ 6.8, 1.3, 2.7,
-1.9 %). Noise: complex Gaussian, per response dof ``level`` times the RMS of that response over
+dofs, 10 to 400 Hz every 0.5 Hz (781 lines; five modes: 46.5, 146.5, 201.5, 263.3, 334.6 Hz,
+ζ 6.8, 1.3, 2.7, 1.9, 3.4 %). Noise: complex Gaussian, per response dof ``level`` times the RMS of that response over
 the band (real and imaginary parts each of std level·rms/√2), for each seed.
 
 Two families of unknowns, updated from the same data: ``dampers`` — E, β (``b``) and both

@@ -204,3 +204,55 @@ def test_frf_lines_above_the_modes_with_ratios_are_said(truss):
                                         max_nfev=2)
     assert any("the FRF lines reach 400 Hz, above the highest of the 5 modes with modal damping ratios (334.7 Hz"
                in n for n in res.notes), res.notes
+
+
+def test_no_truncation_note_when_every_mode_has_a_ratio(tmp_path):
+    """A 2-dof chain with ratios for both its modes: the receptances are the full modal
+    superposition (closed form below), so FRF lines above the top mode leave nothing out and no
+    note says they do (it once did); the update recovers k2 and the ratios."""
+    K1, K2, M1, M2, Z = 2000.0, 1500.0, 2.0, 1.0, (0.02, 0.05)
+    p = tmp_path / "chain.toml"
+    p.write_text(f"""[parameters.k2]
+value = {K2}
+bounds = [100.0, 1.0e4]
+
+[[element]]
+type = "spring"
+dofs = ["1:x"]
+k = {K1}
+
+[[element]]
+type = "spring"
+dofs = ["1:x", "2:x"]
+k = "k2"
+
+[[element]]
+type = "mass"
+dofs = ["1:x"]
+m = {M1}
+
+[[element]]
+type = "mass"
+dofs = ["2:x"]
+m = {M2}
+
+[damping]
+modal = ["z1", "z2"]
+
+[damping.parameters.z1]
+value = {Z[0]}
+bounds = [0.0, 0.5]
+
+[damping.parameters.z2]
+value = {Z[1]}
+bounds = [0.0, 0.5]
+""")
+    dm = load_damped_model(p)
+    w2, V = la.eigh(np.array([[K1 + K2, -K2], [-K2, K2]]), np.diag([M1, M2]))
+    om = 2 * np.pi * np.linspace(1.0, 12.0, 56)  # the top mode at 7.1 Hz (8.3 Hz at the start)
+    X = np.array([V @ ((V.T @ [0.0, 1.0]) / (w2 - w ** 2 + 2j * np.asarray(Z) * np.sqrt(w2) * w)) for w in om])
+    res = femupdate.updating.frf_update(dm.with_values({"k2": 1000.0, "z1": 0.05, "z2": 0.01}),
+                                        TestData(frf=FRFData(om, {"2:x": 1.0}, ("1:x", "2:x"), X)))
+    assert not any("the FRF lines reach" in n for n in res.notes), res.notes
+    for n, v in (("k2", K2), ("z1", Z[0]), ("z2", Z[1])):
+        assert res.parameters[n] == pytest.approx(v, rel=1e-6), n

@@ -286,9 +286,10 @@ def _noise_and_predictions(post: Posterior, X: np.ndarray, level: float, predict
             s = s[np.isfinite(s)]
             rec["scale"] = {"median": float(np.median(s)), "interval": np.quantile(s, [a, 1 - a]).tolist()}
         noise_info["pools"].append(rec)
-    # the scale of the eigenvalues' noise (the frequencies' predictions): their pool's
+    # the scale of the eigenvalues' noise (the frequencies' predictions): their pool's (a damped
+    # model's frequencies are in its one "damped modes" block)
     eig = next((p.label for p in post.pools if p.basis == "estimated" and any(
-        mb.startswith("eigenvalue") or mb.startswith("dynamic") for mb in p.members)), None)
+        mb.startswith(("eigenvalue", "dynamic", "damped modes")) for mb in p.members)), None)
     scale = draws.get(eig) if eig is not None else None
     if scale is not None and np.isfinite(scale).any():
         s = scale[np.isfinite(scale)]

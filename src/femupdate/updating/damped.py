@@ -77,6 +77,18 @@ def _weights(values: list, given, what: str, T: int) -> tuple[np.ndarray, str]:
     return np.ones(T), "partial" if any(v is not None for v in needed) else ""
 
 
+_KIND_WORDS = {"eigenvalue": "frequencies", "damping_ratio": "damping ratios", "shape": "shapes"}
+_KIND_OPTIONS = {"eigenvalue": "--std-eigenvalue", "damping_ratio": "--std-damping-ratio", "shape": "--std-shape"}
+
+
+def _kinds(keys) -> str:
+    return " and ".join(_KIND_WORDS[k] for k in keys)
+
+
+def _options(keys) -> str:
+    return ", ".join(_KIND_OPTIONS[k] for k in keys)
+
+
 class DampedModesProblem(Parametrisation):
     """Measured modes (frequencies, damping ratios, complex or real shapes) against the complex
     modes of a damped model; residuals and exact Jacobian as the module says.
@@ -162,6 +174,13 @@ class DampedModesProblem(Parametrisation):
                 "shape": ss if self.shaped.any() else "-"}
         self.stated = {k: v for k, v in used.items() if v not in ("", "-")}
         self.sigma = True if all(v for v in used.values()) else None
+        unstated = [k for k, v in used.items() if v == ""]
+        if self.stated and unstated:  # one noise scale is estimated for the whole block
+            self.notes.append(
+                f"standard deviations stated for the {_kinds(self.stated)} of the damped modes but not for the "
+                f"{_kinds(unstated)}: the block's noise is estimated as one scale on all its residuals as weighted, so "
+                "the stated deviations act as relative weights, multiplied by that scale, and the standard deviations "
+                f"do not rest on them; state them for the {_kinds(unstated)} too ({_options(unstated)}, or in the test data)")
         ns = np.diff(self.pptr)
         self.n_residuals = int(T + self.has_zeta.sum() + 2 * ns.sum())
         self.n_independent = int(T + self.has_zeta.sum() + 2 * np.maximum(ns - 1, 0).sum())

@@ -143,7 +143,7 @@ def _truncation_note(view: DampedView, data: TestData, p_base) -> list[str]:
     """With modal damping ratios the receptances are the modal superposition of their N modes:
     said when the FRF lines reach above the N-th mode's frequency."""
     dm = view.damped
-    if not dm.modal:
+    if not dm.modal or len(dm.modal) >= view.n_dofs:  # every mode has a ratio: none is left out
         return []
     from ..modal import solve_modes
 

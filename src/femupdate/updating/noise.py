@@ -117,6 +117,10 @@ def layout(prob, sigma) -> Layout:
             else:
                 n = int(prob.rows[list(prob.blocks).index(b) + 1] - a)
                 out.blocks[b.label], out.kinds[b.label] = np.arange(a, a + n), b.kind
+                n_ind = getattr(b.problem, "n_independent", None)
+                if n_ind is not None:  # a damped modes block: each unit-length, phase-aligned
+                    # complex shape takes two degrees of freedom (its norm and its phase)
+                    out.lost[b.label] = n - int(n_ind)
                 if b.weighting == "stated std":  # a damped modes block says where its deviations came from
                     srcs = set(getattr(b.problem, "stated", {}).values())
                     out.stated[b.label] = "data" if srcs == {"data"} else "given"

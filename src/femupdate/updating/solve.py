@@ -130,7 +130,12 @@ def diagnostics(prob, x, r, J, sigma, bounds=None) -> Diagnostics:
                 at[n] = side
     free = np.array([j for j, n in enumerate(names) if n not in at], dtype=np.intp)
     reasons: dict[str, str] = {}
-    col = np.sqrt(np.sum(S ** 2, axis=0)) if m else np.zeros(L)
+    # whether the data depend on a parameter: its sensitivity at its own scale, or at its start's
+    # when it has shrunk to ~0 (a damping coefficient on its lower bound 0: |p| ~ 1e-30 would make
+    # every column zero, "the data do not depend on it", though they do)
+    ref = np.abs(np.asarray(getattr(prob, "scale", np.ones(L)), float))
+    ref = np.where(ref > 0, ref, 1.0)
+    col = np.sqrt(np.sum((Jp * np.where(np.abs(p) > 1e-9 * ref, mag, ref)[None, :]) ** 2, axis=0)) if m else np.zeros(L)
     largest = float(col.max()) if col.size else 0.0
     unseen = col <= RANK_RTOL * largest  # the data do not depend on these
     for z in np.flatnonzero(unseen):
