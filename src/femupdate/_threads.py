@@ -35,7 +35,7 @@ import threading
 
 from . import settings
 
-__all__ = ["LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work"]
+__all__ = ["LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work", "forget_libraries"]
 
 #: dense eigen-solutions of at least this many dofs may use every free core
 LARGE_DENSE = 800
@@ -110,6 +110,13 @@ def _limiter():
     if _controller is None or _controller[0] != _loaded_count():
         _controller = (_loaded_count(), ThreadpoolController())
     return _controller[1]
+
+
+def forget_libraries() -> None:
+    """Make the next phase look for BLAS libraries afresh (called when a library is loaded by
+    ctypes, which no module count shows: MKL for PARDISO)."""
+    global _controller
+    _controller = None
 
 
 def _loaded_count() -> int:

@@ -57,13 +57,15 @@ import scipy.sparse as sp
 
 from .._threads import blas_phase
 from .band import BLOCKED_MIN_BANDWIDTH, BLOCKED_MIN_COLUMNS, BandCholesky
-from .factors import (PIVOT_THRESHOLD, CholmodFactor, Factor, NotPositiveDefinite, OrderedLU, SuperLUFactor, backend,
-                      cholmod_installed, factorize, nearly_singular, nearly_singular_pivots, superlu)
+from .factors import (PIVOT_THRESHOLD, CholmodFactor, Factor, NotPositiveDefinite, OrderedLU, PardisoFactor,
+                      SuperLUFactor, backend, cholmod_installed, factorize, nearly_singular, nearly_singular_pivots,
+                      pardiso_installed, superlu)
 from .routes import (BAND_EFFICIENCY, LARGE_CHOLMOD, LARGE_FACTOR_OPS, MAX_BAND_ENTRIES, Pattern, Route, band_wins,
                      choose_route)
 
-__all__ = ["SparseWorkspace", "Factor", "BandCholesky", "OrderedLU", "SuperLUFactor", "CholmodFactor",
-           "NotPositiveDefinite", "workspace_of", "factorize", "superlu", "backend", "cholmod_installed", "band_wins",
+__all__ = ["SparseWorkspace", "Factor", "BandCholesky", "OrderedLU", "SuperLUFactor", "CholmodFactor", "PardisoFactor",
+           "NotPositiveDefinite", "workspace_of", "factorize", "superlu", "backend", "cholmod_installed",
+           "pardiso_installed", "band_wins",
            "factor_name", "nearly_singular", "nearly_singular_pivots", "PIVOT_THRESHOLD", "MAX_BAND_ENTRIES",
            "BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD", "BLOCKED_MIN_COLUMNS", "BLOCKED_MIN_BANDWIDTH"]
 
@@ -78,21 +80,21 @@ class SparseWorkspace:
     prefer : {None, "band", "sparse"}
         The route: chosen by :func:`band_wins` (None), or imposed — the band (if its storage is
         within :data:`MAX_BAND_ENTRIES`) or the backend's sparse factor — for comparisons.
-    backend : {"auto", "cholmod", "superlu"}, optional
+    backend : {"auto", "cholmod", "pardiso", "superlu"}, optional
         The sparse backend, as :func:`backend` takes it (default: the process's setting,
         :attr:`femupdate.settings.Settings.factorisation`); resolved here, once.
 
     Attributes
     ----------
     backend : str
-        ``"cholmod"`` or ``"superlu"``.
+        ``"cholmod"``, ``"pardiso"`` or ``"superlu"``.
     n_factorisations : int
         Factorisations made through the workspace.
 
     Raises
     ------
     InputError
-        An unknown backend, or ``"cholmod"`` without scikit-sparse.
+        An unknown backend, ``"cholmod"`` without scikit-sparse or ``"pardiso"`` without MKL.
     """
 
     def __init__(self, K, M, prefer: str | None = None, backend: str | None = None):
@@ -107,7 +109,7 @@ class SparseWorkspace:
 
     @property
     def route(self) -> str | None:
-        """``"band"``, ``"cholmod"`` or ``"superlu"`` once the first factorisation has chosen
+        """``"band"``, ``"cholmod"``, ``"pardiso"`` or ``"superlu"`` once the first factorisation has chosen
         (None before)."""
         return None if self._route is None else self._route.name
 

@@ -9,6 +9,9 @@ slot found once):
   :class:`~femupdate.workspace.band.BandCholesky`);
 * :class:`CholmodRoute` — the compressed columns of K − σM and CHOLMOD's symbolic analysis of
   them, refactorised with the new values (:class:`~femupdate.workspace.factors.CholmodFactor`);
+* :class:`PardisoRoute` — the upper triangle of K − σM in compressed rows and MKL PARDISO's
+  analysis of it, made once per thread, refactorised with the new values
+  (:class:`~femupdate.workspace.factors.PardisoFactor`);
 * :class:`SuperLURoute` — the compressed columns of P(K − σM)Pᵀ in SuperLU's fill-reducing
   ordering P, factorised in that natural order
   (:class:`~femupdate.workspace.factors.OrderedLU`).
@@ -16,6 +19,7 @@ slot found once):
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Protocol
 
@@ -23,9 +27,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from .band import BandCholesky, band_order
-from .factors import CholmodFactor, Factor, OrderedLU, SuperLUFactor, superlu
+from .factors import CholmodFactor, Factor, OrderedLU, PardisoFactor, SuperLUFactor, superlu
 
-__all__ = ["Route", "Pattern", "BandRoute", "CholmodRoute", "SuperLURoute", "choose_route", "band_wins",
+__all__ = ["Route", "Pattern", "BandRoute", "CholmodRoute", "PardisoRoute", "SuperLURoute", "choose_route", "band_wins",
            "MAX_BAND_ENTRIES", "BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD"]
 
 #: band storage of at most this many entries (800 MB; its blocked solves keep about twice as much
@@ -245,6 +249,82 @@ class CholmodRoute:
         return "dense" if self.columns.n >= LARGE_CHOLMOD else "solve"
 
 
+class _Upper:
+    """K − σM's upper triangle in compressed rows of a fixed pattern (every diagonal entry stored),
+    and the slot of each stored entry of K and M on or above the diagonal, found once."""
+
+    def __init__(self, pattern: Pattern):
+        n = self.n = pattern.n
+        coo = pattern.union().tocoo()
+        r, c = coo.row.astype(np.int64), coo.col.astype(np.int64)
+        up = r <= c
+        key = np.unique(np.concatenate([r[up] * n + c[up], np.arange(n, dtype=np.int64) * (n + 1)]))
+        rows, cols = np.divmod(key, n)
+        self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int32)
+        self.indices = cols.astype(np.int32)
+
+        def slots(pat):
+            pr, pc = pattern.coo(pat)
+            keep = pr <= pc
+            return keep, np.searchsorted(key, pr[keep] * n + pc[keep])
+
+        self.k_keep, self.k_slots = slots(pattern.k)
+        self.m_keep, self.m_slots = slots(pattern.m)
+
+    def assemble(self, K, M, sigma: float) -> np.ndarray:
+        data = np.zeros(self.indices.size)
+        data[self.k_slots] = K.data[self.k_keep]
+        if sigma:
+            data[self.m_slots] -= sigma * M.data[self.m_keep]
+        return data
+
+
+class PardisoRoute:
+    """MKL PARDISO's supernodal Cholesky: its analysis of the pattern (nested-dissection ordering,
+    symbolic factor) made once per thread, every factorisation a numeric one with the new values.
+
+    Made by :meth:`analyse` with the first factorisation.
+    """
+
+    name = "pardiso"
+
+    def __init__(self, upper: _Upper, handle, bandwidth: int):
+        self.upper, self.bandwidth = upper, bandwidth
+        self._local = threading.local()
+        self._local.handle = handle
+
+    def _handle(self):
+        handle = getattr(self._local, "handle", None)
+        if handle is None:  # a thread of its own: an analysis of its own
+            from .pardiso import PardisoHandle
+
+            handle = self._local.handle = PardisoHandle(self.upper.indptr, self.upper.indices)
+        return handle
+
+    @classmethod
+    def analyse(cls, pattern: Pattern, bandwidth: int, K, M, sigma: float) -> tuple[PardisoRoute, PardisoFactor]:
+        """The route for ``pattern`` and its first factorisation, of K − σM.
+
+        Raises
+        ------
+        NotPositiveDefinite
+            K − σM is not positive definite.
+        """
+        from .pardiso import PardisoHandle
+
+        upper = _Upper(pattern)
+        handle = PardisoHandle(upper.indptr, upper.indices)
+        first = PardisoFactor(handle, upper.assemble(K, M, sigma))
+        return cls(upper, handle, bandwidth), first
+
+    def factor(self, K, M, sigma: float) -> PardisoFactor:
+        return PardisoFactor(self._handle(), self.upper.assemble(K, M, sigma))
+
+    def phase(self) -> str:
+        """A factor of at least :data:`LARGE_CHOLMOD` dofs is a dense kernel."""
+        return "dense" if self.upper.n >= LARGE_CHOLMOD else "solve"
+
+
 class SuperLURoute:
     """SuperLU in a fill-reducing ordering found once (SuperLU's own for the first factorisation):
     SciPy's SuperLU cannot keep a symbolic factorisation, but takes the permuted matrix in its
@@ -287,7 +367,7 @@ def _band_chosen(prefer: str | None, n: int, b: int, nnz_l: Callable[[], int]) -
 def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str | None) -> tuple[Route, Factor]:
     """The route for ``pattern``, and the first factorisation of K − σM, which chose it.
 
-    The backend's sparse factor is made first (CHOLMOD: the pattern analysed; SuperLU: its
+    The backend's sparse factor is made first (CHOLMOD, PARDISO: the pattern analysed; SuperLU: its
     fill-reducing ordering found); its fill is then compared with a band Cholesky factor in the
     narrower of the given and the reverse Cuthill–McKee orderings by their operation counts
     (:func:`band_wins`).
@@ -299,7 +379,7 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
         With ``pattern``.
     sigma : float
         The shift of the first factorisation.
-    backend : {"cholmod", "superlu"}
+    backend : {"cholmod", "pardiso", "superlu"}
         The sparse backend (:func:`femupdate.workspace.backend`).
     prefer : {None, "band", "sparse"}
         None: by :func:`band_wins`; else that route imposed (the band only within
@@ -314,17 +394,18 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
     Raises
     ------
     NotPositiveDefinite
-        CHOLMOD backend: K − σM is not positive definite (no route chosen).
+        CHOLMOD or PARDISO backend: K − σM is not positive definite (no route chosen).
     RuntimeError
         SuperLU finds K − σM exactly singular (no route chosen).
     """
     n = pattern.n
-    if backend == "cholmod":
+    if backend in ("cholmod", "pardiso"):
         perm, b = band_order(sp.csc_array(pattern.union()), n)
-        cholmod_route, first = CholmodRoute.analyse(pattern, b, K, M, sigma)
+        analyse = CholmodRoute.analyse if backend == "cholmod" else PardisoRoute.analyse
+        sparse_route, first = analyse(pattern, b, K, M, sigma)
         if _band_chosen(prefer, n, b, lambda: first.nnz):
             return BandRoute(pattern, perm, b), first
-        return cholmod_route, first
+        return sparse_route, first
     lu = superlu(K - sigma * M if sigma else K)
     union = pattern.union()
     perm, b = band_order(union, n)
