@@ -12,7 +12,8 @@ is built, then, under one BLAS thread (``--threads`` to change):
   σ = 0, femupdate's ARPACK options) for :data:`N_MODES` modes; ``end_to_end`` = refactor + eig;
 * ``peak_mb``  — the process's resident high-water mark above what the built model held.
 
-Candidates: ``superlu`` and ``band`` (femupdate's workspace routes), ``pardiso`` (MKL PARDISO,
+Candidates: ``superlu`` and ``band`` (femupdate's workspace routes; the band's first factorisation,
+which chooses the route, is PARDISO's where MKL is installed, else SuperLU's), ``pardiso`` (MKL PARDISO,
 phases 11/22/33 through :mod:`femupdate.workspace.pardiso`), ``pardiso12`` (PARDISO as pypardiso's
 ``factorize`` calls it: analysis and factorisation together at every factorisation),
 ``cvxopt`` (CHOLMOD 3 bundled in cvxopt's wheel: ``cholmod.symbolic`` once, ``cholmod.numeric``).
@@ -155,9 +156,10 @@ def measure(mesh: str, candidate: str, threads: int) -> dict:
     with threadpool_limits(threads):
         t = time.perf_counter()
         if candidate in ("superlu", "band", "pardiso"):
+            first_by = "superlu" if candidate == "superlu" or not femupdate.workspace.pardiso_installed() else "pardiso"
             ws = femupdate.workspace.SparseWorkspace(K0, M, prefer="band" if candidate == "band" else "sparse",
-                                                     backend="superlu" if candidate != "pardiso" else "pardiso")
-            if candidate == "band" and ws.n * 0 == 0 and not _band_fits(ws, K0, M):
+                                                     backend=first_by)
+            if candidate == "band" and not _band_fits(ws, K0, M):
                 return {**row, "skipped": "band storage beyond MAX_BAND_ENTRIES"}
             F = ws.factor(K0, M, 0.0)
 
