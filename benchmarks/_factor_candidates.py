@@ -35,7 +35,8 @@ import scipy.sparse.linalg as spla
 HERE = Path(__file__).resolve().parent
 N_MODES = 15
 MESHES = {"solid-20k": ("solid", 18), "solid-86k": ("solid", 30), "plate-20k": ("plate", 57),
-          "plate-86k": ("plate", 119), "plate-350k": ("plate", 240)}
+          "plate-86k": ("plate", 119), "plate-350k": ("plate", 240), "tower-51k": ("tower", 86),
+          "tower-103k": ("tower", 172)}
 QUICK_MESHES = {"solid-2k": ("solid", 7), "plate-2k": ("plate", 17)}
 CANDIDATES = ("superlu", "band", "pardiso", "pardiso12", "cvxopt")
 
@@ -46,6 +47,10 @@ def build(kind: str, n: int):
     above 0.5) as the parameters."""
     from femupdate.structure import Structure
 
+    if kind == "tower":  # the frame tower of the geometries above (10 x 10 nodes in plan, n levels)
+        from femupdate.generators import frame_lattice
+
+        return frame_lattice(10, 10, n, spacing=(4.0, 4.0, 4.0), parameters="storey").build()
     s = Structure(f"{kind}{n}")
     s.parameter("E1", 210e9)
     s.parameter("E2", 210e9)
@@ -148,7 +153,7 @@ def measure(mesh: str, candidate: str, threads: int) -> dict:
     kind, n = {**MESHES, **QUICK_MESHES}[mesh]
     model = build(kind, n)
     p0 = model.values
-    p1 = p0 * np.array([1.3, 0.8])
+    p1 = p0 * np.linspace(1.3, 0.8, p0.size)
     K0, K1, M = model.K(p0), model.K(p1), model.M(p0)
     row = {"mesh": mesh, "candidate": candidate, "n_dofs": int(K0.shape[0]), "nnz_K": int(K0.nnz), "threads": threads}
     _reset_hwm()

@@ -28,7 +28,8 @@ class Factor(Protocol):
     Attributes
     ----------
     name : str
-        What it is, for reports: ``"band Cholesky"``, ``"CHOLMOD Cholesky"`` or ``"SuperLU"``.
+        What it is, for reports: ``"band Cholesky"``, ``"PARDISO Cholesky"``, ``"CHOLMOD Cholesky"`` or
+        ``"SuperLU"``.
     shape : tuple of int
         ``(n, n)``.
     """
