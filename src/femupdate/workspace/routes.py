@@ -30,7 +30,7 @@ from .band import BandCholesky, band_order
 from .factors import CholmodFactor, Factor, OrderedLU, PardisoFactor, SuperLUFactor, superlu
 
 __all__ = ["Route", "Pattern", "BandRoute", "CholmodRoute", "PardisoRoute", "SuperLURoute", "choose_route", "band_wins",
-           "MAX_BAND_ENTRIES", "BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD"]
+           "MAX_BAND_ENTRIES", "BAND_EFFICIENCY", "PARDISO_BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD"]
 
 #: band storage of at most this many entries (800 MB; its blocked solves keep about twice as much
 #: again) is considered at all
@@ -44,20 +44,24 @@ MAX_BAND_ENTRIES = 100_000_000
 #: (124 against 139 ms) with 10 times the operations on a 12 × 12 × 12 cube
 BAND_EFFICIENCY = 8.0
 
+#: the same for MKL PARDISO's Cholesky, whose kernels run near the processor's peak like the band's:
+#: per operation of the estimate (nnz(L)²/n, a lower bound of its count) PARDISO_BAND_MEASURED
+PARDISO_BAND_EFFICIENCY = 1.0
+
 #: a band factorisation of at least this many operations (n b²), or a CHOLMOD one of at least
 #: :data:`LARGE_CHOLMOD` dofs, is a "dense" phase of the BLAS policy (femupdate._threads)
 LARGE_FACTOR_OPS = 2e9
 LARGE_CHOLMOD = 50_000
 
 
-def band_wins(n: int, b: int, nnz_l: int) -> bool:
+def band_wins(n: int, b: int, nnz_l: int, efficiency: float = BAND_EFFICIENCY) -> bool:
     """Whether the band Cholesky of half-bandwidth ``b`` is expected to be faster than a sparse
     Cholesky factor with ``nnz_l`` entries in L.
 
     Operation counts: the band's is about n b² (``(b + 1) n`` stored entries, each updated ~b
     times); a sparse factor's Σ_j c_j² over its column counts c_j, at least nnz_l²/n (equal
     counts), which is the estimate used.  The band is taken when its count is at most
-    :data:`BAND_EFFICIENCY` times the sparse one and its storage at most :data:`MAX_BAND_ENTRIES`.
+    ``efficiency`` times the sparse one and its storage at most :data:`MAX_BAND_ENTRIES`.
 
     Parameters
     ----------
@@ -67,13 +71,16 @@ def band_wins(n: int, b: int, nnz_l: int) -> bool:
         Half-bandwidth in the band ordering.
     nnz_l : int
         Entries of the sparse factor's L (for SuperLU's L + U: about half of its ``nnz`` + n).
+    efficiency : float
+        How many times faster the band runs per operation: :data:`BAND_EFFICIENCY` against CHOLMOD
+        or SuperLU (the default), :data:`PARDISO_BAND_EFFICIENCY` against PARDISO.
 
     Returns
     -------
     bool
     """
     storage = (b + 1) * n
-    return storage <= MAX_BAND_ENTRIES and storage * float(b) <= BAND_EFFICIENCY * float(nnz_l) ** 2 / n
+    return storage <= MAX_BAND_ENTRIES and storage * float(b) <= efficiency * float(nnz_l) ** 2 / n
 
 
 class Route(Protocol):
@@ -358,10 +365,11 @@ class SuperLURoute:
         return "solve"
 
 
-def _band_chosen(prefer: str | None, n: int, b: int, nnz_l: Callable[[], int]) -> bool:
+def _band_chosen(prefer: str | None, n: int, b: int, nnz_l: Callable[[], int],
+                 efficiency: float = BAND_EFFICIENCY) -> bool:
     if prefer == "sparse" or (b + 1) * n > MAX_BAND_ENTRIES:
         return False
-    return prefer == "band" or band_wins(n, b, nnz_l())
+    return prefer == "band" or band_wins(n, b, nnz_l(), efficiency)
 
 
 def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str | None) -> tuple[Route, Factor]:
@@ -370,7 +378,7 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
     The backend's sparse factor is made first (CHOLMOD, PARDISO: the pattern analysed; SuperLU: its
     fill-reducing ordering found); its fill is then compared with a band Cholesky factor in the
     narrower of the given and the reverse Cuthill–McKee orderings by their operation counts
-    (:func:`band_wins`).
+    (:func:`band_wins`, with the band's efficiency against that backend).
 
     Parameters
     ----------
@@ -403,7 +411,8 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
         perm, b = band_order(sp.csc_array(pattern.union()), n)
         analyse = CholmodRoute.analyse if backend == "cholmod" else PardisoRoute.analyse
         sparse_route, first = analyse(pattern, b, K, M, sigma)
-        if _band_chosen(prefer, n, b, lambda: first.nnz):
+        efficiency = BAND_EFFICIENCY if backend == "cholmod" else PARDISO_BAND_EFFICIENCY
+        if _band_chosen(prefer, n, b, lambda: first.nnz, efficiency):
             return BandRoute(pattern, perm, b), first
         return sparse_route, first
     lu = superlu(K - sigma * M if sigma else K)
