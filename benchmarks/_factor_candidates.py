@@ -12,10 +12,14 @@ is built, then, under one BLAS thread (``--threads`` to change):
   σ = 0, femupdate's ARPACK options) for :data:`N_MODES` modes; ``end_to_end`` = refactor + eig;
 * ``peak_mb``  — the process's resident high-water mark above what the built model held.
 
+Every library's threads are limited to ``--threads`` (threadpoolctl, and femupdate's setting, which
+PARDISO's calls apply for themselves).
+
 Candidates: ``superlu`` and ``band`` (femupdate's workspace routes; the band's first factorisation,
 which chooses the route, is PARDISO's where MKL is installed, else SuperLU's), ``pardiso`` (MKL PARDISO,
 phases 11/22/33 through :mod:`femupdate.workspace.pardiso`), ``pardiso12`` (PARDISO as pypardiso's
 ``factorize`` calls it: analysis and factorisation together at every factorisation),
+``pypardiso`` (pypardiso itself, whose ``solve`` checks and compares the matrix at every call),
 ``cvxopt`` (CHOLMOD 3 bundled in cvxopt's wheel: ``cholmod.symbolic`` once, ``cholmod.numeric``).
 """
 
@@ -38,7 +42,7 @@ MESHES = {"solid-20k": ("solid", 18), "solid-86k": ("solid", 30), "plate-20k": (
           "plate-86k": ("plate", 119), "plate-350k": ("plate", 240), "tower-51k": ("tower", 86),
           "tower-103k": ("tower", 172)}
 QUICK_MESHES = {"solid-2k": ("solid", 7), "plate-2k": ("plate", 17)}
-CANDIDATES = ("superlu", "band", "pardiso", "pardiso12", "cvxopt")
+CANDIDATES = ("superlu", "band", "pardiso", "pardiso12", "pypardiso", "cvxopt")
 
 
 def build(kind: str, n: int):
@@ -132,6 +136,25 @@ class PardisoOnce:
         return self.h.solve(B)
 
 
+class PyPardiso:
+    """pypardiso's own calls (``factorize``, ``solve``: the matrix checked, compared with the
+    factorised one and re-indexed at every solve), type 2 on the upper triangle."""
+
+    def __init__(self, A):
+        import pypardiso
+
+        self.solver = pypardiso.PyPardisoSolver(mtype=2)
+        self.factor(A)
+
+    def factor(self, A):
+        self.A = sp.csr_matrix(sp.triu(A, format="csr"))
+        self.solver.factorize(self.A)
+        return self
+
+    def solve(self, B):
+        return self.solver.solve(self.A, np.asarray(B, dtype=float))
+
+
 def _median(fn, repeat: int) -> float:
     ts = []
     for _ in range(repeat):
@@ -156,9 +179,14 @@ def measure(mesh: str, candidate: str, threads: int) -> dict:
     p1 = p0 * np.linspace(1.3, 0.8, p0.size)
     K0, K1, M = model.K(p0), model.K(p1), model.M(p0)
     row = {"mesh": mesh, "candidate": candidate, "n_dofs": int(K0.shape[0]), "nnz_K": int(K0.nnz), "threads": threads}
+    from femupdate._threads import blas_phase
+    from femupdate.workspace import pardiso
+
+    if candidate.startswith(("pardiso", "pypardiso")) or (candidate == "band" and pardiso.available()):
+        pardiso.load()  # MKL loaded before the limits, which then reach it
     _reset_hwm()
     base = (_status_kb("VmRSS") or 0) / 1024.0
-    with threadpool_limits(threads):
+    with threadpool_limits(threads), femupdate.settings.using(blas_threads=threads), blas_phase("solve"):
         t = time.perf_counter()
         if candidate in ("superlu", "band", "pardiso"):
             first_by = "superlu" if candidate == "superlu" or not femupdate.workspace.pardiso_installed() else "pardiso"
@@ -171,7 +199,7 @@ def measure(mesh: str, candidate: str, threads: int) -> dict:
             def refactor():
                 return ws.factor(K1, M, 0.0)
         else:
-            cls = Cvxopt if candidate == "cvxopt" else PardisoOnce
+            cls = {"cvxopt": Cvxopt, "pypardiso": PyPardiso}.get(candidate, PardisoOnce)
             F = cls(sp.csc_array(K0))
 
             def refactor():

@@ -9,8 +9,10 @@ installs with pip alone (no system headers) on x86_64, where ``pip install femup
 (an environment marker); :func:`available` says whether the runtime library can be loaded.
 
 A handle (:class:`PardisoHandle`) owns PARDISO's internal memory for one pattern; it is released
-when the handle is collected.  Threads: PARDISO runs on MKL's OpenMP threads, limited by the
-BLAS phases of :mod:`femupdate._threads` (threadpoolctl controls MKL as a BLAS).
+when the handle is collected.  Threads: PARDISO runs on MKL's OpenMP threads, as many as the BLAS
+phase of :mod:`femupdate._threads` that the calling thread is in gives (set thread-locally for
+each call, so a phase entered before MKL was loaded holds too); outside a phase, MKL's own
+setting (threadpoolctl controls MKL as a BLAS).
 """
 
 from __future__ import annotations
@@ -89,6 +91,8 @@ def _declare(lib) -> None:
     lib.pardiso.restype = None
     lib.pardiso_getdiag.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, i32p, i32p]
     lib.pardiso_getdiag.restype = None
+    lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
+    lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int
 
 
 def _iparm() -> np.ndarray:
@@ -150,6 +154,20 @@ class PardisoHandle:
         return int(self.iparm[17])
 
     def _call(self, phase: int, data: np.ndarray, b, nrhs: int, x=None) -> int:
+        """One PARDISO call, on the threads of the BLAS phase the calling thread is in (MKL's
+        thread-local setting, for the call only: MKL may have been loaded inside the phase)."""
+        from .._threads import phase_threads
+
+        threads = phase_threads()
+        if threads is None:
+            return self._pardiso(phase, data, b, nrhs, x)
+        before = self._lib.MKL_Set_Num_Threads_Local(int(threads))
+        try:
+            return self._pardiso(phase, data, b, nrhs, x)
+        finally:
+            self._lib.MKL_Set_Num_Threads_Local(before)
+
+    def _pardiso(self, phase: int, data: np.ndarray, b, nrhs: int, x) -> int:
         err = ctypes.c_int32(0)
         one = ctypes.c_int32(1)
         dummy = np.zeros(1)
