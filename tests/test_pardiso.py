@@ -162,3 +162,36 @@ def test_pardiso_without_mkl_is_refused_by_name(monkeypatch):
         workspace.backend("pardiso")
     with settings.using(factorisation="auto"):
         assert workspace.backend() in ("cholmod", "superlu")
+
+
+@needs_mkl
+def test_pardiso_calls_take_the_threads_of_the_phase_even_where_its_limit_missed_mkl(monkeypatch):
+    """MKL loaded inside a phase is not reached by the phase's limit (threadpoolctl saw the
+    libraries at its start): each PARDISO call sets the phase's threads for itself (MKL's
+    thread-local setting) and restores MKL's own afterwards."""
+    import ctypes
+
+    from femupdate._threads import blas_phase, phase_threads
+    from femupdate.workspace import pardiso
+
+    lib = pardiso.load()
+    lib.MKL_Get_Max_Threads.restype = ctypes.c_int
+    K, _ = pencil()
+    f = workspace.factorize(K, definite=True, backend="pardiso")
+    seen = []
+    real = f.handle._pardiso
+
+    def spy(*args):
+        seen.append(lib.MKL_Get_Max_Threads())
+        return real(*args)
+
+    monkeypatch.setattr(f.handle, "_pardiso", spy)
+    assert phase_threads() is None
+    b = np.ones(K.shape[0])
+    with settings.using(blas_threads=1), blas_phase("solve"):
+        assert phase_threads() == 1
+        lib.MKL_Set_Num_Threads_Local(2)  # as if MKL had been loaded after the phase began (threadpoolctl's setting)
+        x = f.solve(b)
+        assert lib.MKL_Get_Max_Threads() == 2  # MKL's own setting is back after the call
+    assert seen == [1]
+    np.testing.assert_allclose(K @ x, b, rtol=0, atol=1e-12)

@@ -239,9 +239,10 @@ def upper_pattern(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     cols = np.concatenate([A.col[up], np.arange(n)]).astype(np.int64)
     vals = np.concatenate([A.data[up], np.zeros(n)])
     key = rows * n + cols
-    uniq, inv = np.unique(key, return_inverse=True)
-    data = np.zeros(uniq.size)
-    np.add.at(data, inv, vals)
-    r, c = np.divmod(uniq, n)
+    order = np.argsort(key, kind="stable")
+    key, vals = key[order], vals[order]
+    first = np.concatenate([[True], key[1:] != key[:-1]])
+    data = np.add.reduceat(vals, np.flatnonzero(first))  # duplicates summed
+    r, c = np.divmod(key[first], n)
     indptr = np.searchsorted(r, np.arange(n + 1)).astype(np.int32)
     return indptr, c.astype(np.int32), data

@@ -260,12 +260,14 @@ class _Upper:
     """K − σM's upper triangle in compressed rows of a fixed pattern (every diagonal entry stored),
     and the slot of each stored entry of K and M on or above the diagonal, found once."""
 
-    def __init__(self, pattern: Pattern):
+    def __init__(self, pattern: Pattern, union):
         n = self.n = pattern.n
-        coo = pattern.union().tocoo()
+        coo = union.tocoo()
         r, c = coo.row.astype(np.int64), coo.col.astype(np.int64)
         up = r <= c
-        key = np.unique(np.concatenate([r[up] * n + c[up], np.arange(n, dtype=np.int64) * (n + 1)]))
+        key = np.concatenate([r[up] * n + c[up], np.arange(n, dtype=np.int64) * (n + 1)])
+        key.sort()
+        key = key[np.concatenate([[True], key[1:] != key[:-1]])]  # unique (NumPy's own hashes: slower)
         rows, cols = np.divmod(key, n)
         self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int32)
         self.indices = cols.astype(np.int32)
@@ -309,8 +311,10 @@ class PardisoRoute:
         return handle
 
     @classmethod
-    def analyse(cls, pattern: Pattern, bandwidth: int, K, M, sigma: float) -> tuple[PardisoRoute, PardisoFactor]:
-        """The route for ``pattern`` and its first factorisation, of K − σM.
+    def analyse(cls, pattern: Pattern, bandwidth: int, K, M, sigma: float,
+                union=None) -> tuple[PardisoRoute, PardisoFactor]:
+        """The route for ``pattern`` and its first factorisation, of K − σM (``union``: the
+        pattern's union, when made already).
 
         Raises
         ------
@@ -319,7 +323,7 @@ class PardisoRoute:
         """
         from .pardiso import PardisoHandle
 
-        upper = _Upper(pattern)
+        upper = _Upper(pattern, pattern.union() if union is None else union)
         handle = PardisoHandle(upper.indptr, upper.indices)
         first = PardisoFactor(handle, upper.assemble(K, M, sigma))
         return cls(upper, handle, bandwidth), first
@@ -408,9 +412,14 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
     """
     n = pattern.n
     if backend in ("cholmod", "pardiso"):
-        perm, b = band_order(sp.csc_array(pattern.union()), n)
-        analyse = CholmodRoute.analyse if backend == "cholmod" else PardisoRoute.analyse
-        sparse_route, first = analyse(pattern, b, K, M, sigma)
+        union = pattern.union()
+        perm, b = band_order(sp.csc_array(union), n)
+        sparse_route: Route
+        first: Factor
+        if backend == "cholmod":
+            sparse_route, first = CholmodRoute.analyse(pattern, b, K, M, sigma)
+        else:
+            sparse_route, first = PardisoRoute.analyse(pattern, b, K, M, sigma, union)
         efficiency = BAND_EFFICIENCY if backend == "cholmod" else PARDISO_BAND_EFFICIENCY
         if _band_chosen(prefer, n, b, lambda: first.nnz, efficiency):
             return BandRoute(pattern, perm, b), first
