@@ -195,3 +195,23 @@ def test_pardiso_calls_take_the_threads_of_the_phase_even_where_its_limit_missed
         assert lib.MKL_Get_Max_Threads() == 2  # MKL's own setting is back after the call
     assert seen == [1]
     np.testing.assert_allclose(K @ x, b, rtol=0, atol=1e-12)
+
+
+@needs_mkl
+def test_the_candidates_benchmark_runs_quick(tmp_path):
+    """benchmarks/bench_factor.py --candidates on its smallest solid: SuperLU, the band and PARDISO
+    measured in child processes, their eigenvalues equal to 1e-8."""
+    import json
+    import subprocess
+    from pathlib import Path
+
+    out = tmp_path / "cand.json"
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_factor.py"
+    proc = subprocess.run([sys.executable, str(script), "--candidates", "--quick", "--mesh", "solid-2k", "--candidate",
+                           "superlu", "--candidate", "band", "--candidate", "pardiso", "--output", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["candidate"] for r in rows] == ["superlu", "band", "pardiso"]
+    assert [r["route"] for r in rows] == ["superlu", "band", "pardiso"]
+    assert all(r["max_rel_eigenvalue_difference"] < 1e-8 and r["residual"] < 1e-10 for r in rows)
