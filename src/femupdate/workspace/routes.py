@@ -44,8 +44,10 @@ MAX_BAND_ENTRIES = 100_000_000
 #: (124 against 139 ms) with 10 times the operations on a 12 × 12 × 12 cube
 BAND_EFFICIENCY = 8.0
 
-#: the same for MKL PARDISO's Cholesky, whose kernels run near the processor's peak like the band's:
-#: per operation of the estimate (nnz(L)²/n, a lower bound of its count) PARDISO_BAND_MEASURED
+#: the same for MKL PARDISO's Cholesky, whose kernels run near the processor's peak like the band's.
+#: Measured (benchmarks/bench_factor.py --candidates, one thread), the band and PARDISO break even
+#: where n b² is 1.4 (solid), 1.7 (frame tower) and 3-4 (MITC4 plates) times nnz(L)²/n; 1 errs
+#: towards PARDISO, which also holds a fifth of the band's memory
 PARDISO_BAND_EFFICIENCY = 1.0
 
 #: a band factorisation of at least this many operations (n b²), or a CHOLMOD one of at least
