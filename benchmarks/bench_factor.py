@@ -21,6 +21,13 @@ times the limit on every geometry.  The eigenvalues of every phase are checked a
 
 ``--quick``: one small model per geometry (CI smoke run).  Results go to
 ``benchmarks/results/bench_factor[_quick].json``.
+
+``--candidates``: the factorisations that install with pip alone against SuperLU and the band
+route, on clamped solid and plate meshes (first factorisation, refactorisation at a new parameter
+point, solves, a 15-mode shift-invert Lanczos, peak memory; each in a child process:
+``_factor_candidates.py``); ``--mesh`` and ``--candidate`` to choose, ``--threads`` for BLAS
+threads, ``--repeat`` to run each twice or more.  Results go to
+``benchmarks/results/bench_factor_candidates[_quick].json``.
 """
 
 from __future__ import annotations
@@ -111,13 +118,64 @@ def exponent(rows, key):
     return float(np.polyfit(n, t, 1)[0])
 
 
+def candidates(args) -> int:
+    """``--candidates``: every (mesh, candidate) in a child process, one after the other."""
+    sys.path.insert(0, str(HERE))
+    import _factor_candidates as fc
+
+    meshes = args.mesh or list(fc.QUICK_MESHES if args.quick else fc.MESHES)
+    res = {"benchmark": "bench_factor --candidates", "environment": {
+        "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
+        "load_average_before": list(os.getloadavg()), "date": time.strftime("%Y-%m-%dT%H:%M:%S%z")}, "rows": []}
+    ok = True
+    for mesh in meshes:
+        ref = None
+        for cand in args.candidate or list(fc.CANDIDATES):
+            for _ in range(args.repeat):
+                row = fc.spawn(mesh, cand, args.threads)
+                res["rows"].append(row)
+                if "eigenvalues" in row:
+                    lam = np.array(row["eigenvalues"])
+                    ref = lam if ref is None else ref
+                    row["max_rel_eigenvalue_difference"] = float(np.max(np.abs(lam / ref - 1)))
+                    ok &= row["max_rel_eigenvalue_difference"] < 1e-8
+                    print(f"{mesh:10s} {row['n_dofs']:7d} {cand:9s} first {row['first']:7.2f} s, refactor "
+                          f"{row['refactor']:7.2f} s, solve {row['solve1'] * 1e3:7.1f} ms, 20 rhs {row['solve20']:6.2f} s, "
+                          f"eig {row['eig']:7.2f} s, end to end {row['end_to_end']:7.2f} s, peak {row['peak_mb']:7.0f} MB, "
+                          f"eigenvalues to {row['max_rel_eigenvalue_difference']:.1e}", flush=True)
+                else:
+                    print(f"{mesh:10s} {cand:9s} {row.get('skipped') or row.get('error')}", flush=True)
+                    break
+    res["environment"]["load_average_after"] = list(os.getloadavg())
+    out = Path(args.output) if args.output else HERE / "results" / (
+        "bench_factor_candidates_quick.json" if args.quick else "bench_factor_candidates.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(res, indent=2) + "\n")
+    print(f"results written to {out}")
+    return 0 if ok else 1
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--child"]:  # one (mesh, candidate) of --candidates, in this process
+        sys.path.insert(0, str(HERE))
+        import _factor_candidates as fc
+
+        print(json.dumps(fc.measure(argv[1], argv[2], int(argv[3]))))
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--geometry", choices=list(SIZES), action="append", help="only these geometries")
     ap.add_argument("--eigsh", action="store_true", help="also bare scipy eigsh (slow on cubes)")
     ap.add_argument("--output", default=None)
+    ap.add_argument("--candidates", action="store_true", help="pip-installable factorisations against SuperLU")
+    ap.add_argument("--mesh", action="append", help="--candidates: only these meshes")
+    ap.add_argument("--candidate", action="append", help="--candidates: only these candidates")
+    ap.add_argument("--threads", type=int, default=1, help="--candidates: BLAS threads")
+    ap.add_argument("--repeat", type=int, default=1, help="--candidates: runs of each")
     args = ap.parse_args(argv)
+    if args.candidates:
+        return candidates(args)
     sizes = QUICK if args.quick else SIZES
     sys.path.insert(0, str(HERE))
     from _probes import settings_from_environment

@@ -33,7 +33,7 @@ def garbage(monkeypatch):
 
 def test_library_calls_ignore_the_environment(garbage):
     assert settings.current() == settings.Settings()
-    auto = "cholmod" if workspace.cholmod_installed() else "superlu"
+    auto = "cholmod" if workspace.cholmod_installed() else "pardiso" if workspace.pardiso_installed() else "superlu"
     assert workspace.backend() == auto
     assert _threads.threads_for("solve") == 1
     A = sp.csc_array(np.array([[4.0, 1.0], [1.0, 3.0]]))
@@ -64,7 +64,20 @@ def test_cholmod_without_scikit_sparse_is_refused_by_name(monkeypatch):
         settings_from({FACTORISATION_VARIABLE: "cholmod"})
     with pytest.raises(InputError, match="'cholmod' needs scikit-sparse"):
         workspace.backend("cholmod")
+    assert workspace.backend("auto") == ("pardiso" if workspace.pardiso_installed() else "superlu")
+
+
+def test_pardiso_without_mkl_is_refused_by_name_and_auto_falls_back_to_superlu(monkeypatch):
+    monkeypatch.setattr(workspace.factors, "_CHOLMOD", False)
+    from femupdate.workspace import pardiso
+
+    monkeypatch.setattr(pardiso, "_LIB", False)  # as if the mkl package were missing
+    with pytest.raises(InputError, match="FEMUPDATE_FACTORISATION=pardiso needs MKL"):
+        settings_from({FACTORISATION_VARIABLE: "pardiso"})
+    with pytest.raises(InputError, match="'pardiso' needs MKL"):
+        workspace.backend("pardiso")
     assert workspace.backend("auto") == "superlu"
+    assert settings_from({FACTORISATION_VARIABLE: "superlu"}).factorisation == "superlu"
 
 
 def test_a_command_runs_under_the_settings_of_its_environment_and_restores_them(monkeypatch):

@@ -52,18 +52,25 @@ def same_modes(a, b, rtol=1e-9):
     assert a.n_rigid == b.n_rigid
 
 
-@pytest.fixture(params=["superlu", "cholmod"])
+def needs(backend_name):
+    """Skip where the backend is not installed (CHOLMOD: scikit-sparse; PARDISO: MKL)."""
+    if backend_name == "cholmod":
+        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    if backend_name == "pardiso" and not workspace.pardiso_installed():
+        pytest.skip("the PARDISO backend needs MKL (the mkl package)")
+
+
+@pytest.fixture(params=["superlu", "cholmod", "pardiso"])
 def backend(request):
     """Each factorisation backend in turn, installed as the process's setting (CHOLMOD skipped
-    where scikit-sparse is missing)."""
-    if request.param == "cholmod":
-        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    where scikit-sparse is missing, PARDISO where MKL is)."""
+    needs(request.param)
     with settings.using(factorisation=request.param):
         assert workspace.backend() == request.param
         yield request.param
 
 
-SPARSE_KIND = {"superlu": OrderedLU, "cholmod": CholmodFactor}
+SPARSE_KIND = {"superlu": OrderedLU, "cholmod": CholmodFactor, "pardiso": workspace.PardisoFactor}
 
 
 @pytest.mark.parametrize("which, prefer", [("tower", None), ("tower", "sparse"), ("slab", None), ("slab", "sparse")])
@@ -74,7 +81,12 @@ def test_each_route_gives_the_modes_of_a_fresh_factorisation(request, backend, w
     ws = SparseWorkspace(K, M, prefer=prefer)
     fresh = solve_modes(K, M, n_modes=8, dofs=model.dofs)
     first = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)  # the backend's factor, and the route chosen
-    route = "band" if prefer is None else backend  # the cost model takes the band for both (band_wins)
+    sparse = first.factor[0]  # the backend's own factor, whose fill the chooser weighed
+    nnz_l = (sparse.nnz + model.n_dofs) // 2 if backend == "superlu" else sparse.nnz
+    efficiency = workspace.routes.PARDISO_BAND_EFFICIENCY if backend == "pardiso" else workspace.BAND_EFFICIENCY
+    band = workspace.band_wins(model.n_dofs, ws.bandwidth, nnz_l, efficiency)
+    assert band or backend == "pardiso"  # against CHOLMOD and SuperLU the cost model takes the band for both
+    route = "band" if prefer is None and band else backend
     assert ws.route == route
     again = solve_modes(K, M, n_modes=8, dofs=model.dofs, workspace=ws)
     assert isinstance(again.factor[0], BandCholesky if route == "band" else SPARSE_KIND[backend])
@@ -333,12 +345,12 @@ def route_of(kind, K, M):
         return routes.BandRoute(pattern, perm, b)
     if kind == "superlu":
         return routes.SuperLURoute(pattern, union, workspace.superlu(K).perm_c, b)
-    pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD route needs scikit-sparse (femupdate[cholmod])")
-    return routes.CholmodRoute.analyse(pattern, b, K, M, 0.0)[0]
+    needs(kind)
+    return (routes.CholmodRoute if kind == "cholmod" else routes.PardisoRoute).analyse(pattern, b, K, M, 0.0)[0]
 
 
 @pytest.mark.parametrize("kind, name", [("band", "band Cholesky"), ("superlu", "SuperLU"),
-                                        ("cholmod", "CHOLMOD Cholesky")])
+                                        ("cholmod", "CHOLMOD Cholesky"), ("pardiso", "PARDISO Cholesky")])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_each_route_solves_as_a_dense_solve(kind, name, seed):
     K, M = random_pencil(seed=seed)
@@ -355,15 +367,14 @@ def test_each_route_solves_as_a_dense_solve(kind, name, seed):
         assert not f.nearly_singular()
 
 
-@pytest.mark.parametrize("backend_name", ["superlu", "cholmod"])
+@pytest.mark.parametrize("backend_name", ["superlu", "cholmod", "pardiso"])
 def test_each_factorisation_of_one_matrix_solves_as_a_dense_solve(backend_name):
-    if backend_name == "cholmod":
-        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    needs(backend_name)
     K, M = random_pencil(seed=3)
     B = np.random.default_rng(4).standard_normal((K.shape[0], 3))
     f = workspace.factorize(K, definite=True, backend=backend_name)
     assert isinstance(f, workspace.Factor)
-    assert f.name == ("CHOLMOD Cholesky" if backend_name == "cholmod" else "SuperLU")
+    assert f.name == {"cholmod": "CHOLMOD Cholesky", "pardiso": "PARDISO Cholesky"}.get(backend_name, "SuperLU")
     np.testing.assert_allclose(f.solve(B), np.linalg.solve(K.toarray(), B), rtol=1e-12, atol=0)
     Z = (K - 40.0 * M).toarray()  # indefinite: LU whatever the backend
     lu = workspace.factorize(sp.csc_array(Z), definite=False, backend=backend_name)
@@ -371,21 +382,24 @@ def test_each_factorisation_of_one_matrix_solves_as_a_dense_solve(backend_name):
     np.testing.assert_allclose(lu.solve(B), np.linalg.solve(Z, B), rtol=1e-10, atol=0)
 
 
-@pytest.mark.parametrize("backend_name", ["superlu", "cholmod"])
+@pytest.mark.parametrize("backend_name", ["superlu", "cholmod", "pardiso"])
 @pytest.mark.parametrize("arrow, chosen", [(False, "band"), (True, "sparse")])
 def test_the_chooser_takes_the_route_the_operation_counts_say(backend_name, arrow, chosen):
     """The first factorisation chooses once, by band_wins on the band ordering's bandwidth and the
     backend's fill: a narrow pattern goes to the band, an arrow (wide band, no fill) stays sparse."""
     from femupdate.workspace import band
 
-    if backend_name == "cholmod":
-        pytest.importorskip("sksparse.cholmod", reason="the CHOLMOD backend needs scikit-sparse (femupdate[cholmod])")
+    needs(backend_name)
     K, M = random_pencil(n=200, seed=2, arrow=arrow)
+    if backend_name == "pardiso" and not arrow:  # PARDISO runs as fast as the band: a chain for the band to win
+        K = sp.csr_array(sp.diags_array([-np.ones(199), 2.5 * np.ones(200), -np.ones(199)], offsets=[-1, 0, 1]))
+        M = sp.csr_array(sp.diags_array(np.linspace(1.0, 2.0, 200)))
     n = K.shape[0]
     _, b = band.band_order(sp.csr_array(K + M), n)
     sparse = workspace.factorize(K, definite=True, backend=backend_name)
-    nnz_l = sparse.nnz if backend_name == "cholmod" else (sparse.nnz + n) // 2
-    expected = "band" if workspace.band_wins(n, b, nnz_l) else backend_name
+    nnz_l = sparse.nnz if backend_name != "superlu" else (sparse.nnz + n) // 2
+    efficiency = workspace.routes.PARDISO_BAND_EFFICIENCY if backend_name == "pardiso" else workspace.BAND_EFFICIENCY
+    expected = "band" if workspace.band_wins(n, b, nnz_l, efficiency) else backend_name
     assert expected == ("band" if chosen == "band" else backend_name)
     ws = SparseWorkspace(K, M, backend=backend_name)
     assert ws.route is None

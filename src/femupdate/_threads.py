@@ -35,7 +35,8 @@ import threading
 
 from . import settings
 
-__all__ = ["LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work"]
+__all__ = ["LARGE_DENSE", "threads_for", "blas_phase", "in_parallel_work", "parallel_work", "forget_libraries",
+           "phase_threads"]
 
 #: dense eigen-solutions of at least this many dofs may use every free core
 LARGE_DENSE = 800
@@ -112,6 +113,13 @@ def _limiter():
     return _controller[1]
 
 
+def forget_libraries() -> None:
+    """Make the next phase look for BLAS libraries afresh (called when a library is loaded by
+    ctypes, which no module count shows: MKL for PARDISO)."""
+    global _controller
+    _controller = None
+
+
 def _loaded_count() -> int:
     import sys
 
@@ -139,7 +147,8 @@ def blas_phase(phase: str = "solve"):
             _state.depth = depth
         return
     n = threads_for(phase)
-    _state.depth, _state.phase = depth + 1, phase
+    before = getattr(_state, "threads", None)
+    _state.depth, _state.phase, _state.threads = depth + 1, phase, n
     try:
         if n is None:
             yield
@@ -147,4 +156,11 @@ def blas_phase(phase: str = "solve"):
             with _limiter().limit(limits=n, user_api="blas"):
                 yield
     finally:
-        _state.depth, _state.phase = depth, current
+        _state.depth, _state.phase, _state.threads = depth, current, before
+
+
+def phase_threads() -> int | None:
+    """The BLAS threads of the phase this thread is in (None outside a phase, or when BLAS is
+    left as found): for a library loaded inside the phase, which the phase's limit did not reach
+    (MKL, loaded by the first PARDISO factorisation), to apply itself."""
+    return getattr(_state, "threads", None) if getattr(_state, "depth", 0) else None

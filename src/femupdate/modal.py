@@ -134,7 +134,7 @@ class Modes(Serialisable):
     @property
     def solver(self) -> str:
         """How these modes were computed: ``"dense (LAPACK)"``, or ``"sparse (ARPACK, <the
-        factorisation of K − σM>)"`` — band Cholesky, CHOLMOD Cholesky or SuperLU."""
+        factorisation of K − σM>)"`` — band Cholesky, PARDISO Cholesky, CHOLMOD Cholesky or SuperLU."""
         if self.factor is None:
             return "dense (LAPACK)"
         from .workspace import factor_name

@@ -30,9 +30,10 @@ from ._errors import InputError
 
 __all__ = ["Settings", "FACTORISATIONS", "current", "install", "configure", "using"]
 
-#: the sparse factorisation backends: ``auto`` (CHOLMOD where scikit-sparse is installed, else
-#: SuperLU), ``cholmod`` or ``superlu`` (:func:`femupdate.workspace.backend`)
-FACTORISATIONS = ("auto", "cholmod", "superlu")
+#: the sparse factorisation backends: ``auto`` (CHOLMOD where scikit-sparse is installed, else MKL
+#: PARDISO where the mkl package is, else SuperLU), ``cholmod``, ``pardiso`` or ``superlu``
+#: (:func:`femupdate.workspace.backend`)
+FACTORISATIONS = ("auto", "cholmod", "pardiso", "superlu")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -41,10 +42,11 @@ class Settings:
 
     Attributes
     ----------
-    factorisation : {"auto", "cholmod", "superlu"}, default ``"auto"``
+    factorisation : {"auto", "cholmod", "pardiso", "superlu"}, default ``"auto"``
         The backend of the sparse factorisations (:func:`femupdate.workspace.backend`): CHOLMOD's
-        supernodal Cholesky where scikit-sparse is installed (``auto``), or SuperLU.  Whether
-        scikit-sparse is installed is checked when a factorisation needs it.
+        supernodal Cholesky where scikit-sparse is installed, else MKL PARDISO's where the mkl
+        package is (``auto``), or the one named.  Whether they are installed is checked when a
+        factorisation needs them.
     blas_threads : int, "keep" or None, default None
         None: femupdate's BLAS threading policy (:mod:`femupdate._threads`); a positive integer:
         that many threads in every phase; ``"keep"``: BLAS left as the process found it.

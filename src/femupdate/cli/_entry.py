@@ -43,7 +43,7 @@ def settings_from(environ: Mapping[str, str]) -> Settings:
     ------
     InputError
         A variable with a value it does not take, or ``FEMUPDATE_FACTORISATION=cholmod`` without
-        scikit-sparse; the message names the variable and its value.
+        scikit-sparse (``pardiso`` without MKL); the message names the variable and its value.
     """
     raw = environ.get(FACTORISATION_VARIABLE)
     choice = (raw or "").strip().lower() or "auto"
@@ -56,6 +56,12 @@ def settings_from(environ: Mapping[str, str]) -> Settings:
         if not cholmod_installed():
             raise InputError(f"{FACTORISATION_VARIABLE}=cholmod needs scikit-sparse (pip install 'femupdate[cholmod]', "
                              "with SuiteSparse's headers installed)")
+    if choice == "pardiso":
+        from ..workspace import pardiso_installed
+
+        if not pardiso_installed():
+            raise InputError(f"{FACTORISATION_VARIABLE}=pardiso needs MKL (pip install mkl, on x86_64; "
+                             "pip install femupdate brings it there)")
     raw = environ.get(THREADS_VARIABLE)
     text = (raw or "").strip().lower()
     threads: int | str | None = None

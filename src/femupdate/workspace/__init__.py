@@ -2,16 +2,20 @@ r"""The sparse factorisation layer: what the solves of one model share from one 
 
 Every sparse solve of the package goes through :func:`factorize` (one matrix) or a
 :class:`SparseWorkspace` (the same pattern, new values); every factorisation they return is a
-:class:`Factor` (``solve``, ``nearly_singular``, ``name``).  Two backends (:func:`backend`,
+:class:`Factor` (``solve``, ``nearly_singular``, ``name``).  Three backends (:func:`backend`,
 chosen by :attr:`femupdate.settings.Settings.factorisation` or passed explicitly):
 
 * **CHOLMOD** (scikit-sparse, the optional extra ``femupdate[cholmod]``): supernodal Cholesky of
   the symmetric positive definite matrices — K, K − σM below the lowest eigenvalue, the omitted
   block K_oo of a reduction — with a fill-reducing ordering (AMD or METIS) and about half of
   SuperLU's fill (a 102,600-dof frame tower: 44 M entries against 73 M);
+* **MKL PARDISO** (:mod:`.pardiso`; the mkl package, which ``pip install femupdate`` brings on
+  x86_64 Linux without system headers): the same supernodal Cholesky of the same matrices, with
+  METIS's nested dissection and MKL's kernels, its analysis kept and refactorised as CHOLMOD's —
+  the backend of ``auto`` where scikit-sparse is missing;
 * **SuperLU** (SciPy) for everything Cholesky cannot take (indefinite or complex symmetric
   matrices: the dynamic stiffness K − ω²M at a frequency line, Nelson's bordered matrix), and for
-  everything when scikit-sparse is not installed.
+  everything when neither CHOLMOD nor PARDISO is installed.
 
 Updating a large model solves :math:`K(p)\phi = \lambda M(p)\phi` at many parameter values p,
 start after start and iteration after iteration.  The values change; the sparsity pattern does
@@ -20,10 +24,10 @@ not: :class:`~femupdate.Model` assembles K(p) and M(p) onto the union pattern of
 pattern only, found once per model:
 
 * **the route and the ordering** (:mod:`.routes`: :class:`~.routes.BandRoute`,
-  :class:`~.routes.CholmodRoute`, :class:`~.routes.SuperLURoute`, each owning its own state,
+  :class:`~.routes.CholmodRoute`, :class:`~.routes.PardisoRoute`, :class:`~.routes.SuperLURoute`, each owning its own state,
   taken once by :func:`~.routes.choose_route`).  The first factorisation of K − σM is made by the backend
-  (CHOLMOD analyses the pattern once — its ordering and symbolic factor — and every later
-  factorisation reuses that analysis; SuperLU's fill-reducing ordering is kept and applied to the
+  (CHOLMOD and PARDISO analyse the pattern once — its ordering and symbolic factor — and every
+  later factorisation reuses that analysis; SuperLU's fill-reducing ordering is kept and applied to the
   pattern, since SciPy's SuperLU cannot keep a symbolic factorisation but takes a pre-permuted
   matrix in its natural order).  Its fill is then compared with a *band* Cholesky factor in a
   bandwidth-reducing ordering (reverse Cuthill–McKee or the given order, whichever is narrower)
@@ -57,13 +61,15 @@ import scipy.sparse as sp
 
 from .._threads import blas_phase
 from .band import BLOCKED_MIN_BANDWIDTH, BLOCKED_MIN_COLUMNS, BandCholesky
-from .factors import (PIVOT_THRESHOLD, CholmodFactor, Factor, NotPositiveDefinite, OrderedLU, SuperLUFactor, backend,
-                      cholmod_installed, factorize, nearly_singular, nearly_singular_pivots, superlu)
+from .factors import (PIVOT_THRESHOLD, CholmodFactor, Factor, NotPositiveDefinite, OrderedLU, PardisoFactor,
+                      SuperLUFactor, backend, cholmod_installed, factorize, nearly_singular, nearly_singular_pivots,
+                      pardiso_installed, superlu)
 from .routes import (BAND_EFFICIENCY, LARGE_CHOLMOD, LARGE_FACTOR_OPS, MAX_BAND_ENTRIES, Pattern, Route, band_wins,
                      choose_route)
 
-__all__ = ["SparseWorkspace", "Factor", "BandCholesky", "OrderedLU", "SuperLUFactor", "CholmodFactor",
-           "NotPositiveDefinite", "workspace_of", "factorize", "superlu", "backend", "cholmod_installed", "band_wins",
+__all__ = ["SparseWorkspace", "Factor", "BandCholesky", "OrderedLU", "SuperLUFactor", "CholmodFactor", "PardisoFactor",
+           "NotPositiveDefinite", "workspace_of", "factorize", "superlu", "backend", "cholmod_installed",
+           "pardiso_installed", "band_wins",
            "factor_name", "nearly_singular", "nearly_singular_pivots", "PIVOT_THRESHOLD", "MAX_BAND_ENTRIES",
            "BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD", "BLOCKED_MIN_COLUMNS", "BLOCKED_MIN_BANDWIDTH"]
 
@@ -78,21 +84,21 @@ class SparseWorkspace:
     prefer : {None, "band", "sparse"}
         The route: chosen by :func:`band_wins` (None), or imposed — the band (if its storage is
         within :data:`MAX_BAND_ENTRIES`) or the backend's sparse factor — for comparisons.
-    backend : {"auto", "cholmod", "superlu"}, optional
+    backend : {"auto", "cholmod", "pardiso", "superlu"}, optional
         The sparse backend, as :func:`backend` takes it (default: the process's setting,
         :attr:`femupdate.settings.Settings.factorisation`); resolved here, once.
 
     Attributes
     ----------
     backend : str
-        ``"cholmod"`` or ``"superlu"``.
+        ``"cholmod"``, ``"pardiso"`` or ``"superlu"``.
     n_factorisations : int
         Factorisations made through the workspace.
 
     Raises
     ------
     InputError
-        An unknown backend, or ``"cholmod"`` without scikit-sparse.
+        An unknown backend, ``"cholmod"`` without scikit-sparse or ``"pardiso"`` without MKL.
     """
 
     def __init__(self, K, M, prefer: str | None = None, backend: str | None = None):
@@ -107,7 +113,7 @@ class SparseWorkspace:
 
     @property
     def route(self) -> str | None:
-        """``"band"``, ``"cholmod"`` or ``"superlu"`` once the first factorisation has chosen
+        """``"band"``, ``"cholmod"``, ``"pardiso"`` or ``"superlu"`` once the first factorisation has chosen
         (None before)."""
         return None if self._route is None else self._route.name
 
@@ -125,7 +131,7 @@ class SparseWorkspace:
 
         The first call factorises by the backend and chooses the route
         (:func:`~.routes.choose_route`); every later one goes by that route, under its BLAS
-        phase (:mod:`femupdate._threads`: a large band or CHOLMOD factor is a dense kernel, the
+        phase (:mod:`femupdate._threads`: a large band, PARDISO or CHOLMOD factor is a dense kernel, the
         rest one thread).
 
         Parameters
@@ -138,13 +144,13 @@ class SparseWorkspace:
         Returns
         -------
         Factor
-            :class:`BandCholesky`, :class:`CholmodFactor`, :class:`OrderedLU`, or (the first
+            :class:`BandCholesky`, :class:`PardisoFactor`, :class:`CholmodFactor`, :class:`OrderedLU`, or (the first
             call with SuperLU) :class:`SuperLUFactor`.
 
         Raises
         ------
         NotPositiveDefinite
-            Band or CHOLMOD route: K − σM is not positive definite.
+            Band, PARDISO or CHOLMOD route: K − σM is not positive definite.
         RuntimeError
             SuperLU finds the matrix exactly singular.
         """
@@ -161,8 +167,8 @@ _backend = backend  # the function, under a name that SparseWorkspace's paramete
 
 
 def factor_name(factor) -> str:
-    """What a factorisation is, for reports: ``"band Cholesky"``, ``"CHOLMOD Cholesky"`` or
-    ``"SuperLU"``.
+    """What a factorisation is, for reports: ``"band Cholesky"``, ``"PARDISO Cholesky"``,
+    ``"CHOLMOD Cholesky"`` or ``"SuperLU"``.
 
     Parameters
     ----------

@@ -12,8 +12,9 @@ import scipy.sparse.linalg as spla
 
 from ..settings import FACTORISATIONS
 
-__all__ = ["Factor", "NotPositiveDefinite", "SuperLUFactor", "OrderedLU", "CholmodFactor", "factorize", "superlu",
-           "backend", "cholmod_installed", "nearly_singular", "nearly_singular_pivots", "PIVOT_THRESHOLD"]
+__all__ = ["Factor", "NotPositiveDefinite", "SuperLUFactor", "OrderedLU", "CholmodFactor", "PardisoFactor", "factorize",
+           "superlu", "backend", "cholmod_installed", "pardiso_installed", "nearly_singular", "nearly_singular_pivots",
+           "PIVOT_THRESHOLD"]
 
 PIVOT_THRESHOLD = 0.1  # SuperLU symmetric mode: off-diagonal pivot only below this fraction
 
@@ -27,7 +28,8 @@ class Factor(Protocol):
     Attributes
     ----------
     name : str
-        What it is, for reports: ``"band Cholesky"``, ``"CHOLMOD Cholesky"`` or ``"SuperLU"``.
+        What it is, for reports: ``"band Cholesky"``, ``"PARDISO Cholesky"``, ``"CHOLMOD Cholesky"`` or
+        ``"SuperLU"``.
     shape : tuple of int
         ``(n, n)``.
     """
@@ -64,21 +66,33 @@ def cholmod_installed() -> bool:
     return _cholmod_module() is not None
 
 
+def pardiso_installed() -> bool:
+    """Whether MKL PARDISO can be loaded (the mkl package, x86_64)."""
+    from .pardiso import available
+
+    return available()
+
+
 def backend(choice: str | None = None) -> str:
-    """The sparse factorisation backend a choice stands for: ``"cholmod"`` or ``"superlu"``.
+    """The sparse factorisation backend a choice stands for: ``"cholmod"``, ``"pardiso"`` or
+    ``"superlu"``.
 
     CHOLMOD's supernodal Cholesky (scikit-sparse, the optional extra ``femupdate[cholmod]``)
     factorises the symmetric positive definite matrices of the package — K, K − σM below the
     lowest eigenvalue, the omitted block K_oo of a reduction — with about half the fill of
     SuperLU's LU and dense (BLAS 3) kernels on its supernodes.  SuperLU remains for what
     Cholesky cannot take (indefinite or complex symmetric matrices: dynamic stiffness at a
-    frequency line, Nelson's bordered matrix) and whenever scikit-sparse is missing.
+    frequency line, Nelson's bordered matrix) and whenever neither CHOLMOD nor PARDISO is there.
+    MKL PARDISO's supernodal Cholesky (:mod:`.pardiso`; the mkl package, which ``pip install
+    femupdate`` brings on x86_64 Linux without any system header) takes the same matrices as
+    CHOLMOD, with a nested-dissection ordering and MKL's kernels.
 
     Parameters
     ----------
-    choice : {"auto", "cholmod", "superlu"}, optional
+    choice : {"auto", "cholmod", "pardiso", "superlu"}, optional
         Default: the process's setting, :attr:`femupdate.settings.Settings.factorisation`
-        (``"auto"`` unless configured).  ``"auto"`` is CHOLMOD where scikit-sparse is installed.
+        (``"auto"`` unless configured).  ``"auto"`` is CHOLMOD where scikit-sparse is installed,
+        else PARDISO where MKL is, else SuperLU.
 
     Returns
     -------
@@ -87,7 +101,7 @@ def backend(choice: str | None = None) -> str:
     Raises
     ------
     InputError
-        An unknown backend, or ``"cholmod"`` without scikit-sparse.
+        An unknown backend, ``"cholmod"`` without scikit-sparse or ``"pardiso"`` without MKL.
     """
     if choice is None:
         from .. import settings
@@ -100,11 +114,15 @@ def backend(choice: str | None = None) -> str:
                          f"{', '.join(FACTORISATIONS)})")
     if choice == "superlu":
         return "superlu"
-    if _cholmod_module() is None:
-        if choice == "cholmod":
-            raise _no_cholmod()
-        return "superlu"
-    return "cholmod"
+    if choice == "pardiso":
+        if not pardiso_installed():
+            raise _no_pardiso()
+        return "pardiso"
+    if _cholmod_module() is not None:
+        return "cholmod"
+    if choice == "cholmod":
+        raise _no_cholmod()
+    return "pardiso" if pardiso_installed() else "superlu"
 
 
 _resolve = backend  # the function, under a name that factorize's parameter does not hide
@@ -117,12 +135,19 @@ def _no_cholmod():
                       "with SuiteSparse's headers installed)")
 
 
+def _no_pardiso():
+    from .._errors import InputError
+
+    return InputError("the factorisation backend 'pardiso' needs MKL (pip install mkl, on x86_64; "
+                      "pip install femupdate brings it there)")
+
+
 def factorize(A, definite: bool | None = None, backend: str | None = None) -> Factor:
     """The factorisation of a sparse symmetric matrix, by the backend (:func:`backend`).
 
-    With CHOLMOD, a real matrix not known to be indefinite gets a supernodal Cholesky factor
-    (:class:`CholmodFactor`); otherwise, or when its Cholesky meets a non-positive pivot, SuperLU
-    (:class:`SuperLUFactor`).
+    With CHOLMOD (PARDISO), a real matrix not known to be indefinite gets a supernodal Cholesky
+    factor (:class:`CholmodFactor`, :class:`PardisoFactor`); otherwise, or when its Cholesky
+    meets a non-positive pivot, SuperLU (:class:`SuperLUFactor`).
 
     Parameters
     ----------
@@ -132,7 +157,7 @@ def factorize(A, definite: bool | None = None, backend: str | None = None) -> Fa
         What the caller knows: None (try Cholesky, LU when it fails), True (A should be positive
         definite: a failed Cholesky raises :class:`NotPositiveDefinite`, which the caller reads
         as "singular or indefinite"), False (A is indefinite: LU directly).
-    backend : {"auto", "cholmod", "superlu"}, optional
+    backend : {"auto", "cholmod", "pardiso", "superlu"}, optional
         As :func:`backend` takes it (default: the process's setting).
 
     Returns
@@ -143,14 +168,15 @@ def factorize(A, definite: bool | None = None, backend: str | None = None) -> Fa
     Raises
     ------
     NotPositiveDefinite
-        ``definite=True`` and CHOLMOD's Cholesky failed.
+        ``definite=True`` and CHOLMOD's (PARDISO's) Cholesky failed.
     RuntimeError
         SuperLU finds A exactly singular.
     """
     A = sp.csc_array(A)
-    if definite is not False and not np.iscomplexobj(A.data) and _resolve(backend) == "cholmod":
+    chosen = _resolve(backend)
+    if definite is not False and not np.iscomplexobj(A.data) and chosen != "superlu":
         try:
-            return CholmodFactor.of(A)
+            return CholmodFactor.of(A) if chosen == "cholmod" else PardisoFactor.of(A)
         except NotPositiveDefinite:
             if definite:
                 raise
@@ -342,3 +368,84 @@ class CholmodFactor:
     def nnz(self) -> int:
         """Entries of L."""
         return int(self.factor.L().nnz)
+
+
+class PardisoFactor:
+    """MKL PARDISO's supernodal Cholesky factor of A (:mod:`.pardiso`): the numeric factor held in
+    a PARDISO handle (the analysis of A's pattern), which later factorisations of the same pattern
+    reuse.
+
+    A handle holds one numeric factor at a time: a factor whose values are no longer the handle's
+    (a later factorisation through the same handle) factorises its own values again before its
+    next solve, so every factor stays valid for as long as it is kept.  Calls on one handle are
+    serialised (a lock).
+
+    Parameters
+    ----------
+    handle : femupdate.workspace.pardiso.PardisoHandle
+    data : numpy.ndarray
+        The values of A on the handle's pattern (upper triangle, compressed rows).
+
+    Raises
+    ------
+    NotPositiveDefinite
+        A pivot is not positive (A singular or indefinite).
+    """
+
+    name = "PARDISO Cholesky"
+
+    def __init__(self, handle, data: np.ndarray):
+        self.handle = handle
+        self.data = data
+        self.shape = (handle.n, handle.n)
+        self._token = object()
+        with handle.lock:
+            self._load()
+
+    def _load(self) -> None:
+        try:
+            self.handle.factor(self.data)
+        except ArithmeticError as exc:
+            self.handle.owner = None
+            raise NotPositiveDefinite(str(exc)) from None
+        self.handle.owner = self._token
+
+    @classmethod
+    def of(cls, A) -> PardisoFactor:
+        """Analyse and factorise A (real symmetric) in a handle of its own.
+
+        Raises
+        ------
+        NotPositiveDefinite
+            A pivot is not positive.
+        InputError
+            MKL is not installed.
+        """
+        from .pardiso import PardisoHandle, available, upper_pattern
+
+        if not available():
+            raise _no_pardiso()
+        indptr, indices, data = upper_pattern(A)
+        return cls(PardisoHandle(indptr, indices), data)
+
+    def solve(self, B) -> np.ndarray:
+        """A⁻¹ B for ``B`` of shape ``(n,)`` or ``(n, k)``, real or complex."""
+        B = np.asarray(B)
+        if np.iscomplexobj(B):
+            return self.solve(B.real) + 1j * self.solve(B.imag)
+        with self.handle.lock:
+            if self.handle.owner is not self._token:
+                self._load()
+            return self.handle.solve(B)
+
+    def nearly_singular(self) -> bool:
+        """Pivots of the LDLᵀ form spread beyond 1e11."""
+        with self.handle.lock:
+            if self.handle.owner is not self._token:
+                self._load()
+            return nearly_singular_pivots(self.handle.diagonal())
+
+    @property
+    def nnz(self) -> int:
+        """Entries of L (PARDISO's count from the analysis)."""
+        return self.handle.nnz_factor

@@ -9,6 +9,9 @@ slot found once):
   :class:`~femupdate.workspace.band.BandCholesky`);
 * :class:`CholmodRoute` — the compressed columns of K − σM and CHOLMOD's symbolic analysis of
   them, refactorised with the new values (:class:`~femupdate.workspace.factors.CholmodFactor`);
+* :class:`PardisoRoute` — the upper triangle of K − σM in compressed rows and MKL PARDISO's
+  analysis of it, made once per thread, refactorised with the new values
+  (:class:`~femupdate.workspace.factors.PardisoFactor`);
 * :class:`SuperLURoute` — the compressed columns of P(K − σM)Pᵀ in SuperLU's fill-reducing
   ordering P, factorised in that natural order
   (:class:`~femupdate.workspace.factors.OrderedLU`).
@@ -16,6 +19,7 @@ slot found once):
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Protocol
 
@@ -23,10 +27,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .band import BandCholesky, band_order
-from .factors import CholmodFactor, Factor, OrderedLU, SuperLUFactor, superlu
+from .factors import CholmodFactor, Factor, OrderedLU, PardisoFactor, SuperLUFactor, superlu
 
-__all__ = ["Route", "Pattern", "BandRoute", "CholmodRoute", "SuperLURoute", "choose_route", "band_wins",
-           "MAX_BAND_ENTRIES", "BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD"]
+__all__ = ["Route", "Pattern", "BandRoute", "CholmodRoute", "PardisoRoute", "SuperLURoute", "choose_route", "band_wins",
+           "MAX_BAND_ENTRIES", "BAND_EFFICIENCY", "PARDISO_BAND_EFFICIENCY", "LARGE_FACTOR_OPS", "LARGE_CHOLMOD"]
 
 #: band storage of at most this many entries (800 MB; its blocked solves keep about twice as much
 #: again) is considered at all
@@ -40,20 +44,26 @@ MAX_BAND_ENTRIES = 100_000_000
 #: (124 against 139 ms) with 10 times the operations on a 12 × 12 × 12 cube
 BAND_EFFICIENCY = 8.0
 
+#: the same for MKL PARDISO's Cholesky, whose kernels run near the processor's peak like the band's.
+#: Measured (benchmarks/bench_factor.py --candidates, one thread), the band and PARDISO break even
+#: where n b² is 1.4 (solid), 1.7 (frame tower) and 3-4 (MITC4 plates) times nnz(L)²/n; 1 errs
+#: towards PARDISO, which also holds a fifth of the band's memory
+PARDISO_BAND_EFFICIENCY = 1.0
+
 #: a band factorisation of at least this many operations (n b²), or a CHOLMOD one of at least
 #: :data:`LARGE_CHOLMOD` dofs, is a "dense" phase of the BLAS policy (femupdate._threads)
 LARGE_FACTOR_OPS = 2e9
 LARGE_CHOLMOD = 50_000
 
 
-def band_wins(n: int, b: int, nnz_l: int) -> bool:
+def band_wins(n: int, b: int, nnz_l: int, efficiency: float = BAND_EFFICIENCY) -> bool:
     """Whether the band Cholesky of half-bandwidth ``b`` is expected to be faster than a sparse
     Cholesky factor with ``nnz_l`` entries in L.
 
     Operation counts: the band's is about n b² (``(b + 1) n`` stored entries, each updated ~b
     times); a sparse factor's Σ_j c_j² over its column counts c_j, at least nnz_l²/n (equal
     counts), which is the estimate used.  The band is taken when its count is at most
-    :data:`BAND_EFFICIENCY` times the sparse one and its storage at most :data:`MAX_BAND_ENTRIES`.
+    ``efficiency`` times the sparse one and its storage at most :data:`MAX_BAND_ENTRIES`.
 
     Parameters
     ----------
@@ -63,13 +73,16 @@ def band_wins(n: int, b: int, nnz_l: int) -> bool:
         Half-bandwidth in the band ordering.
     nnz_l : int
         Entries of the sparse factor's L (for SuperLU's L + U: about half of its ``nnz`` + n).
+    efficiency : float
+        How many times faster the band runs per operation: :data:`BAND_EFFICIENCY` against CHOLMOD
+        or SuperLU (the default), :data:`PARDISO_BAND_EFFICIENCY` against PARDISO.
 
     Returns
     -------
     bool
     """
     storage = (b + 1) * n
-    return storage <= MAX_BAND_ENTRIES and storage * float(b) <= BAND_EFFICIENCY * float(nnz_l) ** 2 / n
+    return storage <= MAX_BAND_ENTRIES and storage * float(b) <= efficiency * float(nnz_l) ** 2 / n
 
 
 class Route(Protocol):
@@ -245,6 +258,86 @@ class CholmodRoute:
         return "dense" if self.columns.n >= LARGE_CHOLMOD else "solve"
 
 
+class _Upper:
+    """K − σM's upper triangle in compressed rows of a fixed pattern (every diagonal entry stored),
+    and the slot of each stored entry of K and M on or above the diagonal, found once."""
+
+    def __init__(self, pattern: Pattern, union):
+        n = self.n = pattern.n
+        coo = union.tocoo()
+        r, c = coo.row.astype(np.int64), coo.col.astype(np.int64)
+        up = r <= c
+        key = np.concatenate([r[up] * n + c[up], np.arange(n, dtype=np.int64) * (n + 1)])
+        key.sort()
+        key = key[np.concatenate([[True], key[1:] != key[:-1]])]  # unique (NumPy's own hashes: slower)
+        rows, cols = np.divmod(key, n)
+        self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int32)
+        self.indices = cols.astype(np.int32)
+
+        def slots(pat):
+            pr, pc = pattern.coo(pat)
+            keep = pr <= pc
+            return keep, np.searchsorted(key, pr[keep] * n + pc[keep])
+
+        self.k_keep, self.k_slots = slots(pattern.k)
+        self.m_keep, self.m_slots = slots(pattern.m)
+
+    def assemble(self, K, M, sigma: float) -> np.ndarray:
+        data = np.zeros(self.indices.size)
+        data[self.k_slots] = K.data[self.k_keep]
+        if sigma:
+            data[self.m_slots] -= sigma * M.data[self.m_keep]
+        return data
+
+
+class PardisoRoute:
+    """MKL PARDISO's supernodal Cholesky: its analysis of the pattern (nested-dissection ordering,
+    symbolic factor) made once per thread, every factorisation a numeric one with the new values.
+
+    Made by :meth:`analyse` with the first factorisation.
+    """
+
+    name = "pardiso"
+
+    def __init__(self, upper: _Upper, handle, bandwidth: int):
+        self.upper, self.bandwidth = upper, bandwidth
+        self._local = threading.local()
+        self._local.handle = handle
+
+    def _handle(self):
+        handle = getattr(self._local, "handle", None)
+        if handle is None:  # a thread of its own: an analysis of its own
+            from .pardiso import PardisoHandle
+
+            handle = self._local.handle = PardisoHandle(self.upper.indptr, self.upper.indices)
+        return handle
+
+    @classmethod
+    def analyse(cls, pattern: Pattern, bandwidth: int, K, M, sigma: float,
+                union=None) -> tuple[PardisoRoute, PardisoFactor]:
+        """The route for ``pattern`` and its first factorisation, of K − σM (``union``: the
+        pattern's union, when made already).
+
+        Raises
+        ------
+        NotPositiveDefinite
+            K − σM is not positive definite.
+        """
+        from .pardiso import PardisoHandle
+
+        upper = _Upper(pattern, pattern.union() if union is None else union)
+        handle = PardisoHandle(upper.indptr, upper.indices)
+        first = PardisoFactor(handle, upper.assemble(K, M, sigma))
+        return cls(upper, handle, bandwidth), first
+
+    def factor(self, K, M, sigma: float) -> PardisoFactor:
+        return PardisoFactor(self._handle(), self.upper.assemble(K, M, sigma))
+
+    def phase(self) -> str:
+        """A factor of at least :data:`LARGE_CHOLMOD` dofs is a dense kernel."""
+        return "dense" if self.upper.n >= LARGE_CHOLMOD else "solve"
+
+
 class SuperLURoute:
     """SuperLU in a fill-reducing ordering found once (SuperLU's own for the first factorisation):
     SciPy's SuperLU cannot keep a symbolic factorisation, but takes the permuted matrix in its
@@ -278,19 +371,20 @@ class SuperLURoute:
         return "solve"
 
 
-def _band_chosen(prefer: str | None, n: int, b: int, nnz_l: Callable[[], int]) -> bool:
+def _band_chosen(prefer: str | None, n: int, b: int, nnz_l: Callable[[], int],
+                 efficiency: float = BAND_EFFICIENCY) -> bool:
     if prefer == "sparse" or (b + 1) * n > MAX_BAND_ENTRIES:
         return False
-    return prefer == "band" or band_wins(n, b, nnz_l())
+    return prefer == "band" or band_wins(n, b, nnz_l(), efficiency)
 
 
 def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str | None) -> tuple[Route, Factor]:
     """The route for ``pattern``, and the first factorisation of K − σM, which chose it.
 
-    The backend's sparse factor is made first (CHOLMOD: the pattern analysed; SuperLU: its
+    The backend's sparse factor is made first (CHOLMOD, PARDISO: the pattern analysed; SuperLU: its
     fill-reducing ordering found); its fill is then compared with a band Cholesky factor in the
     narrower of the given and the reverse Cuthill–McKee orderings by their operation counts
-    (:func:`band_wins`).
+    (:func:`band_wins`, with the band's efficiency against that backend).
 
     Parameters
     ----------
@@ -299,7 +393,7 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
         With ``pattern``.
     sigma : float
         The shift of the first factorisation.
-    backend : {"cholmod", "superlu"}
+    backend : {"cholmod", "pardiso", "superlu"}
         The sparse backend (:func:`femupdate.workspace.backend`).
     prefer : {None, "band", "sparse"}
         None: by :func:`band_wins`; else that route imposed (the band only within
@@ -314,17 +408,24 @@ def choose_route(pattern: Pattern, K, M, sigma: float, backend: str, prefer: str
     Raises
     ------
     NotPositiveDefinite
-        CHOLMOD backend: K − σM is not positive definite (no route chosen).
+        CHOLMOD or PARDISO backend: K − σM is not positive definite (no route chosen).
     RuntimeError
         SuperLU finds K − σM exactly singular (no route chosen).
     """
     n = pattern.n
-    if backend == "cholmod":
-        perm, b = band_order(sp.csc_array(pattern.union()), n)
-        cholmod_route, first = CholmodRoute.analyse(pattern, b, K, M, sigma)
-        if _band_chosen(prefer, n, b, lambda: first.nnz):
+    if backend in ("cholmod", "pardiso"):
+        union = pattern.union()
+        perm, b = band_order(sp.csc_array(union), n)
+        sparse_route: Route
+        first: Factor
+        if backend == "cholmod":
+            sparse_route, first = CholmodRoute.analyse(pattern, b, K, M, sigma)
+        else:
+            sparse_route, first = PardisoRoute.analyse(pattern, b, K, M, sigma, union)
+        efficiency = BAND_EFFICIENCY if backend == "cholmod" else PARDISO_BAND_EFFICIENCY
+        if _band_chosen(prefer, n, b, lambda: first.nnz, efficiency):
             return BandRoute(pattern, perm, b), first
-        return cholmod_route, first
+        return sparse_route, first
     lu = superlu(K - sigma * M if sigma else K)
     union = pattern.union()
     perm, b = band_order(union, n)
