@@ -3,9 +3,8 @@ estimated per kind of data (femupdate.bayes.noise), with it stated it is used as
 seeds the posterior's standard deviations and 95 % intervals hold for the truth, and the test of
 the fit flags a model that lacks a support spring.  The structure and data are those of
 tests/test_calibration_noise.py (an 8-dof chain, data from scipy's eigh, 1 % / 3 % noise).
-Targets over seeds x 8 parameters: RMS z-score (median error / std) in [0.8, 1.3] (the Laplace
-Gaussian of a scale integrated out is a little narrower than its Student-t); 95 % coverage inside
-the binomial 99 % band.  ``FEMUPDATE_HEAVY=1``: 40 seeds instead of 8.
+Targets over seeds x 8 parameters: RMS z-score (median error / std) in [0.8, 1.3]; 95 % coverage
+inside the binomial 99 % band.  ``FEMUPDATE_HEAVY=1``: 40 seeds instead of 8.
 
 With the noise estimated the posterior is the Laplace Gaussian's scale mixture over each noise
 component's variance (its degrees of freedom carried, femupdate.bayes.noise.scale_parts): checked
