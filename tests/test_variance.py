@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
-from femupdate.variance import fit_test, variance_components
+from femupdate.variance import fit_test, variance_components, weighted_dof
 
 
 def _two_groups(rng, n1=12, n2=20, s1=0.1, s2=2.0, shared=True):
@@ -160,3 +160,26 @@ def test_fit_test_plausibility_bound():
     bad = fit_test(variance_components(X, r, {"d": np.arange(40)}, kinds={"d": "eigenvalue"}),
                    plausible={"eigenvalue": 0.02})
     assert bad.flagged and bad.statistic > 2
+
+
+def test_weighted_dof_closed_forms():
+    rng = np.random.default_rng(4)
+    # one estimated component, linear: every standard deviation rests on n − L degrees of freedom
+    J = rng.standard_normal((12, 3))
+    vc = variance_components(J, rng.standard_normal(12), {"all": slice(None)})
+    assert weighted_dof(J, vc.components) == pytest.approx([9.0] * 3)
+    # two blocks, each the only data of its own parameters: each parameter has its block's n_b − L_b
+    J = np.zeros((17, 3))
+    J[:10, :2] = rng.standard_normal((10, 2))
+    J[10:, 2] = rng.standard_normal(7)
+    r = rng.standard_normal(17)
+    vc = variance_components(J, r, {"a": np.arange(10), "b": np.arange(10, 17)})
+    assert [c.dof for c in vc.components] == pytest.approx([8.0, 6.0])
+    assert weighted_dof(J, vc.components) == pytest.approx([8.0, 8.0, 6.0])
+    # block b counted as known: its parameter's standard deviation rests on nothing estimated
+    assert weighted_dof(J, vc.components, [True, False]) == pytest.approx([8.0, 8.0, math.inf])
+    # shared parameters: Satterthwaite's ν between the two blocks' and above the smaller
+    J = rng.standard_normal((17, 2))
+    vc = variance_components(J, r, {"a": np.arange(10), "b": np.arange(10, 17)})
+    nu = weighted_dof(J, vc.components)
+    assert np.all(nu >= min(c.dof for c in vc.components) - 1e-9) and np.all(nu <= sum(c.dof for c in vc.components))

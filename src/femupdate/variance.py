@@ -414,6 +414,30 @@ def _finish(J, r, comps, it, conv, notes) -> VarianceComponents:
     return VarianceComponents(tuple(comps), scale, cov, std, dof, z, it, conv, notes)
 
 
+def weighted_dof(J, components, estimated=None) -> np.ndarray:
+    """Satterthwaite effective degrees of freedom (L,) of the standard deviations of the fit
+    weighted by the ``components`` themselves (each row by 1/σ_b², covariance N⁻¹ =
+    Σ_b N⁻¹ J_bᵀJ_b N⁻¹ / σ_b², N = Σ_b J_bᵀJ_b / σ_b²): ν_j = C_jj² / Σ_b c_jb² / ν_b over the
+    components counted as ``estimated`` (a sequence of bool, default: those not stated), the
+    others taken as known; inf where none contributes, NaN where a component is not estimable."""
+    J = np.asarray(J, float)
+    comps = list(components)
+    est = [c.basis != "stated" for c in comps] if estimated is None else [bool(e) for e in estimated]
+    L = J.shape[1]
+    if any(not (c.variance > 0 and math.isfinite(c.variance)) for c in comps):
+        return np.full(L, math.nan)
+    N = sum((J[c.rows].T @ J[c.rows]) / c.variance for c in comps) if comps else np.zeros((L, L))
+    Ninv = np.linalg.pinv(np.asarray(N, float), rcond=1e-12, hermitian=True)
+    contrib = [np.einsum("ij,jk,ki->i", Ninv, J[c.rows].T @ J[c.rows], Ninv) / c.variance for c in comps]
+    d = np.sum(contrib, axis=0) if contrib else np.zeros(L)
+    den = np.zeros(L)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for c, e, cb in zip(comps, est, contrib):
+            if e:
+                den += (cb / d) ** 2 / c.dof
+        return np.where(den > 0, 1.0 / den, math.inf)
+
+
 # ---------------------------------------------------------------------------------------------
 # goodness of fit
 # ---------------------------------------------------------------------------------------------
@@ -535,4 +559,4 @@ def fit_test(vc: VarianceComponents, *, alpha: float = ALPHA, plausible: Mapping
                    float(alpha), "model error" if worst["p_value"] < alpha else "consistent", tests)
 
 
-__all__ = ["t_quantile", "chi2_sf", "variance_components", "VarianceComponents", "Component", "fit_test", "FitTest", "MIN_DOF", "METHOD", "ALPHA"]
+__all__ = ["t_quantile", "chi2_sf", "variance_components", "weighted_dof", "VarianceComponents", "Component", "fit_test", "FitTest", "MIN_DOF", "METHOD", "ALPHA"]

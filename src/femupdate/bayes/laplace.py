@@ -20,6 +20,15 @@ is the more probable one.
 
 The approximation is made in the sampler's variables x (the parametrisation: relative, log or
 absolute), which is where its Gaussian is assumed.
+
+With estimated noise that Gaussian is the posterior *given* the noise variances at their
+estimates.  Each variance rests on few degrees of freedom (six eigenvalues for eight parameters
+leave about five): the draws integrate that uncertainty out — per draw, each REML variance
+component's factor u_c = ν_c / χ²_{ν_c} scales its term of the Hessian
+(:func:`femupdate.bayes.noise.scale_parts`, :func:`scale_mixture`) — so the posterior's marginals
+have the Student-t tails of the textbook regression with unknown variance (exactly so for a
+linear model with one estimated component).  The modes' ``covariance`` and ``std`` stay the
+Gaussian's; the result's standard deviations and intervals come from the draws.
 """
 
 from __future__ import annotations
@@ -69,6 +78,11 @@ class Mode:
         ``log_weight`` takes the determinant of the density's own Hessian).
     note : str
         Why the mode was left out of the mixture, or ``""``.
+    scale_parts : tuple of (float, numpy.ndarray)
+        With estimated noise, the terms of ``hessian`` that rest on it, one per REML variance
+        component with its degrees of freedom (:func:`femupdate.bayes.noise.scale_parts`): the
+        draws (:func:`mixture_draws`) integrate the components' uncertainty out, so the posterior
+        is this Gaussian's scale mixture (Student-t like), not the Gaussian itself.
     """
 
     parameters: dict
@@ -84,6 +98,7 @@ class Mode:
     at_bounds: tuple = ()
     hessian: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     note: str = ""
+    scale_parts: tuple = ()
 
     @property
     def x_covariance(self) -> np.ndarray:
@@ -196,6 +211,7 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
     """
     from ..distinct import cluster
     from ..flags import bound_side
+    from .noise import scale_parts
 
     notes: list[str] = []
     refined = []
@@ -250,8 +266,9 @@ def laplace_modes(post: Posterior, points: list[tuple[np.ndarray, int]], rng: np
             if at:
                 note = (f"{', '.join(at)} on a bound: the Gaussian is cut there ({inside:.0%} of it inside), and the "
                         "approximation is rough")
+        parts = tuple(scale_parts(post, x)) if post.noise == "estimate" and math.isfinite(log_weight) else ()
         modes.append(Mode(dict(zip(post.names, map(float, p))), x, cov, dict(zip(post.names, np.sqrt(np.diag(cov)))),
-                          float(log_weight), 0.0, 0.5 * Q, float(-f), count, inside, at, Hr, note))
+                          float(log_weight), 0.0, 0.5 * Q, float(-f), count, inside, at, Hr, note, parts))
     lw = np.array([m.log_weight for m in modes])
     if not np.any(np.isfinite(lw)):
         raise NumericalError("no posterior mode has a positive definite Hessian: the data and priors do not determine "
@@ -306,7 +323,10 @@ def mixture_draws(post: Posterior, modes: list[Mode], n: int, rng: np.random.Gen
         X = np.empty((n, post.L))
         for i, k in enumerate(usable):
             sel = which == i
-            X[sel] = modes[k].x + np.linalg.solve(chol[k].T, z[sel].T).T
+            if modes[k].scale_parts:
+                X[sel] = modes[k].x + scale_mixture(modes[k], z[sel], rng)
+            else:
+                X[sel] = modes[k].x + np.linalg.solve(chol[k].T, z[sel].T).T
         ok = np.isfinite(post.log_prior(X))
         out_x.append(X[ok])
         out_k.append(np.array(usable)[which[ok]])
@@ -317,6 +337,38 @@ def mixture_draws(post: Posterior, modes: list[Mode], n: int, rng: np.random.Gen
         raise NumericalError(f"the Laplace approximation puts too little of its mass within the bounds ({have} of "
                              f"{n * max_rounds} draws)")
     return np.concatenate(out_x)[:n], np.concatenate(out_k)[:n]
+
+
+def scale_mixture(mode: Mode, z: np.ndarray, rng: np.random.Generator, chunk: int = 512) -> np.ndarray:
+    """Offsets from the mode (S, L) of its Gaussian's scale mixture, from standard normal ``z``
+    (S, L): per draw, each estimated noise component's factor u_c = ν_c / χ²_{ν_c} (the posterior
+    of its variance over its estimate under Jeffreys' prior) and N(0, H(u)⁻¹) with
+    H(u) = H − Σ_c H_c + Σ_c H_c / u_c (``mode.scale_parts``).  A draw whose H(u) is not positive
+    definite (possible only where the exact Hessian's terms make the rest indefinite) takes u = 1."""
+    S, L = z.shape
+    fixed = mode.hessian - sum(Hc for _, Hc in mode.scale_parts)
+    nus = np.array([nu for nu, _ in mode.scale_parts])
+    parts = np.stack([Hc for _, Hc in mode.scale_parts])
+    u = nus[None, :] / rng.chisquare(np.broadcast_to(nus, (S, nus.size)))
+    out = np.empty((S, L))
+    for a in range(0, S, chunk):
+        b = min(a + chunk, S)
+        Hs = fixed[None] + np.einsum("sc,cij->sij", 1.0 / u[a:b], parts)
+        try:
+            C = np.linalg.cholesky(Hs)
+        except np.linalg.LinAlgError:
+            Hs[~np.array([_is_pd(h) for h in Hs])] = mode.hessian
+            C = np.linalg.cholesky(Hs)
+        out[a:b] = np.linalg.solve(np.swapaxes(C, 1, 2), z[a:b, :, None])[:, :, 0]
+    return out
+
+
+def _is_pd(h: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(h)
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(np.isfinite(h)))
 
 
 def assign(modes: list[Mode], X: np.ndarray) -> np.ndarray:
@@ -333,4 +385,4 @@ def assign(modes: list[Mode], X: np.ndarray) -> np.ndarray:
     return np.array(usable)[np.argmax(score, axis=1)]
 
 
-__all__ = ["Mode", "candidates", "refine", "laplace_modes", "log_evidence", "mixture_draws", "assign"]
+__all__ = ["Mode", "candidates", "refine", "laplace_modes", "log_evidence", "mixture_draws", "scale_mixture", "assign"]

@@ -145,9 +145,7 @@ def objective_terms(pools: list[Pool], r: np.ndarray, J: np.ndarray, offsets, ex
     f, g, H = 0.0, np.zeros(L), np.zeros((L, L))
     gn: list = []
     for p in pools:
-        idx = np.concatenate([np.asarray(rows) + off for rows, off in zip(p.rows, offsets)]) if p.rows else \
-            np.zeros(0, np.intp)
-        w = np.concatenate([p.w(i) for i in range(len(p.rows))]) if p.rows else np.zeros(0)
+        idx, w = _pool_rows(p, offsets)
         rb, Jb = r[idx] * w, J[idx] * w[:, None]
         Q, n = float(rb @ rb), p.dim
         Jr = Jb.T @ rb
@@ -165,11 +163,88 @@ def objective_terms(pools: list[Pool], r: np.ndarray, J: np.ndarray, offsets, ex
             if exact_hessian:
                 H -= (2 * n / Q ** 2) * np.outer(Jr, Jr)
     if restricted is not None and gn:
-        Hinv = np.linalg.pinv(H + restricted, hermitian=True)
-        for n, Q, Jb in gn:
-            h = (n / Q) * float(np.einsum("ij,jk,ik->", Jb, Hinv, Jb))
-            H -= (min(max(h, 0.0), n - 1.0) / Q) * (Jb.T @ Jb)
+        for (n, Q, Jb), c in zip(gn, _restricted_factors(gn, H + restricted)):
+            H -= (n / Q - c) * (Jb.T @ Jb)
     return f, g, H, float(r @ r)
+
+
+def _pool_rows(p: Pool, offsets) -> tuple[np.ndarray, np.ndarray]:
+    """The pool's rows in the stacked residual vector and their weights."""
+    if not p.rows:
+        return np.zeros(0, np.intp), np.zeros(0)
+    idx = np.concatenate([np.asarray(rows) + off for rows, off in zip(p.rows, offsets)])
+    return idx, np.concatenate([p.w(i) for i in range(len(p.rows))])
+
+
+def _restricted_factors(gn, H) -> list[float]:
+    """Each estimated pool's Gauss–Newton factor (n_b − h_b) / Q_b (:func:`objective_terms`), from
+    its (n_b, Q_b, J_b) and the whole Hessian H."""
+    Hinv = np.linalg.pinv(H, hermitian=True)
+    out = []
+    for n, Q, Jb in gn:
+        h = (n / Q) * float(np.einsum("ij,jk,ik->", Jb, Hinv, Jb))
+        out.append((n - min(max(h, 0.0), n - 1.0)) / Q)
+    return out
+
+
+def scale_parts(post, x) -> list[tuple[float, np.ndarray]]:
+    r"""The terms of the Laplace Hessian (restricted, :func:`objective_terms`) that rest on an
+    estimated noise, one per REML variance component by kind of data at x
+    (:func:`femupdate.variance.variance_components`), each with the component's degrees of freedom:
+    [(ν_c, H_c)] (empty when every pool is stated or the model cannot be evaluated at x).
+
+    The Gaussian N(x̂, H⁻¹) is the posterior *given* the estimated noise.  Its variance σ_c² rests
+    on ν_c degrees of freedom: under Jeffreys' prior its posterior is σ_c² = s_c² ν_c / χ²_{ν_c}.
+    Drawing the factors u_c = ν_c / χ²_{ν_c} and the parameters from N(x̂, (H − Σ_c H_c +
+    Σ_c H_c / u_c)⁻¹) integrates that uncertainty out (:func:`femupdate.bayes.laplace.mixture_draws`):
+    with one estimated component and a linear model the marginal of each parameter is then exactly
+    the Student-t with ν = n − L degrees of freedom, as in the textbook regression with unknown
+    variance.  Kinds that share one noise scale (:func:`calibrate`) are split again here, each with
+    its own ν_c: the eigenvalues' weight, resting on a few degrees of freedom, is then uncertain as
+    it is."""
+    from .._errors import FemupdateError
+
+    est = [p for p in post.pools if p.basis == "estimated"]
+    if not est:
+        return []
+    got = _components(post, x, by_kind=True)
+    if got is None:
+        return []
+    try:
+        r, J = post.residuals_and_jacobian(x)
+        hp = post.prior_derivatives(x)[2]
+    except FemupdateError:
+        return []
+    offsets = np.cumsum([0] + [int(p.n_residuals) for p in post.problems])[:-1]
+    L = J.shape[1]
+    H = np.zeros((L, L))
+    gn, rows_of = [], []
+    for p in post.pools:
+        idx, w = _pool_rows(p, offsets)
+        Jb = J[idx] * w[:, None]
+        if p.basis == "stated":
+            H += Jb.T @ Jb
+            continue
+        rb = r[idx] * w
+        Q, n = float(rb @ rb), p.dim
+        if not Q > 0:
+            return []
+        H += (n / Q) * (Jb.T @ Jb)
+        gn.append((n, Q, Jb))
+        rows_of.append((idx, w))
+    factor = np.zeros(r.size)  # each row's factor in the restricted Gauss–Newton Hessian
+    for (idx, w), c in zip(rows_of, _restricted_factors(gn, H - hp)):
+        factor[idx] = c * w ** 2
+    parts = []
+    for comp in got[0].components:
+        nu = float(comp.dof)
+        if comp.basis not in ("estimated", "pooled") or not (math.isfinite(nu) and nu > 0):
+            continue
+        rows = np.asarray(comp.rows, np.intp)
+        rows = rows[factor[rows] > 0]
+        if rows.size:
+            parts.append((nu, (J[rows] * factor[rows][:, None]).T @ J[rows]))
+    return parts
 
 
 def scale_draws(pools: list[Pool], Qp, rng: np.random.Generator) -> dict:
@@ -275,4 +350,4 @@ def noise_lines(noise: dict, level: float) -> list[str]:
     return out
 
 
-__all__ = ["noise_lines", "fit_check", "calibrate", "Pool", "noise_pools", "pool_squares", "log_likelihood", "objective_terms", "scale_draws"]
+__all__ = ["scale_parts", "noise_lines", "fit_check", "calibrate", "Pool", "noise_pools", "pool_squares", "log_likelihood", "objective_terms", "scale_draws"]

@@ -97,7 +97,7 @@ from .baseline import check_baseline
 from .bootstrap import Replicates, bootstrap, bootstrap_healthy
 from .localise import (Localisation, Localiser, Pairing, indices, localise, make_localiser,
                        measured_shapes, pair_with_baseline, realised_data, stated_noise)
-from .judge import Judgement, conditional, judge
+from .judge import Judgement, conditional, error_std, judge
 from .noise import BASIS_BELOW_ASSUMED, BASIS_NOT_ESTIMABLE, StatedNoise, estimated_noise, frequency_unknown
 from .options import DamageOptions
 from .parameters import DamageUnknowns
@@ -430,6 +430,7 @@ def detect_damage(model: Model | DamageUnknowns, data: TestData, *, undamaged: T
                                                                                                         total))
     verdict = judge(names, loc, verification, refined, reps, levels, detected=common["detected"], healthy=healthy,
                     baseline_checked=opts.baseline_checked or bool(chk and chk.get("ok")))
+    verdict = error_std(verdict, dict(stated.dof), len(reps.changes))
     if unknown_frequency:
         verdict = conditional(verdict, levels.frequency)
     return attach(_result(names, localiser, loc, verdict, verification, pairing.n_rigid, common, notes + more), model,

@@ -19,7 +19,7 @@ status, doubts, notes and confidence figures of the answer.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,6 +154,38 @@ def judge(names: Sequence[str], localisation: Localisation, verification: Verifi
     return Judgement(status, doubts, verification.reason, notes, confidence, delta, order)
 
 
+def error_std(verdict: Judgement, noise_dof: Mapping, replicates: int) -> Judgement:
+    """The standard errors as the standard deviations of the changes' errors, the uncertainty of
+    what they rest on included.  The bootstrap spread s of B = ``replicates`` replicates estimates
+    the error's variance σ² with B − 1 degrees of freedom, at noise levels estimated with ν_noise
+    (``noise_dof`` {unknown: ν}, :attr:`femupdate.damage.noise.StatedNoise.dof`; none when stated):
+    s² = σ² (χ²_ν/ν) (χ²_{B−1}/(B − 1)), the two independent, so E[σ²/s²] = ν/(ν − 2) ·
+    (B − 1)/(B − 3) and the standard error s √(ν/(ν − 2)) √((B − 1)/(B − 3)) gives errors whose
+    ratio to it has mean square 1 (infinite for ν ≤ 2 or B ≤ 3: the spread says too little).  Their
+    Satterthwaite degrees of freedom ν_eff = 1 / (1/ν_noise + 1/(B − 1)) (the error over s about
+    Student-t with them) go to ``standard_error_dof``, s itself to ``bootstrap_spread``.  A
+    located unknown the noise's fit did not cover takes the smallest ν_noise of those it did."""
+    import dataclasses
+
+    se = verdict.confidence.get("standard_error") or {}
+    if not se:
+        return verdict
+    fallback = min(noise_dof.values()) if noise_dof else math.inf
+    out, dofs = {}, {}
+    for n, s in se.items():
+        nu_noise = float(noise_dof.get(n, fallback))
+        nu_boot = float(replicates - 1)
+        dofs[n] = 1.0 / ((1.0 / nu_noise if nu_noise > 0 else math.inf) + (1.0 / nu_boot if nu_boot > 0 else math.inf))
+        if not math.isfinite(s):
+            out[n] = s
+        elif nu_noise > 2 and nu_boot > 2:
+            out[n] = s * math.sqrt((1.0 if math.isinf(nu_noise) else nu_noise / (nu_noise - 2)) * nu_boot / (nu_boot - 2))
+        else:
+            out[n] = math.inf
+    confidence = dict(verdict.confidence, standard_error=out, standard_error_dof=dofs, bootstrap_spread=dict(se))
+    return dataclasses.replace(verdict, confidence=confidence)
+
+
 def conditional(verdict: Judgement, frequency: float) -> Judgement:
     """The judgement when the frequency noise could be estimated from neither the fit of every
     unknown nor that of the located set: its standard errors and simulated rates rest on an assumed
@@ -175,4 +207,4 @@ def conditional(verdict: Judgement, frequency: float) -> Judgement:
                                notes=verdict.notes + ([] if why in doubts else [why]))
 
 
-__all__ = ["conditional", "judge", "Judgement", "binomial_rate", "simulated_rates", "uniform_change", "UNCHECKED", "UNIFORM_SPREAD"]
+__all__ = ["error_std", "conditional", "judge", "Judgement", "binomial_rate", "simulated_rates", "uniform_change", "UNCHECKED", "UNIFORM_SPREAD"]

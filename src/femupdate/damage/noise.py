@@ -39,6 +39,9 @@ class StatedNoise:
     ----------
     frequency, shape : float or None
         One level for every mode (the median of ``*_modes`` when the data state them per mode).
+    dof : tuple of (str, float)
+        With levels estimated from a fit, the degrees of freedom of each fitted unknown's variance
+        under them (the uncertainty of the estimated levels; empty when stated).
     frequency_modes, shape_modes : tuple of float or None
         Per test mode (every mode of the data, in order), when the test data state them.
     basis : dict
@@ -51,6 +54,10 @@ class StatedNoise:
     frequency_modes: tuple | None = None
     shape_modes: tuple | None = None
     basis: tuple = (("frequency", BASIS_ASSUMED), ("shape", None))
+    #: ((unknown, ν), ...): with levels estimated by REML, the Satterthwaite degrees of freedom of
+    #: each fitted unknown's variance under them (:func:`femupdate.variance.weighted_dof`); empty
+    #: when every level used is stated
+    dof: tuple = ()
 
 
 def data_noise(data: TestData | None) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -222,15 +229,16 @@ def _fit_components(model, names, fitted, data: TestData, start=None, pairing: s
     fitted) from ``start`` ({name: value}; default the baseline) with the test and model modes
     paired by ``pairing`` (default the problem's), the fit's test
     (:func:`femupdate.variance.fit_test`) and the data realised; or (None, None, note) when the
-    data are too few or the components not available; last, the eigenvalue residuals' own sum of
-    squares and redundancy at that fit (:func:`_eigen_share`; None without eigenvalues)."""
+    data are too few or the components not available; then the eigenvalue residuals' own sum of
+    squares and redundancy at that fit (:func:`_eigen_share`; None without eigenvalues); last, the
+    fit's Jacobian (columns: ``fitted``)."""
     import importlib
 
     try:  # femupdate.variance (issue 27 item 2): by name, for a build without it
         layout = importlib.import_module("femupdate.updating.noise").layout
         variance = importlib.import_module("femupdate.variance")
     except ImportError:  # the variance components are not in this version: the levels stay assumed
-        return None, None, None, None
+        return None, None, None, None, None
     from ..updating import Problem
     from ..updating.solve import solve
 
@@ -239,7 +247,7 @@ def _fit_components(model, names, fitted, data: TestData, start=None, pairing: s
     L = len(fitted)
     if prob.n_residuals <= L + 1:
         return None, None, (f"the noise cannot be estimated: {prob.n_residuals} residuals for {L} unknowns (state it: "
-                            "--noise-frequency, --noise-shape, or std_frequency / std_shape in the test data)"), None
+                            "--noise-frequency, --noise-shape, or std_frequency / std_shape in the test data)"), None, None
     if L:
         sol, _, _ = solve(prob, model.bounds, regularization=None, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
                           max_nfev=200 + 20 * L)
@@ -256,7 +264,7 @@ def _fit_components(model, names, fitted, data: TestData, start=None, pairing: s
         plausible["all"] = max(plausible.values())
     eig_rows = [np.asarray(rows, np.intp).ravel() for lb, rows in lay.blocks.items() if lay.kinds.get(lb) == "eigenvalue"]
     own = _eigen_share(J, r, vc, np.concatenate(eig_rows)) if eig_rows else None
-    return vc, variance.fit_test(vc, plausible=plausible), None, own
+    return vc, variance.fit_test(vc, plausible=plausible), None, own, J
 
 
 def _eigen_share(J, r, vc, rows: np.ndarray) -> tuple[float, float]:
@@ -333,8 +341,8 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=No
     which = "every unknown" if fitted is None else "the located unknowns"
     data = realised_data(data)
     try:
-        vc, test, why, own = _fit_components(model, names, list(names) if fitted is None else list(fitted), data,
-                                             start, pairing)
+        fit_names = list(names) if fitted is None else list(fitted)
+        vc, test, why, own, J = _fit_components(model, names, fit_names, data, start, pairing)
     except (InputError, NumericalError, ValueError) as exc:
         return None, None, [f"the noise could not be estimated from the fit of {which}: {exc}"]
     if vc is None or test is None:
@@ -401,7 +409,8 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=No
                       float(np.median([s_modes[k] for k in shaped])) if want_s and shaped else stated.shape,
                       tuple(map(float, f_modes)) if (want_f or stated.frequency_modes is not None) else None,
                       tuple(map(float, s_modes)) if (want_s or stated.shape_modes is not None) else None,
-                      tuple(basis.items()))
+                      tuple(basis.items()), _estimate_dof(vc, J, fit_names, want_f and label_f != BASIS_BELOW_ASSUMED,
+                                                          want_s))
     said = ", ".join(f"{k} {v:.3g}" for k, v in (("frequency", out.frequency), ("shape", out.shape))
                      if v is not None and basis.get(k) in (label, BASIS_BELOW_ASSUMED))
     dof = [c.dof for c in vc.components if c.kind == "eigenvalue" and want_f and alone] or (
@@ -410,6 +419,21 @@ def estimated_noise(model, names, data: TestData, stated: StatedNoise, fitted=No
                  f"median {said}" + (f"; the frequencies' with {dof[0]:.1f} degrees of freedom" if dof else "")
                  + f"); its test: {test.headline()}")
     return out, test.record(), notes
+
+
+def _estimate_dof(vc, J, fitted, frequency: bool, shape: bool) -> tuple:
+    """((unknown, ν), ...) of the ``fitted`` unknowns: the Satterthwaite degrees of freedom of
+    each one's variance in the fit weighted by the components ``vc``, counting as estimated the
+    components of the kinds estimated here (``frequency``: the eigenvalues, ``shape``: the shapes;
+    a pool across kinds when either is); empty when neither is or the fit has no unknowns."""
+    from ..variance import weighted_dof
+
+    if not (frequency or shape) or J is None or not J.shape[1]:
+        return ()
+    est = [(c.kind == "eigenvalue" and frequency) or (c.kind == "shape" and shape)
+           or (c.kind not in ("eigenvalue", "shape") and (frequency or shape)) for c in vc.components]
+    nu = weighted_dof(J, vc.components, est)
+    return tuple((n, float(v)) for n, v in zip(fitted, nu) if not math.isnan(v))
 
 
 def frequency_unknown(stated: StatedNoise) -> bool:

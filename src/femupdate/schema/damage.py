@@ -32,7 +32,10 @@ DAMAGE_KEYS = (
     Key("located", "list", "the unknowns judged damaged, largest loss first", (ARRAY,)),
     Key("loss", "`{unknown: loss}`", "for the located ones", (OBJECT,)),
     Key("confidence", "object", "`selection_frequency` (share of the bootstrap replicates — each re-localised, refined "
-        "and verified — locating each unknown), `same_set` (share locating exactly `located`), `standard_error`, "
+        "and verified — locating each unknown), `same_set` (share locating exactly `located`), `standard_error` (the "
+        "standard deviation of each located change's error: the replicates' spread `bootstrap_spread` times "
+        "√(ν/(ν−2) · (B−1)/(B−3)), ν the degrees of freedom of estimated noise levels, B the replicates; `null` "
+        "when unbounded), `standard_error_dof` (Satterthwaite, of the spread and the levels together), "
         "`evidence` (rise of the misfit without each located unknown), `separation` (the localisation's smallest "
         "located change over the largest elsewhere; `null` when nothing else changed), `bootstrap`, `noise` "
         "(`frequency`, `shape`, `shape_verify`, per-mode `frequency_modes` and `shape_modes` when the test data state "
