@@ -12,8 +12,8 @@ from .._errors import FemupdateError
 
 def predict_damped(post, X) -> dict | None:
     """:meth:`Posterior.predict <femupdate.bayes.likelihood.Posterior.predict>` of a damped model:
-    the paired complex modes' natural frequencies |λ|/2π, MACs (of complex shapes; NaN without a
-    shape) and damping ratios −Re λ/|λ| (``"damping_ratio"``, (S, T)); None without measured modes."""
+    the paired complex modes' natural frequencies ``abs(λ)/2π``, MACs (of complex shapes; NaN without a
+    shape) and damping ratios ``−Re λ/abs(λ)`` (``"damping_ratio"``, (S, T)); None without measured modes."""
     from ..updating.damped import DampedModesProblem
 
     modal = next((b.problem for b in post.problems[0].blocks if isinstance(b.problem, DampedModesProblem)), None)
