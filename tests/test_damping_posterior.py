@@ -206,17 +206,19 @@ def test_tmcmc_of_two_dampers_agrees_with_laplace(truss):
     assert abs(tm.log_evidence - la.log_evidence) < 0.5
 
 
-def test_new_measurement_interval_of_a_damped_model_carries_the_noise(truss):
+@pytest.mark.parametrize("stated", [pytest.param(True, marks=heavy), False], ids=["stated", "estimated"])
+def test_new_measurement_interval_of_a_damped_model_carries_the_noise(truss, stated):
     """The posterior predictive's interval of a new measured frequency is the model's frequency
     with the measurement noise: relative eigenvalue std sigma (stated, or the estimated scale of
     the one "damped modes" noise pool times its unit weight), so a new f = f_model sqrt(1 + sigma z)
     has a 95 % half-width of about sqrt((1.96 f sigma / 2)^2 + h_model^2). The estimated scale was
     once left out for damped models (a relative std of 1: intervals like [0, 77] Hz at 46.5 Hz).
-    2000 predictive draws keep the quantiles' sampling error to a few per cent."""
+    2000 predictive draws keep the quantiles' sampling error to a few per cent. The estimated
+    noise (where the defect was) runs everywhere, the stated noise with the heavy checks."""
     noisy = _noisy(_modes(truss), 3)
     unstated = TestData(modes=tuple(dataclasses.replace(m, std_eigenvalue=None, std_shape=None, std_damping_ratio=None)
                                     for m in noisy.modes))
-    for data in (noisy, unstated):
+    for data in ((noisy,) if stated else (unstated,)):
         res = femupdate.posterior(_start(truss), data, starts=1, seed=4, samples=4000, predictive=2000)
         sigma = (data.modes[0].std_eigenvalue if data.modes[0].std_eigenvalue is not None
                  else res.noise["scale"]["median"])
