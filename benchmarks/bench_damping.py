@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import sys
 import tempfile
@@ -326,9 +325,10 @@ def main(argv=None) -> int:
               families=tuple(a.families))
     res["command"] = "python benchmarks/bench_damping.py " + " ".join(sys.argv[1:] if argv is None else argv)
     print(markdown(res))
-    path = Path(a.output) if a.output else HERE / "results" / "bench_damping.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(res, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+    sys.path.insert(0, str(HERE))
+    from _probes import save_json
+
+    save_json(res, Path(a.output) if a.output else HERE / "results" / "bench_damping.json")
     return 0
 
 

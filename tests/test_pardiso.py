@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from femupdate import model_modes, settings, workspace
 from femupdate.generators import frame_lattice
 from femupdate.workspace import SparseWorkspace
+from test_workspace import random_pencil
 
 needs_mkl = pytest.mark.skipif(not workspace.pardiso_installed(), reason="the PARDISO backend needs MKL (the mkl package)")
 
@@ -31,15 +32,7 @@ def test_mkl_is_installed_where_the_dependency_marker_brings_it():
 
 def pencil(n=80, seed=0):
     """A random sparse SPD K (diagonally dominant) and SPD M with a pattern of its own."""
-    rng = np.random.default_rng(seed)
-    A = sp.random_array((n, n), density=0.06, random_state=rng) + sp.diags_array(rng.uniform(0.1, 1, n - 1), offsets=1)
-    A = sp.csr_array(A + A.T)
-    K = sp.csr_array(A + sp.diags_array(np.abs(A).sum(axis=1) + 2.0))
-    C = sp.random_array((n, n), density=0.02, random_state=rng) * 0.1
-    M = sp.csr_array(C + C.T + sp.diags_array(rng.uniform(1.0, 2.0, n)))
-    K.sort_indices()
-    M.sort_indices()
-    return K, M
+    return random_pencil(n, seed)
 
 
 @needs_mkl

@@ -400,14 +400,7 @@ def _finish(J, r, comps, it, conv, notes) -> VarianceComponents:
         contrib[i] = c.variance * np.diag(G)
     d = np.diag(cov).copy()
     std = np.sqrt(np.where(np.isfinite(d) & (d >= 0), d, np.nan))
-    # Satterthwaite: dof = d² / Σ_b (c_b² / ν_b), written with the shares c_b / d so that the squares
-    # cannot overflow (data of 1e149: their variances and contributions are ~1e298)
-    den = np.zeros(L)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for i, c in enumerate(comps):
-            if c.basis in ("estimated", "pooled"):
-                den += (contrib[i] / d) ** 2 / c.dof
-        dof = np.where(den > 0, 1.0 / den, math.inf)
+    dof = _satterthwaite(d, [(contrib[i], c.dof) for i, c in enumerate(comps) if c.basis in ("estimated", "pooled")])
     dof = np.where(np.isfinite(d), dof, math.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = r / scale
@@ -430,11 +423,18 @@ def weighted_dof(J, components, estimated=None) -> np.ndarray:
     Ninv = np.linalg.pinv(np.asarray(N, float), rcond=1e-12, hermitian=True)
     contrib = [np.einsum("ij,jk,ki->i", Ninv, J[c.rows].T @ J[c.rows], Ninv) / c.variance for c in comps]
     d = np.sum(contrib, axis=0) if contrib else np.zeros(L)
-    den = np.zeros(L)
+    return _satterthwaite(d, [(cb, c.dof) for c, e, cb in zip(comps, est, contrib) if e])
+
+
+def _satterthwaite(d, parts) -> np.ndarray:
+    """Satterthwaite's effective degrees of freedom of variances d (L,) that are sums of parts
+    [(c_b (L,), ν_b)] estimated with ν_b degrees of freedom (the parts taken as known left out):
+    d² / Σ_b (c_b² / ν_b), written with the shares c_b / d so that the squares cannot overflow (data
+    of 1e149: their variances and contributions are ~1e298); inf where no part contributes."""
+    den = np.zeros(np.shape(d))
     with np.errstate(divide="ignore", invalid="ignore"):
-        for c, e, cb in zip(comps, est, contrib):
-            if e:
-                den += (cb / d) ** 2 / c.dof
+        for c, nu in parts:
+            den += (c / d) ** 2 / nu
         return np.where(den > 0, 1.0 / den, math.inf)
 
 

@@ -410,6 +410,12 @@ class PardisoFactor:
             raise NotPositiveDefinite(str(exc)) from None
         self.handle.owner = self._token
 
+    def _current(self) -> None:
+        """The handle holds this factor's values (factorised again when a later one replaced them);
+        called under the handle's lock."""
+        if self.handle.owner is not self._token:
+            self._load()
+
     @classmethod
     def of(cls, A) -> PardisoFactor:
         """Analyse and factorise A (real symmetric) in a handle of its own.
@@ -434,15 +440,13 @@ class PardisoFactor:
         if np.iscomplexobj(B):
             return self.solve(B.real) + 1j * self.solve(B.imag)
         with self.handle.lock:
-            if self.handle.owner is not self._token:
-                self._load()
+            self._current()
             return self.handle.solve(B)
 
     def nearly_singular(self) -> bool:
         """Pivots of the LDLᵀ form spread beyond 1e11."""
         with self.handle.lock:
-            if self.handle.owner is not self._token:
-                self._load()
+            self._current()
             return nearly_singular_pivots(self.handle.diagonal())
 
     @property

@@ -263,16 +263,11 @@ class _Upper:
     and the slot of each stored entry of K and M on or above the diagonal, found once."""
 
     def __init__(self, pattern: Pattern, union):
+        from .pardiso import upper_pattern
+
         n = self.n = pattern.n
-        coo = union.tocoo()
-        r, c = coo.row.astype(np.int64), coo.col.astype(np.int64)
-        up = r <= c
-        key = np.concatenate([r[up] * n + c[up], np.arange(n, dtype=np.int64) * (n + 1)])
-        key.sort()
-        key = key[np.concatenate([[True], key[1:] != key[:-1]])]  # unique (NumPy's own hashes: slower)
-        rows, cols = np.divmod(key, n)
-        self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int32)
-        self.indices = cols.astype(np.int32)
+        self.indptr, self.indices, _ = upper_pattern(union)
+        key = np.repeat(np.arange(n, dtype=np.int64) * n, np.diff(self.indptr)) + self.indices
 
         def slots(pat):
             pr, pc = pattern.coo(pat)
